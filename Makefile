@@ -1,0 +1,35 @@
+# The two set-up commands of the README:
+#   make run    -> create .venv (Python >= 3.12), install, run the default pipeline
+#   make test   -> create .venv, install with test extras (+ system packages for the
+#                  SLURM and browser tests when run as root), run the whole test suite
+SHELL := /bin/bash
+VENV  ?= .venv
+PY     = $(VENV)/bin/python
+CORES ?= all
+
+.PHONY: run test test-fast venv lint bench clean
+
+$(VENV)/.installed: pyproject.toml scripts/find-python.sh
+	@PY312=$$(bash scripts/find-python.sh) && echo "using $$PY312" && \
+	  ( [ -x $(PY) ] || $$PY312 -m venv $(VENV) ) && \
+	  $(PY) -m pip install -q --upgrade pip && \
+	  $(PY) -m pip install -q -e '.[test]' && touch $@
+
+venv: $(VENV)/.installed
+
+run: venv
+	$(VENV)/bin/snakemake --cores $(CORES)
+
+test: venv
+	bash scripts/system-deps.sh
+	$(VENV)/bin/python -m pytest -m "slow or not slow" -p no:cacheprovider
+
+test-fast: venv
+	$(VENV)/bin/python -m pytest
+
+lint: venv
+	$(VENV)/bin/ruff check src tests benchmarks workflow/scripts
+	$(VENV)/bin/snakemake --lint
+
+clean:
+	rm -rf results/* .snakemake

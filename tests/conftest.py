@@ -1,0 +1,33 @@
+"""Shared pytest configuration.
+
+Markers: ``slow`` (statistical, end-to-end and cluster tests; excluded by default,
+run by ``make test`` / ``.ci/run``). Under ``CI=true`` a test that needs an external
+tool (SLURM, Chromium) must not skip: use :func:`require_tool`.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+
+import numpy as np
+import pytest
+
+IN_CI = os.environ.get("CI", "").lower() in {"1", "true", "yes"}
+
+
+def require_tool(name: str) -> str:
+    """Return the path of executable ``name``; skip locally, fail under CI, if absent."""
+    path = shutil.which(name)
+    if path is None:
+        msg = f"{name} not installed (scripts/system-deps.sh installs it)"
+        if IN_CI:
+            pytest.fail(msg)
+        pytest.skip(msg)
+    return path
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    """A deterministic generator; tests never touch the global numpy seed."""
+    return np.random.default_rng(np.random.SeedSequence(20181122))
