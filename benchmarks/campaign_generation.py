@@ -1,0 +1,110 @@
+"""Benchmark: wall time and peak memory of the virtual-campaign generator (issue 4).
+
+Runs the shipped ``default`` scenario (8640 10-min records x 3 heights, 60 days) with
+1 and 2 worker processes, plus smaller campaigns to show the scaling, and writes
+``benchmarks/results/campaign_generation.csv`` and ``.png``. Target: the default
+campaign in <= 120 s on 2 cores.
+
+Usage: ``python benchmarks/campaign_generation.py [--quick]`` (``--quick``: 576
+records only, for a smoke run).
+"""
+
+from __future__ import annotations
+
+import os
+
+for _k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_k, "1")  # one BLAS thread per process (2 processes on 2 cores)
+
+import argparse  # noqa: E402
+import resource  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import matplotlib  # noqa: E402
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from flidar_uq.campaign import generate_campaign, load_scenario  # noqa: E402
+from flidar_uq.io import validate_records  # noqa: E402
+
+RESULTS = Path(__file__).resolve().parent / "results"
+TARGET_S = 120.0
+
+
+def _peak_mb() -> tuple[float, float]:
+    """Peak resident memory (MB) of this process and of the largest child process."""
+    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    child = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
+    return own, child
+
+
+def run(n_records: int, n_workers: int, seed: int = 1) -> dict:
+    sc = load_scenario("default") | {"n_records": n_records}
+    t0 = time.perf_counter()
+    out = generate_campaign(sc, seed, n_workers=n_workers)
+    wall = time.perf_counter() - t0
+    validate_records(out.records, "benchmark")
+    own, child = _peak_mb()
+    return {
+        "n_records": n_records,
+        "n_rows": len(out.records),
+        "n_workers": n_workers,
+        "wall_s": wall,
+        "ms_per_record": 1e3 * wall / n_records,
+        "peak_parent_mb": own,
+        "peak_worker_mb": child,
+        "target_s": TARGET_S,
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--quick", action="store_true", help="small campaigns only")
+    args = ap.parse_args()
+    full = int(load_scenario("default")["n_records"])
+    plan = [(144, 1), (576, 1), (576, 2)] if args.quick else [(576, 1), (576, 2), (2304, 2), (full, 2)]
+    rows = []
+    for n, w in plan:
+        r = run(n, w)
+        rows.append(r)
+        print(
+            f"n_records={n:5d} workers={w}: {r['wall_s']:7.1f} s  "
+            f"({r['ms_per_record']:.1f} ms/record)  peak parent {r['peak_parent_mb']:.0f} MB, "
+            f"largest worker {r['peak_worker_mb']:.0f} MB"
+        )
+    df = pd.DataFrame(rows)
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    suffix = "_quick" if args.quick else ""
+    df.to_csv(RESULTS / f"campaign_generation{suffix}.csv", index=False)
+
+    fig, ax = plt.subplots(1, 2, figsize=(9, 3.5))
+    for w, g in df.groupby("n_workers"):
+        ax[0].plot(g["n_records"], g["wall_s"], "o-", label=f"{w} worker(s)")
+        ax[1].plot(g["n_records"], g["ms_per_record"], "o-", label=f"{w} worker(s)")
+    ax[0].axhline(TARGET_S, color="k", ls="--", lw=0.8, label="target 120 s")
+    ax[0].axvline(full, color="grey", ls=":", lw=0.8)
+    ax[0].set(xlabel="10-min records (3 heights)", ylabel="wall time (s)", xscale="log", yscale="log")
+    ax[1].set(xlabel="10-min records (3 heights)", ylabel="ms per record", xscale="log")
+    ax[0].legend(fontsize=8)
+    ax[1].legend(fontsize=8)
+    fig.suptitle("Virtual campaign generation (physics mode, ZephIR, 50 LOS per scan)")
+    fig.tight_layout()
+    fig.savefig(RESULTS / f"campaign_generation{suffix}.png", dpi=110)
+
+    # the measured figures side by side
+    last = df.iloc[-1]
+    est = last["ms_per_record"] * full / 1e3
+    print(
+        f"\ndefault campaign ({full} records x 3 heights): "
+        f"{'measured' if last['n_records'] == full else 'extrapolated'} {est:.1f} s "
+        f"vs target {TARGET_S:.0f} s (ratio {est / TARGET_S:.2f}); "
+        f"peak memory parent {df['peak_parent_mb'].max():.0f} MB + "
+        f"{int(last['n_workers'])} x worker <= {df['peak_worker_mb'].max():.0f} MB"
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,156 @@
+"""HWS x motion amplitude x period bins and the bin table (seed 000 Sec. 3.1, Table 1).
+
+Binning variables (seed 000 Secs. 2.4 and 3.1): the 10-min mean HWS, the motion
+amplitude (mean of roll and pitch amplitude) and the motion period (mean of roll
+and pitch period).  Bins are ``width`` wide and centred on integer multiples of
+``width``: with width 1 the edges are [0.5, 1.5), [1.5, 2.5), ... as in the seed.
+
+Each bin has a stable text id ``H08_A03_T04`` (centres; a fractional centre is
+written ``H08p5``).  The bin table is sorted by decreasing count with seed 000
+Table 1's columns (``case_no``, ``hws_ms``, ``amplitude_deg``, ``period_s``,
+``count``).  Bins with fewer than ``min_count`` records are kept and flagged
+(``below_min_count``), never dropped; records lacking a binning variable get no
+bin (``bin_id`` missing, ``case_no`` -1) and are counted in ``table.attrs``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from flidar_uq.imu import record_motion
+
+__all__ = ["bin_centre", "bin_label", "bin_records"]
+
+
+def bin_centre(x, width: float) -> np.ndarray:
+    """Centre of the bin holding ``x``: ``floor(x / width + 0.5) * width``.
+
+    Parameters
+    ----------
+    x : array_like
+        Values (any unit); NaN stays NaN.
+    width : float
+        Bin width, same unit, > 0.
+
+    Returns
+    -------
+    numpy.ndarray
+        Bin centres, same unit; bins are ``[c - width/2, c + width/2)``.
+    """
+    if not width > 0:
+        raise ValueError(f"bin_centre: width must be > 0, got {width!r}")
+    return np.floor(np.asarray(x, dtype=np.float64) / width + 0.5) * width
+
+
+def _fmt(prefix: str, c: float) -> str:
+    whole = int(np.floor(c + 1e-9))
+    frac = c - whole
+    text = f"{prefix}{whole:02d}"
+    if frac > 1e-9:
+        text += "p" + f"{frac:.6f}".rstrip("0")[2:]
+    return text
+
+
+def bin_label(hws_ms: float, amplitude_deg: float, period_s: float) -> str:
+    """Stable bin id from the bin centres, e.g. ``bin_label(8, 3, 4) == "H08_A03_T04"``."""
+    return f"{_fmt('H', hws_ms)}_{_fmt('A', amplitude_deg)}_{_fmt('T', period_s)}"
+
+
+def bin_records(
+    records: pd.DataFrame,
+    *,
+    hws_width_ms: float = 1.0,
+    amplitude_width_deg: float = 1.0,
+    period_width_s: float = 1.0,
+    min_count: int = 3,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Assign records to HWS x amplitude x period bins and build the bin table.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records with ``hws_mean_ms`` and roll/pitch amplitude and period columns
+        (``amplitude_deg``/``period_s`` are computed if absent, seed 000 Sec. 2.4).
+    hws_width_ms, amplitude_width_deg, period_width_s : float
+        Bin widths, m/s, deg, s (1 each, seed 000 Sec. 3.1).
+    min_count : int
+        Bins with fewer records get ``below_min_count = True`` (kept, not dropped).
+
+    Returns
+    -------
+    assigned : pandas.DataFrame
+        Copy of ``records`` with ``amplitude_deg``, ``period_s``, ``hws_bin_ms``,
+        ``amplitude_bin_deg``, ``period_bin_s``, ``bin_id`` (text; missing if a
+        variable is NaN), ``case_no`` (-1 if unbinned) and ``below_min_count``.
+    table : pandas.DataFrame
+        One row per occupied bin, sorted by decreasing ``count`` (ties: increasing
+        HWS, amplitude, period): ``case_no`` (1 = most frequent), ``bin_id``,
+        ``hws_ms``, ``amplitude_deg``, ``period_s`` (centres), ``count``,
+        ``below_min_count``.  ``table.attrs`` holds ``n_records``, ``n_binned``,
+        ``n_unbinned``, the widths and ``min_count``.
+    """
+    if int(min_count) < 1:
+        raise ValueError(f"bin_records: min_count must be >= 1, got {min_count!r}")
+    out = records.copy()
+    if "amplitude_deg" not in out.columns or "period_s" not in out.columns:
+        out = record_motion(out)
+    widths = (hws_width_ms, amplitude_width_deg, period_width_s)
+    values = (out["hws_mean_ms"], out["amplitude_deg"], out["period_s"])
+    centres = [
+        bin_centre(v.to_numpy(dtype=np.float64), w) for v, w in zip(values, widths, strict=True)
+    ]
+    out["hws_bin_ms"], out["amplitude_bin_deg"], out["period_bin_s"] = centres
+    ok = np.isfinite(np.column_stack(centres)).all(axis=1)
+    # integer bin indices -> one int64 key per record (no per-record strings)
+    idx = [np.rint(c[ok] / w).astype(np.int64) for c, w in zip(centres, widths, strict=True)]
+    lo = [i.min() if i.size else 0 for i in idx]
+    span = [int(i.max() - m + 1) if i.size else 1 for i, m in zip(idx, lo, strict=True)]
+    key = ((idx[0] - lo[0]) * span[1] + (idx[1] - lo[1])) * span[2] + (idx[2] - lo[2])
+    uniq, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+    k2 = uniq % span[2] + lo[2]
+    k1 = (uniq // span[2]) % span[1] + lo[1]
+    k0 = uniq // (span[2] * span[1]) + lo[0]
+    table = pd.DataFrame(
+        {
+            "hws_ms": k0 * hws_width_ms,
+            "amplitude_deg": k1 * amplitude_width_deg,
+            "period_s": k2 * period_width_s,
+            "count": counts.astype(np.int64),
+        }
+    )
+    table["bin_id"] = [
+        bin_label(h, a, t)
+        for h, a, t in zip(table["hws_ms"], table["amplitude_deg"], table["period_s"], strict=True)
+    ]
+    order = np.lexsort(
+        (table["period_s"], table["amplitude_deg"], table["hws_ms"], -table["count"])
+    )
+    rank = np.empty(len(table), dtype=np.int64)
+    rank[order] = np.arange(1, len(table) + 1)
+    table["case_no"] = rank
+    table["below_min_count"] = table["count"] < int(min_count)
+    case = np.full(len(out), -1, dtype=np.int64)
+    case[ok] = rank[inverse.ravel()]
+    codes = np.full(len(out), -1, dtype=np.int64)
+    codes[ok] = inverse.ravel()
+    # categorical: one string per bin, not per record (-1 code = missing)
+    ids = pd.Categorical.from_codes(codes, categories=table["bin_id"].to_numpy())
+    below = np.zeros(len(out), dtype=bool)
+    below[ok] = table["below_min_count"].to_numpy()[inverse.ravel()]
+    out["bin_id"] = ids
+    out["case_no"] = case
+    out["below_min_count"] = below
+    table = table.iloc[order][
+        ["case_no", "bin_id", "hws_ms", "amplitude_deg", "period_s", "count", "below_min_count"]
+    ].reset_index(drop=True)
+    table.attrs.update(
+        n_records=len(out),
+        n_binned=int(ok.sum()),
+        n_unbinned=int((~ok).sum()),
+        hws_width_ms=hws_width_ms,
+        amplitude_width_deg=amplitude_width_deg,
+        period_width_s=period_width_s,
+        min_count=int(min_count),
+    )
+    return out, table

@@ -1,0 +1,902 @@
+"""Virtual floating-lidar campaign, physics mode (issue 4).
+
+Per 10-min record (``record_length_s``) and for every measurement height:
+
+1. Reference wind: mean HWS drawn from a truncated Weibull with lag-1 persistence
+   (Gaussian copula), direction, power-law shear (seed 002: 0.1), a TI(HWS) draw
+   (:func:`flidar_uq.turbulence.draw_sigma_u_ms`, IEC NTM or offshore-like) and 1-D
+   Kaimal (u, v, w) turbulence (:func:`flidar_uq.turbulence.kaimal_series`) on the
+   lidar's line-of-sight clock (50 Hz for the ZephIR). The 1-D model is enough for
+   the VAD circle (``tests/test_turbulence.py``).
+2. Buoy motion: narrow-band random roll/pitch from a JONSWAP sea state (wind sea plus
+   an optional swell; :func:`flidar_uq.seastate.tilt_series`), or harmonic motion
+   (6 DOF: roll, pitch, yaw, surge, sway, heave) for controlled cases (hexapod).
+   The lidar head sits at ``lever_arm_m`` from the rotation centre (body frame), so
+   it translates with ``v = d(R r)/dt`` (design.md).
+3. ZephIR-like lidar: the prism turns continuously (one revolution per
+   ``scan_period_s``); the lidar scans the heights in turn, one full revolution per
+   scan, then refocuses for a random delay. With ``lidar.scan_phase: prism`` (default)
+   a scan starts at the azimuth the prism has at that moment, so the scan phase is
+   locked to time and random relative to the motion (seed 000 Sec. 2.3).
+   ``scan_phase: random`` draws an independent uniform phase per scan (the seed's
+   assumption). Every line of sight is simulated with the attitude
+   and head velocity at its own time: ``v_r = d_earth . (u_wind - v_head)``
+   (docs/conventions.md; seed 002 Eq. 3), measured as ``|v_r|`` (CW lidar, seed 001
+   Eq. 4) and retrieved with the nominal body geometry (VAD least squares with the
+   sign unfolding of the ``|.|`` fit); spatial variation ``sv`` is the RMS fit
+   residual over HWS. Occasional scans drop out.
+4. A fixed reference lidar with the same schedule sees the same wind without
+   motion (``ref_hws_*``); IMU roll/pitch/yaw sampled at ``imu.rate_hz`` with noise
+   and gaps; 10-min statistics in the record format of ``docs/data-format.md``
+   plus ``true_*`` columns.
+
+Randomness: the scenario-level draws (all records at once) use one child of the
+seed's SeedSequence, and every record gets its own spawned child, so results do not
+depend on the chunk size or the number of worker processes.
+
+Private adapter (listed in the issue report): :func:`_vad_retrieve_complete_scans`
+applies :func:`flidar_uq.lidar.vad_pseudo_inverse` of the nominal geometry to many
+complete scans at once (each scan covers all ``n_los`` azimuth slots once, in a
+cyclically shifted order), and unfolds the CW sign like
+:func:`flidar_uq.lidar.retrieve_wind` with ``sign_ambiguity=True`` (fixed point
+of the sign pattern = stationary point of the ``|.|`` least squares).
+"""
+
+from __future__ import annotations
+
+import copy
+import multiprocessing as mp
+import os
+from collections.abc import Mapping
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from flidar_uq import imu as _imu
+from flidar_uq import lidar as _lidar
+from flidar_uq.seastate import tilt_series
+from flidar_uq.turbulence import draw_sigma_u_ms, kaimal_series, wind_enu_ms
+
+__all__ = [
+    "DEFAULT_SCENARIO",
+    "CampaignConfig",
+    "CampaignOutput",
+    "generate_campaign",
+    "load_scenario",
+    "scenario_dir",
+]
+
+# ---------------------------------------------------------------------------
+# configuration
+# ---------------------------------------------------------------------------
+
+#: Every key a scenario may set, with its default (units in the key names).
+DEFAULT_SCENARIO: dict = {
+    "name": "default",
+    "n_records": 8640,  # 10-min records (60 days); rows = n_records x len(heights_m)
+    "start_utc": "2015-04-01T00:00:00Z",
+    "record_length_s": 600.0,
+    "heights_m": [27.0, 58.0, 85.0],
+    "chunk_records": 16,
+    "n_workers": 1,
+    "lidar": {
+        "name": "zephir300",
+        "refocus_delay_s": [0.3, 0.7],  # uniform range of the delay between scans
+        # "prism": the scanner turns continuously, a scan starts at the azimuth the prism
+        # has at that time (phase locked to time); "random": independent uniform scan
+        # phase per scan (seed 000 Sec. 2.3's assumption)
+        "scan_phase": "prism",
+        "scan_dropout_probability": 0.02,
+        "record_outage_probability": 0.003,
+        "lever_arm_m": [0.0, 0.0, 2.5],  # head position from the rotation centre, body frame
+    },
+    "wind": {
+        "reference_height_m": 85.0,
+        "hws_weibull_shape": 2.2,
+        "hws_weibull_scale_ms": 9.5,
+        "hws_min_ms": 2.0,
+        "hws_max_ms": 21.0,
+        "hws_lag1_correlation": 0.97,
+        "wind_dt_s": 0.1,  # turbulence sampling interval (s); held constant in between
+        "wd_mean_deg": 240.0,
+        "wd_sd_deg": 70.0,
+        "shear_exponent_mean": 0.1,
+        "shear_exponent_sd": 0.04,
+        "ti_model": "offshore",  # offshore | iec_ntm | constant_ti
+        "ti_params": {},
+    },
+    "motion": {
+        "model": "sea_state",  # sea_state | harmonic
+        "sea_state": {
+            # wind-sea tilt amplitude: base + slope * HWS, log-normal scatter, clipped
+            "amplitude_base_deg": 1.2,
+            "amplitude_per_ms_deg": 0.17,
+            "amplitude_cov": 0.3,
+            "amplitude_range_deg": [0.5, 6.0],
+            # wind-sea peak period: base + slope * HWS, normal scatter, clipped
+            "tp_base_s": 2.6,
+            "tp_per_ms_s": 0.08,
+            "tp_sd_s": 0.35,
+            "tp_range_s": [1.8, 5.5],
+            "gamma": 3.3,
+            "spread_deg": 35.0,
+            # optional swell: probability per record, period, its share of the variance
+            "swell_probability": 0.35,
+            "swell_tp_range_s": [5.0, 7.0],
+            "swell_gamma": 6.0,
+            "swell_spread_deg": 15.0,
+            "swell_variance_share_range": [0.2, 0.6],
+            "heading_sd_deg": 0.0,  # buoy heading scatter (yaw), deg
+        },
+        "harmonic": {
+            # ranges drawn per record when no cases are given; roll and pitch share
+            # amplitude and period (seed 000 Sec. 2.4), phases independent uniform
+            "amplitude_range_deg": [1.0, 5.0],
+            "period_range_s": [2.0, 5.0],
+            "cases": [],
+        },
+    },
+    "imu": {
+        "rate_hz": 5.0,
+        "noise_deg": 0.05,
+        "gap_probability": 0.02,
+        "gap_length_range_s": [10.0, 120.0],
+        "period_range_s": [1.0, 30.0],  # band searched for spectral peaks (imu.py)
+    },
+}
+
+#: Keys of one harmonic case (amplitudes in deg or m, periods in s, n_records per case).
+HARMONIC_CASE_KEYS = (
+    "label",
+    "n_records",
+    "roll_amplitude_deg",
+    "pitch_amplitude_deg",
+    "yaw_amplitude_deg",
+    "surge_amplitude_m",
+    "sway_amplitude_m",
+    "heave_amplitude_m",
+    "period_s",
+    "yaw_period_s",
+    "translation_period_s",
+)
+
+
+def scenario_dir() -> Path:
+    """Directory of the shipped scenario files (``config/scenarios`` of the repository)."""
+    return Path(__file__).resolve().parents[2] / "config" / "scenarios"
+
+
+def _merge_checked(defaults: Mapping, given: Mapping, where: str) -> dict:
+    out = copy.deepcopy(dict(defaults))
+    for key, val in given.items():
+        if key not in defaults:
+            raise ValueError(
+                f"scenario: unknown key '{where}{key}'; known keys: {', '.join(sorted(defaults))}"
+            )
+        if isinstance(defaults[key], dict) and defaults[key] and key != "ti_params":
+            if not isinstance(val, Mapping):
+                raise ValueError(f"scenario: {where}{key!r} must be a mapping, got {val!r}")
+            out[key] = _merge_checked(defaults[key], val, f"{where}{key}.")
+        else:
+            out[key] = copy.deepcopy(val)
+    return out
+
+
+@dataclass(frozen=True)
+class CampaignConfig:
+    """A validated scenario (nested mapping with the keys of :data:`DEFAULT_SCENARIO`).
+
+    Build with :meth:`from_dict`; ``settings`` holds the merged mapping.
+    """
+
+    settings: dict = field(default_factory=lambda: copy.deepcopy(DEFAULT_SCENARIO))
+
+    @classmethod
+    def from_dict(cls, scenario: Mapping) -> CampaignConfig:
+        """Merge ``scenario`` over :data:`DEFAULT_SCENARIO` and validate it.
+
+        Raises
+        ------
+        ValueError
+            Unknown key (message names the key path), or a value out of range.
+        """
+        s = _merge_checked(DEFAULT_SCENARIO, scenario, "")
+        cases = s["motion"]["harmonic"]["cases"]
+        for i, case in enumerate(cases):
+            bad = set(case) - set(HARMONIC_CASE_KEYS)
+            if bad:
+                raise ValueError(
+                    f"scenario: motion.harmonic.cases[{i}] has unknown keys {sorted(bad)}; "
+                    f"known: {', '.join(HARMONIC_CASE_KEYS)}"
+                )
+        if s["motion"]["model"] == "harmonic" and cases:
+            s["n_records"] = int(sum(int(c.get("n_records", 1)) for c in cases))
+        _check_positive(s, "n_records", s["n_records"], integer=True)
+        _check_positive(s, "record_length_s", s["record_length_s"])
+        if len(s["heights_m"]) == 0 or min(s["heights_m"]) <= 0:
+            raise ValueError(f"scenario: heights_m must be non-empty and > 0, got {s['heights_m']}")
+        if s["motion"]["model"] not in ("sea_state", "harmonic"):
+            raise ValueError(
+                f"scenario: motion.model must be 'sea_state' or 'harmonic', got {s['motion']['model']!r}"
+            )
+        rate = float(s["imu"]["rate_hz"])
+        if not 5.0 <= rate <= 20.0:
+            raise ValueError(f"scenario: imu.rate_hz must be in [5, 20] Hz, got {rate}")
+        lo, hi = s["lidar"]["refocus_delay_s"]
+        if not 0.0 <= lo <= hi:
+            raise ValueError(f"scenario: lidar.refocus_delay_s must be 0 <= lo <= hi, got {lo, hi}")
+        if s["lidar"]["scan_phase"] not in ("prism", "random"):
+            raise ValueError(
+                f"scenario: lidar.scan_phase must be 'prism' or 'random', got {s['lidar']['scan_phase']!r}"
+            )
+        if _lidar.get_lidar(s["lidar"]["name"]).kind != "vad":
+            raise ValueError("scenario: lidar.name must be a VAD (conical) lidar for the campaign")
+        return cls(settings=s)
+
+    def __getitem__(self, key):
+        return self.settings[key]
+
+
+def _check_positive(s, key, val, integer=False):
+    if not (np.isfinite(val) and val > 0) or (integer and int(val) != val):
+        raise ValueError(
+            f"scenario: {key} must be a positive {'integer' if integer else 'number'}, got {val!r}"
+        )
+
+
+def load_scenario(name_or_path: str | Path) -> dict:
+    """Read a scenario YAML file (``config/scenarios/<name>.yaml`` or a path).
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A shipped scenario name (``default``, ``tiny``, ``ijmuiden_60day``,
+        ``hexapod_catalogue``, ``reservoir``) or a path to a YAML file.
+
+    Returns
+    -------
+    dict
+        The scenario mapping (validated by :meth:`CampaignConfig.from_dict`).
+    """
+    import yaml
+
+    p = Path(name_or_path)
+    if not p.suffix:
+        p = scenario_dir() / f"{name_or_path}.yaml"
+    if not p.is_file():
+        known = sorted(q.stem for q in scenario_dir().glob("*.yaml"))
+        raise ValueError(f"load_scenario: no scenario file {str(p)!r}; shipped scenarios: {known}")
+    with open(p) as fh:
+        data = yaml.safe_load(fh) or {}
+    if not isinstance(data, Mapping):
+        raise ValueError(f"load_scenario: {p} must hold a mapping, got {type(data).__name__}")
+    CampaignConfig.from_dict(data)
+    return dict(data)
+
+
+@dataclass
+class CampaignOutput:
+    """Result of :func:`generate_campaign`.
+
+    Attributes
+    ----------
+    records : pandas.DataFrame
+        One row per record and height, columns of ``docs/data-format.md`` plus
+        ``true_*`` truth columns.
+    imu : pandas.DataFrame or None
+        Raw IMU series (``timestamp, roll_deg, pitch_deg, yaw_deg``) if requested.
+    los : pandas.DataFrame or None
+        LOS-level data (``timestamp, height_m, azimuth_deg, radial_speed_ms,
+        cnr_db``) of the floating lidar if requested.
+    config : CampaignConfig
+        The validated scenario.
+    """
+
+    records: pd.DataFrame
+    imu: pd.DataFrame | None
+    los: pd.DataFrame | None
+    config: CampaignConfig
+
+
+# ---------------------------------------------------------------------------
+# scenario-level draws (all records at once, one generator)
+# ---------------------------------------------------------------------------
+
+
+def _record_parameters(cfg: CampaignConfig, rng: np.random.Generator) -> dict:
+    """Record-level parameters for all records (arrays of length n_records)."""
+    from scipy.stats import norm
+
+    s = cfg.settings
+    n = int(s["n_records"])
+    w = s["wind"]
+    # HWS at the reference height: Gaussian copula AR(1) -> truncated Weibull
+    rho = float(w["hws_lag1_correlation"])
+    eps = rng.standard_normal(n)
+    z = np.empty(n)
+    z[0] = eps[0]
+    for i in range(1, n):  # cheap serial recursion (n ~ 1e4)
+        z[i] = rho * z[i - 1] + np.sqrt(1.0 - rho**2) * eps[i]
+    k, lam = float(w["hws_weibull_shape"]), float(w["hws_weibull_scale_ms"])
+    cdf = lambda u: 1.0 - np.exp(-((u / lam) ** k))  # noqa: E731
+    lo, hi = cdf(float(w["hws_min_ms"])), cdf(float(w["hws_max_ms"]))
+    q = lo + (hi - lo) * norm.cdf(z)
+    hws_ref = lam * (-np.log1p(-q)) ** (1.0 / k)  # truncated Weibull quantile
+    wd = (float(w["wd_mean_deg"]) + float(w["wd_sd_deg"]) * rng.standard_normal(n)) % 360.0
+    alpha = float(w["shear_exponent_mean"]) + float(w["shear_exponent_sd"]) * rng.standard_normal(n)
+    z_ref = float(w["reference_height_m"])
+    sigma_u = draw_sigma_u_ms(hws_ref, z_ref, rng, model=w["ti_model"], **w["ti_params"])
+    out = {"hws_ref_ms": hws_ref, "wd_deg": wd, "shear_exponent": alpha, "sigma_u_ms": sigma_u}
+
+    m = s["motion"]
+    if m["model"] == "sea_state":
+        ss = m["sea_state"]
+        a_mean = float(ss["amplitude_base_deg"]) + float(ss["amplitude_per_ms_deg"]) * hws_ref
+        s2 = np.log1p(float(ss["amplitude_cov"]) ** 2)
+        amp = a_mean * np.exp(-0.5 * s2 + np.sqrt(s2) * rng.standard_normal(n))
+        amp = np.clip(amp, *ss["amplitude_range_deg"])
+        tp = float(ss["tp_base_s"]) + float(ss["tp_per_ms_s"]) * hws_ref
+        tp = np.clip(tp + float(ss["tp_sd_s"]) * rng.standard_normal(n), *ss["tp_range_s"])
+        has_swell = rng.random(n) < float(ss["swell_probability"])
+        tp2 = rng.uniform(*ss["swell_tp_range_s"], size=n)
+        share2 = np.where(has_swell, rng.uniform(*ss["swell_variance_share_range"], size=n), 0.0)
+        out.update(
+            amplitude_deg=amp,
+            tp1_s=tp,
+            tp2_s=np.where(has_swell, tp2, np.nan),
+            weight1=1.0 - share2,
+            dir1_deg=wd + 180.0 + 20.0 * rng.standard_normal(n),  # waves travel downwind
+            dir2_deg=rng.uniform(0.0, 360.0, n),
+            heading_deg=float(ss["heading_sd_deg"]) * rng.standard_normal(n),
+        )
+    else:
+        h = m["harmonic"]
+        cases = h["cases"]
+        if cases:
+            rows, case_idx = [], []
+            for k, case in enumerate(cases):
+                rows += [case] * int(case.get("n_records", 1))
+                case_idx += [k] * int(case.get("n_records", 1))
+            out["case"] = np.array(case_idx, float)
+
+            def col(key, default=0.0):
+                return np.array([float(c.get(key, default)) for c in rows])
+
+            period = col("period_s", 4.0)
+            out.update(
+                roll_amplitude_deg=col("roll_amplitude_deg"),
+                pitch_amplitude_deg=col("pitch_amplitude_deg"),
+                yaw_amplitude_deg=col("yaw_amplitude_deg"),
+                surge_amplitude_m=col("surge_amplitude_m"),
+                sway_amplitude_m=col("sway_amplitude_m"),
+                heave_amplitude_m=col("heave_amplitude_m"),
+                period_s=period,
+                yaw_period_s=np.array(
+                    [float(c.get("yaw_period_s", c.get("period_s", 4.0))) for c in rows]
+                ),
+                translation_period_s=np.array(
+                    [float(c.get("translation_period_s", c.get("period_s", 4.0))) for c in rows]
+                ),
+            )
+        else:
+            amp = rng.uniform(*h["amplitude_range_deg"], size=n)
+            zero = np.zeros(n)
+            period = rng.uniform(*h["period_range_s"], size=n)
+            out.update(
+                roll_amplitude_deg=amp,
+                pitch_amplitude_deg=amp,
+                yaw_amplitude_deg=zero,
+                surge_amplitude_m=zero,
+                sway_amplitude_m=zero,
+                heave_amplitude_m=zero,
+                period_s=period,
+                yaw_period_s=period,
+                translation_period_s=period,
+            )
+        out["heading_deg"] = np.zeros(n)
+    return out
+
+
+# ---------------------------------------------------------------------------
+# per-record random series (own generator per record)
+# ---------------------------------------------------------------------------
+
+
+def _scan_schedule(rng, n_slots, n_los, delay_slots, j_max):
+    delays = rng.integers(delay_slots[0], delay_slots[1] + 1, size=j_max)
+    starts = np.concatenate([[0], np.cumsum(n_los + delays[:-1])])
+    return starts
+
+
+def _wind_step(settings, dt):
+    """Turbulence sampling interval in LOS slots (>= 1)."""
+    return max(int(round(float(settings["wind"]["wind_dt_s"]) / dt)), 1)
+
+
+def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence, geo) -> dict:
+    """Random series of one record, drawn from its own generator in a fixed order."""
+    rng = np.random.default_rng(ss)
+    t_len = float(settings["record_length_s"])
+    dt = geo.los_duration_s
+    n_slots = int(round(t_len / dt))
+    heights = np.asarray(settings["heights_m"], float)
+    z_ref = float(settings["wind"]["reference_height_m"])
+    alpha = par["shear_exponent"][i]
+    hws_h = par["hws_ref_ms"][i] * (heights / z_ref) ** alpha  # power law (conventions.md)
+    # 1-D Kaimal turbulence, sigma_u constant with height (IEC 61400-1)
+    # turbulence on its own clock (wind_dt_s, a multiple of the LOS time), held between samples
+    step = _wind_step(settings, dt)
+    n_wind = -(-n_slots // step)
+    fluct = kaimal_series(n_wind, dt * step, hws_h, par["sigma_u_ms"][i], heights, rng)  # (H,3,Nw)
+    fluct_enu = wind_enu_ms(0.0, par["wd_deg"][i], fluct)  # (H,Nw,3)
+    # motion
+    t = np.arange(n_slots) * dt
+    m = settings["motion"]
+    if m["model"] == "sea_state":
+        sea = m["sea_state"]
+        rel = par["heading_deg"][i]
+        w1 = par["weight1"][i]
+        amp = par["amplitude_deg"][i]
+        systems = {
+            "amplitude_deg": [[amp * np.sqrt(w1), amp * np.sqrt(max(1.0 - w1, 0.0))]],
+            "tp_s": [[par["tp1_s"][i], np.nan_to_num(par["tp2_s"][i], nan=6.0)]],
+            "gamma": [[float(sea["gamma"]), float(sea["swell_gamma"])]],
+            # direction of travel relative to the body x axis (ENU angle minus heading)
+            "direction_deg": [[90.0 - par["dir1_deg"][i] - rel, 90.0 - par["dir2_deg"][i] - rel]],
+            "spread_deg": [[float(sea["spread_deg"]), float(sea["swell_spread_deg"])]],
+        }
+        roll, pitch = tilt_series(n_slots, dt, systems, rng)
+        roll, pitch = roll[0], pitch[0]
+        yaw = np.full(n_slots, rel)
+        trans = None
+    else:
+        ph = rng.uniform(0.0, 2.0 * np.pi, size=6)
+        w_ = 2.0 * np.pi / par["period_s"][i]
+        roll = par["roll_amplitude_deg"][i] * np.sin(w_ * t + ph[0])
+        pitch = par["pitch_amplitude_deg"][i] * np.sin(w_ * t + ph[1])
+        yaw = par["heading_deg"][i] + par["yaw_amplitude_deg"][i] * np.sin(
+            2.0 * np.pi / par["yaw_period_s"][i] * t + ph[2]
+        )
+        wt = 2.0 * np.pi / par["translation_period_s"][i]
+        trans = np.stack(
+            [
+                par["surge_amplitude_m"][i] * np.sin(wt * t + ph[3]),
+                par["sway_amplitude_m"][i] * np.sin(wt * t + ph[4]),
+                par["heave_amplitude_m"][i] * np.sin(wt * t + ph[5]),
+            ],
+            axis=-1,
+        )
+    # lidar schedule: prism phase, refocusing delays, dropouts, outage
+    lo, hi = settings["lidar"]["refocus_delay_s"]
+    delay_slots = (int(round(lo / dt)), int(round(hi / dt)))
+    j_max = int(np.ceil(n_slots / (geo.n_los + delay_slots[0]))) + 1
+    k0 = int(rng.integers(0, geo.n_los))
+    starts = _scan_schedule(rng, n_slots, geo.n_los, delay_slots, j_max)
+    if settings["lidar"]["scan_phase"] == "random":
+        phase_slots = rng.integers(0, geo.n_los, size=j_max)
+    else:
+        phase_slots = np.zeros(j_max, dtype=int)
+    dropped = rng.random(j_max) < float(settings["lidar"]["scan_dropout_probability"])
+    outage = rng.random() < float(settings["lidar"]["record_outage_probability"])
+    # IMU
+    imu = settings["imu"]
+    rate = float(imu["rate_hz"])
+    n_imu = int(np.floor(t_len * rate + 1e-9))
+    noise = float(imu["noise_deg"]) * rng.standard_normal((3, n_imu))
+    gap = None
+    if rng.random() < float(imu["gap_probability"]):
+        g_len = rng.uniform(*imu["gap_length_range_s"])
+        g0 = rng.uniform(0.0, max(t_len - g_len, 0.0))
+        gap = (g0, g0 + g_len)
+    return dict(
+        hws_h=hws_h,
+        fluct_enu=fluct_enu,
+        roll=roll,
+        pitch=pitch,
+        yaw=yaw,
+        trans=trans,
+        k0=k0,
+        phase_slots=phase_slots,
+        starts=starts,
+        dropped=dropped,
+        outage=outage,
+        imu_noise=noise,
+        imu_gap=gap,
+    )
+
+
+# ---------------------------------------------------------------------------
+# vectorised lidar simulation of a chunk of records
+# ---------------------------------------------------------------------------
+
+
+def _rotation_matrix_filled(roll_rad, pitch_rad, yaw_rad):
+    """``flidar_uq.motion.rotation_matrix`` written entry by entry (private adapter).
+
+    Same matrix, ``R = Rz(yaw) @ Ry(pitch) @ Rx(roll)`` (docs/conventions.md), filled
+    into one preallocated array: about 10x faster than composing stacked factors,
+    which dominates the campaign's run time. ``tests/test_campaign.py`` asserts
+    equality with :func:`flidar_uq.motion.rotation_matrix`; delete this adapter once
+    that function is equally fast.
+    """
+    cr, sr = np.cos(roll_rad), np.sin(roll_rad)
+    cp, sp = np.cos(pitch_rad), np.sin(pitch_rad)
+    cy, sy = np.cos(yaw_rad), np.sin(yaw_rad)
+    out = np.empty(np.shape(cr) + (3, 3))
+    out[..., 0, 0] = cy * cp
+    out[..., 0, 1] = cy * sp * sr - sy * cr
+    out[..., 0, 2] = cy * sp * cr + sy * sr
+    out[..., 1, 0] = sy * cp
+    out[..., 1, 1] = sy * sp * sr + cy * cr
+    out[..., 1, 2] = sy * sp * cr - cy * sr
+    out[..., 2, 0] = -sp
+    out[..., 2, 1] = cp * sr
+    out[..., 2, 2] = cp * cr
+    return out
+
+
+def _vad_retrieve_complete_scans(pinv_t, m_body, y_abs, signs0, n_iter=2):
+    """VAD of many complete scans at once, CW sign unfolded (private adapter).
+
+    Parameters
+    ----------
+    pinv_t : ndarray, shape (..., n, 3)
+        Columns of :func:`flidar_uq.lidar.vad_pseudo_inverse` gathered per LOS.
+    m_body : ndarray, shape (..., n, 3)
+        Nominal body beam vectors per LOS.
+    y_abs : ndarray, shape (..., n)
+        Measured ``|v_r|`` (m/s).
+    signs0 : ndarray, shape (..., n)
+        Initial sign pattern (the signs of the true radial speeds).
+    n_iter : int
+        Sign-unfolding iterations ``s = sign(M p)``, ``p = pinv (s |v_r|)``; 0 for a
+        lidar that measures the sign (then ``signs0 * y_abs`` are the measured speeds).
+
+    Returns
+    -------
+    uvw : ndarray, shape (..., 3)
+        Retrieved body-frame wind (m/s).
+    residual : ndarray, shape (...)
+        RMS residual of ``|M p|`` against ``|v_r|`` (m/s).
+    """
+    s = signs0
+    # batched (1 x n) @ (n x 3) and (n x 3) @ (3 x 1) products (matmul beats einsum here)
+    p = ((s * y_abs)[..., None, :] @ pinv_t)[..., 0, :]
+    for _ in range(n_iter):
+        s = np.where((m_body @ p[..., None])[..., 0] >= 0.0, 1.0, -1.0)
+        p = ((s * y_abs)[..., None, :] @ pinv_t)[..., 0, :]
+    model = (m_body @ p[..., None])[..., 0]
+    if n_iter > 0:  # CW: residual of the |.| model (lidar.retrieve_wind, sign_ambiguity)
+        resid = np.sqrt(np.mean((y_abs - np.abs(model)) ** 2, axis=-1))
+    else:  # signed speeds s |v_r|: residual of the linear model
+        resid = np.sqrt(np.mean((s * y_abs - model) ** 2, axis=-1))
+    return p, resid
+
+
+def _circ_mean_deg(deg, mask, axis):
+    r = np.deg2rad(deg)
+    c = np.where(mask, np.cos(r), 0.0).sum(axis)
+    s = np.where(mask, np.sin(r), 0.0).sum(axis)
+    return np.rad2deg(np.arctan2(s, c)) % 360.0
+
+
+#: Record columns filled from :func:`flidar_uq.imu.motion_statistics`.
+MOTION_STAT_COLUMNS = (
+    "roll_amplitude_deg",
+    "pitch_amplitude_deg",
+    "roll_period_s",
+    "pitch_period_s",
+    "period1_s",
+    "period2_s",
+    "weight1",
+    "imu_availability_pct",
+)
+
+
+def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
+    geo = _lidar.get_lidar(settings["lidar"]["name"])
+    n_los = geo.n_los
+    dt = geo.los_duration_s
+    th = geo.half_cone_angle_rad
+    t_len = float(settings["record_length_s"])
+    n_slots = int(round(t_len / dt))
+    heights = np.asarray(settings["heights_m"], float)
+    n_h = heights.size
+    lever = np.asarray(settings["lidar"]["lever_arm_m"], float)
+    series = [_record_series(settings, par, i, ss, geo) for i, ss in enumerate(seeds)]
+    n_c = len(series)
+    j_max = series[0]["starts"].size
+
+    # canonical azimuth slots of the prism and their VAD operator (lidar.py)
+    az_slots = 2.0 * np.pi * np.arange(n_los) / n_los
+    d_body = _lidar.beam_unit_vectors_body(geo, az_slots)  # (L,3)
+    pinv_t = _lidar.vad_pseudo_inverse(d_body).T  # (L,3)
+
+    starts = np.stack([s["starts"] for s in series])  # (C,J)
+    valid = starts + n_los <= n_slots
+    idx = np.minimum(starts[..., None] + np.arange(n_los), n_slots - 1)  # (C,J,L)
+    k0 = np.array([s["k0"] for s in series])
+    phase_slots = np.stack([s["phase_slots"] for s in series])  # (C,J)
+    a_idx = (idx + k0[:, None, None] + phase_slots[..., None]) % n_los  # azimuth slot per LOS
+    h_idx = np.broadcast_to(np.arange(j_max) % n_h, starts.shape)  # heights in turn
+    roll = np.stack([s["roll"] for s in series])  # (C,N) deg
+    pitch = np.stack([s["pitch"] for s in series])
+    yaw = np.stack([s["yaw"] for s in series])
+    cc = np.arange(n_c)[:, None, None]
+    # rotation at every slot of the LOS clock, gathered per LOS
+    r_all = _rotation_matrix_filled(np.deg2rad(roll), np.deg2rad(pitch), np.deg2rad(yaw))
+    r_los = r_all[cc, idx]  # (C,J,L,3,3)
+    # head velocity: time derivative of the head position R(t) r + translation (seed 002 Eq. 4)
+    moving_head = np.any(lever != 0) or any(s["trans"] is not None for s in series)
+    if moving_head:
+        pos = r_all @ lever  # (C,N,3)
+        for c, s in enumerate(series):
+            if s["trans"] is not None:
+                pos[c] += s["trans"]
+        v_head = np.gradient(pos, dt, axis=1)[cc, idx]  # (C,J,L,3)
+    else:
+        v_head = 0.0
+    m_body = d_body[a_idx]  # (C,J,L,3)
+    d_earth = (r_los @ m_body[..., None])[..., 0]
+    # wind at every LOS: mean (sheared at the tilted focus height) + 1-D turbulence
+    fl = np.stack([s["fluct_enu"] for s in series])  # (C,H,N,3)
+    hws_h = np.stack([s["hws_h"] for s in series])  # (C,H)
+    wd = np.deg2rad(par["wd_deg"])
+    e_wind = np.stack([-np.sin(wd), -np.cos(wd), np.zeros_like(wd)], -1)  # (C,3)
+    alpha = par["shear_exponent"]
+    step = _wind_step(settings, dt)
+    fl_los = fl[cc, h_idx[..., None], idx // step]  # (C,J,L,3)
+    mean_los = hws_h[np.arange(n_c)[:, None], h_idx][..., None]  # (C,J,1)
+    # focus range fixed at h / cos(th): the focus height follows the tilted beam (seed 003 Eq. 5)
+    # (1 + x)^alpha to second order in x = tilt-induced relative height change (|x| < 0.05
+    # for tilts < 15 deg: error < 1e-5 relative), much cheaper than a power per LOS
+    x = d_earth[..., 2] / np.cos(th) - 1.0
+    a_ = alpha[:, None, None]
+    shear = 1.0 + a_ * x * (1.0 + 0.5 * (a_ - 1.0) * x)
+    wind = (mean_los * shear)[..., None] * e_wind[:, None, None, :] + fl_los
+    v_r = ((wind - v_head)[..., None, :] @ d_earth[..., None])[..., 0, 0]  # conventions.md
+    wind0 = mean_los[..., None] * e_wind[:, None, None, :] + fl_los
+    v_r0 = (wind0[..., None, :] @ m_body[..., None])[..., 0, 0]  # fixed reference lidar
+    pt = pinv_t[a_idx]
+    n_iter = 0 if geo.signed else 1
+    uvw, resid = _vad_retrieve_complete_scans(pt, m_body, np.abs(v_r), np.sign(v_r), n_iter)
+    # fixed lidar: the body geometry is exact, so the unfolded fit is the linear one
+    uvw0 = (v_r0[..., None, :] @ pt)[..., 0, :]
+    hws_scan = np.hypot(uvw[..., 0], uvw[..., 1])  # (C,J)
+    hws0 = np.hypot(uvw0[..., 0], uvw0[..., 1])
+    mid = idx[..., n_los // 2]
+    yaw_mid = yaw[np.arange(n_c)[:, None], mid]
+    wd_scan = _lidar.wind_direction_deg(uvw[..., 0], uvw[..., 1]) - yaw_mid  # compass
+    # 180-deg branch of the CW lidar: the one closest to the met-station vane (true wd)
+    wd_true = par["wd_deg"][:, None]
+    off = np.abs((wd_scan - wd_true + 180.0) % 360.0 - 180.0) > 90.0
+    wd_scan = (wd_scan + 180.0 * off) % 360.0
+
+    dropped = np.stack([s["dropped"] for s in series])
+    outage = np.array([s["outage"] for s in series])
+    ok = valid & ~dropped & ~outage[:, None]
+    rows = []
+    imu_frames, los_frames = [], []
+    start0 = pd.Timestamp(settings["start_utc"])
+    rate = float(settings["imu"]["rate_hz"])
+    for c, s in enumerate(series):
+        rec = int(rec_idx[c])
+        ts = start0 + pd.Timedelta(seconds=rec * t_len)
+        # IMU: true attitude at the IMU clock, noise, gap
+        n_imu = s["imu_noise"].shape[1]
+        t_imu = np.arange(n_imu) / rate
+        t_grid = np.arange(n_slots) * dt
+        att = [np.interp(t_imu, t_grid, x[c]) for x in (roll, pitch, yaw)]
+        att = [a + nz for a, nz in zip(att, s["imu_noise"], strict=True)]
+        if s["imu_gap"] is not None:
+            g = (t_imu >= s["imu_gap"][0]) & (t_imu < s["imu_gap"][1])
+            for a in att:
+                a[g] = np.nan
+        # truth of the motion (noise-free, gap-free series on the LOS clock)
+        true_ra = np.sqrt(2.0) * roll[c].std()
+        true_pa = np.sqrt(2.0) * pitch[c].std()
+        true_amp = np.sqrt(0.5 * (true_ra**2 + true_pa**2))
+        if settings["motion"]["model"] == "sea_state":
+            w1_true = par["weight1"][c]
+            t1, t2 = par["tp1_s"][c], par["tp2_s"][c]
+            true_period = t1 if w1_true >= 0.5 else t2
+        else:
+            tilted = par["roll_amplitude_deg"][c] > 0 or par["pitch_amplitude_deg"][c] > 0
+            w1_true, t2 = 1.0, np.nan
+            t1 = par["period_s"][c] if tilted else np.nan
+            true_period = t1
+        for h in range(n_h):
+            sel = ok[c] & (h_idx[c] == h)
+            sel_ref = valid[c] & (h_idx[c] == h)
+            n_nom = max(int(sel_ref.sum()), 1)
+            hs, h0 = hws_scan[c][sel], hws0[c][sel_ref]
+            zc = (hws_scan[c] - hws0[c])[sel]
+            truth = (
+                fl[c, h, :: max(int(round(1.0 / (dt * step))), 1), :2] + hws_h[c, h] * e_wind[c, :2]
+            )
+            true_hws = np.hypot(truth[:, 0], truth[:, 1])
+            enough = sel.sum() >= 2
+            rows.append(
+                {
+                    "timestamp": ts,
+                    "height_m": heights[h],
+                    "hws_mean_ms": hs.mean() if enough else np.nan,
+                    "hws_std_ms": hs.std(ddof=1) if enough else np.nan,
+                    "wd_mean_deg": _circ_mean_deg(wd_scan[c], sel, 0) if enough else np.nan,
+                    "availability_pct": 100.0 * sel.sum() / n_nom,
+                    "sv": float(np.mean(resid[c][sel] / hs)) if enough else np.nan,
+                    "ref_hws_mean_ms": h0.mean(),
+                    "ref_hws_std_ms": h0.std(ddof=1),
+                    "true_hws_mean_ms": true_hws.mean(),
+                    "true_hws_std_ms": true_hws.std(ddof=1),
+                    "true_ti": true_hws.std(ddof=1) / true_hws.mean(),
+                    "true_wd_deg": par["wd_deg"][c],
+                    "true_sigma_u_ms": par["sigma_u_ms"][c],
+                    "true_shear_exponent": par["shear_exponent"][c],
+                    "true_amplitude_deg": true_amp,
+                    "true_roll_amplitude_deg": true_ra,
+                    "true_pitch_amplitude_deg": true_pa,
+                    "true_period_s": true_period,
+                    "true_period1_s": t1,
+                    "true_period2_s": t2,
+                    "true_weight1": w1_true,
+                    "true_lever_arm_m": float(np.linalg.norm(lever)),
+                    "true_sigma_z_ms": zc.std(ddof=1) if enough else np.nan,
+                    "true_mean_z_ms": zc.mean() if enough else np.nan,
+                    "true_n_scans": float(sel.sum()),
+                    "true_record": float(rec),
+                    "true_case": par["case"][c] if "case" in par else np.nan,
+                }
+            )
+        imu_frames.append(
+            pd.DataFrame(
+                {
+                    "timestamp": ts + pd.to_timedelta(t_imu, unit="s"),
+                    "roll_deg": att[0],
+                    "pitch_deg": att[1],
+                    "yaw_deg": att[2],
+                }
+            )
+        )
+        if want_los:
+            jj = np.nonzero(valid[c])[0]
+            t_los = (idx[c][jj] * dt).ravel()
+            vr = np.abs(v_r[c][jj]) if not geo.signed else v_r[c][jj]
+            vr = np.where((~ok[c][jj])[:, None], np.nan, vr)
+            los_frames.append(
+                pd.DataFrame(
+                    {
+                        "timestamp": ts + pd.to_timedelta(t_los, unit="s"),
+                        "height_m": np.repeat(heights[h_idx[c][jj]], n_los),
+                        "azimuth_deg": np.rad2deg(az_slots[a_idx[c][jj]]).ravel(),
+                        "radial_speed_ms": vr.ravel(),
+                        "cnr_db": np.full(t_los.size, np.nan),
+                    }
+                )
+            )
+    # IMU statistics with the data layer's estimators (issue 3), one window per record
+    imu_df = pd.concat(imu_frames, ignore_index=True)
+    p_lo, p_hi = settings["imu"]["period_range_s"]
+    stats = _imu.motion_statistics(
+        imu_df, window_s=t_len, period_min_s=float(p_lo), period_max_s=float(p_hi)
+    ).set_index("timestamp")
+    for r in rows:
+        st = stats.loc[r["timestamp"]]
+        for key in MOTION_STAT_COLUMNS:
+            r[key] = float(st[key])
+    return (
+        rows,
+        imu_df if want_imu else None,
+        pd.concat(los_frames, ignore_index=True) if los_frames else None,
+    )
+
+
+_BLAS_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def _run_chunk(args):
+    return _simulate_chunk(*args)
+
+
+def generate_campaign(
+    scenario: Mapping | CampaignConfig,
+    seed: int | np.random.SeedSequence,
+    *,
+    progress: bool = False,
+    return_imu: bool = False,
+    return_los: bool = False,
+    n_workers: int | None = None,
+    chunk_records: int | None = None,
+) -> CampaignOutput:
+    """Generate a virtual campaign in physics mode.
+
+    Parameters
+    ----------
+    scenario : mapping or CampaignConfig
+        Scenario (keys of :data:`DEFAULT_SCENARIO`; e.g. from :func:`load_scenario`).
+    seed : int or numpy.random.SeedSequence
+        Root seed. Record ``i`` uses child ``i`` of a spawned SeedSequence, so the
+        output is identical for any ``chunk_records`` and ``n_workers``.
+    progress : bool
+        Show a tqdm progress bar over chunks.
+    return_imu, return_los : bool
+        Also return the raw IMU series / the floating lidar's LOS-level data
+        (LOS data are large: ~19,000 rows per record; use for small scenarios).
+    n_workers : int, optional
+        Worker processes (default: scenario ``n_workers``); 1 runs in-process.
+    chunk_records : int, optional
+        Records simulated together (memory ~ 6 MB per record); default from the scenario.
+
+    Returns
+    -------
+    CampaignOutput
+        ``records`` (rows sorted by timestamp then height), optional ``imu``, ``los``.
+    """
+    cfg = scenario if isinstance(scenario, CampaignConfig) else CampaignConfig.from_dict(scenario)
+    s = cfg.settings
+    root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(int(seed))
+    ss_params, ss_records = root.spawn(2)
+    n = int(s["n_records"])
+    par = _record_parameters(cfg, np.random.default_rng(ss_params))
+    rec_seeds = ss_records.spawn(n)
+    chunk = int(chunk_records or s["chunk_records"])
+    workers = int(n_workers or s["n_workers"])
+    if chunk < 1 or workers < 1:
+        raise ValueError(
+            f"generate_campaign: chunk_records and n_workers must be >= 1, got {chunk}, {workers}"
+        )
+    jobs = [
+        (
+            s,
+            {k: v[a : a + chunk] for k, v in par.items()},
+            np.arange(a, min(a + chunk, n)),
+            rec_seeds[a : a + chunk],
+            return_imu,
+            return_los,
+        )
+        for a in range(0, n, chunk)
+    ]
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=n, desc=f"campaign {s['name']}", unit="rec")
+    results = []
+    if workers == 1:
+        for job in jobs:
+            results.append(_run_chunk(job))
+            if bar is not None:
+                bar.update(len(job[2]))
+    else:
+        # spawned workers with single-threaded BLAS: threads of several processes would
+        # compete for the same cores (scipy's batched least squares in Welch detrending)
+        saved = {k: os.environ.get(k) for k in _BLAS_ENV}
+        os.environ.update({k: "1" for k in _BLAS_ENV})
+        try:
+            pool = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
+        finally:
+            for k, v in saved.items():
+                if v is None:
+                    os.environ.pop(k, None)
+                else:
+                    os.environ[k] = v
+        with pool:
+            for job, res in zip(jobs, pool.map(_run_chunk, jobs), strict=True):
+                results.append(res)
+                if bar is not None:
+                    bar.update(len(job[2]))
+    if bar is not None:
+        bar.close()
+    rows = [r for res in results for r in res[0]]
+    records = pd.DataFrame(rows)
+    records["timestamp"] = pd.to_datetime(records["timestamp"], utc=True)
+    imu = pd.concat([r[1] for r in results], ignore_index=True) if return_imu else None
+    los = pd.concat([r[2] for r in results], ignore_index=True) if return_los else None
+    if imu is not None:
+        imu["timestamp"] = pd.to_datetime(imu["timestamp"], utc=True)
+    if los is not None:
+        los["timestamp"] = pd.to_datetime(los["timestamp"], utc=True)
+    return CampaignOutput(records=records, imu=imu, los=los, config=cfg)

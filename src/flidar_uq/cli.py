@@ -1,0 +1,261 @@
+"""``flidar-uq`` command line.
+
+Subcommands are registered in :data:`SUBCOMMANDS` (name -> ``(add_arguments, run, help)``);
+other modules' commands are added there. Every command prints its result on stdout;
+bad input gives exactly one line on stderr naming the argument and exit status 2,
+never a traceback.
+
+Example::
+
+    flidar-uq sigma-z --hws-ms 8 --amplitude-deg 3 --period-s 4
+    flidar-uq sigma-z --hws-ms 8 --amplitude-deg 3 --period-s 4 --period2-s 12 --weight1 0.6
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Callable, Sequence
+
+__all__ = ["main", "build_parser", "SUBCOMMANDS", "CliError"]
+
+EXIT_USAGE = 2
+EXIT_INTERNAL = 1
+
+
+class CliError(Exception):
+    """Bad command-line input; its message is printed as one line on stderr."""
+
+
+class _OneLineParser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line on stderr (no usage block, no traceback)."""
+
+    def error(self, message: str):  # noqa: D102 - argparse API
+        raise CliError(f"{self.prog}: error: {message}")
+
+
+# ---- argument types (argparse turns ArgumentTypeError into "argument --x: <message>") ----
+
+
+def _number(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(x):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+    return x
+
+
+def _positive(text: str) -> float:
+    x = _number(text)
+    if x <= 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
+    return x
+
+
+def _amplitude(text: str) -> float:
+    x = _number(text)
+    if not 0.0 <= x <= 45.0:
+        raise argparse.ArgumentTypeError(f"must be in [0, 45] deg, got {text!r}")
+    return x
+
+
+def _fraction(text: str) -> float:
+    x = _number(text)
+    if not 0.0 <= x <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be in [0, 1], got {text!r}")
+    return x
+
+
+def _lidar(text: str):
+    from flidar_uq.lidar import get_lidar
+
+    try:
+        return get_lidar(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+# ---- sigma-z -----------------------------------------------------------------------------
+
+
+def _add_sigma_z(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--hws-ms", type=_positive, required=True, help="horizontal wind speed, m/s (> 0)"
+    )
+    p.add_argument(
+        "--amplitude-deg",
+        type=_amplitude,
+        required=True,
+        help="roll and pitch amplitude A, deg in [0, 45]; with --period2-s the total amplitude",
+    )
+    p.add_argument(
+        "--period-s", type=_positive, required=True, help="roll and pitch period, s (> 0)"
+    )
+    p.add_argument(
+        "--wd-deg", type=_number, default=0.0, help="wind direction (from), deg; default 0"
+    )
+    p.add_argument(
+        "--lidar", type=_lidar, default="zephir300", help="lidar name; default zephir300"
+    )
+    p.add_argument(
+        "--period2-s",
+        type=_positive,
+        default=None,
+        help="second motion period, s: two-period motion with A1 = A sqrt(w), A2 = A sqrt(1 - w)",
+    )
+    p.add_argument(
+        "--weight1",
+        type=_fraction,
+        default=None,
+        help="variance share w of the first period, in [0, 1]",
+    )
+    p.add_argument(
+        "--lever-arm-m",
+        type=_number,
+        default=0.0,
+        help="lidar head height above the rotation centre, m",
+    )
+    p.add_argument("--rtol", type=_positive, default=1e-6, help="relative tolerance; default 1e-6")
+    p.add_argument(
+        "--surrogate",
+        action="store_true",
+        help="use the tabulated surrogate (amplitude <= 25 deg, period 1-20 s, no lever arm)",
+    )
+
+
+def _run_sigma_z(args: argparse.Namespace) -> dict:
+    from flidar_uq.lidar import get_lidar
+    from flidar_uq.simulator import sigma_z
+
+    lidar = get_lidar(args.lidar)
+    if (args.period2_s is None) != (args.weight1 is None):
+        missing = "--weight1" if args.weight1 is None else "--period2-s"
+        raise CliError(
+            f"flidar-uq sigma-z: error: argument {missing}: required with two-period motion"
+        )
+    two = args.period2_s is not None
+    out = {
+        "hws_ms": args.hws_ms,
+        "amplitude_deg": args.amplitude_deg,
+        "period_s": args.period_s,
+        "wd_deg": args.wd_deg,
+        "lidar": lidar.name,
+        "period2_s": args.period2_s,
+        "weight1": args.weight1,
+        "lever_arm_m": args.lever_arm_m,
+    }
+    if args.surrogate:
+        from flidar_uq.surrogate import AMPLITUDE_RANGE_DEG, PERIOD_RANGE_S, get_surrogate
+
+        if args.lever_arm_m != 0.0:
+            raise CliError(
+                "flidar-uq sigma-z: error: argument --surrogate: no lever arm in the surrogate"
+            )
+        if args.amplitude_deg > AMPLITUDE_RANGE_DEG[1]:
+            raise CliError(
+                f"flidar-uq sigma-z: error: argument --amplitude-deg: the surrogate covers "
+                f"0-{AMPLITUDE_RANGE_DEG[1]:g} deg, got {args.amplitude_deg:g}"
+            )
+        for name, val in (("--period-s", args.period_s), ("--period2-s", args.period2_s)):
+            if val is not None and not PERIOD_RANGE_S[0] <= val <= PERIOD_RANGE_S[1]:
+                raise CliError(
+                    f"flidar-uq sigma-z: error: argument {name}: the surrogate covers "
+                    f"{PERIOD_RANGE_S[0]:g}-{PERIOD_RANGE_S[1]:g} s, got {val:g}"
+                )
+        s = get_surrogate(lidar)
+        if two:
+            sig = s.sigma_z_two_period_ms(
+                args.hws_ms,
+                args.amplitude_deg,
+                args.period_s,
+                args.period2_s,
+                args.weight1,
+                args.wd_deg,
+            )
+            out.update(sigma_z_ms=float(sig), mean_z_ms=None, method="surrogate-two-period")
+        else:
+            out.update(
+                sigma_z_ms=float(
+                    s.sigma_z_ms(args.hws_ms, args.amplitude_deg, args.period_s, args.wd_deg)
+                ),
+                mean_z_ms=float(
+                    s.mean_z_ms(args.hws_ms, args.amplitude_deg, args.period_s, args.wd_deg)
+                ),
+                method="surrogate",
+            )
+        return out
+    kw = {}
+    amp = args.amplitude_deg
+    if two:
+        amp = args.amplitude_deg * math.sqrt(args.weight1)
+        kw = dict(
+            amplitude2_deg=args.amplitude_deg * math.sqrt(1.0 - args.weight1),
+            period2_s=args.period2_s,
+        )
+    res = sigma_z(
+        args.hws_ms,
+        amp,
+        args.period_s,
+        args.wd_deg,
+        lidar,
+        lever_arm_m=args.lever_arm_m,
+        rtol=args.rtol,
+        **kw,
+    )
+    out.update(
+        sigma_z_ms=res.sigma_z_ms,
+        mean_z_ms=res.mean_z_ms,
+        n_phase=res.n_phase,
+        error_estimate_ms=res.error_estimate_ms,
+        converged=res.converged,
+        method=res.method,
+    )
+    return out
+
+
+SUBCOMMANDS: dict[str, tuple[Callable, Callable, str]] = {
+    "sigma-z": (_add_sigma_z, _run_sigma_z, "motion-induced HWS error std sigma_Z (seed 000)"),
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``flidar-uq`` parser with one subparser per entry of :data:`SUBCOMMANDS`."""
+    from flidar_uq import __version__
+
+    parser = _OneLineParser(prog="flidar-uq", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"flidar-uq {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_OneLineParser)
+    for name, (add, run, helptext) in SUBCOMMANDS.items():
+        p = sub.add_parser(name, help=helptext, description=helptext)
+        add(p)
+        p.set_defaults(_run=run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI; returns the exit status (0 ok, 2 bad input, 1 internal error)."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        if getattr(args, "_run", None) is None:
+            raise CliError("flidar-uq: error: a command is required: " + ", ".join(SUBCOMMANDS))
+        result = args._run(args)
+    except CliError as exc:
+        print(str(exc), file=sys.stderr)
+        return EXIT_USAGE
+    except ValueError as exc:  # misuse detected inside the library
+        print(f"flidar-uq: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except Exception as exc:  # noqa: BLE001 - the CLI never shows a traceback
+        print(f"flidar-uq: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
+        return EXIT_INTERNAL
+    print(json.dumps(result))
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

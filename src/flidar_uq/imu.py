@@ -1,0 +1,590 @@
+"""Motion statistics from raw IMU attitude series, per 10-min window.
+
+Estimators (``docs/conventions.md``; a harmonic is ``A sin(2 pi t / T + phi)``):
+
+Amplitude, deg
+    ``"std"`` (default): ``sqrt(2) * std`` of the linearly detrended window,
+    exact for a pure sinusoid and ``sqrt(A1^2 + A2^2)`` for two tones (the total
+    amplitude of the two-period model).  ``"spectral"``: ``sqrt(2 m0)`` with
+    ``m0`` the Welch variance inside the motion band (``period_min_s`` to
+    ``period_max_s``), which ignores sensor noise outside the band.
+    ``"zero_crossing"``: mean over zero-up-crossing waves of half the
+    crest-to-trough height (``sqrt(pi/2) sigma`` for narrow-band Gaussian motion).
+Period, s
+    ``"spectral"`` (default): peak of the Welch spectrum within the motion band,
+    refined by Gaussian (log-parabolic) interpolation.  It is the default because
+    the sigma_Z model needs the *dominant* harmonic: the peak is insensitive to
+    white sensor noise and to a second, weaker component, whereas the
+    zero-crossing period is pulled towards ``sqrt(m0/m2)`` (Rice), i.e. shortened
+    by noise and averaged between the two periods of bimodal motion; the
+    spectrum also gives the two-peak description directly.
+    ``"zero_crossing"``: mean interval between zero up-crossings.
+
+Bimodal motion: two peaks in the summed roll + pitch spectrum (seed 000 Sec. 2.4
+reports two coexisting periods) give ``period1_s < period2_s`` and ``weight1``,
+the share of the in-band variance on the short-period side of the spectral
+minimum between them (``docs/conventions.md``: ``A1 = A sqrt(w)``).
+
+Gaps: samples are placed on the nominal uniform grid; a window whose coverage is
+below ``min_coverage_pct`` yields NaN statistics (its ``imu_availability_pct`` is
+still reported, so QC flags it).  The std estimator uses only measured samples;
+spectral and zero-crossing estimators see gaps filled by linear interpolation.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from scipy.signal import find_peaks, welch
+
+from flidar_uq.metrics import pearson_r
+
+__all__ = [
+    "AMPLITUDE_METHODS",
+    "PERIOD_METHODS",
+    "amplitude_std_deg",
+    "amplitude_spectral_deg",
+    "amplitude_zero_crossing_deg",
+    "period_spectral_s",
+    "period_zero_crossing_s",
+    "motion_spectrum",
+    "two_peaks",
+    "window_series",
+    "motion_statistics",
+    "record_motion",
+    "roll_pitch_correlation",
+]
+
+AMPLITUDE_METHODS = ("std", "spectral", "zero_crossing")
+PERIOD_METHODS = ("spectral", "zero_crossing")
+
+
+# --------------------------------------------------------------------------- basics
+def _as_2d(x) -> tuple[np.ndarray, bool]:
+    x = np.asarray(x, dtype=np.float64)
+    if x.ndim == 1:
+        return x[None, :], True
+    if x.ndim != 2:
+        raise ValueError(f"expected a series of shape (n,) or (nwin, n), got shape {x.shape}")
+    return x, False
+
+
+def _detrend(x: np.ndarray) -> np.ndarray:
+    """Remove a least-squares line from each row, ignoring NaN samples; shape kept."""
+    j = np.arange(x.shape[-1], dtype=np.float64)
+    ok = np.isfinite(x)
+    n = ok.sum(axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        jm = np.where(ok, j, 0.0).sum(axis=-1, keepdims=True) / n
+        xm = np.where(ok, x, 0.0).sum(axis=-1, keepdims=True) / n
+        dj = np.where(ok, j - jm, 0.0)
+        slope = (dj * np.where(ok, x - xm, 0.0)).sum(axis=-1, keepdims=True) / (dj**2).sum(
+            axis=-1, keepdims=True
+        )
+    slope = np.where(np.isfinite(slope), slope, 0.0)
+    return x - xm - slope * (j - jm)
+
+
+def _fill(x: np.ndarray) -> np.ndarray:
+    """Linear interpolation over NaN samples along each row (edge values held)."""
+    out = x.copy()
+    for i in np.flatnonzero(~np.isfinite(x).all(axis=-1)):
+        row = out[i]
+        ok = np.isfinite(row)
+        if ok.sum() >= 2:
+            j = np.arange(row.size)
+            row[~ok] = np.interp(j[~ok], j[ok], row[ok])
+    return out
+
+
+def amplitude_std_deg(angle_deg) -> np.ndarray:
+    """Amplitude as ``sqrt(2) * std`` of the linearly detrended series (default estimator).
+
+    Parameters
+    ----------
+    angle_deg : array_like, shape (n,) or (nwin, n)
+        Uniformly sampled angle, deg; NaN samples are ignored.
+
+    Returns
+    -------
+    numpy.ndarray, shape () or (nwin,)
+        Amplitude, deg (NaN for fewer than 3 finite samples).  Exact for
+        ``A sin(2 pi t / T)`` over whole periods.
+    """
+    x, squeeze = _as_2d(angle_deg)
+    r = _detrend(x)
+    n = np.isfinite(r).sum(axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        var = np.nansum(r**2, axis=-1) / n
+    a = np.where(n >= 3, np.sqrt(2.0 * var), np.nan)
+    return a[0] if squeeze else a
+
+
+def motion_spectrum(
+    angle_deg, fs_hz: float, *, segment_s: float = 200.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """One-sided Welch power spectral density of the detrended, gap-filled series.
+
+    Parameters
+    ----------
+    angle_deg : array_like, shape (n,) or (nwin, n)
+        Uniformly sampled angle, deg (NaN gaps are linearly interpolated).
+    fs_hz : float
+        Sampling rate, Hz.
+    segment_s : float
+        Welch segment length, s (Hann window, 50 % overlap); resolution 1/segment_s Hz.
+
+    Returns
+    -------
+    f_hz : numpy.ndarray, shape (nf,)
+        Frequencies, Hz.
+    psd : numpy.ndarray, shape (nf,) or (nwin, nf)
+        PSD, deg^2/Hz; ``psd.sum(-1) * df`` is the variance.
+    """
+    x, squeeze = _as_2d(angle_deg)
+    if fs_hz <= 0 or segment_s <= 0:
+        raise ValueError(
+            f"motion_spectrum: need fs_hz > 0 and segment_s > 0, got {fs_hz}, {segment_s}"
+        )
+    nperseg = int(min(x.shape[-1], round(segment_s * fs_hz)))
+    # the window is detrended once as a whole; each Welch segment only loses its mean
+    r = _detrend(_fill(x))
+    f, p = welch(r, fs=fs_hz, window="hann", nperseg=nperseg, detrend="constant", axis=-1)
+    return f, (p[0] if squeeze else p)
+
+
+def _band(f: np.ndarray, period_min_s: float, period_max_s: float) -> np.ndarray:
+    if not 0 < period_min_s < period_max_s:
+        raise ValueError(
+            f"need 0 < period_min_s < period_max_s, got {period_min_s}, {period_max_s}"
+        )
+    return (f >= 1.0 / period_max_s) & (f <= 1.0 / period_min_s)
+
+
+def _refine(f: np.ndarray, p: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """Gaussian (log-parabolic) interpolation of peak bins ``k`` (rows of ``p``)."""
+    rows = np.arange(p.shape[0])
+    km = np.clip(k - 1, 0, p.shape[1] - 1)
+    kp = np.clip(k + 1, 0, p.shape[1] - 1)
+    tiny = np.finfo(float).tiny
+    a, b, c = (np.log(np.maximum(p[rows, i], tiny)) for i in (km, k, kp))
+    den = a - 2.0 * b + c
+    with np.errstate(invalid="ignore", divide="ignore"):
+        delta = np.where((den < 0) & (km < k) & (kp > k), 0.5 * (a - c) / den, 0.0)
+    return f[k] + np.clip(delta, -0.5, 0.5) * (f[1] - f[0])
+
+
+def period_spectral_s(
+    angle_deg,
+    fs_hz: float,
+    *,
+    segment_s: float = 200.0,
+    period_min_s: float = 1.0,
+    period_max_s: float = 30.0,
+) -> np.ndarray:
+    """Dominant period: the Welch spectral peak inside the motion band (default estimator).
+
+    Parameters
+    ----------
+    angle_deg : array_like, shape (n,) or (nwin, n)
+        Uniformly sampled angle, deg.
+    fs_hz : float
+        Sampling rate, Hz.
+    segment_s : float
+        Welch segment length, s.
+    period_min_s, period_max_s : float
+        Motion band, s.
+
+    Returns
+    -------
+    numpy.ndarray, shape () or (nwin,)
+        Period, s (NaN for an all-NaN or flat window).
+    """
+    x, squeeze = _as_2d(angle_deg)
+    f, p = motion_spectrum(x, fs_hz, segment_s=segment_s)
+    per = _peak_period_s(f, p, _band(f, period_min_s, period_max_s))
+    return per[0] if squeeze else per
+
+
+def _peak_period_s(f: np.ndarray, p: np.ndarray, band: np.ndarray) -> np.ndarray:
+    """Period (s) of the refined in-band PSD maximum of each row of ``p``."""
+    k = np.argmax(np.where(band, p, -np.inf), axis=-1)
+    fpk = _refine(f, p, k)
+    ok = np.isfinite(p).all(axis=-1) & (p[np.arange(p.shape[0]), k] > 0) & band.any()
+    return np.where(ok, 1.0 / fpk, np.nan)
+
+
+def _band_amplitude_deg(f: np.ndarray, p: np.ndarray, band: np.ndarray) -> np.ndarray:
+    """``sqrt(2 m0)`` with ``m0`` the in-band variance of each row of ``p``."""
+    return np.sqrt(2.0 * (p * band).sum(axis=-1) * (f[1] - f[0]))
+
+
+def amplitude_spectral_deg(
+    angle_deg,
+    fs_hz: float,
+    *,
+    segment_s: float = 200.0,
+    period_min_s: float = 1.0,
+    period_max_s: float = 30.0,
+) -> np.ndarray:
+    """Amplitude as ``sqrt(2 m0)`` with ``m0`` the Welch variance inside the motion band.
+
+    Parameters and returns as :func:`period_spectral_s` (amplitude in deg).
+    """
+    x, squeeze = _as_2d(angle_deg)
+    f, p = motion_spectrum(x, fs_hz, segment_s=segment_s)
+    a = _band_amplitude_deg(f, p, _band(f, period_min_s, period_max_s))
+    return a[0] if squeeze else a
+
+
+def _upcrossings(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mask of up-crossings between samples j, j+1 and their interpolated positions."""
+    up = (x[:, :-1] < 0) & (x[:, 1:] >= 0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        pos = np.arange(x.shape[1] - 1) + x[:, :-1] / (x[:, :-1] - x[:, 1:])
+    return up, pos
+
+
+def period_zero_crossing_s(angle_deg, fs_hz: float) -> np.ndarray:
+    """Mean zero-up-crossing period of the detrended, gap-filled series.
+
+    ``(t_last - t_first) / (n_up - 1)`` with linearly interpolated crossing times.
+
+    Parameters
+    ----------
+    angle_deg : array_like, shape (n,) or (nwin, n)
+        Uniformly sampled angle, deg.
+    fs_hz : float
+        Sampling rate, Hz.
+
+    Returns
+    -------
+    numpy.ndarray, shape () or (nwin,)
+        Period, s (NaN with fewer than two up-crossings).
+    """
+    x, squeeze = _as_2d(angle_deg)
+    r = _detrend(_fill(x))
+    up, pos = _upcrossings(r)
+    n_up = up.sum(axis=-1)
+    last = up.shape[1] - 1 - np.argmax(up[:, ::-1], axis=-1)
+    first = np.argmax(up, axis=-1)
+    rows = np.arange(r.shape[0])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        per = (pos[rows, last] - pos[rows, first]) / (n_up - 1) / fs_hz
+    per = np.where(n_up >= 2, per, np.nan)
+    return per[0] if squeeze else per
+
+
+def amplitude_zero_crossing_deg(angle_deg) -> np.ndarray:
+    """Mean half crest-to-trough height of the zero-up-crossing waves.
+
+    Parameters
+    ----------
+    angle_deg : array_like, shape (n,) or (nwin, n)
+        Uniformly sampled angle, deg (detrended and gap-filled here).
+
+    Returns
+    -------
+    numpy.ndarray, shape () or (nwin,)
+        Amplitude, deg (NaN without a complete wave).  ``A`` for a pure
+        sinusoid; ``sqrt(pi/2) sigma`` for narrow-band Gaussian motion.
+    """
+    x, squeeze = _as_2d(angle_deg)
+    r = _detrend(_fill(x))
+    up, _ = _upcrossings(r)
+    out = np.full(r.shape[0], np.nan)
+    for i in range(r.shape[0]):  # one iteration per window; samples handled by reduceat
+        idx = np.flatnonzero(up[i]) + 1
+        if idx.size < 2:
+            continue
+        hi = np.maximum.reduceat(r[i, idx[0] : idx[-1]], idx[:-1] - idx[0])
+        lo = np.minimum.reduceat(r[i, idx[0] : idx[-1]], idx[:-1] - idx[0])
+        out[i] = np.mean(hi - lo) / 2.0
+    return out[0] if squeeze else out
+
+
+# --------------------------------------------------------------------------- two peaks
+def two_peaks(
+    f_hz: np.ndarray,
+    psd,
+    *,
+    period_min_s: float = 1.0,
+    period_max_s: float = 30.0,
+    min_peak_ratio: float = 0.1,
+    min_period_ratio: float = 1.5,
+    max_valley_ratio: float = 0.35,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Detect bimodal motion: two separated peaks in a motion spectrum.
+
+    The highest local maximum inside the band and the highest other maximum
+    whose period differs from it by a factor >= ``min_period_ratio`` are
+    accepted as two modes if the second is at least ``min_peak_ratio`` of the
+    first and the spectral minimum between them is at most ``max_valley_ratio``
+    of the lower peak.  Closer maxima are treated as one mode.
+
+    The defaults were chosen on random-phase JONSWAP seas (10-min windows at
+    5 Hz, Welch segments of 200 s, ``tests/test_imu.py``): a single-peaked wind
+    sea (Tp 5 s) is called bimodal in about 1 % of windows for one axis and
+    roll + pitch summed (about 12 % with 1.3 / 0.5), while wind sea + swell
+    with period ratios from 1.6 to 2.4 is detected in about 99 % of windows.
+
+    Parameters
+    ----------
+    f_hz : numpy.ndarray, shape (nf,)
+        Frequencies, Hz (uniform).
+    psd : array_like, shape (nf,) or (nwin, nf)
+        PSD, deg^2/Hz (for roll and pitch together, pass their sum).
+    period_min_s, period_max_s : float
+        Motion band, s.
+    min_peak_ratio, min_period_ratio, max_valley_ratio : float
+        Detection criteria, dimensionless.
+
+    Returns
+    -------
+    period1_s, period2_s : numpy.ndarray, shape () or (nwin,)
+        Shorter and longer period, s; NaN if unimodal.
+    weight1 : numpy.ndarray, shape () or (nwin,)
+        Share of the in-band variance on the short-period side of the minimum
+        between the peaks, dimensionless; NaN if unimodal.
+    """
+    p2, squeeze = _as_2d(psd)
+    band = _band(f_hz, period_min_s, period_max_s)
+    nwin = p2.shape[0]
+    p1 = np.full(nwin, np.nan)
+    q2 = np.full(nwin, np.nan)
+    w1 = np.full(nwin, np.nan)
+    lo_k = int(np.argmax(band))
+    hi_k = int(band.size - np.argmax(band[::-1]))
+    for i in range(nwin):  # one iteration per window
+        p = p2[i, lo_k:hi_k]
+        if not np.all(np.isfinite(p)) or p.max() <= 0:
+            continue
+        pk, _ = find_peaks(np.concatenate(([0.0], p, [0.0])))
+        pk = pk - 1
+        if pk.size < 2:
+            continue
+        pk = pk[np.argsort(p[pk])[::-1]]  # by decreasing height
+        main = pk[0]
+        ratio = f_hz[lo_k + pk[1:]] / f_hz[lo_k + main]
+        far = pk[1:][(ratio >= min_period_ratio) | (ratio <= 1.0 / min_period_ratio)]
+        if far.size == 0:
+            continue
+        a, b = sorted((main, far[0]))  # a: lower frequency (longer period)
+        low = min(p[a], p[b])
+        valley = a + int(np.argmin(p[a : b + 1]))
+        if low < min_peak_ratio * p[main] or p[valley] > max_valley_ratio * low:
+            continue
+        fa, fb = _refine(f_hz, p2[[i, i]], np.array([lo_k + a, lo_k + b]))
+        var_short = p[valley + 1 :].sum() + 0.5 * p[valley]
+        var_long = p[:valley].sum() + 0.5 * p[valley]
+        p1[i], q2[i] = 1.0 / fb, 1.0 / fa
+        w1[i] = var_short / (var_short + var_long)
+    if squeeze:
+        return p1[0], q2[0], w1[0]
+    return p1, q2, w1
+
+
+# --------------------------------------------------------------------------- windows
+def window_series(
+    time_s, values, *, window_s: float = 600.0, fs_hz: float | None = None
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Place samples on the nominal uniform grid and cut it into aligned windows.
+
+    Parameters
+    ----------
+    time_s : array_like, shape (n,)
+        Sample times, s since the Unix epoch (UTC), increasing.
+    values : array_like, shape (n,) or (n, k)
+        Samples (NaN allowed).
+    window_s : float
+        Window length, s; windows start at multiples of ``window_s`` since the epoch
+        (10-min UTC boundaries for 600 s).
+    fs_hz : float, optional
+        Nominal rate, Hz; default ``1 / median(diff(time_s))`` with the interval
+        rounded to 1 microsecond.
+
+    Returns
+    -------
+    start_s : numpy.ndarray, shape (nwin,)
+        Window starts, s since the epoch.
+    grid : numpy.ndarray, shape (nwin, m) or (nwin, m, k)
+        Gridded samples (NaN where missing), ``m = round(window_s * fs_hz)``.
+    fs_hz : float
+        Rate used, Hz.
+    """
+    t = np.asarray(time_s, dtype=np.float64)
+    v = np.asarray(values, dtype=np.float64)
+    if t.ndim != 1 or v.shape[0] != t.size or t.size < 2:
+        raise ValueError(
+            f"window_series: need time_s (n >= 2,) and values (n, ...), got {t.shape}, {v.shape}"
+        )
+    if fs_hz is None:
+        # median interval rounded to 1 us: float timestamps carry sub-us jitter that would
+        # otherwise accumulate over a long series (0.1 us per step is 0.9 samples per day)
+        fs_hz = 1.0 / (round(float(np.median(np.diff(t))) * 1e6) * 1e-6)
+    m = int(round(window_s * fs_hz))
+    if m < 8:
+        raise ValueError(f"window_series: window of {window_s} s at {fs_hz} Hz has < 8 samples")
+    t0 = np.floor(t[0] / window_s) * window_s
+    k = np.rint((t - t0) * fs_hz).astype(np.int64)
+    nwin = int(k[-1] // m) + 1
+    grid = np.full((nwin * m,) + v.shape[1:], np.nan)
+    grid[k] = v
+    return t0 + window_s * np.arange(nwin), grid.reshape((nwin, m) + v.shape[1:]), float(fs_hz)
+
+
+def motion_statistics(
+    imu: pd.DataFrame,
+    *,
+    window_s: float = 600.0,
+    amplitude_method: str = "std",
+    period_method: str = "spectral",
+    segment_s: float = 200.0,
+    period_min_s: float = 1.0,
+    period_max_s: float = 30.0,
+    min_coverage_pct: float = 80.0,
+    bimodal: bool = True,
+) -> pd.DataFrame:
+    """Per-window motion statistics of a raw IMU series, as record columns.
+
+    Parameters
+    ----------
+    imu : pandas.DataFrame
+        Validated IMU series (:func:`flidar_uq.io.validate_imu_series`):
+        ``timestamp`` (UTC), ``roll_deg``, ``pitch_deg``.
+    window_s : float
+        Record length, s (600).
+    amplitude_method : {"std", "spectral", "zero_crossing"}
+        Amplitude estimator (module docstring).
+    period_method : {"spectral", "zero_crossing"}
+        Period estimator (module docstring).
+    segment_s : float
+        Welch segment length, s.
+    period_min_s, period_max_s : float
+        Motion band, s.
+    min_coverage_pct : float
+        Windows with fewer nominal samples present get NaN statistics, %.
+    bimodal : bool
+        Detect two spectral peaks (``period1_s``, ``period2_s``, ``weight1``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per window with at least one sample: ``timestamp`` (window start,
+        UTC), ``roll_amplitude_deg``, ``pitch_amplitude_deg``, ``roll_period_s``,
+        ``pitch_period_s``, ``period1_s``, ``period2_s``, ``weight1``,
+        ``imu_availability_pct``.
+    """
+    if amplitude_method not in AMPLITUDE_METHODS:
+        raise ValueError(
+            f"amplitude_method must be one of {AMPLITUDE_METHODS}, got {amplitude_method!r}"
+        )
+    if period_method not in PERIOD_METHODS:
+        raise ValueError(f"period_method must be one of {PERIOD_METHODS}, got {period_method!r}")
+    t_ns = pd.DatetimeIndex(imu["timestamp"]).as_unit("ns").asi8
+    # times relative to the window boundary before the first sample keep float precision
+    window_ns = int(round(window_s * 1e9))
+    t0_ns = (int(t_ns[0]) // window_ns) * window_ns
+    vals = imu[["roll_deg", "pitch_deg"]].to_numpy(dtype=np.float64)
+    start_s, grid, fs = window_series((t_ns - t0_ns) * 1e-9, vals, window_s=window_s)
+    coverage = 100.0 * np.isfinite(grid).all(axis=-1).mean(axis=-1)
+    present = np.isfinite(grid).any(axis=(1, 2))
+    good = present & (coverage >= min_coverage_pct)
+    nwin = grid.shape[0]
+    cols = {
+        k: np.full(nwin, np.nan)
+        for k in (
+            "roll_amplitude_deg",
+            "pitch_amplitude_deg",
+            "roll_period_s",
+            "pitch_period_s",
+            "period1_s",
+            "period2_s",
+            "weight1",
+        )
+    }
+    if good.any():
+        g = grid[good]
+        psd = []
+        for j, axis in enumerate(("roll", "pitch")):
+            x = g[..., j]
+            f, p = motion_spectrum(x, fs, segment_s=segment_s)  # once per axis, reused
+            band = _band(f, period_min_s, period_max_s)
+            psd.append(p)
+            if amplitude_method == "std":
+                amp = amplitude_std_deg(x)
+            elif amplitude_method == "spectral":
+                amp = _band_amplitude_deg(f, p, band)
+            else:
+                amp = amplitude_zero_crossing_deg(x)
+            if period_method == "spectral":
+                per = _peak_period_s(f, p, band)
+            else:
+                per = period_zero_crossing_s(x, fs)
+            cols[f"{axis}_amplitude_deg"][good] = amp
+            cols[f"{axis}_period_s"][good] = per
+        if bimodal:
+            p1, p2, w1 = two_peaks(
+                f, psd[0] + psd[1], period_min_s=period_min_s, period_max_s=period_max_s
+            )
+            cols["period1_s"][good], cols["period2_s"][good], cols["weight1"][good] = p1, p2, w1
+    out = pd.DataFrame(
+        {"timestamp": pd.to_datetime(t0_ns + np.rint(start_s * 1e9).astype(np.int64), utc=True)}
+        | cols
+        | {"imu_availability_pct": coverage}
+    )
+    return out.loc[present].reset_index(drop=True)
+
+
+def record_motion(records: pd.DataFrame) -> pd.DataFrame:
+    """Add the seed-000 single motion description to each record.
+
+    ``amplitude_deg`` = mean of roll and pitch amplitude and ``period_s`` = mean
+    of roll and pitch period (seed 000 Sec. 2.4).
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records with ``roll_amplitude_deg``, ``pitch_amplitude_deg``,
+        ``roll_period_s``, ``pitch_period_s``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy with ``amplitude_deg`` (deg) and ``period_s`` (s) added.
+    """
+    need = ["roll_amplitude_deg", "pitch_amplitude_deg", "roll_period_s", "pitch_period_s"]
+    missing = [c for c in need if c not in records.columns]
+    if missing:
+        raise ValueError(f"record_motion: records lack column(s) {missing}")
+    out = records.copy()
+    out["amplitude_deg"] = 0.5 * (records[need[0]] + records[need[1]])  # seed 000 Sec. 2.4
+    out["period_s"] = 0.5 * (records[need[2]] + records[need[3]])  # seed 000 Sec. 2.4
+    return out
+
+
+def roll_pitch_correlation(records: pd.DataFrame) -> dict[str, float]:
+    """Pearson correlation of roll vs pitch amplitude and period across records.
+
+    Seed 000 Sec. 2.4 / Fig. 2 reports 0.88 (amplitude) and 0.54 (period) at
+    IJmuiden and uses it to justify one amplitude and one period per record.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records or :func:`motion_statistics` output.
+
+    Returns
+    -------
+    dict
+        ``r_amplitude``, ``r_period`` (dimensionless) and ``n`` (records with
+        all four values finite).
+    """
+    cols = ["roll_amplitude_deg", "pitch_amplitude_deg", "roll_period_s", "pitch_period_s"]
+    x = records[cols].to_numpy(dtype=np.float64)
+    ok = np.isfinite(x).all(axis=1)
+    return {
+        "r_amplitude": float(pearson_r(x[ok, 0], x[ok, 1])),
+        "r_period": float(pearson_r(x[ok, 2], x[ok, 3])),
+        "n": int(ok.sum()),
+    }

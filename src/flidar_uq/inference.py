@@ -1,0 +1,1192 @@
+"""emcee inference of per-bin motion parameters and the global correlation rho (cut model).
+
+Two stages, matching the Snakemake fan-out/gather (docs/inference.md):
+
+1. :func:`fit_bin` (one job per bin): posterior of the bin's motion parameters from the
+   records' IMU statistics only. Unimodal model ``(A, T, s_a, s_T)``; two-period model
+   ``(A, T1 < T2, w, s_a, s_T)``; the two-period model is kept only if PSIS-LOO prefers it.
+2. :func:`fit_global` (gather): posterior of ``rho``, ``tau0`` and ``kappa`` from the
+   records with a reference std, with each record's sigma_Z carried from stage 1 (its
+   posterior median and variance; a cut model: the observation model does not feed back
+   into the motion parameters). PSIS-LOO compares the global rho with a per-bin rho.
+
+Observation model (design.md): ``s_i ~ Normal(mu_i, tau_i)``,
+``mu_i = sqrt(r_i^2 + sZ_i^2 + 2 rho r_i sZ_i)`` (Eq. 15 of seed 000),
+``tau_i^2 = (kappa mu_i)^2 + tau0^2 + (dmu/dsZ)^2 Var(sZ_i)``; ``kappa`` is the relative
+sampling std of a 10-min std (inferred), ``tau0`` the model error (m/s).
+
+Every log-probability here is vectorised over walkers, module level (picklable) and
+returns ``-inf`` (never NaN) outside the support.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from dataclasses import asdict, dataclass, field
+
+import arviz as az
+import emcee
+import numpy as np
+import pandas as pd
+import xarray as xr
+from scipy.special import logsumexp
+
+from flidar_uq.correction import sigma_moving_pc
+
+__all__ = [
+    "Priors",
+    "SamplerSettings",
+    "BinFit",
+    "GlobalFit",
+    "fit_bin",
+    "fit_global",
+    "load_fit",
+    "log_prob_unimodal",
+    "log_prob_two_period",
+    "log_prob_global",
+    "imu_observations",
+    "prior_predictive",
+    "sample_motion_prior",
+    "period_kurtosis_ppc",
+    "record_sigma_z_moments",
+]
+
+_LOG2PI = np.log(2.0 * np.pi)
+
+
+@dataclass(frozen=True)
+class Priors:
+    """Weakly informative, physical priors (justified in docs/inference.md).
+
+    Amplitude ``A`` (deg): log-normal, median ``amplitude_median_deg``, log-sd
+    ``amplitude_log_sd``, truncated to [``amplitude_min_deg``, ``amplitude_max_deg``].
+    Periods ``T`` (s): log-normal, median ``period_median_s``, log-sd ``period_log_sd``,
+    truncated to [``period_min_s``, ``period_max_s``]; two-period: both periods with this
+    prior and ordered ``T1 < T2``; weight ``w ~ Beta(weight_beta, weight_beta)``.
+    Within-bin log-scatter of the IMU statistics: half-normal(``scatter_scale``) on
+    [``scatter_min``, ``scatter_max``]. ``rho ~ Uniform(-1, 1)``;
+    ``tau0 ~ HalfNormal(tau0_scale_ms)``; ``kappa ~ HalfNormal(kappa_scale)``.
+    """
+
+    amplitude_median_deg: float = 3.0
+    amplitude_log_sd: float = 0.8
+    amplitude_min_deg: float = 0.05
+    amplitude_max_deg: float = 25.0
+    period_median_s: float = 5.0
+    period_log_sd: float = 0.5
+    period_min_s: float = 1.0
+    period_max_s: float = 20.0
+    weight_beta: float = 2.0
+    scatter_scale: float = 0.3
+    scatter_min: float = 0.005
+    scatter_max: float = 2.0
+    tau0_scale_ms: float = 0.1
+    kappa_scale: float = 0.2
+    tau0_min_ms: float = 1e-4
+    kappa_min: float = 1e-4
+
+
+@dataclass(frozen=True)
+class SamplerSettings:
+    """emcee and convergence settings.
+
+    Parameters
+    ----------
+    nwalkers : int
+        Walkers per ensemble (>= 2 * ndim + 2 for the two-period model).
+    nsteps : int
+        Steps kept per ensemble after burn-in.
+    nburn : int
+        Burn-in steps discarded per ensemble.
+    nensembles : int
+        Independent ensembles (>= 4); R-hat is computed across them.
+    ndraws : int
+        Draws stored per ensemble (thinned uniformly from the pooled walkers).
+    snooker_weight : float
+        Share of DESnookerMove (rest DEMove) during burn-in (mild multimodality).
+    independence_weight : float
+        Share of the Student-t independence Metropolis move (fitted to the burn-in) in the
+        main phase; the rest is DEMove. It cuts the autocorrelation time to a few steps
+        for near-Gaussian posteriors; DE keeps mixing where the fit is poor.
+    mixture : str
+        ``"auto"``: fit the unimodal model; if the IMU reports a second spectral peak in at
+        least a quarter of the records or the posterior predictive check of the periods'
+        kurtosis has p < ``screen_pvalue``, also fit the two-period model and keep it if
+        PSIS-LOO prefers it by more than ``loo_threshold_se`` standard errors and it
+        converged. ``"never"`` or ``"always"`` (fit both, keep the two-period model).
+    two_period_step_factor : float
+        The two-period model (6 parameters, longer autocorrelation) runs this many times
+        ``nsteps`` and ``nburn``.
+    global_step_factor : float
+        The global fit (one job, 3 parameters) runs this many times ``nsteps`` and ``nburn``.
+    rhat_max, ess_min, n_autocorr : float
+        Convergence thresholds of design.md (rank R-hat, bulk and tail ESS, chain length
+        in integrated autocorrelation times).
+    """
+
+    nwalkers: int = 24
+    nsteps: int = 400
+    nburn: int = 150
+    nensembles: int = 4
+    ndraws: int = 250
+    snooker_weight: float = 0.2
+    independence_weight: float = 0.5
+    two_period_step_factor: float = 2.0
+    global_step_factor: float = 3.5
+    screen_pvalue: float = 0.05
+    mixture: str = "auto"
+    loo_threshold_se: float = 2.0
+    rhat_max: float = 1.01
+    ess_min: float = 400.0
+    n_autocorr: float = 50.0
+    n_sz_draws: int = 200
+
+    def __post_init__(self):
+        if self.nensembles < 4:
+            raise ValueError(f"SamplerSettings: nensembles={self.nensembles} < 4 (design.md)")
+        if self.mixture not in {"auto", "never", "always"}:
+            raise ValueError(f"SamplerSettings: mixture={self.mixture!r} not auto/never/always")
+        if self.nsteps < 10 or self.nburn < 0 or self.nwalkers < 8:
+            raise ValueError(
+                f"SamplerSettings: need nsteps >= 10, nburn >= 0, nwalkers >= 8; got "
+                f"{self.nsteps}, {self.nburn}, {self.nwalkers}"
+            )
+
+
+# ----------------------------------------------------------------------------- log densities
+def _norm_logpdf(x, mu, sd):
+    return -0.5 * ((x - mu) / sd) ** 2 - np.log(sd) - 0.5 * _LOG2PI
+
+
+def _log_halfnormal_logscale(log_s, scale):
+    """Log density of log(s) when s ~ HalfNormal(scale) (includes the Jacobian s)."""
+    s = np.exp(log_s)
+    return np.log(2.0) + _norm_logpdf(s, 0.0, scale) + log_s
+
+
+def _in(x, lo, hi):
+    return (x > lo) & (x < hi)
+
+
+def _log_prior_motion(log_a, log_ts, log_sa, log_st, priors):
+    """Shared prior terms; log_ts is a list of log-period arrays. Returns (lp, ok)."""
+    ok = _in(log_a, np.log(priors.amplitude_min_deg), np.log(priors.amplitude_max_deg))
+    lp = _norm_logpdf(log_a, np.log(priors.amplitude_median_deg), priors.amplitude_log_sd)
+    for log_t in log_ts:
+        ok &= _in(log_t, np.log(priors.period_min_s), np.log(priors.period_max_s))
+        lp = lp + _norm_logpdf(log_t, np.log(priors.period_median_s), priors.period_log_sd)
+    for log_s in (log_sa, log_st):
+        ok &= _in(log_s, np.log(priors.scatter_min), np.log(priors.scatter_max))
+        lp = lp + _log_halfnormal_logscale(log_s, priors.scatter_scale)
+    return lp, ok
+
+
+def _loglik_pointwise_unimodal(theta, log_amp, log_per):
+    """(n_walkers, n_obs) pointwise log-likelihood; NaN observations contribute 0."""
+    log_a, log_t, log_sa, log_st = (theta[:, k : k + 1] for k in range(4))
+    la = _norm_logpdf(log_amp[None, :], log_a, np.exp(log_sa))
+    lt = _norm_logpdf(log_per[None, :], log_t, np.exp(log_st))
+    return np.where(np.isfinite(la), la, 0.0) + np.where(np.isfinite(lt), lt, 0.0)
+
+
+def _loglik_pointwise_two_period(theta, log_amp, log_per):
+    log_a, log_t1, log_t2, logit_w, log_sa, log_st = (theta[:, k : k + 1] for k in range(6))
+    la = _norm_logpdf(log_amp[None, :], log_a, np.exp(log_sa))
+    st = np.exp(log_st)
+    log_w = -np.logaddexp(0.0, -logit_w)
+    log_1mw = -np.logaddexp(0.0, logit_w)
+    lt = np.logaddexp(
+        log_w + _norm_logpdf(log_per[None, :], log_t1, st),
+        log_1mw + _norm_logpdf(log_per[None, :], log_t2, st),
+    )
+    return np.where(np.isfinite(la), la, 0.0) + np.where(np.isfinite(lt), lt, 0.0)
+
+
+def log_prob_unimodal(theta, log_amp, log_per, priors=Priors()):
+    """Log posterior of the unimodal per-bin motion model, vectorised over walkers.
+
+    Parameters
+    ----------
+    theta : array_like, shape (n_walkers, 4) or (4,)
+        ``(log A_deg, log T_s, log s_a, log s_T)``.
+    log_amp, log_per : numpy.ndarray, shape (n_obs,)
+        Log of the records' IMU amplitude (deg) and period (s); NaN = missing.
+    priors : Priors
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_walkers,)
+        Log posterior up to a constant; ``-inf`` outside the support, never NaN.
+    """
+    theta = np.atleast_2d(np.asarray(theta, dtype=float))
+    with np.errstate(all="ignore"):
+        lp, ok = _log_prior_motion(theta[:, 0], [theta[:, 1]], theta[:, 2], theta[:, 3], priors)
+        ok &= np.all(np.isfinite(theta), axis=1)
+        safe = np.where(ok[:, None], theta, [[0.0, 1.5, -1.0, -1.0]])
+        ll = _loglik_pointwise_unimodal(safe, log_amp, log_per).sum(axis=1)
+        out = lp + ll
+    return np.where(ok & np.isfinite(out), out, -np.inf)
+
+
+def log_prob_two_period(theta, log_amp, log_per, priors=Priors()):
+    """Log posterior of the two-period per-bin model, vectorised over walkers.
+
+    Parameters
+    ----------
+    theta : array_like, shape (n_walkers, 6) or (6,)
+        ``(log A_deg, log T1_s, log T2_s, logit w, log s_a, log s_T)``, ``T1 < T2``.
+    log_amp, log_per : numpy.ndarray, shape (n_obs,)
+    priors : Priors
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_walkers,)
+        ``-inf`` outside the support (incl. ``T1 >= T2``), never NaN.
+    """
+    theta = np.atleast_2d(np.asarray(theta, dtype=float))
+    with np.errstate(all="ignore"):
+        lp, ok = _log_prior_motion(
+            theta[:, 0], [theta[:, 1], theta[:, 2]], theta[:, 4], theta[:, 5], priors
+        )
+        ok &= np.all(np.isfinite(theta), axis=1) & (theta[:, 1] < theta[:, 2])
+        ok &= np.abs(theta[:, 3]) < 12.0
+        w = 1.0 / (1.0 + np.exp(-theta[:, 3]))
+        b = priors.weight_beta
+        # Beta(b, b) on w plus the logit Jacobian w (1 - w)
+        lp = lp + b * (np.log(w) + np.log1p(-w)) + np.log(2.0)  # ordering: 2 orderings
+        safe = np.where(ok[:, None], theta, [[0.0, 1.0, 2.0, 0.0, -1.0, -1.0]])
+        ll = _loglik_pointwise_two_period(safe, log_amp, log_per).sum(axis=1)
+        out = lp + ll
+    return np.where(ok & np.isfinite(out), out, -np.inf)
+
+
+def _global_mu_tau(theta, r, sz_med, sz_var):
+    rho, log_tau0, log_kappa = (theta[:, k : k + 1] for k in range(3))
+    var = r**2 + sz_med**2 + 2.0 * rho * r * sz_med
+    mu = np.sqrt(np.maximum(var, 1e-12))  # Eq. (15) of seed 000
+    dmu = (sz_med + rho * r) / mu
+    tau = np.sqrt((np.exp(log_kappa) * mu) ** 2 + np.exp(2.0 * log_tau0) + dmu**2 * sz_var)
+    return mu, tau
+
+
+def log_prob_global(theta, s, r, sz_med, sz_var, priors=Priors()):
+    """Log posterior of the global observation model, vectorised over walkers.
+
+    Parameters
+    ----------
+    theta : array_like, shape (n_walkers, 3) or (3,)
+        ``(rho, log tau0_ms, log kappa)``.
+    s, r : numpy.ndarray, shape (n_obs,)
+        Floating-lidar and reference 10-min HWS std (m/s).
+    sz_med, sz_var : numpy.ndarray, shape (n_obs,)
+        Posterior median (m/s) and variance (m^2/s^2) of each record's sigma_Z.
+    priors : Priors
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_walkers,)
+        ``-inf`` outside ``|rho| < 1`` and the scale bounds; never NaN.
+    """
+    theta = np.atleast_2d(np.asarray(theta, dtype=float))
+    with np.errstate(all="ignore"):
+        ok = np.all(np.isfinite(theta), axis=1) & (np.abs(theta[:, 0]) < 1.0)
+        ok &= _in(theta[:, 1], np.log(priors.tau0_min_ms), np.log(10.0))
+        ok &= _in(theta[:, 2], np.log(priors.kappa_min), np.log(2.0))
+        lp = _log_halfnormal_logscale(theta[:, 1], priors.tau0_scale_ms)
+        lp = lp + _log_halfnormal_logscale(theta[:, 2], priors.kappa_scale)
+        safe = np.where(ok[:, None], theta, [[0.0, -2.0, -2.0]])
+        mu, tau = _global_mu_tau(safe, r[None, :], sz_med[None, :], sz_var[None, :])
+        out = lp + _norm_logpdf(s[None, :], mu, tau).sum(axis=1)
+    return np.where(ok & np.isfinite(out), out, -np.inf)
+
+
+# ----------------------------------------------------------------------------- data
+def imu_observations(records: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Per-record log amplitude and log period from the IMU statistics.
+
+    The record's motion amplitude (period) is the geometric mean of the roll and pitch
+    amplitudes (periods); a missing axis falls back to the other; NaN if both missing.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Core record columns ``roll_amplitude_deg``, ``pitch_amplitude_deg``,
+        ``roll_period_s``, ``pitch_period_s`` (missing columns count as NaN).
+
+    Returns
+    -------
+    log_amp, log_per : numpy.ndarray, shape (n_records,)
+        Natural logs of deg and s; NaN where unavailable or non-positive.
+    """
+
+    def col(name):
+        if name in records:
+            x = records[name].to_numpy(dtype=float)
+        else:
+            x = np.full(len(records), np.nan)
+        return np.log(np.where(x > 0, x, np.nan))
+
+    out = []
+    for a, b in (
+        ("roll_amplitude_deg", "pitch_amplitude_deg"),
+        ("roll_period_s", "pitch_period_s"),
+    ):
+        x = np.stack([col(a), col(b)])
+        with np.errstate(all="ignore"):
+            n = np.sum(np.isfinite(x), axis=0)
+            m = np.where(
+                n > 0,
+                np.nansum(np.where(np.isfinite(x), x, 0.0), axis=0) / np.maximum(n, 1),
+                np.nan,
+            )
+        out.append(m)
+    return out[0], out[1]
+
+
+# ----------------------------------------------------------------------------- sampling core
+def _as_seedsequence(seed) -> np.random.SeedSequence:
+    if isinstance(seed, np.random.SeedSequence):
+        return seed
+    if seed is None:
+        raise ValueError("seed is required (int or numpy.random.SeedSequence from config)")
+    return np.random.SeedSequence(seed)
+
+
+class StudentTIndependenceProposal:
+    """Independence proposal for :class:`emcee.moves.MHMove`: multivariate Student-t.
+
+    Fitted to the burn-in ensemble (mean, covariance); heavy tails (``df``) keep the
+    importance ratio bounded. Module-level and picklable.
+
+    Parameters
+    ----------
+    mean : numpy.ndarray, shape (ndim,)
+    cov : numpy.ndarray, shape (ndim, ndim)
+        Scale matrix (the t covariance is ``cov * df / (df - 2)``).
+    df : float
+    """
+
+    def __init__(self, mean, cov, df=5.0):
+        self.mean = np.asarray(mean, dtype=float)
+        ndim = self.mean.size
+        cov = np.asarray(cov, dtype=float) + 1e-10 * np.eye(ndim)
+        self.chol = np.linalg.cholesky(cov)
+        self.df = float(df)
+
+    def log_q(self, x):
+        """Log proposal density up to a constant, shape (n,)."""
+        z = np.linalg.solve(self.chol, (np.asarray(x) - self.mean).T)
+        return -0.5 * (self.df + self.mean.size) * np.log1p(np.sum(z**2, axis=0) / self.df)
+
+    def __call__(self, coords, random):
+        n, ndim = coords.shape
+        z = random.standard_normal((n, ndim)) @ self.chol.T
+        g = random.chisquare(self.df, n) / self.df
+        x = self.mean + z / np.sqrt(g)[:, None]
+        return x, self.log_q(coords) - self.log_q(x)
+
+
+def _fit_proposal(burn):
+    """Student-t proposal from the last third of a burn-in chain (nburn, nwalkers, ndim)."""
+    x = burn[(2 * burn.shape[0]) // 3 :].reshape(-1, burn.shape[-1])
+    cov = np.cov(x, rowvar=False).reshape(burn.shape[-1], burn.shape[-1])
+    return StudentTIndependenceProposal(x.mean(axis=0), cov * 1.5**2)
+
+
+def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq):
+    """Run ``settings.nensembles`` independent ensembles.
+
+    Burn-in: DE + DE-snooker moves. Main phase (a fixed kernel): DE + an independence
+    Student-t Metropolis move fitted to the last third of the burn-in.
+    Returns chains of shape (nensembles, nsteps, nwalkers, ndim) and log-probs.
+    """
+    chains, lps = [], []
+    burn_moves = [
+        (emcee.moves.DEMove(), 1.0 - settings.snooker_weight),
+        (emcee.moves.DESnookerMove(), settings.snooker_weight),
+    ]
+    for child in seedseq.spawn(settings.nensembles):
+        rng = np.random.default_rng(child)
+        p0 = init_fn(rng, settings.nwalkers)
+        burn = emcee.EnsembleSampler(
+            settings.nwalkers, ndim, log_prob, args=args, moves=burn_moves, vectorize=True
+        )
+        burn.random_state = np.random.RandomState(
+            int(child.generate_state(1, np.uint32)[0])
+        ).get_state()
+        state = burn.run_mcmc(p0, max(settings.nburn, 2), progress=False)
+        moves = [(emcee.moves.DEMove(), 1.0 - settings.independence_weight)]
+        if settings.independence_weight > 0:
+            prop = _fit_proposal(burn.get_chain())
+            moves.append((emcee.moves.MHMove(prop), settings.independence_weight))
+        main = emcee.EnsembleSampler(
+            settings.nwalkers, ndim, log_prob, args=args, moves=moves, vectorize=True
+        )
+        main.random_state = burn.random_state
+        main.run_mcmc(state, settings.nsteps, progress=False)
+        chains.append(main.get_chain())
+        lps.append(main.get_log_prob())
+    return np.stack(chains), np.stack(lps)
+
+
+def _diagnostics(chains, names, settings):
+    """Rank R-hat across ensembles (walkers pooled), bulk/tail ESS, autocorrelation times."""
+    nens, nsteps, nwalk, ndim = chains.shape
+    # each ensemble's walkers pooled into ONE chain, walker-major (walker 0's trace, then 1...)
+    pooled = np.transpose(chains, (0, 2, 1, 3)).reshape(nens, nwalk * nsteps, ndim)
+    ds = xr.Dataset(
+        {n: (("chain", "draw"), pooled[..., k]) for k, n in enumerate(names)},
+        coords={"chain": np.arange(nens), "draw": np.arange(nwalk * nsteps)},
+    )
+    rhat = az.rhat(ds, method="rank")
+    ess_b = az.ess(ds, method="bulk")
+    ess_t = az.ess(ds, method="tail")
+    diag, reasons = {}, []
+    for k, n in enumerate(names):
+        with np.errstate(all="ignore"):  # a stuck (constant) chain gives NaN: a failure
+            taus = [
+                float(emcee.autocorr.integrated_time(chains[e, :, :, k], tol=0, quiet=True)[0])
+                for e in range(nens)
+            ]
+        tau = float(np.max(taus)) if np.all(np.isfinite(taus)) else float("nan")
+        d = {
+            "rhat": float(rhat[n]),
+            "ess_bulk": float(ess_b[n]),
+            "ess_tail": float(ess_t[n]),
+            "tau": tau,
+            "nsteps_over_tau": nsteps / tau if tau > 0 else float("inf"),
+        }
+        diag[n] = d
+        if not np.isfinite(d["rhat"]) or d["rhat"] >= settings.rhat_max:
+            reasons.append(f"{n}: rank R-hat {d['rhat']:.4f} >= {settings.rhat_max}")
+        if not np.isfinite(d["ess_bulk"]) or d["ess_bulk"] < settings.ess_min:
+            reasons.append(f"{n}: bulk ESS {d['ess_bulk']:.0f} < {settings.ess_min:.0f}")
+        if not np.isfinite(d["ess_tail"]) or d["ess_tail"] < settings.ess_min:
+            reasons.append(f"{n}: tail ESS {d['ess_tail']:.0f} < {settings.ess_min:.0f}")
+        if not d["nsteps_over_tau"] > settings.n_autocorr:
+            reasons.append(
+                f"{n}: chain {nsteps} steps = {d['nsteps_over_tau']:.1f} autocorrelation "
+                f"times <= {settings.n_autocorr:.0f}"
+            )
+    return diag, reasons
+
+
+def _thin(chains, ndraws):
+    """(nens, nsteps, nwalk, ndim) -> (nens, ndraws, ndim), uniform over the pooled walkers."""
+    nens, nsteps, nwalk, ndim = chains.shape
+    pooled = np.transpose(chains, (0, 2, 1, 3)).reshape(nens, nwalk * nsteps, ndim)
+    idx = np.linspace(0, nwalk * nsteps - 1, min(ndraws, nwalk * nsteps)).astype(int)
+    return pooled[:, idx, :]
+
+
+def _loo(log_lik):
+    """PSIS-LOO from a (chain, draw, obs) pointwise log-likelihood; returns dict or None."""
+    if log_lik.shape[-1] == 0:
+        return None
+    dt = az.from_dict(
+        {"posterior": {"x": np.zeros(log_lik.shape[:2])}, "log_likelihood": {"y": log_lik}}
+    )
+    res = az.loo(dt, pointwise=True)
+    return {
+        "elpd": float(res.elpd),
+        "se": float(res.se),
+        "p_loo": float(res.p),
+        "elpd_i": np.asarray(res.elpd_i).ravel(),
+        "pareto_k": np.asarray(res.pareto_k).ravel(),
+    }
+
+
+def _loo_compare(a, b):
+    """elpd(a) - elpd(b) with the pointwise standard error of the difference."""
+    d = a["elpd_i"] - b["elpd_i"]
+    return float(d.sum()), float(np.sqrt(d.size * np.var(d))) if d.size > 1 else float("nan")
+
+
+def period_kurtosis_ppc(log_per, draws, *, rng, nrep=400) -> float:
+    """Posterior predictive p-value of the log-periods' kurtosis under the unimodal model.
+
+    Two well separated periods give a platykurtic (kurtosis < 3) sample; the p-value is
+    ``P(k_rep <= k_obs)`` over replicated data sets drawn from the unimodal posterior.
+
+    Parameters
+    ----------
+    log_per : numpy.ndarray, shape (n_obs,)
+        Log IMU periods (NaN ignored).
+    draws : dict
+        Unimodal posterior draws ``period_s`` and ``scatter_period``.
+    rng : numpy.random.Generator
+    nrep : int
+
+    Returns
+    -------
+    float
+        p-value in [0, 1]; NaN with fewer than 4 periods.
+    """
+    x = log_per[np.isfinite(log_per)]
+    if x.size < 4:
+        return float("nan")
+
+    def kurt(y):
+        d = y - y.mean(axis=-1, keepdims=True)
+        return np.mean(d**4, axis=-1) / np.maximum(np.mean(d**2, axis=-1) ** 2, 1e-300)
+
+    t = np.log(np.asarray(draws["period_s"]).ravel())
+    sd = np.asarray(draws["scatter_period"]).ravel()
+    idx = rng.choice(t.size, size=nrep)
+    rep = t[idx, None] + sd[idx, None] * rng.standard_normal((nrep, x.size))
+    return float(np.mean(kurt(rep) <= kurt(x)))
+
+
+# ----------------------------------------------------------------------------- fit results
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {k: _jsonable(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.floating | np.integer | np.bool_):
+        return x.item()
+    return x
+
+
+@dataclass
+class _FitBase:
+    kind = "base"
+    draws: dict  # name -> (nensembles, ndraws)
+    log_lik: np.ndarray  # (nensembles, ndraws, n_obs)
+    diagnostics: dict
+    failure_reasons: list
+    info: dict = field(default_factory=dict)
+
+    @property
+    def converged(self) -> bool:
+        """True only if every convergence criterion of design.md is met."""
+        return len(self.failure_reasons) == 0
+
+    def flat(self, name: str) -> np.ndarray:
+        """All stored draws of one parameter, shape (nensembles * ndraws,)."""
+        return np.asarray(self.draws[name]).reshape(-1)
+
+    def _summary_rows(self, extra):
+        rows = []
+        for n, d in self.draws.items():
+            x = np.asarray(d).ravel()
+            q = np.quantile(x, [0.05, 0.5, 0.95])
+            rows.append(
+                {
+                    **extra,
+                    "param": n,
+                    "mean": float(np.mean(x)),
+                    "sd": float(np.std(x)),
+                    "q05": q[0],
+                    "median": q[1],
+                    "q95": q[2],
+                    **{k: v for k, v in self.diagnostics.get(n, {}).items()},
+                    "converged": self.converged,
+                    "failure_reasons": "; ".join(self.failure_reasons),
+                }
+            )
+        return pd.DataFrame(rows)
+
+    def to_datatree(self):
+        """ArviZ 1.x DataTree: posterior, log_likelihood, constant_data; diagnostics in attrs."""
+        post = {n: np.asarray(v) for n, v in self.draws.items()}
+        dt = az.from_dict(
+            {
+                "posterior": post,
+                "log_likelihood": {"obs": self.log_lik},
+                "constant_data": {
+                    k: np.asarray(v) for k, v in self.info.get("constant", {}).items()
+                },
+            }
+        )
+        dt.attrs["flidar_uq_kind"] = self.kind
+        dt.attrs["converged"] = int(self.converged)
+        dt.attrs["failure_reasons"] = json.dumps(self.failure_reasons)
+        dt.attrs["diagnostics"] = json.dumps(_jsonable(self.diagnostics))
+        meta = {k: v for k, v in self.info.items() if k != "constant"}
+        dt.attrs["info"] = json.dumps(_jsonable(meta))
+        return dt
+
+    def to_netcdf(self, path) -> None:
+        """Write :meth:`to_datatree` to NetCDF (h5netcdf engine)."""
+        self.to_datatree().to_netcdf(path, engine="h5netcdf")
+
+
+@dataclass
+class BinFit(_FitBase):
+    """Posterior of one bin's motion parameters (stage 1).
+
+    Attributes
+    ----------
+    draws : dict
+        ``amplitude_deg``, ``period_s`` (``period1_s``, ``period2_s``, ``weight1`` for the
+        two-period model), ``scatter_amplitude``, ``scatter_period``; each (nensembles, ndraws).
+    info : dict
+        ``bin_id``, ``model`` ("unimodal"/"two_period"), ``n_records``, ``n_imu``,
+        ``prior_only`` (no IMU statistics: posterior = prior), ``loo`` (elpd, se, p_loo,
+        max Pareto k of each model, elpd difference two_period - unimodal and its se),
+        ``constant`` (record_index, hws_mean_ms).
+    """
+
+    kind = "bin"
+
+    @property
+    def bin_id(self):
+        return self.info["bin_id"]
+
+    @property
+    def model(self) -> str:
+        return self.info["model"]
+
+    def sigma_z_draws(self, hws_ms, surrogate=None, *, ndraws=None, rng=None) -> np.ndarray:
+        """Draws of sigma_Z (m/s) for records at mean HWS ``hws_ms``.
+
+        Parameters
+        ----------
+        hws_ms : array_like, shape (n,)
+            Records' mean HWS (m/s).
+        surrogate : SigmaZSurrogate, optional
+            Default ``get_surrogate()``.
+        ndraws : int, optional
+            Number of posterior draws (random without replacement if fewer than stored;
+            all stored draws by default).
+        rng : numpy.random.Generator, optional
+            Needed when ``ndraws`` subsamples.
+
+        Returns
+        -------
+        numpy.ndarray, shape (ndraws, n)
+        """
+        surrogate = _default_surrogate(surrogate)
+        hws = np.asarray(hws_ms, dtype=float)[None, :]
+        idx = self._draw_index(ndraws, rng)
+        a = self.flat("amplitude_deg")[idx][:, None]
+        if self.model == "two_period":
+            t1 = self.flat("period1_s")[idx][:, None]
+            t2 = self.flat("period2_s")[idx][:, None]
+            w = self.flat("weight1")[idx][:, None]
+            return np.asarray(surrogate.sigma_z_two_period_ms(hws, a, t1, t2, w), dtype=float)
+        t = self.flat("period_s")[idx][:, None]
+        return np.asarray(surrogate.sigma_z_ms(hws, a, t), dtype=float)
+
+    def _draw_index(self, ndraws, rng):
+        n = self.flat("amplitude_deg").size
+        if ndraws is None or ndraws >= n:
+            return np.arange(n)
+        if rng is None:
+            raise ValueError("BinFit.sigma_z_draws: rng is required when ndraws subsamples")
+        return rng.choice(n, size=ndraws, replace=False)
+
+    def summary(self) -> pd.DataFrame:
+        """One row per parameter: moments, quantiles, R-hat, ESS, tau, convergence, model, LOO."""
+        loo = self.info.get("loo", {})
+        extra = {
+            "bin_id": self.bin_id,
+            "model": self.model,
+            "n_records": self.info["n_records"],
+            "n_imu": self.info["n_imu"],
+            "prior_only": self.info["prior_only"],
+            "ppc_kurtosis_p": loo.get("ppc_kurtosis_p", np.nan),
+            "elpd_diff_two_period": loo.get("elpd_diff", np.nan),
+            "elpd_diff_se": loo.get("elpd_diff_se", np.nan),
+            "pareto_k_max": loo.get(f"{self.model}_pareto_k_max", np.nan),
+        }
+        return self._summary_rows(extra)
+
+
+@dataclass
+class GlobalFit(_FitBase):
+    """Posterior of the global parameters ``rho``, ``tau0_ms``, ``kappa`` (stage 2).
+
+    ``info`` holds ``n_records`` used, ``excluded_bins`` (bins not converged, never used),
+    ``prior_only`` (no reference data), ``loo`` (global vs per-bin rho).
+    """
+
+    kind = "global"
+
+    def summary(self) -> pd.DataFrame:
+        """One row per parameter with diagnostics and the global-vs-per-bin-rho LOO result."""
+        loo = self.info.get("loo", {})
+        extra = {
+            "n_records": self.info["n_records"],
+            "prior_only": self.info["prior_only"],
+            "excluded_bins": json.dumps(_jsonable(self.info.get("excluded_bins", []))),
+            "elpd_diff_per_bin_rho": loo.get("elpd_diff", np.nan),
+            "elpd_diff_se": loo.get("elpd_diff_se", np.nan),
+            "pareto_k_max": loo.get("global_pareto_k_max", np.nan),
+            "preferred_rho_model": loo.get("preferred", "global"),
+        }
+        return self._summary_rows(extra)
+
+
+def load_fit(path) -> BinFit | GlobalFit:
+    """Read a fit written by ``BinFit.to_netcdf`` / ``GlobalFit.to_netcdf``."""
+    dt = xr.open_datatree(path, engine="h5netcdf").load()
+    kind = dt.attrs["flidar_uq_kind"]
+    post = dt["posterior"].to_dataset()
+    draws = {n: post[n].values for n in post.data_vars}
+    log_lik = dt["log_likelihood"].to_dataset()["obs"].values
+    info = json.loads(dt.attrs["info"])
+    if "constant_data" in dt.children:
+        cd = dt["constant_data"].to_dataset()
+        info["constant"] = {n: cd[n].values for n in cd.data_vars}
+    cls = {"bin": BinFit, "global": GlobalFit}[kind]
+    return cls(
+        draws=draws,
+        log_lik=log_lik,
+        diagnostics=json.loads(dt.attrs["diagnostics"]),
+        failure_reasons=json.loads(dt.attrs["failure_reasons"]),
+        info=info,
+    )
+
+
+def _default_surrogate(surrogate):
+    if surrogate is not None:
+        return surrogate
+    from flidar_uq.surrogate import get_surrogate
+
+    return get_surrogate()
+
+
+# ----------------------------------------------------------------------------- stage 1
+_UNI_NAMES = ["amplitude_deg", "period_s", "scatter_amplitude", "scatter_period"]
+_TWO_NAMES = [
+    "amplitude_deg",
+    "period1_s",
+    "period2_s",
+    "weight1",
+    "scatter_amplitude",
+    "scatter_period",
+]
+
+
+def _to_natural(theta, model):
+    out = np.exp(theta)
+    if model == "two_period":
+        out[..., 3] = 1.0 / (1.0 + np.exp(-theta[..., 3]))
+    return out
+
+
+def sample_motion_prior(rng, n, priors, ndim):
+    def trunc_lognormal(median, sd, lo, hi):
+        x = np.exp(rng.normal(np.log(median), sd, size=4 * n + 64))
+        x = x[(x > lo) & (x < hi)]
+        return x[:n]
+
+    a = trunc_lognormal(
+        priors.amplitude_median_deg,
+        priors.amplitude_log_sd,
+        priors.amplitude_min_deg,
+        priors.amplitude_max_deg,
+    )
+    ts = [
+        trunc_lognormal(
+            priors.period_median_s, priors.period_log_sd, priors.period_min_s, priors.period_max_s
+        )
+        for _ in range(2 if ndim == 6 else 1)
+    ]
+    sc = []
+    for _ in range(2):
+        x = np.abs(rng.normal(0.0, priors.scatter_scale, size=4 * n + 64))
+        sc.append(x[(x > priors.scatter_min) & (x < priors.scatter_max)][:n])
+    if ndim == 4:
+        return np.column_stack([np.log(a), np.log(ts[0]), np.log(sc[0]), np.log(sc[1])])
+    t1, t2 = np.minimum(ts[0], ts[1]), np.maximum(ts[0], ts[1])
+    w = rng.beta(priors.weight_beta, priors.weight_beta, size=n)
+    return np.column_stack(
+        [np.log(a), np.log(t1), np.log(t2), np.log(w / (1 - w)), np.log(sc[0]), np.log(sc[1])]
+    )
+
+
+def _init_fn(log_amp, log_per, priors, ndim):
+    """Overdispersed start: data moments (or prior draws when data are too few)."""
+    la, lt = log_amp[np.isfinite(log_amp)], log_per[np.isfinite(log_per)]
+
+    def init(rng, nwalkers):
+        p0 = sample_motion_prior(rng, nwalkers, priors, ndim)
+        if la.size >= 2 and lt.size >= 2:
+            lsa = np.log(np.clip(la.std(), 0.02, 1.0))
+            lst = np.log(np.clip(lt.std(), 0.02, 1.0))
+            if ndim == 4:
+                c = np.array([la.mean(), lt.mean(), lsa, lst])
+            else:
+                q1, q2 = np.quantile(lt, [0.25, 0.75])
+                c = np.array([la.mean(), q1, max(q2, q1 + 0.05), 0.0, lsa, lst])
+            p0 = (
+                c
+                + 0.3
+                * rng.standard_normal((nwalkers, ndim))
+                * np.r_[0.3, 0.3, 0.3, 1.0, 1.0, 1.0][:ndim]
+            )
+            if ndim == 6:
+                p0[:, 1:3] = np.sort(p0[:, 1:3], axis=1)
+        lp_fn = log_prob_unimodal if ndim == 4 else log_prob_two_period
+        bad = ~np.isfinite(lp_fn(p0, log_amp, log_per, priors))
+        if np.any(bad):
+            p0[bad] = sample_motion_prior(rng, int(bad.sum()), priors, ndim)
+        return p0
+
+    return init
+
+
+def _fit_motion_model(model, log_amp, log_per, settings, seedseq, priors):
+    ndim = 4 if model == "unimodal" else 6
+    names = _UNI_NAMES if model == "unimodal" else _TWO_NAMES
+    fn = log_prob_unimodal if model == "unimodal" else log_prob_two_period
+    s = settings
+    if model == "two_period":
+        f = settings.two_period_step_factor
+        s = SamplerSettings(
+            **{
+                **asdict(settings),
+                "nwalkers": max(settings.nwalkers, 2 * ndim + 2),
+                "nsteps": int(round(settings.nsteps * f)),
+                "nburn": int(round(settings.nburn * f)),
+            }
+        )
+    chains, _ = _run_ensembles(
+        fn, (log_amp, log_per, priors), _init_fn(log_amp, log_per, priors, ndim), ndim, s, seedseq
+    )
+    nat = _to_natural(chains, model)
+    diag, reasons = _diagnostics(nat, names, s)
+    thin = _thin(chains, s.ndraws)
+    ok = np.isfinite(log_amp) | np.isfinite(log_per)
+    pll = _loglik_pointwise_unimodal if model == "unimodal" else _loglik_pointwise_two_period
+    flat = thin.reshape(-1, ndim)
+    ll = pll(flat, log_amp[ok], log_per[ok]).reshape(thin.shape[0], thin.shape[1], -1)
+    draws = {n: _to_natural(thin, model)[..., k] for k, n in enumerate(names)}
+    return draws, ll, diag, reasons
+
+
+def fit_bin(
+    bin_records: pd.DataFrame,
+    *,
+    surrogate=None,
+    settings: SamplerSettings = SamplerSettings(),
+    seed,
+    priors: Priors = Priors(),
+    bin_id=None,
+) -> BinFit:
+    """Posterior of one bin's motion parameters from its records' IMU statistics (stage 1).
+
+    Parameters
+    ----------
+    bin_records : pandas.DataFrame
+        The bin's records (core record columns; ``bin_id`` column optional).
+    surrogate : SigmaZSurrogate, optional
+        Not needed by the motion likelihood; accepted for API symmetry (the returned fit
+        computes sigma_Z draws on demand with :meth:`BinFit.sigma_z_draws`).
+    settings : SamplerSettings
+    seed : int or numpy.random.SeedSequence
+        Root of the ensembles' seeds (spawned, one child per ensemble and model).
+    priors : Priors
+    bin_id : optional
+        Default: the unique ``bin_id`` of the records (or None).
+
+    Returns
+    -------
+    BinFit
+        ``converged`` False (with ``failure_reasons``) if any criterion of design.md fails.
+        With no usable IMU statistics the posterior is the prior (``prior_only``) and a
+        reason ``"no IMU statistics"`` is recorded: the bin is failed, its sigma_Z is unknown.
+
+    Raises
+    ------
+    ValueError
+        If ``bin_records`` is empty or holds several ``bin_id`` values.
+    """
+    if len(bin_records) == 0:
+        raise ValueError("fit_bin: bin_records is empty")
+    if bin_id is None and "bin_id" in bin_records:
+        ids = pd.unique(bin_records["bin_id"])
+        if len(ids) > 1:
+            raise ValueError(f"fit_bin: records hold several bin_id values {list(ids)[:5]}")
+        bin_id = ids[0].item() if hasattr(ids[0], "item") else ids[0]
+    seedseq = _as_seedsequence(seed)
+    ss_uni, ss_two, ss_ppc = seedseq.spawn(3)
+    log_amp, log_per = imu_observations(bin_records)
+    n_imu = int(np.sum(np.isfinite(log_amp) & np.isfinite(log_per)))
+    results = {
+        "unimodal": _fit_motion_model("unimodal", log_amp, log_per, settings, ss_uni, priors)
+    }
+    ppc_p = period_kurtosis_ppc(log_per, results["unimodal"][0], rng=np.random.default_rng(ss_ppc))
+    n_peak2 = (
+        int(np.sum(np.isfinite(bin_records["period2_s"]))) if "period2_s" in bin_records else 0
+    )
+    screened = (n_peak2 >= 0.25 * len(bin_records) and n_peak2 > 0) or (
+        ppc_p < settings.screen_pvalue
+    )
+    loo_info = {
+        "ppc_kurtosis_p": ppc_p,
+        "n_second_peak": n_peak2,
+        "two_period_screened": bool(screened),
+    }
+    chosen = "unimodal"
+    if n_imu >= 3 and (settings.mixture == "always" or (settings.mixture == "auto" and screened)):
+        results["two_period"] = _fit_motion_model(
+            "two_period", log_amp, log_per, settings, ss_two, priors
+        )
+        loos = {m: _loo(r[1]) for m, r in results.items()}
+        if any(lo is None for lo in loos.values()):
+            loo_info["loo_failed"] = True
+            loos = {}
+        for m, lo in loos.items():
+            loo_info[f"{m}_elpd"] = lo["elpd"]
+            loo_info[f"{m}_se"] = lo["se"]
+            loo_info[f"{m}_pareto_k_max"] = float(np.max(lo["pareto_k"]))
+            loo_info[f"{m}_converged"] = not results[m][3]
+        d, se = _loo_compare(loos["two_period"], loos["unimodal"]) if loos else (np.nan, np.nan)
+        loo_info["elpd_diff"], loo_info["elpd_diff_se"] = d, se
+        if settings.mixture == "always" or (
+            not results["two_period"][3] and d > settings.loo_threshold_se * se and d > 0
+        ):
+            chosen = "two_period"
+    elif n_imu >= 1:
+        lo = _loo(results["unimodal"][1])
+        if lo is not None:
+            loo_info["unimodal_elpd"] = lo["elpd"]
+            loo_info["unimodal_pareto_k_max"] = float(np.max(lo["pareto_k"]))
+    draws, ll, diag, reasons = results[chosen]
+    reasons = list(reasons)
+    if n_imu == 0:
+        reasons.append("no IMU statistics: motion posterior equals the prior")
+    loo_info["chosen"] = chosen
+    hws = (
+        bin_records["hws_mean_ms"].to_numpy(dtype=float)
+        if "hws_mean_ms" in bin_records
+        else np.full(len(bin_records), np.nan)
+    )
+    info = {
+        "bin_id": bin_id,
+        "model": chosen,
+        "n_records": len(bin_records),
+        "n_imu": n_imu,
+        "prior_only": n_imu == 0,
+        "loo": loo_info,
+        "constant": {"record_index": np.asarray(bin_records.index), "hws_mean_ms": hws},
+    }
+    return BinFit(draws=draws, log_lik=ll, diagnostics=diag, failure_reasons=reasons, info=info)
+
+
+# ----------------------------------------------------------------------------- stage 2
+_GLOBAL_NAMES = ["rho", "tau0_ms", "kappa"]
+
+
+def record_sigma_z_moments(records, bin_fits, *, surrogate=None, ndraws=200, seed=0):
+    """Posterior median and variance of sigma_Z (m/s) for every record, from its bin's fit.
+
+    Returns
+    -------
+    sz_med, sz_var : numpy.ndarray, shape (n_records,)
+        NaN for records whose bin has no fit.
+    """
+    surrogate = _default_surrogate(surrogate)
+    fits = {f.bin_id: f for f in bin_fits}
+    rng = np.random.default_rng(_as_seedsequence(seed))
+    med = np.full(len(records), np.nan)
+    var = np.full(len(records), np.nan)
+    bins = records["bin_id"].to_numpy()
+    for b, f in fits.items():
+        m = bins == b
+        if not np.any(m):
+            continue
+        sz = f.sigma_z_draws(
+            records["hws_mean_ms"].to_numpy(dtype=float)[m], surrogate, ndraws=ndraws, rng=rng
+        )
+        med[m] = np.median(sz, axis=0)
+        var[m] = np.var(sz, axis=0)
+    return med, var
+
+
+def _per_bin_rho_loo(s, r, szm, szv, bins, tau0, kappa, rng, ndraws, priors):
+    """Per-bin rho with tau0, kappa fixed at their global medians; exact 1-D grid posterior."""
+    grid = np.linspace(-0.9995, 0.9995, 400)
+    half = 0.5 * (grid[1] - grid[0])
+    ll_all = np.zeros((ndraws, s.size))
+    theta = np.column_stack(
+        [grid, np.full(grid.size, np.log(tau0)), np.full(grid.size, np.log(kappa))]
+    )
+    for b in np.unique(bins):
+        m = bins == b
+        mu, tau = _global_mu_tau(theta, r[None, m], szm[None, m], szv[None, m])
+        pll = _norm_logpdf(s[None, m], mu, tau)  # (grid, n_b)
+        lp = pll.sum(axis=1)
+        p = np.exp(lp - logsumexp(lp))
+        idx = rng.choice(grid.size, size=ndraws, p=p)
+        rho = grid[idx] + rng.uniform(-half, half, size=ndraws)  # continuous within the cell
+        th = np.column_stack([rho, np.full(ndraws, np.log(tau0)), np.full(ndraws, np.log(kappa))])
+        mu, tau = _global_mu_tau(th, r[None, m], szm[None, m], szv[None, m])
+        ll_all[:, m] = _norm_logpdf(s[None, m], mu, tau)
+    return ll_all[None, :, :]
+
+
+def fit_global(
+    records: pd.DataFrame,
+    bin_fits,
+    *,
+    surrogate=None,
+    settings: SamplerSettings = SamplerSettings(),
+    seed,
+    priors: Priors = Priors(),
+) -> GlobalFit:
+    """Posterior of ``rho``, ``tau0_ms`` and ``kappa`` from all records with a reference (stage 2).
+
+    Only records of converged bins with finite ``hws_std_ms``, ``ref_hws_std_ms`` and a
+    positive sigma_Z are used; the bins left out are listed in ``info["excluded_bins"]``.
+    With no usable record the posterior is the prior and the fit is marked failed.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        All records with ``bin_id``, ``hws_mean_ms``, ``hws_std_ms``, ``ref_hws_std_ms``.
+    bin_fits : sequence of BinFit
+    surrogate : SigmaZSurrogate, optional
+    settings : SamplerSettings
+    seed : int or numpy.random.SeedSequence
+
+    Returns
+    -------
+    GlobalFit
+    """
+    for c in ("bin_id", "hws_mean_ms", "hws_std_ms"):
+        if c not in records:
+            raise ValueError(f"fit_global: records lack column {c!r}")
+    seedseq = _as_seedsequence(seed)
+    ss_sz, ss_mc, ss_loo = seedseq.spawn(3)
+    bin_fits = list(bin_fits)
+    good = [f for f in bin_fits if f.converged]
+    excluded = [f.bin_id for f in bin_fits if not f.converged]
+    szm, szv = record_sigma_z_moments(
+        records, good, surrogate=surrogate, ndraws=settings.n_sz_draws, seed=ss_sz
+    )
+    s = records["hws_std_ms"].to_numpy(dtype=float)
+    r = (
+        records["ref_hws_std_ms"].to_numpy(dtype=float)
+        if "ref_hws_std_ms" in records
+        else np.full(len(records), np.nan)
+    )
+    use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.isfinite(szm) & (szm > 0)
+    s, r, szm, szv = s[use], r[use], szm[use], szv[use]
+    bins = records["bin_id"].to_numpy()[use]
+    prior_only = not np.any(use)
+
+    def init(rng, nwalkers):
+        return np.column_stack(
+            [
+                rng.uniform(-0.9, 0.9, nwalkers),
+                np.log(rng.uniform(0.01, 0.2, nwalkers)),
+                np.log(rng.uniform(0.02, 0.3, nwalkers)),
+            ]
+        )
+
+    f = settings.global_step_factor
+    gs = SamplerSettings(
+        **{
+            **asdict(settings),
+            "nsteps": int(round(settings.nsteps * f)),
+            "nburn": int(round(settings.nburn * f)),
+        }
+    )
+    chains, _ = _run_ensembles(log_prob_global, (s, r, szm, szv, priors), init, 3, gs, ss_mc)
+    nat = chains.copy()
+    nat[..., 1:] = np.exp(chains[..., 1:])
+    diag, reasons = _diagnostics(nat, _GLOBAL_NAMES, gs)
+    if prior_only:
+        reasons.append(
+            "no record with reference std and converged bin: rho posterior equals the prior"
+        )
+    thin = _thin(chains, settings.ndraws)
+    mu, tau = _global_mu_tau(thin.reshape(-1, 3), r[None, :], szm[None, :], szv[None, :])
+    ll = _norm_logpdf(s[None, :], mu, tau).reshape(thin.shape[0], thin.shape[1], -1)
+    draws = {
+        n: (thin[..., k] if k == 0 else np.exp(thin[..., k])) for k, n in enumerate(_GLOBAL_NAMES)
+    }
+    loo_info = {}
+    if not prior_only and np.unique(bins).size > 1:
+        lg = _loo(ll)
+        rng = np.random.default_rng(ss_loo)
+        llb = _per_bin_rho_loo(
+            s,
+            r,
+            szm,
+            szv,
+            bins,
+            np.median(draws["tau0_ms"]),
+            np.median(draws["kappa"]),
+            rng,
+            1000,
+            priors,
+        )
+        lb = _loo(llb)
+    if not prior_only and np.unique(bins).size > 1 and (lg is None or lb is None):
+        loo_info = {"loo_failed": True, "preferred": "global"}
+    elif not prior_only and np.unique(bins).size > 1:
+        d, se = _loo_compare(lb, lg)
+        loo_info = {
+            "global_elpd": lg["elpd"],
+            "per_bin_elpd": lb["elpd"],
+            "elpd_diff": d,
+            "elpd_diff_se": se,
+            "global_pareto_k_max": float(np.max(lg["pareto_k"])),
+            "per_bin_pareto_k_max": float(np.max(lb["pareto_k"])),
+            "preferred": "per_bin" if d > settings.loo_threshold_se * se else "global",
+        }
+    rho = draws["rho"].ravel()
+    pile = float(np.mean(np.abs(rho) > 0.98))
+    info = {
+        "n_records": int(use.sum()),
+        "prior_only": prior_only,
+        "excluded_bins": excluded,
+        "loo": loo_info,
+        "rho_mass_beyond_0p98": pile,
+        "constant": {"record_index": np.asarray(records.index)[use]},
+    }
+    return GlobalFit(draws=draws, log_lik=ll, diagnostics=diag, failure_reasons=reasons, info=info)
+
+
+# ----------------------------------------------------------------------------- prior predictive
+def prior_predictive(
+    hws_ms, ref_std_ms, *, surrogate=None, priors: Priors = Priors(), ndraws=2000, seed
+):
+    """Prior predictive draws of the floating-lidar std for given records.
+
+    Parameters
+    ----------
+    hws_ms, ref_std_ms : array_like, shape (n,)
+        Mean HWS and reference std (m/s) of the records.
+    surrogate : SigmaZSurrogate, optional
+    priors : Priors
+    ndraws : int
+    seed : int or SeedSequence
+
+    Returns
+    -------
+    dict of numpy.ndarray
+        ``amplitude_deg``, ``period_s``, ``rho``, ``tau0_ms``, ``kappa`` (ndraws,),
+        ``sigma_z_ms`` and ``hws_std_ms`` (ndraws, n).
+    """
+    surrogate = _default_surrogate(surrogate)
+    rng = np.random.default_rng(_as_seedsequence(seed))
+    th = sample_motion_prior(rng, ndraws, priors, 4)
+    a, t = np.exp(th[:, 0]), np.exp(th[:, 1])
+    rho = rng.uniform(-1, 1, ndraws)
+    tau0 = np.abs(rng.normal(0, priors.tau0_scale_ms, ndraws))
+    kappa = np.abs(rng.normal(0, priors.kappa_scale, ndraws))
+    h = np.asarray(hws_ms, float)[None, :]
+    r = np.asarray(ref_std_ms, float)[None, :]
+    sz = np.asarray(surrogate.sigma_z_ms(h, a[:, None], t[:, None]), float)
+    mu = sigma_moving_pc(r, sz, rho[:, None])
+    tau = np.sqrt((kappa[:, None] * mu) ** 2 + tau0[:, None] ** 2)
+    s = np.abs(mu + tau * rng.standard_normal(mu.shape))
+    return {
+        "amplitude_deg": a,
+        "period_s": t,
+        "rho": rho,
+        "tau0_ms": tau0,
+        "kappa": kappa,
+        "sigma_z_ms": sz,
+        "hws_std_ms": s,
+    }

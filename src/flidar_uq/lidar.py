@@ -1,0 +1,450 @@
+"""Lidar scan geometries and wind retrieval.
+
+Two scan types (docs/conventions.md for frames and signs):
+
+- ``"vad"``: a continuous-wave conical scan like the ZephIR 300 (seed 000 Sec. 2.2,
+  seed 001 Eq. 4): ``n_los`` lines of sight equally spaced in azimuth during one
+  ``scan_period_s``, half-cone angle ``half_cone_angle_deg``. Retrieval: linear least
+  squares of the VAD model on signed radial speeds, or, for a CW lidar that only
+  measures ``|v_r|``, a nonlinear fit of ``|A cos(az - B) + C|`` (seed 001 Eq. 4).
+- ``"dbs"``: a pulsed Doppler-beam-swinging lidar like the WindCube V1 (seed 001
+  Eqs. 2-3, seed 002 Eq. 3): four inclined beams (N, E, S, W) of about 1 s each and an
+  optional vertical beam (azimuth ``NaN`` marks it). Retrieval from beam pairs.
+
+Beam unit vector in the body frame: ``d = (sin th sin az, sin th cos az, cos th)``
+with the azimuth clockwise from the body y axis (north at zero yaw).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "LidarGeometry",
+    "WindRetrieval",
+    "ZEPHIR300",
+    "WINDCUBE_V1",
+    "WINDCUBE_V1_5BEAM",
+    "KNOWN_LIDARS",
+    "get_lidar",
+    "scan_times_azimuths",
+    "beam_unit_vectors_body",
+    "vad_pseudo_inverse",
+    "retrieve_wind",
+    "wind_direction_deg",
+    "wind_vector_ms",
+]
+
+
+@dataclass(frozen=True)
+class LidarGeometry:
+    """Scan geometry of a profiling lidar.
+
+    Parameters
+    ----------
+    name : str
+        Identifier (lower case), e.g. ``"zephir300"``.
+    kind : {"vad", "dbs"}
+        Conical scan with equally spaced lines of sight, or Doppler beam swinging.
+    half_cone_angle_deg : float
+        Angle of the inclined beams from the body z axis, deg, in (0, 90).
+    n_los : int
+        Lines of sight per scan (VAD, >= 3) or number of beams incl. the vertical
+        one (DBS: ``len(beam_azimuths_deg) + vertical_beam``).
+    scan_period_s : float
+        Duration of one complete scan, s (> 0). Line of sight ``k`` starts at
+        ``k * scan_period_s / n_los``.
+    signed : bool
+        True if the radial-speed sign is measured (pulsed); False for a CW lidar,
+        which reports ``|v_r|`` (seed 001 Eq. 4).
+    vertical_beam : bool
+        DBS only: a vertical beam follows the inclined ones (seed 002 Table 1).
+    beam_azimuths_deg : tuple of float or None
+        DBS only: azimuths of the inclined beams in scan order, deg clockwise from
+        the body y axis. Must contain the opposite pairs 0/180 and 90/270.
+    """
+
+    name: str
+    kind: str
+    half_cone_angle_deg: float
+    n_los: int
+    scan_period_s: float
+    signed: bool = True
+    vertical_beam: bool = False
+    beam_azimuths_deg: tuple[float, ...] | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("vad", "dbs"):
+            raise ValueError(
+                f"LidarGeometry {self.name!r}: kind must be 'vad' or 'dbs', got {self.kind!r}"
+            )
+        if not (0.0 < self.half_cone_angle_deg < 90.0):
+            raise ValueError(
+                f"LidarGeometry {self.name!r}: half_cone_angle_deg must be in (0, 90), "
+                f"got {self.half_cone_angle_deg!r}"
+            )
+        if not (np.isfinite(self.scan_period_s) and self.scan_period_s > 0):
+            raise ValueError(
+                f"LidarGeometry {self.name!r}: scan_period_s must be > 0, got {self.scan_period_s!r}"
+            )
+        if self.kind == "vad":
+            if self.n_los < 3:
+                raise ValueError(
+                    f"LidarGeometry {self.name!r}: a VAD scan needs n_los >= 3, got {self.n_los}"
+                )
+            if self.vertical_beam or self.beam_azimuths_deg is not None:
+                raise ValueError(
+                    f"LidarGeometry {self.name!r}: vertical_beam/beam_azimuths_deg are DBS-only"
+                )
+        else:
+            az = self.beam_azimuths_deg
+            if az is None:
+                raise ValueError(
+                    f"LidarGeometry {self.name!r}: a DBS lidar needs beam_azimuths_deg"
+                )
+            if sorted(float(a) % 360.0 for a in az) != [0.0, 90.0, 180.0, 270.0]:
+                raise ValueError(
+                    f"LidarGeometry {self.name!r}: beam_azimuths_deg must be a permutation of "
+                    f"(0, 90, 180, 270), got {az!r}"
+                )
+            if self.n_los != len(az) + int(self.vertical_beam):
+                raise ValueError(
+                    f"LidarGeometry {self.name!r}: n_los={self.n_los} must equal "
+                    f"len(beam_azimuths_deg) + vertical_beam = {len(az) + int(self.vertical_beam)}"
+                )
+            if not self.signed:
+                raise ValueError(
+                    f"LidarGeometry {self.name!r}: a pulsed DBS lidar measures signed speeds"
+                )
+
+    @property
+    def half_cone_angle_rad(self) -> float:
+        """Half-cone angle in radians."""
+        return float(np.deg2rad(self.half_cone_angle_deg))
+
+    @property
+    def los_duration_s(self) -> float:
+        """Time between consecutive lines of sight, s."""
+        return self.scan_period_s / self.n_los
+
+
+# ZephIR 300-like CW VAD: 50 LOS per 1-s scan, 30 deg (seed 000 Sec. 2.2, seed 001 Sec. 2).
+ZEPHIR300 = LidarGeometry("zephir300", "vad", 30.0, 50, 1.0, signed=False)
+# WindCube V1-like pulsed DBS: N, E, S, W at ~1 s each (seed 001 Eq. 2, seed 002 Table 1).
+WINDCUBE_V1 = LidarGeometry(
+    "windcube_v1", "dbs", 30.0, 4, 4.0, signed=True, beam_azimuths_deg=(0.0, 90.0, 180.0, 270.0)
+)
+# The same with the fifth, vertical beam (seed 002 Table 1, "latest model").
+WINDCUBE_V1_5BEAM = LidarGeometry(
+    "windcube_v1_5beam",
+    "dbs",
+    30.0,
+    5,
+    5.0,
+    signed=True,
+    vertical_beam=True,
+    beam_azimuths_deg=(0.0, 90.0, 180.0, 270.0),
+)
+KNOWN_LIDARS: dict[str, LidarGeometry] = {
+    g.name: g for g in (ZEPHIR300, WINDCUBE_V1, WINDCUBE_V1_5BEAM)
+}
+
+
+def get_lidar(name_or_geometry: str | LidarGeometry) -> LidarGeometry:
+    """Return a lidar geometry by name (case-insensitive) or pass a geometry through.
+
+    Parameters
+    ----------
+    name_or_geometry : str or LidarGeometry
+        One of ``KNOWN_LIDARS`` (``"zephir300"``, ``"windcube_v1"``,
+        ``"windcube_v1_5beam"``) or a :class:`LidarGeometry`.
+
+    Returns
+    -------
+    LidarGeometry
+
+    Raises
+    ------
+    ValueError
+        Unknown name; the message lists the known lidars.
+    """
+    if isinstance(name_or_geometry, LidarGeometry):
+        return name_or_geometry
+    key = str(name_or_geometry).strip().lower().replace("-", "_").replace(" ", "")
+    if key not in KNOWN_LIDARS:
+        raise ValueError(
+            f"unknown lidar {name_or_geometry!r}; known lidars: {', '.join(sorted(KNOWN_LIDARS))}"
+        )
+    return KNOWN_LIDARS[key]
+
+
+def scan_times_azimuths(
+    lidar: str | LidarGeometry, scan_phase_rad: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Start times and azimuths of the lines of sight of one scan.
+
+    Parameters
+    ----------
+    lidar : str or LidarGeometry
+    scan_phase_rad : float
+        VAD: azimuth of the first line of sight at ``t = 0`` (seed 000 Sec. 2.2),
+        rad. DBS: selects the starting beam, ``floor(n_los * phase / 2 pi)``.
+
+    Returns
+    -------
+    t_s : ndarray, shape (n_los,)
+        Time of each line of sight from the scan start, s.
+    azimuth_rad : ndarray, shape (n_los,)
+        Azimuth clockwise from the body y axis, rad; ``NaN`` marks a vertical beam.
+    """
+    g = get_lidar(lidar)
+    k = np.arange(g.n_los)
+    t_s = k * g.los_duration_s
+    if g.kind == "vad":
+        return t_s, scan_phase_rad + 2.0 * np.pi * k / g.n_los
+    az = np.deg2rad(np.asarray(g.beam_azimuths_deg, dtype=float))
+    if g.vertical_beam:
+        az = np.append(az, np.nan)
+    start = int(np.floor(g.n_los * (scan_phase_rad % (2.0 * np.pi)) / (2.0 * np.pi))) % g.n_los
+    return t_s, np.roll(az, -start)
+
+
+def beam_unit_vectors_body(lidar: str | LidarGeometry, azimuth_rad: np.ndarray) -> np.ndarray:
+    """Beam unit vectors in the body frame (docs/conventions.md).
+
+    Parameters
+    ----------
+    lidar : str or LidarGeometry
+    azimuth_rad : array_like, shape (..., n)
+        Beam azimuths, rad; ``NaN`` marks a vertical beam.
+
+    Returns
+    -------
+    ndarray, shape (..., n, 3)
+        ``(sin th sin az, sin th cos az, cos th)``; ``(0, 0, 1)`` for a vertical beam.
+    """
+    g = get_lidar(lidar)
+    az = np.asarray(azimuth_rad, dtype=float)
+    vertical = np.isnan(az)
+    az0 = np.where(vertical, 0.0, az)
+    st, ct = np.sin(g.half_cone_angle_rad), np.cos(g.half_cone_angle_rad)
+    d = np.stack([st * np.sin(az0), st * np.cos(az0), np.full_like(az0, ct)], axis=-1)
+    return np.where(vertical[..., None], np.array([0.0, 0.0, 1.0]), d)
+
+
+@dataclass(frozen=True)
+class WindRetrieval:
+    """Wind retrieved from one or many scans (arrays of the batch shape).
+
+    Attributes
+    ----------
+    u_ms, v_ms, w_ms : ndarray
+        Retrieved east, north, up components, m/s (in the frame of the beam vectors).
+    hws_ms : ndarray
+        Horizontal wind speed ``sqrt(u^2 + v^2)``, m/s.
+    wd_deg : ndarray
+        Meteorological direction (from, clockwise from north), deg in [0, 360).
+    residual_ms : ndarray
+        RMS fit residual of the radial speeds, m/s (spatial-variation indicator;
+        zero for an exactly determined DBS retrieval).
+    """
+
+    u_ms: np.ndarray
+    v_ms: np.ndarray
+    w_ms: np.ndarray
+    hws_ms: np.ndarray
+    wd_deg: np.ndarray
+    residual_ms: np.ndarray
+
+
+def wind_direction_deg(u_ms: np.ndarray, v_ms: np.ndarray) -> np.ndarray:
+    """Meteorological wind direction from ENU components, deg in [0, 360).
+
+    ``u = -hws sin(wd)``, ``v = -hws cos(wd)`` (docs/conventions.md).
+    """
+    return np.rad2deg(np.arctan2(-np.asarray(u_ms), -np.asarray(v_ms))) % 360.0
+
+
+def wind_vector_ms(hws_ms: np.ndarray, wd_deg: np.ndarray, w_ms: np.ndarray = 0.0) -> np.ndarray:
+    """ENU wind vector from speed and meteorological direction.
+
+    Parameters
+    ----------
+    hws_ms : array_like
+        Horizontal wind speed, m/s.
+    wd_deg : array_like
+        Direction the wind comes from, deg clockwise from north.
+    w_ms : array_like
+        Vertical wind, m/s (positive up).
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+    """
+    wd = np.deg2rad(wd_deg)
+    hws = np.asarray(hws_ms, dtype=float)
+    u, v, w = np.broadcast_arrays(-hws * np.sin(wd), -hws * np.cos(wd), np.asarray(w_ms, float))
+    return np.stack([u, v, w], axis=-1)
+
+
+def vad_pseudo_inverse(beam_vectors: np.ndarray) -> np.ndarray:
+    """Least-squares operator of the VAD model ``v_r = d . u``.
+
+    Parameters
+    ----------
+    beam_vectors : array_like, shape (..., n, 3)
+
+    Returns
+    -------
+    ndarray, shape (..., 3, n)
+        ``(M^T M)^-1 M^T``: the retrieved ``(u, v, w)`` is this operator applied to the
+        radial speeds (linear in them).
+    """
+    m = np.asarray(beam_vectors, dtype=float)
+    mt = np.swapaxes(m, -1, -2)
+    return np.linalg.solve(mt @ m, mt)
+
+
+def _finish(uvw: np.ndarray, radial: np.ndarray, model: np.ndarray) -> WindRetrieval:
+    u, v, w = uvw[..., 0], uvw[..., 1], uvw[..., 2]
+    resid = np.sqrt(np.mean((radial - model) ** 2, axis=-1))
+    return WindRetrieval(u, v, w, np.hypot(u, v), wind_direction_deg(u, v), resid)
+
+
+def _fit_abs_vad(
+    m: np.ndarray, y: np.ndarray, reference_wd_deg: float | None, n_iter: int = 8
+) -> np.ndarray:
+    """Fit ``|M p| = y`` for ``p = (u, v, w)`` (seed 001 Eq. 4), vectorised over the batch.
+
+    Start: ``y^2 = p^T (d d^T) p`` is linear in the products ``p_i p_j``; the identifiable
+    ones (``u^2 - v^2``, ``uv``, ``uw``, ``vw``, plus the two squares) give ``p`` up to sign.
+    Then Gauss-Newton on ``|M p| - y``.
+    """
+    mx, my, mz = m[..., 0], m[..., 1], m[..., 2]
+    # y^2 = Qxx mx^2 + Qyy my^2 + Qzz mz^2 + 2 Qxy mx my + 2 Qxz mx mz + 2 Qyz my mz;
+    # written with D = Qxx - Qyy and S = Qxx + Qyy (S and Qzz are not separable on a level cone).
+    basis = np.stack(
+        [
+            0.5 * (mx**2 - my**2),
+            2 * mx * my,
+            2 * mx * mz,
+            2 * my * mz,
+            0.5 * (mx**2 + my**2),
+            mz**2,
+        ],
+        axis=-1,
+    )
+    coef = (np.linalg.pinv(basis) @ (y[..., None] ** 2))[..., 0]
+    d_, qxy, qxz, qyz = coef[..., 0], coef[..., 1], coef[..., 2], coef[..., 3]
+    z = np.sqrt(d_ + 2j * qxy)  # (u + i v)^2 = (u^2 - v^2) + 2 i u v
+    u0, v0 = z.real, z.imag
+    h2 = u0**2 + v0**2
+    w0 = np.where(h2 > 0, (u0 * qxz + v0 * qyz) / np.where(h2 > 0, h2, 1.0), 0.0)
+    p = np.stack([u0, v0, w0], axis=-1)
+    for _ in range(n_iter):
+        mp = np.einsum("...nk,...k->...n", m, p)
+        s = np.where(mp >= 0, 1.0, -1.0)
+        jac = s[..., None] * m
+        r = y - np.abs(mp)
+        jt = np.swapaxes(jac, -1, -2)
+        p = p + np.linalg.solve(jt @ jac, (jt @ r[..., None]))[..., 0]
+    # Resolve the 180 deg ambiguity (seed 001 Eq. 4: B = Theta or Theta +- 180 deg).
+    wd = wind_direction_deg(p[..., 0], p[..., 1])
+    if reference_wd_deg is None:
+        flip = wd >= 180.0
+    else:
+        dist = np.abs((wd - reference_wd_deg + 180.0) % 360.0 - 180.0)
+        flip = dist > 90.0
+    return np.where(flip[..., None], -p, p)
+
+
+def retrieve_wind(
+    lidar: str | LidarGeometry,
+    azimuth_rad: np.ndarray,
+    radial_speed_ms: np.ndarray,
+    beam_vectors: np.ndarray | None = None,
+    *,
+    sign_ambiguity: bool = False,
+    reference_wd_deg: float | None = None,
+) -> WindRetrieval:
+    """Retrieve the wind vector from the radial speeds of one or many scans.
+
+    Parameters
+    ----------
+    lidar : str or LidarGeometry
+    azimuth_rad : array_like, shape (..., n) or (n,)
+        Beam azimuths, rad (``NaN``: vertical beam), broadcast against the speeds.
+    radial_speed_ms : array_like, shape (..., n)
+        Radial speeds, m/s, positive away from the lidar; for ``sign_ambiguity`` the
+        measured ``|v_r|``.
+    beam_vectors : array_like, shape (..., n, 3), optional
+        Unit vectors to use instead of the nominal body geometry (e.g. earth-frame
+        vectors known from an IMU: LOS-level correction, seed 001 Eq. 7).
+    sign_ambiguity : bool
+        VAD only: fit ``|A cos(az - B) + C|`` (seed 001 Eq. 4) to the measured ``|v_r|``
+        (nonlinear least squares). Default False: linear least squares on signed speeds
+        (seed 000's simulator). ``simulate_scan`` passes ``not lidar.signed``.
+    reference_wd_deg : float, optional
+        With ``sign_ambiguity``: choose the 180-deg branch closest to this direction
+        (e.g. a vane). Default: the branch with direction in [0, 180).
+
+    Returns
+    -------
+    WindRetrieval
+        Arrays of the batch shape ``(...)``.
+
+    Notes
+    -----
+    VAD: ``u = (M^T M)^-1 M^T v_r`` with ``M`` the beam vectors (linear least squares).
+    DBS: beam pairs, ``u = (V_E - V_W) / (2 sin th)``, ``v = (V_N - V_S) / (2 sin th)``
+    (seed 002 Eq. 3, seed 001 Eqs. 2-3 in ENU), ``w`` from the vertical beam if present,
+    else ``(sum V) / (4 cos th)``; with ``beam_vectors`` DBS also uses least squares.
+    """
+    g = get_lidar(lidar)
+    y = np.asarray(radial_speed_ms, dtype=float)
+    az = np.asarray(azimuth_rad, dtype=float)
+    if y.shape[-1] != az.shape[-1]:
+        raise ValueError(
+            f"retrieve_wind: radial_speed_ms has {y.shape[-1]} lines of sight but azimuth_rad "
+            f"has {az.shape[-1]}"
+        )
+    if sign_ambiguity and g.kind != "vad":
+        raise ValueError(f"retrieve_wind: sign_ambiguity applies to VAD lidars, not {g.name!r}")
+    if beam_vectors is None and g.kind == "dbs":
+        return _retrieve_dbs_pairs(g, az, y)
+    m = beam_unit_vectors_body(g, az) if beam_vectors is None else np.asarray(beam_vectors, float)
+    if sign_ambiguity:
+        m_b = np.broadcast_to(m, y.shape + (3,))
+        uvw = _fit_abs_vad(m_b, y, reference_wd_deg)
+        model = np.abs(np.einsum("...nk,...k->...n", m_b, uvw))
+        return _finish(uvw, y, model)
+    pinv = vad_pseudo_inverse(m)
+    uvw = np.einsum("...kn,...n->...k", pinv, y)
+    model = np.einsum("...nk,...k->...n", m, uvw)
+    return _finish(uvw, y, model)
+
+
+def _retrieve_dbs_pairs(g: LidarGeometry, az: np.ndarray, y: np.ndarray) -> WindRetrieval:
+    """DBS from opposite beam pairs (seed 002 Eq. 3; seed 001 Eqs. 2-3 in ENU)."""
+    az_b = np.broadcast_to(az, y.shape)
+    vertical = np.isnan(az_b)
+    az_deg = np.where(vertical, -1e9, np.rad2deg(np.where(vertical, 0.0, az_b)) % 360.0)
+
+    def beam(target_deg: float) -> np.ndarray:
+        dist = np.abs((az_deg - target_deg + 180.0) % 360.0 - 180.0)
+        idx = np.argmin(dist, axis=-1)[..., None]
+        return np.take_along_axis(y, idx, axis=-1)[..., 0]
+
+    st, ct = np.sin(g.half_cone_angle_rad), np.cos(g.half_cone_angle_rad)
+    v_n, v_e, v_s, v_w = beam(0.0), beam(90.0), beam(180.0), beam(270.0)
+    u = (v_e - v_w) / (2.0 * st)  # Eq. (3) of seed 002 (east-west pair)
+    v = (v_n - v_s) / (2.0 * st)  # Eq. (3) of seed 002 (north-south pair)
+    if g.vertical_beam:
+        w = np.sum(np.where(vertical, y, 0.0), axis=-1)
+    else:
+        w = (v_n + v_e + v_s + v_w) / (4.0 * ct)
+    uvw = np.stack([u, v, w], axis=-1)
+    model = np.einsum("...nk,...k->...n", beam_unit_vectors_body(g, az_b), uvw)
+    return _finish(uvw, y, model)

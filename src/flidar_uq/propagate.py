@@ -1,0 +1,244 @@
+"""Posterior draws -> motion-corrected std and TI with credible intervals, per record and per speed bin.
+
+For every record ``i`` and posterior draw ``d`` (docs/inference.md, "Propagation"):
+
+1. ``sZ_id`` from the record's bin posterior (surrogate at the record's mean HWS);
+   ``rho_d, tau0_d, kappa_d`` from the global posterior (independent pairing: cut model);
+2. the record's own sampling noise: ``s*_id = s_i + tau_id z_id`` with
+   ``tau_id^2 = (kappa_d s_i)^2 + tau0_d^2`` and ``z ~ N(0, 1)`` (the observation model
+   read backwards: given the measured ``s_i`` the noise-free std is uncertain by ``tau``);
+3. the deployment formula ``c = -rho sZ + sqrt(s*^2 - (1 - rho^2) sZ^2)``
+   (:func:`flidar_uq.correction.corrected_std`, Eq. 15 of seed 000 inverted) and
+   ``TI = c / m_i``. Draws with a negative discriminant give ``c = 0`` and are counted.
+
+Baselines beside it: uncorrected TI and seed 000's U / C / PC laws (Eqs. 15-17) with
+sigma_Z from the surrogate at the bin's median IMU amplitude and period and seed 000's
+rho (correlation over bins of reference HWS and E(Z), Sec. 3.2).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from flidar_uq.correction import corrected_std, rho_seed000
+from flidar_uq.inference import imu_observations
+from flidar_uq.metrics import representative_ti
+
+__all__ = ["corrected_ti", "seed000_baseline"]
+
+
+def seed000_baseline(records: pd.DataFrame, surrogate) -> tuple[np.ndarray, float]:
+    """Seed 000's deterministic sigma_Z per record and its single rho.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records with ``bin_id``, ``hws_mean_ms`` and IMU statistics; ``ref_hws_mean_ms``
+        used for rho when present (else the floating-lidar mean HWS).
+    surrogate : SigmaZSurrogate
+
+    Returns
+    -------
+    sigma_z_ms : numpy.ndarray, shape (n_records,)
+        Surrogate sigma_Z at the record's HWS and its bin's median IMU amplitude and period.
+    rho : float
+        Pearson correlation over bins of (mean reference HWS, E(Z)) (Sec. 3.2 of seed 000).
+    """
+    log_amp, log_per = imu_observations(records)
+    bins = records["bin_id"].to_numpy()
+    hws = records["hws_mean_ms"].to_numpy(dtype=float)
+    ref = records["ref_hws_mean_ms"].to_numpy(dtype=float) if "ref_hws_mean_ms" in records else hws
+    ref = np.where(np.isfinite(ref), ref, hws)
+    sz = np.full(len(records), np.nan)
+    bin_ref, bin_ez = [], []
+    for b in pd.unique(bins):
+        m = bins == b
+        la, lp = log_amp[m], log_per[m]
+        if not (np.any(np.isfinite(la)) and np.any(np.isfinite(lp))):
+            continue
+        a, t = np.exp(np.nanmedian(la)), np.exp(np.nanmedian(lp))
+        sz[m] = surrogate.sigma_z_ms(hws[m], a, t)
+        bin_ref.append(np.nanmean(ref[m]))
+        bin_ez.append(float(surrogate.mean_z_ms(np.nanmean(hws[m]), a, t)))
+    return sz, rho_seed000(np.array(bin_ref), np.array(bin_ez))
+
+
+def corrected_ti(
+    records: pd.DataFrame,
+    bin_fits,
+    global_fit,
+    *,
+    surrogate=None,
+    cred_mass: float = 0.9,
+    ndraws: int = 400,
+    speed_bin_width_ms: float = 1.0,
+    seed,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Corrected std and TI as posterior draws, summarised per record and per speed bin.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records with ``bin_id``, ``hws_mean_ms``, ``hws_std_ms`` and IMU statistics.
+    bin_fits : sequence of BinFit
+    global_fit : GlobalFit
+    surrogate : SigmaZSurrogate, optional
+        Default ``get_surrogate()``.
+    cred_mass : float
+        Equal-tailed credible mass in (0, 1) (default 0.9).
+    ndraws : int
+        Posterior draws propagated per record.
+    speed_bin_width_ms : float
+        Width of the speed bins of the per-bin table (m/s), centred on multiples of it.
+    seed : int or numpy.random.SeedSequence
+
+    Returns
+    -------
+    per_record : pandas.DataFrame
+        Index of ``records``; columns ``bin_id``, ``hws_mean_ms``, ``ti_uncorrected``,
+        ``sigma_corrected_median_ms``, ``sigma_corrected_lo_ms``, ``sigma_corrected_hi_ms``,
+        ``ti_corrected_median``, ``ti_corrected_lo``, ``ti_corrected_hi``,
+        ``discriminant_negative`` (the formula at the measured std, posterior-median sZ and
+        rho has no real root), ``discriminant_negative_frac`` (share of draws),
+        ``sigma_z_median_ms``, ``converged`` (bin and global fit both converged),
+        ``failure_reasons``, and the baselines ``ti_u``, ``ti_c``, ``ti_pc``, ``rho_seed``.
+    per_bin : pandas.DataFrame
+        One row per speed bin: ``speed_bin_ms``, ``n_records``, ``n_not_converged``
+        (excluded), ``ti_mean_{median,lo,hi}``, ``ti_rep_{median,lo,hi}`` (representative
+        TI, mean + 1.28 std), ``ti_rep_uncorrected``, ``ti_rep_u``, ``ti_rep_c``, ``ti_rep_pc``.
+
+    Raises
+    ------
+    ValueError
+        If ``cred_mass`` is not in (0, 1) or a required column is missing.
+    """
+    if not 0.0 < cred_mass < 1.0:
+        raise ValueError(f"corrected_ti: cred_mass={cred_mass} must be in (0, 1)")
+    for c in ("bin_id", "hws_mean_ms", "hws_std_ms"):
+        if c not in records:
+            raise ValueError(f"corrected_ti: records lack column {c!r}")
+    if surrogate is None:
+        from flidar_uq.surrogate import get_surrogate
+
+        surrogate = get_surrogate()
+    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    rng = np.random.default_rng(ss)
+    q = [(1.0 - cred_mass) / 2.0, 0.5, (1.0 + cred_mass) / 2.0]
+    n = len(records)
+    m = records["hws_mean_ms"].to_numpy(dtype=float)
+    s = records["hws_std_ms"].to_numpy(dtype=float)
+    bins = records["bin_id"].to_numpy()
+    fits = {f.bin_id: f for f in bin_fits}
+
+    g_idx = rng.choice(global_fit.flat("rho").size, size=ndraws, replace=True)
+    rho = global_fit.flat("rho")[g_idx][:, None]
+    tau0 = global_fit.flat("tau0_ms")[g_idx][:, None]
+    kappa = global_fit.flat("kappa")[g_idx][:, None]
+    rho_med = float(np.median(global_fit.flat("rho")))
+
+    sig = np.full((ndraws, n), np.nan)
+    neg_frac = np.full(n, np.nan)
+    sz_med = np.full(n, np.nan)
+    conv = np.zeros(n, dtype=bool)
+    reasons = np.full(n, "", dtype=object)
+    for b in pd.unique(bins):
+        mask = bins == b
+        f = fits.get(b)
+        if f is None:
+            reasons[mask] = "no fit for this bin"
+            continue
+        nb = int(f.flat("amplitude_deg").size)
+        sz = f.sigma_z_draws(m[mask], surrogate, ndraws=min(ndraws, nb), rng=rng)
+        if sz.shape[0] < ndraws:
+            sz = sz[rng.choice(sz.shape[0], size=ndraws, replace=True)]
+        tau = np.sqrt((kappa * s[mask][None, :]) ** 2 + tau0**2)
+        s_star = np.abs(s[mask][None, :] + tau * rng.standard_normal((ndraws, int(mask.sum()))))
+        c, neg = corrected_std(s_star, sz, rho)
+        sig[:, mask] = c
+        neg_frac[mask] = np.mean(neg, axis=0)
+        sz_med[mask] = np.median(sz, axis=0)
+        conv[mask] = f.converged and global_fit.converged
+        reasons[mask] = "; ".join(
+            [*f.failure_reasons, *(f"global: {r}" for r in global_fit.failure_reasons)]
+        )
+
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ti = sig / m[None, :]
+        _, neg_point = corrected_std(s, np.where(np.isfinite(sz_med), sz_med, 0.0), rho_med)
+        sq = (
+            np.nanquantile(np.where(np.isfinite(sig), sig, np.nan), q, axis=0)
+            if n
+            else np.zeros((3, 0))
+        )
+        tq = (
+            np.nanquantile(np.where(np.isfinite(ti), ti, np.nan), q, axis=0)
+            if n
+            else np.zeros((3, 0))
+        )
+
+    sz_seed, rho_seed = seed000_baseline(records, surrogate)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ti_u = corrected_std(s, sz_seed, 0.0)[0] / m  # Eq. (16) of seed 000 inverted
+        ti_c = corrected_std(s, sz_seed, 1.0)[0] / m  # Eq. (17) of seed 000 inverted
+        rho_pc = rho_seed if np.isfinite(rho_seed) else np.nan
+        ti_pc = corrected_std(s, sz_seed, np.clip(rho_pc, -1, 1))[0] / m  # Eq. (15) of seed 000
+        ti_unc = s / m
+
+    per_record = pd.DataFrame(
+        {
+            "bin_id": bins,
+            "hws_mean_ms": m,
+            "ti_uncorrected": ti_unc,
+            "sigma_corrected_median_ms": sq[1],
+            "sigma_corrected_lo_ms": sq[0],
+            "sigma_corrected_hi_ms": sq[2],
+            "ti_corrected_median": tq[1],
+            "ti_corrected_lo": tq[0],
+            "ti_corrected_hi": tq[2],
+            "discriminant_negative": neg_point & np.isfinite(sz_med),
+            "discriminant_negative_frac": neg_frac,
+            "sigma_z_median_ms": sz_med,
+            "converged": conv,
+            "failure_reasons": reasons,
+            "ti_u": ti_u,
+            "ti_c": ti_c,
+            "ti_pc": ti_pc,
+            "rho_seed": rho_seed,
+        },
+        index=records.index,
+    )
+    per_bin = _speed_bins(per_record, ti, speed_bin_width_ms, q)
+    return per_record, per_bin
+
+
+def _speed_bins(per_record, ti_draws, width, q):
+    centre = np.round(per_record["hws_mean_ms"].to_numpy() / width) * width
+    conv = per_record["converged"].to_numpy()
+    rows = []
+    for c in np.unique(centre[np.isfinite(centre)]):
+        m = centre == c
+        k = m & conv
+        row = {
+            "speed_bin_ms": c,
+            "n_records": int(m.sum()),
+            "n_not_converged": int((m & ~conv).sum()),
+        }
+        if k.sum() >= 2:
+            draws = ti_draws[:, k]
+            mean_d = np.nanmean(draws, axis=1)
+            rep_d = np.array([representative_ti(d) for d in draws])
+            for name, x in (("ti_mean", mean_d), ("ti_rep", rep_d)):
+                qq = np.nanquantile(x, q)
+                row.update({f"{name}_lo": qq[0], f"{name}_median": qq[1], f"{name}_hi": qq[2]})
+        for col, out in (
+            ("ti_uncorrected", "ti_rep_uncorrected"),
+            ("ti_u", "ti_rep_u"),
+            ("ti_c", "ti_rep_c"),
+            ("ti_pc", "ti_rep_pc"),
+        ):
+            row[out] = (
+                float(representative_ti(per_record[col].to_numpy()[k])) if k.sum() >= 2 else np.nan
+            )
+        rows.append(row)
+    return pd.DataFrame(rows)

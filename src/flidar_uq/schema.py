@@ -1,0 +1,396 @@
+"""Column definitions of the campaign data tables: the single source of truth.
+
+Three tables are defined (see ``docs/data-format.md``, which is checked against
+this module by ``tests/test_schema.py``):
+
+- :data:`RECORD_COLUMNS`: the 10-min record table (CSV or Parquet).
+- :data:`IMU_COLUMNS`: the raw IMU attitude series (5-20 Hz).
+- :data:`LOS_COLUMNS`: line-of-sight (LOS) level lidar data.
+
+Each column carries its dtype, unit, whether it is required, its physical
+bounds and whether NaN is allowed.  Validation lives in :mod:`flidar_uq.io`;
+this module imports no file library.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = [
+    "Column",
+    "RECORD_COLUMNS",
+    "IMU_COLUMNS",
+    "LOS_COLUMNS",
+    "TRUTH_PREFIX",
+    "MOTION_COLUMNS",
+    "RADIAN_SUSPECT_MAX_DEG",
+    "RADIAN_SUSPECT_MIN_COUNT",
+    "IMU_RATE_RANGE_HZ",
+    "record_column",
+    "record_columns_by_name",
+]
+
+
+@dataclass(frozen=True)
+class Column:
+    """One column of a data table.
+
+    Parameters
+    ----------
+    name : str
+        Column name as written in the file header.
+    dtype : str
+        ``"float"`` (64-bit float) or ``"datetime"`` (ISO 8601 UTC timestamp).
+    unit : str
+        Physical unit (``"-"`` for dimensionless, ``"UTC"`` for timestamps).
+    required : bool
+        Whether the column must be present.
+    lower, upper : float or None
+        Inclusive physical bounds; ``None`` means unbounded.
+    nan_allowed : bool
+        Whether a missing value (empty cell, ``NaN``) is allowed.
+    description : str
+        Meaning of the column (one sentence).
+    lower_exclusive : bool
+        If True the lower bound is exclusive (value must be > lower).
+    """
+
+    name: str
+    dtype: str
+    unit: str
+    required: bool
+    lower: float | None
+    upper: float | None
+    nan_allowed: bool
+    description: str
+    lower_exclusive: bool = False
+
+    def bounds_text(self) -> str:
+        """Human-readable bounds, e.g. ``"[0, 80]"`` or ``"(0, 60]"``."""
+        if self.lower is None and self.upper is None:
+            return "-"
+        lo = "-inf" if self.lower is None else f"{self.lower:g}"
+        hi = "inf" if self.upper is None else f"{self.upper:g}"
+        left = "(" if (self.lower_exclusive or self.lower is None) else "["
+        return f"{left}{lo}, {hi}]"
+
+
+TRUTH_PREFIX = "true_"
+"""Columns starting with this prefix are truth columns of virtual campaigns:
+numeric, optional, NaN allowed, no bounds."""
+
+#: Angles whose finite non-zero values all lie below this (in deg) look like radians.
+RADIAN_SUSPECT_MAX_DEG = 0.2
+#: ... provided there are at least this many such values (rule documented in data-format.md).
+RADIAN_SUSPECT_MIN_COUNT = 5
+#: Accepted median IMU sampling rate (Hz), inclusive; nominal 5-20 Hz with 5 % tolerance.
+IMU_RATE_RANGE_HZ = (4.75, 21.0)
+
+RECORD_COLUMNS: tuple[Column, ...] = (
+    Column(
+        "timestamp",
+        "datetime",
+        "UTC",
+        True,
+        None,
+        None,
+        False,
+        "Start of the 10-min record, ISO 8601 (naive values are taken as UTC).",
+    ),
+    Column(
+        "height_m",
+        "float",
+        "m",
+        True,
+        0.0,
+        1000.0,
+        False,
+        "Measurement height above the lidar.",
+        lower_exclusive=True,
+    ),
+    Column(
+        "hws_mean_ms",
+        "float",
+        "m/s",
+        True,
+        0.0,
+        80.0,
+        True,
+        "Floating-lidar 10-min mean horizontal wind speed (NaN: no lidar data).",
+    ),
+    Column(
+        "hws_std_ms",
+        "float",
+        "m/s",
+        True,
+        0.0,
+        30.0,
+        True,
+        "Floating-lidar 10-min HWS standard deviation, sigma_moving.",
+    ),
+    Column(
+        "wd_mean_deg",
+        "float",
+        "deg",
+        True,
+        0.0,
+        360.0,
+        True,
+        "Floating-lidar mean wind direction, from, clockwise from north.",
+    ),
+    Column(
+        "availability_pct",
+        "float",
+        "%",
+        True,
+        0.0,
+        100.0,
+        False,
+        "Share of valid scans in the record.",
+    ),
+    Column(
+        "roll_amplitude_deg",
+        "float",
+        "deg",
+        True,
+        0.0,
+        45.0,
+        True,
+        "Roll amplitude, sqrt(2)*std of the detrended 10-min IMU roll (NaN: IMU gap).",
+    ),
+    Column(
+        "pitch_amplitude_deg",
+        "float",
+        "deg",
+        True,
+        0.0,
+        45.0,
+        True,
+        "Pitch amplitude, sqrt(2)*std of the detrended 10-min IMU pitch (NaN: IMU gap).",
+    ),
+    Column(
+        "roll_period_s",
+        "float",
+        "s",
+        True,
+        0.0,
+        60.0,
+        True,
+        "Dominant roll period, spectral peak (NaN: IMU gap).",
+        lower_exclusive=True,
+    ),
+    Column(
+        "pitch_period_s",
+        "float",
+        "s",
+        True,
+        0.0,
+        60.0,
+        True,
+        "Dominant pitch period, spectral peak (NaN: IMU gap).",
+        lower_exclusive=True,
+    ),
+    Column(
+        "period1_s",
+        "float",
+        "s",
+        False,
+        0.0,
+        60.0,
+        True,
+        "Shorter period of a bimodal record (NaN if unimodal); if the column is absent, "
+        "consumers take the mean of roll_period_s and pitch_period_s.",
+        lower_exclusive=True,
+    ),
+    Column(
+        "period2_s",
+        "float",
+        "s",
+        False,
+        0.0,
+        60.0,
+        True,
+        "Second spectral peak, the longer period of a bimodal record (NaN if unimodal).",
+        lower_exclusive=True,
+    ),
+    Column(
+        "weight1",
+        "float",
+        "-",
+        False,
+        0.0,
+        1.0,
+        True,
+        "Share of the roll+pitch variance in the shorter-period peak (NaN if unimodal).",
+    ),
+    Column(
+        "imu_availability_pct",
+        "float",
+        "%",
+        False,
+        0.0,
+        100.0,
+        True,
+        "Share of the nominal IMU samples present in the 10-min window.",
+    ),
+    Column(
+        "sv",
+        "float",
+        "-",
+        False,
+        0.0,
+        10.0,
+        True,
+        "Spatial variation: VAD fit residual divided by HWS.",
+    ),
+    Column(
+        "ref_hws_mean_ms",
+        "float",
+        "m/s",
+        False,
+        0.0,
+        80.0,
+        True,
+        "Reference instrument (fixed lidar, mast cup or sonic) 10-min mean HWS.",
+    ),
+    Column(
+        "ref_hws_std_ms",
+        "float",
+        "m/s",
+        False,
+        0.0,
+        30.0,
+        True,
+        "Reference instrument 10-min HWS standard deviation, sigma_ref.",
+    ),
+)
+
+#: Motion columns that are required unless the motion statistics come from a raw IMU series.
+MOTION_COLUMNS = (
+    "roll_amplitude_deg",
+    "pitch_amplitude_deg",
+    "roll_period_s",
+    "pitch_period_s",
+)
+
+IMU_COLUMNS: tuple[Column, ...] = (
+    Column(
+        "timestamp",
+        "datetime",
+        "UTC",
+        True,
+        None,
+        None,
+        False,
+        "Sample time, ISO 8601 UTC, strictly increasing; nominal rate 5-20 Hz.",
+    ),
+    Column(
+        "roll_deg",
+        "float",
+        "deg",
+        True,
+        -90.0,
+        90.0,
+        True,
+        "Roll angle about the body x axis (NaN: missing sample).",
+    ),
+    Column(
+        "pitch_deg",
+        "float",
+        "deg",
+        True,
+        -90.0,
+        90.0,
+        True,
+        "Pitch angle about the body y axis (NaN: missing sample).",
+    ),
+    Column(
+        "yaw_deg",
+        "float",
+        "deg",
+        False,
+        -360.0,
+        360.0,
+        True,
+        "Yaw (heading) angle about the body z axis, counter-clockwise from above.",
+    ),
+)
+
+LOS_COLUMNS: tuple[Column, ...] = (
+    Column(
+        "timestamp",
+        "datetime",
+        "UTC",
+        True,
+        None,
+        None,
+        False,
+        "Time of the line-of-sight measurement, ISO 8601 UTC, non-decreasing per height.",
+    ),
+    Column(
+        "height_m",
+        "float",
+        "m",
+        True,
+        0.0,
+        1000.0,
+        False,
+        "Measurement height above the lidar.",
+        lower_exclusive=True,
+    ),
+    Column(
+        "azimuth_deg",
+        "float",
+        "deg",
+        True,
+        0.0,
+        360.0,
+        False,
+        "Beam azimuth, clockwise from the body y axis.",
+    ),
+    Column(
+        "radial_speed_ms",
+        "float",
+        "m/s",
+        True,
+        -80.0,
+        80.0,
+        True,
+        "Radial speed, positive away from the lidar (abs(v_r) for CW lidars).",
+    ),
+    Column(
+        "cnr_db",
+        "float",
+        "dB",
+        True,
+        -60.0,
+        60.0,
+        True,
+        "Carrier-to-noise ratio of the LOS measurement.",
+    ),
+)
+
+
+def record_columns_by_name() -> dict[str, Column]:
+    """Return the record columns keyed by name."""
+    return {c.name: c for c in RECORD_COLUMNS}
+
+
+def record_column(name: str) -> Column:
+    """Return the record :class:`Column` called ``name``.
+
+    Truth columns (``true_*``) get a generic numeric definition.
+
+    Raises
+    ------
+    ValueError
+        If ``name`` is not a record column.
+    """
+    cols = record_columns_by_name()
+    if name in cols:
+        return cols[name]
+    if name.startswith(TRUTH_PREFIX):
+        return Column(
+            name, "float", "various", False, None, None, True, "Truth column of a virtual campaign."
+        )
+    raise ValueError(f"unknown record column {name!r}; known: {sorted(cols)} and 'true_*'")

@@ -1,0 +1,224 @@
+"""Sea state and the buoy's narrow-band roll/pitch motion.
+
+The buoy tilt is modelled as a linear, wave-following response whose spectrum has
+the shape of the JONSWAP elevation spectrum of each wave system (wind sea and an
+optional swell): a flat transfer function over the narrow band of each system, so
+the tilt spectrum peaks at the sea state's peak period ``tp_s``. Roll and pitch
+come from the same waves seen from two perpendicular axes: each Fourier component
+travels in its own direction ``theta`` drawn around the system's mean direction
+(wrapped-normal directional spreading), and a buoy that follows the surface slope
+tilts by ``roll = +d(eta)/dy``, ``pitch = -d(eta)/dx`` (small angles, ``R = Rz Ry Rx``
+of ``docs/conventions.md``: the body z axis is ``(pitch, -roll, 1)``). Roll and
+pitch are therefore correlated but not identical; a wind sea plus a swell gives the
+bimodal periods of seed 000 Sec. 2.4.
+
+Amplitudes follow the convention of ``docs/conventions.md``: a system's
+``amplitude_deg`` is ``sqrt(2)`` times the expected std of its tilt, shared by roll
+and pitch so that ``(A_roll^2 + A_pitch^2) / 2 = A^2``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "WaveSystem",
+    "jonswap_spectrum",
+    "tilt_series",
+    "dominant_period_s",
+]
+
+_G_MS2 = 9.81
+
+
+@dataclass(frozen=True)
+class WaveSystem:
+    """One wave system (wind sea or swell) driving the buoy tilt.
+
+    Attributes
+    ----------
+    amplitude_deg : float
+        Tilt amplitude of this system (deg), ``sqrt(2)`` x expected std of roll
+        and of pitch averaged in quadrature.
+    tp_s : float
+        Peak period (s).
+    gamma : float
+        JONSWAP peak enhancement factor (1 = Pierson-Moskowitz; 3.3 typical wind
+        sea; 5-10 swell).
+    direction_deg : float
+        Mean direction of travel relative to the body x axis (deg, counter-clockwise
+        seen from above).
+    spread_deg : float
+        Std of the wrapped-normal directional spreading (deg).
+    """
+
+    amplitude_deg: float
+    tp_s: float
+    gamma: float = 3.3
+    direction_deg: float = 0.0
+    spread_deg: float = 30.0
+
+
+def jonswap_spectrum(f_hz, hs_m, tp_s, gamma=3.3):
+    """JONSWAP wave-elevation spectrum (one-sided, frequency form).
+
+    ``S(f) = C(gamma) (5/16) Hs^2 fp^4 f^-5 exp(-5/4 (fp/f)^4) gamma^r``,
+    ``r = exp(-(f - fp)^2 / (2 sigma^2 fp^2))``, ``sigma = 0.07 (f <= fp), 0.09``,
+    with Goda's normalisation ``C(gamma) = 1 - 0.287 ln(gamma)`` (DNV-RP-C205
+    Eqs. 3.5.5.1-3.5.5.4), so that ``integral S df ~= Hs^2 / 16``.
+
+    Parameters
+    ----------
+    f_hz : array_like
+        Frequency (Hz), broadcast with the other arguments.
+    hs_m : array_like
+        Significant wave height (m).
+    tp_s : array_like
+        Peak period (s), > 0.
+    gamma : array_like
+        Peak enhancement factor, 1 <= gamma <= 10 (DNV validity range of C(gamma)).
+
+    Returns
+    -------
+    numpy.ndarray
+        Spectral density (m^2/Hz); 0 at f <= 0; NaN for ``tp_s <= 0`` or gamma
+        outside [1, 10].
+    """
+    f = np.asarray(f_hz, float)
+    tp = np.asarray(tp_s, float)
+    g = np.asarray(gamma, float)
+    ok = (tp > 0) & (g >= 1.0) & (g <= 10.0)
+    fp = 1.0 / np.where(ok, tp, np.nan)
+    fpos = np.where(f > 0, f, np.nan)
+    sigma = np.where(f <= fp, 0.07, 0.09)
+    r = np.exp(-((f - fp) ** 2) / (2.0 * sigma**2 * fp**2))
+    pm = (
+        5.0
+        / 16.0
+        * np.asarray(hs_m, float) ** 2
+        * fp**4
+        * fpos**-5
+        * np.exp(-1.25 * (fp / fpos) ** 4)
+    )
+    s = (1.0 - 0.287 * np.log(g)) * pm * g**r  # DNV-RP-C205 Eq. (3.5.5.1)
+    return np.where(f > 0, s, 0.0)
+
+
+def _wrapped_normal(rng, mean_rad, sd_rad, shape):
+    return mean_rad + sd_rad * rng.standard_normal(shape)
+
+
+def tilt_series(
+    n_samples: int,
+    dt_s: float,
+    systems,
+    rng: np.random.Generator,
+):
+    """Random roll and pitch series of a wave-following buoy (narrow-band, JONSWAP).
+
+    Spectral synthesis per wave system: the tilt PSD is the JONSWAP shape of the
+    system (:func:`jonswap_spectrum` normalised to unit area) scaled to the tilt
+    variance ``amplitude_deg^2`` (sum of roll and pitch variances, each
+    ``A^2 / 2`` on average). Each Fourier component gets a complex Gaussian
+    coefficient and a direction ``theta`` around ``direction_deg``; roll takes
+    ``sin(theta)`` of it and pitch ``-cos(theta)`` (slope of the surface along body
+    y and x). Vectorised over a leading batch of records.
+
+    Parameters
+    ----------
+    n_samples : int
+        Samples per series (>= 8).
+    dt_s : float
+        Sampling interval (s), > 0; Nyquist must lie above ``2 / tp_s``.
+    systems : sequence of WaveSystem, or dict of arrays
+        The wave systems summed (e.g. wind sea, swell). A dict with keys
+        ``amplitude_deg, tp_s, gamma, direction_deg, spread_deg`` whose values are
+        arrays of shape ``(n_records, n_systems)`` gives a batch.
+    rng : numpy.random.Generator
+        Source of randomness.
+
+    Returns
+    -------
+    roll_deg, pitch_deg : numpy.ndarray
+        Tilt series (deg), shape ``(n_samples,)`` for a sequence of systems or
+        ``(n_records, n_samples)`` for a batch dict.
+    """
+    n = int(n_samples)
+    if n < 8:
+        raise ValueError(f"tilt_series: n_samples must be >= 8, got {n_samples!r}")
+    if not dt_s > 0:
+        raise ValueError(f"tilt_series: dt_s must be > 0, got {dt_s!r}")
+    single = not isinstance(systems, dict)
+    if single:
+        if len(systems) == 0:
+            raise ValueError("tilt_series: need at least one WaveSystem")
+        keys = ("amplitude_deg", "tp_s", "gamma", "direction_deg", "spread_deg")
+        par = {k: np.array([[getattr(s, k) for s in systems]], float) for k in keys}
+    else:
+        par = {k: np.atleast_2d(np.asarray(v, float)) for k, v in systems.items()}
+    amp = par["amplitude_deg"]  # (R, S)
+    n_rec, n_sys = amp.shape
+    f_all = np.fft.rfftfreq(n, dt_s)  # (nf,)
+    df = f_all[1]
+    # JONSWAP above 8 f_p holds < 1e-4 of the variance: synthesise only the bins below
+    tp_min = np.nanmin(np.where(amp > 0, par["tp_s"], np.inf))
+    n_b = f_all.size if not np.isfinite(tp_min) else min(f_all.size, int(8.0 / tp_min / df) + 2)
+    f = f_all[:n_b]
+    shape = jonswap_spectrum(f, 1.0, par["tp_s"][..., None], par["gamma"][..., None])
+    shape = np.nan_to_num(shape)  # (R, S, nb)
+    area = shape.sum(axis=-1, keepdims=True) * df
+    var_bins = amp[..., None] ** 2 * shape * df / np.where(area > 0, area, np.inf)
+    # complex coefficient per (record, system, bin); x = n irfft(C): E power 4 s^2
+    coef = rng.standard_normal(var_bins.shape) + 1j * rng.standard_normal(var_bins.shape)
+    coef *= 0.5 * np.sqrt(var_bins)
+    coef[..., 0] = 0.0
+    if n % 2 == 0 and n_b == f_all.size:
+        coef[..., -1] = 0.0
+    theta = _wrapped_normal(
+        rng,
+        np.deg2rad(par["direction_deg"])[..., None],
+        np.deg2rad(par["spread_deg"])[..., None],
+        var_bins.shape,
+    )
+    roll_c = (coef * np.sin(theta)).sum(axis=1)  # roll = +d(eta)/dy (module docstring)
+    pitch_c = (-coef * np.cos(theta)).sum(axis=1)  # pitch = -d(eta)/dx
+    pad = ((0, 0), (0, f_all.size - n_b))
+    roll = np.fft.irfft(np.pad(roll_c, pad), n=n, axis=-1) * n
+    pitch = np.fft.irfft(np.pad(pitch_c, pad), n=n, axis=-1) * n
+    if single:
+        return roll[0], pitch[0]
+    return roll, pitch
+
+
+def dominant_period_s(series, dt_s, *, min_period_s=1.0, max_period_s=30.0):
+    """Period of the highest peak of the periodogram of a (detrended) series.
+
+    Parameters
+    ----------
+    series : array_like
+        Samples, shape ``(..., n)``; NaN not allowed.
+    dt_s : float
+        Sampling interval (s).
+    min_period_s, max_period_s : float
+        Search window (s).
+
+    Returns
+    -------
+    numpy.ndarray
+        Period (s) of the spectral peak, shape ``(...)``, refined by a parabola
+        through the log-power of the peak bin and its neighbours.
+    """
+    x = np.asarray(series, float)
+    x = x - x.mean(axis=-1, keepdims=True)
+    n = x.shape[-1]
+    f = np.fft.rfftfreq(n, dt_s)
+    p = np.abs(np.fft.rfft(x, axis=-1)) ** 2
+    band = (f >= 1.0 / max_period_s) & (f <= 1.0 / min_period_s)
+    p_band = np.where(band, p, 0.0)
+    k = np.clip(np.argmax(p_band, axis=-1), 1, f.size - 2)
+    lp = np.log(np.maximum(np.take_along_axis(p, np.stack([k - 1, k, k + 1], -1), -1), 1e-300))
+    den = lp[..., 0] - 2 * lp[..., 1] + lp[..., 2]
+    delta = np.where(den < 0, 0.5 * (lp[..., 0] - lp[..., 2]) / np.where(den < 0, den, 1.0), 0.0)
+    return 1.0 / ((k + np.clip(delta, -0.5, 0.5)) * f[1])

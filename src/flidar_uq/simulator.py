@@ -1,0 +1,653 @@
+"""Moving-lidar simulator and the sigma_Z / E(Z) phase-moment integral (seed 000).
+
+Building blocks (vectorised over any batch of scans, for campaign generators):
+
+- :func:`los_vectors_earth` – earth-frame unit vectors of the lines of sight of tilted scans;
+- :func:`simulate_scans` – radial speeds and the (uncorrected) retrieved wind of a batch of
+  scans given the attitude at each line of sight;
+- :func:`simulate_scan` – one scan under a :class:`~flidar_uq.motion.PlatformMotion`;
+- :func:`sigma_z` – std and mean of ``Z = retrieved HWS - true HWS`` over uniform roll,
+  pitch and scan phases (seed 000 Eqs. 1-14), by a fast exact reformulation of the VAD
+  retrieval (see ``docs/simulator.md``) and trapezoidal quadrature with adaptive doubling.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from flidar_uq.lidar import (
+    LidarGeometry,
+    WindRetrieval,
+    beam_unit_vectors_body,
+    get_lidar,
+    retrieve_wind,
+    scan_times_azimuths,
+    wind_direction_deg,
+    wind_vector_ms,
+)
+from flidar_uq.motion import rotation_matrix, rotation_matrix_derivatives
+
+__all__ = [
+    "ScanResult",
+    "SigmaZResult",
+    "los_vectors_earth",
+    "simulate_scans",
+    "simulate_scan",
+    "sigma_z",
+    "sigma_z_grid",
+    "vad_hws_coefficients",
+]
+
+
+def los_vectors_earth(
+    lidar: str | LidarGeometry, azimuth_rad, roll_rad, pitch_rad, yaw_rad=0.0
+) -> np.ndarray:
+    """Earth-frame unit vectors of lines of sight under tilt, ``R @ d_body``.
+
+    Parameters
+    ----------
+    lidar : str or LidarGeometry
+    azimuth_rad : array_like, shape (..., n)
+        Body-frame beam azimuths, rad (``NaN``: vertical beam).
+    roll_rad, pitch_rad, yaw_rad : array_like, shape (..., n)
+        Attitude at each line of sight, rad (broadcast with ``azimuth_rad``).
+
+    Returns
+    -------
+    ndarray, shape (..., n, 3)
+    """
+    d = beam_unit_vectors_body(lidar, azimuth_rad)
+    r = rotation_matrix(roll_rad, pitch_rad, yaw_rad)
+    return np.einsum("...ij,...j->...i", r, d)
+
+
+def simulate_scans(
+    lidar: str | LidarGeometry,
+    wind_ms,
+    roll_rad,
+    pitch_rad,
+    *,
+    yaw_rad=0.0,
+    head_velocity_ms=None,
+    azimuth_rad=None,
+    sign_ambiguity: bool | None = None,
+) -> tuple[np.ndarray, WindRetrieval]:
+    """Radial speeds and retrieved wind of a batch of scans on a moving platform.
+
+    The lidar retrieves with its nominal (level) geometry, i.e. without motion
+    correction, as in seed 000's simulator; the horizontal wind is then rotated by the
+    mean yaw of the scan (compass correction, seed 000 Sec. 2.2).
+
+    Parameters
+    ----------
+    lidar : str or LidarGeometry
+    wind_ms : array_like, shape (..., 3) or (..., n, 3)
+        ENU wind per scan or per line of sight, m/s.
+    roll_rad, pitch_rad : array_like, shape (..., n)
+        Attitude at the time of each line of sight, rad.
+    yaw_rad : array_like, shape (..., n), optional
+        Yaw at each line of sight, rad.
+    head_velocity_ms : array_like, shape (..., n, 3), optional
+        Earth-frame velocity of the lidar head (translation and lever arm), m/s.
+    azimuth_rad : array_like, shape (..., n) or (n,), optional
+        Body azimuths; default ``scan_times_azimuths(lidar)[1]``.
+    sign_ambiguity : bool, optional
+        Report ``|v_r|`` and fit the CW model (seed 001 Eq. 4). Default: ``not lidar.signed``.
+
+    Returns
+    -------
+    radial_speed_ms : ndarray, shape (..., n)
+        ``d_earth . (u - v_head)`` (seed 002 Eq. 3), or its absolute value.
+    retrieval : WindRetrieval
+        Retrieved wind, batch shape ``(...)``, horizontal components in the earth frame.
+    """
+    g = get_lidar(lidar)
+    if azimuth_rad is None:
+        azimuth_rad = scan_times_azimuths(g)[1]
+    amb = (not g.signed) if sign_ambiguity is None else bool(sign_ambiguity)
+    d_earth = los_vectors_earth(g, azimuth_rad, roll_rad, pitch_rad, yaw_rad)
+    wind = np.asarray(wind_ms, float)
+    if wind.ndim < d_earth.ndim:
+        wind = wind[..., None, :]
+    rel = wind if head_velocity_ms is None else wind - np.asarray(head_velocity_ms, float)
+    v_r = np.einsum("...i,...i->...", d_earth, rel)  # Eq. (3) of seed 002
+    if amb:
+        v_r = np.abs(v_r)  # Eq. (4) of seed 001: a CW lidar measures |v_r|
+    ret = retrieve_wind(g, np.broadcast_to(azimuth_rad, v_r.shape), v_r, sign_ambiguity=amb)
+    yaw_mean = np.mean(np.broadcast_to(np.asarray(yaw_rad, float), v_r.shape), axis=-1)
+    if np.any(yaw_mean != 0):
+        c, s = np.cos(yaw_mean), np.sin(yaw_mean)
+        u = c * ret.u_ms - s * ret.v_ms
+        v = s * ret.u_ms + c * ret.v_ms
+        ret = WindRetrieval(u, v, ret.w_ms, ret.hws_ms, wind_direction_deg(u, v), ret.residual_ms)
+    return v_r, ret
+
+
+@dataclass(frozen=True)
+class ScanResult:
+    """One simulated scan.
+
+    Attributes
+    ----------
+    t_s : ndarray, shape (n,)
+        Time of each line of sight, s.
+    azimuth_rad : ndarray, shape (n,)
+        Body azimuth of each line of sight, rad.
+    radial_speed_ms : ndarray, shape (n,)
+        Measured radial speeds, m/s.
+    hws_ms, wd_deg, w_ms : float
+        Retrieved horizontal speed (m/s), direction (deg), vertical speed (m/s).
+    z_ms : float
+        ``Z = retrieved HWS - true HWS`` (seed 000 Eq. 1), m/s.
+    residual_ms : float
+        RMS fit residual, m/s.
+    """
+
+    t_s: np.ndarray
+    azimuth_rad: np.ndarray
+    radial_speed_ms: np.ndarray
+    hws_ms: float
+    wd_deg: float
+    w_ms: float
+    z_ms: float
+    residual_ms: float
+
+
+def simulate_scan(
+    lidar: str | LidarGeometry,
+    motion,
+    wind_ms,
+    t_start_s: float = 0.0,
+    scan_phase_rad: float = 0.0,
+    *,
+    height_m: float | None = None,
+    shear_exponent: float = 0.0,
+    sign_ambiguity: bool | None = None,
+) -> ScanResult:
+    """Simulate one scan of a lidar on a moving platform (seed 000 Sec. 2.2).
+
+    Parameters
+    ----------
+    lidar : str or LidarGeometry
+    motion : PlatformMotion or SampledMotion
+        Anything with ``attitude_rad(t)``, ``head_velocity_ms(t)`` and
+        ``head_displacement_m(t)`` (see :mod:`flidar_uq.motion`).
+    wind_ms : array_like, shape (3,), or callable
+        ENU wind at the reference height, m/s; or ``f(t_s, xyz_m) -> (..., 3)`` with
+        ``xyz_m`` the measurement points relative to the lidar head at rest (m).
+    t_start_s : float
+        Time of the first line of sight, s.
+    scan_phase_rad : float
+        Azimuth of the first line of sight (seed 000 Sec. 2.2), rad.
+    height_m : float, optional
+        Measurement height above the lidar, m; needed for shear and callable winds.
+        The focus (range) of the inclined beams is ``height_m / cos(half cone)``.
+    shear_exponent : float
+        Power-law exponent ``alpha`` of ``u(z) = u_ref (z / height_m) ** alpha`` (seed 002
+        uses 0.1); a tilted cone then samples height-varying wind.
+    sign_ambiguity : bool, optional
+        Default ``not lidar.signed`` (a CW lidar reports ``|v_r|``).
+
+    Returns
+    -------
+    ScanResult
+    """
+    g = get_lidar(lidar)
+    t_rel, az = scan_times_azimuths(g, scan_phase_rad)
+    t = t_start_s + t_rel
+    roll, pitch, yaw = motion.attitude_rad(t)
+    v_head = motion.head_velocity_ms(t)
+    needs_points = callable(wind_ms) or shear_exponent != 0.0
+    if needs_points and height_m is None:
+        raise ValueError("simulate_scan: height_m is required with a callable wind or shear")
+    if needs_points:
+        d_earth = los_vectors_earth(g, az, roll, pitch, yaw)
+        rng_m = np.where(np.isnan(az), height_m, height_m / np.cos(g.half_cone_angle_rad))
+        xyz = motion.head_displacement_m(t) + rng_m[:, None] * d_earth
+        if callable(wind_ms):
+            wind = np.asarray(wind_ms(t, xyz), float)
+            truth = np.asarray(
+                wind_ms(
+                    np.array([t_start_s + 0.5 * g.scan_period_s]), np.array([[0, 0, height_m]])
+                ),
+                float,
+            )[0]
+        else:
+            truth = np.asarray(wind_ms, float)
+            zr = xyz[:, 2] / height_m
+            with np.errstate(invalid="ignore"):
+                fac = np.where(zr > 0, np.abs(zr) ** shear_exponent, np.nan)
+            wind = truth[None, :] * fac[:, None]
+    else:
+        truth = np.asarray(wind_ms, float)
+        if truth.shape != (3,):
+            raise ValueError(f"simulate_scan: wind_ms must have shape (3,), got {truth.shape}")
+        wind = truth
+    v_r, ret = simulate_scans(
+        g,
+        wind,
+        roll,
+        pitch,
+        yaw_rad=yaw,
+        head_velocity_ms=v_head,
+        azimuth_rad=az,
+        sign_ambiguity=sign_ambiguity,
+    )
+    hws_true = float(np.hypot(truth[0], truth[1]))
+    return ScanResult(
+        t_s=t,
+        azimuth_rad=az,
+        radial_speed_ms=v_r,
+        hws_ms=float(ret.hws_ms),
+        wd_deg=float(ret.wd_deg),
+        w_ms=float(ret.w_ms),
+        z_ms=float(ret.hws_ms) - hws_true,  # Eq. (1) of seed 000
+        residual_ms=float(ret.residual_ms),
+    )
+
+
+# --------------------------------------------------------------------------------------
+# Fast kernel for VAD lidars.
+#
+# For equally spaced azimuths az_k = phi_s + alpha_k, the least-squares VAD retrieval is
+# u + i v = (2 / (n sin th)) sum_k v_k exp(i (pi/2 - az_k)) and, writing the radial speed as
+# v_k = sin th (sin az_k X_k + cos az_k Y_k) + cos th Z_k with X, Y, Z the projections of the
+# relative wind on the tilted body axes, the retrieved horizontal wind is exactly a
+# trigonometric polynomial of degree 2 in the scan phase:
+#     u + i v = A0 + A1 exp(-i phi_s) + A2 exp(-2 i phi_s),
+#     A0 = mean_k(X_k + i Y_k), A1 = (2 i cot th / n) sum_k Z_k exp(-i alpha_k),
+#     A2 = -mean_k((X_k - i Y_k) exp(-2 i alpha_k)).
+# X, Y, Z are sums of products f(roll_k) g(pitch_k) (R = Ry(p) Rx(r); the lever-arm term is
+# d . (omega_body x r) with omega_body = (rdot, pdot cos r, -pdot sin r)), so the sums over
+# the lines of sight for all (roll phase, pitch phase) pairs are one matrix product.
+# --------------------------------------------------------------------------------------
+
+# Roll factors: 0: 1, 1: cos r, 2: sin r, 3: rdot; pitch factors: 0: 1, 1: cos p, 2: sin p, 3: pdot.
+
+
+def _xyz_coefficients(u_x: float, u_y: float, arm: np.ndarray) -> np.ndarray:
+    """Coefficients C[q, a, b] of X (q=0), Y (1), Z (2) in the products f_a(roll) g_b(pitch)."""
+    rx, ry, rz = arm
+    c = np.zeros((3, 4, 4))
+    # X = cos p U_x - (omega x r)_x,  (omega x r)_x = pdot (cos r r_z + sin r r_y)
+    c[0, 0, 1] += u_x
+    c[0, 1, 3] -= rz
+    c[0, 2, 3] -= ry
+    # Y = sin r sin p U_x + cos r U_y - (omega x r)_y, (omega x r)_y = -pdot sin r r_x - rdot r_z
+    c[1, 2, 2] += u_x
+    c[1, 1, 0] += u_y
+    c[1, 2, 3] += rx
+    c[1, 3, 0] += rz
+    # Z = cos r sin p U_x - sin r U_y - (omega x r)_z, (omega x r)_z = rdot r_y - pdot cos r r_x
+    c[2, 1, 2] += u_x
+    c[2, 2, 0] -= u_y
+    c[2, 3, 0] -= ry
+    c[2, 1, 3] += rx
+    return c
+
+
+def _factors(angle_rad: np.ndarray, rate_rad_s: np.ndarray) -> np.ndarray:
+    """Stack (1, cos, sin, rate) along a new axis 1: (m, n) -> (m, 4, n)."""
+    return np.stack(
+        [np.ones_like(angle_rad), np.cos(angle_rad), np.sin(angle_rad), rate_rad_s], axis=1
+    )
+
+
+def vad_hws_coefficients(
+    lidar: LidarGeometry,
+    wind_ms,
+    roll_rad: np.ndarray,
+    roll_rate: np.ndarray,
+    pitch_rad: np.ndarray,
+    pitch_rate: np.ndarray,
+    lever_arm_m=(0.0, 0.0, 0.0),
+) -> np.ndarray:
+    """Scan-phase Fourier coefficients of the retrieved horizontal wind (VAD, exact).
+
+    For every pair (roll history ``i``, pitch history ``j``) returns ``A[m, i, j]``
+    with ``u + i v = A0 + A1 exp(-i phi_s) + A2 exp(-2 i phi_s)`` the wind retrieved by
+    least squares from a scan starting at azimuth ``phi_s`` (no yaw).
+
+    Parameters
+    ----------
+    lidar : LidarGeometry
+        A VAD geometry.
+    wind_ms : array_like, shape (2,) or (3,)
+        ENU wind (the vertical component is ignored: ``w = 0`` is assumed), m/s.
+    roll_rad, roll_rate : ndarray, shape (mr, n)
+        Roll (rad) and its rate (rad/s) at the ``n`` line-of-sight times, for ``mr`` histories.
+    pitch_rad, pitch_rate : ndarray, shape (mp, n)
+        The same for pitch.
+    lever_arm_m : array_like, shape (3,)
+        Head position relative to the rotation centre, body frame, m.
+
+    Returns
+    -------
+    ndarray, complex, shape (3, mr, mp)
+    """
+    n = lidar.n_los
+    th = lidar.half_cone_angle_rad
+    alpha = 2.0 * np.pi * np.arange(n) / n
+    coef = _xyz_coefficients(float(wind_ms[0]), float(wind_ms[1]), np.asarray(lever_arm_m, float))
+    # Per-k complex weights of the three coefficients (see the block comment above).
+    # A0 <- (X + i Y)/n ; A1 <- Z (2i cot th / n) e^{-i alpha} ; A2 <- -(X - i Y) e^{-2 i alpha}/n
+    e1, e2 = np.exp(-1j * alpha), np.exp(-2j * alpha)
+    cm = np.stack(
+        [
+            (coef[0] + 1j * coef[1])[..., None] * (np.ones(n) / n),
+            coef[2][..., None] * (2j / (n * np.tan(th)) * e1),
+            -(coef[0] - 1j * coef[1])[..., None] * (e2 / n),
+        ]
+    )  # (3, 4a, 4b, n)
+    f = _factors(roll_rad, roll_rate)  # (mr, 4a, n)
+    gp = _factors(pitch_rad, pitch_rate)  # (mp, 4b, n)
+    h = np.einsum("jbk,mabk->majk", gp, cm)  # (3, 4a, mp, n)
+    mr = f.shape[0]
+    lhs = f.reshape(mr, 4 * n)
+    rhs = np.transpose(h, (1, 3, 0, 2)).reshape(4 * n, -1)  # (4a*n, 3*mp)
+    # One real matrix product (dgemm) for real and imaginary parts: a mixed real-complex
+    # product takes a slow path in numpy (measured 100x slower, see docs/simulator.md).
+    out_ri = lhs @ np.concatenate([rhs.real, rhs.imag], axis=1)
+    out = out_ri[:, : rhs.shape[1]] + 1j * out_ri[:, rhs.shape[1] :]  # (mr, 3*mp)
+    return np.transpose(out.reshape(mr, 3, -1), (1, 0, 2))
+
+
+def _phase_histories(amp_rad: float, period_s: float, t_s: np.ndarray, nphase: int):
+    """Angle (rad) and rate (rad/s) at times ``t_s`` for ``nphase`` equally spaced phases."""
+    phi = 2.0 * np.pi * np.arange(nphase) / nphase
+    w = 2.0 * np.pi / period_s
+    arg = w * t_s[None, :] + phi[:, None]
+    return amp_rad * np.sin(arg), amp_rad * w * np.cos(arg)
+
+
+def _histories(components, t_s: np.ndarray, nphase: int):
+    """Sum of harmonic components over a product grid of their phases: (nphase**m, n)."""
+    ang = np.zeros((1, t_s.size))
+    rate = np.zeros((1, t_s.size))
+    for amp_rad, period_s in components:
+        a, r = _phase_histories(amp_rad, period_s, t_s, nphase)
+        ang = (ang[:, None, :] + a[None, :, :]).reshape(-1, t_s.size)
+        rate = (rate[:, None, :] + r[None, :, :]).reshape(-1, t_s.size)
+    return ang, rate
+
+
+# The scan-phase integral of the fast kernel is cheap (the coefficients are computed once per
+# roll/pitch pair) and is the hardest one when the motion period is near the scan period,
+# so it gets this many times more points (measured: docs/simulator.md).
+_SCAN_PHASE_FACTOR = 4
+
+
+def _moments_vad(g, wind, roll_comps, pitch_comps, arm, nphase, nscan):
+    t_s, _ = scan_times_azimuths(g)
+    ang, rate = _histories(roll_comps, t_s, nphase)
+    if pitch_comps == roll_comps:
+        pang, prate = ang, rate
+    else:
+        pang, prate = _histories(pitch_comps, t_s, nphase)
+    a = vad_hws_coefficients(g, wind, ang, rate, pang, prate, arm)
+    phi_s = 2.0 * np.pi * np.arange(nscan) / nscan
+    q = np.exp(-1j * phi_s)
+    h = a[0][..., None] + a[1][..., None] * q + a[2][..., None] * q**2
+    return np.abs(h)
+
+
+def _moments_generic(g, wind, roll_comps, pitch_comps, arm, nphase, nscan, sign_ambiguity):
+    """Direct evaluation for any lidar (DBS: the scan phase selects the starting beam)."""
+    t_s, _ = scan_times_azimuths(g)
+    ang, rate = _histories(roll_comps, t_s, nphase)
+    pang, prate = _histories(pitch_comps, t_s, nphase)
+    if g.kind == "dbs":
+        phases = 2.0 * np.pi * (np.arange(g.n_los) + 0.5) / g.n_los
+    else:
+        phases = 2.0 * np.pi * np.arange(nscan) / nscan
+    az = np.stack([scan_times_azimuths(g, p)[1] for p in phases])  # (ns, n)
+    shape = (ang.shape[0], pang.shape[0], len(phases), t_s.size)
+    roll = np.broadcast_to(ang[:, None, None, :], shape)
+    pitch = np.broadcast_to(pang[None, :, None, :], shape)
+    head = None
+    if np.any(arm != 0):
+        droll = np.broadcast_to(rate[:, None, None, :], shape)
+        dpitch = np.broadcast_to(prate[None, :, None, :], shape)
+        head = rotation_matrix_derivatives(roll, pitch, 0.0, droll, dpitch, 0.0) @ arm
+    _, ret = simulate_scans(
+        g,
+        wind,
+        roll,
+        pitch,
+        head_velocity_ms=head,
+        azimuth_rad=np.broadcast_to(az[None, None], shape),
+        sign_ambiguity=sign_ambiguity,
+    )
+    return ret.hws_ms
+
+
+@dataclass(frozen=True)
+class SigmaZResult:
+    """Result of :func:`sigma_z`.
+
+    Attributes
+    ----------
+    sigma_z_ms : float
+        Standard deviation of ``Z`` over the phases (seed 000 Eq. 4), m/s.
+    mean_z_ms : float
+        ``E(Z)``, m/s.
+    n_phase : int
+        Quadrature points per phase dimension of the returned value.
+    error_estimate_ms : float
+        ``max(|d sigma|, |d mean|)`` between the last two resolutions, m/s (an upper
+        bound in practice: the trapezoid rule converges geometrically here).
+    converged : bool
+        Whether ``error_estimate_ms <= rtol * max(sigma_z_ms, |mean_z_ms|)`` was reached.
+    method : str
+        ``"vad-fourier"`` (fast exact kernel) or ``"direct"``.
+    """
+
+    sigma_z_ms: float
+    mean_z_ms: float
+    n_phase: int
+    error_estimate_ms: float
+    converged: bool
+    method: str
+
+
+def _check_scalar(name: str, value, *, lo=None, hi=None, lo_open=False) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"sigma_z: {name} must be a number, got {value!r}") from None
+    bad = not np.isfinite(x) or (lo is not None and (x <= lo if lo_open else x < lo))
+    bad = bad or (hi is not None and x > hi)
+    if bad:
+        lo_s = "" if lo is None else (f"> {lo}" if lo_open else f">= {lo}")
+        hi_s = "" if hi is None else f"<= {hi}"
+        rng_s = " and ".join(s for s in (lo_s, hi_s) if s)
+        raise ValueError(
+            f"sigma_z: {name} must be finite{' and ' + rng_s if rng_s else ''}, got {value!r}"
+        )
+    return x
+
+
+def sigma_z_grid(
+    hws_ms: float,
+    amplitude_deg: float,
+    period_s: float,
+    wd_deg: float = 0.0,
+    lidar: str | LidarGeometry = "zephir300",
+    *,
+    nphase: int,
+    amplitude2_deg: float | None = None,
+    period2_s: float | None = None,
+    lever_arm_m=0.0,
+    method: str = "auto",
+    sign_ambiguity: bool = False,
+    pitch_amplitude_deg: float | None = None,
+    nphase_scan: int | None = None,
+) -> tuple[float, float]:
+    """``(sigma_Z, E(Z))`` on a fixed grid of ``nphase`` points per phase (no adaptation).
+
+    Same arguments as :func:`sigma_z`; ``method`` is ``"auto"`` (fast kernel for VAD),
+    ``"fourier"`` or ``"direct"`` (the scan simulated line of sight by line of sight).
+    ``nphase_scan`` is the number of scan-phase points (VAD; default ``4 * nphase``; a DBS
+    scan phase only selects the first of the ``n_los`` beams, which are all used).
+
+    Returns
+    -------
+    sigma_z_ms, mean_z_ms : float
+    """
+    g = get_lidar(lidar)
+    arm = (
+        np.array([0.0, 0.0, float(lever_arm_m)])
+        if np.ndim(lever_arm_m) == 0
+        else np.asarray(lever_arm_m, float)
+    )
+    comps = [(np.deg2rad(amplitude_deg), period_s)]
+    if amplitude2_deg is not None:
+        comps.append((np.deg2rad(amplitude2_deg), period2_s))
+    if pitch_amplitude_deg is None:
+        pcomps = comps
+    else:
+        pcomps = [
+            (a * pitch_amplitude_deg / amplitude_deg if amplitude_deg > 0 else 0.0, t)
+            for a, t in comps
+        ]
+    wind = wind_vector_ms(hws_ms, wd_deg)
+    nscan = _SCAN_PHASE_FACTOR * nphase if nphase_scan is None else int(nphase_scan)
+    if method == "auto":
+        method = "fourier" if (g.kind == "vad" and not sign_ambiguity) else "direct"
+    if method == "fourier":
+        if g.kind != "vad" or sign_ambiguity:
+            raise ValueError("sigma_z_grid: method='fourier' needs a VAD lidar and signed speeds")
+        hws = _moments_vad(g, wind, comps, pcomps, arm, nphase, nscan)
+    elif method == "direct":
+        hws = _moments_generic(g, wind, comps, pcomps, arm, nphase, nscan, sign_ambiguity)
+    else:
+        raise ValueError(
+            f"sigma_z_grid: method must be 'auto', 'fourier' or 'direct', got {method!r}"
+        )
+    z = hws - hws_ms  # Eq. (1) of seed 000
+    mean = float(np.mean(z))  # Eqs. (6)-(14) of seed 000: uniform phases, product trapezoid rule
+    var = float(np.mean((z - mean) ** 2))  # Eq. (4) of seed 000 (two-pass form)
+    return float(np.sqrt(var)), mean
+
+
+def sigma_z(
+    hws_ms: float,
+    amplitude_deg: float,
+    period_s: float,
+    wd_deg: float = 0.0,
+    lidar: str | LidarGeometry = "zephir300",
+    *,
+    amplitude2_deg: float | None = None,
+    period2_s: float | None = None,
+    lever_arm_m=0.0,
+    rtol: float = 1e-6,
+    nphase_start: int = 8,
+    nphase_max: int | None = None,
+    sign_ambiguity: bool = False,
+    pitch_amplitude_deg: float | None = None,
+) -> SigmaZResult:
+    """Motion-induced HWS error std sigma_Z and mean E(Z) (seed 000 Eqs. 1-14).
+
+    Roll and pitch are harmonic with equal amplitude and period and independent uniform
+    phases; the scan phase is uniform too (seed 000 Secs. 2.3-2.4). The phase integrals
+    use the trapezoid rule on uniform periodic grids (exponentially convergent for this
+    smooth periodic integrand), doubled from ``nphase_start`` until the change is below
+    ``rtol``.
+
+    Parameters
+    ----------
+    hws_ms : float
+        True horizontal wind speed, m/s (>= 0).
+    amplitude_deg : float
+        Roll and pitch amplitude, deg, in [0, 45]. With a second component this is the
+        amplitude of the first one (``A1``).
+    period_s : float
+        Roll and pitch period, s (> 0).
+    wd_deg : float
+        Wind direction (from, clockwise from north), deg.
+    lidar : str or LidarGeometry
+        Default ``"zephir300"``.
+    amplitude2_deg, period2_s : float, optional
+        Second harmonic component of both roll and pitch (two-period motion, each with
+        its own uniform phases: 5 phases in total). Give both or neither.
+    lever_arm_m : float or array_like of 3
+        Head height above the rotation centre (body vector ``(0, 0, h)``) or a body-frame
+        vector, m. Adds ``omega x r`` to the head velocity.
+    rtol : float
+        Relative convergence tolerance on sigma_Z (and on E(Z) relative to
+        ``max(sigma_Z, |E(Z)|)``).
+    nphase_start, nphase_max : int
+        First and largest number of roll/pitch points per phase (the scan phase gets 4
+        times more, see :func:`sigma_z_grid`). Default max: 256 for one period, 64 for
+        two periods; direct method 64, or 16 with two periods or ``sign_ambiguity``.
+    sign_ambiguity : bool
+        VAD only: simulate the CW ``|v_r|`` and its nonlinear fit (slow direct method).
+        Default False: seed 000's linear VAD retrieval on signed speeds.
+    pitch_amplitude_deg : float, optional
+        Pitch amplitude if it differs from the roll amplitude ``amplitude_deg`` (e.g. 0
+        for roll-only motion, seed 000 Sec. 2.5); a second component is scaled alike.
+
+    Returns
+    -------
+    SigmaZResult
+
+    Raises
+    ------
+    ValueError
+        Non-finite or out-of-range arguments, unknown lidar.
+    """
+    g = get_lidar(lidar)
+    hws = _check_scalar("hws_ms", hws_ms, lo=0.0)
+    amp = _check_scalar("amplitude_deg", amplitude_deg, lo=0.0, hi=45.0)
+    pamp = None
+    if pitch_amplitude_deg is not None:
+        pamp = _check_scalar("pitch_amplitude_deg", pitch_amplitude_deg, lo=0.0, hi=45.0)
+        if amp == 0.0 and pamp > 0.0:
+            raise ValueError(
+                "sigma_z: pitch_amplitude_deg > 0 needs amplitude_deg > 0 (use pitch as roll)"
+            )
+    per = _check_scalar("period_s", period_s, lo=0.0, lo_open=True)
+    wd = _check_scalar("wd_deg", wd_deg)
+    if (amplitude2_deg is None) != (period2_s is None):
+        raise ValueError("sigma_z: give both amplitude2_deg and period2_s, or neither")
+    two = amplitude2_deg is not None
+    if two:
+        amp2 = _check_scalar("amplitude2_deg", amplitude2_deg, lo=0.0, hi=45.0)
+        per2 = _check_scalar("period2_s", period2_s, lo=0.0, lo_open=True)
+    arm = np.atleast_1d(np.asarray(lever_arm_m, dtype=float))
+    if arm.shape not in ((1,), (3,)) or not np.all(np.isfinite(arm)):
+        raise ValueError(
+            f"sigma_z: lever_arm_m must be a finite number or 3-vector, got {lever_arm_m!r}"
+        )
+    _check_scalar("rtol", rtol, lo=0.0, lo_open=True)
+    fast = g.kind == "vad" and not sign_ambiguity
+    if nphase_max is None:
+        if fast:
+            nphase_max = 64 if two else 256
+        else:  # the direct method is much slower; the CW |v_r| fit is also non-smooth
+            nphase_max = 16 if (two or sign_ambiguity) else 64
+    kw = dict(
+        amplitude2_deg=amp2 if two else None,
+        period2_s=per2 if two else None,
+        lever_arm_m=float(arm[0]) if arm.shape == (1,) else arm,
+        sign_ambiguity=sign_ambiguity,
+        pitch_amplitude_deg=pamp,
+    )
+    n = int(nphase_start)
+    prev = sigma_z_grid(hws, amp, per, wd, g, nphase=n, **kw)
+    err = np.inf
+    while True:
+        n2 = 2 * n
+        if n2 > nphase_max:
+            break
+        cur = sigma_z_grid(hws, amp, per, wd, g, nphase=n2, **kw)
+        err = max(abs(cur[0] - prev[0]), abs(cur[1] - prev[1]))
+        n, prev = n2, cur
+        scale = max(cur[0], abs(cur[1]))
+        if err <= rtol * scale or scale <= 1e-14 * max(hws, 1.0):
+            break
+    s, m = prev
+    converged = bool(err <= rtol * max(s, abs(m)) or max(s, abs(m)) <= 1e-14 * max(hws, 1.0))
+    return SigmaZResult(s, m, n, float(err), converged, "vad-fourier" if fast else "direct")

@@ -1,0 +1,121 @@
+"""HWS x amplitude x period binning (flidar_uq.binning), seed 000 Sec. 3.1 and Table 1."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from flidar_uq.binning import bin_centre, bin_label, bin_records
+
+
+def rec(hws, amp_roll, amp_pitch, per_roll, per_pitch) -> pd.DataFrame:
+    return pd.DataFrame(
+        {
+            "hws_mean_ms": hws,
+            "roll_amplitude_deg": amp_roll,
+            "pitch_amplitude_deg": amp_pitch,
+            "roll_period_s": per_roll,
+            "pitch_period_s": per_pitch,
+        }
+    )
+
+
+def test_seed000_edges_half_open_centred_on_integers():
+    # seed 000 Sec. 3.1: edges [0.5, 1.5), [1.5, 2.5), ...
+    x = [0.5, 1.4999, 1.5, 2.49, 7.5, 8.49999]
+    assert bin_centre(x, 1.0).tolist() == [1.0, 1.0, 2.0, 2.0, 8.0, 8.0]
+    assert bin_centre([0.74, 0.76, 1.26], 0.5).tolist() == [0.5, 1.0, 1.5]
+    with pytest.raises(ValueError, match="width must be > 0"):
+        bin_centre([1.0], 0.0)
+
+
+def test_bin_label_is_stable_text():
+    assert bin_label(8, 3, 4) == "H08_A03_T04"
+    assert bin_label(12.5, 0.0, 10.0) == "H12p5_A00_T10"
+
+
+def test_binning_uses_roll_pitch_means_seed000_sec24():
+    # amplitude (2.4 + 3.4)/2 = 2.9 -> 3 ; period (3.2 + 4.6)/2 = 3.9 -> 4
+    assigned, table = bin_records(rec([8.2], [2.4], [3.4], [3.2], [4.6]))
+    assert assigned["bin_id"].tolist() == ["H08_A03_T04"]
+    assert table[["hws_ms", "amplitude_deg", "period_s", "count"]].iloc[0].tolist() == [
+        8.0,
+        3.0,
+        4.0,
+        1,
+    ]
+
+
+def test_table_sorted_by_frequency_with_table1_columns():
+    # 3 records in H08_A03_T04, 2 in H05_A02_T04, 2 in H04_A02_T03, 1 in H09_A03_T04
+    df = rec(
+        [8.1, 7.9, 8.3, 5.0, 5.2, 4.1, 3.9, 9.0],
+        [3.0, 3.1, 2.9, 2.0, 2.1, 2.0, 2.0, 3.0],
+        [3.0, 3.1, 2.9, 2.0, 2.1, 2.0, 2.0, 3.0],
+        [4.0, 4.1, 3.9, 4.0, 4.2, 3.0, 3.1, 4.0],
+        [4.0, 4.1, 3.9, 4.0, 4.2, 3.0, 3.1, 4.0],
+    )
+    assigned, table = bin_records(df, min_count=2)
+    assert list(table.columns) == [
+        "case_no",
+        "bin_id",
+        "hws_ms",
+        "amplitude_deg",
+        "period_s",
+        "count",
+        "below_min_count",
+    ]
+    assert table["bin_id"].tolist() == [
+        "H08_A03_T04",
+        "H04_A02_T03",
+        "H05_A02_T04",
+        "H09_A03_T04",
+    ]  # ties by HWS
+    assert table["case_no"].tolist() == [1, 2, 3, 4]
+    assert table["count"].tolist() == [3, 2, 2, 1]
+    assert table["below_min_count"].tolist() == [False, False, False, True]
+    assert assigned["case_no"].tolist() == [1, 1, 1, 3, 3, 2, 2, 4]
+    assert assigned["below_min_count"].tolist() == [False] * 7 + [True]
+
+
+def test_configurable_widths():
+    df = rec([8.2, 8.4], [2.6, 2.9], [2.6, 2.9], [4.0, 4.0], [4.0, 4.0])
+    _, t1 = bin_records(df)
+    _, t2 = bin_records(df, hws_width_ms=0.5, amplitude_width_deg=0.5, period_width_s=2.0)
+    assert len(t1) == 1 and t1["bin_id"].iloc[0] == "H08_A03_T04"
+    assert t2["bin_id"].tolist() == ["H08_A02p5_T04", "H08p5_A03_T04"]
+
+
+def test_records_without_motion_are_kept_unbinned_and_counted():
+    df = rec(
+        [8.0, 8.0, np.nan], [3.0, np.nan, 3.0], [3.0, 3.0, 3.0], [4.0, 4.0, 4.0], [4.0, 4.0, 4.0]
+    )
+    assigned, table = bin_records(df)
+    assert len(assigned) == 3
+    assert assigned["case_no"].tolist() == [1, -1, -1]
+    assert assigned["bin_id"].isna().tolist() == [False, True, True]
+    assert table.attrs["n_unbinned"] == 2 and table.attrs["n_binned"] == 1
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 300), st.sampled_from([0.5, 1.0, 2.0]))
+def test_counts_conserved_and_ids_consistent_hypothesis(seed, n, width):
+    rng = np.random.default_rng(seed)
+    df = rec(
+        rng.uniform(0, 25, n),
+        rng.uniform(0, 6, n),
+        rng.uniform(0, 6, n),
+        rng.uniform(1, 10, n),
+        rng.uniform(1, 10, n),
+    )
+    assigned, table = bin_records(df, hws_width_ms=width, amplitude_width_deg=width, min_count=3)
+    assert table["count"].sum() == n == len(assigned)
+    assert (np.diff(table["count"]) <= 0).all()
+    assert table["bin_id"].is_unique
+    counts = assigned["bin_id"].value_counts()
+    assert (table.set_index("bin_id")["count"] == counts.loc[table["bin_id"]].to_numpy()).all()
+    # every record lies inside its bin
+    assert (np.abs(assigned["hws_mean_ms"] - assigned["hws_bin_ms"]) <= width / 2 + 1e-12).all()

@@ -1,0 +1,125 @@
+"""Propagation of posterior draws to corrected std and TI, with the seed 000 baselines."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from flidar_uq.campaign_statistical import generate_statistical_campaign
+from flidar_uq.correction import corrected_std
+from flidar_uq.inference import BinFit, GlobalFit, fit_bin, fit_global
+from flidar_uq.propagate import corrected_ti
+from flidar_uq.surrogate import get_surrogate
+
+
+@pytest.fixture(scope="module")
+def surrogate():
+    return get_surrogate("zephir300")
+
+
+def _bin_fit(bin_id, amp, per, reasons=()):
+    shape = (4, 50)
+    return BinFit(
+        draws={
+            "amplitude_deg": np.full(shape, amp),
+            "period_s": np.full(shape, per),
+            "scatter_amplitude": np.full(shape, 0.1),
+            "scatter_period": np.full(shape, 0.1),
+        },
+        log_lik=np.zeros((4, 50, 1)),
+        diagnostics={},
+        failure_reasons=list(reasons),
+        info={"bin_id": bin_id, "model": "unimodal", "n_records": 1, "n_imu": 1, "prior_only": False, "loo": {}},
+    )
+
+
+def _global_fit(rho, tau0=1e-6, kappa=1e-6):
+    shape = (4, 50)
+    return GlobalFit(
+        draws={"rho": np.full(shape, rho), "tau0_ms": np.full(shape, tau0), "kappa": np.full(shape, kappa)},
+        log_lik=np.zeros((4, 50, 1)),
+        diagnostics={},
+        failure_reasons=[],
+        info={"n_records": 1, "prior_only": False, "loo": {}},
+    )
+
+
+def _records(s_ms, hws=8.0, bin_id=0):
+    s_ms = np.atleast_1d(s_ms)
+    n = s_ms.size
+    return pd.DataFrame(
+        {
+            "bin_id": bin_id,
+            "hws_mean_ms": hws + 0.01 * np.arange(n),
+            "hws_std_ms": s_ms,
+            "roll_amplitude_deg": 3.0,
+            "pitch_amplitude_deg": 3.0,
+            "roll_period_s": 4.0,
+            "pitch_period_s": 4.0,
+        }
+    )
+
+
+def test_point_posterior_reproduces_deployment_formula(surrogate):
+    rec = _records([0.6, 0.8, 1.0])
+    pr, pb = corrected_ti(rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.4), surrogate=surrogate, seed=1)
+    sz = surrogate.sigma_z_ms(rec.hws_mean_ms, 3.0, 4.0)
+    c, _ = corrected_std(rec.hws_std_ms, sz, 0.4)
+    np.testing.assert_allclose(pr.sigma_corrected_median_ms, c, rtol=1e-4)
+    np.testing.assert_allclose(pr.ti_corrected_median, c / rec.hws_mean_ms, rtol=1e-4)
+    assert (pr.ti_corrected_lo <= pr.ti_corrected_median).all()
+    assert (pr.ti_corrected_median <= pr.ti_corrected_hi).all()
+    assert pr.converged.all() and not pr.discriminant_negative.any()
+    np.testing.assert_allclose(pr.ti_uncorrected, rec.hws_std_ms / rec.hws_mean_ms)
+    # the seed baselines use the bin's median IMU statistics: same sZ here; U law = rho 0
+    np.testing.assert_allclose(pr.ti_u, corrected_std(rec.hws_std_ms, sz, 0.0)[0] / rec.hws_mean_ms)
+    assert {"ti_c", "ti_pc", "rho_seed"} <= set(pr.columns)
+    assert len(pb) == 1 and pb.n_records.iloc[0] == 3
+
+
+def test_stability_sigma_moving_below_sigma_z_flagged(surrogate):
+    """Documented: no real root -> corrected std 0, discriminant_negative True, never dropped."""
+    sz = float(surrogate.sigma_z_ms(8.0, 3.0, 4.0))
+    rec = _records([0.3 * sz])
+    pr, _ = corrected_ti(rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.0), surrogate=surrogate, seed=2)
+    assert bool(pr.discriminant_negative.iloc[0])
+    assert pr.discriminant_negative_frac.iloc[0] == 1.0
+    assert pr.sigma_corrected_median_ms.iloc[0] == 0.0
+    assert len(pr) == 1
+
+
+def test_unconverged_bin_marked_and_excluded_from_speed_bins(surrogate):
+    rec = pd.concat([_records([0.6, 0.7], bin_id=0), _records([0.6, 0.7], bin_id=1)], ignore_index=True)
+    fits = [_bin_fit(0, 3.0, 4.0), _bin_fit(1, 3.0, 4.0, reasons=["amplitude_deg: rank R-hat 1.2 >= 1.01"])]
+    pr, pb = corrected_ti(rec, fits, _global_fit(0.3), surrogate=surrogate, seed=3)
+    assert pr.converged.tolist() == [True, True, False, False]
+    assert "R-hat" in pr.failure_reasons.iloc[2]
+    assert pb.n_not_converged.sum() == 2
+
+
+def test_noise_widens_interval(surrogate):
+    rec = _records([0.8])
+    narrow, _ = corrected_ti(rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.3), surrogate=surrogate, seed=4)
+    wide, _ = corrected_ti(rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.3, 0.05, 0.1), surrogate=surrogate, seed=4)
+    w0 = (narrow.ti_corrected_hi - narrow.ti_corrected_lo).iloc[0]
+    w1 = (wide.ti_corrected_hi - wide.ti_corrected_lo).iloc[0]
+    assert w0 < 1e-3 < w1
+
+
+def test_cred_mass_out_of_range_raises(surrogate):
+    with pytest.raises(ValueError, match=r"cred_mass=1.5 must be in \(0, 1\)"):
+        corrected_ti(_records([0.5]), [_bin_fit(0, 3, 4)], _global_fit(0.0), surrogate=surrogate, cred_mass=1.5, seed=1)
+
+
+@pytest.mark.slow
+def test_coverage_of_true_ti_statistical_mode(surrogate):
+    """90% intervals cover the true TI for 85-95% of records drawn from the model."""
+    rec, _ = generate_statistical_campaign(8, 40, seed=11, surrogate=surrogate, two_period_bins=2)
+    fits = [fit_bin(g, seed=int(b)) for b, g in rec.groupby("bin_id")]
+    gf = fit_global(rec, fits, surrogate=surrogate, seed=12)
+    pr, _ = corrected_ti(rec, fits, gf, surrogate=surrogate, seed=13)
+    ok = pr.converged.to_numpy()
+    assert ok.mean() > 0.7
+    cover = (pr.ti_corrected_lo <= rec.true_ti) & (rec.true_ti <= pr.ti_corrected_hi)
+    assert 0.85 <= cover[ok].mean() <= 0.95

@@ -1,0 +1,154 @@
+"""The HTML report: self-contained, deterministic, and rendered by headless Chromium."""
+
+from __future__ import annotations
+
+import base64
+import io
+import re
+import subprocess
+import tempfile
+from pathlib import Path
+
+import matplotlib.image
+import numpy as np
+import pandas as pd
+import pytest
+
+from conftest import require_tool
+from flidar_uq import plots
+from flidar_uq import report as rep
+
+CHROMIUM_FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
+
+#: Appended to a copy of the report: records, for every <img>, whether it decoded.
+_IMG_PROBE = (
+    "<script>window.addEventListener('load',()=>{document.body.setAttribute('data-img-widths',"
+    "Array.from(document.images).map(i=>i.complete?i.naturalWidth:-1).join(','));});</script>"
+)
+
+
+def _chromium(args: list[str], timeout: float = 90) -> subprocess.CompletedProcess:
+    exe = require_tool("chromium")
+    with tempfile.TemporaryDirectory() as profile:
+        cmd = [exe, *CHROMIUM_FLAGS, f"--user-data-dir={profile}", *args]
+        return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+
+
+def chromium_image_widths(html_path: Path) -> list[int]:
+    """naturalWidth of every <img> of the page after load, as Chromium decoded it."""
+    probe = html_path.with_name(html_path.stem + "_probe.html")
+    probe.write_text(html_path.read_text().replace("</body>", _IMG_PROBE + "</body>"))
+    proc = _chromium(["--virtual-time-budget=10000", "--dump-dom", probe.as_uri()])
+    m = re.search(r'data-img-widths="([^"]*)"', proc.stdout)
+    assert m, f"probe attribute not found; chromium stderr: {proc.stderr[-2000:]}"
+    return [int(w) for w in m.group(1).split(",") if w]
+
+
+def chromium_screenshot(html_path: Path, png_path: Path) -> np.ndarray:
+    """Screenshot of the page as an RGB(A) float array in [0, 1]."""
+    proc = _chromium([f"--screenshot={png_path}", "--window-size=1200,2400", html_path.as_uri()])
+    assert png_path.is_file(), proc.stderr[-2000:]
+    return matplotlib.image.imread(png_path)
+
+
+def assert_report_renders(html_path: Path, tmp_path: Path) -> None:
+    """Every embedded figure decodes (naturalWidth > 0) and the page is not blank."""
+    n_img = html_path.read_text().count("<img ")
+    widths = chromium_image_widths(html_path)
+    assert len(widths) == n_img > 0
+    assert min(widths) > 0, widths
+    shot = chromium_screenshot(html_path, tmp_path / "shot.png")
+    rgb = shot[..., :3]
+    not_white = np.mean(rgb.min(axis=-1) < 0.9)
+    assert not_white > 0.02, f"screenshot almost blank ({not_white:.3%} non-white pixels)"
+    assert np.std(rgb) > 0.05
+
+
+def synthetic_records(rng: np.random.Generator, n: int = 200) -> pd.DataFrame:
+    hws = rng.uniform(3, 20, n)
+    ti_true = 0.05 + 0.3 / hws
+    ti_med = ti_true * rng.normal(1, 0.05, n)
+    return pd.DataFrame(
+        {
+            "hws_mean_ms": hws,
+            "ti_true": ti_true,
+            "ti_uncorrected": ti_true + 0.02,
+            "ti_corrected_median": ti_med,
+            "ti_corrected_lo": ti_med - 0.01,
+            "ti_corrected_hi": ti_med + 0.01,
+        }
+    )
+
+
+def small_report(rng: np.random.Generator) -> str:
+    recs = synthetic_records(rng)
+    fig = plots.ti_vs_hws_figure(recs, credible_mass=0.9)
+    table = pd.DataFrame({"method": ["uncorrected", "Bayesian"], "md_ti": [0.02, np.nan]})
+    sections = [
+        rep.Section("figure", rep.img_html(rep.figure_to_data_uri(fig), "TI against HWS")),
+        rep.Section("table", rep.table_html(table, caption="MD")),
+        rep.Section("provenance", rep.provenance_html({"campaign": {"seed": 1}}, "abc123", rep.package_versions())),
+    ]
+    return rep.render_html("test report", sections)
+
+
+def test_figure_png_is_deterministic_and_decodes(rng):
+    recs = synthetic_records(rng)
+    a = rep.figure_to_data_uri(plots.ti_vs_hws_figure(recs, credible_mass=0.9))
+    b = rep.figure_to_data_uri(plots.ti_vs_hws_figure(recs, credible_mass=0.9))
+    assert a == b
+    png = base64.b64decode(a.split(",", 1)[1])
+    img = matplotlib.image.imread(io.BytesIO(png), format="png")
+    assert img.shape[0] > 100 and img.shape[1] > 100
+    assert b"tIME" not in png  # no timestamp chunk
+
+
+def test_table_html_escapes_and_shows_nan_as_dash():
+    html = rep.table_html(pd.DataFrame({"a<b": ["x&y"], "v": [float("nan")]}), caption="c>d")
+    assert "a&lt;b" in html and "x&amp;y" in html and "c&gt;d" in html
+    assert "&ndash;" in html
+
+
+def test_render_html_is_self_contained(rng):
+    html = small_report(rng)
+    assert html.startswith("<!DOCTYPE html>")
+    assert "<script" not in html
+    assert not re.search(r'(src|href)="(https?:)?//', html)  # no external resource
+    assert html.count("data:image/png;base64,") == 1
+    assert "abc123" in html and "numpy" in html
+
+
+def test_package_versions_names_numpy_and_missing_packages():
+    v = rep.package_versions(["numpy", "surely_not_a_package_xyz"])
+    assert v["numpy"] == np.__version__
+    assert v["surely_not_a_package_xyz"] == "not installed"
+    assert "python" in v
+
+
+def test_report_rendered_by_headless_chromium(rng, tmp_path):
+    path = tmp_path / "report.html"
+    path.write_text(small_report(rng))
+    assert_report_renders(path, tmp_path)
+
+
+def test_chromium_probe_detects_a_broken_image(tmp_path):
+    """The render check can fail: a corrupt data URI gives naturalWidth 0."""
+    path = tmp_path / "broken.html"
+    path.write_text('<!DOCTYPE html><html><body><img src="data:image/png;base64,AAAA"></body></html>')
+    assert chromium_image_widths(path) == [0]
+
+
+@pytest.mark.parametrize("credible_mass", [0.5, 0.9])
+def test_ti_vs_hws_figure_handles_no_corrected_records(credible_mass):
+    recs = synthetic_records(np.random.default_rng(1), 5).assign(ti_corrected_median=np.nan)
+    fig = plots.ti_vs_hws_figure(recs, credible_mass=credible_mass)
+    assert fig.axes[0].get_xlabel() == "HWS [m/s]"

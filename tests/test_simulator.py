@@ -1,0 +1,286 @@
+"""Tests of the moving-lidar simulator and the sigma_Z phase integral (seed 000 Eqs. 1-14)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import flidar_uq
+from flidar_uq.lidar import WINDCUBE_V1, ZEPHIR300, wind_vector_ms
+from flidar_uq.motion import Harmonic, PlatformMotion, harmonic_motion
+from flidar_uq.simulator import (
+    los_vectors_earth,
+    sigma_z,
+    sigma_z_grid,
+    simulate_scan,
+    simulate_scans,
+)
+
+
+def _static(roll_deg=0.0, pitch_deg=0.0):
+    """Static tilt as a harmonic of huge period at its crest."""
+    comp = dict(period_s=1e12, phase_rad=np.pi / 2)
+    return PlatformMotion(roll=(Harmonic(roll_deg, **comp),), pitch=(Harmonic(pitch_deg, **comp),))
+
+
+def _seed_loop(hws, amp, period, wd, n, arm=0.0, lidar=ZEPHIR300):
+    """Seed 000's procedure written out: one scan simulation per (roll, pitch, scan) phase."""
+    phases = 2 * np.pi * np.arange(n) / n
+    wind = wind_vector_ms(hws, wd)
+    z = [
+        simulate_scan(
+            lidar,
+            harmonic_motion(amp, period, pr, pp, lever_arm_m=arm),
+            wind,
+            0.0,
+            ps,
+            sign_ambiguity=False,
+        ).z_ms
+        for pr in phases
+        for pp in phases
+        for ps in phases
+    ]
+    return np.std(z), np.mean(z)
+
+
+def test_public_import_sigma_z():
+    r = flidar_uq.sigma_z(8.0, 3.0, 4.0)
+    assert r.sigma_z_ms > 0 and np.isfinite(r.mean_z_ms)
+
+
+@pytest.mark.parametrize("lidar", [ZEPHIR300, WINDCUBE_V1])
+def test_zero_motion_gives_zero_error(lidar):
+    res = simulate_scan(lidar, PlatformMotion(), wind_vector_ms(8.0, 33.0), 0.0, 1.1)
+    assert abs(res.z_ms) < 1e-12
+    assert res.wd_deg == pytest.approx(33.0)
+    s = sigma_z(8.0, 0.0, 4.0, 33.0, lidar)
+    assert s.sigma_z_ms < 1e-12 and abs(s.mean_z_ms) < 1e-12
+
+
+@pytest.mark.parametrize("lidar", [ZEPHIR300, WINDCUBE_V1])
+def test_static_tilt_error_is_second_order(lidar):
+    wind = wind_vector_ms(10.0, 200.0)
+    z1 = simulate_scan(lidar, _static(0.5, 0.3), wind, sign_ambiguity=False).z_ms
+    z2 = simulate_scan(lidar, _static(1.0, 0.6), wind, sign_ambiguity=False).z_ms
+    assert z1 != 0
+    assert z2 / z1 == pytest.approx(4.0, rel=1e-3)
+
+
+def test_static_tilt_analytic_projection():
+    # static tilt: the VAD retrieves the wind projected on the tilted body x, y axes
+    roll, pitch = np.deg2rad(4.0), np.deg2rad(-3.0)
+    wind = wind_vector_ms(9.0, 70.0)
+    res = simulate_scan(ZEPHIR300, _static(4.0, -3.0), wind, sign_ambiguity=False)
+    ux = np.cos(pitch) * wind[0]
+    uy = np.sin(roll) * np.sin(pitch) * wind[0] + np.cos(roll) * wind[1]
+    assert res.hws_ms == pytest.approx(np.hypot(ux, uy), rel=1e-12)
+
+
+def test_fast_kernel_equals_scan_by_scan_simulation():
+    for arm in (0.0, 4.0):
+        ref = _seed_loop(8.0, 3.0, 4.0, 30.0, 5, arm)
+        got = sigma_z_grid(8.0, 3.0, 4.0, 30.0, nphase=5, nphase_scan=5, lever_arm_m=arm)
+        np.testing.assert_allclose(got, ref, rtol=1e-10)
+
+
+def test_fast_kernel_equals_direct_method_two_period_and_lever_vector():
+    kw = dict(nphase=4, amplitude2_deg=2.0, period2_s=9.0, lever_arm_m=(0.5, -0.2, 3.0))
+    a = sigma_z_grid(7.0, 4.0, 3.0, 100.0, method="fourier", **kw)
+    b = sigma_z_grid(7.0, 4.0, 3.0, 100.0, method="direct", **kw)
+    np.testing.assert_allclose(a, b, rtol=1e-10)
+
+
+def test_quadrature_converges_geometrically():
+    ref = sigma_z_grid(8.0, 5.0, 3.0, 40.0, nphase=64, lever_arm_m=2.0)[0]
+    errs = [
+        abs(sigma_z_grid(8.0, 5.0, 3.0, 40.0, nphase=n, lever_arm_m=2.0)[0] - ref)
+        for n in (4, 8, 16)
+    ]
+    assert errs[0] > 1e-4 * ref  # the coarse grid is not exact ...
+    assert errs[1] < 1e-3 * errs[0]  # ... and the error falls by orders of magnitude per doubling
+    assert errs[2] < 1e-12 * ref
+    res = sigma_z(8.0, 5.0, 3.0, 40.0, lever_arm_m=2.0)
+    assert res.converged and res.sigma_z_ms == pytest.approx(ref, rel=1e-6)
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    hws=st.floats(0.5, 25), factor=st.floats(0.1, 4), amp=st.floats(0.5, 15), per=st.floats(1, 20)
+)
+def test_sigma_z_scales_exactly_with_hws_without_lever_arm(hws, factor, amp, per):
+    # the retrieval is linear in the wind and HWS is homogeneous of degree 1
+    a = sigma_z_grid(hws, amp, per, 20.0, nphase=6)
+    b = sigma_z_grid(hws * factor, amp, per, 20.0, nphase=6)
+    np.testing.assert_allclose(np.array(b), factor * np.array(a), rtol=1e-9, atol=1e-15)
+
+
+@pytest.mark.parametrize("period_s", [1.0, 2.0, 4.0, 10.0])
+def test_seed000_fig3_equal_roll_pitch_sigma_z_independent_of_wd(period_s):
+    vals = [sigma_z(10.0, 3.5, period_s, wd).sigma_z_ms for wd in range(0, 360, 30)]
+    assert max(vals) / min(vals) - 1 < 0.01
+
+
+def test_seed000_sec25_roll_only_depends_on_wd():
+    vals = [
+        sigma_z(10.0, 3.5, 4.0, wd, pitch_amplitude_deg=0.0).sigma_z_ms for wd in range(0, 181, 30)
+    ]
+    assert max(vals) > 2 * min(vals)
+    # rolling about the wind axis (wind from the east) leaves the retrieval exact
+    assert sigma_z(10.0, 3.5, 4.0, 90.0, pitch_amplitude_deg=0.0).sigma_z_ms < 1e-12
+
+
+def test_lever_arm_design_brief_values():
+    # design.md quotes 0.18 -> 0.28 m/s (8 m/s) and 0.11 -> 0.24 m/s (5 m/s) for 3 deg, 4 s, 4 m
+    assert sigma_z(8.0, 3.0, 4.0).sigma_z_ms == pytest.approx(0.18, abs=0.005)
+    assert sigma_z(8.0, 3.0, 4.0, lever_arm_m=4.0).sigma_z_ms == pytest.approx(0.28, abs=0.005)
+    assert sigma_z(5.0, 3.0, 4.0).sigma_z_ms == pytest.approx(0.11, abs=0.005)
+    assert sigma_z(5.0, 3.0, 4.0, lever_arm_m=4.0).sigma_z_ms == pytest.approx(0.24, abs=0.005)
+
+
+def test_dbs_sigma_z_finite_and_grows_with_amplitude():
+    a = sigma_z(8.0, 2.0, 6.0, 0.0, "windcube_v1")
+    b = sigma_z(8.0, 4.0, 6.0, 0.0, "windcube_v1")
+    assert a.method == "direct" and a.converged
+    assert 0 < a.sigma_z_ms < b.sigma_z_ms
+
+
+def test_simulate_scan_shear_tilted_cone_sees_height_varying_wind():
+    wind = wind_vector_ms(10.0, 180.0)
+    flat = simulate_scan(ZEPHIR300, _static(0.0, 10.0), wind, height_m=100.0, sign_ambiguity=False)
+    shear = simulate_scan(
+        ZEPHIR300,
+        _static(0.0, 10.0),
+        wind,
+        height_m=100.0,
+        shear_exponent=0.1,
+        sign_ambiguity=False,
+    )
+    assert shear.z_ms != pytest.approx(flat.z_ms, abs=1e-6)
+    level = simulate_scan(
+        ZEPHIR300, PlatformMotion(), wind, height_m=100.0, shear_exponent=0.1, sign_ambiguity=False
+    )
+    assert abs(level.z_ms) < 1e-12
+
+
+def test_simulate_scan_callable_wind_and_errors():
+    def field(t_s, xyz_m):
+        return np.broadcast_to(wind_vector_ms(6.0, 45.0), np.shape(xyz_m))
+
+    res = simulate_scan(ZEPHIR300, PlatformMotion(), field, height_m=80.0, sign_ambiguity=False)
+    assert abs(res.z_ms) < 1e-12
+    with pytest.raises(ValueError, match="height_m is required"):
+        simulate_scan(ZEPHIR300, PlatformMotion(), field)
+
+
+def test_simulate_scans_vectorised_matches_single_scans(rng):
+    motion = harmonic_motion(4.0, 5.0, 0.3, 2.0, lever_arm_m=3.0)
+    wind = wind_vector_ms(9.0, 250.0)
+    starts = rng.uniform(0, 100, 6)
+    single = [
+        simulate_scan(ZEPHIR300, motion, wind, t0, sign_ambiguity=False).hws_ms for t0 in starts
+    ]
+    t = starts[:, None] + np.arange(50) / 50
+    roll, pitch, yaw = motion.attitude_rad(t)
+    _, ret = simulate_scans(
+        ZEPHIR300,
+        wind,
+        roll,
+        pitch,
+        yaw_rad=yaw,
+        head_velocity_ms=motion.head_velocity_ms(t),
+        sign_ambiguity=False,
+    )
+    np.testing.assert_allclose(ret.hws_ms, single, rtol=1e-12)
+    assert los_vectors_earth(ZEPHIR300, np.zeros(3), roll[:, :3], pitch[:, :3]).shape == (6, 3, 3)
+
+
+def test_yaw_is_compass_corrected():
+    m = PlatformMotion(yaw=(Harmonic(20.0, 1e12, np.pi / 2),))
+    res = simulate_scan(ZEPHIR300, m, wind_vector_ms(8.0, 100.0), sign_ambiguity=False)
+    assert res.wd_deg == pytest.approx(100.0)
+    assert abs(res.z_ms) < 1e-12
+
+
+def test_cw_sign_ambiguity_same_hws_as_signed_for_small_tilt():
+    m = harmonic_motion(2.0, 5.0, 0.4, 1.0)
+    wind = wind_vector_ms(8.0, 60.0)
+    a = simulate_scan(ZEPHIR300, m, wind, 0.3, sign_ambiguity=True)
+    b = simulate_scan(ZEPHIR300, m, wind, 0.3, sign_ambiguity=False)
+    assert a.hws_ms == pytest.approx(b.hws_ms, abs=0.05)
+    np.testing.assert_allclose(a.radial_speed_ms, np.abs(b.radial_speed_ms))
+
+
+# ---- stability (documented in docs/simulator.md) -------------------------------------
+
+
+def test_stability_period_near_scan_period_is_smooth_maximum():
+    vals = {t: sigma_z(8.0, 3.0, t).sigma_z_ms for t in (0.9, 0.98, 1.0, 1.02, 1.1, 2.0)}
+    assert all(sigma_z(8.0, 3.0, t).converged for t in (0.98, 1.0, 1.02))
+    assert vals[1.0] > vals[0.9] and vals[1.0] > vals[1.1] > vals[2.0]
+    assert abs(vals[0.98] - vals[1.02]) < 0.01 * vals[1.0]  # no singularity, a broad peak
+
+
+def test_stability_period_half_scan_period_dip():
+    # motion at twice the scan rate is orthogonal to the first VAD harmonic: for wind from
+    # north (U_x = 0) sigma_Z vanishes at T = 0.5 s and recovers quickly on both sides
+    at = sigma_z(8.0, 3.0, 0.5, 0.0)
+    assert at.converged and at.sigma_z_ms < 1e-9
+    assert sigma_z(8.0, 3.0, 0.45, 0.0).sigma_z_ms > 0.05
+    assert sigma_z(8.0, 3.0, 0.5, 45.0).sigma_z_ms > 1e-4  # not for other directions
+
+
+@pytest.mark.parametrize("amp", [20.0, 25.0, 45.0])
+def test_stability_large_tilt_converges(amp):
+    res = sigma_z(8.0, amp, 4.0, 10.0)
+    assert res.converged
+    assert res.sigma_z_ms == pytest.approx(sigma_z_grid(8.0, amp, 4.0, 10.0, nphase=64)[0], rel=1e-6)
+    np.testing.assert_allclose(
+        sigma_z_grid(8.0, amp, 4.0, 10.0, nphase=8, method="direct"),
+        sigma_z_grid(8.0, amp, 4.0, 10.0, nphase=8, method="fourier"),
+        rtol=1e-10,
+    )
+
+
+def test_stability_hws_near_zero():
+    # without lever arm Z is proportional to HWS: exact zero at HWS = 0
+    assert sigma_z(0.0, 3.0, 4.0).sigma_z_ms == 0.0
+    assert sigma_z(1e-3, 3.0, 4.0).sigma_z_ms == pytest.approx(
+        1e-3 / 8 * sigma_z(8.0, 3.0, 4.0).sigma_z_ms
+    )
+    # with a lever arm the head velocity alone gives a positive retrieved speed: E(Z) > 0
+    # and the integrand has a cusp, so more points are needed (algebraic convergence)
+    res = sigma_z(0.05, 3.0, 4.0, lever_arm_m=4.0, rtol=1e-4)
+    assert res.converged and res.mean_z_ms > 0.1 and res.n_phase >= 64
+
+
+def test_stability_static_limit_long_period():
+    amp = np.deg2rad(3.0)
+    wind = wind_vector_ms(8.0, 30.0)
+    ph = 2 * np.pi * (np.arange(400) + 0.5) / 400
+    r = amp * np.sin(ph)[:, None]
+    p = amp * np.sin(ph)[None, :]
+    hws = np.hypot(np.cos(p) * wind[0], np.sin(r) * np.sin(p) * wind[0] + np.cos(r) * wind[1])
+    z = hws - 8.0
+    res = sigma_z(8.0, 3.0, 1e7, 30.0)
+    assert res.sigma_z_ms == pytest.approx(np.std(z), rel=1e-6)
+    assert res.mean_z_ms == pytest.approx(np.mean(z), rel=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        (dict(hws_ms=-1.0), "hws_ms must be finite and >= 0"),
+        (dict(hws_ms=np.nan), "hws_ms must be finite"),
+        (dict(amplitude_deg=50.0), "amplitude_deg must be finite and >= 0.0 and <= 45"),
+        (dict(period_s=0.0), "period_s must be finite and > 0"),
+        (dict(period_s="x"), "period_s must be a number"),
+        (dict(lidar="nope"), "unknown lidar 'nope'"),
+        (dict(amplitude2_deg=1.0), "give both amplitude2_deg and period2_s"),
+    ],
+)
+def test_sigma_z_rejects_bad_input(kwargs, match):
+    args = dict(hws_ms=8.0, amplitude_deg=3.0, period_s=4.0) | kwargs
+    with pytest.raises(ValueError, match=match):
+        sigma_z(**args)

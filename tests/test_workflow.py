@@ -1,0 +1,296 @@
+"""The Snakemake workflow: config schema, dry run, lint, and (slow) tiny end-to-end runs.
+
+Every run is hermetic: ``snakemake -s <repo>/Snakefile --directory <tmp_path>`` with a
+config written into ``tmp_path``, so nothing is written into the repository's results/.
+The end-to-end tests check the output contract, that a rerun does nothing, that a clean
+rerun and a run killed mid-way give byte-identical result files, and the user-data run.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import jsonschema
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from flidar_uq.pipeline import RECORD_COLUMNS, assign_batches, bin_seed
+
+REPO = Path(__file__).resolve().parents[1]
+SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
+SCHEMA = REPO / "workflow" / "schemas" / "config.schema.yaml"
+CONFIG = REPO / "config" / "config.yaml"
+
+#: Small settings shared by the end-to-end configs (seconds, not minutes).
+TINY_INFERENCE = {
+    "nwalkers": 16,
+    "nsteps": 100,
+    "nburn": 50,
+    "ndraws": 50,
+    "nbatches": 2,
+    "mixture": "never",
+}
+TINY_BINNING = {"min_count": 2, "hws_width_ms": 4.0, "amplitude_width_deg": 2.0, "period_width_s": 2.0}
+TINY_SCENARIO = {"name": "test_tiny", "n_records": 24, "heights_m": [58.0, 85.0], "chunk_records": 8}
+
+
+def load_yaml(path: Path) -> dict:
+    with open(path) as fh:
+        return yaml.safe_load(fh)
+
+
+def tiny_config(tmp_path: Path, **campaign) -> Path:
+    """Write a tiny virtual-campaign config (and its scenario) into tmp_path."""
+    scenario = tmp_path / "tiny_scenario.yaml"
+    scenario.write_text(yaml.safe_dump(TINY_SCENARIO))
+    cfg = {
+        "campaign": {"source": "virtual", "scenario": str(scenario), "seed": 7} | campaign,
+        "binning": TINY_BINNING,
+        "inference": TINY_INFERENCE,
+        "propagation": {"ndraws": 100},
+    }
+    path = tmp_path / "config.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    return path
+
+
+def snakemake(workdir: Path, configfile: Path, *args: str, timeout: float = 600, check: bool = True):
+    """Run the repository's workflow in ``workdir`` with the .venv's snakemake."""
+    cmd = [SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), "--configfile", str(configfile)]
+    cmd += list(args)
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, cwd=workdir)
+    if check and proc.returncode != 0:
+        raise AssertionError(f"snakemake {' '.join(args)} failed ({proc.returncode}):\n{proc.stderr[-4000:]}")
+    return proc
+
+
+def result_hashes(workdir: Path) -> dict[str, str]:
+    """sha256 of every result file except logs and run-time benchmarks (timings differ)."""
+    out = {}
+    for p in sorted((workdir / "results").rglob("*")):
+        rel = p.relative_to(workdir).as_posix()
+        if p.is_file() and not rel.startswith(("results/logs/", "results/benchmarks/")) and ".snakemake_timestamp" not in rel:
+            out[rel] = hashlib.sha256(p.read_bytes()).hexdigest()
+    return out
+
+
+# --------------------------------------------------------------------------- config schema
+
+
+def _leaves(schema: dict, prefix: str = ""):
+    for key, sub in schema.get("properties", {}).items():
+        if sub.get("type") == "object":
+            yield from _leaves(sub, f"{prefix}{key}.")
+        else:
+            yield f"{prefix}{key}", sub
+
+
+def test_config_validates_against_closed_schema():
+    schema = load_yaml(SCHEMA)
+    jsonschema.Draft202012Validator.check_schema(schema)
+    jsonschema.validate(load_yaml(CONFIG), schema)
+    bad = load_yaml(CONFIG)
+    bad["qc"]["sv_maxx"] = 0.06  # misspelt key
+    with pytest.raises(jsonschema.ValidationError, match="sv_maxx"):
+        jsonschema.validate(bad, schema)
+    bad = load_yaml(CONFIG)
+    bad["propagation"]["credible_mass"] = 1.5  # out of bounds
+    with pytest.raises(jsonschema.ValidationError, match="1.5"):
+        jsonschema.validate(bad, schema)
+
+
+def test_schema_every_key_has_type_description_default_and_bounds():
+    schema = load_yaml(SCHEMA)
+    assert schema["additionalProperties"] is False
+    for name, sub in schema["properties"].items():
+        assert sub["additionalProperties"] is False, name
+    leaves = dict(_leaves(schema))
+    assert len(leaves) > 40
+    for name, sub in leaves.items():
+        for field in ("type", "description", "default"):
+            assert field in sub, f"{name}: no {field}"
+        assert "(" in sub["description"] and sub["description"].rstrip().endswith(")"), f"{name}: unit missing"
+        if sub["type"] in ("number", "integer"):
+            assert {"minimum", "exclusiveMinimum"} & set(sub), f"{name}: no lower bound"
+            assert {"maximum", "exclusiveMaximum"} & set(sub), f"{name}: no upper bound"
+            jsonschema.validate(sub["default"], sub)
+
+
+def test_schema_defaults_equal_the_shipped_config():
+    """The commented config and the schema defaults say the same thing."""
+    cfg = load_yaml(CONFIG)
+    for name, sub in _leaves(load_yaml(SCHEMA)):
+        section, key = name.split(".")
+        assert cfg[section][key] == sub["default"], name
+
+
+def test_config_keys_match_library_dataclasses():
+    """qc / inference / priors sections are passed as keyword arguments: names must exist."""
+    from flidar_uq.inference import Priors, SamplerSettings
+    from flidar_uq.qc import QCConfig
+
+    cfg = load_yaml(CONFIG)
+    assert set(cfg["qc"]) <= set(QCConfig.__dataclass_fields__)
+    assert set(cfg["priors"]) <= set(Priors.__dataclass_fields__)
+    assert set(cfg["inference"]) - {"seed", "nbatches"} <= set(SamplerSettings.__dataclass_fields__)
+    QCConfig(**cfg["qc"])
+    Priors(**cfg["priors"])
+
+
+# --------------------------------------------------------------------------- glue units
+
+
+def test_assign_batches_balances_counts_and_is_deterministic():
+    counts = [30, 27, 10, 10, 8, 3, 2, 2, 2, 2]
+    batch = assign_batches(counts, 2)
+    load = np.bincount(batch, weights=np.asarray(counts) + 1.0, minlength=2)
+    assert set(batch) == {0, 1}
+    assert abs(load[0] - load[1]) <= max(counts) + 1  # LPT bound
+    np.testing.assert_array_equal(batch, assign_batches(counts, 2))
+    assert set(assign_batches(counts, 20)) <= set(range(20))
+    with pytest.raises(ValueError, match="nbatches must be >= 1, got 0"):
+        assign_batches(counts, 0)
+
+
+def test_bin_seed_independent_of_batch_layout_and_distinct_per_bin():
+    a = bin_seed(42, 3).generate_state(4)
+    np.testing.assert_array_equal(a, bin_seed(42, 3).generate_state(4))
+    assert not np.array_equal(a, bin_seed(42, 4).generate_state(4))
+    assert not np.array_equal(a, bin_seed(43, 3).generate_state(4))
+
+
+# --------------------------------------------------------------------------- dry run, lint
+
+
+def test_dry_run_builds_the_dag(tmp_path):
+    proc = snakemake(tmp_path, tiny_config(tmp_path), "-n", "--cores", "2", timeout=120)
+    out = proc.stdout + proc.stderr
+    for rule in ("campaign", "validate", "qc", "motion_statistics", "bins", "sigma_z", "infer_batch", "fit_global",
+                 "propagate", "report"):
+        assert rule in out, f"rule {rule} missing from the dry run"
+    assert not (tmp_path / "results").exists()
+
+
+@pytest.mark.slow
+def test_dry_run_rejects_unknown_config_key(tmp_path):
+    cfg = tiny_config(tmp_path)
+    data = load_yaml(cfg)
+    data["qc"] = {"sv_maxx": 0.1}
+    cfg.write_text(yaml.safe_dump(data))
+    proc = snakemake(tmp_path, cfg, "-n", "--cores", "1", timeout=120, check=False)
+    assert proc.returncode != 0
+    assert "sv_maxx" in proc.stdout + proc.stderr
+
+
+@pytest.mark.slow
+def test_snakemake_lint_is_clean(tmp_path):
+    proc = snakemake(tmp_path, tiny_config(tmp_path), "--lint", timeout=120, check=False)
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0, out[-3000:]
+    assert "Lints for" not in out, out[-3000:]
+
+
+# --------------------------------------------------------------------------- end to end (slow)
+
+
+def check_outputs(workdir: Path, *, truth: bool) -> pd.DataFrame:
+    """The output contract: files present, records.csv columns, one row per input record."""
+    res = workdir / "results"
+    for rel in ("ti/records.csv", "ti/bins.csv", "ti/metrics.csv", "posterior/global.nc", "report/report.html"):
+        assert (res / rel).is_file(), rel
+    table = pd.read_csv(res / "bins" / "table.csv")
+    fitted = table.loc[table["fitted"], "bin_id"]
+    for b in fitted:
+        assert (res / "posterior" / f"bin_{int(b):04d}.nc").is_file()
+    records = pd.read_csv(res / "ti" / "records.csv")
+    assert list(records.columns[: len(RECORD_COLUMNS)]) == RECORD_COLUMNS
+    assert ("ti_true" in records) == truth
+    n_in = len(pd.read_csv(res / "data" / "records.csv"))
+    assert len(records) == n_in  # every input record appears, flagged or corrected
+    corrected = records["ti_corrected_median"].notna()
+    assert (records.loc[~corrected, "flags"].fillna("") != "").all()  # no value => a reason
+    ok = records[corrected]
+    assert (ok["ti_corrected_lo"] <= ok["ti_corrected_median"]).all()
+    assert (ok["ti_corrected_median"] <= ok["ti_corrected_hi"]).all()
+    for log_dir in ("logs", "benchmarks"):
+        assert any((res / log_dir).iterdir())
+    return records
+
+
+@pytest.mark.slow
+def test_tiny_end_to_end_rerun_nothing_clean_rerun_identical(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    cfg_a, cfg_b = tiny_config(a), tiny_config(b)
+    snakemake(a, cfg_a, "--cores", "2")
+    check_outputs(a, truth=True)
+    html = (a / "results" / "report" / "report.html").read_text()
+    assert "data:image/png;base64," in html and "<script" not in html and "http" not in html.split("Provenance")[0]
+    # a rerun with the same config does nothing
+    proc = snakemake(a, cfg_a, "-n", "--cores", "2")
+    assert "Nothing to be done" in proc.stdout + proc.stderr
+    # a clean rerun elsewhere gives byte-identical results
+    snakemake(b, cfg_b, "--cores", "2")
+    ha, hb = result_hashes(a), result_hashes(b)
+    assert ha.keys() == hb.keys()
+    assert [k for k in ha if ha[k] != hb[k]] == []
+    # changing the inference seed reruns inference and downstream, not the campaign or QC
+    data = load_yaml(cfg_a)
+    data["inference"]["seed"] = 43
+    cfg_a.write_text(yaml.safe_dump(data))
+    out = snakemake(a, cfg_a, "-n", "--cores", "2").stdout
+    assert "infer_batch" in out and "fit_global" in out
+    for rule in ("rule campaign", "rule validate", "rule qc", "rule bins"):
+        assert rule not in out, rule
+
+
+@pytest.mark.slow
+def test_killed_run_completes_on_rerun_with_identical_results(tmp_path):
+    ref, killed = tmp_path / "ref", tmp_path / "killed"
+    ref.mkdir()
+    killed.mkdir()
+    snakemake(ref, tiny_config(ref), "--cores", "2")
+    cfg = tiny_config(killed)
+    cmd = [SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--directory", str(killed), "--configfile", str(cfg), "--cores", "2"]
+    proc = subprocess.Popen(cmd, cwd=killed, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.monotonic() + 300
+    while not (killed / "results" / "bins" / "table.csv").exists() and time.monotonic() < deadline:
+        if proc.poll() is not None:
+            break
+        time.sleep(0.2)
+    assert proc.poll() is None, "run finished before it could be killed"
+    os.killpg(proc.pid, signal.SIGKILL)  # the whole process group: snakemake and its jobs
+    proc.wait(timeout=60)
+    assert not (killed / "results" / "ti" / "records.csv").exists()
+    snakemake(killed, cfg, "--unlock")  # a killed run leaves its lock behind
+    snakemake(killed, cfg, "--cores", "2", "--rerun-incomplete")
+    check_outputs(killed, truth=True)
+    assert result_hashes(killed) == result_hashes(ref)
+
+
+def write_user_config(tmp_path: Path) -> Path:
+    """tests/data/user_config.yaml with the records path made absolute."""
+    data = load_yaml(REPO / "tests" / "data" / "user_config.yaml")
+    data["campaign"]["records"] = str(REPO / data["campaign"]["records"])
+    path = tmp_path / "user_config.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.mark.slow
+def test_user_data_run_on_hand_written_campaign(tmp_path):
+    snakemake(tmp_path, write_user_config(tmp_path), "--cores", "2")
+    records = check_outputs(tmp_path, truth=False)
+    src = pd.read_csv(REPO / "tests" / "data" / "hand_written_campaign.csv")
+    assert len(records) == len(src)
+    np.testing.assert_allclose(records["hws_mean_ms"], src["hws_mean_ms"])
+    np.testing.assert_allclose(records["ti_uncorrected"], src["hws_std_ms"] / src["hws_mean_ms"], rtol=1e-9)

@@ -1,0 +1,65 @@
+# Helpers shared by the rules: config validation at parse time, input functions.
+import os
+import subprocess
+
+from snakemake.utils import validate
+
+
+# Closed schema; fills in defaults. Raises at parse time on unknown keys or bad values.
+validate(config, schema="../schemas/config.schema.yaml")
+
+REPO = workflow.basedir
+NBATCHES = config["inference"]["nbatches"]
+BATCHES = [f"{b:03d}" for b in range(NBATCHES)]
+
+
+def scenario_file(wildcards):
+    """Scenario YAML of the virtual campaign (config/scenarios/<name>.yaml)."""
+    if config["campaign"]["source"] != "virtual":
+        return []
+    scenario = config["campaign"]["scenario"]
+    if scenario.endswith((".yaml", ".yml")):
+        return scenario  # a path (relative to the working directory)
+    return os.path.join(REPO, "config", "scenarios", f"{scenario}.yaml")
+
+
+def user_records(wildcards):
+    """The user's record table when campaign.source is 'files'."""
+    if config["campaign"]["source"] != "files":
+        return []
+    path = config["campaign"]["records"]
+    if not path:
+        raise ValueError("config campaign.records: empty, but campaign.source is 'files'")
+    return path
+
+
+def bin_ids():
+    """Bin ids written by checkpoint `bins` (only the fitted ones, min_count met)."""
+    import pandas as pd
+
+    table = pd.read_csv(checkpoints.bins.get().output.table)
+    return [f"{int(b):04d}" for b in table.loc[table["fitted"], "bin_id"]]
+
+
+def posterior_bin_files(wildcards):
+    """One NetCDF posterior per fitted bin: results/posterior/bin_<id>.nc."""
+    return expand("results/posterior/bin_{bin}.nc", bin=bin_ids())
+
+
+def batch_of_bin(wildcards):
+    """The batch directory holding the posterior of bin `wildcards.bin`."""
+    import pandas as pd
+
+    table = pd.read_csv(checkpoints.bins.get().output.table).set_index("bin_id")
+    return f"results/inference/batch_{int(table.loc[int(wildcards.bin), 'batch']):03d}"
+
+
+def git_revision():
+    """Git revision of the workflow's repository, '' outside a git checkout."""
+    try:
+        out = subprocess.run(
+            ["git", "-C", REPO, "rev-parse", "HEAD"], capture_output=True, text=True, check=True
+        )
+    except (OSError, subprocess.CalledProcessError):
+        return ""
+    return out.stdout.strip()

@@ -1,0 +1,100 @@
+# Per-bin inference (fan-out over a fixed number of batch jobs, each fitting several
+# bins), the per-bin posterior files, the global rho fit (gather) and propagation.
+
+
+rule infer_batch:
+    input:
+        assignments="results/bins/assignments.csv",
+        table="results/bins/table.csv",
+    output:
+        directory("results/inference/batch_{batch}"),
+    params:
+        inference=config["inference"],
+        priors=config["priors"],
+        lidar=config["campaign"]["lidar"],
+    conda:
+        "../envs/flidar_uq.yaml"
+    log:
+        "results/logs/infer_batch_{batch}.log",
+    benchmark:
+        "results/benchmarks/infer_batch_{batch}.tsv"
+    resources:
+        mem_mb=1000,
+        runtime=30,
+    script:
+        "../scripts/infer_batch.py"
+
+
+localrules:
+    posterior_bin,
+
+
+rule posterior_bin:
+    input:
+        batch_of_bin,
+    output:
+        "results/posterior/bin_{bin}.nc",
+    conda:
+        "../envs/flidar_uq.yaml"
+    log:
+        "results/logs/posterior_bin_{bin}.log",
+    benchmark:
+        "results/benchmarks/posterior_bin_{bin}.tsv"
+    shell:
+        "cp {input}/bin_{wildcards.bin}.nc {output} 2> {log}"
+
+
+rule fit_global:
+    input:
+        batches=expand("results/inference/batch_{batch}", batch=BATCHES),
+        assignments="results/bins/assignments.csv",
+        table="results/bins/table.csv",
+    output:
+        posterior="results/posterior/global.nc",
+        bin_fits="results/inference/bin_fits.csv",
+        summary="results/inference/global.csv",
+    params:
+        inference=config["inference"],
+        priors=config["priors"],
+        lidar=config["campaign"]["lidar"],
+    conda:
+        "../envs/flidar_uq.yaml"
+    log:
+        "results/logs/fit_global.log",
+    benchmark:
+        "results/benchmarks/fit_global.tsv"
+    resources:
+        mem_mb=1000,
+        runtime=30,
+    script:
+        "../scripts/fit_global.py"
+
+
+rule propagate:
+    input:
+        records="results/data/records.csv",
+        assignments="results/bins/assignments.csv",
+        table="results/bins/table.csv",
+        sigma_z="results/bins/sigma_z.csv",
+        batches=expand("results/inference/batch_{batch}", batch=BATCHES),
+        posterior="results/posterior/global.nc",
+        bin_fits="results/inference/bin_fits.csv",
+        flags="results/qc/flags.csv",
+    output:
+        records="results/ti/records.csv",
+        bins="results/ti/bins.csv",
+        speed_bins="results/ti/speed_bins.csv",
+        metrics="results/ti/metrics.csv",
+    params:
+        propagation=config["propagation"],
+        qc=config["qc"],
+        lidar=config["campaign"]["lidar"],
+        seed=config["inference"]["seed"],
+    conda:
+        "../envs/flidar_uq.yaml"
+    log:
+        "results/logs/propagate.log",
+    benchmark:
+        "results/benchmarks/propagate.tsv"
+    script:
+        "../scripts/propagate.py"

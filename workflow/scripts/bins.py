@@ -1,0 +1,12 @@
+"""Checkpoint bins: bin table and batch assignment (pipeline.make_bins)."""
+
+from flidar_uq import pipeline
+
+pipeline.setup_logging(snakemake.log[0])
+pipeline.make_bins(
+    snakemake.input[0],
+    snakemake.output.assignments,
+    snakemake.output.table,
+    nbatches=snakemake.params.nbatches,
+    **dict(snakemake.params.binning),
+)

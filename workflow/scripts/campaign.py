@@ -1,0 +1,16 @@
+"""Rule campaign: the virtual campaign, or the user's record table (pipeline.make_campaign)."""
+
+from flidar_uq import pipeline
+
+# The guard keeps the generator's worker processes (spawn/forkserver re-import this
+# module as __mp_main__) from re-running the rule body.
+if __name__ == "__main__":
+    pipeline.setup_logging(snakemake.log[0])
+    pipeline.make_campaign(
+        snakemake.output[0],
+        source=snakemake.params.source,
+        seed=snakemake.params.seed,
+        scenario_path=snakemake.input.scenario or None,
+        records_path=snakemake.input.records or None,
+        threads=snakemake.threads,
+    )

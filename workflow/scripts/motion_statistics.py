@@ -1,0 +1,6 @@
+"""Rule motion_statistics: per-record motion amplitude/period (pipeline.motion_statistics)."""
+
+from flidar_uq import pipeline
+
+pipeline.setup_logging(snakemake.log[0])
+pipeline.motion_statistics(snakemake.input[0], snakemake.output.records, snakemake.output.roll_pitch)

@@ -1,0 +1,22 @@
+"""Rule propagate: corrected TI with credible intervals per record and bin (pipeline.propagate)."""
+
+from flidar_uq import pipeline
+
+pipeline.setup_logging(snakemake.log[0])
+pipeline.propagate(
+    records_path=snakemake.input.records,
+    flags_path=snakemake.input.flags,
+    assignments_path=snakemake.input.assignments,
+    table_path=snakemake.input.table,
+    sigma_z_path=snakemake.input.sigma_z,
+    bin_fits_path=snakemake.input.bin_fits,
+    batch_dirs=list(snakemake.input.batches),
+    global_path=snakemake.input.posterior,
+    records_out=snakemake.output.records,
+    bins_out=snakemake.output.bins,
+    speed_bins_out=snakemake.output.speed_bins,
+    metrics_out=snakemake.output.metrics,
+    seed=snakemake.params.seed,
+    lidar=snakemake.params.lidar,
+    **dict(snakemake.params.propagation),
+)

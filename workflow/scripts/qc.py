@@ -1,0 +1,12 @@
+"""Rule qc: QC filters with reason flags (pipeline.run_qc)."""
+
+from flidar_uq import pipeline
+
+pipeline.setup_logging(snakemake.log[0])
+pipeline.run_qc(
+    snakemake.input[0],
+    snakemake.output.flags,
+    snakemake.output.kept,
+    snakemake.output.summary,
+    dict(snakemake.params.qc),
+)

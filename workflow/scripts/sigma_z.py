@@ -1,0 +1,6 @@
+"""Rule sigma_z: sigma_Z and E(Z) per bin centre (pipeline.sigma_z_table)."""
+
+from flidar_uq import pipeline
+
+pipeline.setup_logging(snakemake.log[0])
+pipeline.sigma_z_table(snakemake.input[0], snakemake.output[0], lidar=snakemake.params.lidar)
