@@ -14,10 +14,30 @@ min_version("9.0")
 configfile: os.path.join(workflow.basedir, "config", "config.yaml")
 
 
+# Bit-identical results on every executor (local, SLURM): single-threaded BLAS/OpenMP in
+# every job, so floating-point sums do not depend on the cores a job happens to get.
+# Parallelism comes from concurrent jobs and the campaign generator's worker processes.
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
+
+
 include: "workflow/rules/common.smk"
 include: "workflow/rules/data.smk"
 include: "workflow/rules/inference.smk"
 include: "workflow/rules/report.smk"
+
+
+# Light steps run on the submitting host under a cluster executor; campaign generation,
+# the per-bin inference batches, the global fit and the propagation go to the cluster.
+localrules:
+    all,
+    validate,
+    qc,
+    motion_statistics,
+    bins,
+    sigma_z,
+    posterior_bin,
+    report,
 
 
 rule all:

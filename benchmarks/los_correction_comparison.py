@@ -16,6 +16,11 @@ period and lever arm, U law rho = 0 because wind and motion are independent here
 References: the same lidar on a fixed platform (motion-induced error) and the point truth at
 the cone centre (10-Hz samples).
 
+Part C - the virtual campaign of issue 4 (``campaign.generate_campaign`` with LOS-level and
+raw IMU output, default sea-state scenario): the LOS-level correction from the LOS and IMU
+tables alone (5-Hz noisy IMU with gaps, and a noise-free 20-Hz IMU) vs the statistical one with
+the record's IMU amplitude and period; references: the campaign's fixed lidar and truth.
+
 Part B - seed 002's own setup: pulsed DBS, pitch maxima 5, 10, 15, 20 deg from a sum of
 harmonics with periods 5-8 s and fixed phases ("same phase information"), TI 8-15 %, 10 m/s at
 100 m; conventional vs new compensation.
@@ -32,6 +37,7 @@ Runtime: about a minute or two on one core.
 
 from __future__ import annotations
 
+import copy
 import time
 from pathlib import Path
 
@@ -44,6 +50,7 @@ import pandas as pd  # noqa: E402
 
 from flidar_uq import lidar as L  # noqa: E402
 from flidar_uq import motion as M  # noqa: E402
+from flidar_uq.campaign import DEFAULT_SCENARIO, generate_campaign  # noqa: E402
 from flidar_uq.correction import corrected_std  # noqa: E402
 from flidar_uq.los_correction import correct_dbs_seed002, correct_ls_seed001  # noqa: E402
 from flidar_uq.simulator import los_vectors_earth, sigma_z, simulate_scans  # noqa: E402
@@ -249,6 +256,97 @@ def part_b(ss):
     return rows
 
 
+NREC_C = 36
+IMU_VARIANTS = {
+    "campaign IMU 5 Hz, 0.05 deg noise, gaps": {},
+    "ideal IMU 20 Hz": dict(rate_hz=20.0, noise_deg=0.0, gap_probability=0.0),
+}
+
+
+def part_c(ss):
+    """The virtual campaign of issue 4 with its LOS-level and raw IMU output.
+
+    Default scenario (sea-state roll/pitch, periods ~2-6 s, ZephIR scanning 27, 58, 85 m in
+    turn, head 2.5 m above the rotation centre). The LOS-level correction uses only what a
+    user has: the LOS table and the IMU table (``motion.SampledMotion``; head velocity from
+    the IMU angle rates and the lever arm). References: the campaign's fixed lidar
+    (``ref_hws_*``) and truth (``true_hws_*``).
+    """
+    rows = []
+    seed = ss.spawn(1)[0]
+    for imu_label, imu_cfg in IMU_VARIANTS.items():
+        sc = copy.deepcopy(DEFAULT_SCENARIO)
+        sc.update(name="los_correction_comparison", n_records=NREC_C)
+        sc["imu"].update(imu_cfg)
+        out = generate_campaign(sc, seed, return_imu=True, return_los=True, n_workers=1)
+        lever = tuple(sc["lidar"]["lever_arm_m"])
+        origin = out.records.timestamp.min()
+        los = out.los.sort_values("timestamp")
+        t_los = (los.timestamp - origin).dt.total_seconds().to_numpy()
+        imu = out.imu.dropna().sort_values("timestamp")
+        t_imu = (imu.timestamp - origin).dt.total_seconds().to_numpy()
+        for rec in out.records.itertuples():
+            t0 = (rec.timestamp - origin).total_seconds()
+            sel_i = (t_imu >= t0 - 5.0) & (t_imu <= t0 + sc["record_length_s"] + 5.0)
+            if sel_i.sum() < 10 or not np.isfinite(rec.hws_std_ms):
+                continue
+            motion = M.SampledMotion(
+                t_imu[sel_i],
+                imu.roll_deg.to_numpy()[sel_i],
+                imu.pitch_deg.to_numpy()[sel_i],
+                imu.yaw_deg.to_numpy()[sel_i],
+                lever_arm_m=lever,
+            )
+            sel = (t_los >= t0) & (t_los < t0 + sc["record_length_s"])
+            sel &= los.height_m.to_numpy() == rec.height_m
+            n = int(sel.sum()) // 50 * 50
+            t = t_los[sel][:n]
+            az = np.radians(los.azimuth_deg.to_numpy()[sel][:n])
+            vr = los.radial_speed_ms.to_numpy()[sel][:n]
+            series = {
+                "uncorrected": correct_ls_seed001("zephir300", t, az, vr).hws_ms,
+                "seed001 LS": correct_ls_seed001("zephir300", t, az, vr, motion).hws_ms,
+            }
+            out_rows = [
+                dict(method=k, mean_ms=np.nanmean(h), ti=np.nanstd(h) / np.nanmean(h))
+                for k, h in series.items()
+            ]
+            amp = 0.5 * (rec.roll_amplitude_deg + rec.pitch_amplitude_deg)
+            period = 0.5 * (rec.roll_period_s + rec.pitch_period_s)
+            sz = sigma_z(
+                rec.hws_mean_ms, amp, period, rec.wd_mean_deg, "zephir300", lever_arm_m=lever
+            ).sigma_z_ms
+            c, flag = corrected_std(rec.hws_std_ms, sz, 0.0)
+            out_rows.append(
+                dict(
+                    method="statistical U (issue 5)",
+                    mean_ms=rec.hws_mean_ms,
+                    ti=float(c) / rec.hws_mean_ms,
+                    discriminant_negative=bool(flag),
+                )
+            )
+            ref = rec.ref_hws_mean_ms
+            for r in out_rows:
+                r.update(
+                    part="C",
+                    lidar="zephir300",
+                    motion_class=imu_label,
+                    speed_bin_ms="<6" if ref < 6 else ("6-10" if ref < 10 else ">=10"),
+                    rep=int(rec.true_record),
+                    height_m=rec.height_m,
+                    ts_err_std_ms=np.nan,
+                    mean_fixed_ms=ref,
+                    ti_fixed=rec.ref_hws_std_ms / ref,
+                    mean_truth_ms=rec.true_hws_mean_ms,
+                    ti_truth=rec.true_hws_std_ms / rec.true_hws_mean_ms,
+                    campaign_hws_std_ms=rec.hws_std_ms,
+                    campaign_imu_amplitude_deg=amp,
+                    campaign_imu_period_s=period,
+                )
+            rows += out_rows
+    return rows
+
+
 def summarise(rec):
     rec = rec.assign(
         ti_err_fixed_pp=100 * (rec.ti - rec.ti_fixed),
@@ -285,20 +383,26 @@ def summarise(rec):
     tables = [
         agg(rec, base + ["motion_class", "speed_bin_ms"]),
         agg(rec.assign(speed_bin_ms="all"), base + ["motion_class", "speed_bin_ms"]),
-        agg(rec.assign(motion_class="all"), base + ["motion_class", "speed_bin_ms"]),
+    ]
+    ab = rec[rec.part != "C"]  # part C's classes are IMU variants of the same records
+    tables += [
+        agg(ab.assign(motion_class="all"), base + ["motion_class", "speed_bin_ms"]),
         agg(
-            rec.assign(motion_class="all", speed_bin_ms="all"),
+            ab.assign(motion_class="all", speed_bin_ms="all"),
             base + ["motion_class", "speed_bin_ms"],
         ),
     ]
-    return rec, pd.concat(tables, ignore_index=True)
+    table = pd.concat(tables, ignore_index=True)
+    table["speed_bin_ms"] = [x if isinstance(x, str) else f"{x:g}" for x in table.speed_bin_ms]
+    return rec, table
 
 
 def plot(rec, table):
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2), sharey=False)
-    for ax, lidar in zip(axes, ("zephir300", "windcube_v1"), strict=True):
+    fig, axes = plt.subplots(1, 3, figsize=(17, 4.4), gridspec_kw=dict(width_ratios=[4, 4, 2]))
+    panels = [("A", "zephir300"), ("A", "windcube_v1"), ("C", "zephir300")]
+    for ax, (part, lidar) in zip(axes, panels, strict=True):
         t = table[
-            (table.part == "A")
+            (table.part == part)
             & (table.lidar == lidar)
             & (table.speed_bin_ms == "all")
             & (table.motion_class != "all")
@@ -310,9 +414,10 @@ def plot(rec, table):
             v = t[t.method == m].set_index("motion_class").reindex(classes).ti_err_vs_fixed_pp
             ax.bar(np.arange(len(classes)) + i * w, v, w, label=m)
         ax.axhline(0, color="k", lw=0.8)
-        ax.set_xticks(np.arange(len(classes)) + 0.4 - w / 2, classes, rotation=15, fontsize=8)
+        ax.set_xticks(np.arange(len(classes)) + 0.4 - w / 2, classes, rotation=12, fontsize=7)
         ax.set_ylabel("TI error vs fixed lidar (percentage points)")
-        ax.set_title(f"{lidar}: motion-induced TI error (mean over speeds)")
+        title = "campaign (issue 4)" if part == "C" else "harmonic classes, mean over speeds"
+        ax.set_title(f"{lidar}, {title}", fontsize=9)
         ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(OUT / "los_correction_comparison.png", dpi=110)
@@ -353,10 +458,30 @@ def main():
     OUT.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     ss = np.random.SeedSequence(SEED)
-    ss_a, ss_b = ss.spawn(2)
-    rec = pd.DataFrame(part_a(ss_a) + part_b(ss_b))
+    ss_a, ss_b, ss_c = ss.spawn(3)
+    rec = pd.DataFrame(part_a(ss_a) + part_b(ss_b) + part_c(ss_c))
     rec, table = summarise(rec)
-    rec.to_csv(OUT / "los_correction_comparison_records.csv", index=False, float_format="%.5g")
+    keep = [
+        "part",
+        "lidar",
+        "method",
+        "motion_class",
+        "speed_bin_ms",
+        "rep",
+        "height_m",
+        "pitch_max_deg",
+        "ti_input",
+        "ti",
+        "ti_fixed",
+        "ti_truth",
+        "mean_ms",
+        "mean_fixed_ms",
+        "mean_truth_ms",
+        "ts_err_std_ms",
+    ]
+    rec[keep].to_csv(
+        OUT / "los_correction_comparison_records.csv", index=False, float_format="%.4g"
+    )
     table.to_csv(OUT / "los_correction_comparison.csv", index=False, float_format="%.4g")
     plot(rec, table)
     pd.set_option("display.width", 200)
@@ -365,6 +490,7 @@ def main():
         "lidar",
         "method",
         "motion_class",
+        "speed_bin_ms",
         "n_records",
         "ti_err_vs_fixed_pp",
         "ti_err_vs_truth_pp",
@@ -375,7 +501,8 @@ def main():
         "frac_removed_ts",
     ]
     print(
-        "Part A, all classes and speeds (seed 001 reports 85 % (WindCube) / 82 % (ZephIR) removed):"
+        "Part A, all classes, by speed bin and overall "
+        "(seed 001 reports 85 % (WindCube) / 82 % (ZephIR) removed):"
     )
     print(
         table[(table.part == "A") & (table.motion_class == "all")][cols].to_string(
@@ -394,6 +521,8 @@ def main():
             cols
         ].to_string(index=False, float_format="%.3f")
     )
+    print("\nPart C, virtual campaign (issue 4) LOS + IMU output, ZephIR, 27/58/85 m:")
+    print(table[(table.part == "C")][cols].to_string(index=False, float_format="%.3f"))
     print(
         f"\nrecords: {rec[['part', 'lidar', 'motion_class', 'speed_bin_ms', 'rep']].drop_duplicates().shape[0]}"
         f", wall time {time.perf_counter() - t0:.0f} s"

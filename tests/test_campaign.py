@@ -8,7 +8,13 @@ import pytest
 
 from flidar_uq import campaign, lidar
 from flidar_uq.campaign import CampaignConfig, generate_campaign, load_scenario
-from flidar_uq.io import validate_imu_series, validate_los_series, validate_records
+from flidar_uq.io import (
+    read_records,
+    validate_imu_series,
+    validate_los_series,
+    validate_records,
+    write_records,
+)
 from flidar_uq.motion import rotation_matrix
 from flidar_uq.simulator import sigma_z, simulate_scans
 
@@ -128,6 +134,13 @@ def test_tiny_campaign_passes_data_layer_validation_unchanged(tiny):
     assert rec["ref_hws_std_ms"].notna().all()
 
 
+def test_tiny_campaign_round_trips_through_the_record_writer(tiny, tmp_path):
+    path = write_records(tiny.records, tmp_path / "tiny.csv")
+    back = read_records(path)
+    assert list(back.columns) == list(validate_records(tiny.records).columns)
+    np.testing.assert_allclose(back["hws_std_ms"], tiny.records["hws_std_ms"], rtol=1e-9)
+
+
 def test_tiny_campaign_imu_statistics_track_the_truth(tiny):
     rec = tiny.records.drop_duplicates("timestamp")
     ok = rec["roll_amplitude_deg"].notna()
@@ -212,6 +225,8 @@ def test_scenario_misuse_raises():
         CampaignConfig.from_dict({"imu": {"rate_hz": 50.0}})
     with pytest.raises(ValueError, match="no scenario file"):
         load_scenario("no_such_scenario")
+    with pytest.raises(ValueError, match="start_utc must be a UTC time on a record boundary"):
+        CampaignConfig.from_dict({"start_utc": "2015-04-01T00:05:00Z"})
     with pytest.raises(ValueError, match="n_records must be a positive integer"):
         CampaignConfig.from_dict({"n_records": 0})
 

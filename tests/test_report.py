@@ -13,8 +13,8 @@ import matplotlib.image
 import numpy as np
 import pandas as pd
 import pytest
-
 from conftest import require_tool
+
 from flidar_uq import plots
 from flidar_uq import report as rep
 
@@ -43,9 +43,12 @@ def _chromium(args: list[str], timeout: float = 90) -> subprocess.CompletedProce
         return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
 
 
-def chromium_image_widths(html_path: Path) -> list[int]:
-    """naturalWidth of every <img> of the page after load, as Chromium decoded it."""
-    probe = html_path.with_name(html_path.stem + "_probe.html")
+def chromium_image_widths(html_path: Path, work_dir: Path | None = None) -> list[int]:
+    """naturalWidth of every <img> of the page after load, as Chromium decoded it.
+
+    The page is copied with a probe script into ``work_dir`` (default: beside it).
+    """
+    probe = (work_dir or html_path.parent) / (html_path.stem + "_probe.html")
     probe.write_text(html_path.read_text().replace("</body>", _IMG_PROBE + "</body>"))
     proc = _chromium(["--virtual-time-budget=10000", "--dump-dom", probe.as_uri()])
     m = re.search(r'data-img-widths="([^"]*)"', proc.stdout)
@@ -63,7 +66,7 @@ def chromium_screenshot(html_path: Path, png_path: Path) -> np.ndarray:
 def assert_report_renders(html_path: Path, tmp_path: Path) -> None:
     """Every embedded figure decodes (naturalWidth > 0) and the page is not blank."""
     n_img = html_path.read_text().count("<img ")
-    widths = chromium_image_widths(html_path)
+    widths = chromium_image_widths(html_path, tmp_path)
     assert len(widths) == n_img > 0
     assert min(widths) > 0, widths
     shot = chromium_screenshot(html_path, tmp_path / "shot.png")
@@ -96,7 +99,10 @@ def small_report(rng: np.random.Generator) -> str:
     sections = [
         rep.Section("figure", rep.img_html(rep.figure_to_data_uri(fig), "TI against HWS")),
         rep.Section("table", rep.table_html(table, caption="MD")),
-        rep.Section("provenance", rep.provenance_html({"campaign": {"seed": 1}}, "abc123", rep.package_versions())),
+        rep.Section(
+            "provenance",
+            rep.provenance_html({"campaign": {"seed": 1}}, "abc123", rep.package_versions()),
+        ),
     ]
     return rep.render_html("test report", sections)
 
@@ -143,7 +149,9 @@ def test_report_rendered_by_headless_chromium(rng, tmp_path):
 def test_chromium_probe_detects_a_broken_image(tmp_path):
     """The render check can fail: a corrupt data URI gives naturalWidth 0."""
     path = tmp_path / "broken.html"
-    path.write_text('<!DOCTYPE html><html><body><img src="data:image/png;base64,AAAA"></body></html>')
+    path.write_text(
+        '<!DOCTYPE html><html><body><img src="data:image/png;base64,AAAA"></body></html>'
+    )
     assert chromium_image_widths(path) == [0]
 
 

@@ -235,7 +235,9 @@ def test_stability_period_half_scan_period_dip():
 def test_stability_large_tilt_converges(amp):
     res = sigma_z(8.0, amp, 4.0, 10.0)
     assert res.converged
-    assert res.sigma_z_ms == pytest.approx(sigma_z_grid(8.0, amp, 4.0, 10.0, nphase=64)[0], rel=1e-6)
+    assert res.sigma_z_ms == pytest.approx(
+        sigma_z_grid(8.0, amp, 4.0, 10.0, nphase=64)[0], rel=1e-6
+    )
     np.testing.assert_allclose(
         sigma_z_grid(8.0, amp, 4.0, 10.0, nphase=8, method="direct"),
         sigma_z_grid(8.0, amp, 4.0, 10.0, nphase=8, method="fourier"),
@@ -284,3 +286,25 @@ def test_sigma_z_rejects_bad_input(kwargs, match):
     args = dict(hws_ms=8.0, amplitude_deg=3.0, period_s=4.0) | kwargs
     with pytest.raises(ValueError, match=match):
         sigma_z(**args)
+
+
+@settings(max_examples=10, deadline=None)
+@given(
+    wd=st.floats(0, 360),
+    amp=st.floats(0.5, 20),
+    per=st.floats(1, 20),
+    arm=st.sampled_from([0.0, 3.0]),
+)
+def test_sigma_z_exact_direction_symmetries(wd, amp, per, arm):
+    # equal roll/pitch amplitude: sigma_Z(wd) = sigma_Z(-wd) = sigma_Z(wd + 180) exactly
+    # (the surrogate's cosine series in 2 wd relies on this)
+    # (wd + 180 flips the wind: exact on any grid; -wd maps the phase grid onto a shifted
+    # one: equal to the quadrature error, < 1e-8 at 16 points)
+    ref = sigma_z_grid(8.0, amp, per, wd, nphase=16, lever_arm_m=arm)
+    for other, tol in ((wd + 180.0, 1e-12), (-wd, 1e-8)):
+        np.testing.assert_allclose(
+            sigma_z_grid(8.0, amp, per, other, nphase=16, lever_arm_m=arm),
+            ref,
+            rtol=0,
+            atol=tol * ref[0],
+        )

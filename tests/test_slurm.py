@@ -13,7 +13,6 @@ import subprocess
 from pathlib import Path
 
 import pytest
-
 from conftest import IN_CI, require_tool
 from test_workflow import REPO, check_outputs, result_hashes, snakemake, tiny_config
 
@@ -29,14 +28,24 @@ def slurm_partition(tmp_path_factory):
             pytest.fail(msg)
         pytest.skip(msg)
     env = os.environ | {"FLIDAR_SLURM_STATE": str(tmp_path_factory.mktemp("slurm_state"))}
-    up = subprocess.run(["bash", str(REPO / "scripts" / "slurm-up.sh")], capture_output=True, text=True, env=env,
-                        timeout=180)
+    up = subprocess.run(
+        ["bash", str(REPO / "scripts" / "slurm-up.sh")],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=180,
+    )
     try:
         assert up.returncode == 0, up.stderr
         yield up.stdout.strip().splitlines()[-1]
     finally:
-        down = subprocess.run(["bash", str(REPO / "scripts" / "slurm-down.sh")], capture_output=True, text=True,
-                              env=env, timeout=120)
+        down = subprocess.run(
+            ["bash", str(REPO / "scripts" / "slurm-down.sh")],
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=120,
+        )
         assert down.returncode == 0, down.stderr
 
 
@@ -45,10 +54,10 @@ def test_slurm_run_equals_local_run(slurm_partition, tmp_path):
     local, cluster = tmp_path / "local", tmp_path / "cluster"
     local.mkdir()
     cluster.mkdir()
-    snakemake(local, tiny_config(local), "--cores", "2")
+    snakemake(local, tiny_config(local, tmp_path), "--cores", "2")
     snakemake(
         cluster,
-        tiny_config(cluster),
+        tiny_config(cluster, tmp_path),
         "--profile",
         str(REPO / "profiles" / "slurm"),
         "--default-resources",
@@ -61,9 +70,11 @@ def test_slurm_run_equals_local_run(slurm_partition, tmp_path):
     )
     check_outputs(cluster, truth=True)
     # the jobs went through SLURM: finished jobs stay listed for MinJobAge (600 s)
-    jobs = subprocess.run(["squeue", "-h", "-t", "all", "-o", "%i %T"], capture_output=True, text=True).stdout.split("\n")
+    jobs = subprocess.run(
+        ["squeue", "-h", "-t", "all", "-o", "%i %T"], capture_output=True, text=True
+    ).stdout.split("\n")
     completed = [j for j in jobs if j.endswith("COMPLETED")]
-    assert len(completed) >= 8, jobs
+    assert len(completed) >= 5, jobs  # campaign, 2 inference batches, global fit, propagate
     assert result_hashes(cluster) == result_hashes(local)
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -32,14 +33,24 @@ CONFIG = REPO / "config" / "config.yaml"
 #: Small settings shared by the end-to-end configs (seconds, not minutes).
 TINY_INFERENCE = {
     "nwalkers": 16,
-    "nsteps": 100,
+    "nsteps": 250,
     "nburn": 50,
     "ndraws": 50,
     "nbatches": 2,
     "mixture": "never",
 }
-TINY_BINNING = {"min_count": 2, "hws_width_ms": 4.0, "amplitude_width_deg": 2.0, "period_width_s": 2.0}
-TINY_SCENARIO = {"name": "test_tiny", "n_records": 24, "heights_m": [58.0, 85.0], "chunk_records": 8}
+TINY_BINNING = {
+    "min_count": 2,
+    "hws_width_ms": 4.0,
+    "amplitude_width_deg": 2.0,
+    "period_width_s": 2.0,
+}
+TINY_SCENARIO = {
+    "name": "test_tiny",
+    "n_records": 24,
+    "heights_m": [58.0, 85.0],
+    "chunk_records": 8,
+}
 
 
 def load_yaml(path: Path) -> dict:
@@ -47,28 +58,53 @@ def load_yaml(path: Path) -> dict:
         return yaml.safe_load(fh)
 
 
-def tiny_config(tmp_path: Path, **campaign) -> Path:
-    """Write a tiny virtual-campaign config (and its scenario) into tmp_path."""
-    scenario = tmp_path / "tiny_scenario.yaml"
-    scenario.write_text(yaml.safe_dump(TINY_SCENARIO))
+def tiny_config(workdir: Path, shared: Path | None = None, **campaign) -> Path:
+    """Write a tiny virtual-campaign config into ``workdir``.
+
+    The scenario file and a frozen copy of the benchmark charts live in ``shared``
+    (default: ``workdir``), so that runs in different directories can share one config
+    content (the report's provenance shows the config).
+    """
+    shared = workdir if shared is None else shared
+    scenario = shared / "tiny_scenario.yaml"
+    if not scenario.exists():
+        scenario.write_text(yaml.safe_dump(TINY_SCENARIO))
+    bench = shared / "benchmark_charts"
+    if not bench.exists():
+        bench.mkdir()
+        for png in sorted((REPO / "benchmarks" / "results").glob("*.png"))[:3]:
+            shutil.copy(png, bench / png.name)
     cfg = {
         "campaign": {"source": "virtual", "scenario": str(scenario), "seed": 7} | campaign,
         "binning": TINY_BINNING,
         "inference": TINY_INFERENCE,
         "propagation": {"ndraws": 100},
+        "report": {"benchmarks_dir": str(bench)},
     }
-    path = tmp_path / "config.yaml"
+    path = workdir / "config.yaml"
     path.write_text(yaml.safe_dump(cfg))
     return path
 
 
-def snakemake(workdir: Path, configfile: Path, *args: str, timeout: float = 600, check: bool = True):
+def snakemake(
+    workdir: Path, configfile: Path, *args: str, timeout: float = 600, check: bool = True
+):
     """Run the repository's workflow in ``workdir`` with the .venv's snakemake."""
-    cmd = [SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), "--configfile", str(configfile)]
+    cmd = [
+        SNAKEMAKE,
+        "-s",
+        str(REPO / "Snakefile"),
+        "--directory",
+        str(workdir),
+        "--configfile",
+        str(configfile),
+    ]
     cmd += list(args)
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, cwd=workdir)
     if check and proc.returncode != 0:
-        raise AssertionError(f"snakemake {' '.join(args)} failed ({proc.returncode}):\n{proc.stderr[-4000:]}")
+        raise AssertionError(
+            f"snakemake {' '.join(args)} failed ({proc.returncode}):\n{proc.stderr[-4000:]}"
+        )
     return proc
 
 
@@ -77,7 +113,11 @@ def result_hashes(workdir: Path) -> dict[str, str]:
     out = {}
     for p in sorted((workdir / "results").rglob("*")):
         rel = p.relative_to(workdir).as_posix()
-        if p.is_file() and not rel.startswith(("results/logs/", "results/benchmarks/")) and ".snakemake_timestamp" not in rel:
+        if (
+            p.is_file()
+            and not rel.startswith(("results/logs/", "results/benchmarks/"))
+            and ".snakemake_timestamp" not in rel
+        ):
             out[rel] = hashlib.sha256(p.read_bytes()).hexdigest()
     return out
 
@@ -117,7 +157,9 @@ def test_schema_every_key_has_type_description_default_and_bounds():
     for name, sub in leaves.items():
         for field in ("type", "description", "default"):
             assert field in sub, f"{name}: no {field}"
-        assert "(" in sub["description"] and sub["description"].rstrip().endswith(")"), f"{name}: unit missing"
+        assert "(" in sub["description"] and sub["description"].rstrip().endswith(")"), (
+            f"{name}: unit missing"
+        )
         if sub["type"] in ("number", "integer"):
             assert {"minimum", "exclusiveMinimum"} & set(sub), f"{name}: no lower bound"
             assert {"maximum", "exclusiveMaximum"} & set(sub), f"{name}: no upper bound"
@@ -173,8 +215,18 @@ def test_bin_seed_independent_of_batch_layout_and_distinct_per_bin():
 def test_dry_run_builds_the_dag(tmp_path):
     proc = snakemake(tmp_path, tiny_config(tmp_path), "-n", "--cores", "2", timeout=120)
     out = proc.stdout + proc.stderr
-    for rule in ("campaign", "validate", "qc", "motion_statistics", "bins", "sigma_z", "infer_batch", "fit_global",
-                 "propagate", "report"):
+    for rule in (
+        "campaign",
+        "validate",
+        "qc",
+        "motion_statistics",
+        "bins",
+        "sigma_z",
+        "infer_batch",
+        "fit_global",
+        "propagate",
+        "report",
+    ):
         assert rule in out, f"rule {rule} missing from the dry run"
     assert not (tmp_path / "results").exists()
 
@@ -204,7 +256,13 @@ def test_snakemake_lint_is_clean(tmp_path):
 def check_outputs(workdir: Path, *, truth: bool) -> pd.DataFrame:
     """The output contract: files present, records.csv columns, one row per input record."""
     res = workdir / "results"
-    for rel in ("ti/records.csv", "ti/bins.csv", "ti/metrics.csv", "posterior/global.nc", "report/report.html"):
+    for rel in (
+        "ti/records.csv",
+        "ti/bins.csv",
+        "ti/metrics.csv",
+        "posterior/global.nc",
+        "report/report.html",
+    ):
         assert (res / rel).is_file(), rel
     table = pd.read_csv(res / "bins" / "table.csv")
     fitted = table.loc[table["fitted"], "bin_id"]
@@ -230,11 +288,18 @@ def test_tiny_end_to_end_rerun_nothing_clean_rerun_identical(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     a.mkdir()
     b.mkdir()
-    cfg_a, cfg_b = tiny_config(a), tiny_config(b)
+    cfg_a, cfg_b = tiny_config(a, tmp_path), tiny_config(b, tmp_path)
     snakemake(a, cfg_a, "--cores", "2")
     check_outputs(a, truth=True)
+    from test_report import assert_report_renders
+
+    assert_report_renders(a / "results" / "report" / "report.html", tmp_path)
     html = (a / "results" / "report" / "report.html").read_text()
-    assert "data:image/png;base64," in html and "<script" not in html and "http" not in html.split("Provenance")[0]
+    assert (
+        "data:image/png;base64," in html
+        and "<script" not in html
+        and "http" not in html.split("Provenance")[0]
+    )
     # a rerun with the same config does nothing
     proc = snakemake(a, cfg_a, "-n", "--cores", "2")
     assert "Nothing to be done" in proc.stdout + proc.stderr
@@ -258,10 +323,26 @@ def test_killed_run_completes_on_rerun_with_identical_results(tmp_path):
     ref, killed = tmp_path / "ref", tmp_path / "killed"
     ref.mkdir()
     killed.mkdir()
-    snakemake(ref, tiny_config(ref), "--cores", "2")
-    cfg = tiny_config(killed)
-    cmd = [SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--directory", str(killed), "--configfile", str(cfg), "--cores", "2"]
-    proc = subprocess.Popen(cmd, cwd=killed, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    snakemake(ref, tiny_config(ref, tmp_path), "--cores", "2")
+    cfg = tiny_config(killed, tmp_path)
+    cmd = [
+        SNAKEMAKE,
+        "-s",
+        str(REPO / "Snakefile"),
+        "--directory",
+        str(killed),
+        "--configfile",
+        str(cfg),
+        "--cores",
+        "2",
+    ]
+    proc = subprocess.Popen(
+        cmd,
+        cwd=killed,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
     deadline = time.monotonic() + 300
     while not (killed / "results" / "bins" / "table.csv").exists() and time.monotonic() < deadline:
         if proc.poll() is not None:
@@ -293,4 +374,86 @@ def test_user_data_run_on_hand_written_campaign(tmp_path):
     src = pd.read_csv(REPO / "tests" / "data" / "hand_written_campaign.csv")
     assert len(records) == len(src)
     np.testing.assert_allclose(records["hws_mean_ms"], src["hws_mean_ms"])
-    np.testing.assert_allclose(records["ti_uncorrected"], src["hws_std_ms"] / src["hws_mean_ms"], rtol=1e-9)
+    np.testing.assert_allclose(
+        records["ti_uncorrected"], src["hws_std_ms"] / src["hws_mean_ms"], rtol=1e-9
+    )
+    # the most frequent bin converges with the example's chains; against the reference
+    # instrument its corrected std is less biased than the uncorrected one (motion inflates it)
+    assert records["ti_corrected_median"].notna().any()
+    metrics = pd.read_csv(tmp_path / "results" / "ti" / "metrics.csv").set_index("method")
+    assert metrics.loc["Bayesian", "reference"] == "reference instrument"
+    assert abs(metrics.loc["Bayesian", "md_std_ms"]) < abs(metrics.loc["uncorrected", "md_std_ms"])
+
+
+def _fake_bin_fit(bin_id: int, rng: np.random.Generator):
+    from flidar_uq.inference import BinFit
+
+    draws = {
+        "amplitude_deg": rng.normal(3.0, 0.1, (4, 25)),
+        "period_s": rng.normal(4.0, 0.1, (4, 25)),
+    }
+    return BinFit(
+        draws=draws,
+        log_lik=rng.normal(size=(4, 25, 3)),
+        diagnostics={
+            n: {
+                "rhat": 1.001,
+                "ess_bulk": 900.0,
+                "ess_tail": 800.0,
+                "tau": 5.0,
+                "nsteps_over_tau": 100.0,
+            }
+            for n in draws
+        },
+        failure_reasons=[],
+        info={
+            "bin_id": bin_id,
+            "model": "unimodal",
+            "n_records": 3,
+            "n_imu": 3,
+            "prior_only": False,
+            "loo": {},
+            "constant": {"hws_mean_ms": np.ones(3)},
+        },
+    )
+
+
+def test_infer_batch_reports_a_raising_bin_and_fits_the_others(tmp_path, monkeypatch):
+    from flidar_uq import inference, pipeline
+
+    def fake_fit_bin(records, *, settings, seed, priors, bin_id):
+        if bin_id == 2:
+            raise RuntimeError("sampler exploded")
+        return _fake_bin_fit(bin_id, np.random.default_rng(seed))
+
+    monkeypatch.setattr(inference, "fit_bin", fake_fit_bin)
+    pd.DataFrame({"record_id": range(6), "bin_id": [1, 1, 1, 2, 2, 2], "hws_mean_ms": 8.0}).to_csv(
+        tmp_path / "assignments.csv", index=False
+    )
+    pd.DataFrame({"bin_id": [1, 2, 3], "fitted": [True, True, False], "batch": [0, 0, -1]}).to_csv(
+        tmp_path / "table.csv", index=False
+    )
+    cfg = load_yaml(CONFIG)
+    runs = []
+    for name in ("a", "b"):
+        summary = pipeline.infer_batch(
+            tmp_path / "assignments.csv",
+            tmp_path / "table.csv",
+            tmp_path / name,
+            batch=0,
+            inference=cfg["inference"],
+            priors=cfg["priors"],
+        )
+        runs.append(tmp_path / name)
+    assert summary["bin_id"].tolist() == [1, 2]
+    assert summary["status"].tolist() == ["ok", "error"]
+    assert summary["message"].iloc[1] == "RuntimeError: sampler exploded"
+    fit = inference.load_fit(runs[0] / "bin_0001.nc")
+    np.testing.assert_allclose(fit.flat("period_s").mean(), 4.0, atol=0.1)
+    import xarray as xr
+
+    with xr.open_dataset(runs[0] / "bin_0002.nc", engine="h5netcdf") as failed:
+        assert failed.attrs["status"] == "error"
+    # no wall-clock attribute: the same fit written twice is byte-identical
+    assert (runs[0] / "bin_0001.nc").read_bytes() == (runs[1] / "bin_0001.nc").read_bytes()
+    assert not (runs[0] / "bin_0003.nc").exists()  # not fitted, not in this batch

@@ -80,7 +80,7 @@ DEFAULT_SCENARIO: dict = {
     "start_utc": "2015-04-01T00:00:00Z",
     "record_length_s": 600.0,
     "heights_m": [27.0, 58.0, 85.0],
-    "chunk_records": 16,
+    "chunk_records": 8,
     "n_workers": 1,
     "lidar": {
         "name": "zephir300",
@@ -147,6 +147,9 @@ DEFAULT_SCENARIO: dict = {
         "period_range_s": [1.0, 30.0],  # band searched for spectral peaks (imu.py)
     },
 }
+
+#: CNR written for valid lines of sight of the virtual lidar (dB; above seed 001's -23 dB).
+GOOD_CNR_DB = -10.0
 
 #: Keys of one harmonic case (amplitudes in deg or m, periods in s, n_records per case).
 HARMONIC_CASE_KEYS = (
@@ -221,6 +224,12 @@ class CampaignConfig:
         if s["motion"]["model"] not in ("sea_state", "harmonic"):
             raise ValueError(
                 f"scenario: motion.model must be 'sea_state' or 'harmonic', got {s['motion']['model']!r}"
+            )
+        start = pd.Timestamp(s["start_utc"])
+        if start.tzinfo is None or (start.value // 10**9) % int(s["record_length_s"]) != 0:
+            raise ValueError(
+                f"scenario: start_utc must be a UTC time on a record boundary (a multiple of "
+                f"record_length_s = {s['record_length_s']} s), got {s['start_utc']!r}"
             )
         rate = float(s["imu"]["rate_hz"])
         if not 5.0 <= rate <= 20.0:
@@ -405,7 +414,8 @@ def _record_parameters(cfg: CampaignConfig, rng: np.random.Generator) -> dict:
 # ---------------------------------------------------------------------------
 
 
-def _scan_schedule(rng, n_slots, n_los, delay_slots, j_max):
+def _scan_schedule(rng, n_los, delay_slots, j_max):
+    """Start slots of ``j_max`` consecutive scans separated by random refocusing delays."""
     delays = rng.integers(delay_slots[0], delay_slots[1] + 1, size=j_max)
     starts = np.concatenate([[0], np.cumsum(n_los + delays[:-1])])
     return starts
@@ -474,7 +484,7 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
     delay_slots = (int(round(lo / dt)), int(round(hi / dt)))
     j_max = int(np.ceil(n_slots / (geo.n_los + delay_slots[0]))) + 1
     k0 = int(rng.integers(0, geo.n_los))
-    starts = _scan_schedule(rng, n_slots, geo.n_los, delay_slots, j_max)
+    starts = _scan_schedule(rng, geo.n_los, delay_slots, j_max)
     if settings["lidar"]["scan_phase"] == "random":
         phase_slots = rng.integers(0, geo.n_los, size=j_max)
     else:
@@ -525,17 +535,17 @@ def _rotation_matrix_filled(roll_rad, pitch_rad, yaw_rad):
     cr, sr = np.cos(roll_rad), np.sin(roll_rad)
     cp, sp = np.cos(pitch_rad), np.sin(pitch_rad)
     cy, sy = np.cos(yaw_rad), np.sin(yaw_rad)
-    out = np.empty(np.shape(cr) + (3, 3))
-    out[..., 0, 0] = cy * cp
-    out[..., 0, 1] = cy * sp * sr - sy * cr
-    out[..., 0, 2] = cy * sp * cr + sy * sr
-    out[..., 1, 0] = sy * cp
-    out[..., 1, 1] = sy * sp * sr + cy * cr
-    out[..., 1, 2] = sy * sp * cr - cy * sr
-    out[..., 2, 0] = -sp
-    out[..., 2, 1] = cp * sr
-    out[..., 2, 2] = cp * cr
-    return out
+    out = np.empty((3, 3) + np.shape(cr))  # contiguous planes, viewed as (..., 3, 3)
+    out[0, 0] = cy * cp
+    out[0, 1] = cy * sp * sr - sy * cr
+    out[0, 2] = cy * sp * cr + sy * sr
+    out[1, 0] = sy * cp
+    out[1, 1] = sy * sp * sr + cy * cr
+    out[1, 2] = sy * sp * cr - cy * sr
+    out[2, 0] = -sp
+    out[2, 1] = cp * sr
+    out[2, 2] = cp * cr
+    return np.moveaxis(out, (0, 1), (-2, -1))
 
 
 def _vad_retrieve_complete_scans(pinv_t, m_body, y_abs, signs0, n_iter=2):
@@ -594,6 +604,11 @@ MOTION_STAT_COLUMNS = (
     "weight1",
     "imu_availability_pct",
 )
+
+
+def _utc(ts: pd.Timestamp, t_s: np.ndarray) -> pd.DatetimeIndex:
+    """UTC timestamps ``ts + t_s`` (s), through integer nanoseconds."""
+    return pd.to_datetime(ts.value + np.round(np.asarray(t_s) * 1e9).astype(np.int64), utc=True)
 
 
 def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
@@ -754,7 +769,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         imu_frames.append(
             pd.DataFrame(
                 {
-                    "timestamp": ts + pd.to_timedelta(t_imu, unit="s"),
+                    "timestamp": _utc(ts, t_imu),
                     "roll_deg": att[0],
                     "pitch_deg": att[1],
                     "yaw_deg": att[2],
@@ -769,11 +784,13 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
             los_frames.append(
                 pd.DataFrame(
                     {
-                        "timestamp": ts + pd.to_timedelta(t_los, unit="s"),
+                        "timestamp": _utc(ts, t_los),
                         "height_m": np.repeat(heights[h_idx[c][jj]], n_los),
                         "azimuth_deg": np.rad2deg(az_slots[a_idx[c][jj]]).ravel(),
                         "radial_speed_ms": vr.ravel(),
-                        "cnr_db": np.full(t_los.size, np.nan),
+                        # a valid CW measurement reports a good CNR; dropped scans
+                        # carry NaN speed and CNR (flagged by qc.run_los_qc)
+                        "cnr_db": np.where(np.isfinite(vr.ravel()), GOOD_CNR_DB, np.nan),
                     }
                 )
             )
@@ -828,7 +845,8 @@ def generate_campaign(
     n_workers : int, optional
         Worker processes (default: scenario ``n_workers``); 1 runs in-process.
     chunk_records : int, optional
-        Records simulated together (memory ~ 6 MB per record); default from the scenario.
+        Records simulated together (peak memory ~ 13 MB per record of a chunk); default
+        from the scenario.
 
     Returns
     -------

@@ -23,10 +23,12 @@ import pandas as pd
 from flidar_uq.correction import sigma_moving_pc
 from flidar_uq.inference import Priors, sample_motion_prior
 
+_PRIORS = Priors()
+
 __all__ = ["generate_statistical_campaign", "draw_true_params", "sbc_replication", "SBC_PARAMS"]
 
 
-def draw_true_params(n_bins, *, two_period_bins=0, priors: Priors = Priors(), rng):
+def draw_true_params(n_bins, *, two_period_bins=0, priors: Priors = _PRIORS, rng):
     """Draw campaign parameters from the inference priors.
 
     Parameters
@@ -98,7 +100,7 @@ def generate_statistical_campaign(
     ti_log_sd: float = 0.3,
     imu_axis_noise: float = 0.05,
     height_m: float = 100.0,
-    priors: Priors = Priors(),
+    priors: Priors = _PRIORS,
 ) -> tuple[pd.DataFrame, dict]:
     """Draw a campaign from the Bayesian model with known parameters.
 
@@ -232,7 +234,7 @@ def sbc_replication(
     n_bins: int = 3,
     records_per_bin: int = 10,
     n_rank_draws: int = 99,
-    priors: Priors = Priors(),
+    priors: Priors = _PRIORS,
 ) -> dict:
     """One simulation-based-calibration replication (Talts et al. 2018) on the statistical mode.
 

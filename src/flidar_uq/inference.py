@@ -487,7 +487,12 @@ def _loo(log_lik):
     dt = az.from_dict(
         {"posterior": {"x": np.zeros(log_lik.shape[:2])}, "log_likelihood": {"y": log_lik}}
     )
-    res = az.loo(dt, pointwise=True)
+    with warnings.catch_warnings():  # Pareto k is recorded and reported instead
+        warnings.simplefilter("ignore", UserWarning)
+        try:
+            res = az.loo(dt, pointwise=True)
+        except ValueError:  # e.g. a degenerate (constant) log-likelihood
+            return None
     return {
         "elpd": float(res.elpd),
         "se": float(res.se),

@@ -18,9 +18,10 @@ methods are implemented, all in the project's ENU frame (``docs/conventions.md``
   (Eq. 5, ``z' = z cos(delta)``), :func:`height_correct_profile_seed003`.
 
 Frame conversions at the edge: seed 001 uses x south, y west, z down
-(:func:`rotation_from_seed001_frame`, :func:`velocity_from_seed001_frame`); seed 002
-writes LOS speeds positive towards the lidar in its Eq. (3); seed 003 uses ENU with our
-rotation order (its Eq. 4 has a typo, ``R[0, 1] = 1``, read as 0).
+(:func:`rotation_from_seed001_frame`, :func:`velocity_from_seed001_frame`); seed 002's
+Eq. (3) read with its Table 1 beam order gives ``u`` from ``V_W - V_E`` but ``v`` from
+``V_N - V_S`` (inconsistent signs as printed; here both from speeds positive away); seed
+003 uses ENU with our rotation order (its Eq. 4 has a typo, ``R[0, 1] = 1``, read as 0).
 
 Radial speeds are positive away from the lidar, ``v_r = d_earth . (u - v_head)``, so the
 corrected LOS speed entering every solver is ``v_r + d_earth . v_head``.
@@ -479,6 +480,12 @@ def correct_dbs_seed002(
     freezes attitude and velocity at the reference LOS of the window (Table 2 of seed
     002: the third of four), ``"new"`` uses them at each LOS time (Table 3),
     ``"none"`` is the fixed-lidar DBS formula (seed 002 Eq. 3) with no motion data.
+
+    Windows are ``lidar.n_los`` consecutive LOS (one DBS cycle; a vertical beam is carried
+    but unused, as in seed 002 Table 3) and must hold every beam once. The height of a
+    beam point includes the head's height change (``motion.head_displacement_m``: heave and
+    lever arm, seed 002 Eq. 4), frozen like the attitude in the conventional algorithm.
+    Vectorised across windows and heights.
 
     Parameters
     ----------

@@ -9,16 +9,23 @@ Files written (the pipeline's output contract, see README):
 * ``results/ti/records.csv``: one row per input record: ``timestamp, height_m, bin_id,
   hws_mean_ms, ti_uncorrected, ti_corrected_median, ti_corrected_lo, ti_corrected_hi,
   flags`` (+ ``ti_true`` when the input carries truth, + the seed 000 U/C/PC baselines).
-* ``results/ti/bins.csv``: one row per bin with the bin table, sigma_Z, fit status and the
-  per-bin corrected TI.
-* ``results/posterior/bin_<id>.nc`` (one per fitted bin) and ``results/posterior/global.nc``.
+* ``results/ti/bins.csv``: one row per bin (``bin_id`` = case no. of seed 000 Table 1)
+  with the bin table, sigma_Z at the bin centre, fit status and diagnostics, and bin means
+  of the uncorrected and corrected TI.
+* ``results/ti/speed_bins.csv``: mean and representative TI per speed bin with intervals.
+* ``results/ti/metrics.csv``: MD / RMSE of uncorrected, U, C, PC and Bayesian estimates.
+* ``results/posterior/bin_<id>.nc`` (one per fitted bin) and ``results/posterior/global.nc``
+  (ArviZ DataTree, NetCDF).
+
+Reproducibility: every seed is a ``numpy.random.SeedSequence`` derived from the config
+seeds and the bin id (not the batch layout); NetCDF files are written without wall-clock
+attributes; CSVs with a fixed float format. A clean rerun is byte-identical.
 """
 
 from __future__ import annotations
 
 import logging
 import os
-import shutil
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -742,12 +749,6 @@ def _reference(rec: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
         std = rec["ref_hws_std_ms"].to_numpy(dtype=float)
         return std, std / rec["ref_hws_mean_ms"].to_numpy(dtype=float)
     return nan, nan
-
-
-def copy_file(src: str | os.PathLike, dst: str | os.PathLike) -> None:
-    """Copy one file (used for the per-bin posterior files)."""
-    Path(dst).parent.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(src, dst)
 
 
 def _capped_table(rep, df: pd.DataFrame, name: str, max_rows: int = 40) -> str:

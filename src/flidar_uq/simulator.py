@@ -37,6 +37,7 @@ __all__ = [
     "simulate_scan",
     "sigma_z",
     "sigma_z_grid",
+    "sigma_z_direction_average",
     "vad_hws_coefficients",
 ]
 
@@ -217,7 +218,7 @@ def simulate_scan(
         else:
             truth = np.asarray(wind_ms, float)
             zr = xyz[:, 2] / height_m
-            with np.errstate(invalid="ignore"):
+            with np.errstate(invalid="ignore", divide="ignore"):
                 fac = np.where(zr > 0, np.abs(zr) ** shear_exponent, np.nan)
             wind = truth[None, :] * fac[:, None]
     else:
@@ -530,6 +531,67 @@ def sigma_z_grid(
     mean = float(np.mean(z))  # Eqs. (6)-(14) of seed 000: uniform phases, product trapezoid rule
     var = float(np.mean((z - mean) ** 2))  # Eq. (4) of seed 000 (two-pass form)
     return float(np.sqrt(var)), mean
+
+
+def sigma_z_direction_average(
+    hws_ms: float,
+    amplitude_deg: float,
+    period_s: float,
+    lidar: str | LidarGeometry = "zephir300",
+    *,
+    lever_arm_m=0.0,
+    nphase: int = 16,
+    n_wd: int = 16,
+) -> tuple[float, float]:
+    """sigma_Z and E(Z) averaged over uniformly distributed wind directions (VAD).
+
+    The retrieved wind is linear in the wind vector and in the lever arm, so the scan-phase
+    coefficients are computed once for a unit east wind, a unit north wind and the lever
+    arm, and combined for ``n_wd`` equally spaced directions (exact for the direction
+    harmonics below ``n_wd``).
+
+    Parameters
+    ----------
+    hws_ms, amplitude_deg, period_s : float
+        As in :func:`sigma_z` (fixed grid of ``nphase`` roll/pitch points, 4x scan phases).
+    lidar : str or LidarGeometry
+        A VAD lidar.
+    lever_arm_m : float or array_like of 3
+        As in :func:`sigma_z`.
+    nphase, n_wd : int
+        Quadrature points per roll/pitch phase and number of directions.
+
+    Returns
+    -------
+    sigma_rms_ms : float
+        ``sqrt(mean_wd sigma_Z(wd)^2)``, m/s.
+    mean_z_ms : float
+        ``mean_wd E(Z)(wd)``, m/s.
+    """
+    g = get_lidar(lidar)
+    if g.kind != "vad":
+        raise ValueError(f"sigma_z_direction_average: needs a VAD lidar, got {g.name!r}")
+    arm = (
+        np.array([0.0, 0.0, float(lever_arm_m)])
+        if np.ndim(lever_arm_m) == 0
+        else np.asarray(lever_arm_m, float)
+    )
+    t_s, _ = scan_times_azimuths(g)
+    ang, rate = _histories([(np.deg2rad(amplitude_deg), period_s)], t_s, nphase)
+    zero = np.zeros(3)
+    a_x = vad_hws_coefficients(g, (1.0, 0.0), ang, rate, ang, rate, zero)
+    a_y = vad_hws_coefficients(g, (0.0, 1.0), ang, rate, ang, rate, zero)
+    a_l = vad_hws_coefficients(g, (0.0, 0.0), ang, rate, ang, rate, arm)
+    nscan = _SCAN_PHASE_FACTOR * nphase
+    q = np.exp(-2j * np.pi * np.arange(nscan) / nscan)
+    wd = 2.0 * np.pi * np.arange(n_wd) / n_wd
+    u_x, u_y = -hws_ms * np.sin(wd), -hws_ms * np.cos(wd)
+    coef = u_x[:, None, None, None] * a_x + u_y[:, None, None, None] * a_y + a_l  # (nwd, 3, mr, mp)
+    h = coef[:, 0, :, :, None] + coef[:, 1, :, :, None] * q + coef[:, 2, :, :, None] * q**2
+    z = np.abs(h) - hws_ms  # Eq. (1) of seed 000
+    mean = z.mean(axis=(1, 2, 3))
+    var = ((z - mean[:, None, None, None]) ** 2).mean(axis=(1, 2, 3))  # Eq. (4) of seed 000
+    return float(np.sqrt(np.mean(var))), float(np.mean(mean))
 
 
 def sigma_z(

@@ -25,10 +25,6 @@ rule infer_batch:
         "../scripts/infer_batch.py"
 
 
-localrules:
-    posterior_bin,
-
-
 rule posterior_bin:
     input:
         batch_of_bin,

@@ -5,6 +5,7 @@ from flidar_uq import pipeline
 # The guard keeps the generator's worker processes (spawn/forkserver re-import this
 # module as __mp_main__) from re-running the rule body.
 if __name__ == "__main__":
+    snakemake = globals()["snakemake"]  # injected by the script directive
     pipeline.setup_logging(snakemake.log[0])
     pipeline.make_campaign(
         snakemake.output[0],

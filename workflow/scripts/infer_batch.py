@@ -2,6 +2,7 @@
 
 from flidar_uq import pipeline
 
+snakemake = globals()["snakemake"]  # injected by the script directive
 pipeline.setup_logging(snakemake.log[0])
 pipeline.infer_batch(
     snakemake.input.assignments,

@@ -2,5 +2,8 @@
 
 from flidar_uq import pipeline
 
+snakemake = globals()["snakemake"]  # injected by the script directive
 pipeline.setup_logging(snakemake.log[0])
-pipeline.motion_statistics(snakemake.input[0], snakemake.output.records, snakemake.output.roll_pitch)
+pipeline.motion_statistics(
+    snakemake.input[0], snakemake.output.records, snakemake.output.roll_pitch
+)

@@ -2,5 +2,6 @@
 
 from flidar_uq import pipeline
 
+snakemake = globals()["snakemake"]  # injected by the script directive
 pipeline.setup_logging(snakemake.log[0])
 pipeline.validate_records(snakemake.input[0], snakemake.output[0])
