@@ -114,12 +114,18 @@ def main(n_bins_all: int = 100, workers: int = 2) -> None:
     t_glob = time.perf_counter() - t0
     timing = pd.DataFrame(
         [
-            {"what": "one unimodal bin, default settings (median of 3)", "wall_s": float(np.median(one))},
+            {
+                "what": "one unimodal bin, default settings (median of 3)",
+                "wall_s": float(np.median(one)),
+            },
             {"what": f"one screened bin (model chosen: {f2.model})", "wall_s": two},
             {"what": f"{n_bins_all} bins x 30 records, {workers} processes", "wall_s": t_bins},
             {"what": f"global fit, {len(camp)} records", "wall_s": t_glob},
             {"what": "all bins + global", "wall_s": t_bins + t_glob},
-            {"what": "share of bins converged", "wall_s": float(np.mean([f.converged for f in fits]))},
+            {
+                "what": "share of bins converged",
+                "wall_s": float(np.mean([f.converged for f in fits])),
+            },
             {"what": "global converged", "wall_s": float(gf.converged)},
         ]
     )

@@ -6,9 +6,12 @@ CW VAD, 600 scans) in <= 50 ms on one core. Timed: the whole call of
 resolution, least squares), for a 20-Hz sampled IMU and for harmonic motion; the
 uncorrected retrieval and the seed-002 DBS algorithms for scale.
 
-Run: ``.venv/bin/python benchmarks/los_correction_speed.py`` (pin one core with
-``taskset -c 0`` for the figure quoted in docs/los-correction.md).
-Writes ``benchmarks/results/los_correction_speed.csv`` and ``.png``.
+Run: ``OPENBLAS_NUM_THREADS=1 taskset -c 0 .venv/bin/python
+benchmarks/los_correction_speed.py | tee benchmarks/results/los_correction_speed_stdout.txt``
+(one core, one BLAS thread: the figure quoted in docs/los-correction.md).
+Writes ``benchmarks/results/los_correction_speed.csv`` and ``.png``; the printed table
+(with the machine's load average, since the CPU times are measured on a shared machine) is
+kept as ``los_correction_speed_stdout.txt`` (``... | tee``).
 """
 
 from __future__ import annotations
@@ -151,6 +154,7 @@ def main() -> pd.DataFrame:
     plt.close(fig)
 
     print(f"cores available to this process: {len(os.sched_getaffinity(0))}")
+    print("machine load average (1, 5, 15 min): {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
     print(
         f"{'case':48s} {'n_los':>6s} {'median ms':>10s} {'min ms':>8s} {'target':>7s} {'ratio':>6s}"
     )

@@ -36,7 +36,9 @@ SETTINGS = SamplerSettings(
 
 def rank_uniformity(ranks: np.ndarray) -> tuple[float, np.ndarray]:
     """Chi-square p-value of the rank histogram (10 bins) and its counts."""
-    counts = np.bincount(np.asarray(ranks) * N_HIST_BINS // (N_RANK_DRAWS + 1), minlength=N_HIST_BINS)
+    counts = np.bincount(
+        np.asarray(ranks) * N_HIST_BINS // (N_RANK_DRAWS + 1), minlength=N_HIST_BINS
+    )
     return float(stats.chisquare(counts).pvalue), counts
 
 
@@ -93,6 +95,7 @@ def main(n_rep: int = 120, seed: int = 20181122) -> None:
     summ["n_replications"] = n_rep
     summ["share_converged_small_settings"] = df["converged"].mean()
     summ["wall_s"] = wall
+    summ["min_records_in_global_fit"] = df["n_records_global"].min()
     summ.to_csv(RESULTS / "sbc_summary.csv", index=False)
     print(summ.to_string(index=False))
     print(f"{n_rep} replications in {wall:.0f} s ({wall / n_rep:.2f} s each)")

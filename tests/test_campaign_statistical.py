@@ -50,7 +50,9 @@ def test_records_follow_eq15_mean_and_geometric_imu_mean(surrogate):
         "rho": 0.5,
         "tau0_ms": 1e-4,
         "kappa": 1e-4,
-        "bins": [{"amplitude_deg": 3.0, "period_s": 4.0, "scatter_amplitude": 0.2, "scatter_period": 0.1}],
+        "bins": [
+            {"amplitude_deg": 3.0, "period_s": 4.0, "scatter_amplitude": 0.2, "scatter_period": 0.1}
+        ],
     }
     rec, _ = generate_statistical_campaign(1, 2000, tp, seed=1, surrogate=surrogate)
     mu = sigma_moving_pc(rec.ref_hws_std_ms, rec.true_sigma_z_ms, 0.5)  # Eq. (15) of seed 000

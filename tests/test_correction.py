@@ -81,5 +81,7 @@ def test_rho_seed000_perfect_linear_and_shape_error():
     x = np.array([4.0, 6.0, 8.0, 10.0])
     assert rho_seed000(x, -0.01 * x) == pytest.approx(-1.0)
     assert np.isnan(rho_seed000(x[:2], x[:2]))
-    with pytest.raises(ValueError, match=r"bin_ref_hws_ms has shape \(4,\) but bin_mean_z_ms has \(3,\)"):
+    with pytest.raises(
+        ValueError, match=r"bin_ref_hws_ms has shape \(4,\) but bin_mean_z_ms has \(3,\)"
+    ):
         rho_seed000(x, x[:3])

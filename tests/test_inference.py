@@ -23,7 +23,9 @@ from flidar_uq.inference import (
 )
 from flidar_uq.surrogate import get_surrogate
 
-FAST = SamplerSettings(nwalkers=16, nsteps=150, nburn=80, ndraws=100, ess_min=100.0, n_autocorr=10.0)
+FAST = SamplerSettings(
+    nwalkers=16, nsteps=150, nburn=80, ndraws=100, ess_min=100.0, n_autocorr=10.0
+)
 
 
 @pytest.fixture(scope="module")
@@ -86,7 +88,10 @@ def test_log_prob_minus_inf_outside_support():
     t1_after_t2 = [[np.log(2.0), np.log(6.0), np.log(3.0), 0.0, -1, -1]]
     assert log_prob_two_period(t1_after_t2, la, lp)[0] == -np.inf
     rho_out = [[1.0, -2.0, -2.0], [-1.2, -2.0, -2.0]]
-    assert np.all(log_prob_global(rho_out, np.array([0.5]), np.array([0.4]), np.array([0.2]), np.array([0.0])) == -np.inf)
+    assert np.all(
+        log_prob_global(rho_out, np.array([0.5]), np.array([0.4]), np.array([0.2]), np.array([0.0]))
+        == -np.inf
+    )
 
 
 def test_sampler_settings_reject_fewer_than_four_ensembles():
@@ -179,7 +184,11 @@ def test_stability_bimodal_data_detected_by_ppc_and_loo():
 
 
 def test_unimodal_data_keep_unimodal_model():
-    fit = fit_bin(_records(40, 2.0, 4.0), settings=SamplerSettings(**{**FAST.__dict__, "mixture": "always"}), seed=8)
+    fit = fit_bin(
+        _records(40, 2.0, 4.0),
+        settings=SamplerSettings(**{**FAST.__dict__, "mixture": "always"}),
+        seed=8,
+    )
     assert fit.info["loo"]["elpd_diff"] < 2 * fit.info["loo"]["elpd_diff_se"]
 
 
@@ -211,7 +220,11 @@ def test_stability_rho_posterior_piling_at_plus_one(surrogate):
 def test_global_excludes_unconverged_bins(surrogate):
     rec, _ = _campaign(0.5, surrogate, seed=3, n_bins=2, n=15)
     good = fit_bin(rec[rec.bin_id == 0], settings=FAST, seed=1)
-    bad = fit_bin(rec[rec.bin_id == 1], settings=SamplerSettings(nwalkers=8, nsteps=15, nburn=0, ndraws=20), seed=2)
+    bad = fit_bin(
+        rec[rec.bin_id == 1],
+        settings=SamplerSettings(nwalkers=8, nsteps=15, nburn=0, ndraws=20),
+        seed=2,
+    )
     gf = fit_global(rec, [good, bad], surrogate=surrogate, settings=FAST, seed=3)
     assert gf.info["excluded_bins"] == [1]
     assert gf.info["n_records"] == 15

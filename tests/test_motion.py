@@ -66,6 +66,67 @@ def test_rotation_derivative_matches_finite_difference(r, p, y, dr, dp, dy):
     np.testing.assert_allclose(rotation_matrix_derivatives(r, p, y, dr, dp, dy), num, atol=1e-7)
 
 
+def _elementary(roll, pitch, yaw):
+    """``Rz(yaw) @ Ry(pitch) @ Rx(roll)`` from the textbook elementary matrices."""
+    c, s = np.cos, np.sin
+    rx = np.array([[1, 0, 0], [0, c(roll), -s(roll)], [0, s(roll), c(roll)]])
+    ry = np.array([[c(pitch), 0, s(pitch)], [0, 1, 0], [-s(pitch), 0, c(pitch)]])
+    rz = np.array([[c(yaw), -s(yaw), 0], [s(yaw), c(yaw), 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+@settings(max_examples=40, deadline=None)
+@given(r=st.floats(-3.1, 3.1), p=st.floats(-3.1, 3.1), y=st.floats(-3.1, 3.1))
+def test_closed_form_rotation_equals_product_of_elementary_rotations(r, p, y):
+    np.testing.assert_allclose(rotation_matrix(r, p, y), _elementary(r, p, y), atol=1e-15)
+
+
+def test_closed_form_rotation_batched_equals_elementary_product():
+    rng = np.random.default_rng(7)
+    ang = rng.uniform(-np.pi, np.pi, (3, 50))
+    expected = np.stack([_elementary(*a) for a in ang.T])
+    got = rotation_matrix(*ang)
+    assert got.shape == (50, 3, 3) and got.flags.c_contiguous
+    np.testing.assert_allclose(got, expected, atol=1e-15)
+
+
+@settings(max_examples=30, deadline=None)
+@given(r=angles, p=angles, y=angles, dr=angles, dp=angles, dy=angles)
+def test_rotation_derivative_equals_elementary_chain_rule(r, p, y, dr, dp, dy):
+    # dR/dt = Rz' Ry Rx yaw_rate + Rz Ry' Rx pitch_rate + Rz Ry Rx' roll_rate, each
+    # derivative of an elementary rotation being its generator times the matrix.
+    gx = np.array([[0, 0, 0], [0, 0, -1], [0, 1, 0]])
+    gy = np.array([[0, 0, 1], [0, 0, 0], [-1, 0, 0]])
+    gz = np.array([[0, -1, 0], [1, 0, 0], [0, 0, 0]])
+    rx, ry, rz = _elementary(r, 0, 0), _elementary(0, p, 0), _elementary(0, 0, y)
+    expected = gz @ rz @ ry @ rx * dy + rz @ gy @ ry @ rx * dp + rz @ ry @ gx @ rx * dr
+    np.testing.assert_allclose(
+        rotation_matrix_derivatives(r, p, y, dr, dp, dy), expected, atol=1e-14
+    )
+
+
+def test_sampled_head_velocity_is_derivative_of_displacement():
+    # Between IMU samples the series are linear, so away from the knots the central
+    # difference of the head displacement is exact up to rounding, with the attitude
+    # rates of the same segment: use a series whose np.gradient equals the segment slope
+    # (linear in time), all six degrees of freedom and an off-axis lever arm.
+    ts = np.linspace(0.0, 10.0, 11)
+    m = SampledMotion(
+        ts,
+        roll_deg=2.0 + 1.5 * ts,
+        pitch_deg=-3.0 + 0.8 * ts,
+        yaw_deg=10.0 - 2.0 * ts,
+        surge_m=0.1 * ts,
+        sway_m=-0.2 * ts,
+        heave_m=0.05 * ts,
+        lever_arm_m=(0.5, -0.3, 4.0),
+    )
+    t = np.array([0.37, 2.5, 5.91, 9.2])
+    h = 1e-5
+    num = (m.head_displacement_m(t + h) - m.head_displacement_m(t - h)) / (2 * h)
+    np.testing.assert_allclose(m.head_velocity_ms(t), num, atol=1e-8)
+
+
 def test_harmonic_value_and_rate():
     h = Harmonic(3.0, 4.0, 0.5)
     t = np.linspace(0, 10, 7)

@@ -30,14 +30,25 @@ def _bin_fit(bin_id, amp, per, reasons=()):
         log_lik=np.zeros((4, 50, 1)),
         diagnostics={},
         failure_reasons=list(reasons),
-        info={"bin_id": bin_id, "model": "unimodal", "n_records": 1, "n_imu": 1, "prior_only": False, "loo": {}},
+        info={
+            "bin_id": bin_id,
+            "model": "unimodal",
+            "n_records": 1,
+            "n_imu": 1,
+            "prior_only": False,
+            "loo": {},
+        },
     )
 
 
 def _global_fit(rho, tau0=1e-6, kappa=1e-6):
     shape = (4, 50)
     return GlobalFit(
-        draws={"rho": np.full(shape, rho), "tau0_ms": np.full(shape, tau0), "kappa": np.full(shape, kappa)},
+        draws={
+            "rho": np.full(shape, rho),
+            "tau0_ms": np.full(shape, tau0),
+            "kappa": np.full(shape, kappa),
+        },
         log_lik=np.zeros((4, 50, 1)),
         diagnostics={},
         failure_reasons=[],
@@ -63,7 +74,9 @@ def _records(s_ms, hws=8.0, bin_id=0):
 
 def test_point_posterior_reproduces_deployment_formula(surrogate):
     rec = _records([0.6, 0.8, 1.0])
-    pr, pb = corrected_ti(rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.4), surrogate=surrogate, seed=1)
+    pr, pb = corrected_ti(
+        rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.4), surrogate=surrogate, seed=1
+    )
     sz = surrogate.sigma_z_ms(rec.hws_mean_ms, 3.0, 4.0)
     c, _ = corrected_std(rec.hws_std_ms, sz, 0.4)
     np.testing.assert_allclose(pr.sigma_corrected_median_ms, c, rtol=1e-4)
@@ -82,7 +95,9 @@ def test_stability_sigma_moving_below_sigma_z_flagged(surrogate):
     """Documented: no real root -> corrected std 0, discriminant_negative True, never dropped."""
     sz = float(surrogate.sigma_z_ms(8.0, 3.0, 4.0))
     rec = _records([0.3 * sz])
-    pr, _ = corrected_ti(rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.0), surrogate=surrogate, seed=2)
+    pr, _ = corrected_ti(
+        rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.0), surrogate=surrogate, seed=2
+    )
     assert bool(pr.discriminant_negative.iloc[0])
     assert pr.discriminant_negative_frac.iloc[0] == 1.0
     assert pr.sigma_corrected_median_ms.iloc[0] == 0.0
@@ -90,8 +105,13 @@ def test_stability_sigma_moving_below_sigma_z_flagged(surrogate):
 
 
 def test_unconverged_bin_marked_and_excluded_from_speed_bins(surrogate):
-    rec = pd.concat([_records([0.6, 0.7], bin_id=0), _records([0.6, 0.7], bin_id=1)], ignore_index=True)
-    fits = [_bin_fit(0, 3.0, 4.0), _bin_fit(1, 3.0, 4.0, reasons=["amplitude_deg: rank R-hat 1.2 >= 1.01"])]
+    rec = pd.concat(
+        [_records([0.6, 0.7], bin_id=0), _records([0.6, 0.7], bin_id=1)], ignore_index=True
+    )
+    fits = [
+        _bin_fit(0, 3.0, 4.0),
+        _bin_fit(1, 3.0, 4.0, reasons=["amplitude_deg: rank R-hat 1.2 >= 1.01"]),
+    ]
     pr, pb = corrected_ti(rec, fits, _global_fit(0.3), surrogate=surrogate, seed=3)
     assert pr.converged.tolist() == [True, True, False, False]
     assert "R-hat" in pr.failure_reasons.iloc[2]
@@ -100,8 +120,12 @@ def test_unconverged_bin_marked_and_excluded_from_speed_bins(surrogate):
 
 def test_noise_widens_interval(surrogate):
     rec = _records([0.8])
-    narrow, _ = corrected_ti(rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.3), surrogate=surrogate, seed=4)
-    wide, _ = corrected_ti(rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.3, 0.05, 0.1), surrogate=surrogate, seed=4)
+    narrow, _ = corrected_ti(
+        rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.3), surrogate=surrogate, seed=4
+    )
+    wide, _ = corrected_ti(
+        rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.3, 0.05, 0.1), surrogate=surrogate, seed=4
+    )
     w0 = (narrow.ti_corrected_hi - narrow.ti_corrected_lo).iloc[0]
     w1 = (wide.ti_corrected_hi - wide.ti_corrected_lo).iloc[0]
     assert w0 < 1e-3 < w1
@@ -109,7 +133,14 @@ def test_noise_widens_interval(surrogate):
 
 def test_cred_mass_out_of_range_raises(surrogate):
     with pytest.raises(ValueError, match=r"cred_mass=1.5 must be in \(0, 1\)"):
-        corrected_ti(_records([0.5]), [_bin_fit(0, 3, 4)], _global_fit(0.0), surrogate=surrogate, cred_mass=1.5, seed=1)
+        corrected_ti(
+            _records([0.5]),
+            [_bin_fit(0, 3, 4)],
+            _global_fit(0.0),
+            surrogate=surrogate,
+            cred_mass=1.5,
+            seed=1,
+        )
 
 
 @pytest.mark.slow

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -109,7 +110,10 @@ def snakemake(
 
 
 def result_hashes(workdir: Path) -> dict[str, str]:
-    """sha256 of every result file except logs and run-time benchmarks (timings differ)."""
+    """sha256 of every result file except logs and run-time benchmarks (timings differ).
+
+    The report's git revision line is blanked first: the lead may commit between two runs.
+    """
     out = {}
     for p in sorted((workdir / "results").rglob("*")):
         rel = p.relative_to(workdir).as_posix()
@@ -118,7 +122,10 @@ def result_hashes(workdir: Path) -> dict[str, str]:
             and not rel.startswith(("results/logs/", "results/benchmarks/"))
             and ".snakemake_timestamp" not in rel
         ):
-            out[rel] = hashlib.sha256(p.read_bytes()).hexdigest()
+            data = p.read_bytes()
+            if rel.endswith(".html"):
+                data = re.sub(rb"git revision: <code>[^<]*</code>", b"", data)
+            out[rel] = hashlib.sha256(data).hexdigest()
     return out
 
 

@@ -277,8 +277,20 @@ def sbc_replication(
         fit_bin(g, settings=settings, seed=child, priors=priors)
         for (_, g), child in zip(rec.groupby("bin_id"), ss_fit.spawn(n_bins), strict=True)
     ]
-    gf = fit_global(rec, fits, surrogate=surrogate, settings=settings, seed=ss_glob, priors=priors)
-    out = {"converged": all(f.converged for f in fits) and gf.converged}
+    # SBC must not condition on convergence: every bin's records enter the global fit
+    gf = fit_global(
+        rec,
+        fits,
+        surrogate=surrogate,
+        settings=settings,
+        seed=ss_glob,
+        priors=priors,
+        use_unconverged_bins=True,
+    )
+    out = {
+        "converged": all(f.converged for f in fits) and gf.converged,
+        "n_records_global": gf.info["n_records"],
+    }
     for name in SBC_PARAMS:
         src = gf if name in ("rho", "tau0_ms", "kappa") else fits[0]
         true = truth[name] if src is gf else truth["bins"][0][name]

@@ -1036,6 +1036,7 @@ def fit_global(
     settings: SamplerSettings = SamplerSettings(),
     seed,
     priors: Priors = Priors(),
+    use_unconverged_bins: bool = False,
 ) -> GlobalFit:
     """Posterior of ``rho``, ``tau0_ms`` and ``kappa`` from all records with a reference (stage 2).
 
@@ -1052,6 +1053,10 @@ def fit_global(
     settings : SamplerSettings
     seed : int or numpy.random.SeedSequence
 
+    use_unconverged_bins : bool
+        Only for simulation-based calibration (which must not condition on convergence):
+        also use the records of bins that failed the convergence criteria.
+
     Returns
     -------
     GlobalFit
@@ -1062,8 +1067,8 @@ def fit_global(
     seedseq = _as_seedsequence(seed)
     ss_sz, ss_mc, ss_loo = seedseq.spawn(3)
     bin_fits = list(bin_fits)
-    good = [f for f in bin_fits if f.converged]
-    excluded = [f.bin_id for f in bin_fits if not f.converged]
+    good = [f for f in bin_fits if f.converged or use_unconverged_bins]
+    excluded = [f.bin_id for f in bin_fits if not (f.converged or use_unconverged_bins)]
     szm, szv = record_sigma_z_moments(
         records, good, surrogate=surrogate, ndraws=settings.n_sz_draws, seed=ss_sz
     )

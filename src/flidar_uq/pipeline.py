@@ -39,6 +39,7 @@ __all__ = [
     "bin_seed",
     "build_report",
     "fit_global",
+    "git_revision",
     "infer_batch",
     "make_bins",
     "make_campaign",
@@ -749,6 +750,26 @@ def _reference(rec: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
         std = rec["ref_hws_std_ms"].to_numpy(dtype=float)
         return std, std / rec["ref_hws_mean_ms"].to_numpy(dtype=float)
     return nan, nan
+
+
+def git_revision(repo_dir: str | os.PathLike) -> str:
+    """Git revision (HEAD) of ``repo_dir``, "" outside a git checkout or without git.
+
+    Read when the report is written (not a rule parameter, so a commit alone does not
+    rerun the report).
+    """
+    import subprocess
+
+    try:
+        out = subprocess.run(
+            ["git", "-C", str(repo_dir), "rev-parse", "HEAD"],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+    except (OSError, subprocess.CalledProcessError):
+        return ""
+    return out.stdout.strip()
 
 
 def _capped_table(rep, df: pd.DataFrame, name: str, max_rows: int = 40) -> str:

@@ -1,6 +1,5 @@
 # Helpers shared by the rules: config validation at parse time, input functions.
 import os
-import subprocess
 
 from snakemake.utils import validate
 
@@ -52,14 +51,3 @@ def batch_of_bin(wildcards):
 
     table = pd.read_csv(checkpoints.bins.get().output.table).set_index("bin_id")
     return f"results/inference/batch_{int(table.loc[int(wildcards.bin), 'batch']):03d}"
-
-
-def git_revision():
-    """Git revision of the workflow's repository, '' outside a git checkout."""
-    try:
-        out = subprocess.run(
-            ["git", "-C", REPO, "rev-parse", "HEAD"], capture_output=True, text=True, check=True
-        )
-    except (OSError, subprocess.CalledProcessError):
-        return ""
-    return out.stdout.strip()

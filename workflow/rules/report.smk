@@ -20,7 +20,7 @@ rule report:
     params:
         config=config,
         benchmarks_dir=os.path.join(REPO, config["report"]["benchmarks_dir"]),
-        git_revision=git_revision(),
+        repo=REPO,
     conda:
         "../envs/flidar_uq.yaml"
     log:

@@ -10,5 +10,5 @@ pipeline.build_report(
     batch_dirs=list(snakemake.input.batches),
     config=dict(snakemake.params.config),
     benchmarks_dir=snakemake.params.benchmarks_dir,
-    git_revision=snakemake.params.git_revision,
+    git_revision=pipeline.git_revision(snakemake.params.repo),
 )
