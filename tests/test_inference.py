@@ -243,3 +243,27 @@ def test_recovery_rho_amplitude_period_statistical_mode(surrogate):
         for name in ("amplitude_deg", "period_s"):
             lo, hi = np.quantile(f.flat(name), [0.005, 0.995])
             assert lo < p[name] < hi, (f.bin_id, name, lo, hi, p[name])
+
+
+def test_translation_term_matches_design_md_lever_arm_example(surrogate):
+    """design.md: 3 deg, 4 s, head 4 m up: sigma_Z 0.18 -> 0.28 m/s at 8 m/s, 0.11 -> 0.24 at 5 m/s."""
+    from flidar_uq.inference import translation_unit_sq
+
+    trans = 4.0 * np.sqrt(translation_unit_sq(3.0, 4.0, scan_period_s=1.0))
+    assert trans == pytest.approx(np.sqrt(0.28**2 - 0.18**2), rel=0.05)
+    assert trans == pytest.approx(np.sqrt(0.24**2 - 0.11**2), rel=0.05)
+
+
+def test_lever_arm_model_log_prob_and_rho_only_equivalence_at_zero():
+    s, r = np.array([0.5, 1.0]), np.array([0.4, 0.9])
+    szm, szv, u2 = np.array([0.2, 0.3]), np.array([1e-4, 0.0]), np.array([0.01, 0.02])
+    th3 = np.array([[0.3, -3.0, -2.5]])
+    th4 = np.array([[0.3, -3.0, -2.5, 0.0]])
+    from flidar_uq.inference import _norm_logpdf
+
+    # L = 0: same likelihood; the two differ only by the half-normal prior density at 0
+    diff = log_prob_global(th4, s, r, szm, szv, u2=u2) - log_prob_global(th3, s, r, szm, szv)
+    assert diff[0] == pytest.approx(_norm_logpdf(0.0, 0.0, Priors().lever_arm_scale_m))
+    assert log_prob_global([[0.3, -3.0, -2.5, -1.0]], s, r, szm, szv, u2=u2)[0] == -np.inf
+    with pytest.raises(ValueError, match="needs u2"):
+        log_prob_global(th4, s, r, szm, szv)

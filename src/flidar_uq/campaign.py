@@ -5,9 +5,11 @@ Per 10-min record (``record_length_s``) and for every measurement height:
 1. Reference wind: mean HWS drawn from a truncated Weibull with lag-1 persistence
    (Gaussian copula), direction, power-law shear (seed 002: 0.1), a TI(HWS) draw
    (:func:`flidar_uq.turbulence.draw_sigma_u_ms`, IEC NTM or offshore-like) and 1-D
-   Kaimal (u, v, w) turbulence (:func:`flidar_uq.turbulence.kaimal_series`) on the
-   lidar's line-of-sight clock (50 Hz for the ZephIR). The 1-D model is enough for
-   the VAD circle (``tests/test_turbulence.py``).
+   Kaimal (u, v, w) turbulence (:func:`flidar_uq.turbulence.kaimal_series`) sampled
+   every ``wind.wind_dt_s`` (0.1 s) and held in between, independent between heights.
+   The 1-D model is enough for the motion-induced excess variance of the VAD; the
+   absolute VAD-seen variance of an IEC-coherent 3-D field is lower
+   (``tests/test_turbulence.py::test_vad_circle_1d_vs_3d_regime``).
 2. Buoy motion: narrow-band random roll/pitch from a JONSWAP sea state (wind sea plus
    an optional swell; :func:`flidar_uq.seastate.tilt_series`), or harmonic motion
    (6 DOF: roll, pitch, yaw, surge, sway, heave) for controlled cases (hexapod).
@@ -34,7 +36,7 @@ Randomness: the scenario-level draws (all records at once) use one child of the
 seed's SeedSequence, and every record gets its own spawned child, so results do not
 depend on the chunk size or the number of worker processes.
 
-Private adapter (listed in the issue report): :func:`_vad_retrieve_complete_scans`
+Private adapter: :func:`_vad_retrieve_complete_scans`
 applies :func:`flidar_uq.lidar.vad_pseudo_inverse` of the nominal geometry to many
 complete scans at once (each scan covers all ``n_los`` azimuth slots once, in a
 cyclically shifted order), and unfolds the CW sign like
@@ -57,6 +59,7 @@ import pandas as pd
 
 from flidar_uq import imu as _imu
 from flidar_uq import lidar as _lidar
+from flidar_uq.motion import rotation_matrix
 from flidar_uq.seastate import tilt_series
 from flidar_uq.turbulence import draw_sigma_u_ms, kaimal_series, wind_enu_ms
 
@@ -523,31 +526,6 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
 # ---------------------------------------------------------------------------
 
 
-def _rotation_matrix_filled(roll_rad, pitch_rad, yaw_rad):
-    """``flidar_uq.motion.rotation_matrix`` written entry by entry (private adapter).
-
-    Same matrix, ``R = Rz(yaw) @ Ry(pitch) @ Rx(roll)`` (docs/conventions.md), filled
-    into one preallocated array: about 10x faster than composing stacked factors,
-    which dominates the campaign's run time. ``tests/test_campaign.py`` asserts
-    equality with :func:`flidar_uq.motion.rotation_matrix`; delete this adapter once
-    that function is equally fast.
-    """
-    cr, sr = np.cos(roll_rad), np.sin(roll_rad)
-    cp, sp = np.cos(pitch_rad), np.sin(pitch_rad)
-    cy, sy = np.cos(yaw_rad), np.sin(yaw_rad)
-    out = np.empty((3, 3) + np.shape(cr))  # contiguous planes, viewed as (..., 3, 3)
-    out[0, 0] = cy * cp
-    out[0, 1] = cy * sp * sr - sy * cr
-    out[0, 2] = cy * sp * cr + sy * sr
-    out[1, 0] = sy * cp
-    out[1, 1] = sy * sp * sr + cy * cr
-    out[1, 2] = sy * sp * cr - cy * sr
-    out[2, 0] = -sp
-    out[2, 1] = cp * sr
-    out[2, 2] = cp * cr
-    return np.moveaxis(out, (0, 1), (-2, -1))
-
-
 def _vad_retrieve_complete_scans(pinv_t, m_body, y_abs, signs0, n_iter=2):
     """VAD of many complete scans at once, CW sign unfolded (private adapter).
 
@@ -641,17 +619,22 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     pitch = np.stack([s["pitch"] for s in series])
     yaw = np.stack([s["yaw"] for s in series])
     cc = np.arange(n_c)[:, None, None]
-    # rotation at every slot of the LOS clock, gathered per LOS
-    r_all = _rotation_matrix_filled(np.deg2rad(roll), np.deg2rad(pitch), np.deg2rad(yaw))
-    r_los = r_all[cc, idx]  # (C,J,L,3,3)
-    # head velocity: time derivative of the head position R(t) r + translation (seed 002 Eq. 4)
+    # attitude on each scan's slots plus one slot either side (for the head velocity)
+    idx_ext = np.clip(starts[..., None] - 1 + np.arange(n_los + 2), 0, n_slots - 1)
+    r_ext = rotation_matrix(
+        np.deg2rad(roll[cc, idx_ext]), np.deg2rad(pitch[cc, idx_ext]), np.deg2rad(yaw[cc, idx_ext])
+    )  # (C,J,L+2,3,3)
+    r_los = r_ext[:, :, 1:-1]  # (C,J,L,3,3)
+    # head velocity: central difference of the head position R(t) r + translation
+    # (seed 002 Eq. 4 differentiated), one-sided at the record's first slot
     moving_head = np.any(lever != 0) or any(s["trans"] is not None for s in series)
     if moving_head:
-        pos = r_all @ lever  # (C,N,3)
+        pos = r_ext @ lever  # (C,J,L+2,3)
         for c, s in enumerate(series):
             if s["trans"] is not None:
-                pos[c] += s["trans"]
-        v_head = np.gradient(pos, dt, axis=1)[cc, idx]  # (C,J,L,3)
+                pos[c] += s["trans"][idx_ext[c]]
+        span_s = np.maximum(idx_ext[..., 2:] - idx_ext[..., :-2], 1)[..., None] * dt
+        v_head = (pos[:, :, 2:] - pos[:, :, :-2]) / span_s  # (C,J,L,3)
     else:
         v_head = 0.0
     m_body = d_body[a_idx]  # (C,J,L,3)

@@ -286,6 +286,7 @@ def sbc_replication(
         seed=ss_glob,
         priors=priors,
         use_unconverged_bins=True,
+        lever_arm=False,  # the generative model has no lever arm
     )
     out = {
         "converged": all(f.converged for f in fits) and gf.converged,

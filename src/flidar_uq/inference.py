@@ -50,6 +50,7 @@ __all__ = [
     "sample_motion_prior",
     "period_kurtosis_ppc",
     "record_sigma_z_moments",
+    "translation_unit_sq",
 ]
 
 _LOG2PI = np.log(2.0 * np.pi)
@@ -66,7 +67,8 @@ class Priors:
     prior and ordered ``T1 < T2``; weight ``w ~ Beta(weight_beta, weight_beta)``.
     Within-bin log-scatter of the IMU statistics: half-normal(``scatter_scale``) on
     [``scatter_min``, ``scatter_max``]. ``rho ~ Uniform(-1, 1)``;
-    ``tau0 ~ HalfNormal(tau0_scale_ms)``; ``kappa ~ HalfNormal(kappa_scale)``.
+    ``tau0 ~ HalfNormal(tau0_scale_ms)``; ``kappa ~ HalfNormal(kappa_scale)``;
+    effective lever arm ``L ~ HalfNormal(lever_arm_scale_m)`` on [0, ``lever_arm_max_m``).
     """
 
     amplitude_median_deg: float = 3.0
@@ -85,6 +87,8 @@ class Priors:
     kappa_scale: float = 0.2
     tau0_min_ms: float = 1e-4
     kappa_min: float = 1e-4
+    lever_arm_scale_m: float = 3.0
+    lever_arm_max_m: float = 20.0
 
 
 @dataclass(frozen=True)
@@ -261,8 +265,13 @@ def log_prob_two_period(theta, log_amp, log_per, priors=Priors()):
     return np.where(ok & np.isfinite(out), out, -np.inf)
 
 
-def _global_mu_tau(theta, r, sz_med, sz_var):
+def _global_mu_tau(theta, r, sz_med, sz_var, u2=None):
     rho, log_tau0, log_kappa = (theta[:, k : k + 1] for k in range(3))
+    if u2 is not None and theta.shape[1] == 4:
+        # effective lever arm: sZ^2 = sZ_rot^2 + L^2 u^2 (translation of the head)
+        sz_rot = sz_med
+        sz_med = np.sqrt(sz_rot**2 + theta[:, 3:4] ** 2 * u2)
+        sz_var = sz_var * (sz_rot / np.maximum(sz_med, 1e-12)) ** 2
     var = r**2 + sz_med**2 + 2.0 * rho * r * sz_med
     mu = np.sqrt(np.maximum(var, 1e-12))  # Eq. (15) of seed 000
     dmu = (sz_med + rho * r) / mu
@@ -270,18 +279,21 @@ def _global_mu_tau(theta, r, sz_med, sz_var):
     return mu, tau
 
 
-def log_prob_global(theta, s, r, sz_med, sz_var, priors=Priors()):
+def log_prob_global(theta, s, r, sz_med, sz_var, priors=Priors(), u2=None):
     """Log posterior of the global observation model, vectorised over walkers.
 
     Parameters
     ----------
-    theta : array_like, shape (n_walkers, 3) or (3,)
-        ``(rho, log tau0_ms, log kappa)``.
+    theta : array_like, shape (n_walkers, 3 or 4)
+        ``(rho, log tau0_ms, log kappa[, lever_arm_m])``; the 4th column only with ``u2``.
     s, r : numpy.ndarray, shape (n_obs,)
         Floating-lidar and reference 10-min HWS std (m/s).
     sz_med, sz_var : numpy.ndarray, shape (n_obs,)
         Posterior median (m/s) and variance (m^2/s^2) of each record's sigma_Z.
     priors : Priors
+    u2 : numpy.ndarray, shape (n_obs,), optional
+        Squared translational error per metre of lever arm ((m/s)^2 / m^2), see
+        :func:`translation_unit_sq`; enables the lever-arm model.
 
     Returns
     -------
@@ -295,10 +307,44 @@ def log_prob_global(theta, s, r, sz_med, sz_var, priors=Priors()):
         ok &= _in(theta[:, 2], np.log(priors.kappa_min), np.log(2.0))
         lp = _log_halfnormal_logscale(theta[:, 1], priors.tau0_scale_ms)
         lp = lp + _log_halfnormal_logscale(theta[:, 2], priors.kappa_scale)
-        safe = np.where(ok[:, None], theta, [[0.0, -2.0, -2.0]])
-        mu, tau = _global_mu_tau(safe, r[None, :], sz_med[None, :], sz_var[None, :])
+        fallback = [[0.0, -2.0, -2.0]]
+        if theta.shape[1] == 4:
+            if u2 is None:
+                raise ValueError("log_prob_global: a 4-column theta (lever arm) needs u2")
+            ok &= (theta[:, 3] >= 0.0) & (theta[:, 3] < priors.lever_arm_max_m)
+            lp = lp + _norm_logpdf(theta[:, 3], 0.0, priors.lever_arm_scale_m)
+            fallback = [[0.0, -2.0, -2.0, 0.0]]
+            u2 = u2[None, :]
+        safe = np.where(ok[:, None], theta, fallback)
+        mu, tau = _global_mu_tau(safe, r[None, :], sz_med[None, :], sz_var[None, :], u2)
         out = lp + _norm_logpdf(s[None, :], mu, tau).sum(axis=1)
     return np.where(ok & np.isfinite(out), out, -np.inf)
+
+
+def translation_unit_sq(amplitude_deg, period_s, scan_period_s=1.0):
+    """Squared HWS error per metre of lever arm from the head's translation, (m/s)^2 / m^2.
+
+    Roll and pitch ``A sin(2 pi t / T + phi)`` about a centre ``L`` below the head move it
+    horizontally at ``L A (2 pi / T) cos(...)`` per axis; with independent phases the
+    component along the wind has variance ``(L A 2 pi / T)^2 / 2``. The VAD fit over one
+    scan of ``scan_period_s`` averages it by ``sinc(scan / T)``. Checked against
+    design.md: 3 deg, 4 s, 4 m gives 0.21 m/s (design.md: sqrt(0.28^2 - 0.18^2) = 0.21).
+
+    Parameters
+    ----------
+    amplitude_deg, period_s : array_like
+        Motion amplitude (deg) and period (s), broadcastable.
+    scan_period_s : float
+        Duration of one VAD scan (s).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``u^2`` such that ``sigma_Z,trans = L u``.
+    """
+    a = np.deg2rad(np.asarray(amplitude_deg, dtype=float))
+    t = np.asarray(period_s, dtype=float)
+    return 0.5 * (a * 2.0 * np.pi / t * np.sinc(scan_period_s / t)) ** 2
 
 
 # ----------------------------------------------------------------------------- data
@@ -646,7 +692,9 @@ class BinFit(_FitBase):
     def model(self) -> str:
         return self.info["model"]
 
-    def sigma_z_draws(self, hws_ms, surrogate=None, *, ndraws=None, rng=None) -> np.ndarray:
+    def sigma_z_draws(
+        self, hws_ms, surrogate=None, *, ndraws=None, rng=None, lever_arm_m=None, scan_period_s=1.0
+    ) -> np.ndarray:
         """Draws of sigma_Z (m/s) for records at mean HWS ``hws_ms``.
 
         Parameters
@@ -660,22 +708,39 @@ class BinFit(_FitBase):
             all stored draws by default).
         rng : numpy.random.Generator, optional
             Needed when ``ndraws`` subsamples.
+        lever_arm_m : float or array_like, shape (ndraws, 1), optional
+            Effective lever arm (m) per draw; adds the head translation,
+            ``sZ^2 = sZ_rot^2 + L^2 u^2`` (:func:`translation_unit_sq`).
+        scan_period_s : float
+            VAD scan duration (s) for the translation term.
 
         Returns
         -------
         numpy.ndarray, shape (ndraws, n)
         """
+        sz, u2 = self._motion_draws(hws_ms, surrogate, self._draw_index(ndraws, rng), scan_period_s)
+        if lever_arm_m is None:
+            return sz
+        return np.sqrt(sz**2 + np.asarray(lever_arm_m, dtype=float) ** 2 * u2)
+
+    def _motion_draws(self, hws_ms, surrogate, idx, scan_period_s=1.0):
+        """Rotational sigma_Z draws (ndraws, n) and translation units u^2 (ndraws, 1)."""
         surrogate = _default_surrogate(surrogate)
         hws = np.asarray(hws_ms, dtype=float)[None, :]
-        idx = self._draw_index(ndraws, rng)
         a = self.flat("amplitude_deg")[idx][:, None]
         if self.model == "two_period":
             t1 = self.flat("period1_s")[idx][:, None]
             t2 = self.flat("period2_s")[idx][:, None]
             w = self.flat("weight1")[idx][:, None]
-            return np.asarray(surrogate.sigma_z_two_period_ms(hws, a, t1, t2, w), dtype=float)
-        t = self.flat("period_s")[idx][:, None]
-        return np.asarray(surrogate.sigma_z_ms(hws, a, t), dtype=float)
+            sz = surrogate.sigma_z_two_period_ms(hws, a, t1, t2, w)
+            u2 = w * translation_unit_sq(a, t1, scan_period_s) + (1 - w) * translation_unit_sq(
+                a, t2, scan_period_s
+            )
+        else:
+            t = self.flat("period_s")[idx][:, None]
+            sz = surrogate.sigma_z_ms(hws, a, t)
+            u2 = translation_unit_sq(a, t, scan_period_s)
+        return np.asarray(sz, dtype=float), np.asarray(u2, dtype=float)
 
     def _draw_index(self, ndraws, rng):
         n = self.flat("amplitude_deg").size
@@ -723,6 +788,9 @@ class GlobalFit(_FitBase):
             "elpd_diff_se": loo.get("elpd_diff_se", np.nan),
             "pareto_k_max": loo.get("global_pareto_k_max", np.nan),
             "preferred_rho_model": loo.get("preferred", "global"),
+            "global_model": loo.get("model", "rho_only"),
+            "elpd_diff_lever_arm": loo.get("lever_arm_elpd_diff", np.nan),
+            "elpd_diff_lever_arm_se": loo.get("lever_arm_elpd_diff_se", np.nan),
         }
         return self._summary_rows(extra)
 
@@ -980,30 +1048,38 @@ def fit_bin(
 _GLOBAL_NAMES = ["rho", "tau0_ms", "kappa"]
 
 
-def record_sigma_z_moments(records, bin_fits, *, surrogate=None, ndraws=200, seed=0):
+def record_sigma_z_moments(
+    records, bin_fits, *, surrogate=None, ndraws=200, seed=0, scan_period_s=1.0
+):
     """Posterior median and variance of sigma_Z (m/s) for every record, from its bin's fit.
 
     Returns
     -------
-    sz_med, sz_var : numpy.ndarray, shape (n_records,)
-        NaN for records whose bin has no fit.
+    sz_med, sz_var, u2_med : numpy.ndarray, shape (n_records,)
+        Rotational sigma_Z median (m/s) and variance, and the median translation unit
+        ``u^2`` (:func:`translation_unit_sq`); NaN for records whose bin has no fit.
     """
     surrogate = _default_surrogate(surrogate)
     fits = {f.bin_id: f for f in bin_fits}
     rng = np.random.default_rng(_as_seedsequence(seed))
     med = np.full(len(records), np.nan)
     var = np.full(len(records), np.nan)
+    u2m = np.full(len(records), np.nan)
     bins = records["bin_id"].to_numpy()
     for b, f in fits.items():
         m = bins == b
         if not np.any(m):
             continue
-        sz = f.sigma_z_draws(
-            records["hws_mean_ms"].to_numpy(dtype=float)[m], surrogate, ndraws=ndraws, rng=rng
+        sz, u2 = f._motion_draws(
+            records["hws_mean_ms"].to_numpy(dtype=float)[m],
+            surrogate,
+            f._draw_index(ndraws, rng),
+            scan_period_s,
         )
         med[m] = np.median(sz, axis=0)
         var[m] = np.var(sz, axis=0)
-    return med, var
+        u2m[m] = np.median(u2)
+    return med, var, u2m
 
 
 def _per_bin_rho_loo(s, r, szm, szv, bins, tau0, kappa, rng, ndraws, priors):
@@ -1028,6 +1104,42 @@ def _per_bin_rho_loo(s, r, szm, szv, bins, tau0, kappa, rng, ndraws, priors):
     return ll_all[None, :, :]
 
 
+def _sample_global(s, r, szm, szv, u2, settings, seedseq, priors):
+    """emcee run of the global model (3 parameters, or 4 with the lever arm ``u2``)."""
+    ndim = 3 if u2 is None else 4
+
+    def init(rng, nwalkers):
+        cols = [
+            rng.uniform(-0.9, 0.9, nwalkers),
+            np.log(rng.uniform(0.01, 0.2, nwalkers)),
+            np.log(rng.uniform(0.02, 0.3, nwalkers)),
+        ]
+        if ndim == 4:
+            cols.append(rng.uniform(0.0, 5.0, nwalkers))
+        return np.column_stack(cols)
+
+    chains, _ = _run_ensembles(
+        log_prob_global, (s, r, szm, szv, priors, u2), init, ndim, settings, seedseq
+    )
+    names = _GLOBAL_NAMES + (["lever_arm_m"] if ndim == 4 else [])
+    nat = chains.copy()
+    nat[..., 1:3] = np.exp(chains[..., 1:3])
+    diag, reasons = _diagnostics(nat, names, settings)
+    thin = _thin(chains, settings.ndraws)
+    mu, tau = _global_mu_tau(
+        thin.reshape(-1, ndim),
+        r[None, :],
+        szm[None, :],
+        szv[None, :],
+        None if u2 is None else u2[None, :],
+    )
+    ll = _norm_logpdf(s[None, :], mu, tau).reshape(thin.shape[0], thin.shape[1], -1)
+    draws = {
+        n: (np.exp(thin[..., k]) if k in (1, 2) else thin[..., k]) for k, n in enumerate(names)
+    }
+    return draws, ll, diag, reasons
+
+
 def fit_global(
     records: pd.DataFrame,
     bin_fits,
@@ -1037,8 +1149,10 @@ def fit_global(
     seed,
     priors: Priors = Priors(),
     use_unconverged_bins: bool = False,
+    lever_arm="auto",
+    scan_period_s: float = 1.0,
 ) -> GlobalFit:
-    """Posterior of ``rho``, ``tau0_ms`` and ``kappa`` from all records with a reference (stage 2).
+    """Posterior of ``rho``, ``tau0_ms``, ``kappa`` [, ``lever_arm_m``] from the records with a reference (stage 2).
 
     Only records of converged bins with finite ``hws_std_ms``, ``ref_hws_std_ms`` and a
     positive sigma_Z are used; the bins left out are listed in ``info["excluded_bins"]``.
@@ -1056,6 +1170,13 @@ def fit_global(
     use_unconverged_bins : bool
         Only for simulation-based calibration (which must not condition on convergence):
         also use the records of bins that failed the convergence criteria.
+    lever_arm : "auto", bool
+        ``"auto"``: fit the rho-only model and the model with an effective lever arm
+        ``lever_arm_m`` (head translation, :func:`translation_unit_sq`) and keep the lever
+        arm if it converged and PSIS-LOO prefers it by more than ``loo_threshold_se`` se;
+        True / False: fit only that model.
+    scan_period_s : float
+        VAD scan duration (s) for the translation term (1 s for the ZephIR 300).
 
     Returns
     -------
@@ -1069,8 +1190,13 @@ def fit_global(
     bin_fits = list(bin_fits)
     good = [f for f in bin_fits if f.converged or use_unconverged_bins]
     excluded = [f.bin_id for f in bin_fits if not (f.converged or use_unconverged_bins)]
-    szm, szv = record_sigma_z_moments(
-        records, good, surrogate=surrogate, ndraws=settings.n_sz_draws, seed=ss_sz
+    szm, szv, u2m = record_sigma_z_moments(
+        records,
+        good,
+        surrogate=surrogate,
+        ndraws=settings.n_sz_draws,
+        seed=ss_sz,
+        scan_period_s=scan_period_s,
     )
     s = records["hws_std_ms"].to_numpy(dtype=float)
     r = (
@@ -1079,19 +1205,12 @@ def fit_global(
         else np.full(len(records), np.nan)
     )
     use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.isfinite(szm) & (szm > 0)
+    use &= np.isfinite(u2m)
     s, r, szm, szv = s[use], r[use], szm[use], szv[use]
     bins = records["bin_id"].to_numpy()[use]
     prior_only = not np.any(use)
 
-    def init(rng, nwalkers):
-        return np.column_stack(
-            [
-                rng.uniform(-0.9, 0.9, nwalkers),
-                np.log(rng.uniform(0.01, 0.2, nwalkers)),
-                np.log(rng.uniform(0.02, 0.3, nwalkers)),
-            ]
-        )
-
+    u2 = u2m[use]
     f = settings.global_step_factor
     gs = SamplerSettings(
         **{
@@ -1100,24 +1219,43 @@ def fit_global(
             "nburn": int(round(settings.nburn * f)),
         }
     )
-    chains, _ = _run_ensembles(log_prob_global, (s, r, szm, szv, priors), init, 3, gs, ss_mc)
-    nat = chains.copy()
-    nat[..., 1:] = np.exp(chains[..., 1:])
-    diag, reasons = _diagnostics(nat, _GLOBAL_NAMES, gs)
+    variants = {"rho_only": False, "lever_arm": True}
+    if lever_arm is not None and lever_arm != "auto":
+        variants = {("lever_arm" if lever_arm else "rho_only"): bool(lever_arm)}
+    fits = {
+        name: _sample_global(s, r, szm, szv, u2 if lev else None, gs, child, priors)
+        for (name, lev), child in zip(variants.items(), ss_mc.spawn(len(variants)), strict=True)
+    }
+    loo_info = {}
+    chosen = next(iter(fits))
+    if len(fits) == 2 and not prior_only:
+        lo = {k: _loo(v[1]) for k, v in fits.items()}
+        if all(v is not None for v in lo.values()):
+            d, se = _loo_compare(lo["lever_arm"], lo["rho_only"])
+            loo_info.update(
+                {
+                    "lever_arm_elpd_diff": d,
+                    "lever_arm_elpd_diff_se": se,
+                    "lever_arm_pareto_k_max": float(np.max(lo["lever_arm"]["pareto_k"])),
+                    "rho_only_pareto_k_max": float(np.max(lo["rho_only"]["pareto_k"])),
+                }
+            )
+            if not fits["lever_arm"][3] and d > settings.loo_threshold_se * se:
+                chosen = "lever_arm"
+    draws, ll, diag, reasons = fits[chosen]
+    reasons = list(reasons)
     if prior_only:
         reasons.append(
             "no record with reference std and converged bin: rho posterior equals the prior"
         )
-    thin = _thin(chains, settings.ndraws)
-    mu, tau = _global_mu_tau(thin.reshape(-1, 3), r[None, :], szm[None, :], szv[None, :])
-    ll = _norm_logpdf(s[None, :], mu, tau).reshape(thin.shape[0], thin.shape[1], -1)
-    draws = {
-        n: (thin[..., k] if k == 0 else np.exp(thin[..., k])) for k, n in enumerate(_GLOBAL_NAMES)
-    }
-    loo_info = {}
+    loo_info["model"] = chosen
+    if chosen == "lever_arm":  # per-bin rho comparison at the median lever arm
+        lev = float(np.median(draws["lever_arm_m"]))
+        sz_eff = np.sqrt(szm**2 + lev**2 * u2)
+        szv = szv * (szm / np.maximum(sz_eff, 1e-12)) ** 2
+        szm = sz_eff
     if not prior_only and np.unique(bins).size > 1:
         lg = _loo(ll)
-        rng = np.random.default_rng(ss_loo)
         llb = _per_bin_rho_loo(
             s,
             r,
@@ -1126,24 +1264,26 @@ def fit_global(
             bins,
             np.median(draws["tau0_ms"]),
             np.median(draws["kappa"]),
-            rng,
+            np.random.default_rng(ss_loo),
             1000,
             priors,
         )
         lb = _loo(llb)
-    if not prior_only and np.unique(bins).size > 1 and (lg is None or lb is None):
-        loo_info = {"loo_failed": True, "preferred": "global"}
-    elif not prior_only and np.unique(bins).size > 1:
-        d, se = _loo_compare(lb, lg)
-        loo_info = {
-            "global_elpd": lg["elpd"],
-            "per_bin_elpd": lb["elpd"],
-            "elpd_diff": d,
-            "elpd_diff_se": se,
-            "global_pareto_k_max": float(np.max(lg["pareto_k"])),
-            "per_bin_pareto_k_max": float(np.max(lb["pareto_k"])),
-            "preferred": "per_bin" if d > settings.loo_threshold_se * se else "global",
-        }
+        if lg is None or lb is None:
+            loo_info.update({"loo_failed": True, "preferred": "global"})
+        else:
+            d, se = _loo_compare(lb, lg)
+            loo_info.update(
+                {
+                    "global_elpd": lg["elpd"],
+                    "per_bin_elpd": lb["elpd"],
+                    "elpd_diff": d,
+                    "elpd_diff_se": se,
+                    "global_pareto_k_max": float(np.max(lg["pareto_k"])),
+                    "per_bin_pareto_k_max": float(np.max(lb["pareto_k"])),
+                    "preferred": "per_bin" if d > settings.loo_threshold_se * se else "global",
+                }
+            )
     rho = draws["rho"].ravel()
     pile = float(np.mean(np.abs(rho) > 0.98))
     info = {

@@ -905,13 +905,15 @@ def build_report(
         ok = records["ti_corrected_median"].notna()
         r = records[ok]
         ref = r[ref_col].to_numpy(dtype=float)
+        # seed 000's rho needs >= 3 bins; otherwise the PC curve uses the posterior median
+        rho_pc, rho_src = (
+            (rho_seed, "seed 000") if np.isfinite(rho_seed) else (rho_med, "posterior median")
+        )
         szb = r["sigma_z_seed000_ms"].to_numpy(dtype=float)
         corr = {
             "U": correction.sigma_moving_u(ref, szb),
             "C": correction.sigma_moving_c(ref, szb),
-            "PC": correction.sigma_moving_pc(
-                ref, szb, rho_seed if np.isfinite(rho_seed) else rho_med
-            ),
+            "PC": correction.sigma_moving_pc(ref, szb, rho_pc),
             "Bayesian": correction.sigma_moving_pc(
                 ref, r["sigma_z_median_ms"].to_numpy(dtype=float), rho_med
             ),
@@ -922,7 +924,7 @@ def build_report(
                 plots.sigma_scatter_figure(r["hws_std_ms"].to_numpy(), ref, corr, ref_label=label)
             ),
             f"whole campaign: sigma_moving against sigma_ref ({label}) and the motion-corrected sigma_corr "
-            f"(Eqs. 15-17 of seed 000; PC with rho = {rho_seed:.3g}, Bayesian with the posterior medians)",
+            f"(Eqs. 15-17 of seed 000; PC with rho = {rho_pc:.3g} ({rho_src}), Bayesian with the posterior medians)",
         )
         top = bins.loc[bins["status"] == "ok", "bin_id"].head(3).tolist()
         for bid in top:

@@ -2,8 +2,9 @@
 
 For every record ``i`` and posterior draw ``d`` (docs/inference.md, "Propagation"):
 
-1. ``sZ_id`` from the record's bin posterior (surrogate at the record's mean HWS);
-   ``rho_d, tau0_d, kappa_d`` from the global posterior (independent pairing: cut model);
+1. ``sZ_id`` from the record's bin posterior (surrogate at the record's mean HWS; plus
+   the head translation ``L_d^2 u^2`` if the global fit chose the lever-arm model);
+   ``rho_d, tau0_d, kappa_d[, L_d]`` from the global posterior (independent pairing: cut);
 2. the record's own sampling noise: ``s*_id = s_i + tau_id z_id`` with
    ``tau_id^2 = (kappa_d s_i)^2 + tau0_d^2`` and ``z ~ N(0, 1)`` (the observation model
    read backwards: given the measured ``s_i`` the noise-free std is uncertain by ``tau``);
@@ -73,6 +74,7 @@ def corrected_ti(
     cred_mass: float = 0.9,
     ndraws: int = 400,
     speed_bin_width_ms: float = 1.0,
+    scan_period_s: float = 1.0,
     seed,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Corrected std and TI as posterior draws, summarised per record and per speed bin.
@@ -91,6 +93,9 @@ def corrected_ti(
         Posterior draws propagated per record.
     speed_bin_width_ms : float
         Width of the speed bins of the per-bin table (m/s), centred on multiples of it.
+    scan_period_s : float
+        VAD scan duration (s), for the head-translation term when the global fit chose
+        the lever-arm model (its ``lever_arm_m`` draws are then propagated too).
     seed : int or numpy.random.SeedSequence
 
     Returns
@@ -136,6 +141,11 @@ def corrected_ti(
     tau0 = global_fit.flat("tau0_ms")[g_idx][:, None]
     kappa = global_fit.flat("kappa")[g_idx][:, None]
     rho_med = float(np.median(global_fit.flat("rho")))
+    lever = (
+        global_fit.flat("lever_arm_m")[g_idx][:, None]
+        if "lever_arm_m" in global_fit.draws
+        else None
+    )
 
     sig = np.full((ndraws, n), np.nan)
     neg_frac = np.full(n, np.nan)
@@ -149,9 +159,10 @@ def corrected_ti(
             reasons[mask] = "no fit for this bin"
             continue
         nb = int(f.flat("amplitude_deg").size)
-        sz = f.sigma_z_draws(m[mask], surrogate, ndraws=min(ndraws, nb), rng=rng)
-        if sz.shape[0] < ndraws:
-            sz = sz[rng.choice(sz.shape[0], size=ndraws, replace=True)]
+        idx = rng.choice(nb, size=ndraws, replace=ndraws > nb)
+        sz, u2 = f._motion_draws(m[mask], surrogate, idx, scan_period_s)
+        if lever is not None:  # head translation of the lever-arm model
+            sz = np.sqrt(sz**2 + lever**2 * u2)
         tau = np.sqrt((kappa * s[mask][None, :]) ** 2 + tau0**2)
         s_star = np.abs(s[mask][None, :] + tau * rng.standard_normal((ndraws, int(mask.sum()))))
         c, neg = corrected_std(s_star, sz, rho)
