@@ -209,7 +209,7 @@ def test_stability_rho_posterior_piling_at_plus_one(surrogate):
     """Documented: rho stays inside (-1, 1), the mass near +1 is reported, nothing is NaN."""
     rec, _ = _campaign(1.0, surrogate, seed=2)
     fits = [fit_bin(g, settings=FAST, seed=int(b)) for b, g in rec.groupby("bin_id")]
-    gf = fit_global(rec, fits, surrogate=surrogate, settings=FAST, seed=9)
+    gf = fit_global(rec, fits, surrogate=surrogate, settings=FAST, seed=9, lever_arm=False)
     rho = gf.flat("rho")
     assert np.all(rho < 1.0) and np.all(np.isfinite(rho))
     assert np.quantile(rho, 0.05) > 0.8
@@ -225,7 +225,7 @@ def test_global_excludes_unconverged_bins(surrogate):
         settings=SamplerSettings(nwalkers=8, nsteps=15, nburn=0, ndraws=20),
         seed=2,
     )
-    gf = fit_global(rec, [good, bad], surrogate=surrogate, settings=FAST, seed=3)
+    gf = fit_global(rec, [good, bad], surrogate=surrogate, settings=FAST, seed=3, lever_arm=False)
     assert gf.info["excluded_bins"] == [1]
     assert gf.info["n_records"] == 15
 

@@ -13,7 +13,13 @@ from flidar_uq.surrogate import get_surrogate
 N_REP = 100
 N_RANK_DRAWS = 99  # ranks 0..99 -> 10 histogram bins of 10 ranks
 SMALL = SamplerSettings(
-    nwalkers=16, nsteps=200, nburn=100, ndraws=100, mixture="never", global_step_factor=2.0
+    nwalkers=16,
+    nsteps=200,
+    nburn=100,
+    ndraws=100,
+    mixture="never",
+    global_step_factor=2.0,
+    max_step_factor=1.0,  # fixed length: SBC does not need (or condition on) convergence
 )
 
 

@@ -81,7 +81,7 @@ class Priors:
     period_max_s: float = 20.0
     weight_beta: float = 2.0
     scatter_scale: float = 0.3
-    scatter_min: float = 0.005
+    scatter_min: float = 0.03
     scatter_max: float = 2.0
     tau0_scale_ms: float = 0.1
     kappa_scale: float = 0.2
@@ -114,11 +114,13 @@ class SamplerSettings:
         main phase; the rest is DEMove. It cuts the autocorrelation time to a few steps
         for near-Gaussian posteriors; DE keeps mixing where the fit is poor.
     mixture : str
-        ``"auto"``: fit the unimodal model; if the IMU reports a second spectral peak in at
-        least a quarter of the records or the posterior predictive check of the periods'
-        kurtosis has p < ``screen_pvalue``, also fit the two-period model and keep it if
+        ``"auto"``: fit the unimodal model; if the posterior predictive check of the
+        periods' kurtosis has p < ``screen_pvalue``, also fit the two-period model and keep it if
         PSIS-LOO prefers it by more than ``loo_threshold_se`` standard errors and it
         converged. ``"never"`` or ``"always"`` (fit both, keep the two-period model).
+    max_step_factor : float
+        The main phase is extended adaptively (all ensembles equally) until it exceeds
+        ``1.1 n_autocorr`` autocorrelation times, at most to this many times ``nsteps``.
     two_period_step_factor : float
         The two-period model (6 parameters, longer autocorrelation) runs this many times
         ``nsteps`` and ``nburn``.
@@ -137,6 +139,7 @@ class SamplerSettings:
     snooker_weight: float = 0.2
     independence_weight: float = 0.5
     two_period_step_factor: float = 2.0
+    max_step_factor: float = 6.0
     global_step_factor: float = 3.5
     screen_pvalue: float = 0.05
     mixture: str = "auto"
@@ -445,9 +448,11 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq):
 
     Burn-in: DE + DE-snooker moves. Main phase (a fixed kernel): DE + an independence
     Student-t Metropolis move fitted to the last third of the burn-in.
-    Returns chains of shape (nensembles, nsteps, nwalkers, ndim) and log-probs.
+    The main phase is extended (all ensembles equally) while it is shorter than
+    ``1.1 n_autocorr`` autocorrelation times, up to ``max_step_factor * nsteps`` steps.
+    Returns chains of shape (nensembles, nsteps', nwalkers, ndim) and log-probs.
     """
-    chains, lps = [], []
+    samplers = []
     burn_moves = [
         (emcee.moves.DEMove(), 1.0 - settings.snooker_weight),
         (emcee.moves.DESnookerMove(), settings.snooker_weight),
@@ -471,9 +476,27 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq):
         )
         main.random_state = burn.random_state
         main.run_mcmc(state, settings.nsteps, progress=False)
-        chains.append(main.get_chain())
-        lps.append(main.get_log_prob())
-    return np.stack(chains), np.stack(lps)
+        samplers.append(main)
+    # adaptive length (emcee practice): extend ALL ensembles equally until the chains are
+    # longer than n_autocorr (+10 %) autocorrelation times, up to max_step_factor * nsteps
+    nsteps = settings.nsteps
+    while nsteps < settings.max_step_factor * settings.nsteps:
+        with np.errstate(all="ignore"):
+            tau = max(
+                float(np.nanmax(emcee.autocorr.integrated_time(sm.get_chain(), tol=0, quiet=True)))
+                for sm in samplers
+            )
+        need = int(np.ceil(1.1 * settings.n_autocorr * tau)) if np.isfinite(tau) else 2 * nsteps
+        if nsteps >= need:
+            break
+        extra = min(need, int(settings.max_step_factor * settings.nsteps)) - nsteps
+        for sm in samplers:
+            sm.run_mcmc(None, extra, progress=False)
+        nsteps += extra
+    return (
+        np.stack([sm.get_chain() for sm in samplers]),
+        np.stack([sm.get_log_prob() for sm in samplers]),
+    )
 
 
 def _diagnostics(chains, names, settings):
@@ -989,9 +1012,7 @@ def fit_bin(
     n_peak2 = (
         int(np.sum(np.isfinite(bin_records["period2_s"]))) if "period2_s" in bin_records else 0
     )
-    screened = (n_peak2 >= 0.25 * len(bin_records) and n_peak2 > 0) or (
-        ppc_p < settings.screen_pvalue
-    )
+    screened = bool(ppc_p < settings.screen_pvalue)
     loo_info = {
         "ppc_kurtosis_p": ppc_p,
         "n_second_peak": n_peak2,

@@ -870,14 +870,15 @@ def build_report(
             "status",
             "model",
             "ti_uncorrected_mean",
-            "ti_corrected_median",
-            "ti_corrected_lo",
-            "ti_corrected_hi",
+            "ti_corrected_median_mean",
+            "ti_corrected_lo_mean",
+            "ti_corrected_hi_mean",
             "ti_true_mean",
         )
         if c in bins
     ]
-    table1 = bins[cols].rename(
+    shown = bins["status"] != "not_fitted"
+    table1 = bins.loc[shown, cols].rename(
         columns={
             "bin_id": "case no.",
             "hws_ms": "HWS (m/s)",
@@ -892,8 +893,9 @@ def build_report(
             "Bin table (seed 000 Table 1 style)",
             rep.table_html(
                 table1,
-                caption=f"bins by decreasing count; sigma_Z at the bin centre; corrected TI of the "
-                f"bin-mean record, median and {mass:.0%} credible interval",
+                caption=f"bins by decreasing count; sigma_Z at the bin centre; bin means of the "
+                f"records' uncorrected TI, corrected TI (median and {mass:.0%} interval bounds) and truth; "
+                f"{int((~shown).sum())} bins below min_count not shown (results/ti/bins.csv)",
             ),
         )
     )
