@@ -792,7 +792,7 @@ class BinFit(_FitBase):
 
 @dataclass
 class GlobalFit(_FitBase):
-    """Posterior of the global parameters ``rho``, ``tau0_ms``, ``kappa`` (stage 2).
+    """Posterior of the global parameters ``rho``, ``tau0_ms``, ``kappa`` [, ``lever_arm_m``] (stage 2).
 
     ``info`` holds ``n_records`` used, ``excluded_bins`` (bins not converged, never used),
     ``prior_only`` (no reference data), ``loo`` (global vs per-bin rho).
@@ -867,6 +867,23 @@ def _to_natural(theta, model):
 
 
 def sample_motion_prior(rng, n, priors, ndim):
+    """Draws from the per-bin motion prior, in the sampler's (log / logit) coordinates.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+    n : int
+        Number of draws.
+    priors : Priors
+    ndim : int
+        4 (unimodal: log A, log T, log s_a, log s_T) or 6 (two-period: log A, log T1,
+        log T2, logit w, log s_a, log s_T with T1 < T2).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, ndim)
+    """
+
     def trunc_lognormal(median, sd, lo, hi):
         x = np.exp(rng.normal(np.log(median), sd, size=4 * n + 64))
         x = x[(x > lo) & (x < hi)]
