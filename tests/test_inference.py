@@ -267,16 +267,3 @@ def test_lever_arm_model_log_prob_and_rho_only_equivalence_at_zero():
     assert log_prob_global([[0.3, -3.0, -2.5, -1.0]], s, r, szm, szv, u2=u2)[0] == -np.inf
     with pytest.raises(ValueError, match="needs u2"):
         log_prob_global(th4, s, r, szm, szv)
-
-
-def test_global_model_variants_in_parallel_give_identical_draws(surrogate):
-    """lever_arm="auto" fits two global models; running them in 2 processes must not
-    change a single draw (each model has its own spawned seed)."""
-    rec, _ = _campaign(0.5, surrogate, seed=6, n_bins=2, n=15)
-    fits = [fit_bin(g, settings=FAST, seed=int(b)) for b, g in rec.groupby("bin_id")]
-    kw = dict(surrogate=surrogate, settings=FAST, seed=11, lever_arm="auto")
-    serial = fit_global(rec, fits, n_workers=1, **kw)
-    parallel = fit_global(rec, fits, n_workers=2, **kw)
-    assert serial.info["loo"]["model"] == parallel.info["loo"]["model"]
-    for name in ("rho", "tau0_ms", "kappa"):
-        np.testing.assert_array_equal(serial.flat(name), parallel.flat(name))

@@ -22,9 +22,7 @@ returns ``-inf`` (never NaN) outside the support.
 from __future__ import annotations
 
 import json
-import multiprocessing
 import warnings
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field
 
 import arviz as az
@@ -1191,7 +1189,6 @@ def fit_global(
     use_unconverged_bins: bool = False,
     lever_arm="auto",
     scan_period_s: float = 1.0,
-    n_workers: int = 1,
 ) -> GlobalFit:
     """Posterior of ``rho``, ``tau0_ms``, ``kappa`` [, ``lever_arm_m``] from the records with a reference (stage 2).
 
@@ -1211,9 +1208,6 @@ def fit_global(
     use_unconverged_bins : bool
         Only for simulation-based calibration (which must not condition on convergence):
         also use the records of bins that failed the convergence criteria.
-    n_workers : int
-        Processes for the model variants of ``lever_arm="auto"`` (fitted in parallel;
-        the draws are identical for any ``n_workers``).
     lever_arm : "auto", bool
         ``"auto"``: fit the rho-only model and the model with an effective lever arm
         ``lever_arm_m`` (head translation, :func:`translation_unit_sq`) and keep the lever
@@ -1266,18 +1260,10 @@ def fit_global(
     variants = {"rho_only": False, "lever_arm": True}
     if lever_arm is not None and lever_arm != "auto":
         variants = {("lever_arm" if lever_arm else "rho_only"): bool(lever_arm)}
-    jobs = [
-        (s, r, szm, szv, u2 if lev else None, gs, child, priors)
-        for lev, child in zip(variants.values(), ss_mc.spawn(len(variants)), strict=True)
-    ]
-    if n_workers > 1 and len(jobs) > 1:
-        # Each model has its own spawned seed: the result does not depend on n_workers.
-        ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=min(n_workers, len(jobs)), mp_context=ctx) as pool:
-            results = list(pool.map(_sample_global, *zip(*jobs, strict=True)))
-    else:
-        results = [_sample_global(*job) for job in jobs]
-    fits = dict(zip(variants, results, strict=True))
+    fits = {
+        name: _sample_global(s, r, szm, szv, u2 if lev else None, gs, child, priors)
+        for (name, lev), child in zip(variants.items(), ss_mc.spawn(len(variants)), strict=True)
+    }
     loo_info = {}
     chosen = next(iter(fits))
     if len(fits) == 2 and not prior_only:

@@ -485,7 +485,6 @@ def fit_global(
     inference: dict,
     priors: dict,
     lidar: str = "zephir300",
-    threads: int = 1,
 ) -> pd.DataFrame:
     """Gather the per-bin fits and fit the global rho, tau0 and kappa (the gather step).
 
@@ -508,7 +507,6 @@ def fit_global(
         settings=_settings(inference),
         seed=np.random.SeedSequence(entropy=int(inference["seed"]), spawn_key=(0,)),
         priors=_priors(priors),
-        n_workers=threads,
     )
     Path(posterior_path).parent.mkdir(parents=True, exist_ok=True)
     _save_fit(fit, posterior_path)

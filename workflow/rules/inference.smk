@@ -53,7 +53,6 @@ rule fit_global:
         inference=config["inference"],
         priors=config["priors"],
         lidar=config["campaign"]["lidar"],
-    threads: 2
     conda:
         "../envs/flidar_uq.yaml"
     log:

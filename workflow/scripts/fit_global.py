@@ -14,5 +14,4 @@ pipeline.fit_global(
     inference=dict(snakemake.params.inference),
     priors=dict(snakemake.params.priors),
     lidar=snakemake.params.lidar,
-    threads=snakemake.threads,
 )
