@@ -571,19 +571,6 @@ def _circ_mean_deg(deg, mask, axis):
     return np.rad2deg(np.arctan2(s, c)) % 360.0
 
 
-#: Record columns filled from :func:`flidar_uq.imu.motion_statistics`.
-MOTION_STAT_COLUMNS = (
-    "roll_amplitude_deg",
-    "pitch_amplitude_deg",
-    "roll_period_s",
-    "pitch_period_s",
-    "period1_s",
-    "period2_s",
-    "weight1",
-    "imu_availability_pct",
-)
-
-
 def _utc(ts: pd.Timestamp, t_s: np.ndarray) -> pd.DatetimeIndex:
     """UTC timestamps ``ts + t_s`` (s), through integer nanoseconds."""
     return pd.to_datetime(ts.value + np.round(np.asarray(t_s) * 1e9).astype(np.int64), utc=True)
@@ -785,7 +772,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     ).set_index("timestamp")
     for r in rows:
         st = stats.loc[r["timestamp"]]
-        for key in MOTION_STAT_COLUMNS:
+        for key in _imu.MOTION_STAT_COLUMNS:
             r[key] = float(st[key])
     return (
         rows,

@@ -57,6 +57,18 @@ __all__ = [
 
 AMPLITUDE_METHODS = ("std", "spectral", "zero_crossing")
 PERIOD_METHODS = ("spectral", "zero_crossing")
+#: Record columns filled by :func:`motion_statistics` (besides ``imu_availability_pct``).
+STATISTIC_COLUMNS = (
+    "roll_amplitude_deg",
+    "pitch_amplitude_deg",
+    "roll_period_s",
+    "pitch_period_s",
+    "period1_s",
+    "period2_s",
+    "weight1",
+)
+#: All record columns written by :func:`motion_statistics`, availability included.
+MOTION_STAT_COLUMNS = (*STATISTIC_COLUMNS, "imu_availability_pct")
 
 
 # --------------------------------------------------------------------------- basics
@@ -491,18 +503,7 @@ def motion_statistics(
     present = np.isfinite(grid).any(axis=(1, 2))
     good = present & (coverage >= min_coverage_pct)
     nwin = grid.shape[0]
-    cols = {
-        k: np.full(nwin, np.nan)
-        for k in (
-            "roll_amplitude_deg",
-            "pitch_amplitude_deg",
-            "roll_period_s",
-            "pitch_period_s",
-            "period1_s",
-            "period2_s",
-            "weight1",
-        )
-    }
+    cols = {k: np.full(nwin, np.nan) for k in STATISTIC_COLUMNS}
     if good.any():
         g = grid[good]
         psd = []

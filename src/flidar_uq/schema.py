@@ -86,6 +86,19 @@ RADIAN_SUSPECT_MIN_COUNT = 5
 #: Accepted median IMU sampling rate (Hz), inclusive; nominal 5-20 Hz with 5 % tolerance.
 IMU_RATE_RANGE_HZ = (4.75, 21.0)
 
+#: Measurement height, shared by the record and LOS tables (one definition, one bound).
+_HEIGHT_M = Column(
+    "height_m",
+    "float",
+    "m",
+    True,
+    0.0,
+    1000.0,
+    False,
+    "Measurement height above the lidar.",
+    lower_exclusive=True,
+)
+
 RECORD_COLUMNS: tuple[Column, ...] = (
     Column(
         "timestamp",
@@ -97,17 +110,7 @@ RECORD_COLUMNS: tuple[Column, ...] = (
         False,
         "Start of the 10-min record, ISO 8601 (naive values are taken as UTC).",
     ),
-    Column(
-        "height_m",
-        "float",
-        "m",
-        True,
-        0.0,
-        1000.0,
-        False,
-        "Measurement height above the lidar.",
-        lower_exclusive=True,
-    ),
+    _HEIGHT_M,
     Column(
         "hws_mean_ms",
         "float",
@@ -327,17 +330,7 @@ LOS_COLUMNS: tuple[Column, ...] = (
         False,
         "Time of the line-of-sight measurement, ISO 8601 UTC, non-decreasing per height.",
     ),
-    Column(
-        "height_m",
-        "float",
-        "m",
-        True,
-        0.0,
-        1000.0,
-        False,
-        "Measurement height above the lidar.",
-        lower_exclusive=True,
-    ),
+    _HEIGHT_M,
     Column(
         "azimuth_deg",
         "float",
