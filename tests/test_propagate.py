@@ -154,3 +154,30 @@ def test_coverage_of_true_ti_statistical_mode(surrogate):
     assert ok.mean() > 0.7
     cover = (pr.ti_corrected_lo <= rec.true_ti) & (rec.true_ti <= pr.ti_corrected_hi)
     assert 0.85 <= cover[ok].mean() <= 0.95
+
+
+def test_point_target_divides_by_lidar_std_ratio_and_widens_by_its_scatter(surrogate):
+    # docs/lidar-response.md: the motionless-lidar std c -> point std c exp(e) / g
+    rec = _records([0.6, 0.8, 1.0])
+    fits = [_bin_fit(0, 3.0, 4.0)]
+    kw = dict(surrogate=surrogate, seed=3, ndraws=2000)
+    base, _ = corrected_ti(rec, fits, _global_fit(0.4), **kw)
+    g = np.array([1.02, 1.03, 1.05])
+    pr, _ = corrected_ti(rec, fits, _global_fit(0.4), lidar_std_ratio=g, **kw)
+    np.testing.assert_allclose(
+        pr["sigma_corrected_median_ms"] * g, base["sigma_corrected_median_ms"]
+    )
+    np.testing.assert_allclose(pr["lidar_std_ratio"], g)
+    wide, _ = corrected_ti(
+        rec, fits, _global_fit(0.4), lidar_std_ratio=g, point_log_sd=np.full(3, 0.04), **kw
+    )
+    # without other noise (tau0, kappa ~ 0) the interval is exp(+-1.645 * 0.04) about c / g
+    ratio = wide["sigma_corrected_hi_ms"] / wide["sigma_corrected_lo_ms"]
+    np.testing.assert_allclose(np.log(ratio), 2 * 1.645 * 0.04, rtol=0.1)
+    np.testing.assert_allclose(
+        wide["sigma_corrected_median_ms"], pr["sigma_corrected_median_ms"], rtol=0.01
+    )
+    with pytest.raises(ValueError, match="lidar_std_ratio"):
+        corrected_ti(rec, fits, _global_fit(0.4), lidar_std_ratio=np.array([1.0, 0.0, 1.0]), **kw)
+    with pytest.raises(ValueError, match="point_log_sd needs"):
+        corrected_ti(rec, fits, _global_fit(0.4), point_log_sd=np.zeros(3), **kw)

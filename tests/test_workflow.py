@@ -464,3 +464,23 @@ def test_infer_batch_reports_a_raising_bin_and_fits_the_others(tmp_path, monkeyp
     # no wall-clock attribute: the same fit written twice is byte-identical
     assert (runs[0] / "bin_0001.nc").read_bytes() == (runs[1] / "bin_0001.nc").read_bytes()
     assert not (runs[0] / "bin_0003.nc").exists()  # not fitted, not in this batch
+
+
+def test_schema_point_target_sampling_keys():
+    """The "auto"-or-value keys of the point target accept "auto" or a bounded value only."""
+    schema = load_yaml(SCHEMA)
+    for key, good, bad in (
+        ("scan_heights_in_turn", [3, "auto"], [0, "automatic", 2.5]),
+        ("scan_refocus_delay_s", [[0.3, 0.7], "auto"], [[0.3], [-1.0, 0.5], "x"]),
+        ("turbulence_dt_s", [0.1, None, "auto"], [0.0, "none"]),
+        ("target", ["point", "motionless_lidar"], ["cup"]),
+    ):
+        for value in good:
+            cfg = load_yaml(CONFIG)
+            cfg["propagation"][key] = value
+            jsonschema.validate(cfg, schema)
+        for value in bad:
+            cfg = load_yaml(CONFIG)
+            cfg["propagation"][key] = value
+            with pytest.raises(jsonschema.ValidationError):
+                jsonschema.validate(cfg, schema)

@@ -70,11 +70,16 @@ __all__ = [
     "generate_campaign",
     "load_scenario",
     "scenario_dir",
+    "reference_sampling",
 ]
 
 # ---------------------------------------------------------------------------
 # configuration
 # ---------------------------------------------------------------------------
+
+#: The truth columns (``true_hws_*``, ``true_ti``) are statistics of the point HWS sampled
+#: at this interval, s (a cup's 1-Hz series).
+TRUTH_SAMPLE_INTERVAL_S = 1.0
 
 #: Every key a scenario may set, with its default (units in the key names).
 DEFAULT_SCENARIO: dict = {
@@ -250,6 +255,36 @@ class CampaignConfig:
 
     def __getitem__(self, key):
         return self.settings[key]
+
+
+def reference_sampling(scenario: str | Path | Mapping) -> dict:
+    """How a virtual campaign samples the wind: what :mod:`flidar_uq.lidar_response` needs.
+
+    Parameters
+    ----------
+    scenario : str, Path or mapping
+        Scenario name or path (:func:`load_scenario`) or a scenario mapping.
+
+    Returns
+    -------
+    dict
+        ``heights_in_turn`` (heights scanned in turn, one scan each), ``refocus_delay_s``
+        ((lo, hi) uniform delay between scans, s), ``turbulence_dt_s`` (the 1-D Kaimal
+        series are synthesised at this interval, rounded to a multiple of the
+        line-of-sight time, and held in between: no variance above ``1 / (2 dt)``), and
+        ``point_sample_interval_s`` (the truth columns are the std of the point HWS
+        sampled every second).
+    """
+    data = scenario if isinstance(scenario, Mapping) else load_scenario(scenario)
+    settings = CampaignConfig.from_dict(data).settings
+    dt = _lidar.get_lidar(settings["lidar"]["name"]).los_duration_s
+    lo, hi = settings["lidar"]["refocus_delay_s"]
+    return {
+        "heights_in_turn": len(settings["heights_m"]),
+        "refocus_delay_s": (float(lo), float(hi)),
+        "turbulence_dt_s": _wind_step(settings, dt) * dt,
+        "point_sample_interval_s": TRUTH_SAMPLE_INTERVAL_S,
+    }
 
 
 def _check_positive(s, key, val, integer=False):
@@ -700,7 +735,8 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
             hs, h0 = hws_scan[c][sel], hws0[c][sel_ref]
             zc = (hws_scan[c] - hws0[c])[sel]
             truth = (
-                fl[c, h, :: max(int(round(1.0 / (dt * step))), 1), :2] + hws_h[c, h] * e_wind[c, :2]
+                fl[c, h, :: max(int(round(TRUTH_SAMPLE_INTERVAL_S / (dt * step))), 1), :2]
+                + hws_h[c, h] * e_wind[c, :2]
             )
             true_hws = np.hypot(truth[:, 0], truth[:, 1])
             enough = sel.sum() >= 2

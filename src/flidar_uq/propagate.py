@@ -11,6 +11,11 @@ For every record ``i`` and posterior draw ``d`` (docs/inference.md, "Propagation
 3. the deployment formula ``c = -rho sZ + sqrt(s*^2 - (1 - rho^2) sZ^2)``
    (:func:`flidar_uq.correction.corrected_std`, Eq. 15 of seed 000 inverted) and
    ``TI = c / m_i``. Draws with a negative discriminant give ``c = 0`` and are counted.
+4. optionally, the point (cup-like) std ``c exp(e_id) / g_i``: the model is calibrated
+   against a motionless reference lidar, so ``c`` is the std that lidar would measure;
+   ``g_i`` is that lidar's mean std ratio to the point wind
+   (:func:`flidar_uq.lidar_response.lidar_std_ratio`) and ``e_id ~ N(0, sd_i^2)`` its
+   record-to-record scatter (:func:`flidar_uq.lidar_response.lidar_point_log_sd`).
 
 Baselines beside it: uncorrected TI and seed 000's U / C / PC laws (Eqs. 15-17) with
 sigma_Z from the surrogate at the bin's median IMU amplitude and period and seed 000's
@@ -75,6 +80,8 @@ def corrected_ti(
     ndraws: int = 400,
     speed_bin_width_ms: float = 1.0,
     scan_period_s: float = 1.0,
+    lidar_std_ratio=None,
+    point_log_sd=None,
     seed,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Corrected std and TI as posterior draws, summarised per record and per speed bin.
@@ -96,6 +103,15 @@ def corrected_ti(
     scan_period_s : float
         VAD scan duration (s), for the head-translation term when the global fit chose
         the lever-arm model (its ``lever_arm_m`` draws are then propagated too).
+    lidar_std_ratio : array_like, shape (n_records,), optional
+        Std of a motionless lidar over the point std per record (-), from
+        :func:`flidar_uq.lidar_response.lidar_std_ratio`. Given: the corrected std and TI
+        are point values (the motionless-lidar value divided by it). Default None: they
+        are the values a motionless lidar of this type would measure.
+    point_log_sd : array_like, shape (n_records,), optional
+        Std of ``log(motionless-lidar std / point std)`` per record (-), with
+        ``lidar_std_ratio``: each draw is multiplied by ``exp(N(0, sd^2))`` so that the
+        intervals are for the point std. Default None: no scatter.
     seed : int or numpy.random.SeedSequence
 
     Returns
@@ -107,7 +123,10 @@ def corrected_ti(
         ``discriminant_negative`` (the formula at the measured std, posterior-median sZ and
         rho has no real root), ``discriminant_negative_frac`` (share of draws),
         ``sigma_z_median_ms``, ``converged`` (bin and global fit both converged),
-        ``failure_reasons``, and the baselines ``ti_u``, ``ti_c``, ``ti_pc``, ``rho_seed``.
+        ``failure_reasons``, ``lidar_std_ratio`` (1 when not given), ``point_log_sd`` (0 when
+        not given), and the baselines
+        ``ti_u``, ``ti_c``, ``ti_pc``, ``rho_seed`` (seed 000's laws, as published: they
+        estimate the reference instrument's std).
     per_bin : pandas.DataFrame
         One row per speed bin: ``speed_bin_ms``, ``n_records``, ``n_not_converged``
         (excluded), ``ti_mean_{median,lo,hi}``, ``ti_rep_{median,lo,hi}`` (representative
@@ -123,6 +142,24 @@ def corrected_ti(
     for c in ("bin_id", "hws_mean_ms", "hws_std_ms"):
         if c not in records:
             raise ValueError(f"corrected_ti: records lack column {c!r}")
+    g_ratio = np.ones(len(records))
+    log_sd = np.zeros(len(records))
+    if point_log_sd is not None:
+        if lidar_std_ratio is None:
+            raise ValueError("corrected_ti: point_log_sd needs lidar_std_ratio")
+        log_sd = np.asarray(point_log_sd, dtype=float)
+        if log_sd.shape != (len(records),) or np.any(~(log_sd >= 0)):
+            raise ValueError(
+                f"corrected_ti: point_log_sd must be {len(records)} values >= 0, got shape "
+                f"{log_sd.shape}"
+            )
+    if lidar_std_ratio is not None:
+        g_ratio = np.asarray(lidar_std_ratio, dtype=float)
+        if g_ratio.shape != (len(records),) or np.any(~(g_ratio > 0)):
+            raise ValueError(
+                f"corrected_ti: lidar_std_ratio must be {len(records)} positive values, got "
+                f"shape {g_ratio.shape}"
+            )
     if surrogate is None:
         from flidar_uq.surrogate import get_surrogate
 
@@ -166,7 +203,9 @@ def corrected_ti(
         tau = np.sqrt((kappa * s[mask][None, :]) ** 2 + tau0**2)
         s_star = np.abs(s[mask][None, :] + tau * rng.standard_normal((ndraws, int(mask.sum()))))
         c, neg = corrected_std(s_star, sz, rho)
-        sig[:, mask] = c
+        # point std (g = 1, sd = 0: the motionless-lidar std)
+        point = np.exp(log_sd[mask] * rng.standard_normal(c.shape)) / g_ratio[mask]
+        sig[:, mask] = c * point
         neg_frac[mask] = np.mean(neg, axis=0)
         sz_med[mask] = np.median(sz, axis=0)
         conv[mask] = f.converged and global_fit.converged
@@ -212,6 +251,8 @@ def corrected_ti(
             "sigma_z_median_ms": sz_med,
             "converged": conv,
             "failure_reasons": reasons,
+            "lidar_std_ratio": g_ratio,
+            "point_log_sd": log_sd,
             "ti_u": ti_u,
             "ti_c": ti_c,
             "ti_pc": ti_pc,

@@ -51,3 +51,28 @@ def batch_of_bin(wildcards):
 
     table = pd.read_csv(checkpoints.bins.get().output.table).set_index("bin_id")
     return f"results/inference/batch_{int(table.loc[int(wildcards.bin), 'batch']):03d}"
+
+
+def propagation_params():
+    """config["propagation"] with the "auto" sampling keys resolved: from the virtual
+    campaign's scenario (source virtual), else the data-driven defaults of
+    flidar_uq.pipeline.propagate (heights counted in the records, continuous spectrum)."""
+    params = dict(config["propagation"])
+    sampling = {
+        "scan_heights_in_turn": None,
+        "scan_refocus_delay_s": [0.3, 0.7],
+        "turbulence_dt_s": None,
+    }
+    if config["campaign"]["source"] == "virtual":
+        from flidar_uq.campaign import reference_sampling
+
+        virtual = reference_sampling(scenario_file(None))
+        sampling = {
+            "scan_heights_in_turn": virtual["heights_in_turn"],
+            "scan_refocus_delay_s": list(virtual["refocus_delay_s"]),
+            "turbulence_dt_s": virtual["turbulence_dt_s"],
+        }
+    for key, value in sampling.items():
+        if params[key] == "auto":
+            params[key] = value
+    return params

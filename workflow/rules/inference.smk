@@ -82,7 +82,7 @@ rule propagate:
         speed_bins="results/ti/speed_bins.csv",
         metrics="results/ti/metrics.csv",
     params:
-        propagation=config["propagation"],
+        propagation=propagation_params(),
         qc=config["qc"],
         lidar=config["campaign"]["lidar"],
         seed=config["inference"]["seed"],

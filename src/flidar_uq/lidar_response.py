@@ -1,0 +1,320 @@
+"""Spectral response of a motionless profiling lidar to turbulence: the HWS std it measures
+relative to the point (cup-like) HWS std.
+
+A VAD or DBS lidar retrieves the wind of one scan from lines of sight taken at different
+times (50 over 1 s for a ZephIR 300, 4 over 4 s for a WindCube V1). Turbulence that
+changes within the scan leaks into the retrieved horizontal wind: the vertical wind
+``w'`` through ``cot(theta) cos(psi)`` and the horizontal components at twice the scan
+frequency, while the scan average filters the highest frequencies of ``u'``. For frozen,
+spatially uniform turbulence (the virtual campaign's 1-D series; for a real atmosphere it
+is the temporal part of the effect) the retrieved along-wind component of one scan is a
+linear functional of the wind series,
+
+``a = sum_k [c_u,k u'(t_k) + c_v,k v'(t_k) + c_w,k w'(t_k)]``,
+
+with ``c_k`` from the least-squares VAD operator (:func:`flidar_uq.lidar.vad_pseudo_inverse`)
+projected on the wind direction. For stationary independent components with one-sided
+spectra ``S_j(f)`` its variance is ``sum_j int S_j(f) <|H_j(f)|^2> df`` with
+``H_j(f) = sum_k c_j,k exp(2 pi i f t_k)``, averaged over the wind direction relative to
+the scan (uniform; for a VAD this is the average over the scan phase). The ratio to the
+point variance ``int S_u df`` is the lidar's variance ratio (Sathe et al. 2011, "Can wind
+lidars measure turbulence?", J. Atmos. Oceanic Technol. 28, Eqs. 5-9, the temporal part;
+the spectra are the IEC 61400-1 Kaimal spectra of :mod:`flidar_uq.turbulence`).
+
+The Bayesian correction (:mod:`flidar_uq.propagate`) is calibrated against a motionless
+reference lidar, so its corrected std estimates the std that lidar would measure;
+dividing by :func:`lidar_std_ratio` turns it into the point std (docs/lidar-response.md).
+Cross-wind fluctuations enter the HWS at second order (``v'^2 / 2U``) and are neglected.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from flidar_uq import lidar as _lidar
+from flidar_uq.turbulence import IEC_SIGMA_RATIOS, kaimal_psd, kaimal_series
+
+__all__ = ["lidar_point_log_sd", "lidar_std_ratio", "scan_response"]
+
+# Kaimal length scales per unit Lambda_1 (IEC 61400-1 Ed. 3 Table B.1)
+_KAIMAL_L_PER_LAMBDA1 = np.array([8.1, 2.7, 0.66])
+
+
+def _lambda1_m(height_m):
+    """IEC 61400-1 Ed. 3 Eq. (5): Lambda_1 = 0.7 z below 60 m, 42 m above; NaN if z <= 0."""
+    z = np.asarray(height_m, dtype=float)
+    return np.where(z > 0.0, np.where(z <= 60.0, 0.7 * z, 42.0), np.nan)
+
+
+@lru_cache(maxsize=8)
+def _response_cached(lidar_name_or_geom, f_key, n_dir):
+    f = np.asarray(f_key)
+    g = _lidar.get_lidar(lidar_name_or_geom)
+    t_s, az = _lidar.scan_times_azimuths(g, 0.0)
+    d = _lidar.beam_unit_vectors_body(g, az)  # (K, 3)
+    p = _lidar.vad_pseudo_inverse(d)  # (3, K)
+    beta = 2.0 * np.pi * (np.arange(n_dir) + 0.5) / n_dir  # wind direction vs body axes
+    e_u = np.stack([np.cos(beta), np.sin(beta), np.zeros(n_dir)], -1)  # along-wind
+    e_v = np.stack([-np.sin(beta), np.cos(beta), np.zeros(n_dir)], -1)  # cross-wind
+    e_w = np.broadcast_to([0.0, 0.0, 1.0], (n_dir, 3))
+    proj = e_u[:, :2] @ p[:2]  # (D, K): along-wind component of the retrieval
+    phase = np.exp(2j * np.pi * f[:, None] * t_s[None, :])  # (F, K)
+    # each line of sight averages the wind over its duration (boxcar)
+    box = np.sinc(f * g.los_duration_s) ** 2
+    out = []
+    for e in (e_u, e_v, e_w):
+        c = proj * (e @ d.T)  # (D, K): weight of the component at each line of sight
+        out.append(np.mean(np.abs(phase @ c.T) ** 2, axis=1) * box)
+    return np.stack(out)  # (3, F)
+
+
+def scan_response(f_hz, lidar="zephir300", *, n_dir: int = 72):
+    """Direction-averaged power transfer ``<|H_j(f)|^2>`` of one scan for u', v', w'.
+
+    Parameters
+    ----------
+    f_hz : array_like, shape (F,)
+        Frequencies, Hz.
+    lidar : str or LidarGeometry
+        Scan geometry (:func:`flidar_uq.lidar.get_lidar`).
+    n_dir : int
+        Wind directions relative to the scan averaged over (uniform).
+
+    Returns
+    -------
+    numpy.ndarray, shape (3, F)
+        Power transfer from the along-wind, cross-wind and vertical fluctuation to the
+        retrieved along-wind HWS, dimensionless. At ``f -> 0`` it is ``(1, 0, 0)``.
+    """
+    f = tuple(np.atleast_1d(np.asarray(f_hz, dtype=float)).tolist())
+    if int(n_dir) < 4:
+        raise ValueError(f"scan_response: n_dir={n_dir} must be >= 4")
+    return _response_cached(lidar, f, int(n_dir))
+
+
+def _frequency_grid(lidar, record_length_s, n_per_decade=400):
+    g = _lidar.get_lidar(lidar)
+    f_max = 20.0 / g.los_duration_s  # boxcar of the line of sight makes the rest negligible
+    f_min = 1e-3 / record_length_s  # the record-mean removal makes the rest negligible
+    n = int(np.ceil(np.log10(f_max / f_min) * n_per_decade))
+    return np.geomspace(f_min, f_max, n)
+
+
+def lidar_std_ratio(
+    hws_ms,
+    height_m,
+    lidar="zephir300",
+    *,
+    sigma_ratios=IEC_SIGMA_RATIOS,
+    record_length_s: float = 600.0,
+    turbulence_max_frequency_hz: float | None = None,
+):
+    """HWS std measured by a motionless lidar over the point HWS std (>= 0, typically ~1.03).
+
+    ``g^2 = sum_j (sigma_j / sigma_u)^2 int S_j <|H_j|^2> df / int S_j df`` with the
+    IEC Kaimal spectral shapes (Eq. B.1 of IEC 61400-1 Ed. 3) weighted by
+    ``1 - sinc^2(f T)`` (the expected sample variance of a record of length ``T``), each
+    scaled to its 10-min variance ``sigma_j^2``, and the scan transfer of :func:`scan_response`
+    (Sathe et al. 2011, temporal part). ``g`` depends on the wind only through ``Lambda_1(z) / U`` and on the
+    component std ratios (not on sigma_u itself), so it is computed on a grid of that
+    time scale and interpolated.
+
+    Parameters
+    ----------
+    hws_ms : array_like
+        Mean horizontal wind speed, m/s (> 0).
+    height_m : array_like
+        Measurement height above the surface, m (> 0); broadcast with ``hws_ms``.
+    lidar : str or LidarGeometry
+        Scan geometry of the lidar (default the ZephIR 300-like CW VAD).
+    sigma_ratios : tuple of 3 float
+        ``sigma_v / sigma_u`` and ``sigma_w / sigma_u`` as ``(1, r_v, r_w)`` (IEC: 1, 0.8, 0.5).
+    record_length_s : float
+        Record length, s (the lowest frequency resolved by a 10-min std).
+    turbulence_max_frequency_hz : float, optional
+        Highest frequency of the turbulence, Hz: for a band-limited synthetic series (its
+        Nyquist frequency) whose spectrum is scaled to ``sigma_j^2`` below it. Default
+        None: the continuous spectrum of the atmosphere.
+
+    Returns
+    -------
+    numpy.ndarray
+        Ratio ``g`` of the broadcast shape; NaN where ``hws_ms <= 0``, ``height_m <= 0``
+        or an input is not finite.
+
+    Raises
+    ------
+    ValueError
+        If ``record_length_s`` is not positive or ``sigma_ratios`` is not 3 non-negative
+        numbers with a positive first one.
+    """
+    if not record_length_s > 0:
+        raise ValueError(f"lidar_std_ratio: record_length_s={record_length_s!r} must be > 0")
+    if turbulence_max_frequency_hz is not None and not turbulence_max_frequency_hz > 0:
+        raise ValueError(
+            f"lidar_std_ratio: turbulence_max_frequency_hz={turbulence_max_frequency_hz!r} "
+            "must be > 0 or None"
+        )
+    r = np.asarray(sigma_ratios, dtype=float)
+    if r.shape != (3,) or np.any(~np.isfinite(r)) or np.any(r < 0) or r[0] <= 0:
+        raise ValueError(f"lidar_std_ratio: sigma_ratios={sigma_ratios!r} must be 3 values >= 0")
+    u, z = np.broadcast_arrays(np.asarray(hws_ms, float), np.asarray(height_m, float))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x = _lambda1_m(z) / np.where(u > 0, u, np.nan)  # Lambda_1 / U, s
+    ok = np.isfinite(x)
+    out = np.full(u.shape, np.nan)
+    if not ok.any():
+        return out
+    f = _frequency_grid(lidar, record_length_s)
+    h = scan_response(f, lidar)  # (3, F)
+    lo, hi = np.log(np.min(x[ok])), np.log(np.max(x[ok]))
+    grid = np.exp(np.linspace(lo, hi, 2 if hi - lo < 1e-12 else 96))
+    tau = grid[:, None] * _KAIMAL_L_PER_LAMBDA1[None, :]  # (G, 3) L_j / U, s
+    # E[sample variance of a record of length T] = int S(f) (1 - sinc^2(f T)) df (the
+    # record mean removed), for the point series and, to the same approximation, for the
+    # scan series. Each component's spectrum is scaled to that 10-min variance sigma_j^2
+    # (the IEC sigma_k is a 10-min std; the virtual campaign and PyConTurb do the same).
+    # int over f as int over ln f: the integrand times f.
+    spec = kaimal_psd(f[None, None, :], 1.0, 1.0, tau[..., None])  # (G, 3, F) shapes
+    w = (1.0 - np.sinc(f * record_length_s) ** 2) * f
+    if turbulence_max_frequency_hz is not None:
+        w = np.where(f <= turbulence_max_frequency_hz, w, 0.0)
+    lnf = np.log(f)
+    band = np.trapezoid(spec * w, lnf, axis=-1)  # (G, 3)
+    through = np.trapezoid(spec * h[None] * w, lnf, axis=-1)  # (G, 3)
+    num = (r**2 * through / band).sum(axis=-1)
+    ratio = np.sqrt(num)  # the point variance of u' over the band is sigma_u^2
+    out[ok] = np.interp(np.log(x[ok]), np.log(grid), ratio)
+    return out
+
+
+def lidar_point_log_sd(
+    hws_ms,
+    height_m,
+    lidar="zephir300",
+    *,
+    heights_in_turn: int = 1,
+    refocus_delay_s: tuple[float, float] = (0.0, 0.0),
+    point_sample_interval_s: float = 1.0,
+    turbulence_dt_s: float | None = None,
+    record_length_s: float = 600.0,
+    n_records: int = 96,
+    seed: int = 0,
+):
+    """Record-to-record std of ``log(lidar 10-min std / point 10-min std)``, by simulation.
+
+    Even a motionless lidar's 10-min HWS std differs from a point sensor's std of the same
+    wind at random, record by record: the scans sample the record at other instants than
+    the point sensor, and the in-scan leakage of :func:`lidar_std_ratio` is itself a
+    random series whose sample variance and covariance with ``u'`` scatter. The mean
+    ratio is :func:`lidar_std_ratio`; this is the scatter about it, for intervals of
+    the point std. Simulated with IEC Kaimal series (``u', v', w'``, TI 0.1) and the
+    least-squares scan of ``lidar`` (linear fit, random scan phase and wind direction),
+    scanning ``heights_in_turn`` heights in turn with a uniform refocus delay between
+    scans, against the point HWS sampled every ``point_sample_interval_s``. It depends on
+    the wind only through ``Lambda_1(z) / U``: simulated on a few values of it
+    (``n_records`` each, seeded) and fitted by a straight line in ``log(Lambda_1 / U)``.
+
+    Parameters
+    ----------
+    hws_ms, height_m : array_like
+        Mean HWS (m/s, > 0) and height (m, > 0), broadcast together.
+    lidar : str or LidarGeometry
+        Scan geometry.
+    heights_in_turn : int
+        Heights the lidar scans in turn (one scan each), >= 1.
+    refocus_delay_s : (float, float)
+        Uniform range of the delay between consecutive scans, s.
+    point_sample_interval_s : float
+        Sampling interval of the point reference (e.g. 1 s for a cup's 1-Hz series), s.
+    turbulence_dt_s : float, optional
+        Sampling interval of a synthetic turbulence series held between samples (the
+        virtual campaign's ``wind.wind_dt_s``), s; default None: the line-of-sight rate
+        (the atmosphere up to its Nyquist frequency).
+    record_length_s : float
+        Record length, s.
+    n_records : int
+        Simulated records per value of ``Lambda_1 / U``.
+    seed : int
+        Seed of the simulation (numpy SeedSequence entropy): the result is deterministic.
+
+    Returns
+    -------
+    numpy.ndarray
+        Std of the log ratio (-), broadcast shape; NaN where the inputs are invalid.
+
+    Raises
+    ------
+    ValueError
+        For a non-positive interval, delay range, record length, or fewer than 8 records.
+    """
+    g = _lidar.get_lidar(lidar)
+    lo_d, hi_d = (float(v) for v in refocus_delay_s)
+    dt = g.los_duration_s
+    t_dt = dt if turbulence_dt_s is None else float(turbulence_dt_s)
+    if int(heights_in_turn) < 1 or not 0.0 <= lo_d <= hi_d:
+        raise ValueError(
+            f"lidar_point_log_sd: need heights_in_turn >= 1 and 0 <= refocus_delay_s[0] <= "
+            f"[1], got {heights_in_turn!r}, {refocus_delay_s!r}"
+        )
+    if not (point_sample_interval_s > 0 and t_dt > 0 and record_length_s > 0):
+        raise ValueError(
+            "lidar_point_log_sd: point_sample_interval_s, turbulence_dt_s and record_length_s "
+            f"must be > 0, got {point_sample_interval_s!r}, {turbulence_dt_s!r}, "
+            f"{record_length_s!r}"
+        )
+    if int(n_records) < 8:
+        raise ValueError(f"lidar_point_log_sd: n_records={n_records!r} must be >= 8")
+    u, z = np.broadcast_arrays(np.asarray(hws_ms, float), np.asarray(height_m, float))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x = _lambda1_m(z) / np.where(u > 0, u, np.nan)  # Lambda_1 / U, s
+    ok = np.isfinite(x)
+    out = np.full(u.shape, np.nan)
+    if not ok.any():
+        return out
+    lo, hi = np.log(np.min(x[ok])), np.log(np.max(x[ok]))
+    grid = np.linspace(lo, hi, 5) if hi - lo > 1e-6 else np.array([lo])
+    step = max(int(round(t_dt / dt)), 1)
+    n = int(round(record_length_s / dt))
+    every = max(int(round(point_sample_interval_s / dt)), 1)
+    sds = []
+    for k, child in enumerate(np.random.SeedSequence(seed).spawn(grid.size)):
+        rng = np.random.default_rng(child)
+        hws = 42.0 / np.exp(grid[k])  # Lambda_1 = 42 m (z > 60 m): Lambda_1 / U = x
+        x_t = kaimal_series(-(-n // step), dt * step, np.full(n_records, hws), 0.1 * hws, 85.0, rng)
+        x_t = np.repeat(x_t, step, axis=-1)[..., :n]  # held between samples
+        logs = []
+        for r in range(n_records):
+            gaps = g.n_los + rng.integers(
+                int(round(lo_d / dt)), int(round(hi_d / dt)) + 1, size=n // g.n_los + 1
+            )
+            starts = np.cumsum(gaps) - gaps[0]
+            starts = starts[starts + g.n_los <= n][rng.integers(heights_in_turn) :: heights_in_turn]
+            t_s, az0 = _lidar.scan_times_azimuths(g, 0.0)
+            idx = starts[:, None] + np.rint(t_s / dt).astype(int)[None, :]
+            az = az0[None, :] + rng.uniform(0.0, 2.0 * np.pi, size=(starts.size, 1))
+            if g.kind == "dbs":
+                az = np.broadcast_to(az0, idx.shape)
+            d = _lidar.beam_unit_vectors_body(g, az)  # (J, K, 3)
+            p = _lidar.vad_pseudo_inverse(d)  # (J, 3, K)
+            beta = rng.uniform(0.0, 2.0 * np.pi)
+            e = np.array(
+                [[np.cos(beta), np.sin(beta), 0.0], [-np.sin(beta), np.cos(beta), 0.0], [0, 0, 1.0]]
+            )
+            wind = hws * e[0] + x_t[r].T @ e  # (n, 3) body frame
+            v_r = np.einsum("jkc,jkc->jk", d, wind[idx])
+            uvw = np.einsum("jck,jk->jc", p, v_r)
+            lidar_std = np.hypot(uvw[:, 0], uvw[:, 1]).std(ddof=1)
+            point_std = np.hypot(wind[::every, 0], wind[::every, 1]).std(ddof=1)
+            logs.append(np.log(lidar_std / point_std))
+        sds.append(np.std(logs, ddof=1))
+    sds = np.asarray(sds)
+    lx = np.clip(np.log(x[ok]), grid[0], grid[-1])
+    if grid.size >= 3:
+        slope, icpt = np.polyfit(grid, sds, 1)  # smooths the simulation noise of the sds
+        out[ok] = icpt + slope * lx
+    else:
+        out[ok] = sds.mean()
+    return out
