@@ -160,3 +160,31 @@ def test_ti_vs_hws_figure_handles_no_corrected_records(credible_mass):
     recs = synthetic_records(np.random.default_rng(1), 5).assign(ti_corrected_median=np.nan)
     fig = plots.ti_vs_hws_figure(recs, credible_mass=credible_mass)
     assert fig.axes[0].get_xlabel() == "HWS [m/s]"
+
+
+def test_calibration_figure_reports_the_coverage_it_draws(rng):
+    # 200 records per 2-m/s bin; intervals that contain the reference in exactly 90 % of
+    # the records of the first bin and 50 % of the second: the plotted points say so
+    hws = np.repeat([4.0, 8.0], 200)
+    ref = np.full(hws.size, 0.1)
+    est = np.full(hws.size, 0.1)
+    inside = np.r_[np.arange(200) < 180, np.arange(200) < 100]
+    lo = np.where(inside, 0.09, 0.11)
+    hi = np.where(inside, 0.11, 0.12)
+    fig = plots.calibration_figure(
+        hws, est, lo, hi, {"truth": ref, "scaled": (ref, np.full(hws.size, 2.0))}, credible_mass=0.9
+    )
+    ax_c, ax_e = fig.axes
+    pts = [c for c in ax_c.containers]  # one errorbar container per reference
+    y_truth = np.asarray(pts[0].lines[0].get_ydata(), float)
+    np.testing.assert_allclose(y_truth, [0.9, 0.5])
+    y_scaled = np.asarray(
+        pts[1].lines[0].get_ydata(), float
+    )  # interval x 2 no longer holds the reference
+    np.testing.assert_allclose(y_scaled, [0.0, 0.0])
+    np.testing.assert_allclose(
+        np.asarray(ax_e.lines[0].get_ydata(), float), [0.0, 0.0], atol=1e-12
+    )  # est == ref
+    np.testing.assert_allclose(
+        np.asarray(ax_e.lines[1].get_ydata(), float), [100.0, 100.0]
+    )  # 2 x est

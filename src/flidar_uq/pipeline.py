@@ -1014,6 +1014,34 @@ def build_report(
             ),
         )
     )
+    refs = {}
+    if "ti_true" in records:
+        refs["truth"] = records["ti_true"].to_numpy(dtype=float)
+    if "ti_ref" in records:
+        refs["reference lidar (interval x lidar_std_ratio)"] = (
+            records["ti_ref"].to_numpy(dtype=float),
+            records["lidar_std_ratio"].to_numpy(dtype=float),
+        )
+    if refs:
+        sections.append(
+            rep.Section(
+                "Calibration of the credible intervals by wind speed",
+                rep.img_html(
+                    rep.figure_to_data_uri(
+                        plots.calibration_figure(
+                            records["hws_mean_ms"].to_numpy(dtype=float),
+                            records["ti_corrected_median"].to_numpy(dtype=float),
+                            records["ti_corrected_lo"].to_numpy(dtype=float),
+                            records["ti_corrected_hi"].to_numpy(dtype=float),
+                            refs,
+                            credible_mass=mass,
+                        )
+                    ),
+                    f"share of the reference TI inside the {mass:.0%} interval per 2-m/s bin "
+                    "(binomial 95 % error bars) and the mean relative error of the median",
+                ),
+            )
+        )
     sections.append(
         rep.Section(
             "TI against HWS with credible bands (seed 000 Fig. 8 style)",

@@ -16,6 +16,7 @@ import pandas as pd  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 __all__ = [
+    "calibration_figure",
     "convergence_figure",
     "posterior_figure",
     "sigma_scatter_figure",
@@ -214,5 +215,76 @@ def convergence_figure(bin_fits: pd.DataFrame, *, rhat_max: float, ess_min: floa
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     fig.suptitle("per-bin convergence (green: ok, red: failed or error)")
+    fig.tight_layout()
+    return fig
+
+
+def calibration_figure(
+    hws_ms: np.ndarray,
+    ti_est: np.ndarray,
+    ti_lo: np.ndarray,
+    ti_hi: np.ndarray,
+    references: dict[str, np.ndarray],
+    *,
+    credible_mass: float,
+    speed_bin_width_ms: float = 2.0,
+) -> Figure:
+    """Coverage of the credible intervals and mean relative TI error against HWS.
+
+    Parameters
+    ----------
+    hws_ms : numpy.ndarray, shape (n,)
+        Mean HWS of the records (m/s).
+    ti_est, ti_lo, ti_hi : numpy.ndarray, shape (n,)
+        Corrected TI: median and interval bounds (-).
+    references : dict of str -> tuple or numpy.ndarray
+        Name -> reference TI (-), or name -> (reference TI, scale): the estimate and its
+        interval are multiplied by ``scale`` (-) before the comparison (e.g. the motionless
+        lidar's std ratio when comparing a point TI with a reference lidar).
+    credible_mass : float
+        Nominal coverage (-), drawn as a line with its binomial 95 % band per bin.
+    speed_bin_width_ms : float
+        Width of the HWS bins (m/s).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Left: coverage per HWS bin with binomial 95 % error bars; right: mean relative
+        error of the corrected TI per bin.
+    """
+    hws = np.asarray(hws_ms, float)
+    centre = np.round(hws / speed_bin_width_ms) * speed_bin_width_ms
+    fig, (ax_c, ax_e) = plt.subplots(1, 2, figsize=(10, 4))
+    for k, (name, ref) in enumerate(references.items()):
+        ref, scale = ref if isinstance(ref, tuple) else (ref, 1.0)
+        ref = np.asarray(ref, float)
+        scale = np.broadcast_to(np.asarray(scale, float), hws.shape)
+        ok = np.isfinite(ti_est) & np.isfinite(ref) & np.isfinite(centre)
+        xs, cov, half, err = [], [], [], []
+        for c in np.unique(centre[ok]):
+            m = ok & (centre == c)
+            if m.sum() < 10:
+                continue
+            inside = (ref[m] >= ti_lo[m] * scale[m]) & (ref[m] <= ti_hi[m] * scale[m])
+            p = inside.mean()
+            xs.append(c)
+            cov.append(p)
+            half.append(1.96 * np.sqrt(max(p * (1 - p), 1e-12) / m.sum()))
+            err.append(np.mean(ti_est[m] * scale[m] / ref[m] - 1.0))
+        off = (k - 0.5) * 0.15 * speed_bin_width_ms
+        ax_c.errorbar(np.add(xs, off), cov, yerr=half, fmt="o", ms=4, capsize=2, label=name)
+        ax_e.plot(np.add(xs, off), 100 * np.asarray(err), "o-", ms=4, label=name)
+    ax_c.axhline(credible_mass, color="k", ls="--", lw=1, label=f"nominal {credible_mass:.0%}")
+    ax_c.set_xlabel("HWS (m/s)")
+    ax_c.set_ylabel("coverage of the credible interval (-)")
+    ax_c.set_ylim(max(0.0, min(credible_mass - 0.3, ax_c.get_ylim()[0])), 1.0)
+    ax_c.legend(fontsize=8)
+    ax_c.grid(alpha=0.3)
+    ax_e.axhline(0.0, color="k", lw=1)
+    ax_e.set_xlabel("HWS (m/s)")
+    ax_e.set_ylabel("mean relative error of the corrected TI (%)")
+    ax_e.legend(fontsize=8)
+    ax_e.grid(alpha=0.3)
+    fig.suptitle("calibration of the corrected TI by wind speed")
     fig.tight_layout()
     return fig
