@@ -20,6 +20,7 @@ from flidar_uq.inference import (
     log_prob_global,
     log_prob_two_period,
     log_prob_unimodal,
+    select_global_model,
 )
 from flidar_uq.surrogate import get_surrogate
 
@@ -267,3 +268,156 @@ def test_lever_arm_model_log_prob_and_rho_only_equivalence_at_zero():
     assert log_prob_global([[0.3, -3.0, -2.5, -1.0]], s, r, szm, szv, u2=u2)[0] == -np.inf
     with pytest.raises(ValueError, match="needs u2"):
         log_prob_global(th4, s, r, szm, szv)
+
+
+def test_motion_log_prob_is_pointwise_likelihood_plus_data_free_prior():
+    """The sufficient-statistic log densities equal the prior plus the pointwise sum."""
+    from flidar_uq.inference import _loglik_pointwise_two_period, _loglik_pointwise_unimodal
+
+    rng = np.random.default_rng(np.random.SeedSequence(21))
+    th6 = np.column_stack(
+        [
+            rng.normal(1.0, 0.2, 6),
+            rng.normal(1.2, 0.1, 6),
+            rng.normal(1.8, 0.1, 6),
+            rng.normal(0.0, 1.0, 6),
+            rng.normal(-1.5, 0.3, 6),
+            rng.normal(-1.5, 0.3, 6),
+        ]
+    )
+    th4 = th6[:, [0, 1, 4, 5]]
+    priors_only = []
+    for n in (5, 40):
+        la = np.log(rng.uniform(1.0, 5.0, n))
+        lp = np.log(rng.choice([3.0, 6.0], n) * np.exp(0.05 * rng.standard_normal(n)))
+        la[0], lp[1] = np.nan, np.nan  # missing values contribute nothing
+        lp[2] = lp[3]  # repeated values (records sharing an IMU record)
+        priors_only.append(
+            (
+                log_prob_unimodal(th4, la, lp) - _loglik_pointwise_unimodal(th4, la, lp).sum(1),
+                log_prob_two_period(th6, la, lp) - _loglik_pointwise_two_period(th6, la, lp).sum(1),
+            )
+        )
+    for a, b in zip(priors_only[0], priors_only[1], strict=True):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
+
+
+def test_log_prob_global_matches_seed000_eq15_observation_model():
+    """s ~ N(mu, tau), mu^2 = r^2 + sZ^2 + 2 rho r sZ (Eq. 15 of seed 000), tau as documented."""
+    from scipy import stats
+
+    s, r = np.array([0.5, 1.0, 0.7]), np.array([0.4, 0.9, 0.75])
+    szm, szv, u2 = (
+        np.array([0.2, 0.3, 0.1]),
+        np.array([1e-3, 0.0, 4e-4]),
+        np.array([0.01, 0.02, 0.0]),
+    )
+    rho, tau0, kappa, lev = 0.3, 0.05, 0.08, 2.0
+    pr = Priors()
+
+    def expected(sz, var_sz):
+        mu = np.sqrt(r**2 + sz**2 + 2 * rho * r * sz)
+        tau = np.sqrt((kappa * mu) ** 2 + tau0**2 + ((sz + rho * r) / mu) ** 2 * var_sz)
+        prior = (
+            stats.halfnorm.logpdf(tau0, scale=pr.tau0_scale_ms)
+            + np.log(tau0)
+            + stats.halfnorm.logpdf(kappa, scale=pr.kappa_scale)
+            + np.log(kappa)
+        )
+        return stats.norm.logpdf(s, mu, tau).sum() + prior
+
+    th = [[rho, np.log(tau0), np.log(kappa)]]
+    assert log_prob_global(th, s, r, szm, szv)[0] == pytest.approx(expected(szm, szv), abs=1e-10)
+    sz = np.sqrt(szm**2 + lev**2 * u2)  # head translation adds L^2 u^2 to sZ^2
+    got = log_prob_global([[*th[0], lev]], s, r, szm, szv, u2=u2)[0]
+    want = expected(sz, szv * (szm / sz) ** 2) + stats.norm.logpdf(lev, 0, pr.lever_arm_scale_m)
+    assert got == pytest.approx(want, abs=1e-10)
+
+
+def test_psis_loo_matches_arviz_stats():
+    """The vectorised PSIS-LOO reproduces arviz_stats' per-observation implementation."""
+    from arviz_stats.base import array_stats
+
+    from flidar_uq.inference import _psis_loo
+
+    rng = np.random.default_rng(np.random.SeedSequence(31))
+    n_s = 1000
+    ll = np.concatenate(
+        [
+            rng.standard_normal((n_s, 30)) * rng.uniform(0.1, 3.0, 30) - 1.0,
+            rng.standard_t(3, (n_s, 10)),  # heavier tails: larger Pareto k
+            # a tail whose first quartile equals its minimum: no Pareto fit (k NaN)
+            -np.concatenate([np.zeros(906), np.ones(50), 1 + np.linspace(0.1, 2, 44)])[:, None],
+        ],
+        axis=1,
+    )
+    elpd, k, p_loo = _psis_loo(ll)
+    ref = array_stats.loo(ll.T.reshape(-1, 4, n_s // 4), chain_axis=-2, draw_axis=-1, r_eff=1.0)
+    np.testing.assert_allclose(elpd, ref[0], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(k, ref[1], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(p_loo, ref[2], rtol=0, atol=1e-10)
+    assert np.isnan(k[-1]) and np.all(np.isfinite(k[:-1]))
+    with pytest.raises(ValueError, match="all tail values are the same"):
+        _psis_loo(np.zeros((n_s, 3)))
+
+
+def test_initial_ensembles_overdispersed_relative_to_posterior():
+    """R-hat across ensembles needs starts wider than the posterior: init sd > posterior sd."""
+    from flidar_uq.inference import _init_fn
+
+    df = _records(40, 3.0, 4.0)
+    la, lp = imu_observations(df)
+    p0 = _init_fn(la, lp, Priors(), 4)(np.random.default_rng(np.random.SeedSequence(2)), 400)
+    fit = fit_bin(df, settings=FAST, seed=12)
+    post = np.log(
+        np.column_stack(
+            [
+                fit.flat(n)
+                for n in ("amplitude_deg", "period_s", "scatter_amplitude", "scatter_period")
+            ]
+        )
+    )
+    assert np.all(p0.std(axis=0) > 1.5 * post.std(axis=0))
+
+
+def test_select_global_model_equals_auto_and_rejects_mismatched_fits(surrogate):
+    rec, _ = _campaign(0.5, surrogate, seed=5, n_bins=2, n=20)
+    fits = [fit_bin(g, settings=FAST, seed=int(b)) for b, g in rec.groupby("bin_id")]
+
+    def glob(lever_arm, records=rec):
+        return fit_global(
+            records, fits, surrogate=surrogate, settings=FAST, seed=4, lever_arm=lever_arm
+        )
+
+    auto, rho_only, lever = glob("auto"), glob(False), glob(True)
+    assert rho_only.info["loo"]["model"] == "rho_only" and "lever_arm_m" in lever.draws
+    sel = select_global_model(rho_only, lever, settings=FAST)
+    assert sel.info["loo"] == auto.info["loo"]
+    assert "lever_arm_elpd_diff" in sel.info["loo"]
+    np.testing.assert_array_equal(sel.flat("rho"), auto.flat("rho"))
+    with pytest.raises(ValueError, match="fit_rho_only is not a 'rho_only' GlobalFit"):
+        select_global_model(lever, lever)
+    with pytest.raises(ValueError, match="not made on the same records"):
+        select_global_model(glob(False, rec.iloc[:30]), lever)
+    with pytest.raises(ValueError, match="lever_arm='yes'"):
+        glob("yes")
+
+
+def test_independence_acceptance_high_for_matching_low_for_mismatched_proposal():
+    """Tierney's expected acceptance: ~1 when the Student-t matches the target, ~0 when far off."""
+    import emcee
+
+    from flidar_uq.inference import StudentTIndependenceProposal, _independence_acceptance
+
+    def log_prob(x):  # standard normal target in 3 dimensions
+        return -0.5 * np.sum(x**2, axis=1)
+
+    rng = np.random.default_rng(np.random.SeedSequence(41))
+    x = rng.standard_normal((4 * 16, 3))
+    state = emcee.State(x, log_prob=log_prob(x))
+    eye = np.tile(np.eye(3), (4, 1, 1))
+    good = StudentTIndependenceProposal(np.zeros((4, 3)), eye)
+    bad = StudentTIndependenceProposal(np.full((4, 3), 4.0), 0.1 * eye)
+    ss = np.random.SeedSequence(3)
+    assert _independence_acceptance(good, state, log_prob, (), 4, ss) > 0.6
+    assert _independence_acceptance(bad, state, log_prob, (), 4, ss) < 0.05

@@ -20,6 +20,7 @@ SMALL = SamplerSettings(
     mixture="never",
     global_step_factor=2.0,
     max_step_factor=1.0,  # fixed length: SBC does not need (or condition on) convergence
+    global_max_step_factor=1.0,
 )
 
 

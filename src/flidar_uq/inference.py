@@ -8,7 +8,8 @@ Two stages, matching the Snakemake fan-out/gather (docs/inference.md):
 2. :func:`fit_global` (gather): posterior of ``rho``, ``tau0`` and ``kappa`` from the
    records with a reference std, with each record's sigma_Z carried from stage 1 (its
    posterior median and variance; a cut model: the observation model does not feed back
-   into the motion parameters). PSIS-LOO compares the global rho with a per-bin rho.
+   into the motion parameters). PSIS-LOO compares the global rho with a per-bin rho,
+   and (:func:`select_global_model`) the rho-only model with the lever-arm model.
 
 Observation model (design.md): ``s_i ~ Normal(mu_i, tau_i)``,
 ``mu_i = sqrt(r_i^2 + sZ_i^2 + 2 rho r_i sZ_i)`` (Eq. 15 of seed 000),
@@ -17,12 +18,17 @@ sampling std of a 10-min std (inferred), ``tau0`` the model error (m/s).
 
 Every log-probability here is vectorised over walkers, module level (picklable) and
 returns ``-inf`` (never NaN) outside the support.
+
+Sampling (:func:`_run_ensembles`): the ``nensembles`` independent ensembles run as blocks
+of one emcee sampler (moves act within a block), so one vectorised log-probability call
+serves all ensembles; they start from a widened normal approximation of the posterior
+(overdispersed, so R-hat across ensembles stays meaningful); the burn-in fits a per-block
+Student-t independence proposal that makes the main-phase autocorrelation time ~2-4 steps.
 """
 
 from __future__ import annotations
 
 import json
-import warnings
 from dataclasses import asdict, dataclass, field
 
 import arviz as az
@@ -30,6 +36,9 @@ import emcee
 import numpy as np
 import pandas as pd
 import xarray as xr
+from arviz_stats.base import array_stats
+from emcee.ensemble import walkers_independent
+from scipy import optimize, stats
 from scipy.special import logsumexp
 
 from flidar_uq.correction import sigma_moving_pc
@@ -41,6 +50,7 @@ __all__ = [
     "GlobalFit",
     "fit_bin",
     "fit_global",
+    "select_global_model",
     "load_fit",
     "log_prob_unimodal",
     "log_prob_two_period",
@@ -54,6 +64,17 @@ __all__ = [
 ]
 
 _LOG2PI = np.log(2.0 * np.pi)
+# Sampler tuning, chosen with the speed-accuracy benchmark and the per-bin
+# autocorrelation times of the default campaign (docs/inference.md):
+# scale of the Student-t independence proposal relative to the burn-in covariance
+_PROPOSAL_SCALE = 1.2
+# the first burn-in half's proposal is fitted to its last (1 - _FIT_FRAC) share
+_FIT_FRAC = 0.5
+# initial ensembles: this many posterior sd of the normal approximation (overdispersed)
+_INIT_WIDENING = 3.0
+# expected acceptance rate of the independence move at and above which the main phase
+# uses the full independence_weight (below: proportionally less, the rest DE)
+_INDEPENDENCE_FULL_ACCEPTANCE = 0.5
 
 
 @dataclass(frozen=True)
@@ -98,7 +119,7 @@ class SamplerSettings:
     Parameters
     ----------
     nwalkers : int
-        Walkers per ensemble (>= 2 * ndim + 2 for the two-period model).
+        Walkers per ensemble (the two-period model uses at least 2 * ndim + 2 = 14).
     nsteps : int
         Steps kept per ensemble after burn-in.
     nburn : int
@@ -108,11 +129,15 @@ class SamplerSettings:
     ndraws : int
         Draws stored per ensemble (thinned uniformly from the pooled walkers).
     snooker_weight : float
-        Share of DESnookerMove (rest DEMove) during burn-in (mild multimodality).
+        Share of DESnookerMove (rest DEMove) during the first half of the burn-in (mild
+        multimodality).
     independence_weight : float
-        Share of the Student-t independence Metropolis move (fitted to the burn-in) in the
-        main phase; the rest is DEMove. It cuts the autocorrelation time to a few steps
-        for near-Gaussian posteriors; DE keeps mixing where the fit is poor.
+        Share of the Student-t independence Metropolis move (fitted to the burn-in, per
+        ensemble) in the second half of the burn-in and the main phase; the rest is
+        DEMove. It cuts the autocorrelation time to ~2-4 steps for near-Gaussian
+        posteriors. In the main phase it is scaled down in proportion to the move's
+        expected acceptance rate when that is below 0.5 (a posterior at a boundary or
+        banana-shaped is left mostly to DE; the adaptive extension lengthens such chains).
     mixture : str
         ``"auto"``: fit the unimodal model; if the posterior predictive check of the
         periods' kurtosis has p < ``screen_pvalue``, also fit the two-period model and keep it if
@@ -125,22 +150,29 @@ class SamplerSettings:
         The two-period model (6 parameters, longer autocorrelation) runs this many times
         ``nsteps`` and ``nburn``.
     global_step_factor : float
-        The global fit (one job, 3 parameters) runs this many times ``nsteps`` and ``nburn``.
+        The global fit runs this many times ``nsteps`` and ``nburn`` (1: on a campaign its
+        3-4 parameter posterior is near-Gaussian, autocorrelation time ~2-3 steps, and it
+        starts from a widened Laplace approximation).
+    global_max_step_factor : float
+        ``max_step_factor`` of the global fit (relative to its ``nsteps``): with few
+        records the ``tau0``/``kappa`` posterior is banana-shaped (autocorrelation time
+        ~20-40 steps) and needs the longer extension; a near-Gaussian one never uses it.
     rhat_max, ess_min, n_autocorr : float
         Convergence thresholds of design.md (rank R-hat, bulk and tail ESS, chain length
         in integrated autocorrelation times).
     """
 
-    nwalkers: int = 24
-    nsteps: int = 400
-    nburn: int = 150
+    nwalkers: int = 16
+    nsteps: int = 250
+    nburn: int = 100
     nensembles: int = 4
     ndraws: int = 250
     snooker_weight: float = 0.2
-    independence_weight: float = 0.5
+    independence_weight: float = 0.85
     two_period_step_factor: float = 2.0
     max_step_factor: float = 6.0
-    global_step_factor: float = 3.5
+    global_step_factor: float = 1.0
+    global_max_step_factor: float = 12.0
     screen_pvalue: float = 0.05
     mixture: str = "auto"
     loo_threshold_se: float = 2.0
@@ -192,22 +224,82 @@ def _log_prior_motion(log_a, log_ts, log_sa, log_st, priors):
 def _loglik_pointwise_unimodal(theta, log_amp, log_per):
     """(n_walkers, n_obs) pointwise log-likelihood; NaN observations contribute 0."""
     log_a, log_t, log_sa, log_st = (theta[:, k : k + 1] for k in range(4))
-    la = _norm_logpdf(log_amp[None, :], log_a, np.exp(log_sa))
-    lt = _norm_logpdf(log_per[None, :], log_t, np.exp(log_st))
+    with np.errstate(invalid="ignore"):
+        la = _norm_logpdf(log_amp[None, :], log_a, np.exp(log_sa))
+        lt = _norm_logpdf(log_per[None, :], log_t, np.exp(log_st))
     return np.where(np.isfinite(la), la, 0.0) + np.where(np.isfinite(lt), lt, 0.0)
 
 
 def _loglik_pointwise_two_period(theta, log_amp, log_per):
+    """(n_walkers, n_obs) pointwise log-likelihood; NaN observations contribute 0."""
     log_a, log_t1, log_t2, logit_w, log_sa, log_st = (theta[:, k : k + 1] for k in range(6))
-    la = _norm_logpdf(log_amp[None, :], log_a, np.exp(log_sa))
     st = np.exp(log_st)
     log_w = -np.logaddexp(0.0, -logit_w)
     log_1mw = -np.logaddexp(0.0, logit_w)
-    lt = np.logaddexp(
-        log_w + _norm_logpdf(log_per[None, :], log_t1, st),
-        log_1mw + _norm_logpdf(log_per[None, :], log_t2, st),
-    )
+    with np.errstate(invalid="ignore"):
+        la = _norm_logpdf(log_amp[None, :], log_a, np.exp(log_sa))
+        lt = np.logaddexp(
+            log_w + _norm_logpdf(log_per[None, :], log_t1, st),
+            log_1mw + _norm_logpdf(log_per[None, :], log_t2, st),
+        )
     return np.where(np.isfinite(la), la, 0.0) + np.where(np.isfinite(lt), lt, 0.0)
+
+
+@dataclass(frozen=True)
+class _MotionData:
+    """Sufficient statistics of a bin's IMU observations for the motion log-densities.
+
+    ``n``, ``mean``, ``ss`` (sum of squared deviations) of the finite log amplitudes and
+    log periods (the normal likelihood depends on the data only through them), and the
+    distinct finite log periods with their counts (the mixture likelihood is a sum over
+    distinct values: records at several heights share one IMU record).
+    """
+
+    n_amp: int
+    mean_amp: float
+    ss_amp: float
+    n_per: int
+    mean_per: float
+    ss_per: float
+    per_values: np.ndarray
+    per_counts: np.ndarray
+
+    @classmethod
+    def from_observations(cls, log_amp, log_per):
+        la = np.asarray(log_amp, dtype=float)
+        lt = np.asarray(log_per, dtype=float)
+        la, lt = la[np.isfinite(la)], lt[np.isfinite(lt)]
+        ma = float(la.mean()) if la.size else 0.0
+        mt = float(lt.mean()) if lt.size else 0.0
+        values, counts = np.unique(lt, return_counts=True)
+        return cls(
+            la.size,
+            ma,
+            float(np.sum((la - ma) ** 2)),
+            lt.size,
+            mt,
+            float(np.sum((lt - mt) ** 2)),
+            values,
+            counts.astype(float),
+        )
+
+
+def _normal_loglik(n, mean, ss, mu, log_sd):
+    """Sum of N(mu, exp(log_sd)) log densities of n values with this mean and ss."""
+    return -0.5 * (ss + n * (mean - mu) ** 2) * np.exp(-2.0 * log_sd) - n * (log_sd + 0.5 * _LOG2PI)
+
+
+def _log_prob_unimodal(theta, data, priors):
+    """:func:`log_prob_unimodal` on :class:`_MotionData` (the sampler's target)."""
+    theta = np.atleast_2d(np.asarray(theta, dtype=float))
+    with np.errstate(all="ignore"):
+        lp, ok = _log_prior_motion(theta[:, 0], [theta[:, 1]], theta[:, 2], theta[:, 3], priors)
+        out = (
+            lp
+            + _normal_loglik(data.n_amp, data.mean_amp, data.ss_amp, theta[:, 0], theta[:, 2])
+            + _normal_loglik(data.n_per, data.mean_per, data.ss_per, theta[:, 1], theta[:, 3])
+        )
+    return np.where(ok & np.isfinite(out), out, -np.inf)
 
 
 def log_prob_unimodal(theta, log_amp, log_per, priors=Priors()):
@@ -226,13 +318,30 @@ def log_prob_unimodal(theta, log_amp, log_per, priors=Priors()):
     numpy.ndarray, shape (n_walkers,)
         Log posterior up to a constant; ``-inf`` outside the support, never NaN.
     """
+    return _log_prob_unimodal(theta, _MotionData.from_observations(log_amp, log_per), priors)
+
+
+def _log_prob_two_period(theta, data, priors):
+    """:func:`log_prob_two_period` on :class:`_MotionData` (the sampler's target)."""
     theta = np.atleast_2d(np.asarray(theta, dtype=float))
     with np.errstate(all="ignore"):
-        lp, ok = _log_prior_motion(theta[:, 0], [theta[:, 1]], theta[:, 2], theta[:, 3], priors)
-        ok &= np.all(np.isfinite(theta), axis=1)
-        safe = np.where(ok[:, None], theta, [[0.0, 1.5, -1.0, -1.0]])
-        ll = _loglik_pointwise_unimodal(safe, log_amp, log_per).sum(axis=1)
-        out = lp + ll
+        lp, ok = _log_prior_motion(
+            theta[:, 0], [theta[:, 1], theta[:, 2]], theta[:, 4], theta[:, 5], priors
+        )
+        ok &= (theta[:, 1] < theta[:, 2]) & (np.abs(theta[:, 3]) < 12.0)
+        log_w = -np.logaddexp(0.0, -theta[:, 3])
+        log_1mw = -np.logaddexp(0.0, theta[:, 3])
+        # Beta(b, b) on w plus the logit Jacobian w (1 - w); log 2: two orderings
+        lp = lp + priors.weight_beta * (log_w + log_1mw) + np.log(2.0)
+        ll_a = _normal_loglik(data.n_amp, data.mean_amp, data.ss_amp, theta[:, 0], theta[:, 4])
+        inv_sd = np.exp(-theta[:, 5:6])
+        x = data.per_values[None, :]
+        mix = np.logaddexp(
+            log_w[:, None] - 0.5 * ((x - theta[:, 1:2]) * inv_sd) ** 2,
+            log_1mw[:, None] - 0.5 * ((x - theta[:, 2:3]) * inv_sd) ** 2,
+        )
+        ll_t = mix @ data.per_counts - data.n_per * (theta[:, 5] + 0.5 * _LOG2PI)
+        out = lp + ll_a + ll_t
     return np.where(ok & np.isfinite(out), out, -np.inf)
 
 
@@ -251,35 +360,50 @@ def log_prob_two_period(theta, log_amp, log_per, priors=Priors()):
     numpy.ndarray, shape (n_walkers,)
         ``-inf`` outside the support (incl. ``T1 >= T2``), never NaN.
     """
-    theta = np.atleast_2d(np.asarray(theta, dtype=float))
-    with np.errstate(all="ignore"):
-        lp, ok = _log_prior_motion(
-            theta[:, 0], [theta[:, 1], theta[:, 2]], theta[:, 4], theta[:, 5], priors
-        )
-        ok &= np.all(np.isfinite(theta), axis=1) & (theta[:, 1] < theta[:, 2])
-        ok &= np.abs(theta[:, 3]) < 12.0
-        w = 1.0 / (1.0 + np.exp(-theta[:, 3]))
-        b = priors.weight_beta
-        # Beta(b, b) on w plus the logit Jacobian w (1 - w)
-        lp = lp + b * (np.log(w) + np.log1p(-w)) + np.log(2.0)  # ordering: 2 orderings
-        safe = np.where(ok[:, None], theta, [[0.0, 1.0, 2.0, 0.0, -1.0, -1.0]])
-        ll = _loglik_pointwise_two_period(safe, log_amp, log_per).sum(axis=1)
-        out = lp + ll
-    return np.where(ok & np.isfinite(out), out, -np.inf)
+    return _log_prob_two_period(theta, _MotionData.from_observations(log_amp, log_per), priors)
 
 
-def _global_mu_tau(theta, r, sz_med, sz_var, u2=None):
-    rho, log_tau0, log_kappa = (theta[:, k : k + 1] for k in range(3))
+def _global_loglik_pointwise(theta, s, r, sz_med, sz_var, u2=None):
+    """(n_walkers, n_obs) pointwise log-likelihood of the observation model.
+
+    ``s_i ~ N(mu_i, tau_i)``, ``mu_i^2 = r_i^2 + sZ_i^2 + 2 rho r_i sZ_i`` (Eq. (15) of seed
+    000), ``tau_i^2 = kappa^2 mu_i^2 + tau0^2 + (dmu_i/dsZ_i)^2 Var(sZ_i)`` with
+    ``dmu/dsZ = (sZ + rho r) / mu``. With a 4th column (lever arm ``L``) and ``u2``:
+    ``sZ^2 = sZ_rot^2 + L^2 u^2`` and ``Var(sZ)`` scaled by ``(sZ_rot / sZ)^2``.
+    Written with in-place operations: this is the global fit's inner loop.
+    """
+    rho = theta[:, 0:1]
+    tau0_sq = np.exp(2.0 * theta[:, 1:2])
+    kappa_sq = np.exp(2.0 * theta[:, 2:3])
     if u2 is not None and theta.shape[1] == 4:
-        # effective lever arm: sZ^2 = sZ_rot^2 + L^2 u^2 (translation of the head)
-        sz_rot = sz_med
-        sz_med = np.sqrt(sz_rot**2 + theta[:, 3:4] ** 2 * u2)
-        sz_var = sz_var * (sz_rot / np.maximum(sz_med, 1e-12)) ** 2
-    var = r**2 + sz_med**2 + 2.0 * rho * r * sz_med
-    mu = np.sqrt(np.maximum(var, 1e-12))  # Eq. (15) of seed 000
-    dmu = (sz_med + rho * r) / mu
-    tau = np.sqrt((np.exp(log_kappa) * mu) ** 2 + np.exp(2.0 * log_tau0) + dmu**2 * sz_var)
-    return mu, tau
+        sz_rot_sq = sz_med**2
+        sz_sq = sz_rot_sq + theta[:, 3:4] ** 2 * u2  # translation of the head
+        sz = np.sqrt(sz_sq)
+        sz_var = sz_var * sz_rot_sq / np.maximum(sz_sq, 1e-24)
+        var = rho * r * sz
+        var *= 2.0
+        var += sz_sq
+        var += r**2
+    else:
+        sz = sz_med
+        var = rho * (2.0 * r * sz)
+        var += r**2 + sz**2
+    np.maximum(var, 1e-12, out=var)  # mu^2, Eq. (15) of seed 000
+    tau_sq = rho * r
+    tau_sq += sz
+    tau_sq *= tau_sq
+    tau_sq *= sz_var
+    tau_sq /= var  # (dmu/dsZ)^2 Var(sZ)
+    tau_sq += kappa_sq * var
+    tau_sq += tau0_sq
+    z = np.sqrt(var)
+    np.subtract(s, z, out=z)
+    z *= z
+    z /= tau_sq
+    z += np.log(tau_sq)
+    z += _LOG2PI
+    z *= -0.5
+    return z
 
 
 def log_prob_global(theta, s, r, sz_med, sz_var, priors=Priors(), u2=None):
@@ -304,24 +428,23 @@ def log_prob_global(theta, s, r, sz_med, sz_var, priors=Priors(), u2=None):
         ``-inf`` outside ``|rho| < 1`` and the scale bounds; never NaN.
     """
     theta = np.atleast_2d(np.asarray(theta, dtype=float))
+    if theta.shape[1] == 4 and u2 is None:
+        raise ValueError("log_prob_global: a 4-column theta (lever arm) needs u2")
     with np.errstate(all="ignore"):
-        ok = np.all(np.isfinite(theta), axis=1) & (np.abs(theta[:, 0]) < 1.0)
-        ok &= _in(theta[:, 1], np.log(priors.tau0_min_ms), np.log(10.0))
+        ok = (np.abs(theta[:, 0]) < 1.0) & _in(
+            theta[:, 1], np.log(priors.tau0_min_ms), np.log(10.0)
+        )
         ok &= _in(theta[:, 2], np.log(priors.kappa_min), np.log(2.0))
         lp = _log_halfnormal_logscale(theta[:, 1], priors.tau0_scale_ms)
         lp = lp + _log_halfnormal_logscale(theta[:, 2], priors.kappa_scale)
-        fallback = [[0.0, -2.0, -2.0]]
         if theta.shape[1] == 4:
-            if u2 is None:
-                raise ValueError("log_prob_global: a 4-column theta (lever arm) needs u2")
             ok &= (theta[:, 3] >= 0.0) & (theta[:, 3] < priors.lever_arm_max_m)
             lp = lp + _norm_logpdf(theta[:, 3], 0.0, priors.lever_arm_scale_m)
-            fallback = [[0.0, -2.0, -2.0, 0.0]]
-            u2 = u2[None, :]
-        safe = np.where(ok[:, None], theta, fallback)
-        mu, tau = _global_mu_tau(safe, r[None, :], sz_med[None, :], sz_var[None, :], u2)
-        out = lp + _norm_logpdf(s[None, :], mu, tau).sum(axis=1)
-    return np.where(ok & np.isfinite(out), out, -np.inf)
+        out = np.full(theta.shape[0], -np.inf)
+        if np.any(ok):  # the likelihood only where the prior is positive
+            ll = _global_loglik_pointwise(theta[ok], s, r, sz_med, sz_var, u2).sum(axis=1)
+            out[ok] = lp[ok] + ll
+    return np.where(np.isfinite(out), out, -np.inf)
 
 
 def translation_unit_sq(amplitude_deg, period_s, scan_period_s=1.0):
@@ -402,127 +525,258 @@ def _as_seedsequence(seed) -> np.random.SeedSequence:
     return np.random.SeedSequence(seed)
 
 
+class _BlockRedBlueMove(emcee.moves.Move):
+    """A red-blue ensemble move applied within each of ``nblocks`` stacked ensembles.
+
+    The sampler's walkers are ``nblocks`` independent ensembles of equal size, stored one
+    after the other. Each block is split at random into the wrapped move's ``nsplits``
+    sub-ensembles, and a walker's proposal uses only walkers of its own block (as
+    :class:`emcee.moves.RedBlueMove` does within one ensemble), so the blocks stay
+    independent Markov chains while one vectorised log-probability call serves all.
+    """
+
+    def __init__(self, move, nblocks):
+        self.move = move
+        self.nblocks = int(nblocks)
+
+    def propose(self, model, state):
+        nwalk, _ = state.coords.shape
+        nb = self.nblocks
+        w = nwalk // nb
+        k = self.move.nsplits
+        self.move.setup(state.coords[:w])
+        # a random split of every block; index arrays (nb, group size) per sub-ensemble
+        perm = np.argsort(model.random.rand(nb, w), axis=1) + (w * np.arange(nb))[:, None]
+        groups = [perm[:, j::k] for j in range(k)]
+        accepted = np.zeros(nwalk, dtype=bool)
+        for j in range(k):
+            rest = np.concatenate([groups[i] for i in range(k) if i != j], axis=1)
+            if isinstance(self.move, emcee.moves.DEMove):
+                q, f = self._de_proposal(state.coords, groups[j], rest, model.random)
+            else:
+                props = [
+                    self.move.get_proposal(
+                        state.coords[groups[j][b]],
+                        [state.coords[groups[i][b]] for i in range(k) if i != j],
+                        model.random,
+                    )
+                    for b in range(nb)
+                ]
+                q = np.concatenate([p[0] for p in props])
+                f = np.concatenate([p[1] for p in props])
+            idx = groups[j].ravel()
+            new_lp, _ = model.compute_log_prob_fn(q)
+            acc = f + new_lp - state.log_prob[idx] > np.log(model.random.rand(idx.size))
+            state.coords[idx[acc]] = q[acc]
+            state.log_prob[idx[acc]] = new_lp[acc]
+            accepted[idx[acc]] = True
+        return state, accepted
+
+    def _de_proposal(self, coords, sub, rest, random):
+        """:class:`emcee.moves.DEMove`'s proposal for all blocks at once.
+
+        Walker ``sub[b, i]`` moves along the difference of two distinct walkers drawn
+        from its own block's complementary set ``rest[b]``, scaled by
+        ``gamma0 (1 + sigma N(0, 1))`` (Nelson et al. 2013, as emcee).
+        """
+        nb, ns = sub.shape
+        nc = rest.shape[1]
+        i = random.randint(nc, size=(nb, ns))
+        j = (i + random.randint(1, nc, size=(nb, ns))) % nc  # uniform over ordered pairs
+        rows = np.arange(nb)[:, None]
+        diffs = coords[rest[rows, j]] - coords[rest[rows, i]]
+        gamma = self.move.g0 * (1.0 + self.move.sigma * random.randn(nb, ns, 1))
+        q = (coords[sub] + gamma * diffs).reshape(nb * ns, -1)
+        return q, np.zeros(nb * ns)
+
+
 class StudentTIndependenceProposal:
     """Independence proposal for :class:`emcee.moves.MHMove`: multivariate Student-t.
 
-    Fitted to the burn-in ensemble (mean, covariance); heavy tails (``df``) keep the
-    importance ratio bounded. Module-level and picklable.
+    One Student-t per ensemble block (the sampler's walkers are ``nblocks`` stacked
+    ensembles of equal size, see :class:`_BlockRedBlueMove`), fitted to that block's
+    burn-in (mean, covariance), so the blocks stay independent. Heavy tails (``df``) keep
+    the importance ratio bounded. Module-level and picklable.
 
     Parameters
     ----------
-    mean : numpy.ndarray, shape (ndim,)
-    cov : numpy.ndarray, shape (ndim, ndim)
-        Scale matrix (the t covariance is ``cov * df / (df - 2)``).
+    mean : numpy.ndarray, shape (nblocks, ndim)
+    cov : numpy.ndarray, shape (nblocks, ndim, ndim)
+        Scale matrices (the t covariance is ``cov * df / (df - 2)``).
     df : float
     """
 
     def __init__(self, mean, cov, df=5.0):
-        self.mean = np.asarray(mean, dtype=float)
-        ndim = self.mean.size
-        cov = np.asarray(cov, dtype=float) + 1e-10 * np.eye(ndim)
+        self.mean = np.atleast_2d(np.asarray(mean, dtype=float))
+        ndim = self.mean.shape[1]
+        cov = np.asarray(cov, dtype=float).reshape(-1, ndim, ndim) + 1e-10 * np.eye(ndim)
         self.chol = np.linalg.cholesky(cov)
+        self.inv_chol_t = np.swapaxes(np.linalg.inv(self.chol), 1, 2)
         self.df = float(df)
+
+    def _blocks(self, x):
+        return np.asarray(x).reshape(self.mean.shape[0], -1, self.mean.shape[1])
 
     def log_q(self, x):
         """Log proposal density up to a constant, shape (n,)."""
-        z = np.linalg.solve(self.chol, (np.asarray(x) - self.mean).T)
-        return -0.5 * (self.df + self.mean.size) * np.log1p(np.sum(z**2, axis=0) / self.df)
+        z = (self._blocks(x) - self.mean[:, None, :]) @ self.inv_chol_t  # (nblocks, w, ndim)
+        q = np.sum(z**2, axis=2).ravel()
+        return -0.5 * (self.df + self.mean.shape[1]) * np.log1p(q / self.df)
 
     def __call__(self, coords, random):
-        n, ndim = coords.shape
-        z = random.standard_normal((n, ndim)) @ self.chol.T
-        g = random.chisquare(self.df, n) / self.df
-        x = self.mean + z / np.sqrt(g)[:, None]
+        nb, ndim = self.mean.shape
+        w = coords.shape[0] // nb
+        z = random.standard_normal((nb, w, ndim)) @ np.swapaxes(self.chol, 1, 2)
+        g = random.chisquare(self.df, (nb, w)) / self.df
+        x = (self.mean[:, None, :] + z / np.sqrt(g)[..., None]).reshape(coords.shape)
         return x, self.log_q(coords) - self.log_q(x)
 
 
-def _fit_proposal(burn):
-    """Student-t proposal from the last third of a burn-in chain (nburn, nwalkers, ndim)."""
-    x = burn[(2 * burn.shape[0]) // 3 :].reshape(-1, burn.shape[-1])
-    cov = np.cov(x, rowvar=False).reshape(burn.shape[-1], burn.shape[-1])
-    return StudentTIndependenceProposal(x.mean(axis=0), cov * 1.5**2)
+def _fit_proposal(sampler, nens, start_frac):
+    """Student-t proposal per ensemble block from a burn-in phase's samples.
+
+    Uses the steps from ``start_frac`` of the phase on, and only samples inside the 99.9 %
+    highest-density region of a normal approximation (log-prob within
+    ``chi2_ndim(0.999) / 2`` of the block's best), so that a few walkers still far from the
+    bulk do not inflate the proposal; the independence move then pulls them in.
+    """
+    chain, lp = sampler.get_chain(), sampler.get_log_prob()
+    start = int(start_frac * chain.shape[0])
+    ndim = chain.shape[-1]
+    x = np.moveaxis(chain[start:].reshape(-1, nens, chain.shape[1] // nens, ndim), 1, 0)
+    x = x.reshape(nens, -1, ndim)
+    lp = np.moveaxis(lp[start:].reshape(-1, nens, chain.shape[1] // nens), 1, 0).reshape(nens, -1)
+    mean = np.empty((nens, ndim))
+    cov = np.empty((nens, ndim, ndim))
+    cut = 0.5 * stats.chi2.ppf(0.999, ndim)
+    for b in range(nens):
+        keep = lp[b] >= np.max(lp[b]) - cut
+        if keep.sum() < 4 * ndim:  # too few: the better half
+            keep = lp[b] >= np.median(lp[b])
+        mean[b] = x[b, keep].mean(axis=0)
+        cov[b] = np.cov(x[b, keep], rowvar=False)
+    return StudentTIndependenceProposal(mean, cov * _PROPOSAL_SCALE**2)
+
+
+def _independence_acceptance(prop, state, log_prob, args, nens, seedseq, nrep=4):
+    """Expected acceptance rate of the independence move at stationarity, worst ensemble.
+
+    ``E[min(1, w(y) / w(x))]`` with ``w = p / q``, ``x`` the current (burnt-in) walkers
+    and ``y`` fresh proposals (``nrep`` per walker; Tierney 1994).
+    """
+    random = np.random.RandomState(seedseq.generate_state(4, np.uint32))
+    lw_x = state.log_prob - prop.log_q(state.coords)
+    acc = []
+    for _ in range(nrep):
+        y, _ = prop(state.coords, random)
+        with np.errstate(all="ignore"):
+            d = log_prob(y, *args) - prop.log_q(y) - lw_x
+        acc.append(np.exp(np.minimum(np.where(np.isnan(d), -np.inf, d), 0.0)))
+    return float(np.min(np.mean(acc, axis=0).reshape(nens, -1).mean(axis=1)))
+
+
+def _sampler(log_prob, args, ndim, nwalk, moves, random_state):
+    sm = emcee.EnsembleSampler(nwalk, ndim, log_prob, args=args, moves=moves, vectorize=True)
+    sm.random_state = random_state
+    return sm
 
 
 def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq):
-    """Run ``settings.nensembles`` independent ensembles.
+    """Run ``settings.nensembles`` independent ensembles as blocks of one emcee sampler.
 
-    Burn-in: DE + DE-snooker moves. Main phase (a fixed kernel): DE + an independence
-    Student-t Metropolis move fitted to the last third of the burn-in.
-    The main phase is extended (all ensembles equally) while it is shorter than
-    ``1.1 n_autocorr`` autocorrelation times, up to ``max_step_factor * nsteps`` steps.
-    Returns chains of shape (nensembles, nsteps', nwalkers, ndim) and log-probs.
+    Each ensemble's initial positions come from its own child of ``seedseq`` (``init_fn``:
+    overdispersed relative to the posterior); its moves use only its own walkers
+    (:class:`_BlockRedBlueMove`, a per-block Student-t), so the ensembles are independent
+    chains. Burn-in, first half: DE + DE-snooker moves; second half: the main kernel with
+    a Student-t fitted to the first half (it pulls stragglers into the bulk). Main phase (a
+    fixed kernel): DE + the independence Student-t Metropolis move refitted to the second
+    half, its weight ``independence_weight`` scaled down when the Student-t fits the
+    posterior poorly (:func:`_independence_acceptance` below
+    ``_INDEPENDENCE_FULL_ACCEPTANCE``; all adaptation ends with the burn-in). The main phase is extended (all ensembles equally) while it is shorter than
+    ``1.1 n_autocorr`` autocorrelation times, up to ``max_step_factor * nsteps``.
+    Returns chains of shape (nensembles, nsteps', nwalkers, ndim).
     """
-    samplers = []
+    nens, nw = settings.nensembles, settings.nwalkers
+    *children, ss_mcmc, ss_check = seedseq.spawn(nens + 2)
+    p0 = np.concatenate([init_fn(np.random.default_rng(c), nw) for c in children])
+    random_state = np.random.RandomState(ss_mcmc.generate_state(4, np.uint32)).get_state()
     burn_moves = [
-        (emcee.moves.DEMove(), 1.0 - settings.snooker_weight),
-        (emcee.moves.DESnookerMove(), settings.snooker_weight),
+        (_BlockRedBlueMove(emcee.moves.DEMove(), nens), 1.0 - settings.snooker_weight),
+        (_BlockRedBlueMove(emcee.moves.DESnookerMove(), nens), settings.snooker_weight),
     ]
-    for child in seedseq.spawn(settings.nensembles):
-        rng = np.random.default_rng(child)
-        p0 = init_fn(rng, settings.nwalkers)
-        burn = emcee.EnsembleSampler(
-            settings.nwalkers, ndim, log_prob, args=args, moves=burn_moves, vectorize=True
-        )
-        burn.random_state = np.random.RandomState(
-            int(child.generate_state(1, np.uint32)[0])
-        ).get_state()
-        state = burn.run_mcmc(p0, max(settings.nburn, 2), progress=False)
-        moves = [(emcee.moves.DEMove(), 1.0 - settings.independence_weight)]
-        if settings.independence_weight > 0:
-            prop = _fit_proposal(burn.get_chain())
-            moves.append((emcee.moves.MHMove(prop), settings.independence_weight))
-        main = emcee.EnsembleSampler(
-            settings.nwalkers, ndim, log_prob, args=args, moves=moves, vectorize=True
-        )
-        main.random_state = burn.random_state
-        main.run_mcmc(state, settings.nsteps, progress=False)
-        samplers.append(main)
+    burn = _sampler(log_prob, args, ndim, nens * nw, burn_moves, random_state)
+    nburn = max(settings.nburn, 4)
+    state = burn.run_mcmc(p0, nburn // 2, progress=False)
+    random_state = burn.random_state
+
+    def main_moves(prop, weight):
+        moves = [(_BlockRedBlueMove(emcee.moves.DEMove(), nens), 1.0 - weight)]
+        if weight > 0:
+            moves.append((emcee.moves.MHMove(prop), weight))
+        return moves
+
+    # second half of the burn-in with the main kernel fitted to the first half: its
+    # independence move pulls stragglers into the bulk, so the final fit sees the bulk only
+    # (a collapsed ensemble is left to fail the diagnostics rather than raise here)
+    w_ind = settings.independence_weight
+    prop = _fit_proposal(burn, nens, _FIT_FRAC) if w_ind > 0 else None
+    burn2 = _sampler(log_prob, args, ndim, nens * nw, main_moves(prop, w_ind), random_state)
+    state = burn2.run_mcmc(state, nburn - nburn // 2, skip_initial_state_check=True)
+    if w_ind > 0:
+        prop = _fit_proposal(burn2, nens, 0.0)
+        # the independence move's share follows how well the fitted Student-t matches the
+        # posterior (its expected acceptance rate, worst ensemble): a non-Gaussian posterior
+        # (a boundary, a banana) is left mostly to DE
+        acc = _independence_acceptance(prop, state, log_prob, args, nens, ss_check)
+        w_ind *= min(1.0, acc / _INDEPENDENCE_FULL_ACCEPTANCE)
+    main = _sampler(log_prob, args, ndim, nens * nw, main_moves(prop, w_ind), burn2.random_state)
+    main.run_mcmc(state, settings.nsteps, skip_initial_state_check=True)
+
+    def chains():
+        return np.moveaxis(main.get_chain().reshape(-1, nens, nw, ndim), 1, 0)
+
     # adaptive length (emcee practice): extend ALL ensembles equally until the chains are
     # longer than n_autocorr (+10 %) autocorrelation times, up to max_step_factor * nsteps
     nsteps = settings.nsteps
     while nsteps < settings.max_step_factor * settings.nsteps:
-        with np.errstate(all="ignore"):
-            tau = max(
-                float(np.nanmax(emcee.autocorr.integrated_time(sm.get_chain(), tol=0, quiet=True)))
-                for sm in samplers
-            )
+        tau = _max_autocorr_time(chains())
         need = int(np.ceil(1.1 * settings.n_autocorr * tau)) if np.isfinite(tau) else 2 * nsteps
         if nsteps >= need:
             break
         extra = min(need, int(settings.max_step_factor * settings.nsteps)) - nsteps
-        for sm in samplers:
-            sm.run_mcmc(None, extra, progress=False)
+        main.run_mcmc(None, extra, skip_initial_state_check=True)
         nsteps += extra
-    return (
-        np.stack([sm.get_chain() for sm in samplers]),
-        np.stack([sm.get_log_prob() for sm in samplers]),
-    )
+    return chains()
+
+
+def _autocorr_times(chains):
+    """Integrated autocorrelation time per ensemble and parameter, shape (nens, ndim)."""
+    with np.errstate(all="ignore"):  # a stuck (constant) chain gives NaN: a failure
+        return np.array([emcee.autocorr.integrated_time(c, tol=0, quiet=True) for c in chains])
+
+
+def _max_autocorr_time(chains):
+    tau = _autocorr_times(chains)
+    return float(np.max(tau)) if np.all(np.isfinite(tau)) else float("nan")
 
 
 def _diagnostics(chains, names, settings):
     """Rank R-hat across ensembles (walkers pooled), bulk/tail ESS, autocorrelation times."""
     nens, nsteps, nwalk, ndim = chains.shape
     # each ensemble's walkers pooled into ONE chain, walker-major (walker 0's trace, then 1...)
-    pooled = np.transpose(chains, (0, 2, 1, 3)).reshape(nens, nwalk * nsteps, ndim)
-    ds = xr.Dataset(
-        {n: (("chain", "draw"), pooled[..., k]) for k, n in enumerate(names)},
-        coords={"chain": np.arange(nens), "draw": np.arange(nwalk * nsteps)},
-    )
-    rhat = az.rhat(ds, method="rank")
-    ess_b = az.ess(ds, method="bulk")
-    ess_t = az.ess(ds, method="tail")
+    pooled = np.transpose(chains, (3, 0, 2, 1)).reshape(ndim, nens, nwalk * nsteps)
+    rhat = array_stats.rhat(pooled, chain_axis=-2, draw_axis=-1, method="rank")
+    ess_b = array_stats.ess(pooled, chain_axis=-2, draw_axis=-1, method="bulk")
+    # tail ESS: the smaller ESS of the 5 % and 95 % quantiles (Vehtari et al. 2021)
+    ess_t = array_stats.ess(pooled, chain_axis=-2, draw_axis=-1, method="tail", prob=(0.05, 0.95))
+    taus = _autocorr_times(chains)
     diag, reasons = {}, []
     for k, n in enumerate(names):
-        with np.errstate(all="ignore"):  # a stuck (constant) chain gives NaN: a failure
-            taus = [
-                float(emcee.autocorr.integrated_time(chains[e, :, :, k], tol=0, quiet=True)[0])
-                for e in range(nens)
-            ]
-        tau = float(np.max(taus)) if np.all(np.isfinite(taus)) else float("nan")
+        tau = float(np.max(taus[:, k])) if np.all(np.isfinite(taus[:, k])) else float("nan")
         d = {
-            "rhat": float(rhat[n]),
-            "ess_bulk": float(ess_b[n]),
-            "ess_tail": float(ess_t[n]),
+            "rhat": float(rhat[k]),
+            "ess_bulk": float(ess_b[k]),
+            "ess_tail": float(ess_t[k]),
             "tau": tau,
             "nsteps_over_tau": nsteps / tau if tau > 0 else float("inf"),
         }
@@ -549,25 +803,116 @@ def _thin(chains, ndraws):
     return pooled[:, idx, :]
 
 
+def _logsumexp_rows(x):
+    """log(sum(exp(x), axis=1)) of a 2-D array, stable; shape (n_rows,).
+
+    (scipy.special.logsumexp does the same with array-API overhead that dominates
+    PSIS-LOO on ~20,000 observations.)
+    """
+    m = np.max(x, axis=1)
+    m = np.where(np.isfinite(m), m, 0.0)
+    with np.errstate(divide="ignore"):
+        return np.log(np.sum(np.exp(x - m[:, None]), axis=1)) + m
+
+
+def _psis_loo(log_lik):
+    """PSIS-LOO (Vehtari et al. 2017, 2024) vectorised over observations.
+
+    The algorithm of ``arviz_stats`` (``array_stats.loo`` with ``r_eff = 1``: right-tail
+    generalised Pareto fit of the largest ``3 sqrt(S)`` importance ratios, Zhang-Stephens
+    empirical Bayes estimate with the weak prior on k, smoothing, truncation), computed
+    for all observations at once instead of one Python call per observation; the test
+    suite checks it against ``arviz_stats`` to rounding error.
+
+    Parameters
+    ----------
+    log_lik : numpy.ndarray, shape (n_samples, n_obs)
+
+    Returns
+    -------
+    elpd_i, pareto_k, p_loo_i : numpy.ndarray, shape (n_obs,)
+
+    Raises
+    ------
+    ValueError
+        If an observation's tail ratios are all equal (as ``arviz_stats``).
+    """
+    n_s, n_obs = log_lik.shape
+    n_tail = int(np.floor(3 * np.sqrt(n_s)) if n_s > 225 else np.floor(n_s / 5))
+    # log importance ratios -log_lik, one observation per row, sorted (the LOO sums are
+    # permutation invariant, so everything is computed in sorted order); lw <= 0
+    lw_sorted = np.sort(-log_lik.T, axis=1)
+    shift = lw_sorted[:, -1].copy()  # max(-log_lik) per observation
+    lw_sorted -= shift[:, None]
+    tail_log = lw_sorted[:, n_s - n_tail :]  # (n_obs, n_tail), ascending
+    if np.any(np.abs(tail_log[:, -1] - tail_log[:, 0]) < np.finfo(float).tiny):
+        raise ValueError("PSIS: all tail values are the same")
+    cutoff = np.exp(lw_sorted[:, n_s - n_tail - 1 : n_s - n_tail])  # (n_obs, 1)
+    x = np.exp(tail_log) - cutoff  # sorted exceedances
+    # generalised Pareto fit (Zhang & Stephens 2009; prior on k as in Vehtari et al. 2024)
+    m_est = 30 + int(n_tail**0.5)
+    xstar = x[:, int((n_tail / 4 + 0.5) - 1)]
+    with np.errstate(all="ignore"):
+        b = (1 - np.sqrt(m_est / (np.arange(1, m_est + 1) - 0.5)))[None, :] / (3 * xstar[:, None])
+        b += 1 / x[:, -1:]  # (n_obs, m_est)
+        k_b = np.empty_like(b)
+        for c in range(0, n_obs, 1024):  # (chunk, m_est, n_tail) at a time
+            sl = slice(c, c + 1024)
+            k_b[sl] = np.log1p(-b[sl, :, None] * x[sl, None, :]).mean(axis=2)
+        len_scale = n_tail * (np.log(-b / k_b) - k_b - 1)
+        w = np.exp(len_scale - _logsumexp_rows(len_scale)[:, None])
+        keep = w >= 10 * np.finfo(float).eps  # negligible weights removed (as arviz_stats)
+        w = np.where(keep, w, 0.0)
+        b_post = np.sum(np.where(keep, b * w, 0.0), axis=1) / w.sum(axis=1)
+        k = np.mean(np.log1p(-b_post[:, None] * x), axis=1)
+        sigma = -k / b_post
+        k = (n_tail * k + 10 * 0.5) / (n_tail + 10)
+        k = np.where(np.isnan(k), np.inf, k)
+        no_fit = xstar <= x[:, 0]  # far from a generalised Pareto: no smoothing, k NaN
+        k = np.where(no_fit, np.nan, k)
+        sigma = np.where(no_fit, np.nan, sigma)[:, None]
+        kk = np.where(k == 0, 1.0, k)[:, None]
+        p = (np.arange(n_tail) + 0.5) / n_tail
+        q = np.where(
+            (k == 0)[:, None],
+            cutoff - sigma * np.log1p(-p),
+            cutoff + sigma * np.expm1(-kk * np.log1p(-p)) / kk,
+        )
+        q = np.log(np.where(sigma <= 0, np.nan, q))
+        q = np.minimum(q, tail_log[:, -1:])  # truncation at the largest raw ratio
+        smooth = np.isfinite(k)[:, None]
+        tail_new = np.where(smooth, q, tail_log)
+        # normalised smoothed log weights lw - lse; on the body lw + log_lik = -shift
+        body = n_s - n_tail
+        lse = np.log(np.sum(np.exp(lw_sorted[:, :body]), axis=1) + np.sum(np.exp(tail_new), axis=1))
+        elpd_i = (
+            np.log(body + np.sum(np.exp(tail_new - tail_log), axis=1)) - lse - shift
+        )  # log sum_s w_s p(y_i | theta_s)
+    lppd_i = _logsumexp_rows(-lw_sorted) - shift - np.log(n_s)
+    return elpd_i, k, lppd_i - elpd_i
+
+
 def _loo(log_lik):
-    """PSIS-LOO from a (chain, draw, obs) pointwise log-likelihood; returns dict or None."""
-    if log_lik.shape[-1] == 0:
+    """PSIS-LOO from a (chain, draw, obs) pointwise log-likelihood; returns dict or None.
+
+    ``r_eff = 1`` (the stored draws are thinned, nearly independent). None if PSIS fails
+    (e.g. a degenerate, constant log-likelihood) or gives a non-finite elpd.
+    """
+    n = log_lik.shape[-1]
+    if n == 0:
         return None
-    dt = az.from_dict(
-        {"posterior": {"x": np.zeros(log_lik.shape[:2])}, "log_likelihood": {"y": log_lik}}
-    )
-    with warnings.catch_warnings():  # Pareto k is recorded and reported instead
-        warnings.simplefilter("ignore", UserWarning)
-        try:
-            res = az.loo(dt, pointwise=True)
-        except ValueError:  # e.g. a degenerate (constant) log-likelihood
-            return None
+    try:
+        elpd_i, pareto_k, p_loo_i = _psis_loo(log_lik.reshape(-1, n))
+    except ValueError:
+        return None
+    if not np.all(np.isfinite(elpd_i)):
+        return None
     return {
-        "elpd": float(res.elpd),
-        "se": float(res.se),
-        "p_loo": float(res.p),
-        "elpd_i": np.asarray(res.elpd_i).ravel(),
-        "pareto_k": np.asarray(res.pareto_k).ravel(),
+        "elpd": float(elpd_i.sum()),
+        "se": float(np.sqrt(n * np.var(elpd_i, ddof=1))) if n > 1 else 0.0,
+        "p_loo": float(np.sum(p_loo_i)),
+        "elpd_i": elpd_i,
+        "pareto_k": pareto_k,
     }
 
 
@@ -914,33 +1259,77 @@ def sample_motion_prior(rng, n, priors, ndim):
     )
 
 
+def _two_normal_mixture_em(x, niter=50):
+    """Maximum-likelihood 2-component normal mixture with a common sd (EM), for a start.
+
+    Returns ``(mu1, mu2, w, sd)`` with ``mu1 <= mu2`` and ``w`` the weight of ``mu1``.
+    """
+    mu = np.quantile(x, [0.25, 0.75])
+    w, sd = 0.5, max(float(np.std(x)) / 2.0, 1e-3)
+    for _ in range(niter):
+        l1 = np.log(w) - 0.5 * ((x - mu[0]) / sd) ** 2
+        l2 = np.log1p(-w) - 0.5 * ((x - mu[1]) / sd) ** 2
+        g = 1.0 / (1.0 + np.exp(np.clip(l2 - l1, -700, 700)))  # responsibility of component 1
+        w = float(np.clip(g.mean(), 0.02, 0.98))
+        mu = np.array(
+            [np.sum(g * x) / max(g.sum(), 1e-12), np.sum((1 - g) * x) / max((1 - g).sum(), 1e-12)]
+        )
+        sd = max(
+            float(np.sqrt(np.sum(g * (x - mu[0]) ** 2 + (1 - g) * (x - mu[1]) ** 2) / x.size)), 1e-3
+        )
+    return float(mu.min()), float(mu.max()), (w if mu[0] <= mu[1] else 1.0 - w), sd
+
+
 def _init_fn(log_amp, log_per, priors, ndim):
-    """Overdispersed start: data moments (or prior draws when data are too few)."""
+    """Overdispersed start: a widened normal approximation of the posterior.
+
+    Centre: the data moments (unimodal) or an EM mixture fit of the log-periods
+    (two-period); spread: ``_INIT_WIDENING`` times the large-sample posterior sd of each
+    parameter (``sd / sqrt(n)`` for a location, ``1 / sqrt(2 n)`` for a log-scale,
+    ``1 / sqrt(n w (1 - w))`` for the logit weight), so the ensembles start overdispersed
+    relative to the posterior (R-hat across ensembles stays meaningful) yet close enough
+    for a short burn-in. With fewer than 2 amplitudes or periods: prior draws. Walkers
+    started outside the support are redrawn from the prior.
+    """
     la, lt = log_amp[np.isfinite(log_amp)], log_per[np.isfinite(log_per)]
+    ok = la.size >= 2 and lt.size >= 2
+    if ok:
+        sa = float(np.clip(la.std(), 0.03, 1.0))
+        st = float(np.clip(lt.std(), 0.03, 1.0))
+        na, nt = la.size, lt.size
+        if ndim == 4:
+            c = np.array([la.mean(), lt.mean(), np.log(sa), np.log(st)])
+            sd = np.array(
+                [sa / np.sqrt(na), st / np.sqrt(nt), 1 / np.sqrt(2 * na), 1 / np.sqrt(2 * nt)]
+            )
+        else:
+            t1, t2, w, st = _two_normal_mixture_em(lt)
+            st = max(st, 0.03)
+            c = np.array(
+                [la.mean(), t1, max(t2, t1 + 0.05), np.log(w / (1 - w)), np.log(sa), np.log(st)]
+            )
+            sd = np.array(
+                [
+                    sa / np.sqrt(na),
+                    st / np.sqrt(nt * w),
+                    st / np.sqrt(nt * (1 - w)),
+                    1 / np.sqrt(nt * w * (1 - w)),
+                    1 / np.sqrt(2 * na),
+                    1 / np.sqrt(2 * nt),
+                ]
+            )
+    lp_fn = log_prob_unimodal if ndim == 4 else log_prob_two_period
 
     def init(rng, nwalkers):
         p0 = sample_motion_prior(rng, nwalkers, priors, ndim)
-        if la.size >= 2 and lt.size >= 2:
-            lsa = np.log(np.clip(la.std(), 0.02, 1.0))
-            lst = np.log(np.clip(lt.std(), 0.02, 1.0))
-            if ndim == 4:
-                c = np.array([la.mean(), lt.mean(), lsa, lst])
-            else:
-                q1, q2 = np.quantile(lt, [0.25, 0.75])
-                c = np.array([la.mean(), q1, max(q2, q1 + 0.05), 0.0, lsa, lst])
-            p0 = (
-                c
-                + 0.3
-                * rng.standard_normal((nwalkers, ndim))
-                * np.r_[0.3, 0.3, 0.3, 1.0, 1.0, 1.0][:ndim]
-            )
+        if ok:
+            p0 = c + _INIT_WIDENING * sd * rng.standard_normal((nwalkers, ndim))
             if ndim == 6:
                 p0[:, 1:3] = np.sort(p0[:, 1:3], axis=1)
-        lp_fn = log_prob_unimodal if ndim == 4 else log_prob_two_period
         bad = ~np.isfinite(lp_fn(p0, log_amp, log_per, priors))
         if np.any(bad):
             p0[bad] = sample_motion_prior(rng, int(bad.sum()), priors, ndim)
-        return p0
+        return p0 if walkers_independent(p0) else sample_motion_prior(rng, nwalkers, priors, ndim)
 
     return init
 
@@ -948,7 +1337,7 @@ def _init_fn(log_amp, log_per, priors, ndim):
 def _fit_motion_model(model, log_amp, log_per, settings, seedseq, priors):
     ndim = 4 if model == "unimodal" else 6
     names = _UNI_NAMES if model == "unimodal" else _TWO_NAMES
-    fn = log_prob_unimodal if model == "unimodal" else log_prob_two_period
+    fn = _log_prob_unimodal if model == "unimodal" else _log_prob_two_period
     s = settings
     if model == "two_period":
         f = settings.two_period_step_factor
@@ -960,8 +1349,9 @@ def _fit_motion_model(model, log_amp, log_per, settings, seedseq, priors):
                 "nburn": int(round(settings.nburn * f)),
             }
         )
-    chains, _ = _run_ensembles(
-        fn, (log_amp, log_per, priors), _init_fn(log_amp, log_per, priors, ndim), ndim, s, seedseq
+    data = _MotionData.from_observations(log_amp, log_per)
+    chains = _run_ensembles(
+        fn, (data, priors), _init_fn(log_amp, log_per, priors, ndim), ndim, s, seedseq
     )
     nat = _to_natural(chains, model)
     diag, reasons = _diagnostics(nat, names, s)
@@ -1130,33 +1520,78 @@ def _per_bin_rho_loo(s, r, szm, szv, bins, tau0, kappa, rng, ndraws, priors):
     )
     for b in np.unique(bins):
         m = bins == b
-        mu, tau = _global_mu_tau(theta, r[None, m], szm[None, m], szv[None, m])
-        pll = _norm_logpdf(s[None, m], mu, tau)  # (grid, n_b)
-        lp = pll.sum(axis=1)
+        lp = _global_loglik_pointwise(theta, s[m], r[m], szm[m], szv[m]).sum(axis=1)
         p = np.exp(lp - logsumexp(lp))
         idx = rng.choice(grid.size, size=ndraws, p=p)
         rho = grid[idx] + rng.uniform(-half, half, size=ndraws)  # continuous within the cell
         th = np.column_stack([rho, np.full(ndraws, np.log(tau0)), np.full(ndraws, np.log(kappa))])
-        mu, tau = _global_mu_tau(th, r[None, m], szm[None, m], szv[None, m])
-        ll_all[:, m] = _norm_logpdf(s[None, m], mu, tau)
+        ll_all[:, m] = _global_loglik_pointwise(th, s[m], r[m], szm[m], szv[m])
     return ll_all[None, :, :]
+
+
+def _global_init_fn(s, r, szm, szv, u2, priors):
+    """Overdispersed start of the global fit: a widened Laplace approximation.
+
+    The posterior mode (Nelder-Mead on the log posterior) and the inverse of a
+    central-difference Hessian there give a normal approximation; walkers start from it
+    with ``_INIT_WIDENING`` times its sd (overdispersed relative to the posterior, so R-hat
+    across ensembles stays meaningful, yet close enough for a short burn-in). Walkers
+    outside the support, or all of them if the Hessian is not positive definite (e.g. a
+    mode on the boundary ``|rho| = 1``), start from broad uniform draws instead.
+    """
+    ndim = 3 if u2 is None else 4
+
+    def neg_lp(th):
+        v = -log_prob_global(th[None, :], s, r, szm, szv, priors, u2)[0]
+        return v if np.isfinite(v) else 1e300
+
+    x0 = np.array([0.0, np.log(0.05), np.log(0.1), 2.0][:ndim])
+    mode = optimize.minimize(
+        neg_lp, x0, method="Nelder-Mead", options={"xatol": 1e-5, "fatol": 1e-6, "maxiter": 4000}
+    ).x
+    h = 1e-4
+    hess = np.empty((ndim, ndim))
+    eye = np.eye(ndim) * h
+    for i in range(ndim):
+        for j in range(i, ndim):
+            hess[i, j] = hess[j, i] = (
+                neg_lp(mode + eye[i] + eye[j])
+                - neg_lp(mode + eye[i] - eye[j])
+                - neg_lp(mode - eye[i] + eye[j])
+                + neg_lp(mode - eye[i] - eye[j])
+            ) / (4 * h * h)
+    try:
+        chol = np.linalg.cholesky(np.linalg.inv(hess))
+    except np.linalg.LinAlgError:
+        chol = None
+
+    def broad(rng, n):
+        cols = [
+            rng.uniform(-0.9, 0.9, n),
+            np.log(rng.uniform(0.01, 0.2, n)),
+            np.log(rng.uniform(0.02, 0.3, n)),
+            rng.uniform(0.0, 5.0, n),
+        ]
+        return np.column_stack(cols[:ndim])
+
+    def init(rng, nwalkers):
+        if chol is None or not np.all(np.isfinite(chol)):
+            return broad(rng, nwalkers)
+        p0 = mode + _INIT_WIDENING * rng.standard_normal((nwalkers, ndim)) @ chol.T
+        bad = ~np.isfinite(log_prob_global(p0, s, r, szm, szv, priors, u2))
+        p0[bad] = broad(rng, int(bad.sum()))
+        # a near-singular approximation (prior-dominated, nearly collinear directions)
+        # would fail emcee's check of the initial ensemble: start broad instead
+        return p0 if walkers_independent(p0) else broad(rng, nwalkers)
+
+    return init
 
 
 def _sample_global(s, r, szm, szv, u2, settings, seedseq, priors):
     """emcee run of the global model (3 parameters, or 4 with the lever arm ``u2``)."""
     ndim = 3 if u2 is None else 4
-
-    def init(rng, nwalkers):
-        cols = [
-            rng.uniform(-0.9, 0.9, nwalkers),
-            np.log(rng.uniform(0.01, 0.2, nwalkers)),
-            np.log(rng.uniform(0.02, 0.3, nwalkers)),
-        ]
-        if ndim == 4:
-            cols.append(rng.uniform(0.0, 5.0, nwalkers))
-        return np.column_stack(cols)
-
-    chains, _ = _run_ensembles(
+    init = _global_init_fn(s, r, szm, szv, u2, priors)
+    chains = _run_ensembles(
         log_prob_global, (s, r, szm, szv, priors, u2), init, ndim, settings, seedseq
     )
     names = _GLOBAL_NAMES + (["lever_arm_m"] if ndim == 4 else [])
@@ -1164,18 +1599,15 @@ def _sample_global(s, r, szm, szv, u2, settings, seedseq, priors):
     nat[..., 1:3] = np.exp(chains[..., 1:3])
     diag, reasons = _diagnostics(nat, names, settings)
     thin = _thin(chains, settings.ndraws)
-    mu, tau = _global_mu_tau(
-        thin.reshape(-1, ndim),
-        r[None, :],
-        szm[None, :],
-        szv[None, :],
-        None if u2 is None else u2[None, :],
-    )
-    ll = _norm_logpdf(s[None, :], mu, tau).reshape(thin.shape[0], thin.shape[1], -1)
+    ll = _global_loglik_pointwise(thin.reshape(-1, ndim), s, r, szm, szv, u2)
+    ll = ll.reshape(thin.shape[0], thin.shape[1], -1)
     draws = {
         n: (np.exp(thin[..., k]) if k in (1, 2) else thin[..., k]) for k, n in enumerate(names)
     }
     return draws, ll, diag, reasons
+
+
+_GLOBAL_MODELS = ("rho_only", "lever_arm")  # fixed order: each model's seed is its child index
 
 
 def fit_global(
@@ -1204,27 +1636,36 @@ def fit_global(
     surrogate : SigmaZSurrogate, optional
     settings : SamplerSettings
     seed : int or numpy.random.SeedSequence
-
+    priors : Priors
     use_unconverged_bins : bool
         Only for simulation-based calibration (which must not condition on convergence):
         also use the records of bins that failed the convergence criteria.
     lever_arm : "auto", bool
         ``"auto"``: fit the rho-only model and the model with an effective lever arm
-        ``lever_arm_m`` (head translation, :func:`translation_unit_sq`) and keep the lever
-        arm if it converged and PSIS-LOO prefers it by more than ``loo_threshold_se`` se;
-        True / False: fit only that model.
+        ``lever_arm_m`` (head translation, :func:`translation_unit_sq`) and keep the one
+        :func:`select_global_model` picks (the lever arm if it converged and PSIS-LOO
+        prefers it by more than ``loo_threshold_se`` se). True / False: fit only that
+        model. Each model's result depends only on ``seed``, not on whether the other is
+        fitted: ``fit_global(..., lever_arm=False)`` and ``(..., lever_arm=True)`` run as
+        two jobs and :func:`select_global_model` give the same result as ``"auto"``.
     scan_period_s : float
         VAD scan duration (s) for the translation term (1 s for the ZephIR 300).
 
     Returns
     -------
     GlobalFit
+        ``info["loo"]`` holds ``model`` ("rho_only" / "lever_arm") and the comparison of the
+        global with a per-bin rho (see docs/inference.md); with ``"auto"`` also the
+        lever-arm comparison.
     """
     for c in ("bin_id", "hws_mean_ms", "hws_std_ms"):
         if c not in records:
             raise ValueError(f"fit_global: records lack column {c!r}")
+    if not (isinstance(lever_arm, str) and lever_arm == "auto") and lever_arm not in (True, False):
+        raise ValueError(f"fit_global: lever_arm={lever_arm!r} is not 'auto', True or False")
     seedseq = _as_seedsequence(seed)
     ss_sz, ss_mc, ss_loo = seedseq.spawn(3)
+    mc_children, loo_children = ss_mc.spawn(2), ss_loo.spawn(2)
     bin_fits = list(bin_fits)
     good = [f for f in bin_fits if f.converged or use_unconverged_bins]
     excluded = [f.bin_id for f in bin_fits if not (f.converged or use_unconverged_bins)]
@@ -1244,56 +1685,60 @@ def fit_global(
     )
     use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.isfinite(szm) & (szm > 0)
     use &= np.isfinite(u2m)
-    s, r, szm, szv = s[use], r[use], szm[use], szv[use]
-    bins = records["bin_id"].to_numpy()[use]
-    prior_only = not np.any(use)
-
-    u2 = u2m[use]
+    data = {
+        "s": s[use],
+        "r": r[use],
+        "szm": szm[use],
+        "szv": szv[use],
+        "u2": u2m[use],
+        "bins": records["bin_id"].to_numpy()[use],
+    }
     f = settings.global_step_factor
     gs = SamplerSettings(
         **{
             **asdict(settings),
             "nsteps": int(round(settings.nsteps * f)),
             "nburn": int(round(settings.nburn * f)),
+            "max_step_factor": settings.global_max_step_factor,
         }
     )
-    variants = {"rho_only": False, "lever_arm": True}
-    if lever_arm is not None and lever_arm != "auto":
-        variants = {("lever_arm" if lever_arm else "rho_only"): bool(lever_arm)}
-    fits = {
-        name: _sample_global(s, r, szm, szv, u2 if lev else None, gs, child, priors)
-        for (name, lev), child in zip(variants.items(), ss_mc.spawn(len(variants)), strict=True)
-    }
-    loo_info = {}
-    chosen = next(iter(fits))
-    if len(fits) == 2 and not prior_only:
-        lo = {k: _loo(v[1]) for k, v in fits.items()}
-        if all(v is not None for v in lo.values()):
-            d, se = _loo_compare(lo["lever_arm"], lo["rho_only"])
-            loo_info.update(
-                {
-                    "lever_arm_elpd_diff": d,
-                    "lever_arm_elpd_diff_se": se,
-                    "lever_arm_pareto_k_max": float(np.max(lo["lever_arm"]["pareto_k"])),
-                    "rho_only_pareto_k_max": float(np.max(lo["rho_only"]["pareto_k"])),
-                }
-            )
-            if not fits["lever_arm"][3] and d > settings.loo_threshold_se * se:
-                chosen = "lever_arm"
-    draws, ll, diag, reasons = fits[chosen]
+    models = _GLOBAL_MODELS if lever_arm == "auto" else (_GLOBAL_MODELS[int(bool(lever_arm))],)
+    fits, loos = {}, {}
+    for name in models:
+        k = _GLOBAL_MODELS.index(name)
+        fits[name], loos[name] = _fit_global_model(
+            name, data, gs, mc_children[k], loo_children[k], priors, settings.loo_threshold_se
+        )
+        fits[name].info.update(
+            {
+                "excluded_bins": excluded,
+                "constant": {"record_index": np.asarray(records.index)[use]},
+            }
+        )
+    if len(fits) == 1:
+        return fits[models[0]]
+    return _select_global(fits, loos, settings)
+
+
+def _fit_global_model(name, data, settings, ss_mc, ss_loo, priors, loo_threshold_se):
+    """One global model on prepared data; returns (GlobalFit, its PSIS-LOO dict or None)."""
+    s, r, szm, szv, bins = data["s"], data["r"], data["szm"], data["szv"], data["bins"]
+    u2 = data["u2"] if name == "lever_arm" else None
+    prior_only = s.size == 0
+    draws, ll, diag, reasons = _sample_global(s, r, szm, szv, u2, settings, ss_mc, priors)
     reasons = list(reasons)
     if prior_only:
         reasons.append(
             "no record with reference std and converged bin: rho posterior equals the prior"
         )
-    loo_info["model"] = chosen
-    if chosen == "lever_arm":  # per-bin rho comparison at the median lever arm
+    loo_info = {"model": name}
+    lg = None if prior_only else _loo(ll)
+    if name == "lever_arm":  # per-bin rho comparison at the median lever arm
         lev = float(np.median(draws["lever_arm_m"]))
         sz_eff = np.sqrt(szm**2 + lev**2 * u2)
         szv = szv * (szm / np.maximum(sz_eff, 1e-12)) ** 2
         szm = sz_eff
     if not prior_only and np.unique(bins).size > 1:
-        lg = _loo(ll)
         llb = _per_bin_rho_loo(
             s,
             r,
@@ -1319,20 +1764,88 @@ def fit_global(
                     "elpd_diff_se": se,
                     "global_pareto_k_max": float(np.max(lg["pareto_k"])),
                     "per_bin_pareto_k_max": float(np.max(lb["pareto_k"])),
-                    "preferred": "per_bin" if d > settings.loo_threshold_se * se else "global",
+                    "preferred": "per_bin" if d > loo_threshold_se * se else "global",
                 }
             )
     rho = draws["rho"].ravel()
-    pile = float(np.mean(np.abs(rho) > 0.98))
     info = {
-        "n_records": int(use.sum()),
+        "n_records": int(s.size),
         "prior_only": prior_only,
-        "excluded_bins": excluded,
+        "excluded_bins": [],
         "loo": loo_info,
-        "rho_mass_beyond_0p98": pile,
-        "constant": {"record_index": np.asarray(records.index)[use]},
+        "rho_mass_beyond_0p98": float(np.mean(np.abs(rho) > 0.98)),
     }
-    return GlobalFit(draws=draws, log_lik=ll, diagnostics=diag, failure_reasons=reasons, info=info)
+    fit = GlobalFit(draws=draws, log_lik=ll, diagnostics=diag, failure_reasons=reasons, info=info)
+    return fit, lg
+
+
+def select_global_model(
+    fit_rho_only: GlobalFit,
+    fit_lever_arm: GlobalFit,
+    *,
+    settings: SamplerSettings = SamplerSettings(),
+) -> GlobalFit:
+    """Pick between the two global models by PSIS-LOO (the choice of ``fit_global(lever_arm="auto")``).
+
+    The lever-arm model is kept if it converged and its elpd exceeds the rho-only model's
+    by more than ``settings.loo_threshold_se`` standard errors of the difference;
+    otherwise the rho-only model. Both fits must come from :func:`fit_global` on the
+    same records (``lever_arm=False`` and ``lever_arm=True``), e.g. as two parallel jobs
+    (fits read back with :func:`load_fit` work: the pointwise log-likelihood is stored).
+
+    Parameters
+    ----------
+    fit_rho_only, fit_lever_arm : GlobalFit
+    settings : SamplerSettings
+        Only ``loo_threshold_se`` is used.
+
+    Returns
+    -------
+    GlobalFit
+        The chosen fit (a copy) with ``info["loo"]`` extended by ``lever_arm_elpd_diff``,
+        ``lever_arm_elpd_diff_se``, ``lever_arm_pareto_k_max``, ``rho_only_pareto_k_max``.
+
+    Raises
+    ------
+    ValueError
+        If the fits are not a rho-only and a lever-arm fit of the same records.
+    """
+    fits = {"rho_only": fit_rho_only, "lever_arm": fit_lever_arm}
+    for name, f in fits.items():
+        if not isinstance(f, GlobalFit) or f.info.get("loo", {}).get("model") != name:
+            raise ValueError(f"select_global_model: fit_{name} is not a {name!r} GlobalFit")
+    idx = [np.asarray(f.info.get("constant", {}).get("record_index", [])) for f in fits.values()]
+    if idx[0].shape != idx[1].shape or not np.array_equal(idx[0], idx[1]):
+        raise ValueError("select_global_model: the two fits were not made on the same records")
+    loos = {
+        name: None if f.info["prior_only"] else _loo(np.asarray(f.log_lik))
+        for name, f in fits.items()
+    }
+    return _select_global(fits, loos, settings)
+
+
+def _select_global(fits, loos, settings):
+    chosen = "rho_only"
+    extra = {}
+    if all(v is not None for v in loos.values()):
+        d, se = _loo_compare(loos["lever_arm"], loos["rho_only"])
+        extra = {
+            "lever_arm_elpd_diff": d,
+            "lever_arm_elpd_diff_se": se,
+            "lever_arm_pareto_k_max": float(np.max(loos["lever_arm"]["pareto_k"])),
+            "rho_only_pareto_k_max": float(np.max(loos["rho_only"]["pareto_k"])),
+        }
+        if fits["lever_arm"].converged and d > settings.loo_threshold_se * se:
+            chosen = "lever_arm"
+    fit = fits[chosen]
+    info = {**fit.info, "loo": {**fit.info["loo"], **extra}}
+    return GlobalFit(
+        draws=fit.draws,
+        log_lik=fit.log_lik,
+        diagnostics=fit.diagnostics,
+        failure_reasons=list(fit.failure_reasons),
+        info=info,
+    )
 
 
 # ----------------------------------------------------------------------------- prior predictive

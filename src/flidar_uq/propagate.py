@@ -2,8 +2,9 @@
 
 For every record ``i`` and posterior draw ``d`` (docs/inference.md, "Propagation"):
 
-1. ``sZ_id`` from the record's bin posterior (surrogate at the record's mean HWS; plus
-   the head translation ``L_d^2 u^2`` if the global fit chose the lever-arm model);
+1. ``sZ_id`` from the record's bin posterior (surrogate at the record's mean HWS, times
+   the global ``motion_scale_d`` and plus the head translation ``L_d^2 u^2`` if the global
+   fit chose a model with them);
    ``rho_d, tau0_d, kappa_d[, L_d]`` from the global posterior (independent pairing: cut);
 2. the record's own sampling noise: ``s*_id = s_i + tau_id z_id`` with
    ``tau_id^2 = (kappa_d s_i)^2 + tau0_d^2`` and ``z ~ N(0, 1)`` (the observation model
@@ -183,6 +184,11 @@ def corrected_ti(
         if "lever_arm_m" in global_fit.draws
         else None
     )
+    scale = (
+        global_fit.flat("motion_scale")[g_idx][:, None]
+        if "motion_scale" in global_fit.draws
+        else 1.0
+    )
 
     sig = np.full((ndraws, n), np.nan)
     neg_frac = np.full(n, np.nan)
@@ -198,6 +204,7 @@ def corrected_ti(
         nb = int(f.flat("amplitude_deg").size)
         idx = rng.choice(nb, size=ndraws, replace=ndraws > nb)
         sz, u2 = f._motion_draws(m[mask], surrogate, idx, scan_period_s)
+        sz = scale * sz  # motion-model discrepancy of the surrogate (global fit), 1 if absent
         if lever is not None:  # head translation of the lever-arm model
             sz = np.sqrt(sz**2 + lever**2 * u2)
         tau = np.sqrt((kappa * s[mask][None, :]) ** 2 + tau0**2)
