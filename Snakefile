@@ -28,7 +28,8 @@ include: "workflow/rules/report.smk"
 
 
 # Light steps run on the submitting host under a cluster executor; campaign generation,
-# the per-bin inference batches, the global fit and the propagation go to the cluster.
+# the per-bin inference batches, the three global models and the propagation go to the
+# cluster (the LOO choice among the global models is light).
 localrules:
     all,
     validate,
@@ -37,6 +38,7 @@ localrules:
     bins,
     sigma_z,
     posterior_bin,
+    fit_global,
     report,
 
 

@@ -136,6 +136,18 @@ def test_fit_bin_recovers_amplitude_period_and_roundtrips(tmp_path):
     assert back.converged and back.model == "unimodal" and back.bin_id == 0
 
 
+def test_fit_bin_counts_each_imu_record_once():
+    # three heights of one 10-min record share the buoy's IMU statistics: the posterior
+    # of a bin holding each record at 3 heights equals that of the single copies
+    rec = _records(20, 3.0, 4.0)
+    rec["timestamp"] = pd.date_range("2020-01-01", periods=20, freq="10min", tz="UTC")
+    tripled = pd.concat([rec.assign(height_m=z) for z in (27.0, 58.0, 85.0)])
+    a = fit_bin(rec, settings=FAST, seed=3)
+    b = fit_bin(tripled, settings=FAST, seed=3)
+    np.testing.assert_array_equal(a.flat("amplitude_deg"), b.flat("amplitude_deg"))
+    assert b.info["n_records"] == 60 and b.info["n_imu"] == 20
+
+
 def test_fit_bin_bit_identical_rerun():
     df = _records(10, 2.0, 5.0)
     a = fit_bin(df, settings=FAST, seed=np.random.SeedSequence(11)).flat("period_s")
@@ -270,6 +282,56 @@ def test_lever_arm_model_log_prob_and_rho_only_equivalence_at_zero():
         log_prob_global(th4, s, r, szm, szv)
 
 
+def test_motion_scale_model_log_prob_equivalence_at_one():
+    from flidar_uq.inference import _norm_logpdf
+
+    s, r = np.array([0.5, 1.0]), np.array([0.4, 0.9])
+    szm, szv, u2 = np.array([0.2, 0.3]), np.array([1e-4, 0.0]), np.array([0.01, 0.02])
+    th4 = np.array([[0.3, -3.0, -2.5, 1.5]])
+    th5 = np.array([[0.3, -3.0, -2.5, 1.5, 0.0]])
+    diff = log_prob_global(th5, s, r, szm, szv, u2=u2) - log_prob_global(th4, s, r, szm, szv, u2=u2)
+    assert diff[0] == pytest.approx(_norm_logpdf(0.0, 0.0, Priors().motion_scale_log_sd))
+    # k scales the rotational sigma_Z: (k, szm) is (1, k szm) with the variance scaled by k^2
+    k = 1.3
+    a = log_prob_global([[0.3, -3.0, -2.5, 1.5, np.log(k)]], s, r, szm, szv, u2=u2)
+    b = log_prob_global(th5, s, r, k * szm, k**2 * szv, u2=u2)
+    prior_k = _norm_logpdf(np.log(k), 0.0, Priors().motion_scale_log_sd)
+    assert a[0] - prior_k == pytest.approx(b[0] - _norm_logpdf(0.0, 0.0, 0.3))
+    assert log_prob_global([[0.3, -3.0, -2.5, 1.5, 2.0]], s, r, szm, szv, u2=u2)[0] == -np.inf
+
+
+def test_motion_scale_recovered_and_chosen_by_loo():
+    # observations made with a surrogate that underestimates sigma_Z by 1/1.35 (the
+    # harmonic surrogate against a broadband sea) and a 2-m lever arm, rho = 0:
+    # the 5-parameter model recovers k and L, and PSIS-LOO chooses it
+    from flidar_uq.inference import _GLOBAL_MODELS, _fit_global_model, _select_global
+
+    rng = np.random.default_rng(np.random.SeedSequence(21))
+    n = 1500
+    hws = rng.uniform(4.0, 18.0, n)
+    r = 0.08 * hws * np.exp(0.2 * rng.standard_normal(n))
+    szm = 0.03 * hws * np.exp(0.1 * rng.standard_normal(n))  # the surrogate's rotational part
+    u2 = np.full(n, 0.0025)
+    k_true, lev_true = 1.35, 2.0
+    sz = np.sqrt((k_true * szm) ** 2 + lev_true**2 * u2)
+    mu = np.sqrt(r**2 + sz**2)
+    s = mu * (1.0 + 0.03 * rng.standard_normal(n)) + 0.02 * rng.standard_normal(n)
+    data = {"s": s, "r": r, "szm": szm, "szv": np.zeros(n), "u2": u2, "bins": np.zeros(n)}
+    ss = np.random.SeedSequence(5)
+    fits, loos = {}, {}
+    for name, mc, lo in zip(_GLOBAL_MODELS, ss.spawn(3), ss.spawn(3), strict=True):
+        fits[name], loos[name] = _fit_global_model(name, data, FAST, mc, lo, Priors(), 2.0)
+    best = _select_global(fits, loos, FAST)
+    assert best.info["loo"]["model"] == "lever_arm_scale"
+    assert (
+        best.info["loo"]["lever_arm_scale_elpd_diff"]
+        > 2 * best.info["loo"]["lever_arm_scale_elpd_diff_se"]
+    )
+    for name, truth in (("motion_scale", k_true), ("lever_arm_m", lev_true), ("rho", 0.0)):
+        lo, hi = np.quantile(best.flat(name), [0.005, 0.995])
+        assert lo < truth < hi, (name, lo, hi)
+
+
 def test_motion_log_prob_is_pointwise_likelihood_plus_data_free_prior():
     """The sufficient-statistic log densities equal the prior plus the pointwise sum."""
     from flidar_uq.inference import _loglik_pointwise_two_period, _loglik_pointwise_unimodal
@@ -390,10 +452,13 @@ def test_select_global_model_equals_auto_and_rejects_mismatched_fits(surrogate):
         )
 
     auto, rho_only, lever = glob("auto"), glob(False), glob(True)
+    scale = glob("lever_arm_scale")
     assert rho_only.info["loo"]["model"] == "rho_only" and "lever_arm_m" in lever.draws
-    sel = select_global_model(rho_only, lever, settings=FAST)
+    assert "motion_scale" in scale.draws
+    sel = select_global_model(rho_only, lever, scale, settings=FAST)
     assert sel.info["loo"] == auto.info["loo"]
     assert "lever_arm_elpd_diff" in sel.info["loo"]
+    assert "lever_arm_scale_elpd_diff" in sel.info["loo"]
     np.testing.assert_array_equal(sel.flat("rho"), auto.flat("rho"))
     with pytest.raises(ValueError, match="fit_rho_only is not a 'rho_only' GlobalFit"):
         select_global_model(lever, lever)

@@ -230,6 +230,7 @@ def test_dry_run_builds_the_dag(tmp_path):
         "bins",
         "sigma_z",
         "infer_batch",
+        "fit_global_model",
         "fit_global",
         "propagate",
         "report",

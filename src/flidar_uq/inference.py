@@ -89,7 +89,9 @@ class Priors:
     Within-bin log-scatter of the IMU statistics: half-normal(``scatter_scale``) on
     [``scatter_min``, ``scatter_max``]. ``rho ~ Uniform(-1, 1)``;
     ``tau0 ~ HalfNormal(tau0_scale_ms)``; ``kappa ~ HalfNormal(kappa_scale)``;
-    effective lever arm ``L ~ HalfNormal(lever_arm_scale_m)`` on [0, ``lever_arm_max_m``).
+    effective lever arm ``L ~ HalfNormal(lever_arm_scale_m)`` on [0, ``lever_arm_max_m``);
+    motion-model scale of the surrogate's rotational sigma_Z
+    ``log k ~ Normal(0, motion_scale_log_sd)`` on ``|log k| < log 5``.
     """
 
     amplitude_median_deg: float = 3.0
@@ -110,6 +112,7 @@ class Priors:
     kappa_min: float = 1e-4
     lever_arm_scale_m: float = 3.0
     lever_arm_max_m: float = 20.0
+    motion_scale_log_sd: float = 0.3
 
 
 @dataclass(frozen=True)
@@ -369,14 +372,19 @@ def _global_loglik_pointwise(theta, s, r, sz_med, sz_var, u2=None):
     ``s_i ~ N(mu_i, tau_i)``, ``mu_i^2 = r_i^2 + sZ_i^2 + 2 rho r_i sZ_i`` (Eq. (15) of seed
     000), ``tau_i^2 = kappa^2 mu_i^2 + tau0^2 + (dmu_i/dsZ_i)^2 Var(sZ_i)`` with
     ``dmu/dsZ = (sZ + rho r) / mu``. With a 4th column (lever arm ``L``) and ``u2``:
-    ``sZ^2 = sZ_rot^2 + L^2 u^2`` and ``Var(sZ)`` scaled by ``(sZ_rot / sZ)^2``.
+    ``sZ^2 = sZ_rot^2 + L^2 u^2`` and ``Var(sZ)`` scaled by ``(sZ_rot / sZ)^2``; with a 5th
+    column ``log k`` the surrogate's rotational sigma_Z is scaled first, ``sZ_rot = k sZ``.
     Written with in-place operations: this is the global fit's inner loop.
     """
     rho = theta[:, 0:1]
     tau0_sq = np.exp(2.0 * theta[:, 1:2])
     kappa_sq = np.exp(2.0 * theta[:, 2:3])
-    if u2 is not None and theta.shape[1] == 4:
+    if u2 is not None and theta.shape[1] >= 4:
         sz_rot_sq = sz_med**2
+        if theta.shape[1] == 5:  # motion-model scale of the surrogate
+            k_sq = np.exp(2.0 * theta[:, 4:5])
+            sz_rot_sq = k_sq * sz_rot_sq
+            sz_var = k_sq * sz_var
         sz_sq = sz_rot_sq + theta[:, 3:4] ** 2 * u2  # translation of the head
         sz = np.sqrt(sz_sq)
         sz_var = sz_var * sz_rot_sq / np.maximum(sz_sq, 1e-24)
@@ -411,8 +419,9 @@ def log_prob_global(theta, s, r, sz_med, sz_var, priors=Priors(), u2=None):
 
     Parameters
     ----------
-    theta : array_like, shape (n_walkers, 3 or 4)
-        ``(rho, log tau0_ms, log kappa[, lever_arm_m])``; the 4th column only with ``u2``.
+    theta : array_like, shape (n_walkers, 3, 4 or 5)
+        ``(rho, log tau0_ms, log kappa[, lever_arm_m[, log motion_scale]])``; the 4th and 5th
+        columns only with ``u2``.
     s, r : numpy.ndarray, shape (n_obs,)
         Floating-lidar and reference 10-min HWS std (m/s).
     sz_med, sz_var : numpy.ndarray, shape (n_obs,)
@@ -428,8 +437,8 @@ def log_prob_global(theta, s, r, sz_med, sz_var, priors=Priors(), u2=None):
         ``-inf`` outside ``|rho| < 1`` and the scale bounds; never NaN.
     """
     theta = np.atleast_2d(np.asarray(theta, dtype=float))
-    if theta.shape[1] == 4 and u2 is None:
-        raise ValueError("log_prob_global: a 4-column theta (lever arm) needs u2")
+    if theta.shape[1] >= 4 and u2 is None:
+        raise ValueError("log_prob_global: a 4- or 5-column theta (lever arm) needs u2")
     with np.errstate(all="ignore"):
         ok = (np.abs(theta[:, 0]) < 1.0) & _in(
             theta[:, 1], np.log(priors.tau0_min_ms), np.log(10.0)
@@ -437,9 +446,12 @@ def log_prob_global(theta, s, r, sz_med, sz_var, priors=Priors(), u2=None):
         ok &= _in(theta[:, 2], np.log(priors.kappa_min), np.log(2.0))
         lp = _log_halfnormal_logscale(theta[:, 1], priors.tau0_scale_ms)
         lp = lp + _log_halfnormal_logscale(theta[:, 2], priors.kappa_scale)
-        if theta.shape[1] == 4:
+        if theta.shape[1] >= 4:
             ok &= (theta[:, 3] >= 0.0) & (theta[:, 3] < priors.lever_arm_max_m)
             lp = lp + _norm_logpdf(theta[:, 3], 0.0, priors.lever_arm_scale_m)
+        if theta.shape[1] == 5:
+            ok &= np.abs(theta[:, 4]) < np.log(5.0)
+            lp = lp + _norm_logpdf(theta[:, 4], 0.0, priors.motion_scale_log_sd)
         out = np.full(theta.shape[0], -np.inf)
         if np.any(ok):  # the likelihood only where the prior is positive
             ll = _global_loglik_pointwise(theta[ok], s, r, sz_med, sz_var, u2).sum(axis=1)
@@ -1137,7 +1149,8 @@ class BinFit(_FitBase):
 
 @dataclass
 class GlobalFit(_FitBase):
-    """Posterior of the global parameters ``rho``, ``tau0_ms``, ``kappa`` [, ``lever_arm_m``] (stage 2).
+    """Posterior of the global parameters ``rho``, ``tau0_ms``, ``kappa`` [, ``lever_arm_m``
+    [, ``motion_scale``]] (stage 2).
 
     ``info`` holds ``n_records`` used, ``excluded_bins`` (bins not converged, never used),
     ``prior_only`` (no reference data), ``loo`` (global vs per-bin rho).
@@ -1159,6 +1172,8 @@ class GlobalFit(_FitBase):
             "global_model": loo.get("model", "rho_only"),
             "elpd_diff_lever_arm": loo.get("lever_arm_elpd_diff", np.nan),
             "elpd_diff_lever_arm_se": loo.get("lever_arm_elpd_diff_se", np.nan),
+            "elpd_diff_motion_scale": loo.get("lever_arm_scale_elpd_diff", np.nan),
+            "elpd_diff_motion_scale_se": loo.get("lever_arm_scale_elpd_diff_se", np.nan),
         }
         return self._summary_rows(extra)
 
@@ -1364,6 +1379,17 @@ def _fit_motion_model(model, log_amp, log_per, settings, seedseq, priors):
     return draws, ll, diag, reasons
 
 
+def _distinct_imu_records(records: pd.DataFrame) -> pd.DataFrame:
+    """One row per IMU record: the heights of one 10-min record share the buoy's IMU
+    statistics, which must count once in the motion likelihood (not once per height)."""
+    from flidar_uq.imu import MOTION_STAT_COLUMNS
+
+    if "timestamp" not in records:
+        return records
+    cols = ["timestamp", *(c for c in MOTION_STAT_COLUMNS if c in records)]
+    return records.drop_duplicates(subset=cols)
+
+
 def fit_bin(
     bin_records: pd.DataFrame,
     *,
@@ -1378,7 +1404,9 @@ def fit_bin(
     Parameters
     ----------
     bin_records : pandas.DataFrame
-        The bin's records (core record columns; ``bin_id`` column optional).
+        The bin's records (core record columns; ``bin_id`` column optional). Records of
+        the same ``timestamp`` with identical IMU statistics (the heights of one 10-min
+        record) count once in the motion likelihood.
     surrogate : SigmaZSurrogate, optional
         Not needed by the motion likelihood; accepted for API symmetry (the returned fit
         computes sigma_Z draws on demand with :meth:`BinFit.sigma_z_draws`).
@@ -1410,7 +1438,7 @@ def fit_bin(
         bin_id = ids[0].item() if hasattr(ids[0], "item") else ids[0]
     seedseq = _as_seedsequence(seed)
     ss_uni, ss_two, ss_ppc = seedseq.spawn(3)
-    log_amp, log_per = imu_observations(bin_records)
+    log_amp, log_per = imu_observations(_distinct_imu_records(bin_records))
     n_imu = int(np.sum(np.isfinite(log_amp) & np.isfinite(log_per)))
     results = {
         "unimodal": _fit_motion_model("unimodal", log_amp, log_per, settings, ss_uni, priors)
@@ -1529,7 +1557,7 @@ def _per_bin_rho_loo(s, r, szm, szv, bins, tau0, kappa, rng, ndraws, priors):
     return ll_all[None, :, :]
 
 
-def _global_init_fn(s, r, szm, szv, u2, priors):
+def _global_init_fn(s, r, szm, szv, u2, priors, ndim):
     """Overdispersed start of the global fit: a widened Laplace approximation.
 
     The posterior mode (Nelder-Mead on the log posterior) and the inverse of a
@@ -1539,13 +1567,12 @@ def _global_init_fn(s, r, szm, szv, u2, priors):
     outside the support, or all of them if the Hessian is not positive definite (e.g. a
     mode on the boundary ``|rho| = 1``), start from broad uniform draws instead.
     """
-    ndim = 3 if u2 is None else 4
 
     def neg_lp(th):
         v = -log_prob_global(th[None, :], s, r, szm, szv, priors, u2)[0]
         return v if np.isfinite(v) else 1e300
 
-    x0 = np.array([0.0, np.log(0.05), np.log(0.1), 2.0][:ndim])
+    x0 = np.array([0.0, np.log(0.05), np.log(0.1), 2.0, 0.0][:ndim])
     mode = optimize.minimize(
         neg_lp, x0, method="Nelder-Mead", options={"xatol": 1e-5, "fatol": 1e-6, "maxiter": 4000}
     ).x
@@ -1571,6 +1598,7 @@ def _global_init_fn(s, r, szm, szv, u2, priors):
             np.log(rng.uniform(0.01, 0.2, n)),
             np.log(rng.uniform(0.02, 0.3, n)),
             rng.uniform(0.0, 5.0, n),
+            rng.uniform(-0.3, 0.3, n),
         ]
         return np.column_stack(cols[:ndim])
 
@@ -1587,27 +1615,28 @@ def _global_init_fn(s, r, szm, szv, u2, priors):
     return init
 
 
-def _sample_global(s, r, szm, szv, u2, settings, seedseq, priors):
-    """emcee run of the global model (3 parameters, or 4 with the lever arm ``u2``)."""
-    ndim = 3 if u2 is None else 4
-    init = _global_init_fn(s, r, szm, szv, u2, priors)
+def _sample_global(s, r, szm, szv, u2, settings, seedseq, priors, ndim):
+    """emcee run of the global model: 3 parameters, 4 with the lever arm (``u2``), 5 with
+    the motion-model scale too."""
+    init = _global_init_fn(s, r, szm, szv, u2, priors, ndim)
     chains = _run_ensembles(
         log_prob_global, (s, r, szm, szv, priors, u2), init, ndim, settings, seedseq
     )
-    names = _GLOBAL_NAMES + (["lever_arm_m"] if ndim == 4 else [])
+    names = (_GLOBAL_NAMES + ["lever_arm_m", "motion_scale"])[:ndim]
+    logs = [k for k in (1, 2, 4) if k < ndim]  # sampled as logs, reported natural
     nat = chains.copy()
-    nat[..., 1:3] = np.exp(chains[..., 1:3])
+    nat[..., logs] = np.exp(chains[..., logs])
     diag, reasons = _diagnostics(nat, names, settings)
     thin = _thin(chains, settings.ndraws)
     ll = _global_loglik_pointwise(thin.reshape(-1, ndim), s, r, szm, szv, u2)
     ll = ll.reshape(thin.shape[0], thin.shape[1], -1)
-    draws = {
-        n: (np.exp(thin[..., k]) if k in (1, 2) else thin[..., k]) for k, n in enumerate(names)
-    }
+    draws = {n: (np.exp(thin[..., k]) if k in logs else thin[..., k]) for k, n in enumerate(names)}
     return draws, ll, diag, reasons
 
 
-_GLOBAL_MODELS = ("rho_only", "lever_arm")  # fixed order: each model's seed is its child index
+# fixed order: each model's seed is its child index; the number of parameters of each
+_GLOBAL_MODELS = ("rho_only", "lever_arm", "lever_arm_scale")
+_GLOBAL_NDIM = {"rho_only": 3, "lever_arm": 4, "lever_arm_scale": 5}
 
 
 def fit_global(
@@ -1640,32 +1669,45 @@ def fit_global(
     use_unconverged_bins : bool
         Only for simulation-based calibration (which must not condition on convergence):
         also use the records of bins that failed the convergence criteria.
-    lever_arm : "auto", bool
-        ``"auto"``: fit the rho-only model and the model with an effective lever arm
-        ``lever_arm_m`` (head translation, :func:`translation_unit_sq`) and keep the one
-        :func:`select_global_model` picks (the lever arm if it converged and PSIS-LOO
-        prefers it by more than ``loo_threshold_se`` se). True / False: fit only that
-        model. Each model's result depends only on ``seed``, not on whether the other is
-        fitted: ``fit_global(..., lever_arm=False)`` and ``(..., lever_arm=True)`` run as
-        two jobs and :func:`select_global_model` give the same result as ``"auto"``.
+    lever_arm : "auto", bool or str
+        ``"auto"``: fit the three nested models -- rho only; plus an effective lever arm
+        ``lever_arm_m`` (head translation, :func:`translation_unit_sq`); plus a
+        motion-model scale ``motion_scale`` of the surrogate's rotational sigma_Z (the
+        harmonic-motion surrogate against a broadband real sea) -- and keep the one
+        :func:`select_global_model` picks (a richer model only if it converged and
+        PSIS-LOO prefers it by more than ``loo_threshold_se`` se). False / True /
+        ``"lever_arm_scale"`` (or a model name): fit only that model. Each model's result
+        depends only on ``seed``, not on whether the others are fitted: the models run
+        as separate jobs and :func:`select_global_model` give the same result as
+        ``"auto"``.
     scan_period_s : float
         VAD scan duration (s) for the translation term (1 s for the ZephIR 300).
 
     Returns
     -------
     GlobalFit
-        ``info["loo"]`` holds ``model`` ("rho_only" / "lever_arm") and the comparison of the
+        ``info["loo"]`` holds ``model`` (a name of ``_GLOBAL_MODELS``) and the comparison of the
         global with a per-bin rho (see docs/inference.md); with ``"auto"`` also the
         lever-arm comparison.
     """
     for c in ("bin_id", "hws_mean_ms", "hws_std_ms"):
         if c not in records:
             raise ValueError(f"fit_global: records lack column {c!r}")
-    if not (isinstance(lever_arm, str) and lever_arm == "auto") and lever_arm not in (True, False):
+    if isinstance(lever_arm, str):
+        if lever_arm != "auto" and lever_arm not in _GLOBAL_MODELS:
+            raise ValueError(
+                f"fit_global: lever_arm={lever_arm!r} is not 'auto', True, False or one of "
+                f"{_GLOBAL_MODELS}"
+            )
+        models = _GLOBAL_MODELS if lever_arm == "auto" else (lever_arm,)
+    elif lever_arm in (True, False):
+        models = ("lever_arm" if lever_arm else "rho_only",)
+    else:
         raise ValueError(f"fit_global: lever_arm={lever_arm!r} is not 'auto', True or False")
     seedseq = _as_seedsequence(seed)
     ss_sz, ss_mc, ss_loo = seedseq.spawn(3)
-    mc_children, loo_children = ss_mc.spawn(2), ss_loo.spawn(2)
+    n_models = len(_GLOBAL_MODELS)
+    mc_children, loo_children = ss_mc.spawn(n_models), ss_loo.spawn(n_models)
     bin_fits = list(bin_fits)
     good = [f for f in bin_fits if f.converged or use_unconverged_bins]
     excluded = [f.bin_id for f in bin_fits if not (f.converged or use_unconverged_bins)]
@@ -1702,7 +1744,6 @@ def fit_global(
             "max_step_factor": settings.global_max_step_factor,
         }
     )
-    models = _GLOBAL_MODELS if lever_arm == "auto" else (_GLOBAL_MODELS[int(bool(lever_arm))],)
     fits, loos = {}, {}
     for name in models:
         k = _GLOBAL_MODELS.index(name)
@@ -1723,9 +1764,11 @@ def fit_global(
 def _fit_global_model(name, data, settings, ss_mc, ss_loo, priors, loo_threshold_se):
     """One global model on prepared data; returns (GlobalFit, its PSIS-LOO dict or None)."""
     s, r, szm, szv, bins = data["s"], data["r"], data["szm"], data["szv"], data["bins"]
-    u2 = data["u2"] if name == "lever_arm" else None
+    u2 = None if name == "rho_only" else data["u2"]
     prior_only = s.size == 0
-    draws, ll, diag, reasons = _sample_global(s, r, szm, szv, u2, settings, ss_mc, priors)
+    draws, ll, diag, reasons = _sample_global(
+        s, r, szm, szv, u2, settings, ss_mc, priors, _GLOBAL_NDIM[name]
+    )
     reasons = list(reasons)
     if prior_only:
         reasons.append(
@@ -1733,10 +1776,11 @@ def _fit_global_model(name, data, settings, ss_mc, ss_loo, priors, loo_threshold
         )
     loo_info = {"model": name}
     lg = None if prior_only else _loo(ll)
-    if name == "lever_arm":  # per-bin rho comparison at the median lever arm
+    if name != "rho_only":  # per-bin rho comparison at the median lever arm (and scale)
         lev = float(np.median(draws["lever_arm_m"]))
-        sz_eff = np.sqrt(szm**2 + lev**2 * u2)
-        szv = szv * (szm / np.maximum(sz_eff, 1e-12)) ** 2
+        k = float(np.median(draws["motion_scale"])) if "motion_scale" in draws else 1.0
+        sz_eff = np.sqrt((k * szm) ** 2 + lev**2 * u2)
+        szv = k**2 * szv * (k * szm / np.maximum(sz_eff, 1e-12)) ** 2
         szm = sz_eff
     if not prior_only and np.unique(bins).size > 1:
         llb = _per_bin_rho_loo(
@@ -1782,41 +1826,47 @@ def _fit_global_model(name, data, settings, ss_mc, ss_loo, priors, loo_threshold
 def select_global_model(
     fit_rho_only: GlobalFit,
     fit_lever_arm: GlobalFit,
+    fit_lever_arm_scale: GlobalFit | None = None,
     *,
     settings: SamplerSettings = SamplerSettings(),
 ) -> GlobalFit:
-    """Pick between the two global models by PSIS-LOO (the choice of ``fit_global(lever_arm="auto")``).
+    """Pick among the nested global models by PSIS-LOO (the choice of ``fit_global(lever_arm="auto")``).
 
-    The lever-arm model is kept if it converged and its elpd exceeds the rho-only model's
-    by more than ``settings.loo_threshold_se`` standard errors of the difference;
-    otherwise the rho-only model. Both fits must come from :func:`fit_global` on the
-    same records (``lever_arm=False`` and ``lever_arm=True``), e.g. as two parallel jobs
-    (fits read back with :func:`load_fit` work: the pointwise log-likelihood is stored).
+    Starting from the rho-only model, each richer model (lever arm, then lever arm and
+    motion-model scale) replaces the current choice if it converged and its elpd exceeds
+    the current choice's by more than ``settings.loo_threshold_se`` standard errors of the
+    difference. All fits must come from :func:`fit_global` on the same records (one
+    model each, e.g. as parallel jobs; fits read back with :func:`load_fit` work: the
+    pointwise log-likelihood is stored).
 
     Parameters
     ----------
     fit_rho_only, fit_lever_arm : GlobalFit
+    fit_lever_arm_scale : GlobalFit, optional
+        Without it the choice is between the first two.
     settings : SamplerSettings
         Only ``loo_threshold_se`` is used.
 
     Returns
     -------
     GlobalFit
-        The chosen fit (a copy) with ``info["loo"]`` extended by ``lever_arm_elpd_diff``,
-        ``lever_arm_elpd_diff_se``, ``lever_arm_pareto_k_max``, ``rho_only_pareto_k_max``.
+        The chosen fit (a copy) with ``info["loo"]`` extended by ``<model>_elpd_diff``,
+        ``<model>_elpd_diff_se`` (against the next simpler model) and ``<model>_pareto_k_max``.
 
     Raises
     ------
     ValueError
-        If the fits are not a rho-only and a lever-arm fit of the same records.
+        If a fit is not the named model or the fits were not made on the same records.
     """
     fits = {"rho_only": fit_rho_only, "lever_arm": fit_lever_arm}
+    if fit_lever_arm_scale is not None:
+        fits["lever_arm_scale"] = fit_lever_arm_scale
     for name, f in fits.items():
         if not isinstance(f, GlobalFit) or f.info.get("loo", {}).get("model") != name:
             raise ValueError(f"select_global_model: fit_{name} is not a {name!r} GlobalFit")
     idx = [np.asarray(f.info.get("constant", {}).get("record_index", [])) for f in fits.values()]
-    if idx[0].shape != idx[1].shape or not np.array_equal(idx[0], idx[1]):
-        raise ValueError("select_global_model: the two fits were not made on the same records")
+    if any(i.shape != idx[0].shape or not np.array_equal(i, idx[0]) for i in idx[1:]):
+        raise ValueError("select_global_model: the fits were not made on the same records")
     loos = {
         name: None if f.info["prior_only"] else _loo(np.asarray(f.log_lik))
         for name, f in fits.items()
@@ -1827,16 +1877,21 @@ def select_global_model(
 def _select_global(fits, loos, settings):
     chosen = "rho_only"
     extra = {}
-    if all(v is not None for v in loos.values()):
-        d, se = _loo_compare(loos["lever_arm"], loos["rho_only"])
-        extra = {
-            "lever_arm_elpd_diff": d,
-            "lever_arm_elpd_diff_se": se,
-            "lever_arm_pareto_k_max": float(np.max(loos["lever_arm"]["pareto_k"])),
-            "rho_only_pareto_k_max": float(np.max(loos["rho_only"]["pareto_k"])),
-        }
-        if fits["lever_arm"].converged and d > settings.loo_threshold_se * se:
-            chosen = "lever_arm"
+    names = [m for m in _GLOBAL_MODELS if m in fits]
+    if all(loos.get(m) is not None for m in names):
+        extra["rho_only_pareto_k_max"] = float(np.max(loos["rho_only"]["pareto_k"]))
+        for simpler, richer in zip(names[:-1], names[1:], strict=True):
+            d, se = _loo_compare(loos[richer], loos[simpler])
+            extra.update(
+                {
+                    f"{richer}_elpd_diff": d,
+                    f"{richer}_elpd_diff_se": se,
+                    f"{richer}_pareto_k_max": float(np.max(loos[richer]["pareto_k"])),
+                }
+            )
+            dc, sec = _loo_compare(loos[richer], loos[chosen])
+            if fits[richer].converged and dc > settings.loo_threshold_se * sec:
+                chosen = richer
     fit = fits[chosen]
     info = {**fit.info, "loo": {**fit.info["loo"], **extra}}
     return GlobalFit(

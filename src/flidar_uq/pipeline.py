@@ -474,31 +474,25 @@ def _load_bin_fits(batch_dirs: Sequence[str | os.PathLike], bin_fits: pd.DataFra
     return {b: inf.load_fit(_bin_file(batch_dirs, b)) for b in ran}
 
 
-def fit_global(
+def fit_global_model(
     batch_dirs: Sequence[str | os.PathLike],
     assignments_path: str | os.PathLike,
-    table_path: str | os.PathLike,
-    posterior_path: str | os.PathLike,
-    bin_fits_path: str | os.PathLike,
-    summary_path: str | os.PathLike,
+    out_path: str | os.PathLike,
     *,
+    model: str,
     inference: dict,
     priors: dict,
-    lidar: str = "zephir300",
-) -> pd.DataFrame:
-    """Gather the per-bin fits and fit the global rho, tau0 and kappa (the gather step).
+) -> None:
+    """Fit one global model (rho only / lever arm / lever arm + motion scale) on the gathered
+    per-bin fits and write its posterior (NetCDF) to ``out_path``.
 
-    Writes the global posterior (NetCDF), the concatenated per-bin summaries
-    (``bin_fits_path``) and the global parameter summary (``summary_path``, one row per
-    parameter with diagnostics, ``converged`` and ``failure_reasons``). Bins that failed
-    or raised are excluded from the global fit (listed in the summary).
+    The three models run as parallel jobs; :func:`fit_global` then picks one by PSIS-LOO.
+    Each model's draws depend only on the seed (``inference.fit_global`` seeds each model
+    with its own child), so the result equals ``fit_global(..., lever_arm="auto")``.
     """
     from flidar_uq import inference as inf
 
-    bin_fits = pd.concat(
-        [_read_csv(Path(d) / "summary.csv") for d in batch_dirs], ignore_index=True
-    )
-    bin_fits = bin_fits.sort_values("bin_id", kind="stable").reset_index(drop=True)
+    bin_fits = _gather_bin_summaries(batch_dirs)
     assigned = _read_csv(assignments_path)
     fits = _load_bin_fits(batch_dirs, bin_fits)
     fit = inf.fit_global(
@@ -507,12 +501,55 @@ def fit_global(
         settings=_settings(inference),
         seed=np.random.SeedSequence(entropy=int(inference["seed"]), spawn_key=(0,)),
         priors=_priors(priors),
+        lever_arm=model,
+    )
+    Path(out_path).parent.mkdir(parents=True, exist_ok=True)
+    _save_fit(fit, out_path)
+    log.info(
+        "global model %s: converged=%s %s", model, fit.converged, "; ".join(fit.failure_reasons)
+    )
+
+
+def _gather_bin_summaries(batch_dirs: Sequence[str | os.PathLike]) -> pd.DataFrame:
+    bin_fits = pd.concat(
+        [_read_csv(Path(d) / "summary.csv") for d in batch_dirs], ignore_index=True
+    )
+    return bin_fits.sort_values("bin_id", kind="stable").reset_index(drop=True)
+
+
+def fit_global(
+    model_paths: Sequence[str | os.PathLike],
+    batch_dirs: Sequence[str | os.PathLike],
+    posterior_path: str | os.PathLike,
+    bin_fits_path: str | os.PathLike,
+    summary_path: str | os.PathLike,
+    *,
+    inference: dict,
+) -> pd.DataFrame:
+    """Pick the global model by PSIS-LOO (the gather step) and write the global results.
+
+    ``model_paths``: the posteriors of :func:`fit_global_model` in the order rho only,
+    lever arm, lever arm + motion scale (:func:`flidar_uq.inference.select_global_model`).
+    Writes the chosen global posterior (NetCDF), the concatenated per-bin summaries
+    (``bin_fits_path``) and the global parameter summary (``summary_path``, one row per
+    parameter with diagnostics, ``converged``, ``failure_reasons`` and the LOO
+    comparisons). Bins that failed or raised were excluded from the global fit.
+    """
+    from flidar_uq import inference as inf
+
+    fit = inf.select_global_model(
+        *(inf.load_fit(p) for p in model_paths), settings=_settings(inference)
     )
     Path(posterior_path).parent.mkdir(parents=True, exist_ok=True)
     _save_fit(fit, posterior_path)
-    _write_csv(bin_fits, bin_fits_path)
+    _write_csv(_gather_bin_summaries(batch_dirs), bin_fits_path)
     _write_csv(fit.summary(), summary_path)
-    log.info("global fit: converged=%s %s", fit.converged, "; ".join(fit.failure_reasons))
+    log.info(
+        "global fit: model %s, converged=%s %s",
+        fit.info["loo"].get("model"),
+        fit.converged,
+        "; ".join(fit.failure_reasons),
+    )
     return fit.summary()
 
 

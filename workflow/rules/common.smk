@@ -10,6 +10,8 @@ validate(config, schema="../schemas/config.schema.yaml")
 REPO = workflow.basedir
 NBATCHES = config["inference"]["nbatches"]
 BATCHES = [f"{b:03d}" for b in range(NBATCHES)]
+# The nested global models (flidar_uq.inference._GLOBAL_MODELS), fitted as parallel jobs.
+GLOBAL_MODELS = ["rho_only", "lever_arm", "lever_arm_scale"]
 
 
 def scenario_file(wildcards):

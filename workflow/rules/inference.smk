@@ -1,5 +1,6 @@
 # Per-bin inference (fan-out over a fixed number of batch jobs, each fitting several
-# bins), the per-bin posterior files, the global rho fit (gather) and propagation.
+# bins), the per-bin posterior files, the three global models (gather, in parallel), the
+# choice among them by PSIS-LOO, and propagation.
 
 
 rule infer_batch:
@@ -40,28 +41,46 @@ rule posterior_bin:
         "cp {input}/bin_{wildcards.bin}.nc {output} 2> {log}"
 
 
-rule fit_global:
+rule fit_global_model:
     input:
         batches=expand("results/inference/batch_{batch}", batch=BATCHES),
         assignments="results/bins/assignments.csv",
-        table="results/bins/table.csv",
+    output:
+        "results/inference/global_{model}.nc",
+    wildcard_constraints:
+        model="|".join(GLOBAL_MODELS),
+    params:
+        inference=config["inference"],
+        priors=config["priors"],
+    conda:
+        "../envs/flidar_uq.yaml"
+    log:
+        "results/logs/fit_global_{model}.log",
+    benchmark:
+        "results/benchmarks/fit_global_{model}.tsv"
+    resources:
+        mem_mb=1500,
+        runtime=30,
+    script:
+        "../scripts/fit_global_model.py"
+
+
+rule fit_global:
+    input:
+        models=expand("results/inference/global_{model}.nc", model=GLOBAL_MODELS),
+        batches=expand("results/inference/batch_{batch}", batch=BATCHES),
     output:
         posterior="results/posterior/global.nc",
         bin_fits="results/inference/bin_fits.csv",
         summary="results/inference/global.csv",
     params:
         inference=config["inference"],
-        priors=config["priors"],
-        lidar=config["campaign"]["lidar"],
     conda:
         "../envs/flidar_uq.yaml"
     log:
         "results/logs/fit_global.log",
     benchmark:
         "results/benchmarks/fit_global.tsv"
-    resources:
-        mem_mb=1000,
-        runtime=30,
     script:
         "../scripts/fit_global.py"
 
