@@ -485,3 +485,22 @@ def test_schema_point_target_sampling_keys():
             cfg["propagation"][key] = value
             with pytest.raises(jsonschema.ValidationError):
                 jsonschema.validate(cfg, schema)
+
+
+@pytest.mark.slow
+def test_default_campaign_meets_the_corrected_ti_acceptance(tmp_path):
+    """Issue 5 acceptance on the main job: the default physics-mode virtual campaign with
+    the shipped config. The 90 % intervals of corrected TI cover the truth for 85-95 % of
+    the kept records (3-20 m/s) and the mean relative TI error is <= 2 %, with the
+    uncorrected error beside it (it must show the motion effect the correction removes)."""
+    snakemake(tmp_path, CONFIG, "--cores", "2", timeout=2400)
+    check_outputs(tmp_path, truth=True)
+    m = pd.read_csv(tmp_path / "results" / "ti" / "metrics.csv")
+    truth = m[m["reference"] == "truth"].set_index("method")
+    assert truth.loc["Bayesian", "n"] > 20000
+    assert 0.85 <= truth.loc["Bayesian", "coverage"] <= 0.95
+    assert abs(truth.loc["Bayesian", "mean_rel_ti_error"]) <= 0.02
+    assert truth.loc["uncorrected", "mean_rel_ti_error"] > 0.05
+    rec = pd.read_csv(tmp_path / "results" / "ti" / "records.csv")
+    kept = rec["ti_corrected_median"].notna()
+    assert rec.loc[kept, "hws_mean_ms"].between(3.0, 20.0).all()
