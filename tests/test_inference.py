@@ -486,3 +486,22 @@ def test_independence_acceptance_high_for_matching_low_for_mismatched_proposal()
     ss = np.random.SeedSequence(3)
     assert _independence_acceptance(good, state, log_prob, (), 4, ss) > 0.6
     assert _independence_acceptance(bad, state, log_prob, (), 4, ss) < 0.05
+
+
+def test_global_init_spreads_a_parameter_whose_mode_is_on_the_boundary():
+    # data without any head translation: the lever arm's mode is L = 0 (the support's
+    # edge), the Laplace approximation has zero width there; emcee would refuse the
+    # ensemble ("large condition number"). The start must spread every parameter.
+    from emcee.ensemble import walkers_independent
+
+    from flidar_uq.inference import _global_init_fn
+
+    rng = np.random.default_rng(np.random.SeedSequence(8))
+    n = 300
+    r = rng.uniform(0.3, 1.5, n)
+    szm = 0.2 * r
+    s = np.sqrt(r**2 + szm**2) * (1 + 0.03 * rng.standard_normal(n))
+    init = _global_init_fn(s, r, szm, np.zeros(n), np.full(n, 0.003), Priors(), 4)
+    p0 = init(np.random.default_rng(1), 16)
+    assert np.all(p0.std(axis=0) > 1e-3) and walkers_independent(p0)
+    assert np.all(np.isfinite(log_prob_global(p0, s, r, szm, np.zeros(n), u2=np.full(n, 0.003))))

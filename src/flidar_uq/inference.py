@@ -1606,11 +1606,17 @@ def _global_init_fn(s, r, szm, szv, u2, priors, ndim):
         if chol is None or not np.all(np.isfinite(chol)):
             return broad(rng, nwalkers)
         p0 = mode + _INIT_WIDENING * rng.standard_normal((nwalkers, ndim)) @ chol.T
+        # a mode on a boundary (e.g. the lever arm at 0 m when the data hold none) gives a
+        # direction of (numerically) zero width: start that parameter broad
+        flat = p0.std(axis=0) < 1e-6
+        if flat.any():
+            p0[:, flat] = broad(rng, nwalkers)[:, flat]
         bad = ~np.isfinite(log_prob_global(p0, s, r, szm, szv, priors, u2))
         p0[bad] = broad(rng, int(bad.sum()))
         # a near-singular approximation (prior-dominated, nearly collinear directions)
         # would fail emcee's check of the initial ensemble: start broad instead
-        return p0 if walkers_independent(p0) else broad(rng, nwalkers)
+        ok = walkers_independent(p0) and np.all(p0.std(axis=0) > 0)
+        return p0 if ok else broad(rng, nwalkers)
 
     return init
 
