@@ -48,6 +48,14 @@ def _lambda1_m(height_m):
     return np.where(z > 0.0, np.where(z <= 60.0, 0.7 * z, 42.0), np.nan)
 
 
+def _time_scale_s(hws_ms, height_m):
+    """``Lambda_1(z) / U`` (s) of the broadcast inputs, its finite mask and a NaN output."""
+    u, z = np.broadcast_arrays(np.asarray(hws_ms, float), np.asarray(height_m, float))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x = _lambda1_m(z) / np.where(u > 0, u, np.nan)
+    return x, np.isfinite(x), np.full(u.shape, np.nan)
+
+
 @lru_cache(maxsize=8)
 def _response_cached(lidar_name_or_geom, f_key, n_dir):
     f = np.asarray(f_key)
@@ -160,11 +168,7 @@ def lidar_std_ratio(
     r = np.asarray(sigma_ratios, dtype=float)
     if r.shape != (3,) or np.any(~np.isfinite(r)) or np.any(r < 0) or r[0] <= 0:
         raise ValueError(f"lidar_std_ratio: sigma_ratios={sigma_ratios!r} must be 3 values >= 0")
-    u, z = np.broadcast_arrays(np.asarray(hws_ms, float), np.asarray(height_m, float))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        x = _lambda1_m(z) / np.where(u > 0, u, np.nan)  # Lambda_1 / U, s
-    ok = np.isfinite(x)
-    out = np.full(u.shape, np.nan)
+    x, ok, out = _time_scale_s(hws_ms, height_m)
     if not ok.any():
         return out
     f = _frequency_grid(lidar, record_length_s)
@@ -267,11 +271,7 @@ def lidar_point_log_sd(
         )
     if int(n_records) < 8:
         raise ValueError(f"lidar_point_log_sd: n_records={n_records!r} must be >= 8")
-    u, z = np.broadcast_arrays(np.asarray(hws_ms, float), np.asarray(height_m, float))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        x = _lambda1_m(z) / np.where(u > 0, u, np.nan)  # Lambda_1 / U, s
-    ok = np.isfinite(x)
-    out = np.full(u.shape, np.nan)
+    x, ok, out = _time_scale_s(hws_ms, height_m)
     if not ok.any():
         return out
     lo, hi = np.log(np.min(x[ok])), np.log(np.max(x[ok]))
