@@ -34,25 +34,22 @@ from functools import lru_cache
 import numpy as np
 
 from flidar_uq import lidar as _lidar
-from flidar_uq.turbulence import IEC_SIGMA_RATIOS, kaimal_psd, kaimal_series
+from flidar_uq.turbulence import (
+    IEC_SIGMA_RATIOS,
+    KAIMAL_LENGTH_PER_LAMBDA1,
+    kaimal_lambda1_m,
+    kaimal_psd,
+    kaimal_series,
+)
 
 __all__ = ["lidar_point_log_sd", "lidar_std_ratio", "scan_response"]
-
-# Kaimal length scales per unit Lambda_1 (IEC 61400-1 Ed. 3 Table B.1)
-_KAIMAL_L_PER_LAMBDA1 = np.array([8.1, 2.7, 0.66])
-
-
-def _lambda1_m(height_m):
-    """IEC 61400-1 Ed. 3 Eq. (5): Lambda_1 = 0.7 z below 60 m, 42 m above; NaN if z <= 0."""
-    z = np.asarray(height_m, dtype=float)
-    return np.where(z > 0.0, np.where(z <= 60.0, 0.7 * z, 42.0), np.nan)
 
 
 def _time_scale_s(hws_ms, height_m):
     """``Lambda_1(z) / U`` (s) of the broadcast inputs, its finite mask and a NaN output."""
     u, z = np.broadcast_arrays(np.asarray(hws_ms, float), np.asarray(height_m, float))
     with np.errstate(invalid="ignore", divide="ignore"):
-        x = _lambda1_m(z) / np.where(u > 0, u, np.nan)
+        x = kaimal_lambda1_m(z) / np.where(u > 0, u, np.nan)
     return x, np.isfinite(x), np.full(u.shape, np.nan)
 
 
@@ -175,7 +172,7 @@ def lidar_std_ratio(
     h = scan_response(f, lidar)  # (3, F)
     lo, hi = np.log(np.min(x[ok])), np.log(np.max(x[ok]))
     grid = np.exp(np.linspace(lo, hi, 2 if hi - lo < 1e-12 else 96))
-    tau = grid[:, None] * _KAIMAL_L_PER_LAMBDA1[None, :]  # (G, 3) L_j / U, s
+    tau = grid[:, None] * KAIMAL_LENGTH_PER_LAMBDA1[None, :]  # (G, 3) L_j / U, s
     # E[sample variance of a record of length T] = int S(f) (1 - sinc^2(f T)) df (the
     # record mean removed), for the point series and, to the same approximation, for the
     # scan series. Each component's spectrum is scaled to that 10-min variance sigma_j^2

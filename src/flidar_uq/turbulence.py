@@ -28,7 +28,9 @@ import numpy as np
 
 __all__ = [
     "IEC_SIGMA_RATIOS",
+    "KAIMAL_LENGTH_PER_LAMBDA1",
     "KaimalParams",
+    "kaimal_lambda1_m",
     "kaimal_length_scales_m",
     "kaimal_psd",
     "kaimal_series",
@@ -65,6 +67,27 @@ class KaimalParams:
     height_m: float
 
 
+#: Kaimal integral length scales of u, v, w per unit Lambda_1 (IEC 61400-1 Ed. 3 Table B.1).
+KAIMAL_LENGTH_PER_LAMBDA1 = np.array([8.1, 2.7, 0.66])
+
+
+def kaimal_lambda1_m(height_m):
+    """Turbulence scale parameter Lambda_1 (IEC 61400-1 Ed. 3 Eq. (5)).
+
+    Parameters
+    ----------
+    height_m : array_like
+        Height above the surface (m), any shape.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``0.7 z`` for ``z <= 60 m``, 42 m above (m); NaN for non-positive heights.
+    """
+    z = np.asarray(height_m, dtype=float)
+    return np.where(z > 0.0, np.where(z <= 60.0, 0.7 * z, 42.0), np.nan)
+
+
 def kaimal_length_scales_m(height_m):
     """Kaimal integral length scales of u, v, w (IEC 61400-1 Ed. 3, Annex B).
 
@@ -80,10 +103,7 @@ def kaimal_length_scales_m(height_m):
         ``(8.1, 2.7, 0.66) * Lambda_1`` with ``Lambda_1 = 0.7 z`` for ``z <= 60 m``
         and 42 m above. NaN for non-positive heights.
     """
-    z = np.asarray(height_m, dtype=float)
-    lambda1 = np.where(z <= 60.0, 0.7 * z, 42.0)  # IEC 61400-1 Ed. 3 Eq. (5)
-    lambda1 = np.where(z > 0.0, lambda1, np.nan)
-    return lambda1[..., None] * np.array([8.1, 2.7, 0.66])  # IEC 61400-1 Ed. 3 Table B.1
+    return kaimal_lambda1_m(height_m)[..., None] * KAIMAL_LENGTH_PER_LAMBDA1
 
 
 def kaimal_psd(f_hz, hws_ms, sigma_ms, length_scale_m):
