@@ -1,7 +1,7 @@
 """Data-layer throughput: validation + QC + binning of 1e4..1e6 records on one core.
 
 Acceptance (issue #3): 1 million records in <= 10 s on one core, peak memory stated.
-Also measured: IMU motion statistics (flidar_uq.imu.motion_statistics) per 10-min
+Also measured: IMU motion statistics (flidar_uq.data.imu.motion_statistics) per 10-min
 window for one day of a bimodal roll/pitch series at 5, 10 and 20 Hz.
 Times are measured without tracing; peak memory in a second run under tracemalloc
 (Python + numpy allocations; pandas/arrow buffers outside the Python allocator are
@@ -31,10 +31,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from flidar_uq.binning import bin_records  # noqa: E402
-from flidar_uq.imu import motion_statistics  # noqa: E402
-from flidar_uq.io import validate_records  # noqa: E402
-from flidar_uq.qc import run_qc  # noqa: E402
+from flidar_uq.data.binning import bin_records  # noqa: E402
+from flidar_uq.data.imu import motion_statistics  # noqa: E402
+from flidar_uq.data.io import validate_records  # noqa: E402
+from flidar_uq.data.qc import run_qc  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results"
 BUDGET_S = 10.0

@@ -29,15 +29,15 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from flidar_uq.campaign_statistical import generate_statistical_campaign  # noqa: E402
+from flidar_uq.campaign.statistical_mode import generate_statistical_campaign  # noqa: E402
 from flidar_uq.inference import (  # noqa: E402
     SamplerSettings,
     fit_bin,
     fit_global,
     select_global_model,
 )
-from flidar_uq.pipeline import bin_seed  # noqa: E402
-from flidar_uq.surrogate import get_surrogate  # noqa: E402
+from flidar_uq.workflow.pipeline import bin_seed  # noqa: E402
+from flidar_uq.physics.surrogate import get_surrogate  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results"
 PIPELINE_BINS = Path(__file__).parents[1] / "results" / "bins"

@@ -2,7 +2,7 @@
 
 The virtual campaign's reference lidar (motionless ZephIR-like VAD) measures a 10-min HWS
 std above the point truth (in-scan leakage of w' and of u', v' at twice the scan
-frequency, partly offset by the scan average). ``flidar_uq.lidar_response.lidar_std_ratio``
+frequency, partly offset by the scan average). ``flidar_uq.physics.lidar_response.lidar_std_ratio``
 predicts it from the Kaimal spectra and the scan geometry, without using the campaign's
 truth. This script compares, per height and 2-m/s speed bin, the campaign's
 ``sqrt(mean(ref_std^2) / mean(true_std^2))`` with the prediction for the campaign's
@@ -26,8 +26,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from flidar_uq.campaign import generate_campaign, load_scenario, turbulence_max_frequency_hz  # noqa: E402
-from flidar_uq.lidar_response import lidar_std_ratio  # noqa: E402
+from flidar_uq.campaign.physics_mode import generate_campaign, load_scenario, turbulence_max_frequency_hz  # noqa: E402
+from flidar_uq.physics.lidar_response import lidar_std_ratio  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 REPO = Path(__file__).resolve().parents[1]

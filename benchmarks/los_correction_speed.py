@@ -27,9 +27,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from flidar_uq import lidar as L  # noqa: E402
-from flidar_uq import motion as M  # noqa: E402
-from flidar_uq.los_correction import (  # noqa: E402
+from flidar_uq.physics import lidar as L  # noqa: E402
+from flidar_uq.physics import motion as M  # noqa: E402
+from flidar_uq.correction.los import (  # noqa: E402
     correct_dbs_seed002,
     correct_ls_seed001,
     imu_rotation_velocity,

@@ -36,10 +36,10 @@ import numpy as np  # noqa: E402
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from flidar_uq.lidar import ZEPHIR300, wind_vector_ms  # noqa: E402
-from flidar_uq.motion import harmonic_motion  # noqa: E402
-from flidar_uq.simulator import sigma_z, sigma_z_grid, simulate_scan  # noqa: E402
-from flidar_uq.surrogate import get_surrogate  # noqa: E402
+from flidar_uq.physics.lidar import ZEPHIR300, wind_vector_ms  # noqa: E402
+from flidar_uq.physics.motion import harmonic_motion  # noqa: E402
+from flidar_uq.physics.simulator import sigma_z, sigma_z_grid, simulate_scan  # noqa: E402
+from flidar_uq.physics.surrogate import get_surrogate  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "results"
 CASES = [  # (hws_ms, amplitude_deg, period_s): typical, strong, extreme near the scan period

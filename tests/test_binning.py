@@ -1,4 +1,4 @@
-"""HWS x amplitude x period binning (flidar_uq.binning), seed 000 Sec. 3.1 and Table 1."""
+"""HWS x amplitude x period binning (flidar_uq.data.binning), seed 000 Sec. 3.1 and Table 1."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flidar_uq.binning import bin_centre, bin_label, bin_records
+from flidar_uq.data.binning import bin_centre, bin_label, bin_records
 
 
 def rec(hws, amp_roll, amp_pitch, per_roll, per_pitch) -> pd.DataFrame:

@@ -1,4 +1,4 @@
-"""Tests of flidar_uq.campaign (physics mode of the virtual campaign)."""
+"""Tests of flidar_uq.campaign.physics_mode (physics mode of the virtual campaign)."""
 
 from __future__ import annotations
 
@@ -6,17 +6,18 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from flidar_uq import campaign, lidar
-from flidar_uq.campaign import CampaignConfig, generate_campaign, load_scenario
-from flidar_uq.io import (
+from flidar_uq.campaign import physics_mode as campaign
+from flidar_uq.physics import lidar
+from flidar_uq.campaign.physics_mode import CampaignConfig, generate_campaign, load_scenario
+from flidar_uq.data.io import (
     read_records,
     validate_imu_series,
     validate_los_series,
     validate_records,
     write_records,
 )
-from flidar_uq.motion import rotation_matrix
-from flidar_uq.simulator import sigma_z, simulate_scans
+from flidar_uq.physics.motion import rotation_matrix
+from flidar_uq.physics.simulator import sigma_z, simulate_scans
 
 SHIPPED = ("default", "tiny", "ijmuiden_60day", "hexapod_catalogue", "reservoir")
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from flidar_uq.campaign_statistical import draw_true_params, generate_statistical_campaign
-from flidar_uq.correction import sigma_moving_pc
-from flidar_uq.surrogate import get_surrogate
+from flidar_uq.campaign.statistical_mode import draw_true_params, generate_statistical_campaign
+from flidar_uq.physics.variance_laws import sigma_moving_pc
+from flidar_uq.physics.surrogate import get_surrogate
 
 CORE = [
     "timestamp",

@@ -9,7 +9,7 @@ import sys
 import pytest
 
 from flidar_uq.cli import main
-from flidar_uq.simulator import sigma_z
+from flidar_uq.physics.simulator import sigma_z
 
 BASE = ["sigma-z", "--hws-ms", "8", "--amplitude-deg", "3", "--period-s", "4"]
 

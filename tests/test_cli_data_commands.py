@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 from flidar_uq.cli import main
-from flidar_uq.io import read_records
+from flidar_uq.data.io import read_records
 
 HAND_WRITTEN = Path(__file__).parent / "data" / "hand_written_campaign.csv"
 

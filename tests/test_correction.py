@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flidar_uq.correction import (
+from flidar_uq.physics.variance_laws import (
     corrected_std,
     corrected_std_c,
     corrected_std_u,

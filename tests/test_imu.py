@@ -1,4 +1,4 @@
-"""IMU motion statistics (flidar_uq.imu) against analytic answers."""
+"""IMU motion statistics (flidar_uq.data.imu) against analytic answers."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flidar_uq import imu
+from flidar_uq.data import imu
 
 FS = 5.0  # Hz, seed 000's IMU rate
 T10 = np.arange(0, 600, 1 / FS)  # one 10-min window
@@ -275,7 +275,7 @@ def test_sinusoid_estimators_hypothesis(amplitude_deg, period_s, phase_rad):
 
 def random_sea(specs, n_windows, rng):
     """Random-phase tilt series (n_windows, 3000) at 5 Hz with a sum of JONSWAP spectra."""
-    from flidar_uq.seastate import jonswap_spectrum
+    from flidar_uq.physics.seastate import jonswap_spectrum
 
     f = np.arange(1, 1500) / 600.0
     s = sum(jonswap_spectrum(f, hs, tp, gamma) for hs, tp, gamma in specs)

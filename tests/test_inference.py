@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from flidar_uq.campaign_statistical import generate_statistical_campaign
+from flidar_uq.campaign.statistical_mode import generate_statistical_campaign
 from flidar_uq.inference import (
     Priors,
     SamplerSettings,
@@ -22,7 +22,7 @@ from flidar_uq.inference import (
     log_prob_unimodal,
     select_global_model,
 )
-from flidar_uq.surrogate import get_surrogate
+from flidar_uq.physics.surrogate import get_surrogate
 
 FAST = SamplerSettings(
     nwalkers=16, nsteps=150, nburn=80, ndraws=100, ess_min=100.0, n_autocorr=10.0

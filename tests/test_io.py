@@ -1,4 +1,4 @@
-"""Reading, writing and validating campaign tables (flidar_uq.io): every bad-input class."""
+"""Reading, writing and validating campaign tables (flidar_uq.data.io): every bad-input class."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flidar_uq.io import (
+from flidar_uq.data.io import (
     DataValidationError,
     read_imu_series,
     read_los_series,
@@ -417,9 +417,9 @@ def test_virtual_campaign_passes_validation_qc_and_binning(tmp_path):
     # issue #3 acceptance: the data layer works on the schema the virtual campaign writes
     import yaml
 
-    from flidar_uq import campaign
-    from flidar_uq.binning import bin_records
-    from flidar_uq.qc import run_qc
+    from flidar_uq.campaign import physics_mode as campaign
+    from flidar_uq.data.binning import bin_records
+    from flidar_uq.data.qc import run_qc
 
     scenario = yaml.safe_load(
         (Path(__file__).parents[1] / "config/scenarios/tiny.yaml").read_text()

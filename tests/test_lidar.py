@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flidar_uq.lidar import (
+from flidar_uq.physics.lidar import (
     WINDCUBE_V1,
     WINDCUBE_V1_5BEAM,
     ZEPHIR300,

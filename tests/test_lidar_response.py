@@ -1,13 +1,13 @@
-"""Tests of flidar_uq.lidar_response: the HWS std a motionless lidar measures vs the point std."""
+"""Tests of flidar_uq.physics.lidar_response: the HWS std a motionless lidar measures vs the point std."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from flidar_uq import lidar
-from flidar_uq.lidar_response import lidar_point_log_sd, lidar_std_ratio, scan_response
-from flidar_uq.turbulence import kaimal_series
+from flidar_uq.physics import lidar
+from flidar_uq.physics.lidar_response import lidar_point_log_sd, lidar_std_ratio, scan_response
+from flidar_uq.physics.turbulence import kaimal_series
 
 
 def test_scan_response_limits_zephir300():
@@ -124,7 +124,7 @@ def test_point_scatter_and_ratio_match_the_virtual_campaign():
     # The virtual campaign's motionless reference lidar against its point truth (1-Hz
     # series): neither function sees the campaign; both get only its sampling
     # (campaign.reference_sampling). 150 records x 3 heights.
-    from flidar_uq.campaign import generate_campaign, load_scenario, reference_sampling
+    from flidar_uq.campaign.physics_mode import generate_campaign, load_scenario, reference_sampling
 
     scen = load_scenario("default") | {"n_records": 150}
     rec = generate_campaign(scen, 5, n_workers=1).records

@@ -15,9 +15,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flidar_uq import lidar as L
-from flidar_uq import motion as M
-from flidar_uq.los_correction import (
+from flidar_uq.physics import lidar as L
+from flidar_uq.physics import motion as M
+from flidar_uq.correction.los import (
     correct_dbs_seed002,
     correct_ls_seed001,
     earth_beam_vectors,
@@ -432,7 +432,7 @@ def test_cw_branch_choice_robust_to_los_noise(rng):
 def test_seed001_exact_on_simulator_los(geom):
     """LOS from the project's simulator (simulator.simulate_scans, seed 002 Eq. 3 with the
     head velocity) are corrected exactly."""
-    from flidar_uq.simulator import simulate_scans
+    from flidar_uq.physics.simulator import simulate_scans
 
     t, az = _record(geom, 12, t0_s=1.3)
     roll, pitch, yaw = (x.reshape(12, -1) for x in MOTION_6DOF.attitude_rad(t))
@@ -461,7 +461,7 @@ def test_explicit_rotation_needs_matching_velocity_shape():
 
 def _frozen_kaimal_wind(hws_ms, wd_deg, sigma_u_ms, rng, height_m=100.0, dt_s=0.1, n=6000):
     """Kaimal turbulence (turbulence.kaimal_series) frozen in a 0.1 power-law mean flow."""
-    from flidar_uq.turbulence import kaimal_series, wind_enu_ms
+    from flidar_uq.physics.turbulence import kaimal_series, wind_enu_ms
 
     fl = kaimal_series(n, dt_s, hws_ms, sigma_u_ms, height_m, rng)
     along = np.array([-np.sin(np.radians(wd_deg)), -np.cos(np.radians(wd_deg)), 0.0])

@@ -1,4 +1,4 @@
-"""Comparison metrics (flidar_uq.metrics) against hand-computed values."""
+"""Comparison metrics (flidar_uq.data.metrics) against hand-computed values."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flidar_uq import metrics
+from flidar_uq.data import metrics
 
 
 def test_md_rmse_seed000_eqs18_19_hand_computed():

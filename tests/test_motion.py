@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flidar_uq.motion import (
+from flidar_uq.physics.motion import (
     Harmonic,
     PlatformMotion,
     SampledMotion,

@@ -6,11 +6,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from flidar_uq.campaign_statistical import generate_statistical_campaign
-from flidar_uq.correction import corrected_std
+from flidar_uq.campaign.statistical_mode import generate_statistical_campaign
+from flidar_uq.physics.variance_laws import corrected_std
 from flidar_uq.inference import BinFit, GlobalFit, fit_bin, fit_global
-from flidar_uq.propagate import corrected_ti
-from flidar_uq.surrogate import get_surrogate
+from flidar_uq.correction.propagation import corrected_ti
+from flidar_uq.physics.surrogate import get_surrogate
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""QC filters (flidar_uq.qc): hand-computed verdicts, switches, conservation of counts."""
+"""QC filters (flidar_uq.data.qc): hand-computed verdicts, switches, conservation of counts."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flidar_uq.io import read_records
-from flidar_uq.qc import (
+from flidar_uq.data.io import read_records
+from flidar_uq.data.qc import (
     MAD_SCALE,
     RECORD_REASONS,
     QCConfig,

@@ -15,8 +15,8 @@ import pandas as pd
 import pytest
 from conftest import require_tool
 
-from flidar_uq import plots
-from flidar_uq import report as rep
+from flidar_uq.workflow import plots
+from flidar_uq.workflow import report as rep
 
 CHROMIUM_FLAGS = [
     "--headless",

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from flidar_uq.schema import (
+from flidar_uq.data.schema import (
     IMU_COLUMNS,
     LOS_COLUMNS,
     MOTION_COLUMNS,

@@ -1,11 +1,11 @@
-"""Tests of flidar_uq.seastate: JONSWAP spectrum and narrow-band buoy tilt series."""
+"""Tests of flidar_uq.physics.seastate: JONSWAP spectrum and narrow-band buoy tilt series."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from flidar_uq.seastate import WaveSystem, dominant_period_s, jonswap_spectrum, tilt_series
+from flidar_uq.physics.seastate import WaveSystem, dominant_period_s, jonswap_spectrum, tilt_series
 
 DT_S = 0.1
 N = 6000  # 600 s

@@ -8,9 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import flidar_uq
-from flidar_uq.lidar import WINDCUBE_V1, ZEPHIR300, wind_vector_ms
-from flidar_uq.motion import Harmonic, PlatformMotion, harmonic_motion
-from flidar_uq.simulator import (
+from flidar_uq.physics.lidar import WINDCUBE_V1, ZEPHIR300, wind_vector_ms
+from flidar_uq.physics.motion import Harmonic, PlatformMotion, harmonic_motion
+from flidar_uq.physics.simulator import (
     los_vectors_earth,
     sigma_z,
     sigma_z_grid,

@@ -7,8 +7,8 @@ import itertools
 import numpy as np
 import pytest
 
-from flidar_uq.simulator import sigma_z, sigma_z_direction_average, sigma_z_grid
-from flidar_uq.surrogate import SigmaZSurrogate, get_surrogate
+from flidar_uq.physics.simulator import sigma_z, sigma_z_direction_average, sigma_z_grid
+from flidar_uq.physics.surrogate import SigmaZSurrogate, get_surrogate
 
 
 @pytest.fixture(scope="module")

@@ -1,12 +1,12 @@
-"""Tests of flidar_uq.turbulence: IEC Kaimal series, TI models, 3-D fields (PyConTurb)."""
+"""Tests of flidar_uq.physics.turbulence: IEC Kaimal series, TI models, 3-D fields (PyConTurb)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from flidar_uq import lidar
-from flidar_uq.turbulence import (
+from flidar_uq.physics import lidar
+from flidar_uq.physics.turbulence import (
     IEC_SIGMA_RATIOS,
     draw_sigma_u_ms,
     iec_ntm_sigma_ms,
@@ -135,7 +135,7 @@ def _vad_hws_series(field_at, hws_ms, height_m, duration_s, roll_deg=None, pitch
     east offset to a time shift (seed 002 Eq. 2). The lidar is fixed unless a tilt
     history is given (no lever arm, no shear): the VAD uses the nominal geometry.
     """
-    from flidar_uq.motion import rotation_matrix
+    from flidar_uq.physics.motion import rotation_matrix
 
     g = lidar.ZEPHIR300
     t_los, az = lidar.scan_times_azimuths(g)

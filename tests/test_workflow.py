@@ -24,7 +24,7 @@ import pandas as pd
 import pytest
 import yaml
 
-from flidar_uq.pipeline import RECORD_COLUMNS, assign_batches, bin_seed
+from flidar_uq.workflow.pipeline import RECORD_COLUMNS, assign_batches, bin_seed
 
 REPO = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
@@ -184,7 +184,7 @@ def test_schema_defaults_equal_the_shipped_config():
 def test_config_keys_match_library_dataclasses():
     """qc / inference / priors sections are passed as keyword arguments: names must exist."""
     from flidar_uq.inference import Priors, SamplerSettings
-    from flidar_uq.qc import QCConfig
+    from flidar_uq.data.qc import QCConfig
 
     cfg = load_yaml(CONFIG)
     assert set(cfg["qc"]) <= set(QCConfig.__dataclass_fields__)
@@ -427,7 +427,8 @@ def _fake_bin_fit(bin_id: int, rng: np.random.Generator):
 
 
 def test_infer_batch_reports_a_raising_bin_and_fits_the_others(tmp_path, monkeypatch):
-    from flidar_uq import inference, pipeline
+    from flidar_uq import inference
+    from flidar_uq.workflow import pipeline
 
     def fake_fit_bin(records, *, settings, seed, priors, bin_id):
         if bin_id == 2:

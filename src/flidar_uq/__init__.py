@@ -14,7 +14,7 @@ __all__ = ["sigma_z", "__version__"]
 def __getattr__(name: str):
     # Lazy so that `import flidar_uq` stays cheap (CLI start-up, snakemake parsing).
     if name == "sigma_z":
-        from flidar_uq.simulator import sigma_z
+        from flidar_uq.physics.simulator import sigma_z
 
         return sigma_z
     raise AttributeError(f"module 'flidar_uq' has no attribute {name!r}")

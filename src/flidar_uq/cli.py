@@ -73,7 +73,7 @@ def _fraction(text: str) -> float:
 
 
 def _lidar(text: str):
-    from flidar_uq.lidar import get_lidar
+    from flidar_uq.physics.lidar import get_lidar
 
     try:
         return get_lidar(text)
@@ -130,8 +130,8 @@ def _add_sigma_z(p: argparse.ArgumentParser) -> None:
 
 
 def _run_sigma_z(args: argparse.Namespace) -> dict:
-    from flidar_uq.lidar import get_lidar
-    from flidar_uq.simulator import sigma_z
+    from flidar_uq.physics.lidar import get_lidar
+    from flidar_uq.physics.simulator import sigma_z
 
     lidar = get_lidar(args.lidar)
     if (args.period2_s is None) != (args.weight1 is None):
@@ -151,7 +151,7 @@ def _run_sigma_z(args: argparse.Namespace) -> dict:
         "lever_arm_m": args.lever_arm_m,
     }
     if args.surrogate:
-        from flidar_uq.surrogate import AMPLITUDE_RANGE_DEG, PERIOD_RANGE_S, get_surrogate
+        from flidar_uq.physics.surrogate import AMPLITUDE_RANGE_DEG, PERIOD_RANGE_S, get_surrogate
 
         if args.lever_arm_m != 0.0:
             raise CliError(
@@ -232,7 +232,7 @@ def _add_validate(p: argparse.ArgumentParser) -> None:
 
 
 def _run_validate(args: argparse.Namespace) -> dict:
-    from flidar_uq.io import read_records
+    from flidar_uq.data.io import read_records
 
     records = read_records(args.path, allow_small_angles=args.allow_small_angles)
     heights = sorted(float(h) for h in records["height_m"].unique())
@@ -266,8 +266,8 @@ def _add_generate_campaign(p: argparse.ArgumentParser) -> None:
 
 
 def _run_generate_campaign(args: argparse.Namespace) -> dict:
-    from flidar_uq.campaign import generate_campaign, load_scenario
-    from flidar_uq.io import write_imu_series, write_records
+    from flidar_uq.campaign.physics_mode import generate_campaign, load_scenario
+    from flidar_uq.data.io import write_imu_series, write_records
 
     scenario = load_scenario(args.scenario)
     out = generate_campaign(

@@ -58,7 +58,7 @@ def batch_of_bin(wildcards):
 def propagation_params():
     """config["propagation"] with the "auto" sampling keys resolved: from the virtual
     campaign's scenario (source virtual), else the data-driven defaults of
-    flidar_uq.pipeline.propagate (heights counted in the records, continuous spectrum)."""
+    flidar_uq.workflow.pipeline.propagate (heights counted in the records, continuous spectrum)."""
     params = dict(config["propagation"])
     sampling = {
         "scan_heights_in_turn": None,
@@ -66,7 +66,7 @@ def propagation_params():
         "turbulence_dt_s": None,
     }
     if config["campaign"]["source"] == "virtual":
-        from flidar_uq.campaign import reference_sampling
+        from flidar_uq.campaign.physics_mode import reference_sampling
 
         virtual = reference_sampling(scenario_file(None))
         sampling = {

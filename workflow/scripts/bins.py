@@ -1,6 +1,6 @@
 """Checkpoint bins: bin table and batch assignment (pipeline.make_bins)."""
 
-from flidar_uq import pipeline
+from flidar_uq.workflow import pipeline
 
 snakemake = globals()["snakemake"]  # injected by the script directive
 pipeline.setup_logging(snakemake.log[0])

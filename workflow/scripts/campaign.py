@@ -1,6 +1,6 @@
 """Rule campaign: the virtual campaign, or the user's record table (pipeline.make_campaign)."""
 
-from flidar_uq import pipeline
+from flidar_uq.workflow import pipeline
 
 # The guard keeps the generator's worker processes (spawn/forkserver re-import this
 # module as __mp_main__) from re-running the rule body.

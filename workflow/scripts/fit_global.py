@@ -1,6 +1,6 @@
 """Rule fit_global: pick the global model by PSIS-LOO, write the global results (pipeline.fit_global)."""
 
-from flidar_uq import pipeline
+from flidar_uq.workflow import pipeline
 
 snakemake = globals()["snakemake"]  # injected by the script directive
 pipeline.setup_logging(snakemake.log[0])

@@ -1,6 +1,6 @@
 """Rule fit_global_model: one global model on the gathered per-bin fits (pipeline.fit_global_model)."""
 
-from flidar_uq import pipeline
+from flidar_uq.workflow import pipeline
 
 snakemake = globals()["snakemake"]  # injected by the script directive
 pipeline.setup_logging(snakemake.log[0])

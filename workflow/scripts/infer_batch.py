@@ -1,6 +1,6 @@
 """Rule infer_batch: fit every bin of one batch (pipeline.infer_batch)."""
 
-from flidar_uq import pipeline
+from flidar_uq.workflow import pipeline
 
 snakemake = globals()["snakemake"]  # injected by the script directive
 pipeline.setup_logging(snakemake.log[0])

@@ -1,6 +1,6 @@
 """Rule motion_statistics: per-record motion amplitude/period (pipeline.motion_statistics)."""
 
-from flidar_uq import pipeline
+from flidar_uq.workflow import pipeline
 
 snakemake = globals()["snakemake"]  # injected by the script directive
 pipeline.setup_logging(snakemake.log[0])

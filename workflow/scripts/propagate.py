@@ -1,6 +1,6 @@
 """Rule propagate: corrected TI with credible intervals per record and bin (pipeline.propagate)."""
 
-from flidar_uq import pipeline
+from flidar_uq.workflow import pipeline
 
 snakemake = globals()["snakemake"]  # injected by the script directive
 pipeline.setup_logging(snakemake.log[0])

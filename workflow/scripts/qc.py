@@ -1,6 +1,6 @@
 """Rule qc: QC filters with reason flags (pipeline.run_qc)."""
 
-from flidar_uq import pipeline
+from flidar_uq.workflow import pipeline
 
 snakemake = globals()["snakemake"]  # injected by the script directive
 pipeline.setup_logging(snakemake.log[0])

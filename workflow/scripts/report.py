@@ -1,6 +1,6 @@
 """Rule report: the self-contained HTML report (pipeline.build_report)."""
 
-from flidar_uq import pipeline
+from flidar_uq.workflow import pipeline
 
 snakemake = globals()["snakemake"]  # injected by the script directive
 pipeline.setup_logging(snakemake.log[0])

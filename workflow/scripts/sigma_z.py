@@ -1,6 +1,6 @@
 """Rule sigma_z: sigma_Z and E(Z) per bin centre (pipeline.sigma_z_table)."""
 
-from flidar_uq import pipeline
+from flidar_uq.workflow import pipeline
 
 snakemake = globals()["snakemake"]  # injected by the script directive
 pipeline.setup_logging(snakemake.log[0])

@@ -10,13 +10,13 @@ For every record ``i`` and posterior draw ``d`` (docs/inference.md, "Propagation
    ``tau_id^2 = (kappa_d s_i)^2 + tau0_d^2`` and ``z ~ N(0, 1)`` (the observation model
    read backwards: given the measured ``s_i`` the noise-free std is uncertain by ``tau``);
 3. the deployment formula ``c = -rho sZ + sqrt(s*^2 - (1 - rho^2) sZ^2)``
-   (:func:`flidar_uq.correction.corrected_std`, Eq. 15 of seed 000 inverted) and
+   (:func:`flidar_uq.physics.variance_laws.corrected_std`, Eq. 15 of seed 000 inverted) and
    ``TI = c / m_i``. Draws with a negative discriminant give ``c = 0`` and are counted.
 4. optionally, the point (cup-like) std ``c exp(e_id) / g_i``: the model is calibrated
    against a motionless reference lidar, so ``c`` is the std that lidar would measure;
    ``g_i`` is that lidar's mean std ratio to the point wind
-   (:func:`flidar_uq.lidar_response.lidar_std_ratio`) and ``e_id ~ N(0, sd_i^2)`` its
-   record-to-record scatter (:func:`flidar_uq.lidar_response.lidar_point_log_sd`).
+   (:func:`flidar_uq.physics.lidar_response.lidar_std_ratio`) and ``e_id ~ N(0, sd_i^2)`` its
+   record-to-record scatter (:func:`flidar_uq.physics.lidar_response.lidar_point_log_sd`).
 
 Baselines beside it: uncorrected TI and seed 000's U / C / PC laws (Eqs. 15-17) with
 sigma_Z from the surrogate at the bin's median IMU amplitude and period and seed 000's
@@ -28,9 +28,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from flidar_uq.correction import corrected_std, rho_seed000
+from flidar_uq.physics.variance_laws import corrected_std, rho_seed000
 from flidar_uq.inference import imu_observations
-from flidar_uq.metrics import representative_ti
+from flidar_uq.data.metrics import representative_ti
 
 __all__ = ["corrected_ti", "seed000_baseline"]
 
@@ -106,7 +106,7 @@ def corrected_ti(
         the lever-arm model (its ``lever_arm_m`` draws are then propagated too).
     lidar_std_ratio : array_like, shape (n_records,), optional
         Std of a motionless lidar over the point std per record (-), from
-        :func:`flidar_uq.lidar_response.lidar_std_ratio`. Given: the corrected std and TI
+        :func:`flidar_uq.physics.lidar_response.lidar_std_ratio`. Given: the corrected std and TI
         are point values (the motionless-lidar value divided by it). Default None: they
         are the values a motionless lidar of this type would measure.
     point_log_sd : array_like, shape (n_records,), optional
@@ -162,7 +162,7 @@ def corrected_ti(
                 f"shape {g_ratio.shape}"
             )
     if surrogate is None:
-        from flidar_uq.surrogate import get_surrogate
+        from flidar_uq.physics.surrogate import get_surrogate
 
         surrogate = get_surrogate()
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)

@@ -4,14 +4,14 @@ Per 10-min record (``record_length_s``) and for every measurement height:
 
 1. Reference wind: mean HWS drawn from a truncated Weibull with lag-1 persistence
    (Gaussian copula), direction, power-law shear (seed 002: 0.1), a TI(HWS) draw
-   (:func:`flidar_uq.turbulence.draw_sigma_u_ms`, IEC NTM or offshore-like) and 1-D
-   Kaimal (u, v, w) turbulence (:func:`flidar_uq.turbulence.kaimal_series`) sampled
+   (:func:`flidar_uq.physics.turbulence.draw_sigma_u_ms`, IEC NTM or offshore-like) and 1-D
+   Kaimal (u, v, w) turbulence (:func:`flidar_uq.physics.turbulence.kaimal_series`) sampled
    every ``wind.wind_dt_s`` (0.1 s) and held in between, independent between heights.
    The 1-D model is enough for the motion-induced excess variance of the VAD; the
    absolute VAD-seen variance of an IEC-coherent 3-D field is lower
    (``tests/test_turbulence.py::test_vad_circle_1d_vs_3d_regime``).
 2. Buoy motion: narrow-band random roll/pitch from a JONSWAP sea state (wind sea plus
-   an optional swell; :func:`flidar_uq.seastate.tilt_series`), or harmonic motion
+   an optional swell; :func:`flidar_uq.physics.seastate.tilt_series`), or harmonic motion
    (6 DOF: roll, pitch, yaw, surge, sway, heave) for controlled cases (hexapod).
    The lidar head sits at ``lever_arm_m`` from the rotation centre (body frame), so
    it translates with ``v = d(R r)/dt`` (design.md).
@@ -37,10 +37,10 @@ seed's SeedSequence, and every record gets its own spawned child, so results do 
 depend on the chunk size or the number of worker processes.
 
 Private adapter: :func:`_vad_retrieve_complete_scans`
-applies :func:`flidar_uq.lidar.vad_pseudo_inverse` of the nominal geometry to many
+applies :func:`flidar_uq.physics.lidar.vad_pseudo_inverse` of the nominal geometry to many
 complete scans at once (each scan covers all ``n_los`` azimuth slots once, in a
 cyclically shifted order), and unfolds the CW sign like
-:func:`flidar_uq.lidar.retrieve_wind` with ``sign_ambiguity=True`` (fixed point
+:func:`flidar_uq.physics.lidar.retrieve_wind` with ``sign_ambiguity=True`` (fixed point
 of the sign pattern = stationary point of the ``|.|`` least squares).
 """
 
@@ -57,11 +57,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from flidar_uq import imu as _imu
-from flidar_uq import lidar as _lidar
-from flidar_uq.motion import rotation_matrix
-from flidar_uq.seastate import tilt_series
-from flidar_uq.turbulence import draw_sigma_u_ms, kaimal_series, wind_enu_ms
+from flidar_uq.data import imu as _imu
+from flidar_uq.physics import lidar as _lidar
+from flidar_uq.physics.motion import rotation_matrix
+from flidar_uq.physics.seastate import tilt_series
+from flidar_uq.physics.turbulence import draw_sigma_u_ms, kaimal_series, wind_enu_ms
 
 __all__ = [
     "DEFAULT_SCENARIO",
@@ -177,7 +177,7 @@ HARMONIC_CASE_KEYS = (
 
 def scenario_dir() -> Path:
     """Directory of the shipped scenario files (``config/scenarios`` of the repository)."""
-    return Path(__file__).resolve().parents[2] / "config" / "scenarios"
+    return Path(__file__).resolve().parents[3] / "config" / "scenarios"
 
 
 def _merge_checked(defaults: Mapping, given: Mapping, where: str) -> dict:
@@ -258,7 +258,7 @@ class CampaignConfig:
 
 
 def reference_sampling(scenario: str | Path | Mapping) -> dict:
-    """How a virtual campaign samples the wind: what :mod:`flidar_uq.lidar_response` needs.
+    """How a virtual campaign samples the wind: what :mod:`flidar_uq.physics.lidar_response` needs.
 
     Parameters
     ----------
@@ -567,7 +567,7 @@ def _vad_retrieve_complete_scans(pinv_t, m_body, y_abs, signs0, n_iter=2):
     Parameters
     ----------
     pinv_t : ndarray, shape (..., n, 3)
-        Columns of :func:`flidar_uq.lidar.vad_pseudo_inverse` gathered per LOS.
+        Columns of :func:`flidar_uq.physics.lidar.vad_pseudo_inverse` gathered per LOS.
     m_body : ndarray, shape (..., n, 3)
         Nominal body beam vectors per LOS.
     y_abs : ndarray, shape (..., n)

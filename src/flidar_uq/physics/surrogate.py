@@ -29,8 +29,8 @@ import functools
 import numpy as np
 from numpy.polynomial import chebyshev
 
-from flidar_uq.lidar import LidarGeometry, get_lidar
-from flidar_uq.simulator import sigma_z_direction_average, sigma_z_grid
+from flidar_uq.physics.lidar import LidarGeometry, get_lidar
+from flidar_uq.physics.simulator import sigma_z_direction_average, sigma_z_grid
 
 __all__ = [
     "SigmaZSurrogate",

@@ -132,12 +132,12 @@ def make_campaign(
     ValueError
         On an unknown ``source`` or a missing path.
     """
-    from flidar_uq import io
+    from flidar_uq.data import io
 
     if source == "virtual":
         if not scenario_path:
             raise ValueError("make_campaign: source='virtual' needs scenario_path")
-        from flidar_uq import campaign
+        from flidar_uq.campaign import physics_mode as campaign
 
         scenario = campaign.load_scenario(scenario_path)
         records = campaign.generate_campaign(scenario, seed, n_workers=max(1, int(threads))).records
@@ -157,7 +157,7 @@ def make_campaign(
 
 def validate_records(in_path: str | os.PathLike, out_path: str | os.PathLike) -> pd.DataFrame:
     """Validate a record table (io.read_records raises naming file, row and column) and copy it."""
-    from flidar_uq import io
+    from flidar_uq.data import io
 
     records = io.read_records(in_path)
     Path(out_path).parent.mkdir(parents=True, exist_ok=True)
@@ -187,14 +187,14 @@ def run_qc(
         ``kept``, one ``fail_<reason>`` column per filter), the kept records (with
         ``record_id``), and the per-filter counts.
     qc_params : dict
-        The ``qc`` section of the config: :class:`flidar_uq.qc.QCConfig` fields.
+        The ``qc`` section of the config: :class:`flidar_uq.data.qc.QCConfig` fields.
 
     Returns
     -------
     pandas.DataFrame
         The flags table.
     """
-    from flidar_uq import io, qc
+    from flidar_uq.data import io, qc
 
     records = io.read_records(in_path)
     result = qc.run_qc(records, qc.QCConfig(**qc_params))
@@ -218,7 +218,7 @@ def motion_statistics(
     Adds ``amplitude_deg`` and ``period_s`` (the roll/pitch averages, seed 000 Sec. 2.4) to
     each kept record; writes the roll-pitch correlation of amplitude and period.
     """
-    from flidar_uq import imu
+    from flidar_uq.data import imu
 
     records = _read_csv(in_path)
     out = imu.record_motion(records)
@@ -278,7 +278,7 @@ def make_bins(
     case number (1 = most frequent). Bins with at least ``min_count`` records are
     ``fitted`` and assigned a batch.
     """
-    from flidar_uq import binning
+    from flidar_uq.data import binning
 
     records = _read_csv(in_path)
     assigned, table = binning.bin_records(
@@ -313,7 +313,7 @@ def sigma_z_table(
     table_path: str | os.PathLike, out_path: str | os.PathLike, *, lidar: str
 ) -> pd.DataFrame:
     """sigma_Z and E(Z) at each bin centre through the surrogate (seed 000 Eqs. 4-14)."""
-    from flidar_uq.surrogate import get_surrogate
+    from flidar_uq.physics.surrogate import get_surrogate
 
     table = _read_csv(table_path)
     sur = get_surrogate(lidar)
@@ -566,7 +566,7 @@ def _bin_file(batch_dirs: Sequence[str | os.PathLike], bin_id: int) -> Path:
 
 def _md_rmse(x: np.ndarray, ref: np.ndarray) -> tuple[float, float, int]:
     """MD and RMSE of x against ref (seed 000 Eqs. 18-19) and the number of finite pairs."""
-    from flidar_uq import metrics
+    from flidar_uq.data import metrics
 
     n = int(np.sum(np.isfinite(x) & np.isfinite(ref)))
     return metrics.mean_deviation(x, ref), metrics.rmse(x, ref), n
@@ -598,15 +598,15 @@ def propagate(
 ) -> pd.DataFrame:
     """Corrected std and TI per record, per bin and per speed bin, beside the baselines.
 
-    Calls :func:`flidar_uq.propagate.corrected_ti` on the kept, binned records with the
+    Calls :func:`flidar_uq.correction.propagation.corrected_ti` on the kept, binned records with the
     converged bin fits and the global fit (posterior draws through the deployment formula;
     median and equal-tailed ``credible_mass`` interval), and seed 000's U / C / PC laws.
 
     ``target="point"`` turns the corrected std into the point (cup-like) std: divided by
-    the motionless lidar's std ratio (:func:`flidar_uq.lidar_response.lidar_std_ratio`,
+    the motionless lidar's std ratio (:func:`flidar_uq.physics.lidar_response.lidar_std_ratio`,
     at the record's HWS and height, band-limited at ``1 / (2 turbulence_dt_s)`` for a
     synthetic series; None: the atmosphere) with its record-to-record scatter
-    (:func:`flidar_uq.lidar_response.lidar_point_log_sd`: the lidar scanning
+    (:func:`flidar_uq.physics.lidar_response.lidar_point_log_sd`: the lidar scanning
     ``scan_heights_in_turn`` heights in turn (None: the number of distinct heights in
     the records) with ``scan_refocus_delay_s`` between scans, against the point HWS
     sampled every ``point_sample_interval_s``). ``"motionless_lidar"`` keeps the std a
@@ -619,8 +619,8 @@ def propagate(
     and the coverage of the credible interval when the truth is known.
     """
     from flidar_uq import inference as inf
-    from flidar_uq import propagate as prop
-    from flidar_uq.surrogate import get_surrogate
+    from flidar_uq.correction import propagation as prop
+    from flidar_uq.physics.surrogate import get_surrogate
 
     flags = _read_csv(flags_path)
     assigned = _read_csv(assignments_path)
@@ -640,7 +640,7 @@ def propagate(
         raise ValueError(f"propagate: target={target!r} must be 'point' or 'motionless_lidar'")
     g_ratio, log_sd = np.ones(len(sub)), np.zeros(len(sub))
     if target == "point":
-        from flidar_uq import lidar_response
+        from flidar_uq.physics import lidar_response
 
         hws_sub = sub["hws_mean_ms"].to_numpy(dtype=float)
         z_sub = sub["height_m"].to_numpy(dtype=float)
@@ -899,9 +899,10 @@ def build_report(
     str
         The HTML text written.
     """
-    from flidar_uq import correction, plots
+    from flidar_uq.physics import variance_laws as correction
+    from flidar_uq.workflow import plots
     from flidar_uq import inference as inf
-    from flidar_uq import report as rep
+    from flidar_uq.workflow import report as rep
 
     res = Path(results_dir)
     records = _read_csv(res / "ti" / "records.csv")

@@ -41,7 +41,7 @@ from emcee.ensemble import walkers_independent
 from scipy import optimize, stats
 from scipy.special import logsumexp
 
-from flidar_uq.correction import sigma_moving_pc
+from flidar_uq.physics.variance_laws import sigma_moving_pc
 
 __all__ = [
     "Priors",
@@ -1202,7 +1202,7 @@ def load_fit(path) -> BinFit | GlobalFit:
 def _default_surrogate(surrogate):
     if surrogate is not None:
         return surrogate
-    from flidar_uq.surrogate import get_surrogate
+    from flidar_uq.physics.surrogate import get_surrogate
 
     return get_surrogate()
 
@@ -1382,7 +1382,7 @@ def _fit_motion_model(model, log_amp, log_per, settings, seedseq, priors):
 def _distinct_imu_records(records: pd.DataFrame) -> pd.DataFrame:
     """One row per IMU record: the heights of one 10-min record share the buoy's IMU
     statistics, which must count once in the motion likelihood (not once per height)."""
-    from flidar_uq.imu import MOTION_STAT_COLUMNS
+    from flidar_uq.data.imu import MOTION_STAT_COLUMNS
 
     if "timestamp" not in records:
         return records

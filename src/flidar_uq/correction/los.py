@@ -33,14 +33,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flidar_uq.lidar import (
+from flidar_uq.physics.lidar import (
     LidarGeometry,
     beam_unit_vectors_body,
     get_lidar,
     scan_times_azimuths,
     wind_direction_deg,
 )
-from flidar_uq.motion import rotation_matrix, tilted_scan_heights
+from flidar_uq.physics.motion import rotation_matrix, tilted_scan_heights
 
 __all__ = [
     "WindEstimate",
@@ -134,7 +134,7 @@ def imu_rotation_velocity(motion, t_s) -> tuple[np.ndarray, np.ndarray]:
     ----------
     motion : PlatformMotion or SampledMotion or None
         Anything with ``attitude_rad(t_s) -> (roll, pitch, yaw)`` and
-        ``head_velocity_ms(t_s) -> (..., 3)`` (``flidar_uq.motion``). ``None``: no
+        ``head_velocity_ms(t_s) -> (..., 3)`` (``flidar_uq.physics.motion``). ``None``: no
         motion information (identity rotation, zero velocity: the uncorrected retrieval).
     t_s : array_like
         LOS times (s), shape ``(n,)``.
@@ -153,7 +153,7 @@ def imu_rotation_velocity(motion, t_s) -> tuple[np.ndarray, np.ndarray]:
     if not (hasattr(motion, "attitude_rad") and hasattr(motion, "head_velocity_ms")):
         raise ValueError(
             f"imu_rotation_velocity: motion of type {type(motion).__name__} has no "
-            "attitude_rad/head_velocity_ms methods (use flidar_uq.motion models or None)"
+            "attitude_rad/head_velocity_ms methods (use flidar_uq.physics.motion models or None)"
         )
     roll, pitch, yaw = motion.attitude_rad(t)
     rot = rotation_matrix(roll, pitch, yaw)
@@ -167,7 +167,7 @@ def earth_beam_vectors(lidar, azimuth_rad, rotation) -> np.ndarray:
     Parameters
     ----------
     lidar : LidarGeometry or str
-        Scan geometry (``flidar_uq.lidar``).
+        Scan geometry (``flidar_uq.physics.lidar``).
     azimuth_rad : array_like
         Body-frame beam azimuths (rad, clockwise from body y), shape ``(n,)``.
     rotation : array_like

@@ -12,16 +12,16 @@ linear functional of the wind series,
 
 ``a = sum_k [c_u,k u'(t_k) + c_v,k v'(t_k) + c_w,k w'(t_k)]``,
 
-with ``c_k`` from the least-squares VAD operator (:func:`flidar_uq.lidar.vad_pseudo_inverse`)
+with ``c_k`` from the least-squares VAD operator (:func:`flidar_uq.physics.lidar.vad_pseudo_inverse`)
 projected on the wind direction. For stationary independent components with one-sided
 spectra ``S_j(f)`` its variance is ``sum_j int S_j(f) <|H_j(f)|^2> df`` with
 ``H_j(f) = sum_k c_j,k exp(2 pi i f t_k)``, averaged over the wind direction relative to
 the scan (uniform; for a VAD this is the average over the scan phase). The ratio to the
 point variance ``int S_u df`` is the lidar's variance ratio (Sathe et al. 2011, "Can wind
 lidars measure turbulence?", J. Atmos. Oceanic Technol. 28, Eqs. 5-9, the temporal part;
-the spectra are the IEC 61400-1 Kaimal spectra of :mod:`flidar_uq.turbulence`).
+the spectra are the IEC 61400-1 Kaimal spectra of :mod:`flidar_uq.physics.turbulence`).
 
-The Bayesian correction (:mod:`flidar_uq.propagate`) is calibrated against a motionless
+The Bayesian correction (:mod:`flidar_uq.correction.propagation`) is calibrated against a motionless
 reference lidar, so its corrected std estimates the std that lidar would measure;
 dividing by :func:`lidar_std_ratio` turns it into the point std (docs/lidar-response.md).
 Cross-wind fluctuations enter the HWS at second order (``v'^2 / 2U``) and are neglected.
@@ -33,8 +33,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from flidar_uq import lidar as _lidar
-from flidar_uq.turbulence import (
+from flidar_uq.physics import lidar as _lidar
+from flidar_uq.physics.turbulence import (
     IEC_SIGMA_RATIOS,
     KAIMAL_LENGTH_PER_LAMBDA1,
     kaimal_lambda1_m,
@@ -83,7 +83,7 @@ def scan_response(f_hz, lidar="zephir300", *, n_dir: int = 72):
     f_hz : array_like, shape (F,)
         Frequencies, Hz.
     lidar : str or LidarGeometry
-        Scan geometry (:func:`flidar_uq.lidar.get_lidar`).
+        Scan geometry (:func:`flidar_uq.physics.lidar.get_lidar`).
     n_dir : int
         Wind directions relative to the scan averaged over (uniform).
 

@@ -8,7 +8,7 @@ this module by ``tests/test_schema.py``):
 - :data:`LOS_COLUMNS`: line-of-sight (LOS) level lidar data.
 
 Each column carries its dtype, unit, whether it is required, its physical
-bounds and whether NaN is allowed.  Validation lives in :mod:`flidar_uq.io`;
+bounds and whether NaN is allowed.  Validation lives in :mod:`flidar_uq.data.io`;
 this module imports no file library.
 """
 

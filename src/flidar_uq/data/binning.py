@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from flidar_uq.imu import record_motion
+from flidar_uq.data.imu import record_motion
 
 __all__ = ["bin_centre", "bin_label", "bin_records"]
 

@@ -5,7 +5,7 @@ Building blocks (vectorised over any batch of scans, for campaign generators):
 - :func:`los_vectors_earth` – earth-frame unit vectors of the lines of sight of tilted scans;
 - :func:`simulate_scans` – radial speeds and the (uncorrected) retrieved wind of a batch of
   scans given the attitude at each line of sight;
-- :func:`simulate_scan` – one scan under a :class:`~flidar_uq.motion.PlatformMotion`;
+- :func:`simulate_scan` – one scan under a :class:`~flidar_uq.physics.motion.PlatformMotion`;
 - :func:`sigma_z` – std and mean of ``Z = retrieved HWS - true HWS`` over uniform roll,
   pitch and scan phases (seed 000 Eqs. 1-14), by a fast exact reformulation of the VAD
   retrieval (see ``docs/simulator.md``) and trapezoidal quadrature with adaptive doubling.
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flidar_uq.lidar import (
+from flidar_uq.physics.lidar import (
     LidarGeometry,
     WindRetrieval,
     beam_unit_vectors_body,
@@ -27,7 +27,7 @@ from flidar_uq.lidar import (
     wind_direction_deg,
     wind_vector_ms,
 )
-from flidar_uq.motion import rotation_matrix, rotation_matrix_derivatives
+from flidar_uq.physics.motion import rotation_matrix, rotation_matrix_derivatives
 
 __all__ = [
     "ScanResult",
@@ -174,7 +174,7 @@ def simulate_scan(
     lidar : str or LidarGeometry
     motion : PlatformMotion or SampledMotion
         Anything with ``attitude_rad(t)``, ``head_velocity_ms(t)`` and
-        ``head_displacement_m(t)`` (see :mod:`flidar_uq.motion`).
+        ``head_displacement_m(t)`` (see :mod:`flidar_uq.physics.motion`).
     wind_ms : array_like, shape (3,), or callable
         ENU wind at the reference height, m/s; or ``f(t_s, xyz_m) -> (..., 3)`` with
         ``xyz_m`` the measurement points relative to the lidar head at rest (m).

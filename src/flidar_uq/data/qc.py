@@ -394,7 +394,7 @@ def run_qc(records: pd.DataFrame, config: QCConfig | None = None) -> QCResult:
     Parameters
     ----------
     records : pandas.DataFrame
-        Validated record table (:func:`flidar_uq.io.validate_records`); needs at
+        Validated record table (:func:`flidar_uq.data.io.validate_records`); needs at
         least ``timestamp``, ``height_m``, ``hws_mean_ms``, ``hws_std_ms`` and
         ``availability_pct``.  Optional columns enable further filters.
     config : QCConfig, optional
@@ -424,7 +424,7 @@ def run_los_qc(los: pd.DataFrame, config: QCConfig | None = None) -> QCResult:
     Parameters
     ----------
     los : pandas.DataFrame
-        Validated LOS table (:func:`flidar_uq.io.validate_los_series`), with ``cnr_db``.
+        Validated LOS table (:func:`flidar_uq.data.io.validate_los_series`), with ``cnr_db``.
     config : QCConfig, optional
         Uses ``cnr`` and ``cnr_min_db`` (dB).
 

@@ -37,7 +37,7 @@ import numpy as np
 import pandas as pd
 from scipy.signal import find_peaks, welch
 
-from flidar_uq.metrics import pearson_r
+from flidar_uq.data.metrics import pearson_r
 
 __all__ = [
     "AMPLITUDE_METHODS",
@@ -462,7 +462,7 @@ def motion_statistics(
     Parameters
     ----------
     imu : pandas.DataFrame
-        Validated IMU series (:func:`flidar_uq.io.validate_imu_series`):
+        Validated IMU series (:func:`flidar_uq.data.io.validate_imu_series`):
         ``timestamp`` (UTC), ``roll_deg``, ``pitch_deg``.
     window_s : float
         Record length, s (600).

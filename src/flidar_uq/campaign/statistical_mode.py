@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from flidar_uq.correction import sigma_moving_pc
+from flidar_uq.physics.variance_laws import sigma_moving_pc
 from flidar_uq.inference import Priors, sample_motion_prior
 
 _PRIORS = Priors()
@@ -146,7 +146,7 @@ def generate_statistical_campaign(
             f"generate_statistical_campaign: n_bins={n_bins} and records_per_bin={records_per_bin} must be >= 1"
         )
     if surrogate is None:
-        from flidar_uq.surrogate import get_surrogate
+        from flidar_uq.physics.surrogate import get_surrogate
 
         surrogate = get_surrogate()
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
@@ -264,7 +264,7 @@ def sbc_replication(
     if settings is None:
         settings = SamplerSettings(mixture="never")
     if surrogate is None:
-        from flidar_uq.surrogate import get_surrogate
+        from flidar_uq.physics.surrogate import get_surrogate
 
         surrogate = get_surrogate()
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)

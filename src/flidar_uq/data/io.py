@@ -2,7 +2,7 @@
 
 The record table, the raw IMU series and LOS-level data are CSV (optionally
 gzip-compressed, ``.csv.gz``) or Parquet (``.parquet``/``.pq``) files whose
-columns are defined in :mod:`flidar_uq.schema` and documented in
+columns are defined in :mod:`flidar_uq.data.schema` and documented in
 ``docs/data-format.md``.  Every reader validates what it reads; a problem raises
 :class:`DataValidationError` (a ``ValueError``) whose message names the file, the
 row (1-based data row; for CSV also the line of the file) and the column.
@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from flidar_uq.schema import (
+from flidar_uq.data.schema import (
     IMU_COLUMNS,
     IMU_RATE_RANGE_HZ,
     LOS_COLUMNS,
@@ -379,7 +379,7 @@ def validate_records(
         Name used in error messages (the file path).
     require_motion : bool
         If False the IMU motion columns may be absent (they will be derived from
-        a raw IMU series with :func:`flidar_uq.imu.motion_statistics`).
+        a raw IMU series with :func:`flidar_uq.data.imu.motion_statistics`).
     allow_small_angles : bool
         Skip the "angles look like radians" check (documented rule).
     csv : bool
@@ -546,7 +546,7 @@ def validate_imu_series(
     """Validate a raw IMU attitude series (``timestamp, roll_deg, pitch_deg[, yaw_deg]``).
 
     Checks column names and types, bounds, strictly increasing timestamps, a
-    median sampling rate within :data:`flidar_uq.schema.IMU_RATE_RANGE_HZ` and
+    median sampling rate within :data:`flidar_uq.data.schema.IMU_RATE_RANGE_HZ` and
     angles that look like radians.
 
     Returns
