@@ -22,6 +22,7 @@ run: venv
 
 test: venv
 	bash scripts/system-deps.sh
+	$(VENV)/bin/lint-imports --no-cache
 	$(VENV)/bin/python -m pytest -m "slow or not slow" -p no:cacheprovider
 
 test-fast: venv

@@ -1,0 +1,60 @@
+"""The import contract (pyproject.toml [tool.importlinter], docs/architecture.md).
+
+`make test` runs `lint-imports` on the package; these tests show that the contract holds
+on the tree and that it fails on a wrong-way import (so the check can fail).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+LINT = Path(sys.executable).with_name("lint-imports")
+
+pytestmark = pytest.mark.skipif(not LINT.exists(), reason="import-linter not installed")
+
+
+def _lint(root: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(root / "src")}
+    return subprocess.run(
+        [str(LINT), "--no-cache"], cwd=root, env=env, capture_output=True, text=True, timeout=300
+    )
+
+
+def _copy_tree(tmp_path: Path) -> Path:
+    root = tmp_path / "repo"
+    shutil.copytree(REPO / "src", root / "src", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(REPO / "pyproject.toml", root / "pyproject.toml")
+    return root
+
+
+def test_import_contract_holds_on_the_tree(tmp_path):
+    res = _lint(_copy_tree(tmp_path))
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "0 broken" in res.stdout
+
+
+@pytest.mark.parametrize(
+    ("module", "wrong_import"),
+    [
+        ("physics/lidar.py", "from flidar_uq.data import schema as _wrong  # noqa"),
+        ("data/qc.py", "from flidar_uq.inference import Priors as _wrong  # noqa"),
+        ("correction/los.py", "from flidar_uq.campaign import physics_mode as _wrong  # noqa"),
+        ("seeding.py", "from flidar_uq.physics import lidar as _wrong  # noqa"),
+    ],
+)
+def test_import_contract_fails_on_a_wrong_way_import(tmp_path, module, wrong_import):
+    root = _copy_tree(tmp_path)
+    path = root / "src" / "flidar_uq" / module
+    path.write_text(path.read_text() + "\n" + wrong_import + "\n")
+    res = _lint(root)
+    assert res.returncode != 0
+    assert "BROKEN" in res.stdout or "broken" in res.stdout
+    wrong_target = wrong_import.split()[1]
+    assert wrong_target in res.stdout, res.stdout
