@@ -1,0 +1,147 @@
+"""Calibration of corrected TI by regime: coverage, relative error and interval width per group.
+
+Calibration is judged per regime (wind speed, sea state, heading), never only in
+aggregate: a single campaign-wide correction can be right on average and wrong in every
+sea state (design.md, "What real seas add"). :func:`calibration_by_group` scores the
+per-record corrected TI and its credible interval against a known TI (the truth of a
+virtual campaign, or a reference instrument) within each group of records.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+__all__ = ["SPEED_GROUP_WIDTH_MS", "calibration_by_group", "speed_group_label", "wilson_interval"]
+
+#: Width of the wind-speed groups in which calibration is judged (m/s), from 3 m/s.
+SPEED_GROUP_WIDTH_MS = 3.0
+
+
+def wilson_interval(k, n, level: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
+    """Wilson score interval of a binomial proportion ``k / n`` (Wilson 1927).
+
+    Parameters
+    ----------
+    k, n : array_like
+        Successes and trials (counts), broadcastable; ``n = 0`` gives NaN.
+    level : float
+        Confidence level in (0, 1).
+
+    Returns
+    -------
+    lo, hi : numpy.ndarray
+        Interval bounds, in [0, 1].
+    """
+    k = np.asarray(k, dtype=float)
+    n = np.asarray(n, dtype=float)
+    z = stats.norm.ppf(0.5 + level / 2.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        p = k / n
+        denom = 1.0 + z**2 / n
+        centre = (p + z**2 / (2 * n)) / denom
+        half = z * np.sqrt(p * (1 - p) / n + z**2 / (4 * n**2)) / denom
+    return np.where(n > 0, centre - half, np.nan), np.where(n > 0, centre + half, np.nan)
+
+
+def speed_group_label(hws_ms, width_ms: float = SPEED_GROUP_WIDTH_MS, start_ms: float = 3.0):
+    """Label of the wind-speed group ``[start + j w, start + (j + 1) w)`` of each record.
+
+    Parameters
+    ----------
+    hws_ms : array_like
+        Mean horizontal wind speed (m/s).
+    width_ms, start_ms : float
+        Group width and lower edge of the first group (m/s).
+
+    Returns
+    -------
+    numpy.ndarray of str
+        ``"3-6 m/s"``-style labels; ``""`` below ``start_ms`` or for NaN.
+    """
+    x = np.asarray(hws_ms, dtype=float)
+    with np.errstate(invalid="ignore"):
+        j = np.floor((x - start_ms) / width_ms)
+    lo = start_ms + j * width_ms
+    out = np.array([f"{a:g}-{a + width_ms:g} m/s" for a in np.nan_to_num(lo)], dtype=object)
+    out[~np.isfinite(x) | (x < start_ms)] = ""
+    return out
+
+
+def calibration_by_group(
+    records: pd.DataFrame,
+    by: str | Sequence[str],
+    *,
+    known: str = "ti_true",
+    median: str = "ti_corrected_median",
+    lo: str = "ti_corrected_lo",
+    hi: str = "ti_corrected_hi",
+    min_count: int = 1,
+) -> pd.DataFrame:
+    """Coverage, mean relative error and interval width of the corrected TI per group.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        One row per record with the columns named below and the grouping column(s).
+    by : str or sequence of str
+        Grouping column(s) (e.g. a speed-group label, a sea-state class).
+    known : str
+        Column of the known TI (truth or reference), dimensionless.
+    median, lo, hi : str
+        Columns of the corrected TI's posterior median and credible-interval bounds.
+    min_count : int
+        Groups with fewer scored records are left out.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per group: ``n`` (records with a finite known TI), ``n_answered`` (of
+        those, with a finite interval), ``answered_share``, ``coverage`` (share of
+        answered records whose interval holds the known TI) with its 95 % Wilson
+        interval ``coverage_lo``, ``coverage_hi``, ``mean_rel_error`` (mean of
+        median / known - 1), ``median_rel_width`` (median of (hi - lo) / median).
+    """
+    by = [by] if isinstance(by, str) else list(by)
+    for c in (*by, known, median, lo, hi):
+        if c not in records:
+            raise ValueError(f"calibration_by_group: records lack column {c!r}")
+    t = records[known].to_numpy(dtype=float)
+    m = records[median].to_numpy(dtype=float)
+    a = records[lo].to_numpy(dtype=float)
+    b = records[hi].to_numpy(dtype=float)
+    scored = np.isfinite(t) & (t > 0)
+    answered = scored & np.isfinite(m) & np.isfinite(a) & np.isfinite(b)
+    df = records[by].copy()
+    df["_scored"] = scored
+    df["_answered"] = answered
+    with np.errstate(invalid="ignore", divide="ignore"):
+        df["_inside"] = answered & (a <= t) & (t <= b)
+        df["_rel_err"] = np.where(answered, m / t - 1.0, np.nan)
+        df["_rel_width"] = np.where(answered, (b - a) / m, np.nan)
+    rows = []
+    for key, g in df.groupby(by, sort=True, dropna=False):
+        n = int(g["_scored"].sum())
+        if n < min_count:
+            continue
+        k = int(g["_answered"].sum())
+        inside = int(g["_inside"].sum())
+        c_lo, c_hi = wilson_interval(inside, k)
+        key = key if isinstance(key, tuple) else (key,)
+        rows.append(
+            {
+                **dict(zip(by, key, strict=True)),
+                "n": n,
+                "n_answered": k,
+                "answered_share": k / n if n else np.nan,
+                "coverage": inside / k if k else np.nan,
+                "coverage_lo": float(c_lo),
+                "coverage_hi": float(c_hi),
+                "mean_rel_error": float(np.nanmean(g["_rel_err"])) if k else np.nan,
+                "median_rel_width": float(np.nanmedian(g["_rel_width"])) if k else np.nan,
+            }
+        )
+    return pd.DataFrame(rows)

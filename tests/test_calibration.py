@@ -1,0 +1,48 @@
+"""Calibration by regime (data/calibration.py): hand-computed groups and Wilson intervals."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from flidar_uq.data.calibration import calibration_by_group, speed_group_label, wilson_interval
+
+
+def test_wilson_interval_hand_value_and_edges():
+    # Wilson (1927): k = 8 of n = 10 at 95 %: (0.4902, 0.9433)
+    lo, hi = wilson_interval(8, 10)
+    assert lo == pytest.approx(0.4902, abs=1e-4)
+    assert hi == pytest.approx(0.9433, abs=1e-4)
+    lo, hi = wilson_interval(0, 0)
+    assert np.isnan(lo) and np.isnan(hi)
+    lo, hi = wilson_interval(10, 10)
+    assert hi == pytest.approx(1.0) and lo < 1.0
+
+
+def test_speed_group_labels_half_open():
+    lab = speed_group_label([2.9, 3.0, 5.99, 6.0, np.nan, 19.9])
+    assert list(lab) == ["", "3-6 m/s", "3-6 m/s", "6-9 m/s", "", "18-21 m/s"]
+
+
+def test_calibration_by_group_hand_computed():
+    recs = pd.DataFrame(
+        {
+            "g": ["a", "a", "a", "b", "b"],
+            "ti_true": [0.10, 0.10, 0.10, 0.05, 0.05],
+            "ti_corrected_median": [0.11, 0.09, np.nan, 0.05, 0.06],
+            "ti_corrected_lo": [0.105, 0.08, np.nan, 0.04, 0.055],
+            "ti_corrected_hi": [0.12, 0.11, np.nan, 0.06, 0.07],
+        }
+    )
+    out = calibration_by_group(recs, "g").set_index("g")
+    assert out.loc["a", "n"] == 3 and out.loc["a", "n_answered"] == 2
+    assert out.loc["a", "answered_share"] == pytest.approx(2 / 3)
+    assert out.loc["a", "coverage"] == pytest.approx(0.5)  # 0.10 outside [0.105, 0.12]
+    assert out.loc["a", "mean_rel_error"] == pytest.approx(0.0)
+    assert out.loc["b", "coverage"] == pytest.approx(0.5)
+    assert out.loc["b", "mean_rel_error"] == pytest.approx(0.1)
+    assert out.loc["b", "median_rel_width"] == pytest.approx(np.median([0.4, 0.25]))
+
+
+def test_calibration_by_group_names_missing_column():
+    with pytest.raises(ValueError, match="lack column 'ti_true'"):
+        calibration_by_group(pd.DataFrame({"g": [1]}), "g")
