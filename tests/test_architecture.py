@@ -58,3 +58,14 @@ def test_import_contract_fails_on_a_wrong_way_import(tmp_path, module, wrong_imp
     assert "BROKEN" in res.stdout or "broken" in res.stdout
     wrong_target = wrong_import.split()[1]
     assert wrong_target in res.stdout, res.stdout
+
+
+def test_interfaces_doc_is_generated_and_up_to_date():
+    # docs/interfaces.md is generated from the package, never copied by hand
+    res = subprocess.run(
+        [sys.executable, str(REPO / "scripts" / "api-index.py"), "--check"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert res.returncode == 0, res.stderr

@@ -16,7 +16,6 @@ from flidar_uq.data.schema import (
 )
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "data-format.md"
-INTERFACES = Path(__file__).resolve().parents[1] / "docs" / "interfaces.md"
 
 
 def doc_row(text: str, section: str, name: str) -> list[str]:
@@ -58,17 +57,6 @@ def test_doc_has_no_column_missing_from_schema():
         part = text.split(section, 1)[1].split("\n## ", 1)[0]
         names = {line.split("`")[1] for line in part.splitlines() if line.startswith("| `")}
         assert names == {c.name for c in columns}, section
-
-
-def test_interfaces_core_columns_are_in_schema():
-    # docs/interfaces.md fixes the core record columns shared with the virtual campaign
-    text = INTERFACES.read_text().split("The core", 1)[1]
-    names = set()
-    for line in text.splitlines():
-        if line.startswith("| `"):
-            names |= {part for i, part in enumerate(line.split("|")[1].split("`")) if i % 2 == 1}
-    names = {n for n in names if not n.startswith("true_")}
-    assert names <= {c.name for c in RECORD_COLUMNS}
 
 
 def test_truth_columns_documented():
