@@ -34,6 +34,7 @@ from flidar_uq.physics.simulator import sigma_z_direction_average, sigma_z_grid
 
 __all__ = [
     "SigmaZSurrogate",
+    "default_surrogate",
     "get_surrogate",
     "AMPLITUDE_RANGE_DEG",
     "PERIOD_RANGE_S",
@@ -361,3 +362,12 @@ def get_surrogate(lidar: str | LidarGeometry = "zephir300") -> SigmaZSurrogate:
     SigmaZSurrogate
     """
     return _build(get_lidar(lidar))
+
+
+def default_surrogate(surrogate: SigmaZSurrogate | None = None) -> SigmaZSurrogate:
+    """``surrogate`` itself, or the default lidar's (ZephIR 300) surrogate when None.
+
+    The one place where library functions with an optional ``surrogate`` argument
+    resolve it.
+    """
+    return get_surrogate() if surrogate is None else surrogate
