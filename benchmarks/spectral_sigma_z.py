@@ -118,7 +118,12 @@ def main() -> pd.DataFrame:
                 rep = np.array(
                     [
                         ms.replay_sigma_z(
-                            t, roll[i], pitch[i], yaw[i], hws_ms=hws, wd_deg=WD_DEG,
+                            t,
+                            roll[i],
+                            pitch[i],
+                            yaw[i],
+                            hws_ms=hws,
+                            wd_deg=WD_DEG,
                             lever_arm_m=lever,
                         ).sigma_z_ms
                         for i in range(N_REC)
@@ -142,16 +147,23 @@ def main() -> pd.DataFrame:
                 timing["harmonic"] += t3 - t2
                 n_eval += N_REC
                 row = {
-                    "case": name, "hws_ms": hws, "lever_arm_m": lever, "n_records": N_REC,
+                    "case": name,
+                    "hws_ms": hws,
+                    "lever_arm_m": lever,
+                    "n_records": N_REC,
                     "along_share": float(np.mean(spec.along_share)),
-                    "tz_s": float(np.mean(spec.tz_s)), "tp_s": float(np.mean(spec.tp_s)),
+                    "tz_s": float(np.mean(spec.tz_s)),
+                    "tp_s": float(np.mean(spec.tp_s)),
                     "replay_sigma_z_ms": float(np.sqrt(np.mean(rep**2))),
                 }
                 for key, s in (("spectral", s_sp), ("moments", s_mo), ("harmonic", s_ha)):
                     row[f"{key}_sigma_z_ms"] = float(np.sqrt(np.mean(s**2)))
                     row[f"ratio_{key}"] = row[f"{key}_sigma_z_ms"] / row["replay_sigma_z_ms"]
                     r = s / rep
-                    row[f"ratio_{key}_min"], row[f"ratio_{key}_max"] = float(r.min()), float(r.max())
+                    row[f"ratio_{key}_min"], row[f"ratio_{key}_max"] = (
+                        float(r.min()),
+                        float(r.max()),
+                    )
                 rows.append(row)
         print(f"{name:26s} done", flush=True)
     df = pd.DataFrame(rows)
@@ -179,8 +191,18 @@ def main() -> pd.DataFrame:
     df.to_csv(OUT / "spectral_sigma_z.csv", index=False)
     _plot(df)
     pd.set_option("display.width", 200)
-    cols = ["case", "hws_ms", "lever_arm_m", "along_share", "replay_sigma_z_ms", "ratio_spectral",
-            "ratio_spectral_min", "ratio_spectral_max", "ratio_moments", "ratio_harmonic"]
+    cols = [
+        "case",
+        "hws_ms",
+        "lever_arm_m",
+        "along_share",
+        "replay_sigma_z_ms",
+        "ratio_spectral",
+        "ratio_spectral_min",
+        "ratio_spectral_max",
+        "ratio_moments",
+        "ratio_harmonic",
+    ]
     print(df[cols].to_string(index=False, float_format=lambda x: f"{x:.3f}"))
     print("worst |spectral/replay - 1| (pooled):", f"{np.max(np.abs(df.ratio_spectral - 1)):.3%}")
     print("worst |moments/replay - 1| (pooled):", f"{np.max(np.abs(df.ratio_moments - 1)):.3%}")
@@ -197,14 +219,21 @@ def _plot(df: pd.DataFrame) -> None:
 
     cases = list(CASES)
     fig, axes = plt.subplots(1, 2, figsize=(13, 6), sharey=True)
-    for ax, lever in zip(axes, LEVER):
+    for ax, lever in zip(axes, LEVER, strict=True):
         sub = df[df.lever_arm_m == lever]
         for j, (key, mk) in enumerate((("spectral", "o"), ("moments", "s"), ("harmonic", "^"))):
             for k, hws in enumerate(HWS):
                 s = sub[sub.hws_ms == hws].set_index("case").loc[cases]
                 y = np.arange(len(cases)) + 0.12 * (3 * j + k - 4)
-                ax.plot(s[f"ratio_{key}"], y, mk, ms=4, color=f"C{j}",
-                        alpha=0.5 + 0.25 * k, label=f"{key}, {hws:g} m/s")
+                ax.plot(
+                    s[f"ratio_{key}"],
+                    y,
+                    mk,
+                    ms=4,
+                    color=f"C{j}",
+                    alpha=0.5 + 0.25 * k,
+                    label=f"{key}, {hws:g} m/s",
+                )
         ax.axvspan(0.97, 1.03, color="0.9")
         ax.axvline(1.0, color="k", lw=0.8)
         ax.set_yticks(np.arange(len(cases)), cases)

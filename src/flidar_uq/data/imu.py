@@ -38,7 +38,11 @@ import pandas as pd
 from scipy.signal import find_peaks, welch
 
 from flidar_uq.data.metrics import pearson_r
-from flidar_uq.physics.motion_spectrum import TiltBandSpectrum, tilt_band_spectrum, wind_frame_tilt_deg
+from flidar_uq.physics.motion_spectrum import (
+    TiltBandSpectrum,
+    tilt_band_spectrum,
+    wind_frame_tilt_deg,
+)
 
 __all__ = [
     "AMPLITUDE_METHODS",
@@ -722,23 +726,14 @@ def tilt_spectrum_statistics(
     good = present & (coverage >= min_coverage_pct) & np.isfinite(wd)
     yaw = grid[..., 2] if grid.shape[-1] == 3 else 0.0
     spec = tilt_band_statistics(
-        grid[..., 0], grid[..., 1], yaw, np.where(good, wd, 0.0), fs,
-        segment_s=segment_s, n_bands=n_bands,
-    )
-    def _mask(a):
-        a = np.array(a, dtype=np.float64)
-        a[~good] = np.nan
-        return a
-    spec = TiltBandSpectrum(
-        spec.edges_s, *(_mask(getattr(spec, k)) for k in (
-            "period_s", "var_along_deg2", "var_across_deg2", "var_outside_deg2",
-            "m0_deg2", "m1_deg2_hz", "m2_deg2_hz2", "tp_s"))
-    )
+        grid[..., 0],
+        grid[..., 1],
+        yaw,
+        np.where(good, wd, 0.0),
+        fs,
+        segment_s=segment_s,
+        n_bands=n_bands,
+    ).masked(good)
     table = pd.DataFrame({"timestamp": stamps} | tilt_spectrum_columns(spec))
     keep = np.flatnonzero(present)
-    spec = TiltBandSpectrum(
-        spec.edges_s, *(getattr(spec, k)[keep] for k in (
-            "period_s", "var_along_deg2", "var_across_deg2", "var_outside_deg2",
-            "m0_deg2", "m1_deg2_hz", "m2_deg2_hz2", "tp_s"))
-    )
-    return table.iloc[keep].reset_index(drop=True), spec
+    return table.iloc[keep].reset_index(drop=True), spec.take(keep)

@@ -41,7 +41,7 @@ Imports only NumPy and :mod:`flidar_uq.physics` (physics layer rule).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -94,12 +94,14 @@ def wind_frame_tilt_deg(roll_deg, pitch_deg, yaw_deg=0.0, wd_deg=0.0):
     """
     r, p, y = (np.deg2rad(np.asarray(a, float)) for a in (roll_deg, pitch_deg, yaw_deg))
     wd = np.deg2rad(np.asarray(wd_deg, float))
-    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    cr, sr, sp, cy, sy = np.cos(r), np.sin(r), np.sin(p), np.cos(y), np.sin(y)
     east = cy * sp * cr + sy * sr  # (R @ z)_x
     north = sy * sp * cr - cy * sr  # (R @ z)_y
     along = east * np.sin(wd) + north * np.cos(wd)
     across = east * np.cos(wd) - north * np.sin(wd)
-    return np.rad2deg(np.arcsin(np.clip(along, -1, 1))), np.rad2deg(np.arcsin(np.clip(across, -1, 1)))
+    return np.rad2deg(np.arcsin(np.clip(along, -1, 1))), np.rad2deg(
+        np.arcsin(np.clip(across, -1, 1))
+    )
 
 
 def band_edges_s(n_bands: int = 8, period_min_s: float = 1.0, period_max_s: float = 20.0):
@@ -144,6 +146,31 @@ class TiltBandSpectrum:
     m2_deg2_hz2: np.ndarray
     tp_s: np.ndarray
 
+    _RECORD_FIELDS = (
+        "period_s",
+        "var_along_deg2",
+        "var_across_deg2",
+        "var_outside_deg2",
+        "m0_deg2",
+        "m1_deg2_hz",
+        "m2_deg2_hz2",
+        "tp_s",
+    )
+
+    def take(self, index) -> TiltBandSpectrum:
+        """The records ``index`` (integer array or boolean mask) as a new spectrum."""
+        return replace(self, **{k: getattr(self, k)[index] for k in self._RECORD_FIELDS})
+
+    def masked(self, keep) -> TiltBandSpectrum:
+        """A copy with NaN in every record where the boolean ``keep`` (nrec,) is False."""
+        keep = np.asarray(keep, bool)
+        out = {}
+        for k in self._RECORD_FIELDS:
+            a = np.array(getattr(self, k), dtype=float)
+            a[~keep] = np.nan
+            out[k] = a
+        return replace(self, **out)
+
     @property
     def tz_s(self) -> np.ndarray:
         """Zero-crossing period of the along-wind tilt, ``sqrt(m0 / m2)``, s."""
@@ -175,7 +202,12 @@ class TiltBandSpectrum:
 
 
 def tilt_band_spectrum(
-    f_hz, psd_along, psd_across, *, n_bands: int = 8, period_min_s: float = 1.0,
+    f_hz,
+    psd_along,
+    psd_across,
+    *,
+    n_bands: int = 8,
+    period_min_s: float = 1.0,
     period_max_s: float = 20.0,
 ) -> TiltBandSpectrum:
     """Reduce along/across-wind tilt PSDs to period bands and spectral moments.
@@ -306,12 +338,22 @@ def harmonic_sigma_z_ms(
     """
     sur = _surrogate(surrogate, lidar)
     per = np.clip(np.asarray(period_s, float), *PERIOD_RANGE_S)
-    return _sigma_single(sur, np.asarray(hws_ms, float), np.asarray(amplitude_deg, float), per,
-                         np.asarray(lever_arm_m, float))
+    return _sigma_single(
+        sur,
+        np.asarray(hws_ms, float),
+        np.asarray(amplitude_deg, float),
+        per,
+        np.asarray(lever_arm_m, float),
+    )
 
 
 def moments_sigma_z_ms(
-    hws_ms, tilt_along_wind_std_deg, tilt_period_s, *, lever_arm_m=0.0, lidar="zephir300",
+    hws_ms,
+    tilt_along_wind_std_deg,
+    tilt_period_s,
+    *,
+    lever_arm_m=0.0,
+    lidar="zephir300",
     surrogate=None,
 ) -> np.ndarray:
     """Table-only fallback: one harmonic along the wind from two spectral moments.
@@ -337,13 +379,21 @@ def moments_sigma_z_ms(
         sigma_Z, m/s (broadcast shape).
     """
     return harmonic_sigma_z_ms(
-        hws_ms, np.sqrt(2.0) * np.asarray(tilt_along_wind_std_deg, float), tilt_period_s,
-        lever_arm_m=lever_arm_m, lidar=lidar, surrogate=surrogate,
+        hws_ms,
+        np.sqrt(2.0) * np.asarray(tilt_along_wind_std_deg, float),
+        tilt_period_s,
+        lever_arm_m=lever_arm_m,
+        lidar=lidar,
+        surrogate=surrogate,
     )
 
 
 def two_period_from_bands(
-    band_var_deg2, band_period_s, *, min_share: float = 0.2, min_period_ratio: float = 1.5,
+    band_var_deg2,
+    band_period_s,
+    *,
+    min_share: float = 0.2,
+    min_period_ratio: float = 1.5,
     max_valley_ratio: float = 0.5,
 ):
     """Two separated peaks in a record's band spectrum: periods and variance share.
@@ -487,8 +537,10 @@ def replay_sigma_z(
     """
     g = get_lidar(lidar)
     t = np.asarray(time_s, float)
-    arm = (0.0, 0.0, float(lever_arm_m)) if np.ndim(lever_arm_m) == 0 else tuple(
-        map(float, lever_arm_m)
+    arm = (
+        (0.0, 0.0, float(lever_arm_m))
+        if np.ndim(lever_arm_m) == 0
+        else tuple(map(float, lever_arm_m))
     )
     motion = SampledMotion(t, roll_deg, pitch_deg, yaw_deg, lever_arm_m=arm)
     dt_scan = g.scan_period_s if scan_interval_s is None else float(scan_interval_s)
@@ -503,8 +555,14 @@ def replay_sigma_z(
     roll, pitch, yaw = motion.attitude_rad(tt)
     head = motion.head_velocity_ms(tt) if any(a != 0 for a in arm) else None
     _, ret = simulate_scans(
-        g, wind_vector_ms(hws_ms, wd_deg), roll, pitch, yaw_rad=yaw, head_velocity_ms=head,
-        azimuth_rad=az, sign_ambiguity=sign_ambiguity,
+        g,
+        wind_vector_ms(hws_ms, wd_deg),
+        roll,
+        pitch,
+        yaw_rad=yaw,
+        head_velocity_ms=head,
+        azimuth_rad=az,
+        sign_ambiguity=sign_ambiguity,
     )
     z = np.asarray(ret.hws_ms) - float(hws_ms)  # Eq. (1) of seed 000
     return ReplayResult(float(np.std(z)), float(np.mean(z)), z)
