@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -343,3 +345,22 @@ def test_tilt_spectrum_statistics_missing_wind_direction_gives_nan_row():
     table, spec = imu.tilt_spectrum_statistics(frame, pd.Series(dtype=float))
     assert len(table) == 1 and table[list(imu.TILT_SPECTRUM_COLUMNS)].isna().all(axis=None)
     assert np.isnan(spec.var_along_deg2).all()
+
+
+def test_optional_tilt_columns_read_and_bounds_checked(tmp_path):
+    from flidar_uq.data import io
+
+    df = pd.read_csv(Path(__file__).parent / "data" / "hand_written_campaign.csv")
+    df["tilt_along_wind_std_deg"] = 1.5
+    df["tilt_across_wind_std_deg"] = np.nan
+    df["tilt_period_zero_crossing_s"] = 4.0
+    df["tilt_period_mean_s"] = 4.2
+    df.to_csv(tmp_path / "ok.csv", index=False)
+    rec = io.read_records(tmp_path / "ok.csv")
+    assert set(imu.TILT_SPECTRUM_COLUMNS) <= set(rec.columns)
+    df.loc[3, "tilt_period_zero_crossing_s"] = 0.0
+    df.to_csv(tmp_path / "bad.csv", index=False)
+    with pytest.raises(
+        ValueError, match=r"row 4 .*'tilt_period_zero_crossing_s'.*outside \(0, 60\]"
+    ):
+        io.read_records(tmp_path / "bad.csv")

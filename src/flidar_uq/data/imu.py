@@ -38,6 +38,7 @@ import pandas as pd
 from scipy.signal import find_peaks, welch
 
 from flidar_uq.data.metrics import pearson_r
+from flidar_uq.data.schema import TILT_SPECTRUM_COLUMNS
 from flidar_uq.physics.motion_spectrum import (
     TiltBandSpectrum,
     tilt_band_spectrum,
@@ -601,13 +602,6 @@ def roll_pitch_correlation(records: pd.DataFrame) -> dict[str, float]:
 
 
 # --------------------------------------------------------------------------- wind-frame tilt spectrum
-#: Optional record columns filled by :func:`tilt_spectrum_statistics` (docs/data-format.md).
-TILT_SPECTRUM_COLUMNS = (
-    "tilt_along_wind_std_deg",
-    "tilt_across_wind_std_deg",
-    "tilt_period_zero_crossing_s",
-    "tilt_period_mean_s",
-)
 
 
 def tilt_band_statistics(
