@@ -36,7 +36,8 @@ spectrum resolved along and across the wind (design.md "What real seas add"):
 6. **Attitude replay** (:func:`replay_sigma_z`): the measured attitude series replayed
    through the scan simulator with a constant wind (the realised sigma_Z of a record).
 
-Imports only NumPy and :mod:`flidar_uq.physics` (physics layer rule).
+Method notes and measured numbers: ``docs/motion_spectrum.md``. Imports only NumPy and
+:mod:`flidar_uq.physics` (physics layer rule).
 """
 
 from __future__ import annotations
