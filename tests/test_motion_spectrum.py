@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from flidar_uq.data.imu import tilt_band_statistics
 from flidar_uq.physics import motion_spectrum as ms
@@ -205,3 +207,32 @@ def test_two_period_single_record_returns_scalars():
         np.array([0, 1.0, 0.1, 0.0, 0.8, 0.0]), np.geomspace(1.5, 15, 6)
     )
     assert np.ndim(p1) == 0 and p1 < p2 and w1 == pytest.approx(1.1 / 1.9)  # valley: the 0.0 band
+
+
+# --------------------------------------------------------------------------- invariances
+@settings(max_examples=50, deadline=None)
+@given(
+    roll=st.floats(-20, 20),
+    pitch=st.floats(-20, 20),
+    yaw=st.floats(-360, 360),
+    wd=st.floats(0, 360),
+    d=st.floats(-180, 180),
+)
+def test_turning_buoy_and_wind_together_leaves_wind_frame_tilt_unchanged(roll, pitch, yaw, wd, d):
+    # yaw is counter-clockwise, wd clockwise: turning both by d is a rotation of the scene
+    a0, c0 = ms.wind_frame_tilt_deg(roll, pitch, yaw, wd)
+    a1, c1 = ms.wind_frame_tilt_deg(roll, pitch, yaw + d, wd - d)
+    assert a1 == pytest.approx(a0, abs=1e-9) and c1 == pytest.approx(c0, abs=1e-9)
+    # and the tilt magnitude is that of the body z axis, whatever the frame
+    total = np.rad2deg(np.arccos(np.cos(np.deg2rad(roll)) * np.cos(np.deg2rad(pitch))))
+    mag = np.hypot(np.sin(np.deg2rad(a0)), np.sin(np.deg2rad(c0)))
+    assert mag == pytest.approx(np.sin(np.deg2rad(total)), abs=1e-7)  # arccos near 0
+
+
+def test_replay_heading_through_north_wraps_cleanly():
+    t = np.arange(0, 120, 0.1)
+    x = 3.0 * np.sin(2 * np.pi * t / 4.37)
+    yaw = (10.0 * np.sin(2 * np.pi * t / 60.0)) % 360.0  # crosses 0/360 deg
+    a = ms.replay_sigma_z(t, x, 0 * x, yaw, hws_ms=8.0, wd_deg=0.0)
+    b = ms.replay_sigma_z(t, x, 0 * x, 10.0 * np.sin(2 * np.pi * t / 60.0), hws_ms=8.0, wd_deg=0.0)
+    assert a.sigma_z_ms == pytest.approx(b.sigma_z_ms, rel=1e-9)

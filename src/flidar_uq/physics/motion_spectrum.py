@@ -521,7 +521,7 @@ def replay_sigma_z(
     roll_deg, pitch_deg : array_like, shape (m,)
         Attitude, deg.
     yaw_deg : array_like, shape (m,), optional
-        Yaw (counter-clockwise from above), deg.
+        Yaw (counter-clockwise from above), deg; unwrapped here (360-deg jumps removed).
     hws_ms, wd_deg : float
         Constant true wind: speed m/s, meteorological direction deg.
     lever_arm_m : float or tuple of 3 floats
@@ -543,6 +543,8 @@ def replay_sigma_z(
         if np.ndim(lever_arm_m) == 0
         else tuple(map(float, lever_arm_m))
     )
+    if yaw_deg is not None:  # a heading that wraps (359 -> 1 deg) must not swing through 180
+        yaw_deg = np.rad2deg(np.unwrap(np.deg2rad(np.asarray(yaw_deg, float))))
     motion = SampledMotion(t, roll_deg, pitch_deg, yaw_deg, lever_arm_m=arm)
     dt_scan = g.scan_period_s if scan_interval_s is None else float(scan_interval_s)
     t_los, az0 = scan_times_azimuths(g, 0.0)
