@@ -236,3 +236,25 @@ def test_replay_heading_through_north_wraps_cleanly():
     a = ms.replay_sigma_z(t, x, 0 * x, yaw, hws_ms=8.0, wd_deg=0.0)
     b = ms.replay_sigma_z(t, x, 0 * x, 10.0 * np.sin(2 * np.pi * t / 60.0), hws_ms=8.0, wd_deg=0.0)
     assert a.sigma_z_ms == pytest.approx(b.sigma_z_ms, rel=1e-9)
+
+
+def test_record_sigma_z_picks_best_description_per_record():
+    x = 3.0 * np.sin(2 * np.pi * T10 / 5.0)
+    s = tilt_band_statistics(np.zeros((4, x.size)), np.tile(x, (4, 1)), 0.0, 90.0, FS)
+    spec = s.masked(np.array([True, False, False, False]))
+    sd = np.array([np.nan, 3.0 / np.sqrt(2), np.nan, np.nan])
+    tz = np.array([np.nan, 5.0, np.nan, np.nan])
+    amp = np.array([1.0, 1.0, 3.0, np.nan])
+    per = np.array([5.0, 5.0, 5.0, np.nan])
+    sig, method = ms.record_sigma_z_ms(
+        np.full(4, 8.0),
+        spectrum=spec,
+        tilt_along_wind_std_deg=sd,
+        tilt_period_zero_crossing_s=tz,
+        amplitude_deg=amp,
+        period_s=per,
+    )
+    assert list(method) == ["bands", "moments", "harmonic", "none"]
+    # the same single harmonic along the wind, described three ways
+    assert sig[0] == pytest.approx(sig[1], rel=5e-3) and sig[1] == pytest.approx(sig[2], rel=1e-3)
+    assert np.isnan(sig[3])

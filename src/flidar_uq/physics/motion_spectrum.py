@@ -31,7 +31,8 @@ spectrum resolved along and across the wind (design.md "What real seas add"):
    The quadrature sum itself is exact to first order in the tilt (design.md: 0.08 % at
    2 deg, 1.8 % at 10 deg against the direct multi-phase integral).
 4. **Moments-only fallback** (:func:`moments_sigma_z_ms`): one harmonic of amplitude
-   ``sqrt(2) * std_along`` at the zero-crossing period ``Tz = sqrt(m0/m2)``.
+   ``sqrt(2) * std_along`` at the zero-crossing period ``Tz = sqrt(m0/m2)``;
+   :func:`record_sigma_z_ms` picks, per record, bands > moments > seed harmonic.
 5. **Two periods** (:func:`two_period_from_bands`): two separated band groups.
 6. **Attitude replay** (:func:`replay_sigma_z`): the measured attitude series replayed
    through the scan simulator with a constant wind (the realised sigma_Z of a record).
@@ -59,6 +60,8 @@ __all__ = [
     "spectral_sigma_z_ms",
     "moments_sigma_z_ms",
     "harmonic_sigma_z_ms",
+    "record_sigma_z_ms",
+    "RECORD_METHODS",
     "two_period_from_bands",
     "replay_sigma_z",
 ]
@@ -387,6 +390,86 @@ def moments_sigma_z_ms(
         lidar=lidar,
         surrogate=surrogate,
     )
+
+
+#: Methods of :func:`record_sigma_z_ms`, best first.
+RECORD_METHODS = ("bands", "moments", "harmonic", "none")
+
+
+def record_sigma_z_ms(
+    hws_ms,
+    *,
+    spectrum: TiltBandSpectrum | None = None,
+    tilt_along_wind_std_deg=None,
+    tilt_period_zero_crossing_s=None,
+    amplitude_deg=None,
+    period_s=None,
+    lever_arm_m=0.0,
+    lidar: str | LidarGeometry = "zephir300",
+    surrogate=None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """sigma_Z per record with the best motion description each record has.
+
+    Per record, in this order: the band sum (:func:`spectral_sigma_z_ms`) where ``spectrum``
+    has finite bands; else the moments-only value (:func:`moments_sigma_z_ms`) where the
+    optional record columns ``tilt_along_wind_std_deg`` and ``tilt_period_zero_crossing_s``
+    are finite; else the seed-000 harmonic (:func:`harmonic_sigma_z_ms`) at the record's
+    ``amplitude_deg`` / ``period_s`` (e.g. ``flidar_uq.data.imu.record_motion``), which
+    ignores the wind direction (0.43-1.88 of the realised value in
+    ``benchmarks/spectral_sigma_z.py``: give it wider intervals); else NaN.
+
+    Parameters
+    ----------
+    hws_ms : array_like, shape (nrec,)
+        m/s.
+    spectrum : TiltBandSpectrum, optional
+        Bands of the same ``nrec`` records (NaN rows where no raw IMU series).
+    tilt_along_wind_std_deg, tilt_period_zero_crossing_s : array_like, shape (nrec,), optional
+        Record columns, deg and s.
+    amplitude_deg, period_s : array_like, shape (nrec,), optional
+        Seed-000 single harmonic (roll and pitch amplitude, deg; period, s).
+    lever_arm_m, lidar, surrogate
+        As in :func:`spectral_sigma_z_ms`.
+
+    Returns
+    -------
+    sigma_z_ms : ndarray, shape (nrec,)
+        m/s.
+    method : ndarray of str, shape (nrec,)
+        One of :data:`RECORD_METHODS` per record.
+    """
+    hws = np.atleast_1d(np.asarray(hws_ms, float))
+    n = hws.size
+    sur = _surrogate(surrogate, lidar)
+    arm = np.broadcast_to(np.asarray(lever_arm_m, float), (n,))
+    out = np.full(n, np.nan)
+    method = np.full(n, "none", dtype=object)
+
+    def _fill(values, ok, label):
+        use = ok & (method == "none") & np.isfinite(values)
+        out[use] = values[use]
+        method[use] = label
+
+    if spectrum is not None:
+        ok = np.isfinite(spectrum.var_along_deg2).all(axis=-1) & np.isfinite(spectrum.period_s).all(
+            axis=-1
+        )
+        if ok.shape != (n,):
+            raise ValueError(f"record_sigma_z_ms: spectrum has {ok.size} records, hws_ms has {n}")
+        var = np.where(ok[:, None], spectrum.var_along_deg2, 0.0)
+        per = np.where(ok[:, None], spectrum.period_s, 4.0)
+        _fill(spectral_sigma_z_ms(hws, var, per, lever_arm_m=arm, surrogate=sur), ok, "bands")
+    if tilt_along_wind_std_deg is not None and tilt_period_zero_crossing_s is not None:
+        sd = np.broadcast_to(np.asarray(tilt_along_wind_std_deg, float), (n,))
+        tz = np.broadcast_to(np.asarray(tilt_period_zero_crossing_s, float), (n,))
+        ok = np.isfinite(sd) & np.isfinite(tz)
+        _fill(moments_sigma_z_ms(hws, sd, tz, lever_arm_m=arm, surrogate=sur), ok, "moments")
+    if amplitude_deg is not None and period_s is not None:
+        a = np.broadcast_to(np.asarray(amplitude_deg, float), (n,))
+        t = np.broadcast_to(np.asarray(period_s, float), (n,))
+        ok = np.isfinite(a) & np.isfinite(t)
+        _fill(harmonic_sigma_z_ms(hws, a, t, lever_arm_m=arm, surrogate=sur), ok, "harmonic")
+    return out, method.astype(str)
 
 
 def two_period_from_bands(
