@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -314,3 +316,51 @@ def test_float_timestamp_jitter_does_not_drift_over_a_day():
     out = imu.motion_statistics(df, bimodal=False)
     assert len(out) == 144
     np.testing.assert_allclose(out["imu_availability_pct"], 100.0)
+
+
+# --------------------------------------------------------------------------- wind-frame tilt spectrum
+def test_tilt_spectrum_statistics_uses_yaw_column_and_record_wind_direction():
+    t = np.arange(0, 1200, 1 / FS)  # two windows
+    x = sine(3.0, 4.0, t=t)
+    frame = imu_frame(t, 0 * x, x)
+    frame["yaw_deg"] = 0.0
+    wd = pd.Series(
+        [90.0, 0.0], index=pd.to_datetime([1.4274e9, 1.4274e9 + 600], unit="s", utc=True)
+    )
+    table, spec = imu.tilt_spectrum_statistics(frame, wd)
+    assert list(table.columns) == ["timestamp", *imu.TILT_SPECTRUM_COLUMNS]
+    assert len(table) == 2 and spec.var_along_deg2.shape == (2, 8)
+    # window 1: pitch tilts east, wind along east-west -> all along; window 2: all across
+    assert table.tilt_along_wind_std_deg[0] * np.sqrt(2) == pytest.approx(3.0, rel=1e-2)
+    assert table.tilt_across_wind_std_deg[0] < 1e-6
+    assert table.tilt_along_wind_std_deg[1] < 1e-6
+    assert table.tilt_across_wind_std_deg[1] * np.sqrt(2) == pytest.approx(3.0, rel=1e-2)
+    assert table.tilt_period_zero_crossing_s[0] == pytest.approx(4.0, rel=1e-2)
+    assert table.tilt_period_mean_s[0] == pytest.approx(4.0, rel=1e-2)
+
+
+def test_tilt_spectrum_statistics_missing_wind_direction_gives_nan_row():
+    x = sine(3.0, 4.0)
+    frame = imu_frame(T10, x, x)  # no yaw column: heading 0
+    table, spec = imu.tilt_spectrum_statistics(frame, pd.Series(dtype=float))
+    assert len(table) == 1 and table[list(imu.TILT_SPECTRUM_COLUMNS)].isna().all(axis=None)
+    assert np.isnan(spec.var_along_deg2).all()
+
+
+def test_optional_tilt_columns_read_and_bounds_checked(tmp_path):
+    from flidar_uq.data import io
+
+    df = pd.read_csv(Path(__file__).parent / "data" / "hand_written_campaign.csv")
+    df["tilt_along_wind_std_deg"] = 1.5
+    df["tilt_across_wind_std_deg"] = np.nan
+    df["tilt_period_zero_crossing_s"] = 4.0
+    df["tilt_period_mean_s"] = 4.2
+    df.to_csv(tmp_path / "ok.csv", index=False)
+    rec = io.read_records(tmp_path / "ok.csv")
+    assert set(imu.TILT_SPECTRUM_COLUMNS) <= set(rec.columns)
+    df.loc[3, "tilt_period_zero_crossing_s"] = 0.0
+    df.to_csv(tmp_path / "bad.csv", index=False)
+    with pytest.raises(
+        ValueError, match=r"row 4 .*'tilt_period_zero_crossing_s'.*outside \(0, 60\]"
+    ):
+        io.read_records(tmp_path / "bad.csv")

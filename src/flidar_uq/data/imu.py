@@ -38,6 +38,12 @@ import pandas as pd
 from scipy.signal import find_peaks, welch
 
 from flidar_uq.data.metrics import pearson_r
+from flidar_uq.data.schema import TILT_SPECTRUM_COLUMNS
+from flidar_uq.physics.motion_spectrum import (
+    TiltBandSpectrum,
+    tilt_band_spectrum,
+    wind_frame_tilt_deg,
+)
 
 __all__ = [
     "AMPLITUDE_METHODS",
@@ -53,6 +59,10 @@ __all__ = [
     "motion_statistics",
     "record_motion",
     "roll_pitch_correlation",
+    "tilt_band_statistics",
+    "TILT_SPECTRUM_COLUMNS",
+    "tilt_spectrum_columns",
+    "tilt_spectrum_statistics",
 ]
 
 AMPLITUDE_METHODS = ("std", "spectral", "zero_crossing")
@@ -589,3 +599,135 @@ def roll_pitch_correlation(records: pd.DataFrame) -> dict[str, float]:
         "r_period": float(pearson_r(x[ok, 2], x[ok, 3])),
         "n": int(ok.sum()),
     }
+
+
+# --------------------------------------------------------------------------- wind-frame tilt spectrum
+
+
+def tilt_band_statistics(
+    roll_deg,
+    pitch_deg,
+    yaw_deg,
+    wd_deg,
+    fs_hz: float,
+    *,
+    segment_s: float = 200.0,
+    n_bands: int = 8,
+    period_min_s: float = 1.0,
+    period_max_s: float = 20.0,
+) -> TiltBandSpectrum:
+    """Per-record tilt spectrum along and across the wind, reduced to period bands.
+
+    Each sample's (roll, pitch) is turned into the earth-frame tilt vector with the
+    sample's yaw and projected on the record's wind axis
+    (:func:`flidar_uq.physics.motion_spectrum.wind_frame_tilt_deg`); the Welch PSDs of the
+    two components (:func:`motion_spectrum`, gaps linearly filled) are reduced to
+    ``n_bands`` log-spaced bands (:func:`flidar_uq.physics.motion_spectrum.tilt_band_spectrum`).
+
+    Parameters
+    ----------
+    roll_deg, pitch_deg : array_like, shape (n,) or (nwin, n)
+        Uniformly sampled attitude, deg (NaN: missing sample).
+    yaw_deg : array_like, shape like roll_deg, or scalar
+        Yaw (counter-clockwise from above), deg; 0 if the heading is unknown (then the
+        wind direction must be given in the body frame). NaN yaw samples are filled
+        linearly (unwrap angles first if they jump by 360 deg).
+    wd_deg : array_like, shape () or (nwin,)
+        Mean wind direction of each record (record column ``wd_mean_deg``), deg.
+    fs_hz : float
+        Sampling rate, Hz.
+    segment_s, n_bands, period_min_s, period_max_s
+        Welch segment length (s) and the bands.
+
+    Returns
+    -------
+    TiltBandSpectrum
+        Arrays of shape ``(nwin, ...)`` (``nwin = 1`` for a single series).
+    """
+    r, _ = _as_2d(roll_deg)
+    p, _ = _as_2d(pitch_deg)
+    y = np.broadcast_to(np.asarray(yaw_deg, np.float64), r.shape)
+    y = _fill(np.array(y)) if y.ndim == 2 else y
+    wd = np.asarray(wd_deg, np.float64).reshape(-1, 1) if np.ndim(wd_deg) else float(wd_deg)
+    along, across = wind_frame_tilt_deg(r, p, y, wd)
+    f, pa = motion_spectrum(along, fs_hz, segment_s=segment_s)
+    _, pc = motion_spectrum(across, fs_hz, segment_s=segment_s)
+    return tilt_band_spectrum(
+        f, pa, pc, n_bands=n_bands, period_min_s=period_min_s, period_max_s=period_max_s
+    )
+
+
+def tilt_spectrum_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
+    """The optional record columns of :data:`TILT_SPECTRUM_COLUMNS` from a band spectrum.
+
+    ``tilt_along_wind_std_deg`` = ``sqrt(m0)`` of the along-wind tilt in the bands,
+    ``tilt_across_wind_std_deg`` likewise across, ``tilt_period_zero_crossing_s`` =
+    ``sqrt(m0/m2)`` (along), ``tilt_period_mean_s`` = ``m0/m1`` (along); deg and s.
+    """
+    return {
+        "tilt_along_wind_std_deg": spec.along_std_deg,
+        "tilt_across_wind_std_deg": spec.across_std_deg,
+        "tilt_period_zero_crossing_s": spec.tz_s,
+        "tilt_period_mean_s": spec.tm01_s,
+    }
+
+
+def tilt_spectrum_statistics(
+    imu: pd.DataFrame,
+    wd_deg,
+    *,
+    window_s: float = 600.0,
+    segment_s: float = 200.0,
+    n_bands: int = 8,
+    min_coverage_pct: float = 80.0,
+) -> tuple[pd.DataFrame, TiltBandSpectrum]:
+    """Wind-frame tilt statistics of a raw IMU series, per 10-min window.
+
+    Parameters
+    ----------
+    imu : pandas.DataFrame
+        Validated IMU series: ``timestamp``, ``roll_deg``, ``pitch_deg`` and optionally
+        ``yaw_deg`` (without it the heading is taken as 0, i.e. body y = north).
+    wd_deg : pandas.Series or callable
+        Mean wind direction per window, deg: a Series indexed by the window start
+        (UTC timestamps, e.g. ``records.groupby("timestamp")["wd_mean_deg"].mean()``)
+        or a function of the window-start timestamps returning an array.
+    window_s, segment_s, n_bands, min_coverage_pct
+        Window length (s), Welch segment (s), number of bands, coverage threshold (%).
+
+    Returns
+    -------
+    table : pandas.DataFrame
+        One row per window with a sample: ``timestamp`` (window start) and the columns of
+        :data:`TILT_SPECTRUM_COLUMNS` (NaN for windows below the coverage threshold or
+        without a wind direction).
+    spectrum : TiltBandSpectrum
+        The band description of the same rows (NaN rows for the NaN windows).
+    """
+    t_ns = pd.DatetimeIndex(imu["timestamp"]).as_unit("ns").asi8
+    window_ns = int(round(window_s * 1e9))
+    t0_ns = (int(t_ns[0]) // window_ns) * window_ns
+    names = ["roll_deg", "pitch_deg"] + (["yaw_deg"] if "yaw_deg" in imu.columns else [])
+    vals = imu[names].to_numpy(dtype=np.float64)
+    start_s, grid, fs = window_series((t_ns - t0_ns) * 1e-9, vals, window_s=window_s)
+    stamps = pd.to_datetime(t0_ns + np.rint(start_s * 1e9).astype(np.int64), utc=True)
+    if callable(wd_deg):
+        wd = np.asarray(wd_deg(stamps), np.float64)
+    else:
+        wd = pd.Series(wd_deg).reindex(stamps).to_numpy(dtype=np.float64)
+    coverage = 100.0 * np.isfinite(grid[..., :2]).all(axis=-1).mean(axis=-1)
+    present = np.isfinite(grid[..., :2]).any(axis=(1, 2))
+    good = present & (coverage >= min_coverage_pct) & np.isfinite(wd)
+    yaw = grid[..., 2] if grid.shape[-1] == 3 else 0.0
+    spec = tilt_band_statistics(
+        grid[..., 0],
+        grid[..., 1],
+        yaw,
+        np.where(good, wd, 0.0),
+        fs,
+        segment_s=segment_s,
+        n_bands=n_bands,
+    ).masked(good)
+    table = pd.DataFrame({"timestamp": stamps} | tilt_spectrum_columns(spec))
+    keep = np.flatnonzero(present)
+    return table.iloc[keep].reset_index(drop=True), spec.take(keep)

@@ -23,6 +23,7 @@ __all__ = [
     "LOS_COLUMNS",
     "TRUTH_PREFIX",
     "MOTION_COLUMNS",
+    "TILT_SPECTRUM_COLUMNS",
     "RADIAN_SUSPECT_MAX_DEG",
     "RADIAN_SUSPECT_MIN_COUNT",
     "IMU_RATE_RANGE_HZ",
@@ -227,6 +228,49 @@ RECORD_COLUMNS: tuple[Column, ...] = (
         "Share of the roll+pitch variance in the shorter-period peak (NaN if unimodal).",
     ),
     Column(
+        "tilt_along_wind_std_deg",
+        "float",
+        "deg",
+        False,
+        0.0,
+        45.0,
+        True,
+        "Std of the tilt component along the mean wind direction (heading-corrected), "
+        "1-20 s band (NaN: IMU gap or no wind direction).",
+    ),
+    Column(
+        "tilt_across_wind_std_deg",
+        "float",
+        "deg",
+        False,
+        0.0,
+        45.0,
+        True,
+        "Std of the tilt component across the mean wind direction, 1-20 s band.",
+    ),
+    Column(
+        "tilt_period_zero_crossing_s",
+        "float",
+        "s",
+        False,
+        0.0,
+        60.0,
+        True,
+        "Zero-crossing period sqrt(m0/m2) of the along-wind tilt spectrum, 1-20 s band.",
+        lower_exclusive=True,
+    ),
+    Column(
+        "tilt_period_mean_s",
+        "float",
+        "s",
+        False,
+        0.0,
+        60.0,
+        True,
+        "Mean period m0/m1 of the along-wind tilt spectrum, 1-20 s band.",
+        lower_exclusive=True,
+    ),
+    Column(
         "imu_availability_pct",
         "float",
         "%",
@@ -274,6 +318,15 @@ MOTION_COLUMNS = (
     "pitch_amplitude_deg",
     "roll_period_s",
     "pitch_period_s",
+)
+
+#: Optional wind-frame tilt columns (docs/data-format.md "Wind-frame tilt"); when they are
+#: absent, sigma_Z falls back to the roll/pitch amplitude and period columns.
+TILT_SPECTRUM_COLUMNS = (
+    "tilt_along_wind_std_deg",
+    "tilt_across_wind_std_deg",
+    "tilt_period_zero_crossing_s",
+    "tilt_period_mean_s",
 )
 
 IMU_COLUMNS: tuple[Column, ...] = (

@@ -1,0 +1,654 @@
+"""Per-record sigma_Z from the buoy's tilt spectrum (broadband, directional seas).
+
+Seed 000's sigma_Z assumes harmonic roll and pitch of one amplitude and period. A real
+record is broadband and directional; this module computes its sigma_Z from the tilt
+spectrum resolved along and across the wind (design.md "What real seas add"):
+
+1. **Wind-frame tilt** (:func:`wind_frame_tilt_deg`). The body z axis in the earth frame
+   is ``R @ (0, 0, 1)`` with ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (docs/conventions.md); its
+   horizontal part is the *tilt vector* (east, north), small-angle ``Rz(yaw) (pitch, -roll)``:
+   pitch tilts the head towards the body x axis, roll towards -y. "Along the wind" is the
+   component on the horizontal wind axis ``e_w = (sin wd, cos wd)`` (``wd`` meteorological,
+   so ``e_w`` points upwind; only variances are used, so the sign is immaterial); "across"
+   is the component on ``(cos wd, -sin wd)``. Angles: ``arcsin`` of the components.
+2. **Band description** (:func:`tilt_band_spectrum`): the along/across tilt PSDs reduced
+   to ``n_bands`` log-spaced period bands (variance per band, deg^2, and the band's
+   centroid period ``1 / (m1/m0)``), plus the spectral moments of the along-wind tilt.
+3. **sigma_Z by quadrature over bands** (:func:`spectral_sigma_z_ms`):
+   ``sigma_Z^2 = sum_b sigma_Z(A_b, T_b)^2``, ``A_b = sqrt(2 var_along_b)``, each band a
+   single-axis tilt along the wind. Measured with the direct kernel
+   (:func:`flidar_uq.physics.simulator.sigma_z`, roll-only motion): a single-axis tilt of
+   amplitude A along the wind gives the seed's roll-and-pitch sigma_Z at amplitude A
+   (within 0.05 % without lever arm), at angle psi to the wind ``|cos psi|`` times it
+   (within 0.4 % up to 10 deg), and **exactly zero across the wind without lever arm**
+   (rolling about the wind axis leaves the VAD retrieval exact). With a lever arm the
+   across-wind tilt gives a small HWS-independent term (0.012 m/s at 3 deg, 4 s, 2.5 m;
+   0.019 m/s at 10 deg, 6 s), a product of tilt and head velocity; it is neglected here
+   (its effect on the sum is measured in ``benchmarks/spectral_sigma_z.py``).
+   The translation of the head (``v = omega x r``, ``r = (0, 0, h)``) is along the tilt
+   rate, i.e. along the wind for the along-wind band, and coherent with its rotation
+   error; it enters through the surrogate's ``sigma_z_lever_ms`` for the same band.
+   The quadrature sum itself is exact to first order in the tilt (design.md: 0.08 % at
+   2 deg, 1.8 % at 10 deg against the direct multi-phase integral).
+4. **Moments-only fallback** (:func:`moments_sigma_z_ms`): one harmonic of amplitude
+   ``sqrt(2) * std_along`` at the zero-crossing period ``Tz = sqrt(m0/m2)``;
+   :func:`record_sigma_z_ms` picks, per record, bands > moments > seed harmonic.
+5. **Two periods** (:func:`two_period_from_bands`): two separated band groups.
+6. **Attitude replay** (:func:`replay_sigma_z`): the measured attitude series replayed
+   through the scan simulator with a constant wind (the realised sigma_Z of a record).
+
+Method notes and measured numbers: ``docs/motion_spectrum.md``. Imports only NumPy and
+:mod:`flidar_uq.physics` (physics layer rule).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from flidar_uq.physics.lidar import LidarGeometry, get_lidar, scan_times_azimuths, wind_vector_ms
+from flidar_uq.physics.motion import SampledMotion
+from flidar_uq.physics.simulator import simulate_scans
+
+__all__ = [
+    "TiltBandSpectrum",
+    "ReplayResult",
+    "wind_frame_tilt_deg",
+    "band_edges_s",
+    "tilt_band_spectrum",
+    "spectral_sigma_z_ms",
+    "moments_sigma_z_ms",
+    "harmonic_sigma_z_ms",
+    "record_sigma_z_ms",
+    "RECORD_METHODS",
+    "two_period_from_bands",
+    "replay_sigma_z",
+]
+
+#: Period range of the surrogate (and of the default bands), s.
+PERIOD_RANGE_S = (1.0, 20.0)
+
+
+def wind_frame_tilt_deg(roll_deg, pitch_deg, yaw_deg=0.0, wd_deg=0.0):
+    """Tilt components along and across the wind, per sample.
+
+    The tilt vector is the horizontal part of the body z axis in the earth frame,
+    ``R @ (0, 0, 1)`` with ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (docs/conventions.md):
+    ``(cy sp cr + sy sr, sy sp cr - cy sr)`` (east, north), small-angle
+    ``Rz(yaw) (pitch, -roll)``. It is projected on the wind axis
+    ``e_w = (sin wd, cos wd)`` (along) and on ``(cos wd, -sin wd)`` (across).
+
+    Parameters
+    ----------
+    roll_deg, pitch_deg : array_like
+        Roll about body x and pitch about body y, deg.
+    yaw_deg : array_like
+        Yaw about body z, deg, counter-clockwise from above (body y = north at 0).
+        For a compass heading ``hdg`` (clockwise from north) pass ``-hdg``.
+    wd_deg : array_like
+        Meteorological wind direction (from, clockwise from north), deg; broadcast
+        with the angles (e.g. shape ``(nrec, 1)`` against series ``(nrec, n)``).
+
+    Returns
+    -------
+    along_deg, across_deg : ndarray
+        Broadcast shape; ``arcsin`` of the components, deg. A pure pitch tilt with
+        yaw 0 is along the wind for ``wd = 90`` or ``270`` deg (wind along east-west).
+    """
+    r, p, y = (np.deg2rad(np.asarray(a, float)) for a in (roll_deg, pitch_deg, yaw_deg))
+    wd = np.deg2rad(np.asarray(wd_deg, float))
+    cr, sr, sp, cy, sy = np.cos(r), np.sin(r), np.sin(p), np.cos(y), np.sin(y)
+    east = cy * sp * cr + sy * sr  # (R @ z)_x
+    north = sy * sp * cr - cy * sr  # (R @ z)_y
+    along = east * np.sin(wd) + north * np.cos(wd)
+    across = east * np.cos(wd) - north * np.sin(wd)
+    return np.rad2deg(np.arcsin(np.clip(along, -1, 1))), np.rad2deg(
+        np.arcsin(np.clip(across, -1, 1))
+    )
+
+
+def band_edges_s(n_bands: int = 8, period_min_s: float = 1.0, period_max_s: float = 20.0):
+    """Log-spaced period band edges, s, shape ``(n_bands + 1,)``, increasing."""
+    if int(n_bands) < 1 or not 0 < period_min_s < period_max_s:
+        raise ValueError(
+            f"band_edges_s: need n_bands >= 1 and 0 < period_min_s < period_max_s, got "
+            f"{n_bands}, {period_min_s}, {period_max_s}"
+        )
+    return np.geomspace(period_min_s, period_max_s, int(n_bands) + 1)
+
+
+@dataclass(frozen=True)
+class TiltBandSpectrum:
+    """Tilt spectrum of records reduced to period bands (all arrays lead with ``nrec``).
+
+    Attributes
+    ----------
+    edges_s : ndarray, shape (nb + 1,)
+        Band edges in period, s (increasing).
+    period_s : ndarray, shape (nrec, nb)
+        Band centroid period ``1 / f_c`` with ``f_c`` the variance-weighted mean frequency
+        of the along + across spectrum in the band, s (geometric band centre if empty).
+    var_along_deg2, var_across_deg2 : ndarray, shape (nrec, nb)
+        Tilt variance per band along and across the wind, deg^2.
+    var_outside_deg2 : ndarray, shape (nrec,)
+        Along + across tilt variance at periods outside the bands, deg^2 (not used by
+        :func:`spectral_sigma_z_ms`; reported so that a user can see what is left out).
+    m0_deg2, m1_deg2_hz, m2_deg2_hz2 : ndarray, shape (nrec,)
+        In-band spectral moments ``m_k = int f^k S_along(f) df`` of the along-wind tilt.
+    tp_s : ndarray, shape (nrec,)
+        Peak period of the along + across tilt spectrum inside the bands, s.
+    """
+
+    edges_s: np.ndarray
+    period_s: np.ndarray
+    var_along_deg2: np.ndarray
+    var_across_deg2: np.ndarray
+    var_outside_deg2: np.ndarray
+    m0_deg2: np.ndarray
+    m1_deg2_hz: np.ndarray
+    m2_deg2_hz2: np.ndarray
+    tp_s: np.ndarray
+
+    _RECORD_FIELDS = (
+        "period_s",
+        "var_along_deg2",
+        "var_across_deg2",
+        "var_outside_deg2",
+        "m0_deg2",
+        "m1_deg2_hz",
+        "m2_deg2_hz2",
+        "tp_s",
+    )
+
+    def take(self, index) -> TiltBandSpectrum:
+        """The records ``index`` (integer array or boolean mask) as a new spectrum."""
+        return replace(self, **{k: getattr(self, k)[index] for k in self._RECORD_FIELDS})
+
+    def masked(self, keep) -> TiltBandSpectrum:
+        """A copy with NaN in every record where the boolean ``keep`` (nrec,) is False."""
+        keep = np.asarray(keep, bool)
+        out = {}
+        for k in self._RECORD_FIELDS:
+            a = np.array(getattr(self, k), dtype=float)
+            a[~keep] = np.nan
+            out[k] = a
+        return replace(self, **out)
+
+    @property
+    def tz_s(self) -> np.ndarray:
+        """Zero-crossing period of the along-wind tilt, ``sqrt(m0 / m2)``, s."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.sqrt(self.m0_deg2 / self.m2_deg2_hz2)
+
+    @property
+    def tm01_s(self) -> np.ndarray:
+        """Mean period of the along-wind tilt, ``m0 / m1``, s."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return self.m0_deg2 / self.m1_deg2_hz
+
+    @property
+    def along_std_deg(self) -> np.ndarray:
+        """In-band std of the along-wind tilt, deg."""
+        return np.sqrt(self.var_along_deg2.sum(axis=-1))
+
+    @property
+    def across_std_deg(self) -> np.ndarray:
+        """In-band std of the across-wind tilt, deg."""
+        return np.sqrt(self.var_across_deg2.sum(axis=-1))
+
+    @property
+    def along_share(self) -> np.ndarray:
+        """Share of the in-band tilt variance along the wind, in [0, 1]."""
+        va = self.var_along_deg2.sum(axis=-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return va / (va + self.var_across_deg2.sum(axis=-1))
+
+
+def tilt_band_spectrum(
+    f_hz,
+    psd_along,
+    psd_across,
+    *,
+    n_bands: int = 8,
+    period_min_s: float = 1.0,
+    period_max_s: float = 20.0,
+) -> TiltBandSpectrum:
+    """Reduce along/across-wind tilt PSDs to period bands and spectral moments.
+
+    Parameters
+    ----------
+    f_hz : array_like, shape (nf,)
+        Uniform frequencies, Hz (e.g. Welch: ``flidar_uq.data.imu.motion_spectrum``).
+    psd_along, psd_across : array_like, shape (nf,) or (nrec, nf)
+        One-sided PSDs of the along- and across-wind tilt, deg^2/Hz
+        (``psd.sum(-1) * df`` is the variance).
+    n_bands, period_min_s, period_max_s : int, float, float
+        Log-spaced bands between the two periods, s.
+
+    Returns
+    -------
+    TiltBandSpectrum
+    """
+    f = np.asarray(f_hz, float)
+    pa = np.atleast_2d(np.asarray(psd_along, float))
+    pc = np.atleast_2d(np.asarray(psd_across, float))
+    if pa.shape != pc.shape or pa.shape[-1] != f.size or f.size < 2:
+        raise ValueError(
+            f"tilt_band_spectrum: psd shapes {pa.shape}, {pc.shape} do not match f_hz {f.shape}"
+        )
+    df = f[1] - f[0]
+    edges = band_edges_s(n_bands, period_min_s, period_max_s)
+    with np.errstate(divide="ignore"):
+        per = np.where(f > 0, 1.0 / f, np.inf)
+    # bin k belongs to band b if edges[b] <= 1/f < edges[b+1] (last band closed)
+    idx = np.searchsorted(edges, per, side="right") - 1
+    idx = np.where(per == edges[-1], n_bands - 1, idx)
+    inside = (idx >= 0) & (idx < n_bands)
+    onehot = (idx[:, None] == np.arange(n_bands)[None, :]) & inside[:, None]  # (nf, nb)
+    w = onehot * df
+    var_a = pa @ w
+    var_c = pc @ w
+    tot = pa + pc
+    v_tot = tot @ w
+    fm = (tot * f) @ w
+    centre = np.sqrt(edges[:-1] * edges[1:])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        period = np.where(v_tot > 0, v_tot / fm, centre[None, :])
+    outside = (tot * (~inside & (f > 0))).sum(axis=-1) * df
+    pa_in = pa * inside
+    m0 = pa_in.sum(axis=-1) * df
+    m1 = (pa_in * f).sum(axis=-1) * df
+    m2 = (pa_in * f**2).sum(axis=-1) * df
+    k = np.argmax(np.where(inside, tot, -np.inf), axis=-1)
+    tp = np.where(tot[np.arange(tot.shape[0]), k] > 0, 1.0 / f[k], np.nan)
+    return TiltBandSpectrum(edges, period, var_a, var_c, outside, m0, m1, m2, tp)
+
+
+def _sigma_single(sur, hws, amp, per, lever_arm_m):
+    if np.all(np.asarray(lever_arm_m) == 0):
+        return sur.sigma_z_ms(hws, amp, per)
+    return sur.sigma_z_lever_ms(hws, amp, per, lever_arm_m)
+
+
+def _surrogate(surrogate, lidar):
+    if surrogate is not None:
+        return surrogate
+    from flidar_uq.physics.surrogate import get_surrogate
+
+    return get_surrogate(lidar)
+
+
+def spectral_sigma_z_ms(
+    hws_ms,
+    band_var_along_deg2,
+    band_period_s,
+    *,
+    lever_arm_m=0.0,
+    lidar: str | LidarGeometry = "zephir300",
+    surrogate=None,
+) -> np.ndarray:
+    """sigma_Z of records from their along-wind tilt bands (quadrature sum over bands).
+
+    ``sigma_Z^2 = sum_b sigma_Z(HWS, A_b, T_b[, h])^2`` with ``A_b = sqrt(2 var_b)``
+    (each band a single-axis harmonic tilt along the wind, which has the sigma_Z of the
+    seed's roll-and-pitch case at the same amplitude; module docstring). sigma_Z of one
+    band is the direction-averaged surrogate (``sigma_z_ms``, or ``sigma_z_lever_ms``
+    with a lever arm). Across-wind tilt contributes nothing without lever arm and is
+    neglected with one.
+
+    Parameters
+    ----------
+    hws_ms : array_like, shape (nrec,) or scalar
+        Horizontal wind speed, m/s.
+    band_var_along_deg2 : array_like, shape (nrec, nb) or (nb,)
+        Along-wind tilt variance per band, deg^2.
+    band_period_s : array_like, shape (nrec, nb) or (nb,)
+        Band period, s; clipped to the surrogate range [1, 20] s.
+    lever_arm_m : float or array_like, shape (nrec,)
+        Head height above the rotation centre, m (``0 <= h / HWS <= 1 s`` for the
+        lever-arm table; NaN outside).
+    lidar : str or LidarGeometry
+        Used when ``surrogate`` is None.
+    surrogate : SigmaZSurrogate, optional
+        A prebuilt :func:`flidar_uq.physics.surrogate.get_surrogate`.
+
+    Returns
+    -------
+    ndarray, shape (nrec,) (or scalar for 1-D bands)
+        sigma_Z, m/s; 0 for zero motion; NaN where a band amplitude exceeds 25 deg or
+        the lever ratio is outside the table.
+    """
+    var = np.asarray(band_var_along_deg2, float)
+    if np.any(var < 0):
+        raise ValueError("spectral_sigma_z_ms: band_var_along_deg2 must be >= 0")
+    per = np.clip(np.asarray(band_period_s, float), *PERIOD_RANGE_S)
+    hws = np.asarray(hws_ms, float)[..., None]
+    arm = np.asarray(lever_arm_m, float)
+    arm = arm[..., None] if arm.ndim else arm
+    sur = _surrogate(surrogate, lidar)
+    s = _sigma_single(sur, hws, np.sqrt(2.0 * var), per, arm)
+    s = np.where(var == 0, 0.0, s)
+    return np.sqrt(np.sum(s**2, axis=-1))
+
+
+def harmonic_sigma_z_ms(
+    hws_ms, amplitude_deg, period_s, *, lever_arm_m=0.0, lidar="zephir300", surrogate=None
+) -> np.ndarray:
+    """Seed-000 sigma_Z of one roll-and-pitch harmonic (surrogate), m/s; broadcasting.
+
+    ``amplitude_deg`` (deg) is the amplitude of roll and of pitch, ``period_s`` in [1, 20]
+    s (clipped), ``lever_arm_m`` as in :func:`spectral_sigma_z_ms`.
+    """
+    sur = _surrogate(surrogate, lidar)
+    per = np.clip(np.asarray(period_s, float), *PERIOD_RANGE_S)
+    return _sigma_single(
+        sur,
+        np.asarray(hws_ms, float),
+        np.asarray(amplitude_deg, float),
+        per,
+        np.asarray(lever_arm_m, float),
+    )
+
+
+def moments_sigma_z_ms(
+    hws_ms,
+    tilt_along_wind_std_deg,
+    tilt_period_s,
+    *,
+    lever_arm_m=0.0,
+    lidar="zephir300",
+    surrogate=None,
+) -> np.ndarray:
+    """Table-only fallback: one harmonic along the wind from two spectral moments.
+
+    ``sigma_Z = sigma_Z(HWS, sqrt(2) std_along, T)`` with ``T`` the zero-crossing period
+    ``Tz = sqrt(m0/m2)`` of the along-wind tilt (record column
+    ``tilt_period_zero_crossing_s``; design.md: within 1-3 % for JONSWAP seas).
+
+    Parameters
+    ----------
+    hws_ms : array_like
+        m/s.
+    tilt_along_wind_std_deg : array_like
+        Std of the along-wind tilt (``sqrt(m0)``), deg.
+    tilt_period_s : array_like
+        Tz (or another representative period), s; clipped to [1, 20] s.
+    lever_arm_m, lidar, surrogate
+        As in :func:`spectral_sigma_z_ms`.
+
+    Returns
+    -------
+    ndarray
+        sigma_Z, m/s (broadcast shape).
+    """
+    return harmonic_sigma_z_ms(
+        hws_ms,
+        np.sqrt(2.0) * np.asarray(tilt_along_wind_std_deg, float),
+        tilt_period_s,
+        lever_arm_m=lever_arm_m,
+        lidar=lidar,
+        surrogate=surrogate,
+    )
+
+
+#: Methods of :func:`record_sigma_z_ms`, best first.
+RECORD_METHODS = ("bands", "moments", "harmonic", "none")
+
+
+def record_sigma_z_ms(
+    hws_ms,
+    *,
+    spectrum: TiltBandSpectrum | None = None,
+    tilt_along_wind_std_deg=None,
+    tilt_period_zero_crossing_s=None,
+    amplitude_deg=None,
+    period_s=None,
+    lever_arm_m=0.0,
+    lidar: str | LidarGeometry = "zephir300",
+    surrogate=None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """sigma_Z per record with the best motion description each record has.
+
+    Per record, in this order: the band sum (:func:`spectral_sigma_z_ms`) where ``spectrum``
+    has finite bands; else the moments-only value (:func:`moments_sigma_z_ms`) where the
+    optional record columns ``tilt_along_wind_std_deg`` and ``tilt_period_zero_crossing_s``
+    are finite; else the seed-000 harmonic (:func:`harmonic_sigma_z_ms`) at the record's
+    ``amplitude_deg`` / ``period_s`` (e.g. ``flidar_uq.data.imu.record_motion``), which
+    ignores the wind direction (0.43-1.88 of the realised value in
+    ``benchmarks/spectral_sigma_z.py``: give it wider intervals); else NaN.
+
+    Parameters
+    ----------
+    hws_ms : array_like, shape (nrec,)
+        m/s.
+    spectrum : TiltBandSpectrum, optional
+        Bands of the same ``nrec`` records (NaN rows where no raw IMU series).
+    tilt_along_wind_std_deg, tilt_period_zero_crossing_s : array_like, shape (nrec,), optional
+        Record columns, deg and s.
+    amplitude_deg, period_s : array_like, shape (nrec,), optional
+        Seed-000 single harmonic (roll and pitch amplitude, deg; period, s).
+    lever_arm_m, lidar, surrogate
+        As in :func:`spectral_sigma_z_ms`.
+
+    Returns
+    -------
+    sigma_z_ms : ndarray, shape (nrec,)
+        m/s.
+    method : ndarray of str, shape (nrec,)
+        One of :data:`RECORD_METHODS` per record.
+    """
+    hws = np.atleast_1d(np.asarray(hws_ms, float))
+    n = hws.size
+    sur = _surrogate(surrogate, lidar)
+    arm = np.broadcast_to(np.asarray(lever_arm_m, float), (n,))
+    out = np.full(n, np.nan)
+    method = np.full(n, "none", dtype=object)
+
+    def _fill(values, ok, label):
+        use = ok & (method == "none") & np.isfinite(values)
+        out[use] = values[use]
+        method[use] = label
+
+    if spectrum is not None:
+        ok = np.isfinite(spectrum.var_along_deg2).all(axis=-1) & np.isfinite(spectrum.period_s).all(
+            axis=-1
+        )
+        if ok.shape != (n,):
+            raise ValueError(f"record_sigma_z_ms: spectrum has {ok.size} records, hws_ms has {n}")
+        var = np.where(ok[:, None], spectrum.var_along_deg2, 0.0)
+        per = np.where(ok[:, None], spectrum.period_s, 4.0)
+        _fill(spectral_sigma_z_ms(hws, var, per, lever_arm_m=arm, surrogate=sur), ok, "bands")
+    if tilt_along_wind_std_deg is not None and tilt_period_zero_crossing_s is not None:
+        sd = np.broadcast_to(np.asarray(tilt_along_wind_std_deg, float), (n,))
+        tz = np.broadcast_to(np.asarray(tilt_period_zero_crossing_s, float), (n,))
+        ok = np.isfinite(sd) & np.isfinite(tz)
+        _fill(moments_sigma_z_ms(hws, sd, tz, lever_arm_m=arm, surrogate=sur), ok, "moments")
+    if amplitude_deg is not None and period_s is not None:
+        a = np.broadcast_to(np.asarray(amplitude_deg, float), (n,))
+        t = np.broadcast_to(np.asarray(period_s, float), (n,))
+        ok = np.isfinite(a) & np.isfinite(t)
+        _fill(harmonic_sigma_z_ms(hws, a, t, lever_arm_m=arm, surrogate=sur), ok, "harmonic")
+    return out, method.astype(str)
+
+
+def two_period_from_bands(
+    band_var_deg2,
+    band_period_s,
+    *,
+    min_share: float = 0.2,
+    min_period_ratio: float = 1.5,
+    max_valley_ratio: float = 0.5,
+):
+    """Two separated peaks in a record's band spectrum: periods and variance share.
+
+    The bands (log-spaced, so band variance is a density per log-period) are split at
+    one band boundary into a short- and a long-period group. A split is accepted if each
+    group holds at least ``min_share`` of the variance, their centroid periods differ by
+    at least ``min_period_ratio``, each group has its own local maximum, and the lowest
+    band between the two maxima is at most ``max_valley_ratio`` of the smaller maximum
+    (a real valley, so one broad peak is never split). Among accepted splits the one at
+    the valley is used. "Two-period" thus means: a share of the record's tilt variance.
+
+    Parameters
+    ----------
+    band_var_deg2 : array_like, shape (nrec, nb) or (nb,)
+        Variance per band (e.g. along + across, or along only), deg^2.
+    band_period_s : array_like, same shape
+        Band periods, s, increasing along the last axis.
+    min_share, min_period_ratio, max_valley_ratio : float
+        Criteria, dimensionless.
+
+    Returns
+    -------
+    period1_s, period2_s : ndarray, shape (nrec,) or ()
+        Centroid periods (``1 / mean frequency``) of the short and the long group, s;
+        NaN if unimodal.
+    weight1 : ndarray, shape (nrec,) or ()
+        Share of the band variance in the short-period group; NaN if unimodal.
+    """
+    v = np.atleast_2d(np.asarray(band_var_deg2, float))
+    t = np.broadcast_to(np.atleast_2d(np.asarray(band_period_s, float)), v.shape)
+    n, nb = v.shape
+    p1, p2, w1 = (np.full(n, np.nan) for _ in range(3))
+    for i in range(n):  # one iteration per record; nb is small
+        vi, ti = v[i], t[i]
+        tot = vi.sum()
+        if not np.isfinite(tot) or tot <= 0 or nb < 3:
+            continue
+        pad = np.concatenate(([-np.inf], vi, [-np.inf]))
+        peaks = np.flatnonzero((pad[1:-1] > pad[:-2]) & (pad[1:-1] >= pad[2:]))
+        if peaks.size < 2:
+            continue
+        best = None
+        for a_i in range(peaks.size - 1):
+            a, b = peaks[a_i], peaks[a_i + 1]
+            valley = a + int(np.argmin(vi[a : b + 1]))
+            if valley in (a, b):
+                continue
+            low = min(vi[a], vi[b])
+            if vi[valley] > max_valley_ratio * low:
+                continue
+            # the valley band is split half-half between the groups
+            g1 = vi[:valley].sum() + 0.5 * vi[valley]
+            g2 = tot - g1
+            share = g1 / tot
+            if share < min_share or share > 1 - min_share:
+                continue
+            f = 1.0 / ti
+            wv = np.concatenate((vi[:valley], [0.5 * vi[valley]]))
+            fv = np.concatenate((f[:valley], [f[valley]]))
+            fc1 = (wv * fv).sum() / g1
+            wv2 = np.concatenate(([0.5 * vi[valley]], vi[valley + 1 :]))
+            fv2 = np.concatenate(([f[valley]], f[valley + 1 :]))
+            fc2 = (wv2 * fv2).sum() / g2
+            if fc1 / fc2 < min_period_ratio:
+                continue
+            score = min(share, 1 - share)
+            if best is None or score > best[0]:
+                best = (score, 1.0 / fc1, 1.0 / fc2, share)
+        if best is not None:
+            _, p1[i], p2[i], w1[i] = best
+    if np.ndim(band_var_deg2) == 1:
+        return p1[0], p2[0], w1[0]
+    return p1, p2, w1
+
+
+@dataclass(frozen=True)
+class ReplayResult:
+    """Result of :func:`replay_sigma_z`.
+
+    Attributes
+    ----------
+    sigma_z_ms : float
+        Std of ``Z = retrieved HWS - true HWS`` over the scans, m/s.
+    mean_z_ms : float
+        Mean of Z, m/s.
+    z_ms : ndarray, shape (nscan,)
+        Z of every scan, m/s.
+    """
+
+    sigma_z_ms: float
+    mean_z_ms: float
+    z_ms: np.ndarray
+
+
+def replay_sigma_z(
+    time_s,
+    roll_deg,
+    pitch_deg,
+    yaw_deg=None,
+    *,
+    hws_ms: float,
+    wd_deg: float,
+    lever_arm_m=0.0,
+    lidar: str | LidarGeometry = "zephir300",
+    scan_interval_s: float | None = None,
+    sign_ambiguity: bool = False,
+) -> ReplayResult:
+    """Realised sigma_Z of a record: its attitude series replayed through the scan simulator.
+
+    Scans start every ``scan_interval_s`` (default: back to back) over the series; each
+    scan's lines of sight see the linearly interpolated attitude
+    (:class:`~flidar_uq.physics.motion.SampledMotion`, rates by central differences) and a
+    constant wind; the lidar retrieves with its level geometry, compass-corrected by the
+    scan's mean yaw (:func:`~flidar_uq.physics.simulator.simulate_scans`), and
+    ``Z = retrieved HWS - HWS`` (seed 000 Eq. 1). The scan phase (azimuth of the first
+    line of sight) advances by the golden angle from scan to scan, so that it is spread
+    uniformly and deterministically (seed 000 Sec. 2.2: the scan phase is random).
+
+    Parameters
+    ----------
+    time_s : array_like, shape (m,)
+        Sample times, s, strictly increasing, no NaN (fill gaps first).
+    roll_deg, pitch_deg : array_like, shape (m,)
+        Attitude, deg.
+    yaw_deg : array_like, shape (m,), optional
+        Yaw (counter-clockwise from above), deg; unwrapped here (360-deg jumps removed).
+    hws_ms, wd_deg : float
+        Constant true wind: speed m/s, meteorological direction deg.
+    lever_arm_m : float or tuple of 3 floats
+        Head height above the rotation centre, or body-frame vector, m.
+    lidar : str or LidarGeometry
+    scan_interval_s : float, optional
+        Time between scan starts, s; default the scan period.
+    sign_ambiguity : bool
+        Default False: signed linear retrieval, as :func:`~flidar_uq.physics.simulator.sigma_z`.
+
+    Returns
+    -------
+    ReplayResult
+    """
+    g = get_lidar(lidar)
+    t = np.asarray(time_s, float)
+    arm = (
+        (0.0, 0.0, float(lever_arm_m))
+        if np.ndim(lever_arm_m) == 0
+        else tuple(map(float, lever_arm_m))
+    )
+    if yaw_deg is not None:  # a heading that wraps (359 -> 1 deg) must not swing through 180
+        yaw_deg = np.rad2deg(np.unwrap(np.deg2rad(np.asarray(yaw_deg, float))))
+    motion = SampledMotion(t, roll_deg, pitch_deg, yaw_deg, lever_arm_m=arm)
+    dt_scan = g.scan_period_s if scan_interval_s is None else float(scan_interval_s)
+    t_los, az0 = scan_times_azimuths(g, 0.0)
+    starts = np.arange(t[0], t[-1] - g.scan_period_s, dt_scan)
+    if starts.size < 2:
+        raise ValueError("replay_sigma_z: the series is shorter than two scans")
+    tt = starts[:, None] + t_los[None, :]
+    golden = 2.0 * np.pi * (np.sqrt(5.0) - 1.0) / 2.0
+    phase = (golden * np.arange(starts.size)) % (2.0 * np.pi)
+    az = az0[None, :] + (phase[:, None] if g.kind == "vad" else 0.0)
+    roll, pitch, yaw = motion.attitude_rad(tt)
+    head = motion.head_velocity_ms(tt) if any(a != 0 for a in arm) else None
+    _, ret = simulate_scans(
+        g,
+        wind_vector_ms(hws_ms, wd_deg),
+        roll,
+        pitch,
+        yaw_rad=yaw,
+        head_velocity_ms=head,
+        azimuth_rad=az,
+        sign_ambiguity=sign_ambiguity,
+    )
+    z = np.asarray(ret.hws_ms) - float(hws_ms)  # Eq. (1) of seed 000
+    return ReplayResult(float(np.std(z)), float(np.mean(z)), z)

@@ -1,0 +1,260 @@
+"""Per-record sigma_Z from the wind-frame tilt spectrum (flidar_uq.physics.motion_spectrum).
+
+References: the direct sigma_Z kernel (``physics.simulator.sigma_z``, seed 000 Eqs. 1-14,
+with ``pitch_amplitude_deg=0`` for a single-axis roll tilt, which tilts the head along
+north-south) and the scan simulator (``replay_sigma_z``); analytic sinusoids.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from flidar_uq.data.imu import tilt_band_statistics
+from flidar_uq.physics import motion_spectrum as ms
+from flidar_uq.physics.seastate import WaveSystem, tilt_series
+from flidar_uq.physics.simulator import sigma_z
+
+FS = 10.0
+T10 = np.arange(0, 600, 1 / FS)
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(20261128)
+
+
+# --------------------------------------------------------------------------- wind frame
+def test_tilt_vector_convention_pitch_east_roll_minus_north_yaw_turns_it():
+    # R = Rz Ry Rx: pitch tilts the body z axis towards +x (east), roll towards -y
+    a, c = ms.wind_frame_tilt_deg(0.0, 2.0, 0.0, 90.0)  # wind axis east-west
+    assert a == pytest.approx(2.0) and c == pytest.approx(0.0, abs=1e-12)
+    a, c = ms.wind_frame_tilt_deg(2.0, 0.0, 0.0, 0.0)  # wind axis north-south
+    assert abs(a) == pytest.approx(2.0) and c == pytest.approx(0.0, abs=1e-12)
+    a, c = ms.wind_frame_tilt_deg(0.0, 2.0, 90.0, 0.0)  # yaw 90: body x points north
+    assert abs(a) == pytest.approx(2.0) and c == pytest.approx(0.0, abs=1e-12)
+
+
+@pytest.mark.parametrize("period_s", [2.3, 4.0, 9.1])
+def test_pure_pitch_sinusoid_along_wind_share_one_amplitude_and_period(period_s):
+    x = 3.0 * np.sin(2 * np.pi * T10 / period_s + 0.4)
+    s = tilt_band_statistics(0 * x, x, 0.0, 90.0, FS)  # pitch tilts east: along a W/E wind
+    assert s.along_share[0] == pytest.approx(1.0, abs=1e-6)
+    assert np.sqrt(2.0) * s.along_std_deg[0] == pytest.approx(3.0, rel=5e-3)
+    assert s.tz_s[0] == pytest.approx(period_s, rel=1e-2)
+    assert s.tp_s[0] == pytest.approx(period_s, rel=3e-2)
+    b = np.argmax(s.var_along_deg2[0])
+    assert s.edges_s[b] <= period_s <= s.edges_s[b + 1]
+    assert s.period_s[0, b] == pytest.approx(period_s, rel=1e-2)
+
+
+def test_rotated_90_deg_gives_along_share_zero():
+    x = 3.0 * np.sin(2 * np.pi * T10 / 4.0)
+    s = tilt_band_statistics(0 * x, x, 90.0, 90.0, FS)  # heading turns pitch to north
+    assert s.along_share[0] == pytest.approx(0.0, abs=1e-6)
+    s = tilt_band_statistics(0 * x, x, 0.0, 0.0, FS)  # or the wind turns
+    assert s.along_share[0] == pytest.approx(0.0, abs=1e-6)
+    s = tilt_band_statistics(0 * x, x, 0.0, 45.0, FS)  # 45 deg: half the variance
+    assert s.along_share[0] == pytest.approx(0.5, abs=2e-3)
+
+
+def test_weathervaning_heading_follows_wind_keeps_tilt_along():
+    # the buoy's x axis always points along the (turning) wind axis: share stays 1
+    x = 3.0 * np.sin(2 * np.pi * T10 / 4.0)
+    yaw = np.linspace(0, 60, T10.size)
+    s = tilt_band_statistics(0 * x, x, yaw, 90.0, FS)
+    assert s.along_share[0] < 0.95  # heading drifts away from a fixed wind
+    s_fixed = tilt_band_statistics(0 * x, x, 30.0, 60.0, FS)  # yaw 30 + wd 60 = along
+    assert s_fixed.along_share[0] == pytest.approx(1.0, abs=1e-6)
+
+
+# --------------------------------------------------------------------------- kernel facts
+def test_single_axis_along_wind_equals_seed_roll_and_pitch_case():
+    along = sigma_z(8.0, 3.0, 4.0, 0.0, pitch_amplitude_deg=0.0).sigma_z_ms
+    both = sigma_z(8.0, 3.0, 4.0, 0.0).sigma_z_ms
+    assert along == pytest.approx(both, rel=1e-3)
+
+
+@pytest.mark.parametrize("psi_deg", [30.0, 45.0, 60.0])
+def test_cos_psi_scaling_and_zero_across_wind(psi_deg):
+    along = sigma_z(8.0, 3.0, 4.0, 0.0, pitch_amplitude_deg=0.0).sigma_z_ms
+    at_psi = sigma_z(8.0, 3.0, 4.0, psi_deg, pitch_amplitude_deg=0.0).sigma_z_ms
+    assert at_psi / along == pytest.approx(abs(np.cos(np.deg2rad(psi_deg))), rel=2e-3)
+    across = sigma_z(8.0, 3.0, 4.0, 90.0, pitch_amplitude_deg=0.0).sigma_z_ms
+    assert across < 1e-10 * along  # rolling about the wind axis: retrieval exact
+
+
+def test_quadrature_sum_vs_direct_two_harmonic_integral_2deg():
+    # design.md: 0.08 % at 2 deg total amplitude
+    a1, a2 = 2.0 * np.sqrt(0.6), 2.0 * np.sqrt(0.4)
+    direct = sigma_z(8.0, a1, 3.0, 0.0, amplitude2_deg=a2, period2_s=9.0).sigma_z_ms
+    bands = ms.spectral_sigma_z_ms(8.0, np.array([a1**2 / 2, a2**2 / 2]), np.array([3.0, 9.0]))
+    assert bands == pytest.approx(direct, rel=1.5e-3)
+
+
+@pytest.mark.parametrize(("hws", "lever"), [(8.0, 2.5), (5.0, 2.5), (12.0, 4.0)])
+def test_lever_arm_band_term_vs_direct_single_axis_kernel(hws, lever):
+    direct = sigma_z(hws, 3.0, 4.0, 0.0, pitch_amplitude_deg=0.0, lever_arm_m=lever).sigma_z_ms
+    band = ms.spectral_sigma_z_ms(hws, np.array([4.5]), np.array([4.0]), lever_arm_m=lever)
+    assert band == pytest.approx(direct, rel=5e-3)
+    assert band > 1.1 * ms.spectral_sigma_z_ms(hws, np.array([4.5]), np.array([4.0]))
+
+
+# --------------------------------------------------------------------------- replay
+@pytest.mark.parametrize("lever", [0.0, 2.5])
+def test_replay_of_harmonic_roll_matches_direct_kernel(lever):
+    # roll tilts north-south: along a wind from the north (wd 0)
+    t = np.arange(0, 1200, 0.1)
+    x = 3.0 * np.sin(2 * np.pi * t / 4.37)
+    rep = ms.replay_sigma_z(t, x, 0 * x, hws_ms=8.0, wd_deg=0.0, lever_arm_m=lever)
+    direct = sigma_z(8.0, 3.0, 4.37, 0.0, pitch_amplitude_deg=0.0, lever_arm_m=lever)
+    assert rep.sigma_z_ms == pytest.approx(direct.sigma_z_ms, rel=2e-2)
+
+
+def test_spectral_sum_matches_replay_on_two_tone_along_wind():
+    t = np.arange(0, 1200, 0.1)
+    x = 2.0 * np.sin(2 * np.pi * t / 3.3) + 1.5 * np.sin(2 * np.pi * t / 8.7 + 1.0)
+    rep = ms.replay_sigma_z(t, 0 * x, x, hws_ms=10.0, wd_deg=270.0)
+    s = tilt_band_statistics(0 * x, x, 0.0, 270.0, FS, segment_s=300.0)
+    sig = ms.spectral_sigma_z_ms(10.0, s.var_along_deg2, s.period_s)
+    assert sig[0] == pytest.approx(rep.sigma_z_ms, rel=3e-2)
+
+
+def test_spectral_sum_matches_replay_on_random_directional_sea(rng):
+    sys = [WaveSystem(3.0, 4.0, 3.3, 0.0, 30.0), WaveSystem(2.0, 9.0, 7.0, 90.0, 15.0)]
+    reps, sigs = [], []
+    for _ in range(4):
+        roll, pitch = tilt_series(T10.size, 1 / FS, sys, rng)
+        reps.append(ms.replay_sigma_z(T10, roll, pitch, hws_ms=8.0, wd_deg=270.0).sigma_z_ms)
+        s = tilt_band_statistics(roll, pitch, 0.0, 270.0, FS)
+        sigs.append(ms.spectral_sigma_z_ms(8.0, s.var_along_deg2, s.period_s)[0])
+    ratio = np.sqrt(np.mean(np.square(sigs)) / np.mean(np.square(reps)))
+    assert ratio == pytest.approx(1.0, abs=0.04)
+
+
+# --------------------------------------------------------------------------- zero, shapes
+def test_zero_motion_gives_zero_sigma_z():
+    assert ms.spectral_sigma_z_ms(8.0, np.zeros(8), np.full(8, 4.0)) == 0.0
+    assert ms.spectral_sigma_z_ms(8.0, np.zeros(8), np.full(8, 4.0), lever_arm_m=2.5) == 0.0
+    t = np.arange(0, 60, 0.1)
+    rep = ms.replay_sigma_z(t, 0 * t, 0 * t, hws_ms=8.0, wd_deg=123.0, lever_arm_m=2.5)
+    assert rep.sigma_z_ms < 1e-12 and abs(rep.mean_z_ms) < 1e-12
+
+
+def test_vectorised_shapes_records_by_bands():
+    nrec, nb = 5, 8
+    var = np.full((nrec, nb), 0.5)
+    per = np.tile(np.geomspace(1.2, 18, nb), (nrec, 1))
+    hws = np.linspace(5, 15, nrec)
+    out = ms.spectral_sigma_z_ms(hws, var, per)
+    assert out.shape == (nrec,)
+    out_l = ms.spectral_sigma_z_ms(hws, var, per, lever_arm_m=np.full(nrec, 2.0))
+    assert out_l.shape == (nrec,) and np.all(out_l > out)
+    for i in range(nrec):
+        assert out[i] == pytest.approx(ms.spectral_sigma_z_ms(hws[i], var[i], per[i]))
+    # without lever arm sigma_Z is proportional to HWS
+    assert out / hws == pytest.approx(np.full(nrec, out[0] / hws[0]), rel=1e-12)
+    assert ms.moments_sigma_z_ms(hws, np.ones(nrec), np.full(nrec, 4.0)).shape == (nrec,)
+
+
+def test_moments_equal_bands_for_a_single_harmonic():
+    x = 3.0 * np.sin(2 * np.pi * T10 / 5.0)
+    s = tilt_band_statistics(0 * x, x, 0.0, 90.0, FS)
+    a = ms.spectral_sigma_z_ms(8.0, s.var_along_deg2, s.period_s)
+    b = ms.moments_sigma_z_ms(8.0, s.along_std_deg, s.tz_s)
+    assert a[0] == pytest.approx(b[0], rel=5e-3)
+
+
+def test_negative_band_variance_raises():
+    with pytest.raises(ValueError, match="band_var_along_deg2 must be >= 0"):
+        ms.spectral_sigma_z_ms(8.0, np.array([-1.0]), np.array([4.0]))
+
+
+# --------------------------------------------------------------------------- two periods
+def test_two_period_detects_wind_sea_plus_swell_with_variance_share(rng):
+    hits = 0
+    for _ in range(10):
+        roll, pitch = tilt_series(
+            T10.size,
+            1 / FS,
+            [WaveSystem(2.5, 3.5, 3.3, 0.0, 30.0), WaveSystem(2.0, 11.0, 7.0, 0.0, 15.0)],
+            rng,
+        )
+        s = tilt_band_statistics(roll, pitch, 0.0, 270.0, FS, n_bands=12)
+        p1, p2, w1 = ms.two_period_from_bands(s.var_along_deg2 + s.var_across_deg2, s.period_s)
+        if np.isfinite(p1[0]):
+            hits += 1
+            assert 2.5 < p1[0] < 4.5 and 8.0 < p2[0] < 13.0
+            assert w1[0] == pytest.approx(2.5**2 / (2.5**2 + 2.0**2), abs=0.15)
+    assert hits >= 8
+
+
+@pytest.mark.parametrize("gamma", [1.0, 3.3, 7.0])
+@pytest.mark.parametrize("tp_s", [2.5, 5.0, 9.0])
+def test_unimodal_sea_never_gives_a_second_period(rng, gamma, tp_s):
+    for _ in range(8):
+        roll, pitch = tilt_series(T10.size, 1 / FS, [WaveSystem(3.0, tp_s, gamma, 0.0, 30.0)], rng)
+        for n_bands in (8, 12):
+            s = tilt_band_statistics(roll, pitch, 0.0, 270.0, FS, n_bands=n_bands)
+            p1, p2, w1 = ms.two_period_from_bands(s.var_along_deg2 + s.var_across_deg2, s.period_s)
+            assert np.isnan(p1[0]) and np.isnan(p2[0]) and np.isnan(w1[0])
+
+
+def test_two_period_single_record_returns_scalars():
+    p1, p2, w1 = ms.two_period_from_bands(
+        np.array([0, 1.0, 0.1, 0.0, 0.8, 0.0]), np.geomspace(1.5, 15, 6)
+    )
+    assert np.ndim(p1) == 0 and p1 < p2 and w1 == pytest.approx(1.1 / 1.9)  # valley: the 0.0 band
+
+
+# --------------------------------------------------------------------------- invariances
+@settings(max_examples=50, deadline=None)
+@given(
+    roll=st.floats(-20, 20),
+    pitch=st.floats(-20, 20),
+    yaw=st.floats(-360, 360),
+    wd=st.floats(0, 360),
+    d=st.floats(-180, 180),
+)
+def test_turning_buoy_and_wind_together_leaves_wind_frame_tilt_unchanged(roll, pitch, yaw, wd, d):
+    # yaw is counter-clockwise, wd clockwise: turning both by d is a rotation of the scene
+    a0, c0 = ms.wind_frame_tilt_deg(roll, pitch, yaw, wd)
+    a1, c1 = ms.wind_frame_tilt_deg(roll, pitch, yaw + d, wd - d)
+    assert a1 == pytest.approx(a0, abs=1e-9) and c1 == pytest.approx(c0, abs=1e-9)
+    # and the tilt magnitude is that of the body z axis, whatever the frame
+    total = np.rad2deg(np.arccos(np.cos(np.deg2rad(roll)) * np.cos(np.deg2rad(pitch))))
+    mag = np.hypot(np.sin(np.deg2rad(a0)), np.sin(np.deg2rad(c0)))
+    assert mag == pytest.approx(np.sin(np.deg2rad(total)), abs=1e-7)  # arccos near 0
+
+
+def test_replay_heading_through_north_wraps_cleanly():
+    t = np.arange(0, 120, 0.1)
+    x = 3.0 * np.sin(2 * np.pi * t / 4.37)
+    yaw = (10.0 * np.sin(2 * np.pi * t / 60.0)) % 360.0  # crosses 0/360 deg
+    a = ms.replay_sigma_z(t, x, 0 * x, yaw, hws_ms=8.0, wd_deg=0.0)
+    b = ms.replay_sigma_z(t, x, 0 * x, 10.0 * np.sin(2 * np.pi * t / 60.0), hws_ms=8.0, wd_deg=0.0)
+    assert a.sigma_z_ms == pytest.approx(b.sigma_z_ms, rel=1e-9)
+
+
+def test_record_sigma_z_picks_best_description_per_record():
+    x = 3.0 * np.sin(2 * np.pi * T10 / 5.0)
+    s = tilt_band_statistics(np.zeros((4, x.size)), np.tile(x, (4, 1)), 0.0, 90.0, FS)
+    spec = s.masked(np.array([True, False, False, False]))
+    sd = np.array([np.nan, 3.0 / np.sqrt(2), np.nan, np.nan])
+    tz = np.array([np.nan, 5.0, np.nan, np.nan])
+    amp = np.array([1.0, 1.0, 3.0, np.nan])
+    per = np.array([5.0, 5.0, 5.0, np.nan])
+    sig, method = ms.record_sigma_z_ms(
+        np.full(4, 8.0),
+        spectrum=spec,
+        tilt_along_wind_std_deg=sd,
+        tilt_period_zero_crossing_s=tz,
+        amplitude_deg=amp,
+        period_s=per,
+    )
+    assert list(method) == ["bands", "moments", "harmonic", "none"]
+    # the same single harmonic along the wind, described three ways
+    assert sig[0] == pytest.approx(sig[1], rel=5e-3) and sig[1] == pytest.approx(sig[2], rel=1e-3)
+    assert np.isnan(sig[3])
