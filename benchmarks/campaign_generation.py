@@ -28,7 +28,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from flidar_uq.campaign.physics_mode import generate_campaign, load_scenario  # noqa: E402
+from flidar_uq.campaign.physics_mode import generate_campaign  # noqa: E402
+from flidar_uq.campaign.scenarios import load_scenario  # noqa: E402
 from flidar_uq.data.io import validate_records  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"

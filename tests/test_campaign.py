@@ -7,8 +7,8 @@ import pandas as pd
 import pytest
 
 from flidar_uq.campaign import physics_mode as campaign
-from flidar_uq.physics import lidar
-from flidar_uq.campaign.physics_mode import CampaignConfig, generate_campaign, load_scenario
+from flidar_uq.campaign.physics_mode import generate_campaign
+from flidar_uq.campaign.scenarios import CampaignConfig, load_scenario
 from flidar_uq.data.io import (
     read_records,
     validate_imu_series,
@@ -16,6 +16,7 @@ from flidar_uq.data.io import (
     validate_records,
     write_records,
 )
+from flidar_uq.physics import lidar
 from flidar_uq.physics.motion import rotation_matrix
 from flidar_uq.physics.simulator import sigma_z, simulate_scans
 
