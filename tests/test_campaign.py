@@ -6,7 +6,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from flidar_uq.campaign import physics_mode as campaign
 from flidar_uq.campaign.physics_mode import generate_campaign
 from flidar_uq.campaign.scenarios import CampaignConfig, load_scenario
 from flidar_uq.data.io import (
@@ -95,9 +94,7 @@ def test_vad_adapter_reproduces_simulator_simulate_scans(rng, cw):
     d_earth = np.einsum("...ij,...j->...i", rotation_matrix(roll, pitch, 0.0 * roll), m_body)
     v_r = np.einsum("...k,...k->...", d_earth, wind[:, None, :] - v_head)
     np.testing.assert_allclose(np.abs(v_r), np.abs(v_r_sim), atol=1e-12)
-    uvw, resid = campaign._vad_retrieve_complete_scans(
-        pinv_t, m_body, np.abs(v_r), np.sign(v_r), 1 if cw else 0
-    )
+    uvw, resid = lidar.vad_sign_unfolding(pinv_t, m_body, np.abs(v_r), np.sign(v_r), 1 if cw else 0)
     hws = np.hypot(uvw[:, 0], uvw[:, 1])
     if cw:
         # |v_r| is not smooth where a line of sight crosses v_r = 0: the sign unfolding and

@@ -36,12 +36,13 @@ Randomness: the scenario-level draws (all records at once) use one child of the
 seed's SeedSequence, and every record gets its own spawned child, so results do not
 depend on the chunk size or the number of worker processes.
 
-Private adapter: :func:`_vad_retrieve_complete_scans`
-applies :func:`flidar_uq.physics.lidar.vad_pseudo_inverse` of the nominal geometry to many
+Retrieval: :func:`flidar_uq.physics.lidar.vad_sign_unfolding` applies
+:func:`flidar_uq.physics.lidar.vad_pseudo_inverse` of the nominal geometry to many
 complete scans at once (each scan covers all ``n_los`` azimuth slots once, in a
-cyclically shifted order), and unfolds the CW sign like
-:func:`flidar_uq.physics.lidar.retrieve_wind` with ``sign_ambiguity=True`` (fixed point
-of the sign pattern = stationary point of the ``|.|`` least squares).
+cyclically shifted order), and unfolds the CW sign with the iteration
+:func:`flidar_uq.physics.lidar.retrieve_wind` uses with ``sign_ambiguity=True``
+(fixed point of the sign pattern = stationary point of the ``|.|`` least squares),
+started from the signs of the simulated radial speeds.
 """
 
 from __future__ import annotations
@@ -307,44 +308,6 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
 # ---------------------------------------------------------------------------
 
 
-def _vad_retrieve_complete_scans(pinv_t, m_body, y_abs, signs0, n_iter=2):
-    """VAD of many complete scans at once, CW sign unfolded (private adapter).
-
-    Parameters
-    ----------
-    pinv_t : ndarray, shape (..., n, 3)
-        Columns of :func:`flidar_uq.physics.lidar.vad_pseudo_inverse` gathered per LOS.
-    m_body : ndarray, shape (..., n, 3)
-        Nominal body beam vectors per LOS.
-    y_abs : ndarray, shape (..., n)
-        Measured ``|v_r|`` (m/s).
-    signs0 : ndarray, shape (..., n)
-        Initial sign pattern (the signs of the true radial speeds).
-    n_iter : int
-        Sign-unfolding iterations ``s = sign(M p)``, ``p = pinv (s |v_r|)``; 0 for a
-        lidar that measures the sign (then ``signs0 * y_abs`` are the measured speeds).
-
-    Returns
-    -------
-    uvw : ndarray, shape (..., 3)
-        Retrieved body-frame wind (m/s).
-    residual : ndarray, shape (...)
-        RMS residual of ``|M p|`` against ``|v_r|`` (m/s).
-    """
-    s = signs0
-    # batched (1 x n) @ (n x 3) and (n x 3) @ (3 x 1) products (matmul beats einsum here)
-    p = ((s * y_abs)[..., None, :] @ pinv_t)[..., 0, :]
-    for _ in range(n_iter):
-        s = np.where((m_body @ p[..., None])[..., 0] >= 0.0, 1.0, -1.0)
-        p = ((s * y_abs)[..., None, :] @ pinv_t)[..., 0, :]
-    model = (m_body @ p[..., None])[..., 0]
-    if n_iter > 0:  # CW: residual of the |.| model (lidar.retrieve_wind, sign_ambiguity)
-        resid = np.sqrt(np.mean((y_abs - np.abs(model)) ** 2, axis=-1))
-    else:  # signed speeds s |v_r|: residual of the linear model
-        resid = np.sqrt(np.mean((s * y_abs - model) ** 2, axis=-1))
-    return p, resid
-
-
 def _circ_mean_deg(deg, mask, axis):
     r = np.deg2rad(deg)
     c = np.where(mask, np.cos(r), 0.0).sum(axis)
@@ -428,7 +391,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     v_r0 = (wind0[..., None, :] @ m_body[..., None])[..., 0, 0]  # fixed reference lidar
     pt = pinv_t[a_idx]
     n_iter = 0 if geo.signed else 1
-    uvw, resid = _vad_retrieve_complete_scans(pt, m_body, np.abs(v_r), np.sign(v_r), n_iter)
+    uvw, resid = _lidar.vad_sign_unfolding(pt, m_body, np.abs(v_r), np.sign(v_r), n_iter)
     # fixed lidar: the body geometry is exact, so the unfolded fit is the linear one
     uvw0 = (v_r0[..., None, :] @ pt)[..., 0, :]
     hws_scan = np.hypot(uvw[..., 0], uvw[..., 1])  # (C,J)
