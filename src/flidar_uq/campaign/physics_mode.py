@@ -47,6 +47,7 @@ started from the signs of the simulated radial speeds.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing as mp
 import os
 from collections.abc import Mapping
@@ -66,6 +67,8 @@ from flidar_uq.physics import lidar as _lidar
 from flidar_uq.physics.motion import rotation_matrix
 from flidar_uq.physics.seastate import tilt_series
 from flidar_uq.physics.turbulence import draw_sigma_u_ms, kaimal_series, wind_enu_ms
+from flidar_uq.seeding import as_seedsequence
+from flidar_uq.threads import BLAS_THREADS, blas_threads
 
 __all__ = [
     "CampaignOutput",
@@ -529,6 +532,27 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
 _BLAS_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
+@contextlib.contextmanager
+def _spawned_workers_blas_env():
+    """Environment of spawned worker processes: BLAS pinned to :data:`BLAS_THREADS`.
+
+    :func:`flidar_uq.threads.blas_threads` limits the thread pools of the libraries loaded
+    in *this* process; a spawned worker imports NumPy and SciPy afresh, and OpenBLAS reads
+    these variables when it is loaded. The workers start at the first submitted task
+    (not when the pool is made), so the variables must hold for the pool's whole life.
+    """
+    saved = {k: os.environ.get(k) for k in _BLAS_ENV}
+    os.environ.update({k: str(BLAS_THREADS) for k in _BLAS_ENV})
+    try:
+        yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
 def _run_chunk(args):
     return _simulate_chunk(*args)
 
@@ -551,8 +575,10 @@ def generate_campaign(
         Scenario (keys of :data:`flidar_uq.campaign.scenarios.DEFAULT_SCENARIO`; e.g. from
         :func:`flidar_uq.campaign.scenarios.load_scenario`).
     seed : int or numpy.random.SeedSequence
-        Root seed. Record ``i`` uses child ``i`` of a spawned SeedSequence, so the
-        output is identical for any ``chunk_records`` and ``n_workers``.
+        Root seed (:func:`flidar_uq.seeding.as_seedsequence`). Record ``i`` uses child ``i``
+        of a spawned SeedSequence, so the output is identical for any ``chunk_records`` and
+        ``n_workers``. BLAS runs single-threaded (:mod:`flidar_uq.threads`), in-process and
+        in the workers.
     progress : bool
         Show a tqdm progress bar over chunks.
     return_imu, return_los : bool
@@ -571,7 +597,7 @@ def generate_campaign(
     """
     cfg = scenario if isinstance(scenario, CampaignConfig) else CampaignConfig.from_dict(scenario)
     s = cfg.settings
-    root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(int(seed))
+    root = as_seedsequence(seed)
     ss_params, ss_records = root.spawn(2)
     n = int(s["n_records"])
     par = _record_parameters(cfg, np.random.default_rng(ss_params))
@@ -600,24 +626,18 @@ def generate_campaign(
         bar = tqdm(total=n, desc=f"campaign {s['name']}", unit="rec")
     results = []
     if workers == 1:
-        for job in jobs:
-            results.append(_run_chunk(job))
-            if bar is not None:
-                bar.update(len(job[2]))
+        with blas_threads():
+            for job in jobs:
+                results.append(_run_chunk(job))
+                if bar is not None:
+                    bar.update(len(job[2]))
     else:
         # spawned workers with single-threaded BLAS: threads of several processes would
         # compete for the same cores (scipy's batched least squares in Welch detrending)
-        saved = {k: os.environ.get(k) for k in _BLAS_ENV}
-        os.environ.update({k: "1" for k in _BLAS_ENV})
-        try:
-            pool = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
-        finally:
-            for k, v in saved.items():
-                if v is None:
-                    os.environ.pop(k, None)
-                else:
-                    os.environ[k] = v
-        with pool:
+        with (
+            _spawned_workers_blas_env(),
+            ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool,
+        ):
             for job, res in zip(jobs, pool.map(_run_chunk, jobs), strict=True):
                 results.append(res)
                 if bar is not None:

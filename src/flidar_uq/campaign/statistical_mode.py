@@ -23,6 +23,7 @@ import pandas as pd
 
 from flidar_uq.inference import Priors, sample_motion_prior
 from flidar_uq.physics.variance_laws import sigma_moving_pc
+from flidar_uq.seeding import as_seedsequence
 
 _PRIORS = Priors()
 
@@ -150,7 +151,7 @@ def generate_statistical_campaign(
         from flidar_uq.physics.surrogate import get_surrogate
 
         surrogate = get_surrogate()
-    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    ss = as_seedsequence(seed)
     rng_par, rng_rec = (np.random.default_rng(c) for c in ss.spawn(2))
     if true_params is None:
         true_params = draw_true_params(

@@ -13,6 +13,7 @@ import numpy as np
 
 from flidar_uq.campaign.statistical_mode import draw_true_params, generate_statistical_campaign
 from flidar_uq.inference import Priors, SamplerSettings, fit_bin, fit_global
+from flidar_uq.seeding import as_seedsequence
 
 __all__ = ["SBC_PARAMS", "sbc_replication"]
 
@@ -62,7 +63,7 @@ def sbc_replication(
         from flidar_uq.physics.surrogate import get_surrogate
 
         surrogate = get_surrogate()
-    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    ss = as_seedsequence(seed)
     ss_truth, ss_data, ss_fit, ss_glob = ss.spawn(4)
     truth = draw_true_params(n_bins, priors=priors, rng=np.random.default_rng(ss_truth))
     rec, _ = generate_statistical_campaign(
