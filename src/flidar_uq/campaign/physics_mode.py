@@ -150,9 +150,35 @@ def _record_parameters(cfg: CampaignConfig, rng: np.random.Generator) -> dict:
             tp1_s=tp,
             tp2_s=np.where(has_swell, tp2, np.nan),
             weight1=1.0 - share2,
-            dir1_deg=wd + 180.0 + 20.0 * rng.standard_normal(n),  # waves travel downwind
+            # waves travel downwind
+            dir1_deg=wd + 180.0 + float(ss["wind_sea_direction_sd_deg"]) * rng.standard_normal(n),
             dir2_deg=rng.uniform(0.0, 360.0, n),
             heading_deg=float(ss["heading_sd_deg"]) * rng.standard_normal(n),
+        )
+        # options of issue 11, drawn after the draws above so that scenarios without them
+        # keep their numbers
+        g_range = ss["wind_sea_gamma_range"]
+        if g_range is None:
+            gamma1 = np.full(n, float(ss["gamma"]))
+        else:
+            gamma1 = rng.uniform(float(g_range[0]), float(g_range[1]), size=n)
+        off_range = ss["swell_direction_offset_deg_range"]
+        if off_range is not None:
+            off = rng.uniform(float(off_range[0]), float(off_range[1]), size=n)
+            side = np.where(rng.random(n) < 0.5, -1.0, 1.0)
+            out["dir2_deg"] = (wd + 180.0 + side * off) % 360.0
+        t_days = np.arange(n) * float(s["record_length_s"]) / 86400.0
+        scatter = out["heading_deg"]
+        yaw_fixed = float(ss["fixed_yaw_deg"]) + float(ss["yaw_drift_deg_per_day"]) * t_days
+        vane = (ss["heading_mode"] == "weathervane") & (
+            hws_ref >= float(ss["weathervane_min_hws_ms"])
+        )
+        # weathervaning: body x axis into the wind, ENU angle 90 - wd (docs/conventions.md)
+        yaw = np.where(vane, 90.0 - wd, yaw_fixed) + scatter
+        out.update(
+            heading_deg=np.where(np.abs(yaw) < 180.0, yaw, _wrap180(yaw)),
+            weathervane=vane.astype(float),
+            gamma1=gamma1,
         )
     else:
         h = m["harmonic"]
@@ -199,7 +225,13 @@ def _record_parameters(cfg: CampaignConfig, rng: np.random.Generator) -> dict:
                 translation_period_s=period,
             )
         out["heading_deg"] = np.zeros(n)
+        out["weathervane"] = np.zeros(n)
     return out
+
+
+def _wrap180(deg):
+    """Angle wrapped into [-180, 180) deg."""
+    return (np.asarray(deg, float) + 180.0) % 360.0 - 180.0
 
 
 # ---------------------------------------------------------------------------
@@ -241,7 +273,7 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
         systems = {
             "amplitude_deg": [[amp * np.sqrt(w1), amp * np.sqrt(max(1.0 - w1, 0.0))]],
             "tp_s": [[par["tp1_s"][i], np.nan_to_num(par["tp2_s"][i], nan=6.0)]],
-            "gamma": [[float(sea["gamma"]), float(sea["swell_gamma"])]],
+            "gamma": [[par["gamma1"][i], float(sea["swell_gamma"])]],
             # direction of travel relative to the body x axis (ENU angle minus heading)
             "direction_deg": [[90.0 - par["dir1_deg"][i] - rel, 90.0 - par["dir2_deg"][i] - rel]],
             "spread_deg": [[float(sea["spread_deg"]), float(sea["swell_spread_deg"])]],
@@ -309,6 +341,49 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
 # ---------------------------------------------------------------------------
 # vectorised lidar simulation of a chunk of records
 # ---------------------------------------------------------------------------
+
+
+def _regime_truth(settings, par, c, roll_deg, pitch_deg, yaw_deg) -> dict:
+    """Truth columns of a record's sea-state and heading regime (issue 11).
+
+    The tilt along / across the wind is the lean of the body z axis toward the direction
+    the wind blows to / 90 deg to its left, ``sqrt(2)`` x its std (deg, the amplitude
+    convention of docs/conventions.md). Directions of travel are compass (clockwise
+    from north); the swell offset is signed, swell minus downwind, in (-180, 180].
+    """
+    r, p, y = (np.deg2rad(a) for a in (roll_deg, pitch_deg, yaw_deg))
+    zx_b, zy_b, zz = np.sin(p) * np.cos(r), -np.sin(r), np.cos(p) * np.cos(r)  # R @ e_z
+    ze = np.cos(y) * zx_b - np.sin(y) * zy_b
+    zn = np.sin(y) * zx_b + np.cos(y) * zy_b
+    wd = np.deg2rad(par["wd_deg"][c])
+    along = np.rad2deg(np.arctan2(-np.sin(wd) * ze - np.cos(wd) * zn, zz))
+    across = np.rad2deg(np.arctan2(np.cos(wd) * ze - np.sin(wd) * zn, zz))
+    yaw_mean = float(_circ_mean_deg(yaw_deg, np.ones(yaw_deg.shape, bool), 0))
+    yaw_mean = (yaw_mean + 180.0) % 360.0 - 180.0
+    out = {
+        "true_yaw_deg": yaw_mean,
+        "true_yaw_minus_upwind_deg": float(_wrap180(yaw_mean - (90.0 - par["wd_deg"][c]))),
+        "true_weathervane": float(par["weathervane"][c]),
+        "true_tilt_along_wind_amplitude_deg": float(np.sqrt(2.0) * along.std()),
+        "true_tilt_across_wind_amplitude_deg": float(np.sqrt(2.0) * across.std()),
+        "true_swell_present": np.nan,
+        "true_wind_sea_gamma": np.nan,
+        "true_wind_sea_direction_deg": np.nan,
+        "true_swell_direction_deg": np.nan,
+        "true_swell_direction_offset_deg": np.nan,
+    }
+    if settings["motion"]["model"] == "sea_state":
+        swell = bool(np.isfinite(par["tp2_s"][c]))
+        d2 = float(par["dir2_deg"][c]) % 360.0
+        off = -float(_wrap180(-(d2 - par["wd_deg"][c] - 180.0)))  # (-180, 180]
+        out.update(
+            true_swell_present=float(swell),
+            true_wind_sea_gamma=float(par["gamma1"][c]),
+            true_wind_sea_direction_deg=float(par["dir1_deg"][c]) % 360.0,
+            true_swell_direction_deg=d2 if swell else np.nan,
+            true_swell_direction_offset_deg=off if swell else np.nan,
+        )
+    return out
 
 
 def _circ_mean_deg(deg, mask, axis):
@@ -440,6 +515,9 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
             w1_true, t2 = 1.0, np.nan
             t1 = par["period_s"][c] if tilted else np.nan
             true_period = t1
+        regime = _regime_truth(settings, par, c, roll[c], pitch[c], yaw[c])
+        ref_days = settings["reference_days"]
+        has_ref = ref_days is None or rec * t_len < float(ref_days) * 86400.0
         for h in range(n_h):
             sel = ok[c] & (h_idx[c] == h)
             sel_ref = valid[c] & (h_idx[c] == h)
@@ -461,8 +539,8 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                     "wd_mean_deg": _circ_mean_deg(wd_scan[c], sel, 0) if enough else np.nan,
                     "availability_pct": 100.0 * sel.sum() / n_nom,
                     "sv": float(np.mean(resid[c][sel] / hs)) if enough else np.nan,
-                    "ref_hws_mean_ms": h0.mean(),
-                    "ref_hws_std_ms": h0.std(ddof=1),
+                    "ref_hws_mean_ms": h0.mean() if has_ref else np.nan,
+                    "ref_hws_std_ms": h0.std(ddof=1) if has_ref else np.nan,
                     "true_hws_mean_ms": true_hws.mean(),
                     "true_hws_std_ms": true_hws.std(ddof=1),
                     "true_ti": true_hws.std(ddof=1) / true_hws.mean(),
@@ -482,7 +560,11 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                     "true_n_scans": float(sel.sum()),
                     "true_record": float(rec),
                     "true_case": par["case"][c] if "case" in par else np.nan,
+                    # what the reference would measure, also where it is absent
+                    "true_ref_hws_mean_ms": h0.mean(),
+                    "true_ref_hws_std_ms": h0.std(ddof=1),
                 }
+                | regime
             )
         imu_frames.append(
             pd.DataFrame(

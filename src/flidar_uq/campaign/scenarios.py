@@ -22,6 +22,7 @@ from flidar_uq.physics import lidar as _lidar
 __all__ = [
     "DEFAULT_SCENARIO",
     "HARMONIC_CASE_KEYS",
+    "HEADING_MODES",
     "TRUTH_SAMPLE_INTERVAL_S",
     "CampaignConfig",
     "load_scenario",
@@ -47,6 +48,9 @@ DEFAULT_SCENARIO: dict = {
     "heights_m": [27.0, 58.0, 85.0],
     "chunk_records": 8,
     "n_workers": 1,
+    # the reference (ref_* columns) exists only in the first reference_days days of the
+    # campaign (a short mast or fixed-lidar period before deployment); null: throughout
+    "reference_days": None,
     "lidar": {
         "name": "zephir300",
         "refocus_delay_s": [0.3, 0.7],  # uniform range of the delay between scans
@@ -87,14 +91,30 @@ DEFAULT_SCENARIO: dict = {
             "tp_sd_s": 0.35,
             "tp_range_s": [1.8, 5.5],
             "gamma": 3.3,
+            # [lo, hi]: wind-sea JONSWAP gamma drawn uniform per record (broadband 1 ..
+            # narrow 7; DNV range 1-10); null: every record has `gamma`
+            "wind_sea_gamma_range": None,
             "spread_deg": 35.0,
+            # wind sea travels downwind (wd + 180 deg) with this normal scatter, deg
+            "wind_sea_direction_sd_deg": 20.0,
             # optional swell: probability per record, period, its share of the variance
             "swell_probability": 0.35,
             "swell_tp_range_s": [5.0, 7.0],
             "swell_gamma": 6.0,
             "swell_spread_deg": 15.0,
             "swell_variance_share_range": [0.2, 0.6],
-            "heading_sd_deg": 0.0,  # buoy heading scatter (yaw), deg
+            # [lo, hi]: the swell travels at an angle uniform in [lo, hi] deg (random side)
+            # to the downwind direction; null: swell direction uniform over 360 deg
+            "swell_direction_offset_deg_range": None,
+            # buoy heading: "fixed" (yaw = fixed_yaw_deg + drift + scatter) or
+            # "weathervane" (body x axis points into the wind, plus scatter, in records
+            # whose reference-height HWS >= weathervane_min_hws_ms; fixed otherwise).
+            # Yaw as in docs/conventions.md: body x axis, deg counter-clockwise from east.
+            "heading_mode": "fixed",
+            "fixed_yaw_deg": 0.0,
+            "yaw_drift_deg_per_day": 0.0,  # slow drift of the fixed heading, deg/day
+            "weathervane_min_hws_ms": 0.0,
+            "heading_sd_deg": 0.0,  # buoy heading scatter (yaw) per record, deg
         },
         "harmonic": {
             # ranges drawn per record when no cases are given; roll and pitch share
@@ -200,6 +220,9 @@ class CampaignConfig:
         lo, hi = s["lidar"]["refocus_delay_s"]
         if not 0.0 <= lo <= hi:
             raise ValueError(f"scenario: lidar.refocus_delay_s must be 0 <= lo <= hi, got {lo, hi}")
+        _check_sea_state(s)
+        if s["reference_days"] is not None:
+            _check_positive(s, "reference_days", s["reference_days"])
         if s["lidar"]["scan_phase"] not in ("prism", "random"):
             raise ValueError(
                 f"scenario: lidar.scan_phase must be 'prism' or 'random', got {s['lidar']['scan_phase']!r}"
@@ -240,6 +263,40 @@ def reference_sampling(scenario: str | Path | Mapping) -> dict:
         "turbulence_dt_s": wind_step_slots(settings, dt) * dt,
         "point_sample_interval_s": TRUTH_SAMPLE_INTERVAL_S,
     }
+
+
+#: Allowed values of ``motion.sea_state.heading_mode``.
+HEADING_MODES = ("fixed", "weathervane")
+
+
+def _check_range(key, rng, lo, hi):
+    """A [lo, hi] pair with lo <= hi inside [lo_allowed, hi_allowed] (or None)."""
+    if rng is None:
+        return
+    ok = isinstance(rng, (list, tuple)) and len(rng) == 2
+    if not ok or not (lo <= float(rng[0]) <= float(rng[1]) <= hi):
+        raise ValueError(
+            f"scenario: {key} must be null or [lo, hi] with {lo} <= lo <= hi <= {hi}, got {rng!r}"
+        )
+
+
+def _check_sea_state(s):
+    ss = s["motion"]["sea_state"]
+    _check_range("motion.sea_state.wind_sea_gamma_range", ss["wind_sea_gamma_range"], 1.0, 10.0)
+    _check_range(
+        "motion.sea_state.swell_direction_offset_deg_range",
+        ss["swell_direction_offset_deg_range"],
+        0.0,
+        180.0,
+    )
+    if ss["heading_mode"] not in HEADING_MODES:
+        raise ValueError(
+            f"scenario: motion.sea_state.heading_mode must be one of {HEADING_MODES}, "
+            f"got {ss['heading_mode']!r}"
+        )
+    for key in ("wind_sea_direction_sd_deg", "heading_sd_deg", "weathervane_min_hws_ms"):
+        if not float(ss[key]) >= 0:
+            raise ValueError(f"scenario: motion.sea_state.{key} must be >= 0, got {ss[key]!r}")
 
 
 def _check_positive(s, key, val, integer=False):
