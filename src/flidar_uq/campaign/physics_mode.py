@@ -348,9 +348,13 @@ def _regime_truth(settings, par, c, roll_deg, pitch_deg, yaw_deg) -> dict:
 
     The tilt along / across the wind is the lean of the body z axis toward the direction
     the wind blows to / 90 deg to its left, ``sqrt(2)`` x its std (deg, the amplitude
-    convention of docs/conventions.md). Directions of travel are compass (clockwise
+    convention of docs/conventions.md), from the attitude sampled every 0.1 s. Directions of travel are compass (clockwise
     from north); the swell offset is signed, swell minus downwind, in (-180, 180].
     """
+    # on a 0.1-s clock: the attitude varies on seconds, and the full LOS clock (0.02 s)
+    # would cost a fifth of the record's simulation time
+    stride = max(int(round(0.1 / (float(settings["record_length_s"]) / roll_deg.size))), 1)
+    roll_deg, pitch_deg, yaw_deg = roll_deg[::stride], pitch_deg[::stride], yaw_deg[::stride]
     r, p, y = (np.deg2rad(a) for a in (roll_deg, pitch_deg, yaw_deg))
     zx_b, zy_b, zz = np.sin(p) * np.cos(r), -np.sin(r), np.cos(p) * np.cos(r)  # R @ e_z
     ze = np.cos(y) * zx_b - np.sin(y) * zy_b
