@@ -13,6 +13,10 @@ Per 10-min record (``record_length_s``) and for every measurement height:
 2. Buoy motion: narrow-band random roll/pitch from a JONSWAP sea state (wind sea plus
    an optional swell; :func:`flidar_uq.physics.seastate.tilt_series`), or harmonic motion
    (6 DOF: roll, pitch, yaw, surge, sway, heave) for controlled cases (hexapod).
+   The wind sea travels downwind (JONSWAP gamma fixed or drawn per record); the swell
+   from anywhere or at a set angle to downwind; the buoy keeps a fixed (slowly
+   drifting) heading or weathervanes, its bow into the wind (``motion.sea_state``
+   keys, ``config/scenarios/README.md``); ``true_*`` regime columns record which.
    The lidar head sits at ``lever_arm_m`` from the rotation centre (body frame), so
    it translates with ``v = d(R r)/dt`` (design.md).
 3. ZephIR-like lidar: the prism turns continuously (one revolution per
@@ -28,7 +32,8 @@ Per 10-min record (``record_length_s``) and for every measurement height:
    sign unfolding of the ``|.|`` fit); spatial variation ``sv`` is the RMS fit
    residual over HWS. Occasional scans drop out.
 4. A fixed reference lidar with the same schedule sees the same wind without
-   motion (``ref_hws_*``); IMU roll/pitch/yaw sampled at ``imu.rate_hz`` with noise
+   motion (``ref_hws_*``; only in the first ``reference_days`` if set, always in
+   ``true_ref_hws_*``); IMU roll/pitch/yaw sampled at ``imu.rate_hz`` with noise
    and gaps; 10-min statistics in the record format of ``docs/data-format.md``
    plus ``true_*`` columns.
 
