@@ -403,3 +403,19 @@ def test_sparse_30day_regimes(seed):
     off = np.abs(_wrap(par["dir2_deg"] - par["wd_deg"] - 180.0))
     assert off.min() >= 30.0 - 1e-9
     assert np.all((par["gamma1"] >= 1.0) & (par["gamma1"] <= 7.0))
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_swell_across_the_wind_tilts_the_buoy_across_the_wind(seed):
+    # design.md "What real seas add": only the tilt along the wind matters; a swell from
+    # elsewhere moves the tilt variance across the wind
+    sc = _short("misaligned_swell", n_records=48)
+    sc["motion"]["sea_state"] |= {
+        "swell_variance_share_range": [0.7, 0.9],
+        "swell_direction_offset_deg_range": [80.0, 100.0],
+    }
+    r = generate_campaign(sc, seed).records
+    a2 = r["true_tilt_along_wind_amplitude_deg"] ** 2
+    c2 = r["true_tilt_across_wind_amplitude_deg"] ** 2
+    share = (c2 / (a2 + c2)).groupby(r["true_swell_present"]).mean()
+    assert share.loc[1.0] > share.loc[0.0] + 0.2
