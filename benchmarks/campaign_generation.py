@@ -7,6 +7,12 @@ campaign in <= 120 s on 2 cores.
 
 Usage: ``python benchmarks/campaign_generation.py [--quick]`` (``--quick``: 576
 records only, for a smoke run).
+
+``--scenarios [N]``: CPU seconds per record of each shipped scenario of issue 11
+(misaligned swell, weathervane/fixed heading, broadband/narrow seas, short reference,
+sparse 30 days), from its first N records (default 96) in one process, and the
+full scenario's estimated wall time on 1 and 2 dedicated cores; writes
+``benchmarks/results/campaign_generation_scenarios.csv``.
 """
 
 from __future__ import annotations
@@ -28,7 +34,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from flidar_uq.campaign.physics_mode import generate_campaign, load_scenario  # noqa: E402
+from flidar_uq.campaign.physics_mode import generate_campaign  # noqa: E402
+from flidar_uq.campaign.scenarios import load_scenario  # noqa: E402
 from flidar_uq.data.io import validate_records  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -79,11 +86,65 @@ def run(n_records: int, n_workers: int, seed: int = 1) -> dict:
     }
 
 
+SCENARIOS = (
+    "misaligned_swell",
+    "weathervane_broadband",
+    "fixed_heading",
+    "narrow_sea",
+    "short_reference",
+    "sparse_30day",
+)
+
+
+def scenario_speeds(n_records: int = 96, seed: int = 1) -> pd.DataFrame:
+    """CPU s per record of each scenario of :data:`SCENARIOS` (first ``n_records``)."""
+    rows = []
+    for name in SCENARIOS:
+        sc = load_scenario(name)
+        full = int(sc["n_records"])
+        short = sc | {"n_records": min(n_records, full)}
+        generate_campaign(short | {"n_records": 2}, seed, n_workers=1)  # warm-up
+        cpu0 = _cpu_s()
+        out = generate_campaign(short, seed, n_workers=1)
+        cpu = (_cpu_s() - cpu0) / short["n_records"]
+        validate_records(out.records, name)
+        rows.append(
+            {
+                "scenario": name,
+                "n_records_full": full,
+                "n_heights": len(sc["heights_m"]),
+                "cpu_s_per_record": cpu,
+                "est_wall_s_1_core": cpu * full,
+                "est_wall_s_2_cores": cpu * full / 2.0,
+            }
+        )
+        print(
+            f"{name:22s} {cpu * 1e3:5.1f} ms/record (CPU); {full} records: "
+            f"~{cpu * full:5.1f} s on 1 core, ~{cpu * full / 2:5.1f} s on 2"
+        )
+    df = pd.DataFrame(rows)
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    df.to_csv(RESULTS / "campaign_generation_scenarios.csv", index=False)
+    return df
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="small campaigns only")
     ap.add_argument("--plot-only", action="store_true", help="redraw the PNG from the CSV")
+    ap.add_argument(
+        "--scenarios",
+        nargs="?",
+        type=int,
+        const=96,
+        default=None,
+        metavar="N",
+        help="speed of the issue-11 scenarios from their first N records (default 96)",
+    )
     args = ap.parse_args()
+    if args.scenarios is not None:
+        scenario_speeds(args.scenarios)
+        return
     full = int(load_scenario("default")["n_records"])
     plan = (
         [(144, 1), (576, 1), (576, 2)] if args.quick else [(576, 1), (576, 2), (2304, 2), (full, 2)]

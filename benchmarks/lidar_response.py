@@ -26,7 +26,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from flidar_uq.campaign.physics_mode import generate_campaign, load_scenario, turbulence_max_frequency_hz  # noqa: E402
+from flidar_uq.campaign.physics_mode import generate_campaign, turbulence_max_frequency_hz  # noqa: E402
+from flidar_uq.campaign.scenarios import load_scenario  # noqa: E402
 from flidar_uq.physics.lidar_response import lidar_std_ratio  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"

@@ -22,9 +22,9 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from scipy import stats  # noqa: E402
 
-from flidar_uq.campaign.statistical_mode import SBC_PARAMS, sbc_replication  # noqa: E402
 from flidar_uq.inference import SamplerSettings  # noqa: E402
 from flidar_uq.physics.surrogate import get_surrogate  # noqa: E402
+from flidar_uq.validation.sbc import SBC_PARAMS, sbc_replication  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results"
 N_RANK_DRAWS = 99  # ranks 0..99

@@ -6,9 +6,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from flidar_uq.campaign import physics_mode as campaign
-from flidar_uq.physics import lidar
-from flidar_uq.campaign.physics_mode import CampaignConfig, generate_campaign, load_scenario
+from flidar_uq.campaign import physics_mode
+from flidar_uq.campaign.physics_mode import generate_campaign
+from flidar_uq.campaign.scenarios import CampaignConfig, load_scenario
 from flidar_uq.data.io import (
     read_records,
     validate_imu_series,
@@ -16,10 +16,19 @@ from flidar_uq.data.io import (
     validate_records,
     write_records,
 )
+from flidar_uq.physics import lidar
 from flidar_uq.physics.motion import rotation_matrix
 from flidar_uq.physics.simulator import sigma_z, simulate_scans
 
-SHIPPED = ("default", "tiny", "ijmuiden_60day", "hexapod_catalogue", "reservoir")
+NEW_SCENARIOS = (
+    "misaligned_swell",
+    "weathervane_broadband",
+    "fixed_heading",
+    "narrow_sea",
+    "short_reference",
+    "sparse_30day",
+)
+SHIPPED = ("default", "tiny", "ijmuiden_60day", "hexapod_catalogue", "reservoir", *NEW_SCENARIOS)
 
 
 def _harmonic_scenario(n_records, *, ti=0.0, lever_arm_m=0.0, amp=3.0, per=4.0, hws=8.0):
@@ -94,9 +103,7 @@ def test_vad_adapter_reproduces_simulator_simulate_scans(rng, cw):
     d_earth = np.einsum("...ij,...j->...i", rotation_matrix(roll, pitch, 0.0 * roll), m_body)
     v_r = np.einsum("...k,...k->...", d_earth, wind[:, None, :] - v_head)
     np.testing.assert_allclose(np.abs(v_r), np.abs(v_r_sim), atol=1e-12)
-    uvw, resid = campaign._vad_retrieve_complete_scans(
-        pinv_t, m_body, np.abs(v_r), np.sign(v_r), 1 if cw else 0
-    )
+    uvw, resid = lidar.vad_sign_unfolding(pinv_t, m_body, np.abs(v_r), np.sign(v_r), 1 if cw else 0)
     hws = np.hypot(uvw[:, 0], uvw[:, 1])
     if cw:
         # |v_r| is not smooth where a line of sight crosses v_r = 0: the sign unfolding and
@@ -270,3 +277,145 @@ def test_lever_arm_raises_sigma_z_design_fact():
     base = generate_campaign(_harmonic_scenario(4, lever_arm_m=0.0, hws=5.0), 2).records
     arm = generate_campaign(_harmonic_scenario(4, lever_arm_m=4.0, hws=5.0), 2).records
     assert arm["true_sigma_z_ms"].mean() > 1.5 * base["true_sigma_z_ms"].mean()
+
+
+# --------------------------------------------------------------------------- regimes (issue 11)
+
+
+def _short(name, n_records=24, **over):
+    """A short, one-height version of a shipped scenario (fast)."""
+    sc = load_scenario(name) | {"n_records": n_records, "heights_m": [85.0], "n_workers": 1}
+    return sc | over
+
+
+def _params(name, seed):
+    """Record-level parameters of a whole shipped scenario (no simulation: cheap)."""
+    cfg = CampaignConfig.from_dict(load_scenario(name))
+    return cfg, physics_mode._record_parameters(cfg, np.random.default_rng(seed))
+
+
+def _wrap(deg):
+    return (np.asarray(deg) + 180.0) % 360.0 - 180.0
+
+
+def test_new_scenario_options_misuse_raises():
+    with pytest.raises(ValueError, match="heading_mode must be one of"):
+        CampaignConfig.from_dict({"motion": {"sea_state": {"heading_mode": "spinning"}}})
+    with pytest.raises(ValueError, match=r"wind_sea_gamma_range must be null or \[lo, hi\]"):
+        CampaignConfig.from_dict({"motion": {"sea_state": {"wind_sea_gamma_range": [0.5, 7]}}})
+    with pytest.raises(ValueError, match="swell_direction_offset_deg_range must be null"):
+        CampaignConfig.from_dict(
+            {"motion": {"sea_state": {"swell_direction_offset_deg_range": [90, 270]}}}
+        )
+    with pytest.raises(ValueError, match="reference_days must be a positive number"):
+        CampaignConfig.from_dict({"reference_days": 0})
+
+
+def test_defaults_keep_fixed_heading_and_one_gamma():
+    cfg, par = _params("default", 1)
+    assert np.all(par["gamma1"] == 3.3)
+    assert np.all(par["weathervane"] == 0.0) and np.all(par["heading_deg"] == 0.0)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_misaligned_swell_travels_at_the_configured_offset(seed):
+    cfg, par = _params("misaligned_swell", seed)
+    swell = np.isfinite(par["tp2_s"])
+    assert 0.55 < swell.mean() < 0.65  # swell_probability 0.6, 1008 records
+    off = np.abs(_wrap(par["dir2_deg"] - par["wd_deg"] - 180.0))
+    assert np.all((off >= 60.0 - 1e-9) & (off <= 120.0 + 1e-9))
+    rec = generate_campaign(_short("misaligned_swell"), seed).records
+    validate_records(rec, "misaligned_swell")
+    sw = rec[rec["true_swell_present"] == 1.0]
+    assert len(sw) > 0 and rec["true_swell_present"].isin([0.0, 1.0]).all()
+    assert sw["true_swell_direction_offset_deg"].abs().between(60.0, 120.0).all()
+    expected = _wrap(sw["true_swell_direction_deg"] - sw["true_wd_deg"] - 180.0)
+    np.testing.assert_allclose(np.abs(expected), sw["true_swell_direction_offset_deg"].abs())
+    assert rec.loc[rec["true_swell_present"] == 0.0, "true_swell_direction_deg"].isna().all()
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_weathervane_heading_follows_the_wind(seed):
+    rec = generate_campaign(_short("weathervane_broadband"), seed, return_imu=True)
+    r = rec.records
+    assert (r["true_weathervane"] == 1.0).all()
+    # body x axis into the wind (yaw = 90 - wd) within 4 x the 10-deg scatter
+    assert r["true_yaw_minus_upwind_deg"].abs().max() < 40.0
+    assert np.abs(_wrap(r["true_yaw_deg"] - (90.0 - r["true_wd_deg"]))).max() < 40.0
+    # the raw IMU yaw (what a real buoy logs) carries the heading
+    yaw_imu = rec.imu.groupby(rec.imu["timestamp"].dt.floor("10min"))["yaw_deg"].median()
+    np.testing.assert_allclose(
+        _wrap(yaw_imu.to_numpy() - r["true_yaw_deg"].to_numpy()), 0.0, atol=0.5
+    )
+    g = r["true_wind_sea_gamma"]
+    assert g.between(1.0, 7.0).all() and g.std() > 0.5  # broadband 1 .. narrow 7
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_narrow_weathervaning_sea_tilts_the_buoy_along_the_wind(seed):
+    r = generate_campaign(_short("narrow_sea"), seed).records
+    assert r["true_wind_sea_gamma"].between(6.0, 7.0).all()
+    ratio = r["true_tilt_along_wind_amplitude_deg"] / r["true_tilt_across_wind_amplitude_deg"]
+    assert ratio.median() > 2.0
+    # along and across wind share the tilt variance of roll and pitch
+    tot = (
+        r["true_tilt_along_wind_amplitude_deg"] ** 2 + r["true_tilt_across_wind_amplitude_deg"] ** 2
+    )
+    ref = r["true_roll_amplitude_deg"] ** 2 + r["true_pitch_amplitude_deg"] ** 2
+    np.testing.assert_allclose(tot, ref, rtol=0.02)
+
+
+def test_fixed_heading_is_constant_or_drifts_slowly():
+    r = generate_campaign(_short("fixed_heading", n_records=36), 3).records
+    t_days = (r["timestamp"] - r["timestamp"].iloc[0]).dt.total_seconds() / 86400.0
+    assert (r["true_weathervane"] == 0.0).all()
+    assert np.abs(_wrap(r["true_yaw_deg"] - (30.0 + 2.0 * t_days))).max() < 4 * 3.0
+    still = _short("fixed_heading", n_records=6)
+    still["motion"]["sea_state"] |= {"heading_sd_deg": 0.0, "yaw_drift_deg_per_day": 0.0}
+    r = generate_campaign(still, 3).records
+    np.testing.assert_allclose(r["true_yaw_deg"], 30.0, atol=1e-9)
+
+
+def test_short_reference_has_no_reference_after_its_window():
+    sc = _short("short_reference", n_records=12, reference_days=1.0 / 24.0)  # 1 h
+    r = generate_campaign(sc, 4).records
+    late = r["timestamp"] >= r["timestamp"].iloc[0] + pd.Timedelta(hours=1)
+    assert late.sum() == 6
+    assert r.loc[late, ["ref_hws_mean_ms", "ref_hws_std_ms"]].isna().all().all()
+    assert r.loc[~late, ["ref_hws_mean_ms", "ref_hws_std_ms"]].notna().all().all()
+    assert r["true_ref_hws_std_ms"].notna().all()
+    np.testing.assert_array_equal(
+        r.loc[~late, "ref_hws_std_ms"], r.loc[~late, "true_ref_hws_std_ms"]
+    )
+    assert load_scenario("short_reference")["reference_days"] == 14.0
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_sparse_30day_regimes(seed):
+    cfg, par = _params("sparse_30day", seed)
+    assert cfg["n_records"] * 600.0 / 86400.0 == pytest.approx(30.0)
+    assert cfg["lidar"]["lever_arm_m"] == [0.0, 0.0, 2.5]
+    vane = par["weathervane"] == 1.0
+    np.testing.assert_array_equal(vane, par["hws_ref_ms"] >= 8.0)
+    assert 0.25 < vane.mean() < 0.75  # "half the time" (persistent wind: wide band)
+    swell = np.isfinite(par["tp2_s"])
+    assert 0.36 < swell.mean() < 0.44
+    off = np.abs(_wrap(par["dir2_deg"] - par["wd_deg"] - 180.0))
+    assert off.min() >= 30.0 - 1e-9
+    assert np.all((par["gamma1"] >= 1.0) & (par["gamma1"] <= 7.0))
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_swell_across_the_wind_tilts_the_buoy_across_the_wind(seed):
+    # design.md "What real seas add": only the tilt along the wind matters; a swell from
+    # elsewhere moves the tilt variance across the wind
+    sc = _short("misaligned_swell", n_records=48)
+    sc["motion"]["sea_state"] |= {
+        "swell_variance_share_range": [0.7, 0.9],
+        "swell_direction_offset_deg_range": [80.0, 100.0],
+    }
+    r = generate_campaign(sc, seed).records
+    a2 = r["true_tilt_along_wind_amplitude_deg"] ** 2
+    c2 = r["true_tilt_across_wind_amplitude_deg"] ** 2
+    share = (c2 / (a2 + c2)).groupby(r["true_swell_present"]).mean()
+    assert share.loc[1.0] > share.loc[0.0] + 0.2

@@ -124,7 +124,8 @@ def test_point_scatter_and_ratio_match_the_virtual_campaign():
     # The virtual campaign's motionless reference lidar against its point truth (1-Hz
     # series): neither function sees the campaign; both get only its sampling
     # (campaign.reference_sampling). 150 records x 3 heights.
-    from flidar_uq.campaign.physics_mode import generate_campaign, load_scenario, reference_sampling
+    from flidar_uq.campaign.physics_mode import generate_campaign
+    from flidar_uq.campaign.scenarios import load_scenario, reference_sampling
 
     scen = load_scenario("default") | {"n_records": 150}
     rec = generate_campaign(scen, 5, n_workers=1).records

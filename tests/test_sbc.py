@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from flidar_uq.campaign.statistical_mode import SBC_PARAMS, sbc_replication
 from flidar_uq.inference import SamplerSettings
 from flidar_uq.physics.surrogate import get_surrogate
+from flidar_uq.validation.sbc import SBC_PARAMS, sbc_replication
 
 N_REP = 100
 N_RANK_DRAWS = 99  # ranks 0..99 -> 10 histogram bins of 10 ranks

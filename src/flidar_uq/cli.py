@@ -266,7 +266,8 @@ def _add_generate_campaign(p: argparse.ArgumentParser) -> None:
 
 
 def _run_generate_campaign(args: argparse.Namespace) -> dict:
-    from flidar_uq.campaign.physics_mode import generate_campaign, load_scenario
+    from flidar_uq.campaign.physics_mode import generate_campaign
+    from flidar_uq.campaign.scenarios import load_scenario
     from flidar_uq.data.io import write_imu_series, write_records
 
     scenario = load_scenario(args.scenario)

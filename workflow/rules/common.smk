@@ -66,7 +66,7 @@ def propagation_params():
         "turbulence_dt_s": None,
     }
     if config["campaign"]["source"] == "virtual":
-        from flidar_uq.campaign.physics_mode import reference_sampling
+        from flidar_uq.campaign.scenarios import reference_sampling
 
         virtual = reference_sampling(scenario_file(None))
         sampling = {

@@ -13,6 +13,10 @@ Per 10-min record (``record_length_s``) and for every measurement height:
 2. Buoy motion: narrow-band random roll/pitch from a JONSWAP sea state (wind sea plus
    an optional swell; :func:`flidar_uq.physics.seastate.tilt_series`), or harmonic motion
    (6 DOF: roll, pitch, yaw, surge, sway, heave) for controlled cases (hexapod).
+   The wind sea travels downwind (JONSWAP gamma fixed or drawn per record); the swell
+   from anywhere or at a set angle to downwind; the buoy keeps a fixed (slowly
+   drifting) heading or weathervanes, its bow into the wind (``motion.sea_state``
+   keys, ``config/scenarios/README.md``); ``true_*`` regime columns record which.
    The lidar head sits at ``lever_arm_m`` from the rotation centre (body frame), so
    it translates with ``v = d(R r)/dt`` (design.md).
 3. ZephIR-like lidar: the prism turns continuously (one revolution per
@@ -28,7 +32,8 @@ Per 10-min record (``record_length_s``) and for every measurement height:
    sign unfolding of the ``|.|`` fit); spatial variation ``sv`` is the RMS fit
    residual over HWS. Occasional scans drop out.
 4. A fixed reference lidar with the same schedule sees the same wind without
-   motion (``ref_hws_*``); IMU roll/pitch/yaw sampled at ``imu.rate_hz`` with noise
+   motion (``ref_hws_*``; only in the first ``reference_days`` if set, always in
+   ``true_ref_hws_*``); IMU roll/pitch/yaw sampled at ``imu.rate_hz`` with noise
    and gaps; 10-min statistics in the record format of ``docs/data-format.md``
    plus ``true_*`` columns.
 
@@ -36,292 +41,47 @@ Randomness: the scenario-level draws (all records at once) use one child of the
 seed's SeedSequence, and every record gets its own spawned child, so results do not
 depend on the chunk size or the number of worker processes.
 
-Private adapter: :func:`_vad_retrieve_complete_scans`
-applies :func:`flidar_uq.physics.lidar.vad_pseudo_inverse` of the nominal geometry to many
+Retrieval: :func:`flidar_uq.physics.lidar.vad_sign_unfolding` applies
+:func:`flidar_uq.physics.lidar.vad_pseudo_inverse` of the nominal geometry to many
 complete scans at once (each scan covers all ``n_los`` azimuth slots once, in a
-cyclically shifted order), and unfolds the CW sign like
-:func:`flidar_uq.physics.lidar.retrieve_wind` with ``sign_ambiguity=True`` (fixed point
-of the sign pattern = stationary point of the ``|.|`` least squares).
+cyclically shifted order), and unfolds the CW sign with the iteration
+:func:`flidar_uq.physics.lidar.retrieve_wind` uses with ``sign_ambiguity=True``
+(fixed point of the sign pattern = stationary point of the ``|.|`` least squares),
+started from the signs of the simulated radial speeds.
 """
 
 from __future__ import annotations
 
-import copy
+import contextlib
 import multiprocessing as mp
 import os
 from collections.abc import Mapping
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
+from flidar_uq.campaign.scenarios import (
+    TRUTH_SAMPLE_INTERVAL_S,
+    CampaignConfig,
+    wind_step_slots,
+)
 from flidar_uq.data import imu as _imu
 from flidar_uq.physics import lidar as _lidar
 from flidar_uq.physics.motion import rotation_matrix
 from flidar_uq.physics.seastate import tilt_series
 from flidar_uq.physics.turbulence import draw_sigma_u_ms, kaimal_series, wind_enu_ms
+from flidar_uq.seeding import as_seedsequence
+from flidar_uq.threads import BLAS_THREADS, blas_threads
 
 __all__ = [
-    "DEFAULT_SCENARIO",
-    "CampaignConfig",
     "CampaignOutput",
     "generate_campaign",
-    "load_scenario",
-    "scenario_dir",
-    "reference_sampling",
 ]
-
-# ---------------------------------------------------------------------------
-# configuration
-# ---------------------------------------------------------------------------
-
-#: The truth columns (``true_hws_*``, ``true_ti``) are statistics of the point HWS sampled
-#: at this interval, s (a cup's 1-Hz series).
-TRUTH_SAMPLE_INTERVAL_S = 1.0
-
-#: Every key a scenario may set, with its default (units in the key names).
-DEFAULT_SCENARIO: dict = {
-    "name": "default",
-    "n_records": 8640,  # 10-min records (60 days); rows = n_records x len(heights_m)
-    "start_utc": "2015-04-01T00:00:00Z",
-    "record_length_s": 600.0,
-    "heights_m": [27.0, 58.0, 85.0],
-    "chunk_records": 8,
-    "n_workers": 1,
-    "lidar": {
-        "name": "zephir300",
-        "refocus_delay_s": [0.3, 0.7],  # uniform range of the delay between scans
-        # "prism": the scanner turns continuously, a scan starts at the azimuth the prism
-        # has at that time (phase locked to time); "random": independent uniform scan
-        # phase per scan (seed 000 Sec. 2.3's assumption)
-        "scan_phase": "prism",
-        "scan_dropout_probability": 0.02,
-        "record_outage_probability": 0.003,
-        "lever_arm_m": [0.0, 0.0, 2.5],  # head position from the rotation centre, body frame
-    },
-    "wind": {
-        "reference_height_m": 85.0,
-        "hws_weibull_shape": 2.2,
-        "hws_weibull_scale_ms": 9.5,
-        "hws_min_ms": 2.0,
-        "hws_max_ms": 21.0,
-        "hws_lag1_correlation": 0.97,
-        "wind_dt_s": 0.1,  # turbulence sampling interval (s); held constant in between
-        "wd_mean_deg": 240.0,
-        "wd_sd_deg": 70.0,
-        "shear_exponent_mean": 0.1,
-        "shear_exponent_sd": 0.04,
-        "ti_model": "offshore",  # offshore | iec_ntm | constant_ti
-        "ti_params": {},
-    },
-    "motion": {
-        "model": "sea_state",  # sea_state | harmonic
-        "sea_state": {
-            # wind-sea tilt amplitude: base + slope * HWS, log-normal scatter, clipped
-            "amplitude_base_deg": 1.2,
-            "amplitude_per_ms_deg": 0.17,
-            "amplitude_cov": 0.3,
-            "amplitude_range_deg": [0.5, 6.0],
-            # wind-sea peak period: base + slope * HWS, normal scatter, clipped
-            "tp_base_s": 2.6,
-            "tp_per_ms_s": 0.08,
-            "tp_sd_s": 0.35,
-            "tp_range_s": [1.8, 5.5],
-            "gamma": 3.3,
-            "spread_deg": 35.0,
-            # optional swell: probability per record, period, its share of the variance
-            "swell_probability": 0.35,
-            "swell_tp_range_s": [5.0, 7.0],
-            "swell_gamma": 6.0,
-            "swell_spread_deg": 15.0,
-            "swell_variance_share_range": [0.2, 0.6],
-            "heading_sd_deg": 0.0,  # buoy heading scatter (yaw), deg
-        },
-        "harmonic": {
-            # ranges drawn per record when no cases are given; roll and pitch share
-            # amplitude and period (seed 000 Sec. 2.4), phases independent uniform
-            "amplitude_range_deg": [1.0, 5.0],
-            "period_range_s": [2.0, 5.0],
-            "cases": [],
-        },
-    },
-    "imu": {
-        "rate_hz": 5.0,
-        "noise_deg": 0.05,
-        "gap_probability": 0.02,
-        "gap_length_range_s": [10.0, 120.0],
-        "period_range_s": [1.0, 30.0],  # band searched for spectral peaks (imu.py)
-    },
-}
 
 #: CNR written for valid lines of sight of the virtual lidar (dB; above seed 001's -23 dB).
 GOOD_CNR_DB = -10.0
-
-#: Keys of one harmonic case (amplitudes in deg or m, periods in s, n_records per case).
-HARMONIC_CASE_KEYS = (
-    "label",
-    "n_records",
-    "roll_amplitude_deg",
-    "pitch_amplitude_deg",
-    "yaw_amplitude_deg",
-    "surge_amplitude_m",
-    "sway_amplitude_m",
-    "heave_amplitude_m",
-    "period_s",
-    "yaw_period_s",
-    "translation_period_s",
-)
-
-
-def scenario_dir() -> Path:
-    """Directory of the shipped scenario files (``config/scenarios`` of the repository)."""
-    return Path(__file__).resolve().parents[3] / "config" / "scenarios"
-
-
-def _merge_checked(defaults: Mapping, given: Mapping, where: str) -> dict:
-    out = copy.deepcopy(dict(defaults))
-    for key, val in given.items():
-        if key not in defaults:
-            raise ValueError(
-                f"scenario: unknown key '{where}{key}'; known keys: {', '.join(sorted(defaults))}"
-            )
-        if isinstance(defaults[key], dict) and defaults[key] and key != "ti_params":
-            if not isinstance(val, Mapping):
-                raise ValueError(f"scenario: {where}{key!r} must be a mapping, got {val!r}")
-            out[key] = _merge_checked(defaults[key], val, f"{where}{key}.")
-        else:
-            out[key] = copy.deepcopy(val)
-    return out
-
-
-@dataclass(frozen=True)
-class CampaignConfig:
-    """A validated scenario (nested mapping with the keys of :data:`DEFAULT_SCENARIO`).
-
-    Build with :meth:`from_dict`; ``settings`` holds the merged mapping.
-    """
-
-    settings: dict = field(default_factory=lambda: copy.deepcopy(DEFAULT_SCENARIO))
-
-    @classmethod
-    def from_dict(cls, scenario: Mapping) -> CampaignConfig:
-        """Merge ``scenario`` over :data:`DEFAULT_SCENARIO` and validate it.
-
-        Raises
-        ------
-        ValueError
-            Unknown key (message names the key path), or a value out of range.
-        """
-        s = _merge_checked(DEFAULT_SCENARIO, scenario, "")
-        cases = s["motion"]["harmonic"]["cases"]
-        for i, case in enumerate(cases):
-            bad = set(case) - set(HARMONIC_CASE_KEYS)
-            if bad:
-                raise ValueError(
-                    f"scenario: motion.harmonic.cases[{i}] has unknown keys {sorted(bad)}; "
-                    f"known: {', '.join(HARMONIC_CASE_KEYS)}"
-                )
-        if s["motion"]["model"] == "harmonic" and cases:
-            s["n_records"] = int(sum(int(c.get("n_records", 1)) for c in cases))
-        _check_positive(s, "n_records", s["n_records"], integer=True)
-        _check_positive(s, "record_length_s", s["record_length_s"])
-        if len(s["heights_m"]) == 0 or min(s["heights_m"]) <= 0:
-            raise ValueError(f"scenario: heights_m must be non-empty and > 0, got {s['heights_m']}")
-        if s["motion"]["model"] not in ("sea_state", "harmonic"):
-            raise ValueError(
-                f"scenario: motion.model must be 'sea_state' or 'harmonic', got {s['motion']['model']!r}"
-            )
-        start = pd.Timestamp(s["start_utc"])
-        if start.tzinfo is None or (start.value // 10**9) % int(s["record_length_s"]) != 0:
-            raise ValueError(
-                f"scenario: start_utc must be a UTC time on a record boundary (a multiple of "
-                f"record_length_s = {s['record_length_s']} s), got {s['start_utc']!r}"
-            )
-        rate = float(s["imu"]["rate_hz"])
-        if not 5.0 <= rate <= 20.0:
-            raise ValueError(f"scenario: imu.rate_hz must be in [5, 20] Hz, got {rate}")
-        lo, hi = s["lidar"]["refocus_delay_s"]
-        if not 0.0 <= lo <= hi:
-            raise ValueError(f"scenario: lidar.refocus_delay_s must be 0 <= lo <= hi, got {lo, hi}")
-        if s["lidar"]["scan_phase"] not in ("prism", "random"):
-            raise ValueError(
-                f"scenario: lidar.scan_phase must be 'prism' or 'random', got {s['lidar']['scan_phase']!r}"
-            )
-        if _lidar.get_lidar(s["lidar"]["name"]).kind != "vad":
-            raise ValueError("scenario: lidar.name must be a VAD (conical) lidar for the campaign")
-        return cls(settings=s)
-
-    def __getitem__(self, key):
-        return self.settings[key]
-
-
-def reference_sampling(scenario: str | Path | Mapping) -> dict:
-    """How a virtual campaign samples the wind: what :mod:`flidar_uq.physics.lidar_response` needs.
-
-    Parameters
-    ----------
-    scenario : str, Path or mapping
-        Scenario name or path (:func:`load_scenario`) or a scenario mapping.
-
-    Returns
-    -------
-    dict
-        ``heights_in_turn`` (heights scanned in turn, one scan each), ``refocus_delay_s``
-        ((lo, hi) uniform delay between scans, s), ``turbulence_dt_s`` (the 1-D Kaimal
-        series are synthesised at this interval, rounded to a multiple of the
-        line-of-sight time, and held in between: no variance above ``1 / (2 dt)``), and
-        ``point_sample_interval_s`` (the truth columns are the std of the point HWS
-        sampled every second).
-    """
-    data = scenario if isinstance(scenario, Mapping) else load_scenario(scenario)
-    settings = CampaignConfig.from_dict(data).settings
-    dt = _lidar.get_lidar(settings["lidar"]["name"]).los_duration_s
-    lo, hi = settings["lidar"]["refocus_delay_s"]
-    return {
-        "heights_in_turn": len(settings["heights_m"]),
-        "refocus_delay_s": (float(lo), float(hi)),
-        "turbulence_dt_s": _wind_step(settings, dt) * dt,
-        "point_sample_interval_s": TRUTH_SAMPLE_INTERVAL_S,
-    }
-
-
-def _check_positive(s, key, val, integer=False):
-    if not (np.isfinite(val) and val > 0) or (integer and int(val) != val):
-        raise ValueError(
-            f"scenario: {key} must be a positive {'integer' if integer else 'number'}, got {val!r}"
-        )
-
-
-def load_scenario(name_or_path: str | Path) -> dict:
-    """Read a scenario YAML file (``config/scenarios/<name>.yaml`` or a path).
-
-    Parameters
-    ----------
-    name_or_path : str or Path
-        A shipped scenario name (``default``, ``tiny``, ``ijmuiden_60day``,
-        ``hexapod_catalogue``, ``reservoir``) or a path to a YAML file.
-
-    Returns
-    -------
-    dict
-        The scenario mapping (validated by :meth:`CampaignConfig.from_dict`).
-    """
-    import yaml
-
-    p = Path(name_or_path)
-    if not p.suffix:
-        p = scenario_dir() / f"{name_or_path}.yaml"
-    if not p.is_file():
-        known = sorted(q.stem for q in scenario_dir().glob("*.yaml"))
-        raise ValueError(f"load_scenario: no scenario file {str(p)!r}; shipped scenarios: {known}")
-    with open(p) as fh:
-        data = yaml.safe_load(fh) or {}
-    if not isinstance(data, Mapping):
-        raise ValueError(f"load_scenario: {p} must hold a mapping, got {type(data).__name__}")
-    CampaignConfig.from_dict(data)
-    return dict(data)
 
 
 @dataclass
@@ -395,9 +155,35 @@ def _record_parameters(cfg: CampaignConfig, rng: np.random.Generator) -> dict:
             tp1_s=tp,
             tp2_s=np.where(has_swell, tp2, np.nan),
             weight1=1.0 - share2,
-            dir1_deg=wd + 180.0 + 20.0 * rng.standard_normal(n),  # waves travel downwind
+            # waves travel downwind
+            dir1_deg=wd + 180.0 + float(ss["wind_sea_direction_sd_deg"]) * rng.standard_normal(n),
             dir2_deg=rng.uniform(0.0, 360.0, n),
             heading_deg=float(ss["heading_sd_deg"]) * rng.standard_normal(n),
+        )
+        # options of issue 11, drawn after the draws above so that scenarios without them
+        # keep their numbers
+        g_range = ss["wind_sea_gamma_range"]
+        if g_range is None:
+            gamma1 = np.full(n, float(ss["gamma"]))
+        else:
+            gamma1 = rng.uniform(float(g_range[0]), float(g_range[1]), size=n)
+        off_range = ss["swell_direction_offset_deg_range"]
+        if off_range is not None:
+            off = rng.uniform(float(off_range[0]), float(off_range[1]), size=n)
+            side = np.where(rng.random(n) < 0.5, -1.0, 1.0)
+            out["dir2_deg"] = (wd + 180.0 + side * off) % 360.0
+        t_days = np.arange(n) * float(s["record_length_s"]) / 86400.0
+        scatter = out["heading_deg"]
+        yaw_fixed = float(ss["fixed_yaw_deg"]) + float(ss["yaw_drift_deg_per_day"]) * t_days
+        vane = (ss["heading_mode"] == "weathervane") & (
+            hws_ref >= float(ss["weathervane_min_hws_ms"])
+        )
+        # weathervaning: body x axis into the wind, ENU angle 90 - wd (docs/conventions.md)
+        yaw = np.where(vane, 90.0 - wd, yaw_fixed) + scatter
+        out.update(
+            heading_deg=np.where(np.abs(yaw) < 180.0, yaw, _wrap180(yaw)),
+            weathervane=vane.astype(float),
+            gamma1=gamma1,
         )
     else:
         h = m["harmonic"]
@@ -444,7 +230,13 @@ def _record_parameters(cfg: CampaignConfig, rng: np.random.Generator) -> dict:
                 translation_period_s=period,
             )
         out["heading_deg"] = np.zeros(n)
+        out["weathervane"] = np.zeros(n)
     return out
+
+
+def _wrap180(deg):
+    """Angle wrapped into [-180, 180) deg."""
+    return (np.asarray(deg, float) + 180.0) % 360.0 - 180.0
 
 
 # ---------------------------------------------------------------------------
@@ -459,11 +251,6 @@ def _scan_schedule(rng, n_los, delay_slots, j_max):
     return starts
 
 
-def _wind_step(settings, dt):
-    """Turbulence sampling interval in LOS slots (>= 1)."""
-    return max(int(round(float(settings["wind"]["wind_dt_s"]) / dt)), 1)
-
-
 def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence, geo) -> dict:
     """Random series of one record, drawn from its own generator in a fixed order."""
     rng = np.random.default_rng(ss)
@@ -476,7 +263,7 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
     hws_h = par["hws_ref_ms"][i] * (heights / z_ref) ** alpha  # power law (conventions.md)
     # 1-D Kaimal turbulence, sigma_u constant with height (IEC 61400-1)
     # turbulence on its own clock (wind_dt_s, a multiple of the LOS time), held between samples
-    step = _wind_step(settings, dt)
+    step = wind_step_slots(settings, dt)
     n_wind = -(-n_slots // step)
     fluct = kaimal_series(n_wind, dt * step, hws_h, par["sigma_u_ms"][i], heights, rng)  # (H,3,Nw)
     fluct_enu = wind_enu_ms(0.0, par["wd_deg"][i], fluct)  # (H,Nw,3)
@@ -491,7 +278,7 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
         systems = {
             "amplitude_deg": [[amp * np.sqrt(w1), amp * np.sqrt(max(1.0 - w1, 0.0))]],
             "tp_s": [[par["tp1_s"][i], np.nan_to_num(par["tp2_s"][i], nan=6.0)]],
-            "gamma": [[float(sea["gamma"]), float(sea["swell_gamma"])]],
+            "gamma": [[par["gamma1"][i], float(sea["swell_gamma"])]],
             # direction of travel relative to the body x axis (ENU angle minus heading)
             "direction_deg": [[90.0 - par["dir1_deg"][i] - rel, 90.0 - par["dir2_deg"][i] - rel]],
             "spread_deg": [[float(sea["spread_deg"]), float(sea["swell_spread_deg"])]],
@@ -561,42 +348,51 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
 # ---------------------------------------------------------------------------
 
 
-def _vad_retrieve_complete_scans(pinv_t, m_body, y_abs, signs0, n_iter=2):
-    """VAD of many complete scans at once, CW sign unfolded (private adapter).
+def _regime_truth(settings, par, c, roll_deg, pitch_deg, yaw_deg) -> dict:
+    """Truth columns of a record's sea-state and heading regime (issue 11).
 
-    Parameters
-    ----------
-    pinv_t : ndarray, shape (..., n, 3)
-        Columns of :func:`flidar_uq.physics.lidar.vad_pseudo_inverse` gathered per LOS.
-    m_body : ndarray, shape (..., n, 3)
-        Nominal body beam vectors per LOS.
-    y_abs : ndarray, shape (..., n)
-        Measured ``|v_r|`` (m/s).
-    signs0 : ndarray, shape (..., n)
-        Initial sign pattern (the signs of the true radial speeds).
-    n_iter : int
-        Sign-unfolding iterations ``s = sign(M p)``, ``p = pinv (s |v_r|)``; 0 for a
-        lidar that measures the sign (then ``signs0 * y_abs`` are the measured speeds).
-
-    Returns
-    -------
-    uvw : ndarray, shape (..., 3)
-        Retrieved body-frame wind (m/s).
-    residual : ndarray, shape (...)
-        RMS residual of ``|M p|`` against ``|v_r|`` (m/s).
+    The tilt along / across the wind is the lean of the body z axis toward the direction
+    the wind blows to / 90 deg to its left, ``sqrt(2)`` x its std (deg, the amplitude
+    convention of docs/conventions.md), from the attitude sampled every 0.1 s. Directions of travel are compass (clockwise
+    from north); the swell offset is signed, swell minus downwind, in (-180, 180].
     """
-    s = signs0
-    # batched (1 x n) @ (n x 3) and (n x 3) @ (3 x 1) products (matmul beats einsum here)
-    p = ((s * y_abs)[..., None, :] @ pinv_t)[..., 0, :]
-    for _ in range(n_iter):
-        s = np.where((m_body @ p[..., None])[..., 0] >= 0.0, 1.0, -1.0)
-        p = ((s * y_abs)[..., None, :] @ pinv_t)[..., 0, :]
-    model = (m_body @ p[..., None])[..., 0]
-    if n_iter > 0:  # CW: residual of the |.| model (lidar.retrieve_wind, sign_ambiguity)
-        resid = np.sqrt(np.mean((y_abs - np.abs(model)) ** 2, axis=-1))
-    else:  # signed speeds s |v_r|: residual of the linear model
-        resid = np.sqrt(np.mean((s * y_abs - model) ** 2, axis=-1))
-    return p, resid
+    # on a 0.1-s clock: the attitude varies on seconds, and the full LOS clock (0.02 s)
+    # would cost a fifth of the record's simulation time
+    stride = max(int(round(0.1 / (float(settings["record_length_s"]) / roll_deg.size))), 1)
+    roll_deg, pitch_deg, yaw_deg = roll_deg[::stride], pitch_deg[::stride], yaw_deg[::stride]
+    r, p, y = (np.deg2rad(a) for a in (roll_deg, pitch_deg, yaw_deg))
+    zx_b, zy_b, zz = np.sin(p) * np.cos(r), -np.sin(r), np.cos(p) * np.cos(r)  # R @ e_z
+    ze = np.cos(y) * zx_b - np.sin(y) * zy_b
+    zn = np.sin(y) * zx_b + np.cos(y) * zy_b
+    wd = np.deg2rad(par["wd_deg"][c])
+    along = np.rad2deg(np.arctan2(-np.sin(wd) * ze - np.cos(wd) * zn, zz))
+    across = np.rad2deg(np.arctan2(np.cos(wd) * ze - np.sin(wd) * zn, zz))
+    yaw_mean = float(_circ_mean_deg(yaw_deg, np.ones(yaw_deg.shape, bool), 0))
+    yaw_mean = (yaw_mean + 180.0) % 360.0 - 180.0
+    out = {
+        "true_yaw_deg": yaw_mean,
+        "true_yaw_minus_upwind_deg": float(_wrap180(yaw_mean - (90.0 - par["wd_deg"][c]))),
+        "true_weathervane": float(par["weathervane"][c]),
+        "true_tilt_along_wind_amplitude_deg": float(np.sqrt(2.0) * along.std()),
+        "true_tilt_across_wind_amplitude_deg": float(np.sqrt(2.0) * across.std()),
+        "true_swell_present": np.nan,
+        "true_wind_sea_gamma": np.nan,
+        "true_wind_sea_direction_deg": np.nan,
+        "true_swell_direction_deg": np.nan,
+        "true_swell_direction_offset_deg": np.nan,
+    }
+    if settings["motion"]["model"] == "sea_state":
+        swell = bool(np.isfinite(par["tp2_s"][c]))
+        d2 = float(par["dir2_deg"][c]) % 360.0
+        off = -float(_wrap180(-(d2 - par["wd_deg"][c] - 180.0)))  # (-180, 180]
+        out.update(
+            true_swell_present=float(swell),
+            true_wind_sea_gamma=float(par["gamma1"][c]),
+            true_wind_sea_direction_deg=float(par["dir1_deg"][c]) % 360.0,
+            true_swell_direction_deg=d2 if swell else np.nan,
+            true_swell_direction_offset_deg=off if swell else np.nan,
+        )
+    return out
 
 
 def _circ_mean_deg(deg, mask, axis):
@@ -667,7 +463,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     wd = np.deg2rad(par["wd_deg"])
     e_wind = np.stack([-np.sin(wd), -np.cos(wd), np.zeros_like(wd)], -1)  # (C,3)
     alpha = par["shear_exponent"]
-    step = _wind_step(settings, dt)
+    step = wind_step_slots(settings, dt)
     fl_los = fl[cc, h_idx[..., None], idx // step]  # (C,J,L,3)
     mean_los = hws_h[np.arange(n_c)[:, None], h_idx][..., None]  # (C,J,1)
     # focus range fixed at h / cos(th): the focus height follows the tilted beam (seed 003 Eq. 5)
@@ -682,7 +478,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     v_r0 = (wind0[..., None, :] @ m_body[..., None])[..., 0, 0]  # fixed reference lidar
     pt = pinv_t[a_idx]
     n_iter = 0 if geo.signed else 1
-    uvw, resid = _vad_retrieve_complete_scans(pt, m_body, np.abs(v_r), np.sign(v_r), n_iter)
+    uvw, resid = _lidar.vad_sign_unfolding(pt, m_body, np.abs(v_r), np.sign(v_r), n_iter)
     # fixed lidar: the body geometry is exact, so the unfolded fit is the linear one
     uvw0 = (v_r0[..., None, :] @ pt)[..., 0, :]
     hws_scan = np.hypot(uvw[..., 0], uvw[..., 1])  # (C,J)
@@ -728,6 +524,9 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
             w1_true, t2 = 1.0, np.nan
             t1 = par["period_s"][c] if tilted else np.nan
             true_period = t1
+        regime = _regime_truth(settings, par, c, roll[c], pitch[c], yaw[c])
+        ref_days = settings["reference_days"]
+        has_ref = ref_days is None or rec * t_len < float(ref_days) * 86400.0
         for h in range(n_h):
             sel = ok[c] & (h_idx[c] == h)
             sel_ref = valid[c] & (h_idx[c] == h)
@@ -749,8 +548,8 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                     "wd_mean_deg": _circ_mean_deg(wd_scan[c], sel, 0) if enough else np.nan,
                     "availability_pct": 100.0 * sel.sum() / n_nom,
                     "sv": float(np.mean(resid[c][sel] / hs)) if enough else np.nan,
-                    "ref_hws_mean_ms": h0.mean(),
-                    "ref_hws_std_ms": h0.std(ddof=1),
+                    "ref_hws_mean_ms": h0.mean() if has_ref else np.nan,
+                    "ref_hws_std_ms": h0.std(ddof=1) if has_ref else np.nan,
                     "true_hws_mean_ms": true_hws.mean(),
                     "true_hws_std_ms": true_hws.std(ddof=1),
                     "true_ti": true_hws.std(ddof=1) / true_hws.mean(),
@@ -770,7 +569,11 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                     "true_n_scans": float(sel.sum()),
                     "true_record": float(rec),
                     "true_case": par["case"][c] if "case" in par else np.nan,
+                    # what the reference would measure, also where it is absent
+                    "true_ref_hws_mean_ms": h0.mean(),
+                    "true_ref_hws_std_ms": h0.std(ddof=1),
                 }
+                | regime
             )
         imu_frames.append(
             pd.DataFrame(
@@ -820,6 +623,27 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
 _BLAS_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
+@contextlib.contextmanager
+def _spawned_workers_blas_env():
+    """Environment of spawned worker processes: BLAS pinned to :data:`BLAS_THREADS`.
+
+    :func:`flidar_uq.threads.blas_threads` limits the thread pools of the libraries loaded
+    in *this* process; a spawned worker imports NumPy and SciPy afresh, and OpenBLAS reads
+    these variables when it is loaded. The workers start at the first submitted task
+    (not when the pool is made), so the variables must hold for the pool's whole life.
+    """
+    saved = {k: os.environ.get(k) for k in _BLAS_ENV}
+    os.environ.update({k: str(BLAS_THREADS) for k in _BLAS_ENV})
+    try:
+        yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
 def _run_chunk(args):
     return _simulate_chunk(*args)
 
@@ -839,10 +663,13 @@ def generate_campaign(
     Parameters
     ----------
     scenario : mapping or CampaignConfig
-        Scenario (keys of :data:`DEFAULT_SCENARIO`; e.g. from :func:`load_scenario`).
+        Scenario (keys of :data:`flidar_uq.campaign.scenarios.DEFAULT_SCENARIO`; e.g. from
+        :func:`flidar_uq.campaign.scenarios.load_scenario`).
     seed : int or numpy.random.SeedSequence
-        Root seed. Record ``i`` uses child ``i`` of a spawned SeedSequence, so the
-        output is identical for any ``chunk_records`` and ``n_workers``.
+        Root seed (:func:`flidar_uq.seeding.as_seedsequence`). Record ``i`` uses child ``i``
+        of a spawned SeedSequence, so the output is identical for any ``chunk_records`` and
+        ``n_workers``. BLAS runs single-threaded (:mod:`flidar_uq.threads`), in-process and
+        in the workers.
     progress : bool
         Show a tqdm progress bar over chunks.
     return_imu, return_los : bool
@@ -861,7 +688,7 @@ def generate_campaign(
     """
     cfg = scenario if isinstance(scenario, CampaignConfig) else CampaignConfig.from_dict(scenario)
     s = cfg.settings
-    root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(int(seed))
+    root = as_seedsequence(seed)
     ss_params, ss_records = root.spawn(2)
     n = int(s["n_records"])
     par = _record_parameters(cfg, np.random.default_rng(ss_params))
@@ -890,24 +717,18 @@ def generate_campaign(
         bar = tqdm(total=n, desc=f"campaign {s['name']}", unit="rec")
     results = []
     if workers == 1:
-        for job in jobs:
-            results.append(_run_chunk(job))
-            if bar is not None:
-                bar.update(len(job[2]))
+        with blas_threads():
+            for job in jobs:
+                results.append(_run_chunk(job))
+                if bar is not None:
+                    bar.update(len(job[2]))
     else:
         # spawned workers with single-threaded BLAS: threads of several processes would
         # compete for the same cores (scipy's batched least squares in Welch detrending)
-        saved = {k: os.environ.get(k) for k in _BLAS_ENV}
-        os.environ.update({k: "1" for k in _BLAS_ENV})
-        try:
-            pool = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
-        finally:
-            for k, v in saved.items():
-                if v is None:
-                    os.environ.pop(k, None)
-                else:
-                    os.environ[k] = v
-        with pool:
+        with (
+            _spawned_workers_blas_env(),
+            ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool,
+        ):
             for job, res in zip(jobs, pool.map(_run_chunk, jobs), strict=True):
                 results.append(res)
                 if bar is not None:

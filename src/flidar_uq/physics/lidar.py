@@ -32,6 +32,7 @@ __all__ = [
     "scan_times_azimuths",
     "beam_unit_vectors_body",
     "vad_pseudo_inverse",
+    "vad_sign_unfolding",
     "retrieve_wind",
     "wind_direction_deg",
     "wind_vector_ms",
@@ -313,6 +314,68 @@ def _finish(uvw: np.ndarray, radial: np.ndarray, model: np.ndarray) -> WindRetri
     return WindRetrieval(u, v, w, np.hypot(u, v), wind_direction_deg(u, v), resid)
 
 
+def vad_sign_unfolding(
+    pinv_t: np.ndarray,
+    beam_vectors: np.ndarray,
+    radial_speed_abs_ms: np.ndarray,
+    signs0: np.ndarray,
+    n_iter: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """VAD least squares of many scans with the CW sign unfolded by fixed-point iteration.
+
+    A CW lidar measures ``|v_r|`` (seed 001 Eq. 4). Given a sign pattern ``s``, the linear
+    VAD fit of the signed speeds ``s |v_r|`` is ``p = pinv (s |v_r|)``; the iteration
+    ``s <- sign(M p)``, ``p <- pinv (s |v_r|)`` stops at a stationary point of the
+    ``|.|`` least squares ``sum (|M p| - |v_r|)^2``. Used by :func:`retrieve_wind`
+    (``sign_ambiguity=True``, started from the quadratic-form estimate) and by the
+    virtual campaign (started from the signs of the simulated radial speeds, one step).
+
+    Parameters
+    ----------
+    pinv_t : ndarray, shape (..., n, 3)
+        Transposed least-squares operator ``vad_pseudo_inverse(M)^T`` (its rows gathered
+        per line of sight when the scans share one geometry in shifted orders).
+    beam_vectors : ndarray, shape (..., n, 3)
+        Beam unit vectors ``M`` of the lines of sight (the geometry the fit assumes).
+    radial_speed_abs_ms : ndarray, shape (..., n)
+        Measured ``|v_r|``, m/s.
+    signs0 : ndarray, shape (..., n)
+        Starting sign pattern (+1 / -1).
+    n_iter : int
+        Fixed-point iterations after the first fit (>= 0). 0: the linear fit of the
+        signed speeds ``signs0 |v_r|`` (a lidar that measures the sign).
+
+    Returns
+    -------
+    uvw : ndarray, shape (..., 3)
+        Retrieved wind in the frame of ``beam_vectors``, m/s.
+    residual_ms : ndarray, shape (...)
+        RMS residual, m/s: of ``|M p|`` against ``|v_r|`` if ``n_iter > 0``, else of the
+        linear model against the signed speeds.
+
+    Notes
+    -----
+    One Gauss-Newton step on ``|M p| - y`` from ``p`` with ``s = sign(M p)`` has the
+    Jacobian ``J = S M`` (``S = diag(s)``, ``S^2 = I``), so
+    ``p + (M^T M)^-1 M^T S (y - S M p) = pinv (s y)``: Gauss-Newton and the sign
+    fixed point are the same iteration.
+    """
+    y_abs = radial_speed_abs_ms
+    m_body = beam_vectors
+    s = signs0
+    # batched (1 x n) @ (n x 3) and (n x 3) @ (3 x 1) products (matmul beats einsum here)
+    p = ((s * y_abs)[..., None, :] @ pinv_t)[..., 0, :]
+    for _ in range(n_iter):
+        s = np.where((m_body @ p[..., None])[..., 0] >= 0.0, 1.0, -1.0)
+        p = ((s * y_abs)[..., None, :] @ pinv_t)[..., 0, :]
+    model = (m_body @ p[..., None])[..., 0]
+    if n_iter > 0:  # CW: residual of the |.| model
+        resid = np.sqrt(np.mean((y_abs - np.abs(model)) ** 2, axis=-1))
+    else:  # signed speeds s |v_r|: residual of the linear model
+        resid = np.sqrt(np.mean((s * y_abs - model) ** 2, axis=-1))
+    return p, resid
+
+
 def _fit_abs_vad(
     m: np.ndarray, y: np.ndarray, reference_wd_deg: float | None, n_iter: int = 8
 ) -> np.ndarray:
@@ -320,7 +383,8 @@ def _fit_abs_vad(
 
     Start: ``y^2 = p^T (d d^T) p`` is linear in the products ``p_i p_j``; the identifiable
     ones (``u^2 - v^2``, ``uv``, ``uw``, ``vw``, plus the two squares) give ``p`` up to sign.
-    Then Gauss-Newton on ``|M p| - y``.
+    Then ``n_iter`` Gauss-Newton steps on ``|M p| - y``, done as the sign fixed point of
+    :func:`vad_sign_unfolding` started from the signs of ``M p``.
     """
     mx, my, mz = m[..., 0], m[..., 1], m[..., 2]
     # y^2 = Qxx mx^2 + Qyy my^2 + Qzz mz^2 + 2 Qxy mx my + 2 Qxz mx mz + 2 Qyz my mz;
@@ -343,13 +407,11 @@ def _fit_abs_vad(
     h2 = u0**2 + v0**2
     w0 = np.where(h2 > 0, (u0 * qxz + v0 * qyz) / np.where(h2 > 0, h2, 1.0), 0.0)
     p = np.stack([u0, v0, w0], axis=-1)
-    for _ in range(n_iter):
-        mp = np.einsum("...nk,...k->...n", m, p)
-        s = np.where(mp >= 0, 1.0, -1.0)
-        jac = s[..., None] * m
-        r = y - np.abs(mp)
-        jt = np.swapaxes(jac, -1, -2)
-        p = p + np.linalg.solve(jt @ jac, (jt @ r[..., None]))[..., 0]
+    if n_iter > 0:
+        # Gauss-Newton on |M p| - y = the sign fixed point of vad_sign_unfolding (its Notes)
+        signs0 = np.where(np.einsum("...nk,...k->...n", m, p) >= 0, 1.0, -1.0)
+        pinv_t = np.swapaxes(vad_pseudo_inverse(m), -1, -2)
+        p, _ = vad_sign_unfolding(pinv_t, m, y, signs0, n_iter - 1)
     # Resolve the 180 deg ambiguity (seed 001 Eq. 4: B = Theta or Theta +- 180 deg).
     wd = wind_direction_deg(p[..., 0], p[..., 1])
     if reference_wd_deg is None:

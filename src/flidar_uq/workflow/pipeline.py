@@ -138,8 +138,9 @@ def make_campaign(
         if not scenario_path:
             raise ValueError("make_campaign: source='virtual' needs scenario_path")
         from flidar_uq.campaign import physics_mode as campaign
+        from flidar_uq.campaign.scenarios import load_scenario
 
-        scenario = campaign.load_scenario(scenario_path)
+        scenario = load_scenario(scenario_path)
         records = campaign.generate_campaign(scenario, seed, n_workers=max(1, int(threads))).records
     elif source == "files":
         if not records_path:

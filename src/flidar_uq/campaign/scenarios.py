@@ -1,0 +1,341 @@
+"""Virtual-campaign scenarios: the keys a scenario may set, their defaults and validation.
+
+A scenario is a nested mapping (``config/scenarios/<name>.yaml``) merged over
+:data:`DEFAULT_SCENARIO`; :class:`CampaignConfig` validates it, :func:`load_scenario`
+reads a shipped or user file, :func:`reference_sampling` tells the lidar-response model
+how the virtual campaign samples the wind. The generator is
+:mod:`flidar_uq.campaign.physics_mode`.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from flidar_uq.physics import lidar as _lidar
+
+__all__ = [
+    "DEFAULT_SCENARIO",
+    "HARMONIC_CASE_KEYS",
+    "HEADING_MODES",
+    "TRUTH_SAMPLE_INTERVAL_S",
+    "CampaignConfig",
+    "load_scenario",
+    "reference_sampling",
+    "scenario_dir",
+    "wind_step_slots",
+]
+
+# ---------------------------------------------------------------------------
+# configuration
+# ---------------------------------------------------------------------------
+
+#: The truth columns (``true_hws_*``, ``true_ti``) are statistics of the point HWS sampled
+#: at this interval, s (a cup's 1-Hz series).
+TRUTH_SAMPLE_INTERVAL_S = 1.0
+
+#: Every key a scenario may set, with its default (units in the key names).
+DEFAULT_SCENARIO: dict = {
+    "name": "default",
+    "n_records": 8640,  # 10-min records (60 days); rows = n_records x len(heights_m)
+    "start_utc": "2015-04-01T00:00:00Z",
+    "record_length_s": 600.0,
+    "heights_m": [27.0, 58.0, 85.0],
+    "chunk_records": 8,
+    "n_workers": 1,
+    # the reference (ref_* columns) exists only in the first reference_days days of the
+    # campaign (a short mast or fixed-lidar period before deployment); null: throughout
+    "reference_days": None,
+    "lidar": {
+        "name": "zephir300",
+        "refocus_delay_s": [0.3, 0.7],  # uniform range of the delay between scans
+        # "prism": the scanner turns continuously, a scan starts at the azimuth the prism
+        # has at that time (phase locked to time); "random": independent uniform scan
+        # phase per scan (seed 000 Sec. 2.3's assumption)
+        "scan_phase": "prism",
+        "scan_dropout_probability": 0.02,
+        "record_outage_probability": 0.003,
+        "lever_arm_m": [0.0, 0.0, 2.5],  # head position from the rotation centre, body frame
+    },
+    "wind": {
+        "reference_height_m": 85.0,
+        "hws_weibull_shape": 2.2,
+        "hws_weibull_scale_ms": 9.5,
+        "hws_min_ms": 2.0,
+        "hws_max_ms": 21.0,
+        "hws_lag1_correlation": 0.97,
+        "wind_dt_s": 0.1,  # turbulence sampling interval (s); held constant in between
+        "wd_mean_deg": 240.0,
+        "wd_sd_deg": 70.0,
+        "shear_exponent_mean": 0.1,
+        "shear_exponent_sd": 0.04,
+        "ti_model": "offshore",  # offshore | iec_ntm | constant_ti
+        "ti_params": {},
+    },
+    "motion": {
+        "model": "sea_state",  # sea_state | harmonic
+        "sea_state": {
+            # wind-sea tilt amplitude: base + slope * HWS, log-normal scatter, clipped
+            "amplitude_base_deg": 1.2,
+            "amplitude_per_ms_deg": 0.17,
+            "amplitude_cov": 0.3,
+            "amplitude_range_deg": [0.5, 6.0],
+            # wind-sea peak period: base + slope * HWS, normal scatter, clipped
+            "tp_base_s": 2.6,
+            "tp_per_ms_s": 0.08,
+            "tp_sd_s": 0.35,
+            "tp_range_s": [1.8, 5.5],
+            "gamma": 3.3,
+            # [lo, hi]: wind-sea JONSWAP gamma drawn uniform per record (broadband 1 ..
+            # narrow 7; DNV range 1-10); null: every record has `gamma`
+            "wind_sea_gamma_range": None,
+            "spread_deg": 35.0,
+            # wind sea travels downwind (wd + 180 deg) with this normal scatter, deg
+            "wind_sea_direction_sd_deg": 20.0,
+            # optional swell: probability per record, period, its share of the variance
+            "swell_probability": 0.35,
+            "swell_tp_range_s": [5.0, 7.0],
+            "swell_gamma": 6.0,
+            "swell_spread_deg": 15.0,
+            "swell_variance_share_range": [0.2, 0.6],
+            # [lo, hi]: the swell travels at an angle uniform in [lo, hi] deg (random side)
+            # to the downwind direction; null: swell direction uniform over 360 deg
+            "swell_direction_offset_deg_range": None,
+            # buoy heading: "fixed" (yaw = fixed_yaw_deg + drift + scatter) or
+            # "weathervane" (body x axis points into the wind, plus scatter, in records
+            # whose reference-height HWS >= weathervane_min_hws_ms; fixed otherwise).
+            # Yaw as in docs/conventions.md: body x axis, deg counter-clockwise from east.
+            "heading_mode": "fixed",
+            "fixed_yaw_deg": 0.0,
+            "yaw_drift_deg_per_day": 0.0,  # slow drift of the fixed heading, deg/day
+            "weathervane_min_hws_ms": 0.0,
+            "heading_sd_deg": 0.0,  # buoy heading scatter (yaw) per record, deg
+        },
+        "harmonic": {
+            # ranges drawn per record when no cases are given; roll and pitch share
+            # amplitude and period (seed 000 Sec. 2.4), phases independent uniform
+            "amplitude_range_deg": [1.0, 5.0],
+            "period_range_s": [2.0, 5.0],
+            "cases": [],
+        },
+    },
+    "imu": {
+        "rate_hz": 5.0,
+        "noise_deg": 0.05,
+        "gap_probability": 0.02,
+        "gap_length_range_s": [10.0, 120.0],
+        "period_range_s": [1.0, 30.0],  # band searched for spectral peaks (imu.py)
+    },
+}
+
+
+#: Keys of one harmonic case (amplitudes in deg or m, periods in s, n_records per case).
+HARMONIC_CASE_KEYS = (
+    "label",
+    "n_records",
+    "roll_amplitude_deg",
+    "pitch_amplitude_deg",
+    "yaw_amplitude_deg",
+    "surge_amplitude_m",
+    "sway_amplitude_m",
+    "heave_amplitude_m",
+    "period_s",
+    "yaw_period_s",
+    "translation_period_s",
+)
+
+
+def scenario_dir() -> Path:
+    """Directory of the shipped scenario files (``config/scenarios`` of the repository)."""
+    return Path(__file__).resolve().parents[3] / "config" / "scenarios"
+
+
+def _merge_checked(defaults: Mapping, given: Mapping, where: str) -> dict:
+    out = copy.deepcopy(dict(defaults))
+    for key, val in given.items():
+        if key not in defaults:
+            raise ValueError(
+                f"scenario: unknown key '{where}{key}'; known keys: {', '.join(sorted(defaults))}"
+            )
+        if isinstance(defaults[key], dict) and defaults[key] and key != "ti_params":
+            if not isinstance(val, Mapping):
+                raise ValueError(f"scenario: {where}{key!r} must be a mapping, got {val!r}")
+            out[key] = _merge_checked(defaults[key], val, f"{where}{key}.")
+        else:
+            out[key] = copy.deepcopy(val)
+    return out
+
+
+@dataclass(frozen=True)
+class CampaignConfig:
+    """A validated scenario (nested mapping with the keys of :data:`DEFAULT_SCENARIO`).
+
+    Build with :meth:`from_dict`; ``settings`` holds the merged mapping.
+    """
+
+    settings: dict = field(default_factory=lambda: copy.deepcopy(DEFAULT_SCENARIO))
+
+    @classmethod
+    def from_dict(cls, scenario: Mapping) -> CampaignConfig:
+        """Merge ``scenario`` over :data:`DEFAULT_SCENARIO` and validate it.
+
+        Raises
+        ------
+        ValueError
+            Unknown key (message names the key path), or a value out of range.
+        """
+        s = _merge_checked(DEFAULT_SCENARIO, scenario, "")
+        cases = s["motion"]["harmonic"]["cases"]
+        for i, case in enumerate(cases):
+            bad = set(case) - set(HARMONIC_CASE_KEYS)
+            if bad:
+                raise ValueError(
+                    f"scenario: motion.harmonic.cases[{i}] has unknown keys {sorted(bad)}; "
+                    f"known: {', '.join(HARMONIC_CASE_KEYS)}"
+                )
+        if s["motion"]["model"] == "harmonic" and cases:
+            s["n_records"] = int(sum(int(c.get("n_records", 1)) for c in cases))
+        _check_positive(s, "n_records", s["n_records"], integer=True)
+        _check_positive(s, "record_length_s", s["record_length_s"])
+        if len(s["heights_m"]) == 0 or min(s["heights_m"]) <= 0:
+            raise ValueError(f"scenario: heights_m must be non-empty and > 0, got {s['heights_m']}")
+        if s["motion"]["model"] not in ("sea_state", "harmonic"):
+            raise ValueError(
+                f"scenario: motion.model must be 'sea_state' or 'harmonic', got {s['motion']['model']!r}"
+            )
+        start = pd.Timestamp(s["start_utc"])
+        if start.tzinfo is None or (start.value // 10**9) % int(s["record_length_s"]) != 0:
+            raise ValueError(
+                f"scenario: start_utc must be a UTC time on a record boundary (a multiple of "
+                f"record_length_s = {s['record_length_s']} s), got {s['start_utc']!r}"
+            )
+        rate = float(s["imu"]["rate_hz"])
+        if not 5.0 <= rate <= 20.0:
+            raise ValueError(f"scenario: imu.rate_hz must be in [5, 20] Hz, got {rate}")
+        lo, hi = s["lidar"]["refocus_delay_s"]
+        if not 0.0 <= lo <= hi:
+            raise ValueError(f"scenario: lidar.refocus_delay_s must be 0 <= lo <= hi, got {lo, hi}")
+        _check_sea_state(s)
+        if s["reference_days"] is not None:
+            _check_positive(s, "reference_days", s["reference_days"])
+        if s["lidar"]["scan_phase"] not in ("prism", "random"):
+            raise ValueError(
+                f"scenario: lidar.scan_phase must be 'prism' or 'random', got {s['lidar']['scan_phase']!r}"
+            )
+        if _lidar.get_lidar(s["lidar"]["name"]).kind != "vad":
+            raise ValueError("scenario: lidar.name must be a VAD (conical) lidar for the campaign")
+        return cls(settings=s)
+
+    def __getitem__(self, key):
+        return self.settings[key]
+
+
+def reference_sampling(scenario: str | Path | Mapping) -> dict:
+    """How a virtual campaign samples the wind: what :mod:`flidar_uq.physics.lidar_response` needs.
+
+    Parameters
+    ----------
+    scenario : str, Path or mapping
+        Scenario name or path (:func:`load_scenario`) or a scenario mapping.
+
+    Returns
+    -------
+    dict
+        ``heights_in_turn`` (heights scanned in turn, one scan each), ``refocus_delay_s``
+        ((lo, hi) uniform delay between scans, s), ``turbulence_dt_s`` (the 1-D Kaimal
+        series are synthesised at this interval, rounded to a multiple of the
+        line-of-sight time, and held in between: no variance above ``1 / (2 dt)``), and
+        ``point_sample_interval_s`` (the truth columns are the std of the point HWS
+        sampled every second).
+    """
+    data = scenario if isinstance(scenario, Mapping) else load_scenario(scenario)
+    settings = CampaignConfig.from_dict(data).settings
+    dt = _lidar.get_lidar(settings["lidar"]["name"]).los_duration_s
+    lo, hi = settings["lidar"]["refocus_delay_s"]
+    return {
+        "heights_in_turn": len(settings["heights_m"]),
+        "refocus_delay_s": (float(lo), float(hi)),
+        "turbulence_dt_s": wind_step_slots(settings, dt) * dt,
+        "point_sample_interval_s": TRUTH_SAMPLE_INTERVAL_S,
+    }
+
+
+#: Allowed values of ``motion.sea_state.heading_mode``.
+HEADING_MODES = ("fixed", "weathervane")
+
+
+def _check_range(key, rng, lo, hi):
+    """A [lo, hi] pair with lo <= hi inside [lo_allowed, hi_allowed] (or None)."""
+    if rng is None:
+        return
+    ok = isinstance(rng, (list, tuple)) and len(rng) == 2
+    if not ok or not (lo <= float(rng[0]) <= float(rng[1]) <= hi):
+        raise ValueError(
+            f"scenario: {key} must be null or [lo, hi] with {lo} <= lo <= hi <= {hi}, got {rng!r}"
+        )
+
+
+def _check_sea_state(s):
+    ss = s["motion"]["sea_state"]
+    _check_range("motion.sea_state.wind_sea_gamma_range", ss["wind_sea_gamma_range"], 1.0, 10.0)
+    _check_range(
+        "motion.sea_state.swell_direction_offset_deg_range",
+        ss["swell_direction_offset_deg_range"],
+        0.0,
+        180.0,
+    )
+    if ss["heading_mode"] not in HEADING_MODES:
+        raise ValueError(
+            f"scenario: motion.sea_state.heading_mode must be one of {HEADING_MODES}, "
+            f"got {ss['heading_mode']!r}"
+        )
+    for key in ("wind_sea_direction_sd_deg", "heading_sd_deg", "weathervane_min_hws_ms"):
+        if not float(ss[key]) >= 0:
+            raise ValueError(f"scenario: motion.sea_state.{key} must be >= 0, got {ss[key]!r}")
+
+
+def _check_positive(s, key, val, integer=False):
+    if not (np.isfinite(val) and val > 0) or (integer and int(val) != val):
+        raise ValueError(
+            f"scenario: {key} must be a positive {'integer' if integer else 'number'}, got {val!r}"
+        )
+
+
+def load_scenario(name_or_path: str | Path) -> dict:
+    """Read a scenario YAML file (``config/scenarios/<name>.yaml`` or a path).
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A shipped scenario name (``default``, ``tiny``, ``ijmuiden_60day``,
+        ``hexapod_catalogue``, ``reservoir``) or a path to a YAML file.
+
+    Returns
+    -------
+    dict
+        The scenario mapping (validated by :meth:`CampaignConfig.from_dict`).
+    """
+    import yaml
+
+    p = Path(name_or_path)
+    if not p.suffix:
+        p = scenario_dir() / f"{name_or_path}.yaml"
+    if not p.is_file():
+        known = sorted(q.stem for q in scenario_dir().glob("*.yaml"))
+        raise ValueError(f"load_scenario: no scenario file {str(p)!r}; shipped scenarios: {known}")
+    with open(p) as fh:
+        data = yaml.safe_load(fh) or {}
+    if not isinstance(data, Mapping):
+        raise ValueError(f"load_scenario: {p} must hold a mapping, got {type(data).__name__}")
+    CampaignConfig.from_dict(data)
+    return dict(data)
+
+
+def wind_step_slots(settings, dt):
+    """Turbulence sampling interval in LOS slots (>= 1)."""
+    return max(int(round(float(settings["wind"]["wind_dt_s"]) / dt)), 1)
