@@ -495,7 +495,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     outage = np.array([s["outage"] for s in series])
     ok = valid & ~dropped & ~outage[:, None]
     rows = []
-    imu_frames, los_frames = [], []
+    imu_frames, los_frames, imu_att = [], [], []
     start0 = pd.Timestamp(settings["start_utc"])
     rate = float(settings["imu"]["rate_hz"])
     for c, s in enumerate(series):
@@ -575,6 +575,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                 }
                 | regime
             )
+        imu_att.append(att)
         imu_frames.append(
             pd.DataFrame(
                 {
@@ -613,6 +614,16 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         st = stats.loc[r["timestamp"]]
         for key in _imu.MOTION_STAT_COLUMNS:
             r[key] = float(st[key])
+    # tilt along and across the wind (each row's own measured wind direction), its
+    # spectral moments and periods: the per-record motion description (docs/data-format.md)
+    per_row = np.repeat(np.arange(len(series)), n_h)
+    att_rows = [np.stack([a[k] for a in imu_att])[per_row] for k in range(3)]
+    spec = _imu.tilt_band_statistics(
+        *att_rows, np.array([r["wd_mean_deg"] for r in rows]), rate
+    )
+    for key, col in _imu.tilt_spectrum_columns(spec).items():
+        for r, v in zip(rows, col, strict=True):
+            r[key] = float(v)
     return (
         rows,
         imu_df if want_imu else None,
