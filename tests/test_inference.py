@@ -272,7 +272,7 @@ def test_lever_arm_model_log_prob_and_rho_only_equivalence_at_zero():
     szm, szv, u2 = np.array([0.2, 0.3]), np.array([1e-4, 0.0]), np.array([0.01, 0.02])
     th3 = np.array([[0.3, -3.0, -2.5]])
     th4 = np.array([[0.3, -3.0, -2.5, 0.0]])
-    from flidar_uq.inference import _norm_logpdf
+    from flidar_uq.inference.densities import _norm_logpdf
 
     # L = 0: same likelihood; the two differ only by the half-normal prior density at 0
     diff = log_prob_global(th4, s, r, szm, szv, u2=u2) - log_prob_global(th3, s, r, szm, szv)
@@ -283,7 +283,7 @@ def test_lever_arm_model_log_prob_and_rho_only_equivalence_at_zero():
 
 
 def test_motion_scale_model_log_prob_equivalence_at_one():
-    from flidar_uq.inference import _norm_logpdf
+    from flidar_uq.inference.densities import _norm_logpdf
 
     s, r = np.array([0.5, 1.0]), np.array([0.4, 0.9])
     szm, szv, u2 = np.array([0.2, 0.3]), np.array([1e-4, 0.0]), np.array([0.01, 0.02])
@@ -304,7 +304,7 @@ def test_motion_scale_recovered_and_chosen_by_loo():
     # observations made with a surrogate that underestimates sigma_Z by 1/1.35 (the
     # harmonic surrogate against a broadband sea) and a 2-m lever arm, rho = 0:
     # the 5-parameter model recovers k and L, and PSIS-LOO chooses it
-    from flidar_uq.inference import _GLOBAL_MODELS, _fit_global_model, _select_global
+    from flidar_uq.inference.global_fit import _GLOBAL_MODELS, _fit_global_model, _select_global
 
     rng = np.random.default_rng(np.random.SeedSequence(21))
     n = 1500
@@ -334,7 +334,10 @@ def test_motion_scale_recovered_and_chosen_by_loo():
 
 def test_motion_log_prob_is_pointwise_likelihood_plus_data_free_prior():
     """The sufficient-statistic log densities equal the prior plus the pointwise sum."""
-    from flidar_uq.inference import _loglik_pointwise_two_period, _loglik_pointwise_unimodal
+    from flidar_uq.inference.densities import (
+        _loglik_pointwise_two_period,
+        _loglik_pointwise_unimodal,
+    )
 
     rng = np.random.default_rng(np.random.SeedSequence(21))
     th6 = np.column_stack(
@@ -400,7 +403,7 @@ def test_psis_loo_matches_arviz_stats():
     """The vectorised PSIS-LOO reproduces arviz_stats' per-observation implementation."""
     from arviz_stats.base import array_stats
 
-    from flidar_uq.inference import _psis_loo
+    from flidar_uq.inference.loo import _psis_loo
 
     rng = np.random.default_rng(np.random.SeedSequence(31))
     n_s = 1000
@@ -425,7 +428,7 @@ def test_psis_loo_matches_arviz_stats():
 
 def test_initial_ensembles_overdispersed_relative_to_posterior():
     """R-hat across ensembles needs starts wider than the posterior: init sd > posterior sd."""
-    from flidar_uq.inference import _init_fn
+    from flidar_uq.inference.bin_fit import _init_fn
 
     df = _records(40, 3.0, 4.0)
     la, lp = imu_observations(df)
@@ -472,7 +475,8 @@ def test_independence_acceptance_high_for_matching_low_for_mismatched_proposal()
     """Tierney's expected acceptance: ~1 when the Student-t matches the target, ~0 when far off."""
     import emcee
 
-    from flidar_uq.inference import StudentTIndependenceProposal, _independence_acceptance
+    from flidar_uq.inference.moves import StudentTIndependenceProposal
+    from flidar_uq.inference.sampler import _independence_acceptance
 
     def log_prob(x):  # standard normal target in 3 dimensions
         return -0.5 * np.sum(x**2, axis=1)
@@ -494,7 +498,7 @@ def test_global_init_spreads_a_parameter_whose_mode_is_on_the_boundary():
     # ensemble ("large condition number"). The start must spread every parameter.
     from emcee.ensemble import walkers_independent
 
-    from flidar_uq.inference import _global_init_fn
+    from flidar_uq.inference.global_fit import _global_init_fn
 
     rng = np.random.default_rng(np.random.SeedSequence(8))
     n = 300
