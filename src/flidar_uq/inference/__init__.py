@@ -48,6 +48,7 @@ from flidar_uq.inference.densities import log_prob_global, log_prob_two_period, 
 from flidar_uq.inference.global_fit import fit_global, select_global_model
 from flidar_uq.inference.loo import period_kurtosis_ppc
 from flidar_uq.inference.observations import (
+    effective_sigma_z_ms,
     imu_observations,
     record_sigma_z_moments,
     translation_unit_sq,
@@ -74,4 +75,5 @@ __all__ = [
     "period_kurtosis_ppc",
     "record_sigma_z_moments",
     "translation_unit_sq",
+    "effective_sigma_z_ms",
 ]

@@ -15,7 +15,7 @@ from scipy.special import logsumexp
 from flidar_uq.inference.densities import _global_loglik_pointwise, log_prob_global
 from flidar_uq.inference.diagnostics import _diagnostics, _thin
 from flidar_uq.inference.loo import _loo, _loo_compare
-from flidar_uq.inference.observations import record_sigma_z_moments
+from flidar_uq.inference.observations import effective_sigma_z_ms, record_sigma_z_moments
 from flidar_uq.inference.priors import Priors, SamplerSettings
 from flidar_uq.inference.results import GlobalFit
 from flidar_uq.inference.sampler import _INIT_WIDENING, _run_ensembles
@@ -273,7 +273,7 @@ def _fit_global_model(name, data, settings, ss_mc, ss_loo, priors, loo_threshold
     if name != "rho_only":  # per-bin rho comparison at the median lever arm (and scale)
         lev = float(np.median(draws["lever_arm_m"]))
         k = float(np.median(draws["motion_scale"])) if "motion_scale" in draws else 1.0
-        sz_eff = np.sqrt((k * szm) ** 2 + lev**2 * u2)
+        sz_eff = effective_sigma_z_ms(szm, u2, lev, k)
         szv = k**2 * szv * (k * szm / np.maximum(sz_eff, 1e-12)) ** 2
         szm = sz_eff
     if not prior_only and np.unique(bins).size > 1:

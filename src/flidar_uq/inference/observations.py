@@ -34,6 +34,32 @@ def translation_unit_sq(amplitude_deg, period_s, scan_period_s=1.0):
     return 0.5 * (a * 2.0 * np.pi / t * np.sinc(scan_period_s / t)) ** 2
 
 
+def effective_sigma_z_ms(sz_rot_ms, unit_sq, lever_arm_m, motion_scale=1.0):
+    """Effective sigma_Z (m/s) of the lever-arm model: rotation plus head translation.
+
+    ``sZ = sqrt((k sZ_rot)^2 + L^2 u^2)``: the surrogate's rotational sigma_Z scaled by the
+    motion-model scale ``k``, and the translation of a head ``L`` above the centre of
+    rotation, ``u^2`` from :func:`translation_unit_sq` (design.md).
+
+    Parameters
+    ----------
+    sz_rot_ms : array_like
+        Rotational sigma_Z of the surrogate (m/s).
+    unit_sq : array_like
+        Squared translational error per metre of lever arm ((m/s)^2 / m^2).
+    lever_arm_m : float or array_like
+        Effective lever arm ``L`` (m), broadcastable (e.g. one per draw).
+    motion_scale : float or array_like
+        Motion-model scale ``k`` (1: the surrogate as is).
+
+    Returns
+    -------
+    numpy.ndarray
+    """
+    sz = motion_scale * np.asarray(sz_rot_ms, dtype=float)
+    return np.sqrt(sz**2 + np.asarray(lever_arm_m, dtype=float) ** 2 * unit_sq)
+
+
 def imu_observations(records: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     """Per-record log amplitude and log period from the IMU statistics.
 

@@ -10,7 +10,11 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from flidar_uq.inference.observations import _default_surrogate, translation_unit_sq
+from flidar_uq.inference.observations import (
+    _default_surrogate,
+    effective_sigma_z_ms,
+    translation_unit_sq,
+)
 
 
 def _jsonable(x):
@@ -133,7 +137,7 @@ class BinFit(_FitBase):
             Needed when ``ndraws`` subsamples.
         lever_arm_m : float or array_like, shape (ndraws, 1), optional
             Effective lever arm (m) per draw; adds the head translation,
-            ``sZ^2 = sZ_rot^2 + L^2 u^2`` (:func:`translation_unit_sq`).
+            ``sZ^2 = sZ_rot^2 + L^2 u^2`` (:func:`effective_sigma_z_ms`).
         scan_period_s : float
             VAD scan duration (s) for the translation term.
 
@@ -144,7 +148,7 @@ class BinFit(_FitBase):
         sz, u2 = self._motion_draws(hws_ms, surrogate, self._draw_index(ndraws, rng), scan_period_s)
         if lever_arm_m is None:
             return sz
-        return np.sqrt(sz**2 + np.asarray(lever_arm_m, dtype=float) ** 2 * u2)
+        return effective_sigma_z_ms(sz, u2, lever_arm_m)
 
     def _motion_draws(self, hws_ms, surrogate, idx, scan_period_s=1.0):
         """Rotational sigma_Z draws (ndraws, n) and translation units u^2 (ndraws, 1)."""
