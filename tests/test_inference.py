@@ -509,3 +509,41 @@ def test_global_init_spreads_a_parameter_whose_mode_is_on_the_boundary():
     p0 = init(np.random.default_rng(1), 16)
     assert np.all(p0.std(axis=0) > 1e-3) and walkers_independent(p0)
     assert np.all(np.isfinite(log_prob_global(p0, s, r, szm, np.zeros(n), u2=np.full(n, 0.003))))
+
+
+def _assert_same_fit(a, b):
+    assert type(a) is type(b)
+    assert a.draws.keys() == b.draws.keys()
+    for n in a.draws:
+        np.testing.assert_array_equal(np.asarray(a.draws[n]), np.asarray(b.draws[n]))
+    np.testing.assert_array_equal(np.asarray(a.log_lik), np.asarray(b.log_lik))
+    assert a.failure_reasons == b.failure_reasons
+    assert a.converged == b.converged
+    assert a.summary().equals(b.summary())
+
+
+def test_load_fit_roundtrips_every_kind_save_fit_writes(tmp_path, surrogate):
+    from flidar_uq.inference import FailedFit, save_fit, write_failed_fit
+
+    rec, _ = _campaign(0.5, surrogate, seed=3, n_bins=2, n=15)
+    fits = [fit_bin(g, settings=FAST, seed=int(b)) for b, g in rec.groupby("bin_id")]
+    gf = fit_global(rec, fits, surrogate=surrogate, settings=FAST, seed=3, lever_arm=True)
+    for name, fit in (("bin", fits[0]), ("global", gf)):
+        save_fit(fit, tmp_path / f"{name}.nc")
+        back = load_fit(tmp_path / f"{name}.nc")
+        _assert_same_fit(fit, back)
+        np.testing.assert_array_equal(
+            back.info["constant"]["record_index"], fit.info["constant"]["record_index"]
+        )
+        # no wall-clock attributes: a second write gives the same bytes
+        save_fit(back, tmp_path / f"{name}2.nc")
+        assert (tmp_path / f"{name}.nc").read_bytes() == (tmp_path / f"{name}2.nc").read_bytes()
+    assert load_fit(tmp_path / "bin.nc").bin_id == fits[0].bin_id
+    assert load_fit(tmp_path / "global.nc").info["loo"]["model"] == "lever_arm"
+    write_failed_fit(tmp_path / "failed.nc", 7, "ValueError: no records")
+    back = load_fit(tmp_path / "failed.nc")
+    assert isinstance(back, FailedFit)
+    assert back.kind == "failed" and back.bin_id == 7 and back.reason == "ValueError: no records"
+    assert not back.converged and back.failure_reasons == ["ValueError: no records"]
+    save_fit(back, tmp_path / "failed2.nc")
+    assert load_fit(tmp_path / "failed2.nc") == back

@@ -36,7 +36,7 @@ never ``campaign``, ``correction`` or ``workflow``. One concern per module:
 - :mod:`.sampler` -- ensembles, burn-in, main phase and its extension
 - :mod:`.diagnostics` -- R-hat, ESS, autocorrelation times
 - :mod:`.loo` -- PSIS-LOO and the posterior predictive check
-- :mod:`.results` -- ``BinFit``, ``GlobalFit``, NetCDF reader
+- :mod:`.results` -- ``BinFit``, ``GlobalFit``, ``FailedFit``; NetCDF writer and reader
 - :mod:`.bin_fit`, :mod:`.global_fit` -- the two stages
 - :mod:`.prior_predictive` -- prior predictive draws
 
@@ -55,7 +55,14 @@ from flidar_uq.inference.observations import (
 )
 from flidar_uq.inference.prior_predictive import prior_predictive
 from flidar_uq.inference.priors import Priors, SamplerSettings, sample_motion_prior
-from flidar_uq.inference.results import BinFit, GlobalFit, load_fit
+from flidar_uq.inference.results import (
+    BinFit,
+    FailedFit,
+    GlobalFit,
+    load_fit,
+    save_fit,
+    write_failed_fit,
+)
 
 __all__ = [
     "Priors",
@@ -66,6 +73,9 @@ __all__ = [
     "fit_global",
     "select_global_model",
     "load_fit",
+    "save_fit",
+    "write_failed_fit",
+    "FailedFit",
     "log_prob_unimodal",
     "log_prob_two_period",
     "log_prob_global",

@@ -1,4 +1,4 @@
-"""Fit results (BinFit, GlobalFit) and their NetCDF reader."""
+"""Fit results (BinFit, GlobalFit, FailedFit) and their one NetCDF writer and reader."""
 
 from __future__ import annotations
 
@@ -89,8 +89,8 @@ class _FitBase:
         return dt
 
     def to_netcdf(self, path) -> None:
-        """Write :meth:`to_datatree` to NetCDF (h5netcdf engine)."""
-        self.to_datatree().to_netcdf(path, engine="h5netcdf")
+        """Write the fit to NetCDF: :func:`save_fit`."""
+        save_fit(self, path)
 
 
 @dataclass
@@ -225,10 +225,85 @@ class GlobalFit(_FitBase):
         return self._summary_rows(extra)
 
 
-def load_fit(path) -> BinFit | GlobalFit:
-    """Read a fit written by ``BinFit.to_netcdf`` / ``GlobalFit.to_netcdf``."""
+@dataclass(frozen=True)
+class FailedFit:
+    """A fit that raised instead of returning a result (written by :func:`write_failed_fit`).
+
+    Attributes
+    ----------
+    bin_id : int or None
+        The bin whose fit raised (None if not a bin fit).
+    reason : str
+        What went wrong (e.g. ``"ValueError: ..."``).
+    """
+
+    kind = "failed"
+    bin_id: int | None
+    reason: str
+
+    @property
+    def converged(self) -> bool:
+        """Always False: a failed fit has no posterior."""
+        return False
+
+    @property
+    def failure_reasons(self) -> list:
+        return [self.reason]
+
+
+# wall-clock attributes ArviZ adds: dropped so that reruns write identical bytes
+_VOLATILE_ATTRS = ("created_at", "creation_library_version")
+
+
+def save_fit(fit: BinFit | GlobalFit | FailedFit, path) -> None:
+    """Write a fit to NetCDF (h5netcdf engine), readable by :func:`load_fit`.
+
+    A :class:`BinFit` / :class:`GlobalFit` is written as its ArviZ DataTree
+    (:meth:`~BinFit.to_datatree`) without wall-clock attributes, so a rerun writes the same
+    bytes; a :class:`FailedFit` as by :func:`write_failed_fit`.
+    """
+    if isinstance(fit, FailedFit):
+        write_failed_fit(path, fit.bin_id, fit.reason)
+        return
+    dt = fit.to_datatree()
+    for node in dt.subtree:
+        for a in _VOLATILE_ATTRS:
+            node.attrs.pop(a, None)
+    dt.to_netcdf(path, engine="h5netcdf")
+
+
+def write_failed_fit(path, bin_id, reason_text: str) -> None:
+    """Write a "failed" fit (the fit raised) that :func:`load_fit` reads as a :class:`FailedFit`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    bin_id : int or None
+        The bin whose fit raised.
+    reason_text : str
+        What went wrong, e.g. ``f"{type(exc).__name__}: {exc}"``.
+    """
+    attrs = {"flidar_uq_kind": FailedFit.kind, "status": "error", "message": str(reason_text)}
+    if bin_id is not None:
+        attrs["bin_id"] = int(bin_id)
+    xr.Dataset(attrs=attrs).to_netcdf(path, engine="h5netcdf")
+
+
+def load_fit(path) -> BinFit | GlobalFit | FailedFit:
+    """Read a fit written by :func:`save_fit` or :func:`write_failed_fit`.
+
+    Returns
+    -------
+    BinFit, GlobalFit or FailedFit
+        By the file's ``flidar_uq_kind`` ("bin", "global", "failed").
+    """
     dt = xr.open_datatree(path, engine="h5netcdf").load()
     kind = dt.attrs["flidar_uq_kind"]
+    if kind == FailedFit.kind:
+        bin_id = dt.attrs.get("bin_id")
+        return FailedFit(
+            bin_id=None if bin_id is None else int(bin_id), reason=str(dt.attrs["message"])
+        )
     post = dt["posterior"].to_dataset()
     draws = {n: post[n].values for n in post.data_vars}
     log_lik = dt["log_likelihood"].to_dataset()["obs"].values
