@@ -9,7 +9,7 @@ import numpy as np
 from scipy import stats
 
 from flidar_uq.inference.diagnostics import _max_autocorr_time
-from flidar_uq.inference.moves import StudentTIndependenceProposal, _BlockRedBlueMove
+from flidar_uq.inference.moves import BlockDEMove, BlockDESnookerMove, StudentTIndependenceProposal
 
 # Sampler tuning, chosen with the speed-accuracy benchmark and the per-bin
 # autocorrelation times of the default campaign (docs/inference.md):
@@ -84,7 +84,7 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq):
 
     Each ensemble's initial positions come from its own child of ``seedseq`` (``init_fn``:
     overdispersed relative to the posterior); its moves use only its own walkers
-    (:class:`_BlockRedBlueMove`, a per-block Student-t), so the ensembles are independent
+    (:class:`~flidar_uq.inference.moves.BlockDEMove`, a per-block Student-t), so the ensembles are independent
     chains. Burn-in, first half: DE + DE-snooker moves; second half: the main kernel with
     a Student-t fitted to the first half (it pulls stragglers into the bulk). Main phase (a
     fixed kernel): DE + the independence Student-t Metropolis move refitted to the second
@@ -99,8 +99,8 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq):
     p0 = np.concatenate([init_fn(np.random.default_rng(c), nw) for c in children])
     random_state = np.random.RandomState(ss_mcmc.generate_state(4, np.uint32)).get_state()
     burn_moves = [
-        (_BlockRedBlueMove(emcee.moves.DEMove(), nens), 1.0 - settings.snooker_weight),
-        (_BlockRedBlueMove(emcee.moves.DESnookerMove(), nens), settings.snooker_weight),
+        (BlockDEMove(nens), 1.0 - settings.snooker_weight),
+        (BlockDESnookerMove(nens), settings.snooker_weight),
     ]
     burn = _sampler(log_prob, args, ndim, nens * nw, burn_moves, random_state)
     nburn = max(settings.nburn, 4)
@@ -108,7 +108,7 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq):
     random_state = burn.random_state
 
     def main_moves(prop, weight):
-        moves = [(_BlockRedBlueMove(emcee.moves.DEMove(), nens), 1.0 - weight)]
+        moves = [(BlockDEMove(nens), 1.0 - weight)]
         if weight > 0:
             moves.append((emcee.moves.MHMove(prop), weight))
         return moves
