@@ -38,7 +38,7 @@ never ``campaign``, ``correction`` or ``workflow``. One concern per module:
 - :mod:`.loo` -- PSIS-LOO and the posterior predictive check
 - :mod:`.results` -- ``BinFit``, ``GlobalFit``, ``FailedFit``; NetCDF writer and reader
 - :mod:`.bin_fit`, :mod:`.global_fit` -- the two stages
-- :mod:`.prior_predictive` -- prior predictive draws
+- :mod:`.predictive` -- prior predictive draws
 
 This module only re-exports the public API.
 """
@@ -53,7 +53,7 @@ from flidar_uq.inference.observations import (
     record_sigma_z_moments,
     translation_unit_sq,
 )
-from flidar_uq.inference.prior_predictive import prior_predictive
+from flidar_uq.inference.predictive import prior_predictive
 from flidar_uq.inference.priors import Priors, SamplerSettings, sample_motion_prior
 from flidar_uq.inference.results import (
     BinFit,
