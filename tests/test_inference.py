@@ -573,3 +573,33 @@ def test_block_moves_keep_ensembles_independent():
     # proposal of block 0 used a walker of block 1
     np.testing.assert_array_equal(a[:, :8], b[:, :8])
     assert not np.array_equal(a[:, 8:], b[:, 8:])
+
+
+def test_entry_points_run_with_one_blas_thread(monkeypatch):
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    import flidar_uq.inference.bin_fit as bin_fit
+    import flidar_uq.inference.global_fit as global_fit
+    import flidar_uq.inference.predictive as pp
+
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def spy(*args, **kwargs):
+        seen.append([i["num_threads"] for i in threadpool_info()])
+        raise Stop
+
+    monkeypatch.setattr(bin_fit, "_fit_motion_model", spy)
+    monkeypatch.setattr(global_fit, "record_sigma_z_moments", spy)
+    monkeypatch.setattr(pp, "sample_motion_prior", spy)
+    with threadpool_limits(limits=2):
+        with pytest.raises(Stop):
+            fit_bin(_records(5, 3.0, 4.0), settings=FAST, seed=1)
+        with pytest.raises(Stop):
+            fit_global(_records(5, 3.0, 4.0), [], settings=FAST, seed=1)
+        with pytest.raises(Stop):
+            pp.prior_predictive([8.0], [0.8], surrogate=object(), seed=1)
+    assert len(seen) == 3
+    assert all(n == 1 for pools in seen for n in pools)

@@ -24,6 +24,7 @@ from flidar_uq.inference.priors import Priors, SamplerSettings, sample_motion_pr
 from flidar_uq.inference.results import BinFit
 from flidar_uq.inference.sampler import _INIT_WIDENING, _run_ensembles
 from flidar_uq.seeding import as_seedsequence
+from flidar_uq.threads import single_threaded
 
 _UNI_NAMES = ["amplitude_deg", "period_s", "scatter_amplitude", "scatter_period"]
 
@@ -150,6 +151,7 @@ def _fit_motion_model(model, log_amp, log_per, settings, seedseq, priors):
     return draws, ll, diag, reasons
 
 
+@single_threaded
 def fit_bin(
     bin_records: pd.DataFrame,
     *,

@@ -20,6 +20,7 @@ from flidar_uq.inference.priors import Priors, SamplerSettings
 from flidar_uq.inference.results import GlobalFit
 from flidar_uq.inference.sampler import _INIT_WIDENING, _run_ensembles
 from flidar_uq.seeding import as_seedsequence
+from flidar_uq.threads import single_threaded
 
 _GLOBAL_NAMES = ["rho", "tau0_ms", "kappa"]
 
@@ -133,6 +134,7 @@ _GLOBAL_MODELS = ("rho_only", "lever_arm", "lever_arm_scale")
 _GLOBAL_NDIM = {"rho_only": 3, "lever_arm": 4, "lever_arm_scale": 5}
 
 
+@single_threaded
 def fit_global(
     records: pd.DataFrame,
     bin_fits,
@@ -317,6 +319,7 @@ def _fit_global_model(name, data, settings, ss_mc, ss_loo, priors, loo_threshold
     return fit, lg
 
 
+@single_threaded
 def select_global_model(
     fit_rho_only: GlobalFit,
     fit_lever_arm: GlobalFit,

@@ -6,6 +6,7 @@ import numpy as np
 import pandas as pd
 
 from flidar_uq.seeding import as_seedsequence
+from flidar_uq.threads import single_threaded
 
 
 def translation_unit_sq(amplitude_deg, period_s, scan_period_s=1.0):
@@ -121,6 +122,7 @@ def _default_surrogate(surrogate):
     return get_surrogate()
 
 
+@single_threaded
 def record_sigma_z_moments(
     records, bin_fits, *, surrogate=None, ndraws=200, seed=0, scan_period_s=1.0
 ):

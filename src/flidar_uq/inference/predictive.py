@@ -8,8 +8,10 @@ from flidar_uq.inference.observations import _default_surrogate
 from flidar_uq.inference.priors import Priors, sample_motion_prior
 from flidar_uq.physics.variance_laws import sigma_moving_pc
 from flidar_uq.seeding import as_seedsequence
+from flidar_uq.threads import single_threaded
 
 
+@single_threaded
 def prior_predictive(
     hws_ms, ref_std_ms, *, surrogate=None, priors: Priors = Priors(), ndraws=2000, seed
 ):
