@@ -137,11 +137,15 @@ def _fit_motion_model(model, log_amp, log_per, settings, seedseq, priors):
             }
         )
     data = _MotionData.from_observations(log_amp, log_per)
-    chains = _run_ensembles(
-        fn, (data, priors), _init_fn(log_amp, log_per, priors, ndim), ndim, s, seedseq
+    chains, diag, reasons = _run_ensembles(
+        fn,
+        (data, priors),
+        _init_fn(log_amp, log_per, priors, ndim),
+        ndim,
+        s,
+        seedseq,
+        lambda ch: _diagnostics(_to_natural(ch, model), names, s),
     )
-    nat = _to_natural(chains, model)
-    diag, reasons = _diagnostics(nat, names, s)
     thin = _thin(chains, s.ndraws)
     ok = np.isfinite(log_amp) | np.isfinite(log_per)
     pll = _loglik_pointwise_unimodal if model == "unimodal" else _loglik_pointwise_two_period

@@ -13,11 +13,6 @@ def _autocorr_times(chains):
         return np.array([emcee.autocorr.integrated_time(c, tol=0, quiet=True) for c in chains])
 
 
-def _max_autocorr_time(chains):
-    tau = _autocorr_times(chains)
-    return float(np.max(tau)) if np.all(np.isfinite(tau)) else float("nan")
-
-
 def _diagnostics(chains, names, settings):
     """Rank R-hat across ensembles (walkers pooled), bulk/tail ESS, autocorrelation times."""
     nens, nsteps, nwalk, ndim = chains.shape

@@ -112,14 +112,17 @@ def _sample_global(s, r, szm, szv, u2, settings, seedseq, priors, ndim):
     """emcee run of the global model: 3 parameters, 4 with the lever arm (``u2``), 5 with
     the motion-model scale too."""
     init = _global_init_fn(s, r, szm, szv, u2, priors, ndim)
-    chains = _run_ensembles(
-        log_prob_global, (s, r, szm, szv, priors, u2), init, ndim, settings, seedseq
-    )
     names = (_GLOBAL_NAMES + ["lever_arm_m", "motion_scale"])[:ndim]
     logs = [k for k in (1, 2, 4) if k < ndim]  # sampled as logs, reported natural
-    nat = chains.copy()
-    nat[..., logs] = np.exp(chains[..., logs])
-    diag, reasons = _diagnostics(nat, names, settings)
+
+    def check(ch):
+        nat = ch.copy()
+        nat[..., logs] = np.exp(ch[..., logs])
+        return _diagnostics(nat, names, settings)
+
+    chains, diag, reasons = _run_ensembles(
+        log_prob_global, (s, r, szm, szv, priors, u2), init, ndim, settings, seedseq, check
+    )
     thin = _thin(chains, settings.ndraws)
     ll = _global_loglik_pointwise(thin.reshape(-1, ndim), s, r, szm, szv, u2)
     ll = ll.reshape(thin.shape[0], thin.shape[1], -1)

@@ -80,8 +80,11 @@ class SamplerSettings:
         PSIS-LOO prefers it by more than ``loo_threshold_se`` standard errors and it
         converged. ``"never"`` or ``"always"`` (fit both, keep the two-period model).
     max_step_factor : float
-        The main phase is extended adaptively (all ensembles equally) until it exceeds
-        ``1.1 n_autocorr`` autocorrelation times, at most to this many times ``nsteps``.
+        The main phase is extended adaptively (all ensembles equally), and every
+        convergence criterion (R-hat, bulk/tail ESS, ``n_autocorr``) re-checked after each
+        extension, until all pass with the chain longer than ``1.1 n_autocorr``
+        autocorrelation times, at most to this many times ``nsteps`` (the stated cap; a
+        criterion still missed there marks the fit failed).
     two_period_step_factor : float
         The two-period model (6 parameters, longer autocorrelation) runs this many times
         ``nsteps`` and ``nburn``.

@@ -8,7 +8,6 @@ import emcee
 import numpy as np
 from scipy import stats
 
-from flidar_uq.inference.diagnostics import _max_autocorr_time
 from flidar_uq.inference.moves import BlockDEMove, BlockDESnookerMove, StudentTIndependenceProposal
 
 # Sampler tuning, chosen with the speed-accuracy benchmark and the per-bin
@@ -79,7 +78,7 @@ def _sampler(log_prob, args, ndim, nwalk, moves, random_state):
     return sm
 
 
-def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq):
+def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq, check):
     """Run ``settings.nensembles`` independent ensembles as blocks of one emcee sampler.
 
     Each ensemble's initial positions come from its own child of ``seedseq`` (``init_fn``:
@@ -90,9 +89,25 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq):
     fixed kernel): DE + the independence Student-t Metropolis move refitted to the second
     half, its weight ``independence_weight`` scaled down when the Student-t fits the
     posterior poorly (:func:`_independence_acceptance` below
-    ``_INDEPENDENCE_FULL_ACCEPTANCE``; all adaptation ends with the burn-in). The main phase is extended (all ensembles equally) while it is shorter than
-    ``1.1 n_autocorr`` autocorrelation times, up to ``max_step_factor * nsteps``.
-    Returns chains of shape (nensembles, nsteps', nwalkers, ndim).
+    ``_INDEPENDENCE_FULL_ACCEPTANCE``; all adaptation ends with the burn-in).
+
+    The main phase is extended (all ensembles equally, :func:`_extension_target`) and ALL
+    convergence criteria re-checked with ``check`` after every extension, until they pass
+    with the chain longer than ``1.1 n_autocorr`` autocorrelation times, or the chain
+    reaches ``max_step_factor * nsteps``; only then does a missed criterion stand.
+
+    Parameters
+    ----------
+    check : callable
+        ``check(chains) -> (diagnostics, failure_reasons)`` on chains of shape
+        (nensembles, nsteps', nwalkers, ndim): the final convergence verdict
+        (:func:`~flidar_uq.inference.diagnostics._diagnostics` in the reported
+        coordinates), with a ``"tau"`` per parameter in ``diagnostics``.
+
+    Returns
+    -------
+    chains, diagnostics, failure_reasons
+        The chains, shape (nensembles, nsteps', nwalkers, ndim), and ``check`` of them.
     """
     nens, nw = settings.nensembles, settings.nwalkers
     *children, ss_mcmc, ss_check = seedseq.spawn(nens + 2)
@@ -133,15 +148,41 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq):
     def chains():
         return np.moveaxis(main.get_chain().reshape(-1, nens, nw, ndim), 1, 0)
 
-    # adaptive length (emcee practice): extend ALL ensembles equally until the chains are
-    # longer than n_autocorr (+10 %) autocorrelation times, up to max_step_factor * nsteps
+    # adaptive length (emcee practice): extend ALL ensembles equally and re-check every
+    # criterion (the final verdict's own diagnostics) after each extension, until all pass
+    # with n_autocorr (+10 %) autocorrelation times, up to max_step_factor * nsteps
     nsteps = settings.nsteps
-    while nsteps < settings.max_step_factor * settings.nsteps:
-        tau = _max_autocorr_time(chains())
-        need = int(np.ceil(1.1 * settings.n_autocorr * tau)) if np.isfinite(tau) else 2 * nsteps
-        if nsteps >= need:
+    cap = int(settings.max_step_factor * settings.nsteps)
+    ch = chains()
+    diag, reasons = check(ch)
+    while nsteps < cap:
+        need = _extension_target(nsteps, diag, reasons, settings)
+        if need <= nsteps:
             break
-        extra = min(need, int(settings.max_step_factor * settings.nsteps)) - nsteps
+        extra = min(need, cap) - nsteps
         main.run_mcmc(None, extra, skip_initial_state_check=True)
         nsteps += extra
-    return chains()
+        ch = chains()
+        diag, reasons = check(ch)
+    return ch, diag, reasons
+
+
+def _extension_target(nsteps, diag, reasons, settings):
+    """Chain length (steps) to extend the main phase to; ``nsteps`` or less: stop.
+
+    Met criteria and a chain longer than ``1.1 n_autocorr`` autocorrelation times (the
+    largest over parameters and ensembles): stop. Otherwise the longest of: ``1.1
+    n_autocorr tau`` steps, twice the length if tau is not finite, ``1.1 ess_min /
+    ESS`` times the length for a bulk/tail ESS miss (ESS grows with the length), and
+    1.5 times the length for any other miss (R-hat), so a near miss is always extended.
+    """
+    taus = [d["tau"] for d in diag.values()]
+    tau = max(taus) if taus and all(np.isfinite(taus)) else float("nan")
+    need = int(np.ceil(1.1 * settings.n_autocorr * tau)) if np.isfinite(tau) else 2 * nsteps
+    if not reasons:
+        return need
+    ess = [min(d["ess_bulk"], d["ess_tail"]) for d in diag.values()]
+    ess_min = min(ess) if ess else float("nan")
+    if np.isfinite(ess_min) and 0 < ess_min < settings.ess_min:
+        need = max(need, int(np.ceil(1.1 * nsteps * settings.ess_min / ess_min)))
+    return max(need, int(np.ceil(1.5 * nsteps)))
