@@ -1,0 +1,157 @@
+"""Observations the models condition on: IMU statistics, sigma_Z moments, head translation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from flidar_uq.seeding import as_seedsequence
+from flidar_uq.threads import single_threaded
+
+
+def translation_unit_sq(amplitude_deg, period_s, scan_period_s=1.0):
+    """Squared HWS error per metre of lever arm from the head's translation, (m/s)^2 / m^2.
+
+    Roll and pitch ``A sin(2 pi t / T + phi)`` about a centre ``L`` below the head move it
+    horizontally at ``L A (2 pi / T) cos(...)`` per axis; with independent phases the
+    component along the wind has variance ``(L A 2 pi / T)^2 / 2``. The VAD fit over one
+    scan of ``scan_period_s`` averages it by ``sinc(scan / T)``. Checked against
+    design.md: 3 deg, 4 s, 4 m gives 0.21 m/s (design.md: sqrt(0.28^2 - 0.18^2) = 0.21).
+
+    Parameters
+    ----------
+    amplitude_deg, period_s : array_like
+        Motion amplitude (deg) and period (s), broadcastable.
+    scan_period_s : float
+        Duration of one VAD scan (s).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``u^2`` such that ``sigma_Z,trans = L u``.
+    """
+    a = np.deg2rad(np.asarray(amplitude_deg, dtype=float))
+    t = np.asarray(period_s, dtype=float)
+    return 0.5 * (a * 2.0 * np.pi / t * np.sinc(scan_period_s / t)) ** 2
+
+
+def effective_sigma_z_ms(sz_rot_ms, unit_sq, lever_arm_m, motion_scale=1.0):
+    """Effective sigma_Z (m/s) of the lever-arm model: rotation plus head translation.
+
+    ``sZ = sqrt((k sZ_rot)^2 + L^2 u^2)``: the surrogate's rotational sigma_Z scaled by the
+    motion-model scale ``k``, and the translation of a head ``L`` above the centre of
+    rotation, ``u^2`` from :func:`translation_unit_sq` (design.md).
+
+    Parameters
+    ----------
+    sz_rot_ms : array_like
+        Rotational sigma_Z of the surrogate (m/s).
+    unit_sq : array_like
+        Squared translational error per metre of lever arm ((m/s)^2 / m^2).
+    lever_arm_m : float or array_like
+        Effective lever arm ``L`` (m), broadcastable (e.g. one per draw).
+    motion_scale : float or array_like
+        Motion-model scale ``k`` (1: the surrogate as is).
+
+    Returns
+    -------
+    numpy.ndarray
+    """
+    sz = motion_scale * np.asarray(sz_rot_ms, dtype=float)
+    return np.sqrt(sz**2 + np.asarray(lever_arm_m, dtype=float) ** 2 * unit_sq)
+
+
+def imu_observations(records: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Per-record log amplitude and log period from the IMU statistics.
+
+    The record's motion amplitude (period) is the geometric mean of the roll and pitch
+    amplitudes (periods); a missing axis falls back to the other; NaN if both missing.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Core record columns ``roll_amplitude_deg``, ``pitch_amplitude_deg``,
+        ``roll_period_s``, ``pitch_period_s`` (missing columns count as NaN).
+
+    Returns
+    -------
+    log_amp, log_per : numpy.ndarray, shape (n_records,)
+        Natural logs of deg and s; NaN where unavailable or non-positive.
+    """
+
+    def col(name):
+        if name in records:
+            x = records[name].to_numpy(dtype=float)
+        else:
+            x = np.full(len(records), np.nan)
+        return np.log(np.where(x > 0, x, np.nan))
+
+    out = []
+    for a, b in (
+        ("roll_amplitude_deg", "pitch_amplitude_deg"),
+        ("roll_period_s", "pitch_period_s"),
+    ):
+        x = np.stack([col(a), col(b)])
+        with np.errstate(all="ignore"):
+            n = np.sum(np.isfinite(x), axis=0)
+            m = np.where(
+                n > 0,
+                np.nansum(np.where(np.isfinite(x), x, 0.0), axis=0) / np.maximum(n, 1),
+                np.nan,
+            )
+        out.append(m)
+    return out[0], out[1]
+
+
+def _distinct_imu_records(records: pd.DataFrame) -> pd.DataFrame:
+    """One row per IMU record: the heights of one 10-min record share the buoy's IMU
+    statistics, which must count once in the motion likelihood (not once per height)."""
+    from flidar_uq.data.imu import MOTION_STAT_COLUMNS
+
+    if "timestamp" not in records:
+        return records
+    cols = ["timestamp", *(c for c in MOTION_STAT_COLUMNS if c in records)]
+    return records.drop_duplicates(subset=cols)
+
+
+def _default_surrogate(surrogate):
+    if surrogate is not None:
+        return surrogate
+    from flidar_uq.physics.surrogate import get_surrogate
+
+    return get_surrogate()
+
+
+@single_threaded
+def record_sigma_z_moments(
+    records, bin_fits, *, surrogate=None, ndraws=200, seed=0, scan_period_s=1.0
+):
+    """Posterior median and variance of sigma_Z (m/s) for every record, from its bin's fit.
+
+    Returns
+    -------
+    sz_med, sz_var, u2_med : numpy.ndarray, shape (n_records,)
+        Rotational sigma_Z median (m/s) and variance, and the median translation unit
+        ``u^2`` (:func:`translation_unit_sq`); NaN for records whose bin has no fit.
+    """
+    surrogate = _default_surrogate(surrogate)
+    fits = {f.bin_id: f for f in bin_fits}
+    rng = np.random.default_rng(as_seedsequence(seed))
+    med = np.full(len(records), np.nan)
+    var = np.full(len(records), np.nan)
+    u2m = np.full(len(records), np.nan)
+    bins = records["bin_id"].to_numpy()
+    for b, f in fits.items():
+        m = bins == b
+        if not np.any(m):
+            continue
+        sz, u2 = f._motion_draws(
+            records["hws_mean_ms"].to_numpy(dtype=float)[m],
+            surrogate,
+            f._draw_index(ndraws, rng),
+            scan_period_s,
+        )
+        med[m] = np.median(sz, axis=0)
+        var[m] = np.var(sz, axis=0)
+        u2m[m] = np.median(u2)
+    return med, var, u2m

@@ -1,0 +1,321 @@
+"""Fit results (BinFit, GlobalFit, FailedFit) and their one NetCDF writer and reader."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+
+import arviz as az
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from flidar_uq.inference.observations import (
+    _default_surrogate,
+    effective_sigma_z_ms,
+    translation_unit_sq,
+)
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {k: _jsonable(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.floating | np.integer | np.bool_):
+        return x.item()
+    return x
+
+
+@dataclass
+class _FitBase:
+    kind = "base"
+    draws: dict  # name -> (nensembles, ndraws)
+    log_lik: np.ndarray  # (nensembles, ndraws, n_obs)
+    diagnostics: dict
+    failure_reasons: list
+    info: dict = field(default_factory=dict)
+
+    @property
+    def converged(self) -> bool:
+        """True only if every convergence criterion of design.md is met."""
+        return len(self.failure_reasons) == 0
+
+    def flat(self, name: str) -> np.ndarray:
+        """All stored draws of one parameter, shape (nensembles * ndraws,)."""
+        return np.asarray(self.draws[name]).reshape(-1)
+
+    def _summary_rows(self, extra):
+        rows = []
+        for n, d in self.draws.items():
+            x = np.asarray(d).ravel()
+            q = np.quantile(x, [0.05, 0.5, 0.95])
+            rows.append(
+                {
+                    **extra,
+                    "param": n,
+                    "mean": float(np.mean(x)),
+                    "sd": float(np.std(x)),
+                    "q05": q[0],
+                    "median": q[1],
+                    "q95": q[2],
+                    **{k: v for k, v in self.diagnostics.get(n, {}).items()},
+                    "converged": self.converged,
+                    "failure_reasons": "; ".join(self.failure_reasons),
+                }
+            )
+        return pd.DataFrame(rows)
+
+    def to_datatree(self):
+        """ArviZ 1.x DataTree: posterior, log_likelihood, constant_data; diagnostics in attrs."""
+        post = {n: np.asarray(v) for n, v in self.draws.items()}
+        dt = az.from_dict(
+            {
+                "posterior": post,
+                "log_likelihood": {"obs": self.log_lik},
+                "constant_data": {
+                    k: np.asarray(v) for k, v in self.info.get("constant", {}).items()
+                },
+            }
+        )
+        dt.attrs["flidar_uq_kind"] = self.kind
+        dt.attrs["converged"] = int(self.converged)
+        dt.attrs["failure_reasons"] = json.dumps(self.failure_reasons)
+        dt.attrs["diagnostics"] = json.dumps(_jsonable(self.diagnostics))
+        meta = {k: v for k, v in self.info.items() if k != "constant"}
+        dt.attrs["info"] = json.dumps(_jsonable(meta))
+        return dt
+
+    def to_netcdf(self, path) -> None:
+        """Write the fit to NetCDF: :func:`save_fit`."""
+        save_fit(self, path)
+
+
+@dataclass
+class BinFit(_FitBase):
+    """Posterior of one bin's motion parameters (stage 1).
+
+    Attributes
+    ----------
+    draws : dict
+        ``amplitude_deg``, ``period_s`` (``period1_s``, ``period2_s``, ``weight1`` for the
+        two-period model), ``scatter_amplitude``, ``scatter_period``; each (nensembles, ndraws).
+    info : dict
+        ``bin_id``, ``model`` ("unimodal"/"two_period"), ``n_records``, ``n_imu``,
+        ``prior_only`` (no IMU statistics: posterior = prior), ``loo`` (elpd, se, p_loo,
+        max Pareto k of each model, elpd difference two_period - unimodal and its se),
+        ``constant`` (record_index, hws_mean_ms).
+    """
+
+    kind = "bin"
+
+    @property
+    def bin_id(self):
+        return self.info["bin_id"]
+
+    @property
+    def model(self) -> str:
+        return self.info["model"]
+
+    def sigma_z_draws(
+        self, hws_ms, surrogate=None, *, ndraws=None, rng=None, lever_arm_m=None, scan_period_s=1.0
+    ) -> np.ndarray:
+        """Draws of sigma_Z (m/s) for records at mean HWS ``hws_ms``.
+
+        Parameters
+        ----------
+        hws_ms : array_like, shape (n,)
+            Records' mean HWS (m/s).
+        surrogate : SigmaZSurrogate, optional
+            Default ``get_surrogate()``.
+        ndraws : int, optional
+            Number of posterior draws (random without replacement if fewer than stored;
+            all stored draws by default).
+        rng : numpy.random.Generator, optional
+            Needed when ``ndraws`` subsamples.
+        lever_arm_m : float or array_like, shape (ndraws, 1), optional
+            Effective lever arm (m) per draw; adds the head translation,
+            ``sZ^2 = sZ_rot^2 + L^2 u^2`` (:func:`effective_sigma_z_ms`).
+        scan_period_s : float
+            VAD scan duration (s) for the translation term.
+
+        Returns
+        -------
+        numpy.ndarray, shape (ndraws, n)
+        """
+        sz, u2 = self._motion_draws(hws_ms, surrogate, self._draw_index(ndraws, rng), scan_period_s)
+        if lever_arm_m is None:
+            return sz
+        return effective_sigma_z_ms(sz, u2, lever_arm_m)
+
+    def _motion_draws(self, hws_ms, surrogate, idx, scan_period_s=1.0):
+        """Rotational sigma_Z draws (ndraws, n) and translation units u^2 (ndraws, 1)."""
+        surrogate = _default_surrogate(surrogate)
+        hws = np.asarray(hws_ms, dtype=float)[None, :]
+        a = self.flat("amplitude_deg")[idx][:, None]
+        if self.model == "two_period":
+            t1 = self.flat("period1_s")[idx][:, None]
+            t2 = self.flat("period2_s")[idx][:, None]
+            w = self.flat("weight1")[idx][:, None]
+            sz = surrogate.sigma_z_two_period_ms(hws, a, t1, t2, w)
+            u2 = w * translation_unit_sq(a, t1, scan_period_s) + (1 - w) * translation_unit_sq(
+                a, t2, scan_period_s
+            )
+        else:
+            t = self.flat("period_s")[idx][:, None]
+            sz = surrogate.sigma_z_ms(hws, a, t)
+            u2 = translation_unit_sq(a, t, scan_period_s)
+        return np.asarray(sz, dtype=float), np.asarray(u2, dtype=float)
+
+    def _draw_index(self, ndraws, rng):
+        n = self.flat("amplitude_deg").size
+        if ndraws is None or ndraws >= n:
+            return np.arange(n)
+        if rng is None:
+            raise ValueError("BinFit.sigma_z_draws: rng is required when ndraws subsamples")
+        return rng.choice(n, size=ndraws, replace=False)
+
+    def summary(self) -> pd.DataFrame:
+        """One row per parameter: moments, quantiles, R-hat, ESS, tau, convergence, model, LOO."""
+        loo = self.info.get("loo", {})
+        extra = {
+            "bin_id": self.bin_id,
+            "model": self.model,
+            "n_records": self.info["n_records"],
+            "n_imu": self.info["n_imu"],
+            "prior_only": self.info["prior_only"],
+            "ppc_kurtosis_p": loo.get("ppc_kurtosis_p", np.nan),
+            "elpd_diff_two_period": loo.get("elpd_diff", np.nan),
+            "elpd_diff_se": loo.get("elpd_diff_se", np.nan),
+            "pareto_k_max": loo.get(f"{self.model}_pareto_k_max", np.nan),
+        }
+        return self._summary_rows(extra)
+
+
+@dataclass
+class GlobalFit(_FitBase):
+    """Posterior of the global parameters ``rho``, ``tau0_ms``, ``kappa`` [, ``lever_arm_m``
+    [, ``motion_scale``]] (stage 2).
+
+    ``info`` holds ``n_records`` used, ``excluded_bins`` (bins not converged, never used),
+    ``prior_only`` (no reference data), ``loo`` (global vs per-bin rho).
+    """
+
+    kind = "global"
+
+    def summary(self) -> pd.DataFrame:
+        """One row per parameter with diagnostics and the global-vs-per-bin-rho LOO result."""
+        loo = self.info.get("loo", {})
+        extra = {
+            "n_records": self.info["n_records"],
+            "prior_only": self.info["prior_only"],
+            "excluded_bins": json.dumps(_jsonable(self.info.get("excluded_bins", []))),
+            "elpd_diff_per_bin_rho": loo.get("elpd_diff", np.nan),
+            "elpd_diff_se": loo.get("elpd_diff_se", np.nan),
+            "pareto_k_max": loo.get("global_pareto_k_max", np.nan),
+            "preferred_rho_model": loo.get("preferred", "global"),
+            "global_model": loo.get("model", "rho_only"),
+            "elpd_diff_lever_arm": loo.get("lever_arm_elpd_diff", np.nan),
+            "elpd_diff_lever_arm_se": loo.get("lever_arm_elpd_diff_se", np.nan),
+            "elpd_diff_motion_scale": loo.get("lever_arm_scale_elpd_diff", np.nan),
+            "elpd_diff_motion_scale_se": loo.get("lever_arm_scale_elpd_diff_se", np.nan),
+        }
+        return self._summary_rows(extra)
+
+
+@dataclass(frozen=True)
+class FailedFit:
+    """A fit that raised instead of returning a result (written by :func:`write_failed_fit`).
+
+    Attributes
+    ----------
+    bin_id : int or None
+        The bin whose fit raised (None if not a bin fit).
+    reason : str
+        What went wrong (e.g. ``"ValueError: ..."``).
+    """
+
+    kind = "failed"
+    bin_id: int | None
+    reason: str
+
+    @property
+    def converged(self) -> bool:
+        """Always False: a failed fit has no posterior."""
+        return False
+
+    @property
+    def failure_reasons(self) -> list:
+        return [self.reason]
+
+
+# wall-clock attributes ArviZ adds: dropped so that reruns write identical bytes
+_VOLATILE_ATTRS = ("created_at", "creation_library_version")
+
+
+def save_fit(fit: BinFit | GlobalFit | FailedFit, path) -> None:
+    """Write a fit to NetCDF (h5netcdf engine), readable by :func:`load_fit`.
+
+    A :class:`BinFit` / :class:`GlobalFit` is written as its ArviZ DataTree
+    (:meth:`~BinFit.to_datatree`) without wall-clock attributes, so a rerun writes the same
+    bytes; a :class:`FailedFit` as by :func:`write_failed_fit`.
+    """
+    if isinstance(fit, FailedFit):
+        write_failed_fit(path, fit.bin_id, fit.reason)
+        return
+    dt = fit.to_datatree()
+    for node in dt.subtree:
+        for a in _VOLATILE_ATTRS:
+            node.attrs.pop(a, None)
+    dt.to_netcdf(path, engine="h5netcdf")
+
+
+def write_failed_fit(path, bin_id, reason_text: str) -> None:
+    """Write a "failed" fit (the fit raised) that :func:`load_fit` reads as a :class:`FailedFit`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    bin_id : int or None
+        The bin whose fit raised.
+    reason_text : str
+        What went wrong, e.g. ``f"{type(exc).__name__}: {exc}"``.
+    """
+    attrs = {"flidar_uq_kind": FailedFit.kind, "status": "error", "message": str(reason_text)}
+    if bin_id is not None:
+        attrs["bin_id"] = int(bin_id)
+    xr.Dataset(attrs=attrs).to_netcdf(path, engine="h5netcdf")
+
+
+def load_fit(path) -> BinFit | GlobalFit | FailedFit:
+    """Read a fit written by :func:`save_fit` or :func:`write_failed_fit`.
+
+    Returns
+    -------
+    BinFit, GlobalFit or FailedFit
+        By the file's ``flidar_uq_kind`` ("bin", "global", "failed").
+    """
+    dt = xr.open_datatree(path, engine="h5netcdf").load()
+    kind = dt.attrs["flidar_uq_kind"]
+    if kind == FailedFit.kind:
+        bin_id = dt.attrs.get("bin_id")
+        return FailedFit(
+            bin_id=None if bin_id is None else int(bin_id), reason=str(dt.attrs["message"])
+        )
+    post = dt["posterior"].to_dataset()
+    draws = {n: post[n].values for n in post.data_vars}
+    log_lik = dt["log_likelihood"].to_dataset()["obs"].values
+    info = json.loads(dt.attrs["info"])
+    if "constant_data" in dt.children:
+        cd = dt["constant_data"].to_dataset()
+        info["constant"] = {n: cd[n].values for n in cd.data_vars}
+    cls = {"bin": BinFit, "global": GlobalFit}[kind]
+    return cls(
+        draws=draws,
+        log_lik=log_lik,
+        diagnostics=json.loads(dt.attrs["diagnostics"]),
+        failure_reasons=json.loads(dt.attrs["failure_reasons"]),
+        info=info,
+    )

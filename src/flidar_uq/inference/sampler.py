@@ -1,0 +1,188 @@
+"""Ensemble sampling: independent ensembles as blocks of one emcee sampler, burn-in,
+proposal fitting and the adaptive extension of the main phase.
+"""
+
+from __future__ import annotations
+
+import emcee
+import numpy as np
+from scipy import stats
+
+from flidar_uq.inference.moves import BlockDEMove, BlockDESnookerMove, StudentTIndependenceProposal
+
+# Sampler tuning, chosen with the speed-accuracy benchmark and the per-bin
+# autocorrelation times of the default campaign (docs/inference.md):
+# scale of the Student-t independence proposal relative to the burn-in covariance
+_PROPOSAL_SCALE = 1.2
+
+
+# the first burn-in half's proposal is fitted to its last (1 - _FIT_FRAC) share
+_FIT_FRAC = 0.5
+
+
+# initial ensembles: this many posterior sd of the normal approximation (overdispersed)
+_INIT_WIDENING = 3.0
+
+
+# expected acceptance rate of the independence move at and above which the main phase
+# uses the full independence_weight (below: proportionally less, the rest DE)
+_INDEPENDENCE_FULL_ACCEPTANCE = 0.5
+
+
+def _fit_proposal(sampler, nens, start_frac):
+    """Student-t proposal per ensemble block from a burn-in phase's samples.
+
+    Uses the steps from ``start_frac`` of the phase on, and only samples inside the 99.9 %
+    highest-density region of a normal approximation (log-prob within
+    ``chi2_ndim(0.999) / 2`` of the block's best), so that a few walkers still far from the
+    bulk do not inflate the proposal; the independence move then pulls them in.
+    """
+    chain, lp = sampler.get_chain(), sampler.get_log_prob()
+    start = int(start_frac * chain.shape[0])
+    ndim = chain.shape[-1]
+    x = np.moveaxis(chain[start:].reshape(-1, nens, chain.shape[1] // nens, ndim), 1, 0)
+    x = x.reshape(nens, -1, ndim)
+    lp = np.moveaxis(lp[start:].reshape(-1, nens, chain.shape[1] // nens), 1, 0).reshape(nens, -1)
+    mean = np.empty((nens, ndim))
+    cov = np.empty((nens, ndim, ndim))
+    cut = 0.5 * stats.chi2.ppf(0.999, ndim)
+    for b in range(nens):
+        keep = lp[b] >= np.max(lp[b]) - cut
+        if keep.sum() < 4 * ndim:  # too few: the better half
+            keep = lp[b] >= np.median(lp[b])
+        mean[b] = x[b, keep].mean(axis=0)
+        cov[b] = np.cov(x[b, keep], rowvar=False)
+    return StudentTIndependenceProposal(mean, cov * _PROPOSAL_SCALE**2)
+
+
+def _independence_acceptance(prop, state, log_prob, args, nens, seedseq, nrep=4):
+    """Expected acceptance rate of the independence move at stationarity, worst ensemble.
+
+    ``E[min(1, w(y) / w(x))]`` with ``w = p / q``, ``x`` the current (burnt-in) walkers
+    and ``y`` fresh proposals (``nrep`` per walker; Tierney 1994).
+    """
+    random = np.random.RandomState(seedseq.generate_state(4, np.uint32))
+    lw_x = state.log_prob - prop.log_q(state.coords)
+    acc = []
+    for _ in range(nrep):
+        y, _ = prop(state.coords, random)
+        with np.errstate(all="ignore"):
+            d = log_prob(y, *args) - prop.log_q(y) - lw_x
+        acc.append(np.exp(np.minimum(np.where(np.isnan(d), -np.inf, d), 0.0)))
+    return float(np.min(np.mean(acc, axis=0).reshape(nens, -1).mean(axis=1)))
+
+
+def _sampler(log_prob, args, ndim, nwalk, moves, random_state):
+    sm = emcee.EnsembleSampler(nwalk, ndim, log_prob, args=args, moves=moves, vectorize=True)
+    sm.random_state = random_state
+    return sm
+
+
+def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq, check):
+    """Run ``settings.nensembles`` independent ensembles as blocks of one emcee sampler.
+
+    Each ensemble's initial positions come from its own child of ``seedseq`` (``init_fn``:
+    overdispersed relative to the posterior); its moves use only its own walkers
+    (:class:`~flidar_uq.inference.moves.BlockDEMove`, a per-block Student-t), so the ensembles are independent
+    chains. Burn-in, first half: DE + DE-snooker moves; second half: the main kernel with
+    a Student-t fitted to the first half (it pulls stragglers into the bulk). Main phase (a
+    fixed kernel): DE + the independence Student-t Metropolis move refitted to the second
+    half, its weight ``independence_weight`` scaled down when the Student-t fits the
+    posterior poorly (:func:`_independence_acceptance` below
+    ``_INDEPENDENCE_FULL_ACCEPTANCE``; all adaptation ends with the burn-in).
+
+    The main phase is extended (all ensembles equally, :func:`_extension_target`) and ALL
+    convergence criteria re-checked with ``check`` after every extension, until they pass
+    with the chain longer than ``1.1 n_autocorr`` autocorrelation times, or the chain
+    reaches ``max_step_factor * nsteps``; only then does a missed criterion stand.
+
+    Parameters
+    ----------
+    check : callable
+        ``check(chains) -> (diagnostics, failure_reasons)`` on chains of shape
+        (nensembles, nsteps', nwalkers, ndim): the final convergence verdict
+        (:func:`~flidar_uq.inference.diagnostics._diagnostics` in the reported
+        coordinates), with a ``"tau"`` per parameter in ``diagnostics``.
+
+    Returns
+    -------
+    chains, diagnostics, failure_reasons
+        The chains, shape (nensembles, nsteps', nwalkers, ndim), and ``check`` of them.
+    """
+    nens, nw = settings.nensembles, settings.nwalkers
+    *children, ss_mcmc, ss_check = seedseq.spawn(nens + 2)
+    p0 = np.concatenate([init_fn(np.random.default_rng(c), nw) for c in children])
+    random_state = np.random.RandomState(ss_mcmc.generate_state(4, np.uint32)).get_state()
+    burn_moves = [
+        (BlockDEMove(nens), 1.0 - settings.snooker_weight),
+        (BlockDESnookerMove(nens), settings.snooker_weight),
+    ]
+    burn = _sampler(log_prob, args, ndim, nens * nw, burn_moves, random_state)
+    nburn = max(settings.nburn, 4)
+    state = burn.run_mcmc(p0, nburn // 2, progress=False)
+    random_state = burn.random_state
+
+    def main_moves(prop, weight):
+        moves = [(BlockDEMove(nens), 1.0 - weight)]
+        if weight > 0:
+            moves.append((emcee.moves.MHMove(prop), weight))
+        return moves
+
+    # second half of the burn-in with the main kernel fitted to the first half: its
+    # independence move pulls stragglers into the bulk, so the final fit sees the bulk only
+    # (a collapsed ensemble is left to fail the diagnostics rather than raise here)
+    w_ind = settings.independence_weight
+    prop = _fit_proposal(burn, nens, _FIT_FRAC) if w_ind > 0 else None
+    burn2 = _sampler(log_prob, args, ndim, nens * nw, main_moves(prop, w_ind), random_state)
+    state = burn2.run_mcmc(state, nburn - nburn // 2, skip_initial_state_check=True)
+    if w_ind > 0:
+        prop = _fit_proposal(burn2, nens, 0.0)
+        # the independence move's share follows how well the fitted Student-t matches the
+        # posterior (its expected acceptance rate, worst ensemble): a non-Gaussian posterior
+        # (a boundary, a banana) is left mostly to DE
+        acc = _independence_acceptance(prop, state, log_prob, args, nens, ss_check)
+        w_ind *= min(1.0, acc / _INDEPENDENCE_FULL_ACCEPTANCE)
+    main = _sampler(log_prob, args, ndim, nens * nw, main_moves(prop, w_ind), burn2.random_state)
+    main.run_mcmc(state, settings.nsteps, skip_initial_state_check=True)
+
+    def chains():
+        return np.moveaxis(main.get_chain().reshape(-1, nens, nw, ndim), 1, 0)
+
+    # adaptive length (emcee practice): extend ALL ensembles equally and re-check every
+    # criterion (the final verdict's own diagnostics) after each extension, until all pass
+    # with n_autocorr (+10 %) autocorrelation times, up to max_step_factor * nsteps
+    nsteps = settings.nsteps
+    cap = int(settings.max_step_factor * settings.nsteps)
+    ch = chains()
+    diag, reasons = check(ch)
+    while nsteps < cap:
+        need = _extension_target(nsteps, diag, reasons, settings)
+        if need <= nsteps:
+            break
+        extra = min(need, cap) - nsteps
+        main.run_mcmc(None, extra, skip_initial_state_check=True)
+        nsteps += extra
+        ch = chains()
+        diag, reasons = check(ch)
+    return ch, diag, reasons
+
+
+def _extension_target(nsteps, diag, reasons, settings):
+    """Chain length (steps) to extend the main phase to; ``nsteps`` or less: stop.
+
+    Met criteria and a chain longer than ``1.1 n_autocorr`` autocorrelation times (the
+    largest over parameters and ensembles): stop. Otherwise the longest of: ``1.1
+    n_autocorr tau`` steps, twice the length if tau is not finite, ``1.1 ess_min /
+    ESS`` times the length for a bulk/tail ESS miss (ESS grows with the length), and
+    1.5 times the length for any other miss (R-hat), so a near miss is always extended.
+    """
+    taus = [d["tau"] for d in diag.values()]
+    tau = max(taus) if taus and all(np.isfinite(taus)) else float("nan")
+    need = int(np.ceil(1.1 * settings.n_autocorr * tau)) if np.isfinite(tau) else 2 * nsteps
+    if not reasons:
+        return need
+    ess = [min(d["ess_bulk"], d["ess_tail"]) for d in diag.values()]
+    ess_min = min(ess) if ess else float("nan")
+    if np.isfinite(ess_min) and 0 < ess_min < settings.ess_min:
+        need = max(need, int(np.ceil(1.1 * nsteps * settings.ess_min / ess_min)))
+    return max(need, int(np.ceil(1.5 * nsteps)))
