@@ -8,8 +8,6 @@ from dataclasses import asdict
 
 import numpy as np
 import pandas as pd
-from emcee.ensemble import walkers_independent
-from scipy import optimize
 from scipy.special import logsumexp
 
 from flidar_uq.inference.densities import _global_loglik_pointwise, log_prob_global
@@ -18,7 +16,7 @@ from flidar_uq.inference.loo import _loo, _loo_compare
 from flidar_uq.inference.observations import effective_sigma_z_ms, record_sigma_z_moments
 from flidar_uq.inference.priors import Priors, SamplerSettings
 from flidar_uq.inference.results import GlobalFit
-from flidar_uq.inference.sampler import _INIT_WIDENING, _run_ensembles
+from flidar_uq.inference.sampler import _run_ensembles, laplace_init
 from flidar_uq.seeding import as_seedsequence
 from flidar_uq.threads import single_threaded
 
@@ -45,39 +43,7 @@ def _per_bin_rho_loo(s, r, szm, szv, bins, tau0, kappa, rng, ndraws, priors):
 
 
 def _global_init_fn(s, r, szm, szv, u2, priors, ndim):
-    """Overdispersed start of the global fit: a widened Laplace approximation.
-
-    The posterior mode (Nelder-Mead on the log posterior) and the inverse of a
-    central-difference Hessian there give a normal approximation; walkers start from it
-    with ``_INIT_WIDENING`` times its sd (overdispersed relative to the posterior, so R-hat
-    across ensembles stays meaningful, yet close enough for a short burn-in). Walkers
-    outside the support, or all of them if the Hessian is not positive definite (e.g. a
-    mode on the boundary ``|rho| = 1``), start from broad uniform draws instead.
-    """
-
-    def neg_lp(th):
-        v = -log_prob_global(th[None, :], s, r, szm, szv, priors, u2)[0]
-        return v if np.isfinite(v) else 1e300
-
-    x0 = np.array([0.0, np.log(0.05), np.log(0.1), 2.0, 0.0][:ndim])
-    mode = optimize.minimize(
-        neg_lp, x0, method="Nelder-Mead", options={"xatol": 1e-5, "fatol": 1e-6, "maxiter": 4000}
-    ).x
-    h = 1e-4
-    hess = np.empty((ndim, ndim))
-    eye = np.eye(ndim) * h
-    for i in range(ndim):
-        for j in range(i, ndim):
-            hess[i, j] = hess[j, i] = (
-                neg_lp(mode + eye[i] + eye[j])
-                - neg_lp(mode + eye[i] - eye[j])
-                - neg_lp(mode - eye[i] + eye[j])
-                + neg_lp(mode - eye[i] - eye[j])
-            ) / (4 * h * h)
-    try:
-        chol = np.linalg.cholesky(np.linalg.inv(hess))
-    except np.linalg.LinAlgError:
-        chol = None
+    """Overdispersed start of the global fit (:func:`laplace_init` on its log posterior)."""
 
     def broad(rng, n):
         cols = [
@@ -89,23 +55,8 @@ def _global_init_fn(s, r, szm, szv, u2, priors, ndim):
         ]
         return np.column_stack(cols[:ndim])
 
-    def init(rng, nwalkers):
-        if chol is None or not np.all(np.isfinite(chol)):
-            return broad(rng, nwalkers)
-        p0 = mode + _INIT_WIDENING * rng.standard_normal((nwalkers, ndim)) @ chol.T
-        # a mode on a boundary (e.g. the lever arm at 0 m when the data hold none) gives a
-        # direction of (numerically) zero width: start that parameter broad
-        flat = p0.std(axis=0) < 1e-6
-        if flat.any():
-            p0[:, flat] = broad(rng, nwalkers)[:, flat]
-        bad = ~np.isfinite(log_prob_global(p0, s, r, szm, szv, priors, u2))
-        p0[bad] = broad(rng, int(bad.sum()))
-        # a near-singular approximation (prior-dominated, nearly collinear directions)
-        # would fail emcee's check of the initial ensemble: start broad instead
-        ok = walkers_independent(p0) and np.all(p0.std(axis=0) > 0)
-        return p0 if ok else broad(rng, nwalkers)
-
-    return init
+    x0 = np.array([0.0, np.log(0.05), np.log(0.1), 2.0, 0.0][:ndim])
+    return laplace_init(log_prob_global, (s, r, szm, szv, priors, u2), x0, broad)
 
 
 def _sample_global(s, r, szm, szv, u2, settings, seedseq, priors, ndim):

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import emcee
 import numpy as np
-from scipy import stats
+from emcee.ensemble import walkers_independent
+from scipy import optimize, stats
 
 from flidar_uq.inference.moves import BlockDEMove, BlockDESnookerMove, StudentTIndependenceProposal
 
@@ -186,3 +187,64 @@ def _extension_target(nsteps, diag, reasons, settings):
     if np.isfinite(ess_min) and 0 < ess_min < settings.ess_min:
         need = max(need, int(np.ceil(1.1 * nsteps * settings.ess_min / ess_min)))
     return max(need, int(np.ceil(1.5 * nsteps)))
+
+
+def laplace_init(log_prob, args, x0, broad):
+    """Overdispersed starting positions from a widened Laplace approximation.
+
+    The posterior mode (Nelder-Mead on ``log_prob(theta[None], *args)``, from ``x0``) and
+    the inverse of a central-difference Hessian there give a normal approximation;
+    walkers start from it with ``_INIT_WIDENING`` times its sd (overdispersed relative to
+    the posterior, so R-hat across ensembles stays meaningful, yet close enough for a
+    short burn-in). Walkers outside the support, a parameter whose mode sits on the edge
+    of the support (zero width), or all walkers when the Hessian is not positive definite
+    or the ensemble would be degenerate, start from ``broad(rng, n)`` draws instead.
+
+    Returns
+    -------
+    callable
+        ``init(rng, nwalkers) -> (nwalkers, ndim)`` for :func:`_run_ensembles`.
+    """
+    x0 = np.asarray(x0, dtype=float)
+    ndim = x0.size
+
+    def neg_lp(th):
+        v = -log_prob(th[None, :], *args)[0]
+        return v if np.isfinite(v) else 1e300
+
+    mode = optimize.minimize(
+        neg_lp, x0, method="Nelder-Mead", options={"xatol": 1e-5, "fatol": 1e-6, "maxiter": 4000}
+    ).x
+    h = 1e-4
+    hess = np.empty((ndim, ndim))
+    eye = np.eye(ndim) * h
+    for i in range(ndim):
+        for j in range(i, ndim):
+            hess[i, j] = hess[j, i] = (
+                neg_lp(mode + eye[i] + eye[j])
+                - neg_lp(mode + eye[i] - eye[j])
+                - neg_lp(mode - eye[i] + eye[j])
+                + neg_lp(mode - eye[i] - eye[j])
+            ) / (4 * h * h)
+    try:
+        chol = np.linalg.cholesky(np.linalg.inv(hess))
+    except np.linalg.LinAlgError:
+        chol = None
+
+    def init(rng, nwalkers):
+        if chol is None or not np.all(np.isfinite(chol)):
+            return broad(rng, nwalkers)
+        p0 = mode + _INIT_WIDENING * rng.standard_normal((nwalkers, ndim)) @ chol.T
+        # a mode on a boundary (e.g. the lever arm at 0 m when the data hold none) gives a
+        # direction of (numerically) zero width: start that parameter broad
+        flat = p0.std(axis=0) < 1e-6
+        if flat.any():
+            p0[:, flat] = broad(rng, nwalkers)[:, flat]
+        bad = ~np.isfinite(log_prob(p0, *args))
+        p0[bad] = broad(rng, int(bad.sum()))
+        # a near-singular approximation (prior-dominated, nearly collinear directions)
+        # would fail emcee's check of the initial ensemble: start broad instead
+        ok = walkers_independent(p0) and np.all(p0.std(axis=0) > 0)
+        return p0 if ok else broad(rng, nwalkers)
+
+    return init
