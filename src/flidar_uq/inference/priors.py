@@ -46,6 +46,8 @@ class Priors:
     lever_arm_scale_m: float = 3.0
     lever_arm_max_m: float = 20.0
     motion_scale_log_sd: float = 0.3
+    kappa_z_scale: float = 0.3
+    record_motion_scale_log_sd: float = 0.1
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,258 @@
+"""The global observation model on per-record sigma_Z (the record motion model).
+
+Each record's sigma_Z comes from its own measured motion
+(:func:`flidar_uq.inference.record_motion.record_motion`): a rotational part ``sZ_rot``
+at unit scale and a head-translation unit ``u^2``. The model (docs/inference.md):
+
+* ``sZ_i = sqrt((k sZ_rot,i)^2 + L^2 u_i^2)``: ``L`` the lever arm (m) of the head above
+  the buoy's rotation centre (prior from the buoy geometry when the config gives it),
+  ``k`` a model-discrepancy check with a prior near 1 (``log k ~ N(0, 0.1)``);
+* ``s_i ~ Normal(mu_i, tau_i)``, ``mu_i^2 = r_i^2 + sZ_i^2 + 2 rho r_i sZ_i`` (Eq. (15)
+  of seed 000);
+* ``tau_i^2 = (kappa mu_i)^2 + (kappa_z sZ_i dmu_i/dsZ_i)^2``: ``kappa`` the relative
+  sampling noise of a 10-min std, ``kappa_z`` the relative error of a record's sigma_Z
+  (the realised motion error of 10 minutes scatters about the one its motion spectrum
+  predicts; first-order propagation through Eq. (15)). The propagation draws the same
+  ``exp(kappa_z N(0, 1))`` factor on each record's sigma_Z.
+
+A constant model-error term ``tau0`` is not needed with per-record sigma_Z: on the
+default campaign its maximum-likelihood value is 0 and ``kappa_z`` is preferred by 460
+log-likelihood units (docs/inference.md), so it is left out (a boundary mode at 0 only
+slows the sampler).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+
+import numpy as np
+import pandas as pd
+
+from flidar_uq.inference.densities import _LOG2PI, _in, _log_halfnormal_logscale, _norm_logpdf
+from flidar_uq.inference.diagnostics import _diagnostics, _thin
+from flidar_uq.inference.loo import _loo
+from flidar_uq.inference.priors import Priors, SamplerSettings
+from flidar_uq.inference.record_motion import record_motion
+from flidar_uq.inference.results import GlobalFit
+from flidar_uq.inference.sampler import _run_ensembles, laplace_init
+from flidar_uq.seeding import as_seedsequence
+from flidar_uq.threads import single_threaded
+
+__all__ = ["RECORD_MODEL_NAMES", "fit_record_model", "log_prob_record_model"]
+
+#: Parameters of the record model, in the order of its theta columns (natural scale names).
+RECORD_MODEL_NAMES = ("rho", "kappa", "kappa_z", "lever_arm_m", "motion_scale")
+_LOGS = (1, 2, 4)  # sampled as logs, reported natural
+
+
+def _record_loglik_pointwise(theta, s, r, sz_rot, u2):
+    """(n_walkers, n_obs) pointwise log-likelihood of the record model (module docstring)."""
+    rho = theta[:, 0:1]
+    kappa_sq = np.exp(2.0 * theta[:, 1:2])
+    kz_sq = np.exp(2.0 * theta[:, 2:3])
+    lever_sq = theta[:, 3:4] ** 2
+    k_sq = np.exp(2.0 * theta[:, 4:5])
+    sz_sq = k_sq * sz_rot**2 + lever_sq * u2
+    sz = np.sqrt(sz_sq)
+    mu_sq = np.maximum(r**2 + sz_sq + 2.0 * rho * r * sz, 1e-12)  # Eq. (15) of seed 000
+    dmu = (sz + rho * r) ** 2 / mu_sq  # (dmu/dsZ)^2
+    tau_sq = kappa_sq * mu_sq + kz_sq * sz_sq * dmu + 1e-8
+    z = s - np.sqrt(mu_sq)
+    return -0.5 * (z * z / tau_sq + np.log(tau_sq) + _LOG2PI)
+
+
+def _log_prior(theta, priors: Priors, lever_arm_prior):
+    """Log prior of the record model and its support mask, vectorised over walkers."""
+    with np.errstate(all="ignore"):
+        ok = np.abs(theta[:, 0]) < 1.0
+        ok &= _in(theta[:, 1], np.log(priors.kappa_min), np.log(2.0))
+        ok &= _in(theta[:, 2], np.log(priors.kappa_min), np.log(5.0))
+        ok &= (theta[:, 3] >= 0.0) & (theta[:, 3] < priors.lever_arm_max_m)
+        ok &= np.abs(theta[:, 4]) < np.log(5.0)
+        lp = _log_halfnormal_logscale(theta[:, 1], priors.kappa_scale)
+        lp = lp + _log_halfnormal_logscale(theta[:, 2], priors.kappa_z_scale)
+        if lever_arm_prior is None:
+            lp = lp + _norm_logpdf(theta[:, 3], 0.0, priors.lever_arm_scale_m)
+        else:
+            lp = lp + _norm_logpdf(theta[:, 3], lever_arm_prior[0], lever_arm_prior[1])
+        lp = lp + _norm_logpdf(theta[:, 4], 0.0, priors.record_motion_scale_log_sd)
+    return lp, ok
+
+
+def log_prob_record_model(theta, s, r, sz_rot, u2, priors=Priors(), lever_arm_prior=None):
+    """Log posterior of the record model, vectorised over walkers.
+
+    Parameters
+    ----------
+    theta : array_like, shape (n_walkers, 5)
+        ``(rho, log kappa, log kappa_z, lever_arm_m, log motion_scale)``.
+    s, r : numpy.ndarray, shape (n_obs,)
+        Floating-lidar and reference 10-min HWS std (m/s).
+    sz_rot, u2 : numpy.ndarray, shape (n_obs,)
+        Each record's rotational sigma_Z at unit scale (m/s) and head-translation unit
+        ((m/s)^2 per m^2 of lever arm), from :func:`record_motion`.
+    priors : Priors
+    lever_arm_prior : (float, float), optional
+        Mean and sd (m) of a normal prior on the lever arm from the buoy's geometry;
+        default: half-normal(``priors.lever_arm_scale_m``).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_walkers,)
+        ``-inf`` outside the support, never NaN.
+    """
+    theta = np.atleast_2d(np.asarray(theta, dtype=float))
+    lp, ok = _log_prior(theta, priors, lever_arm_prior)
+    out = np.full(theta.shape[0], -np.inf)
+    if np.any(ok):
+        with np.errstate(all="ignore"):
+            ll = _record_loglik_pointwise(theta[ok], s, r, sz_rot, u2).sum(axis=1)
+        out[ok] = lp[ok] + ll
+    return np.where(np.isfinite(out), out, -np.inf)
+
+
+def _broad(lever_arm_prior):
+    def broad(rng, n):
+        lev = (
+            rng.uniform(0.0, 5.0, n)
+            if lever_arm_prior is None
+            else np.abs(lever_arm_prior[0] + lever_arm_prior[1] * rng.uniform(-2, 2, n))
+        )
+        return np.column_stack(
+            [
+                rng.uniform(-0.5, 0.5, n),
+                np.log(rng.uniform(0.01, 0.2, n)),
+                np.log(rng.uniform(0.02, 0.5, n)),
+                lev,
+                rng.uniform(-0.2, 0.2, n),
+            ]
+        )
+
+    return broad
+
+
+@single_threaded
+def fit_record_model(
+    records: pd.DataFrame,
+    *,
+    surrogate=None,
+    settings: SamplerSettings = SamplerSettings(),
+    seed,
+    priors: Priors = Priors(),
+    lever_arm_prior: tuple[float, float] | None = None,
+    scan_period_s: float = 1.0,
+) -> GlobalFit:
+    """Posterior of ``rho``, ``kappa``, ``kappa_z``, ``lever_arm_m``, ``motion_scale`` (record model).
+
+    Every record with a finite floating-lidar std, reference std and motion description
+    is used, whatever its bin (bins are for reporting; a record's sigma_Z comes from its
+    own motion).
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records with ``hws_mean_ms``, ``hws_std_ms``, ``ref_hws_std_ms`` and the motion
+        columns :func:`record_motion` reads.
+    surrogate : SigmaZSurrogate, optional
+        The lidar's sigma_Z surrogate (default: ZephIR 300).
+    settings : SamplerSettings
+    seed : int or numpy.random.SeedSequence
+    priors : Priors
+    lever_arm_prior : (float, float), optional
+        Mean and sd (m) of the lever arm from the buoy's geometry (config).
+    scan_period_s : float
+        VAD scan duration (s).
+
+    Returns
+    -------
+    GlobalFit
+        Draws of the five parameters; ``info["loo"]`` holds ``model="record"`` and the
+        PSIS-LOO elpd; ``info["motion_scale_warning"]`` is set when the median
+        ``motion_scale`` leaves [0.8, 1.25] (the per-record motion model does not explain
+        the data: check the lidar type, the IMU columns and the lever arm).
+    """
+    for c in ("hws_mean_ms", "hws_std_ms"):
+        if c not in records:
+            raise ValueError(f"fit_record_model: records lack column {c!r}")
+    if lever_arm_prior is not None:
+        mean, sd = (float(x) for x in lever_arm_prior)
+        if not (mean >= 0 and sd > 0):
+            raise ValueError(
+                f"fit_record_model: lever_arm_prior=({mean}, {sd}) needs mean >= 0 m, sd > 0 m"
+            )
+        lever_arm_prior = (mean, sd)
+    seedseq = as_seedsequence(seed)
+    mot = record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
+    s = records["hws_std_ms"].to_numpy(dtype=float)
+    r = (
+        records["ref_hws_std_ms"].to_numpy(dtype=float)
+        if "ref_hws_std_ms" in records
+        else np.full(len(records), np.nan)
+    )
+    kinds = mot["motion_description"].to_numpy()
+    szr = mot["sigma_z_rot_ms"].to_numpy()
+    u2 = mot["translation_unit_sq"].to_numpy()
+    use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.isfinite(szr) & np.isfinite(u2)
+    s, r, szr, u2 = s[use], r[use], szr[use], u2[use]
+    args = (s, r, szr, u2, priors, lever_arm_prior)
+    f = settings.global_step_factor
+    gs = SamplerSettings(
+        **{
+            **asdict(settings),
+            "nsteps": int(round(settings.nsteps * f)),
+            "nburn": int(round(settings.nburn * f)),
+            "max_step_factor": settings.global_max_step_factor,
+        }
+    )
+    x0 = np.array(
+        [
+            0.0,
+            np.log(0.05),
+            np.log(0.15),
+            2.0 if lever_arm_prior is None else lever_arm_prior[0],
+            0.0,
+        ]
+    )
+    init = laplace_init(log_prob_record_model, args, x0, _broad(lever_arm_prior))
+    ndim = len(RECORD_MODEL_NAMES)
+    logs = list(_LOGS)
+
+    def check(ch):
+        nat = ch.copy()
+        nat[..., logs] = np.exp(ch[..., logs])
+        return _diagnostics(nat, list(RECORD_MODEL_NAMES), gs)
+
+    chains, diag, reasons = _run_ensembles(
+        log_prob_record_model, args, init, ndim, gs, seedseq, check
+    )
+    thin = _thin(chains, settings.ndraws)
+    ll = _record_loglik_pointwise(thin.reshape(-1, ndim), s, r, szr, u2)
+    ll = ll.reshape(thin.shape[0], thin.shape[1], -1)
+    draws = {
+        n: (np.exp(thin[..., k]) if k in _LOGS else thin[..., k])
+        for k, n in enumerate(RECORD_MODEL_NAMES)
+    }
+    reasons = list(reasons)
+    prior_only = s.size == 0
+    if prior_only:
+        reasons.append("no record with a reference std and a motion description: prior only")
+    loo = None if prior_only else _loo(ll)
+    k_med = float(np.median(draws["motion_scale"]))
+    info = {
+        "n_records": int(s.size),
+        "prior_only": prior_only,
+        "excluded_bins": [],
+        "loo": {"model": "record", **({"record_elpd": loo["elpd"]} if loo else {})},
+        "motion_description_counts": {
+            str(k): int(v) for k, v in pd.Series(kinds[use]).value_counts().sort_index().items()
+        },
+        "lever_arm_prior": list(lever_arm_prior) if lever_arm_prior else None,
+        "rho_mass_beyond_0p98": float(np.mean(np.abs(draws["rho"]) > 0.98)),
+        "constant": {"record_index": np.asarray(records.index)[use]},
+    }
+    if not 0.8 <= k_med <= 1.25:
+        info["motion_scale_warning"] = (
+            f"motion_scale {k_med:.2f} outside [0.8, 1.25]: the per-record motion model "
+            "does not explain the data (check the lidar type, IMU columns and lever arm)"
+        )
+    return GlobalFit(draws=draws, log_lik=ll, diagnostics=diag, failure_reasons=reasons, info=info)
