@@ -1,0 +1,132 @@
+"""The record motion model: per-record sigma_Z description and the global fit on it."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from flidar_uq.inference import SamplerSettings, translation_unit_sq
+from flidar_uq.inference.record_fit import (
+    RECORD_MODEL_NAMES,
+    _record_loglik_pointwise,
+    fit_record_model,
+    log_prob_record_model,
+)
+from flidar_uq.inference.record_motion import record_motion
+from flidar_uq.physics.surrogate import get_surrogate
+
+
+def test_along_wind_description_is_a_single_axis_tilt_of_sqrt2_std():
+    rec = pd.DataFrame(
+        {
+            "hws_mean_ms": [8.0, 8.0],
+            "tilt_along_wind_std_deg": [2.0, 0.0],
+            "tilt_period_mean_s": [4.0, 4.0],
+            "roll_amplitude_deg": [9.0, 9.0],  # ignored: the richer description wins
+            "pitch_amplitude_deg": [9.0, 9.0],
+            "roll_period_s": [9.0, 9.0],
+            "pitch_period_s": [9.0, 9.0],
+        }
+    )
+    out = record_motion(rec)
+    assert list(out["motion_description"]) == ["along_wind", "along_wind"]
+    assert out["motion_amplitude_deg"].iloc[0] == pytest.approx(2.0 * np.sqrt(2.0))
+    expect = get_surrogate().sigma_z_ms(8.0, 2.0 * np.sqrt(2.0), 4.0)
+    assert out["sigma_z_rot_ms"].iloc[0] == pytest.approx(float(expect))
+    assert out["translation_unit_sq"].iloc[0] == pytest.approx(
+        float(translation_unit_sq(2.0 * np.sqrt(2.0), 4.0))
+    )
+    # zero tilt along the wind: zero motion error, whatever the roll/pitch columns say
+    assert out["sigma_z_rot_ms"].iloc[1] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_fallbacks_zero_crossing_period_then_roll_pitch_then_none():
+    rec = pd.DataFrame(
+        {
+            "hws_mean_ms": [8.0, 8.0, 8.0],
+            "tilt_along_wind_std_deg": [2.0, np.nan, np.nan],
+            "tilt_period_zero_crossing_s": [5.0, np.nan, np.nan],
+            "roll_amplitude_deg": [np.nan, 2.0, np.nan],
+            "pitch_amplitude_deg": [np.nan, 8.0, np.nan],
+            "roll_period_s": [np.nan, 4.0, np.nan],
+            "pitch_period_s": [np.nan, 9.0, np.nan],
+        }
+    )
+    out = record_motion(rec)
+    assert list(out["motion_description"]) == ["along_wind", "roll_pitch", "none"]
+    assert out["motion_period_s"].iloc[0] == pytest.approx(5.0)
+    assert out["motion_amplitude_deg"].iloc[1] == pytest.approx(4.0)  # geometric mean
+    assert out["motion_period_s"].iloc[1] == pytest.approx(6.0)
+    assert np.isnan(out["sigma_z_rot_ms"].iloc[2])
+
+
+def _draw_records(rng, n, truth):
+    """Records drawn from the record model itself (known parameters)."""
+    hws = rng.uniform(4.0, 18.0, n)
+    ti = np.exp(rng.normal(np.log(0.08), 0.3, n))
+    r = ti * hws
+    std_along = np.exp(rng.normal(np.log(1.6), 0.4, n))
+    per = rng.uniform(2.5, 7.0, n)
+    rec = pd.DataFrame(
+        {"hws_mean_ms": hws, "tilt_along_wind_std_deg": std_along, "tilt_period_mean_s": per}
+    )
+    mot = record_motion(rec)
+    szr, u2 = mot["sigma_z_rot_ms"].to_numpy(), mot["translation_unit_sq"].to_numpy()
+    sz = np.sqrt((truth["motion_scale"] * szr) ** 2 + truth["lever_arm_m"] ** 2 * u2)
+    sz_real = sz * np.exp(truth["kappa_z"] * rng.standard_normal(n))
+    mu = np.sqrt(r**2 + sz_real**2 + 2 * truth["rho"] * r * sz_real)
+    rec["hws_std_ms"] = mu * (1.0 + truth["kappa"] * rng.standard_normal(n))
+    rec["ref_hws_std_ms"] = r
+    return rec
+
+
+@pytest.mark.parametrize("seed", [3, 4])
+def test_record_model_recovers_known_parameters(seed):
+    truth = {"rho": 0.1, "kappa": 0.03, "kappa_z": 0.15, "lever_arm_m": 2.5, "motion_scale": 1.0}
+    rec = _draw_records(np.random.default_rng(seed), 1500, truth)
+    fit = fit_record_model(rec, seed=seed, settings=SamplerSettings(nsteps=200, nburn=100))
+    assert fit.converged, fit.failure_reasons
+    for name in RECORD_MODEL_NAMES:
+        lo, hi = np.quantile(fit.flat(name), [0.001, 0.999])
+        assert lo <= truth[name] <= hi, (name, lo, hi)
+    assert "motion_scale_warning" not in fit.info
+
+
+def test_lever_arm_prior_from_geometry_pulls_the_lever_arm():
+    truth = {"rho": 0.0, "kappa": 0.03, "kappa_z": 0.15, "lever_arm_m": 2.5, "motion_scale": 1.0}
+    rec = _draw_records(np.random.default_rng(5), 300, truth)
+    fit = fit_record_model(
+        rec, seed=5, lever_arm_prior=(2.5, 0.05), settings=SamplerSettings(nsteps=150)
+    )
+    assert np.std(fit.flat("lever_arm_m")) < 0.06
+    with pytest.raises(ValueError, match="lever_arm_prior"):
+        fit_record_model(rec, seed=5, lever_arm_prior=(2.5, 0.0))
+
+
+def test_record_log_prob_is_finite_or_minus_inf_never_nan():
+    rng = np.random.default_rng(0)
+    s, r = rng.uniform(0.1, 2, 50), rng.uniform(0.1, 2, 50)
+    szr, u2 = rng.uniform(0, 0.5, 50), rng.uniform(0, 0.01, 50)
+    theta = np.array(
+        [
+            [0.0, np.log(0.05), np.log(0.1), 2.0, 0.0],
+            [1.5, np.log(0.05), np.log(0.1), 2.0, 0.0],  # |rho| > 1
+            [0.0, np.nan, np.log(0.1), 2.0, 0.0],
+            [0.0, np.log(0.05), np.inf, 2.0, 0.0],
+            [0.0, np.log(0.05), np.log(0.1), -1.0, 0.0],  # negative lever arm
+            [0.99, -30.0, -30.0, 19.9, 1.6],
+        ]
+    )
+    lp = log_prob_record_model(theta, s, r, szr, u2)
+    assert not np.any(np.isnan(lp))
+    assert np.isfinite(lp[0]) and np.all(np.isneginf(lp[1:5]))
+
+
+def test_record_loglik_reduces_to_eq15_without_motion_noise():
+    # kappa_z -> 0, k = 1, L = 0: s ~ N(mu, kappa mu), mu^2 = r^2 + sZ^2 + 2 rho r sZ
+    s, r, szr = np.array([1.1]), np.array([1.0]), np.array([0.3])
+    theta = np.array([[0.2, np.log(0.05), np.log(1e-9), 0.0, 0.0]])
+    mu = np.sqrt(1.0 + 0.09 + 2 * 0.2 * 0.3)
+    tau = 0.05 * mu
+    expect = -0.5 * ((1.1 - mu) ** 2 / tau**2 + np.log(2 * np.pi * tau**2))
+    got = _record_loglik_pointwise(theta, s, r, szr, np.zeros(1))
+    assert got[0, 0] == pytest.approx(expect, rel=1e-6)
