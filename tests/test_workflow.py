@@ -24,7 +24,9 @@ import pandas as pd
 import pytest
 import yaml
 
-from flidar_uq.workflow.pipeline import RECORD_COLUMNS, assign_batches, bin_seed
+from flidar_uq.workflow.data_steps import assign_batches
+from flidar_uq.workflow.inference_steps import bin_seed
+from flidar_uq.workflow.propagation_step import RECORD_COLUMNS
 
 REPO = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
@@ -183,8 +185,8 @@ def test_schema_defaults_equal_the_shipped_config():
 
 def test_config_keys_match_library_dataclasses():
     """qc / inference / priors sections are passed as keyword arguments: names must exist."""
-    from flidar_uq.inference import Priors, SamplerSettings
     from flidar_uq.data.qc import QCConfig
+    from flidar_uq.inference import Priors, SamplerSettings
 
     cfg = load_yaml(CONFIG)
     assert set(cfg["qc"]) <= set(QCConfig.__dataclass_fields__)
@@ -428,7 +430,7 @@ def _fake_bin_fit(bin_id: int, rng: np.random.Generator):
 
 def test_infer_batch_reports_a_raising_bin_and_fits_the_others(tmp_path, monkeypatch):
     from flidar_uq import inference
-    from flidar_uq.workflow import pipeline
+    from flidar_uq.workflow import inference_steps
 
     def fake_fit_bin(records, *, settings, seed, priors, bin_id):
         if bin_id == 2:
@@ -445,7 +447,7 @@ def test_infer_batch_reports_a_raising_bin_and_fits_the_others(tmp_path, monkeyp
     cfg = load_yaml(CONFIG)
     runs = []
     for name in ("a", "b"):
-        summary = pipeline.infer_batch(
+        summary = inference_steps.infer_batch(
             tmp_path / "assignments.csv",
             tmp_path / "table.csv",
             tmp_path / name,
