@@ -31,14 +31,6 @@ RECORD_COLUMNS = [
 ]
 
 
-def _md_rmse(x: np.ndarray, ref: np.ndarray) -> tuple[float, float, int]:
-    """MD and RMSE of x against ref (seed 000 Eqs. 18-19) and the number of finite pairs."""
-    from flidar_uq.data import metrics
-
-    n = int(np.sum(np.isfinite(x) & np.isfinite(ref)))
-    return metrics.mean_deviation(x, ref), metrics.rmse(x, ref), n
-
-
 def propagate(
     *,
     records_path: str | os.PathLike,
@@ -87,6 +79,7 @@ def propagate(
     """
     from flidar_uq import inference as inf
     from flidar_uq.correction import propagation as prop
+    from flidar_uq.data import metrics
     from flidar_uq.physics.surrogate import get_surrogate
 
     flags = read_csv(flags_path)
@@ -107,31 +100,22 @@ def propagate(
         raise ValueError(f"propagate: target={target!r} must be 'point' or 'motionless_lidar'")
     g_ratio, log_sd = np.ones(len(sub)), np.zeros(len(sub))
     if target == "point":
-        from flidar_uq.physics import lidar_response
-
-        hws_sub = sub["hws_mean_ms"].to_numpy(dtype=float)
-        z_sub = sub["height_m"].to_numpy(dtype=float)
-        g_ratio = lidar_response.lidar_std_ratio(
-            hws_sub,
-            z_sub,
-            lidar,
-            turbulence_max_frequency_hz=None if turbulence_dt_s is None else 0.5 / turbulence_dt_s,
-        )
         heights = scan_heights_in_turn or int(rec["height_m"].nunique())
-        log_sd = lidar_response.lidar_point_log_sd(
-            hws_sub,
-            z_sub,
+        g_ratio, log_sd = prop.point_target(
+            sub["hws_mean_ms"].to_numpy(dtype=float),
+            sub["height_m"].to_numpy(dtype=float),
             lidar,
             heights_in_turn=heights,
-            refocus_delay_s=tuple(scan_refocus_delay_s),
+            refocus_delay_s=scan_refocus_delay_s,
             point_sample_interval_s=point_sample_interval_s,
             turbulence_dt_s=turbulence_dt_s,
-            seed=int(seed),
+            seed=seed,
         )
         log.info(
             "point target: lidar std ratio %.4f-%.4f, log-sd %.4f-%.4f (%d heights in turn)",
             np.nanmin(g_ratio), np.nanmax(g_ratio), np.nanmin(log_sd), np.nanmax(log_sd), heights,
         )  # fmt: skip
+    baseline = prop.seed000_baseline(sub, surrogate)
     per_record, speed_bins = prop.corrected_ti(
         sub,
         [f for f in fits.values() if f.converged],
@@ -141,29 +125,73 @@ def propagate(
         ndraws=ndraws,
         lidar_std_ratio=g_ratio,
         point_log_sd=log_sd,
+        baseline=baseline,
         seed=np.random.SeedSequence(entropy=int(seed), spawn_key=(2,)),
     )
-    sz_seed, rho_seed = prop.seed000_baseline(sub, surrogate)
+    sz_seed, rho_seed = baseline
 
-    n = len(rec)
+    out = _records_table(rec, rid, flags["timestamp"], binned, per_record, sz_seed, sz_table)
+    neg = _scatter(per_record["discriminant_negative"].to_numpy(dtype=bool), binned, bool, False)
+    out["flags"] = prop.record_flags(
+        flags["reasons"].fillna(""),
+        out["bin_id"].to_numpy(),
+        binned,
+        neg,
+        fitted=table.set_index("bin_id")["fitted"],
+        status=bin_fits.set_index("bin_id")["status"],
+        global_converged=gfit.converged,
+    )
+    if "ref_hws_std_ms" in rec:
+        out["ref_hws_std_ms"] = rec["ref_hws_std_ms"].to_numpy(dtype=float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out["ti_ref"] = out["ref_hws_std_ms"] / rec["ref_hws_mean_ms"].to_numpy(dtype=float)
+    if "true_ti" in rec:
+        out["ti_true"] = rec["true_ti"].to_numpy(dtype=float)
+    if "true_hws_std_ms" in rec:
+        out["true_hws_std_ms"] = rec["true_hws_std_ms"].to_numpy(dtype=float)
+    out = out[RECORD_COLUMNS + [c for c in out.columns if c not in RECORD_COLUMNS]]
+    write_csv(out, records_out)
+    write_csv(speed_bins, speed_bins_out)
+    write_csv(_bins_table(table, sz_table, bin_fits, out), bins_out)
+
+    # MD / RMSE of std and TI (Tables 2-3 style) against the truth (virtual campaigns)
+    # and against the reference instrument, where present, over the same records.
+    scores = metrics.score_estimates(out, metrics.reference_values(rec))
+    scores["rho_seed000"] = rho_seed
+    scores["credible_mass"] = credible_mass
+    scores["target"] = target
+    write_csv(scores, metrics_out)
+    return out
+
+
+def _scatter(values, mask: np.ndarray, dtype=float, fill=np.nan) -> np.ndarray:
+    """``values`` of the binned records spread to every record (``fill`` elsewhere)."""
+    full = np.full(mask.size, fill, dtype=dtype)
+    full[mask] = values
+    return full
+
+
+def _records_table(
+    rec: pd.DataFrame,
+    rid: np.ndarray,
+    timestamp: pd.Series,
+    binned: np.ndarray,
+    per_record: pd.DataFrame,
+    sz_seed: np.ndarray,
+    sz_table: pd.DataFrame,
+) -> pd.DataFrame:
+    """results/ti/records.csv without flags and references: one row per input record, the
+    corrected values of :func:`~flidar_uq.correction.propagation.corrected_ti` where binned."""
     m = rec["hws_mean_ms"].to_numpy(dtype=float)
     s = rec["hws_std_ms"].to_numpy(dtype=float)
-    out = pd.DataFrame(
-        {"record_id": rid, "timestamp": flags["timestamp"], "height_m": rec["height_m"]}
-    )
+    out = pd.DataFrame({"record_id": rid, "timestamp": timestamp, "height_m": rec["height_m"]})
     out["bin_id"] = rec["bin_id"].to_numpy()
     out["hws_mean_ms"] = m
     out["hws_std_ms"] = s
     with np.errstate(invalid="ignore", divide="ignore"):
         out["ti_uncorrected"] = s / m
-
-    def put(values, dtype=float, fill=np.nan):
-        full = np.full(n, fill, dtype=dtype)
-        full[binned] = values
-        return full
-
     for col in ("ti_corrected_median", "ti_corrected_lo", "ti_corrected_hi"):
-        out[col] = put(per_record[col].to_numpy())
+        out[col] = _scatter(per_record[col].to_numpy(), binned)
     for col, src in (
         ("std_corrected_median_ms", "sigma_corrected_median_ms"),
         ("std_corrected_lo_ms", "sigma_corrected_lo_ms"),
@@ -176,47 +204,18 @@ def propagate(
         ("ti_corrected_c", "ti_c"),
         ("ti_corrected_pc", "ti_pc"),
     ):
-        out[col] = put(per_record[src].to_numpy())
-    out["sigma_z_seed000_ms"] = put(sz_seed)
+        out[col] = _scatter(per_record[src].to_numpy(), binned)
+    out["sigma_z_seed000_ms"] = _scatter(sz_seed, binned)
     for law in ("u", "c", "pc"):
         out[f"std_corrected_{law}_ms"] = out[f"ti_corrected_{law}"] * m
     out["sigma_z_bin_ms"] = sz_table["sigma_z_ms"].reindex(out["bin_id"]).to_numpy(dtype=float)
+    return out
 
-    reasons = [[r] if isinstance(r, str) and r else [] for r in flags["reasons"].fillna("")]
-    status = bin_fits.set_index("bin_id")["status"]
-    fitted = table.set_index("bin_id")["fitted"]
-    neg = put(per_record["discriminant_negative"].to_numpy(dtype=bool), dtype=bool, fill=False)
-    for i in range(n):
-        if reasons[i]:
-            continue
-        if not binned[i]:
-            reasons[i].append("unbinned")  # kept by QC but a binning variable is missing
-            continue
-        b = int(out["bin_id"].iat[i])
-        if not bool(fitted.get(b, False)):
-            reasons[i].append("bin_not_fitted")
-        elif status.get(b) != "ok":
-            reasons[i].append("bin_failed" if status.get(b) == "failed" else "bin_error")
-        elif neg[i]:
-            reasons[i].append("discriminant_negative")
-    if not gfit.converged:
-        for r in reasons:
-            r.append("global_fit_failed")
-    out["flags"] = [";".join(r) for r in reasons]
 
-    if "ref_hws_std_ms" in rec:
-        out["ref_hws_std_ms"] = rec["ref_hws_std_ms"].to_numpy(dtype=float)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            out["ti_ref"] = out["ref_hws_std_ms"] / rec["ref_hws_mean_ms"].to_numpy(dtype=float)
-    if "true_ti" in rec:
-        out["ti_true"] = rec["true_ti"].to_numpy(dtype=float)
-    if "true_hws_std_ms" in rec:
-        out["true_hws_std_ms"] = rec["true_hws_std_ms"].to_numpy(dtype=float)
-    out = out[RECORD_COLUMNS + [c for c in out.columns if c not in RECORD_COLUMNS]]
-    write_csv(out, records_out)
-    write_csv(speed_bins, speed_bins_out)
-
-    # per-bin table: bin table + sigma_Z at the centre + fit status/diagnostics + TI means
+def _bins_table(
+    table: pd.DataFrame, sz_table: pd.DataFrame, bin_fits: pd.DataFrame, out: pd.DataFrame
+) -> pd.DataFrame:
+    """results/ti/bins.csv: bin table + sigma_Z at the centre + fit status/diagnostics + TI means."""
     bins = table.merge(sz_table[["sigma_z_ms", "mean_z_ms"]].reset_index(), on="bin_id", how="left")
     bins = bins.merge(
         bin_fits.drop(columns=[c for c in ("n_records",) if c in bin_fits]), on="bin_id", how="left"
@@ -231,80 +230,4 @@ def propagate(
     if "ti_true" in out:
         agg["ti_true"] = "mean"
     means = out.groupby("bin_id").agg(agg).add_suffix("_mean").reset_index()
-    write_csv(bins.merge(means, on="bin_id", how="left"), bins_out)
-
-    # MD / RMSE of std and TI (Tables 2-3 style) against the truth (virtual campaigns)
-    # and against the reference instrument, where present, over the same records. The
-    # Bayesian estimate is compared in the reference's own terms: its point value against
-    # the truth, times lidar_std_ratio (the motionless-lidar value) against the reference
-    # lidar. Seed 000's laws estimate the reference instrument's std, as published.
-    used = np.isfinite(out["ti_corrected_median"].to_numpy())  # same records for every method
-    g_all = out["lidar_std_ratio"].to_numpy(dtype=float)
-    estimates = {
-        "uncorrected": ("hws_std_ms", "ti_uncorrected"),
-        "U": ("std_corrected_u_ms", "ti_corrected_u"),
-        "C": ("std_corrected_c_ms", "ti_corrected_c"),
-        "PC": ("std_corrected_pc_ms", "ti_corrected_pc"),
-        "Bayesian": ("std_corrected_median_ms", "ti_corrected_median"),
-    }
-    rows = []
-    for ref_name, (ref_std, ref_ti) in _references(rec).items():
-        lo_hi = (out["ti_corrected_lo"].to_numpy(), out["ti_corrected_hi"].to_numpy())
-        for name, (scol, tcol) in estimates.items():
-            scale = g_all if (name == "Bayesian" and ref_name != "truth") else 1.0
-            std = np.where(used, out[scol].to_numpy(dtype=float) * scale, np.nan)
-            ti = np.where(used, out[tcol].to_numpy(dtype=float) * scale, np.nan)
-            md_s, rmse_s, n_s = _md_rmse(std, ref_std)
-            md_t, rmse_t, _ = _md_rmse(ti, ref_ti)
-            with np.errstate(all="ignore"):
-                rel = ti / ref_ti - 1.0
-                mean_rel = float(np.nanmean(rel)) if n_s else float("nan")
-                mean_abs_rel = float(np.nanmean(np.abs(rel))) if n_s else float("nan")
-            coverage = float("nan")
-            if name == "Bayesian" and n_s:
-                ok = used & np.isfinite(ref_ti)
-                inside = (ref_ti >= lo_hi[0] * scale) & (ref_ti <= lo_hi[1] * scale)
-                coverage = float(inside[ok].mean())
-            rows.append(
-                {
-                    "reference": ref_name,
-                    "method": name,
-                    "n": n_s,
-                    "md_std_ms": md_s,
-                    "rmse_std_ms": rmse_s,
-                    "md_ti": md_t,
-                    "rmse_ti": rmse_t,
-                    "mean_rel_ti_error": mean_rel,
-                    "mean_abs_rel_ti_error": mean_abs_rel,
-                    "coverage": coverage,
-                }
-            )
-    metrics = pd.DataFrame(
-        rows,
-        columns=[
-            "reference", "method", "n", "md_std_ms", "rmse_std_ms", "md_ti", "rmse_ti",
-            "mean_rel_ti_error", "mean_abs_rel_ti_error", "coverage",
-        ],
-    )  # fmt: skip
-    metrics["rho_seed000"] = rho_seed
-    metrics["credible_mass"] = credible_mass
-    metrics["target"] = target
-    write_csv(metrics, metrics_out)
-    return out
-
-
-def _references(rec: pd.DataFrame) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Std (m/s) and TI the estimates are scored against: the truth and/or the reference."""
-    out = {}
-    if "true_hws_std_ms" in rec:
-        std = rec["true_hws_std_ms"].to_numpy(dtype=float)
-        ti = (
-            rec["true_ti"].to_numpy(dtype=float)
-            if "true_ti" in rec
-            else std / rec["true_hws_mean_ms"].to_numpy(dtype=float)
-        )
-        out["truth"] = (std, ti)
-    if "ref_hws_std_ms" in rec:
-        std = rec["ref_hws_std_ms"].to_numpy(dtype=float)
-        out["reference instrument"] = (std, std / rec["ref_hws_mean_ms"].to_numpy(dtype=float))
-    return out
+    return bins.merge(means, on="bin_id", how="left")
