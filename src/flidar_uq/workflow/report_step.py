@@ -110,12 +110,10 @@ def build_report(
     sections.append(
         rep.Section(
             "Quality control",
-            rep.table_html(
-                qc_counts, caption="records failing each filter (a record can fail several)"
-            )
+            rep.table_html(qc_counts, caption=rep.caption("qc_filters"))
             + rep.table_html(
                 roll_pitch,
-                caption="roll-pitch correlation of amplitude and period (seed 000 Sec. 2.4)",
+                caption=rep.caption("roll_pitch"),
             ),
         )
     )
@@ -156,9 +154,7 @@ def build_report(
             "Bin table (seed 000 Table 1 style)",
             rep.table_html(
                 table1,
-                caption=f"bins by decreasing count; sigma_Z at the bin centre; bin means of the "
-                f"records' uncorrected TI, corrected TI (median and {mass:.0%} interval bounds) and truth; "
-                f"{int((~shown).sum())} bins below min_count not shown (results/ti/bins.csv)",
+                caption=rep.caption("bin_table", mass=mass, n_hidden=int((~shown).sum())),
             ),
         )
     )
@@ -188,8 +184,7 @@ def build_report(
             rep.figure_to_data_uri(
                 plots.sigma_scatter_figure(r["hws_std_ms"].to_numpy(), ref, corr, ref_label=label)
             ),
-            f"whole campaign: sigma_moving against sigma_ref ({label}) and the motion-corrected sigma_corr "
-            f"(Eqs. 15-17 of seed 000; PC with rho = {rho_pc:.3g} ({rho_src}), Bayesian with the posterior medians)",
+            rep.caption("sigma_scatter", label=label, rho_pc=rho_pc, rho_src=rho_src),
         )
         top = bins.loc[bins["status"] == "ok", "bin_id"].head(3).tolist()
         for bid in top:
@@ -201,7 +196,7 @@ def build_report(
                         r["hws_std_ms"].to_numpy()[sel], ref[sel], sub, ref_label=label
                     )
                 ),
-                f"case no. {bid} (seed 000 Fig. 4 style)",
+                rep.caption("sigma_scatter_case", bin_id=bid),
             )
         sections.append(
             rep.Section(
@@ -214,12 +209,7 @@ def build_report(
             "MD and RMSE by correction method (seed 000 Tables 2-3 style)",
             rep.table_html(
                 metrics,
-                caption="MD = mean(estimate - reference), RMSE (Eqs. 18-19 of seed 000) over the "
-                "records with a Bayesian corrected value, against the truth and/or the reference "
-                "instrument; against the reference lidar the Bayesian value is its motionless-lidar "
-                "equivalent (times lidar_std_ratio); seed 000's U / C / PC laws estimate the "
-                "reference instrument's std (as published); coverage = share of the reference TI "
-                "inside the credible interval",
+                caption=rep.caption("metrics"),
             ),
         )
     )
@@ -246,8 +236,7 @@ def build_report(
                             credible_mass=mass,
                         )
                     ),
-                    f"share of the reference TI inside the {mass:.0%} interval per 2-m/s bin "
-                    "(binomial 95 % error bars) and the mean relative error of the median",
+                    rep.caption("calibration", mass=mass),
                 ),
             )
         )
@@ -256,7 +245,7 @@ def build_report(
             "TI against HWS with credible bands (seed 000 Fig. 8 style)",
             rep.img_html(
                 rep.figure_to_data_uri(plots.ti_vs_hws_figure(records, credible_mass=mass)),
-                f"TI against HWS: moving lidar, corrected (median, {mass:.0%} band of the bin means), truth",
+                rep.caption("ti_vs_hws", mass=mass),
             ),
         )
     )
@@ -268,9 +257,9 @@ def build_report(
                 title="global posterior, one line per ensemble",
             )
         ),
-        "posterior of the global parameters (rho, tau0, kappa), per ensemble",
+        rep.caption("global_posterior"),
     )
-    post += rep.table_html(global_summary, caption="global fit: posterior summary and diagnostics")
+    post += rep.table_html(global_summary, caption=rep.caption("global_summary"))
     ok_bins = bin_fits.loc[bin_fits["status"] == "ok", "bin_id"].astype(int).head(1).tolist()
     for bid in ok_bins:
         bfit = inf.load_fit(bin_file(batch_dirs, bid))
@@ -281,7 +270,7 @@ def build_report(
                     title=f"case no. {bid}: motion posterior",
                 )
             ),
-            f"posterior of the motion parameters of case no. {bid}, per ensemble",
+            rep.caption("bin_posterior", bin_id=bid),
         )
     post += rep.img_html(
         rep.figure_to_data_uri(
@@ -291,11 +280,9 @@ def build_report(
                 ess_min=config["inference"]["ess_min"],
             )
         ),
-        "per-bin convergence: worst rank R-hat and smallest ESS against the thresholds",
+        rep.caption("convergence"),
     )
-    post += rep.table_html(
-        bin_fits, caption="per-bin fits: status (ok / failed / error) and reasons"
-    )
+    post += rep.table_html(bin_fits, caption=rep.caption("bin_fits"))
     sections.append(rep.Section("Posteriors and convergence", post))
 
     if benchmarks_dir is not None and Path(benchmarks_dir).is_dir():
