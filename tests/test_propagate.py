@@ -225,3 +225,13 @@ def test_record_flags_order_of_reasons():
         fitted=fitted, status=status, global_converged=False,
     )  # fmt: skip
     assert failed == ["global_fit_failed", "qc;global_fit_failed"]
+
+
+def test_speed_bins_use_the_package_speed_bin_rule(surrogate):
+    """8.5 m/s sits on an edge: with 8.51 in the upper bin (9), not numpy's round-half-even (8)."""
+    rec = _records([0.6, 0.7], hws=8.5)
+    _, pb = corrected_ti(
+        rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.3), surrogate=surrogate, seed=6
+    )
+    assert pb["speed_bin_ms"].tolist() == [9.0]
+    assert pb["n_records"].tolist() == [2]

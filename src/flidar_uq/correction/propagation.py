@@ -28,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from flidar_uq.data.binning import speed_bin_ms
 from flidar_uq.data.metrics import representative_ti
 from flidar_uq.inference import imu_observations
 from flidar_uq.physics.variance_laws import corrected_std, rho_seed000
@@ -218,7 +219,8 @@ def corrected_ti(
     ndraws : int
         Posterior draws propagated per record.
     speed_bin_width_ms : float
-        Width of the speed bins of the per-bin table (m/s), centred on multiples of it.
+        Width of the speed bins of the per-bin table (m/s), centred on multiples of it
+        (:func:`flidar_uq.data.binning.speed_bin_ms`).
     scan_period_s : float
         VAD scan duration (s), for the head-translation term when the global fit chose
         the lever-arm model (its ``lever_arm_m`` draws are then propagated too).
@@ -393,7 +395,7 @@ def corrected_ti(
 
 
 def _speed_bins(per_record, ti_draws, width, q):
-    centre = np.round(per_record["hws_mean_ms"].to_numpy() / width) * width
+    centre = speed_bin_ms(per_record["hws_mean_ms"].to_numpy(), width)
     conv = per_record["converged"].to_numpy()
     rows = []
     for c in np.unique(centre[np.isfinite(centre)]):

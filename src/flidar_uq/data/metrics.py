@@ -378,7 +378,10 @@ def ti_by_speed_bin(
     m = np.asarray(hws_mean_ms, dtype=np.float64)
     ti = turbulence_intensity(hws_std_ms, m)
     ok = np.isfinite(ti) & (m >= hws_min_ms) & (m <= hws_max_ms)
-    centre = np.floor(m[ok] / bin_width_ms + 0.5) * bin_width_ms
+    # imported here: binning -> imu -> metrics would be an import cycle at module level
+    from flidar_uq.data.binning import speed_bin_ms
+
+    centre = speed_bin_ms(m[ok], bin_width_ms)
     g = pd.Series(ti[ok]).groupby(centre)
     out = pd.DataFrame({"count": g.size(), "ti_mean": g.mean(), "ti_std": g.std(ddof=1)})
     out["ti_representative"] = out["ti_mean"] + REPRESENTATIVE_TI_FACTOR * out["ti_std"]
