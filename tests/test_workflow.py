@@ -470,6 +470,28 @@ def test_infer_batch_reports_a_raising_bin_and_fits_the_others(tmp_path, monkeyp
     assert not (runs[0] / "bin_0003.nc").exists()  # not fitted, not in this batch
 
 
+def _rule_text(name: str) -> str:
+    """The text of rule ``name`` in workflow/rules/*.smk (up to the next rule)."""
+    text = "".join(p.read_text() for p in sorted((REPO / "workflow" / "rules").glob("*.smk")))
+    m = re.search(
+        rf"^(rule|checkpoint) {name}:\n(.*?)(?=^(rule|checkpoint) |\Z)", text, re.M | re.S
+    )
+    assert m, name
+    return m.group(2)
+
+
+def test_infer_batch_does_not_depend_on_the_lidar():
+    """The motion likelihood has no sigma_Z: changing campaign.lidar must not rerun every
+    per-bin fit, so neither the rule's params nor the step take the lidar."""
+    import inspect
+
+    from flidar_uq.workflow.inference_steps import infer_batch
+
+    assert "lidar" not in inspect.signature(infer_batch).parameters
+    assert not re.search(r"\blidar\b", _rule_text("infer_batch"))
+    assert not re.search(r"\blidar\b", (REPO / "workflow/scripts/infer_batch.py").read_text())
+
+
 def test_schema_point_target_sampling_keys():
     """The "auto"-or-value keys of the point target accept "auto" or a bounded value only."""
     schema = load_yaml(SCHEMA)

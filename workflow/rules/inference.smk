@@ -12,7 +12,6 @@ rule infer_batch:
     params:
         inference=config["inference"],
         priors=config["priors"],
-        lidar=config["campaign"]["lidar"],
     conda:
         "../envs/flidar_uq.yaml"
     log:

@@ -12,5 +12,4 @@ infer_batch(
     batch=int(snakemake.wildcards.batch),
     inference=dict(snakemake.params.inference),
     priors=dict(snakemake.params.priors),
-    lidar=snakemake.params.lidar,
 )

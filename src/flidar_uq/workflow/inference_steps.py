@@ -64,7 +64,6 @@ def infer_batch(
     batch: int,
     inference: dict,
     priors: dict,
-    lidar: str = "zephir300",
 ) -> pd.DataFrame:
     """Fit the motion posterior of every bin of one batch; a fit that raises is recorded, not fatal.
 
@@ -84,9 +83,8 @@ def infer_batch(
         Batch index (the ``batch`` column of the bin table).
     inference, priors : dict
         Config sections (:class:`~flidar_uq.inference.SamplerSettings` fields + ``seed``,
-        :class:`~flidar_uq.inference.Priors` fields).
-    lidar : str
-        Lidar geometry name (for the sigma_Z surrogate).
+        :class:`~flidar_uq.inference.Priors` fields). The motion likelihood needs no
+        lidar (no sigma_Z surrogate): the lidar enters later (global fit, propagation).
 
     Returns
     -------
