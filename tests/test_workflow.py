@@ -492,6 +492,45 @@ def test_infer_batch_does_not_depend_on_the_lidar():
     assert not re.search(r"\blidar\b", (REPO / "workflow/scripts/infer_batch.py").read_text())
 
 
+@pytest.mark.parametrize("lidar", ["zephir300", "windcube_v1"])
+def test_fit_global_model_uses_the_configured_lidars_surrogate(tmp_path, monkeypatch, lidar):
+    """The global fit and the propagation use the same sigma_Z surrogate: the one of
+    config campaign.lidar (the rule passes it, as it does to propagate)."""
+    from flidar_uq import inference
+    from flidar_uq.physics.surrogate import get_surrogate
+    from flidar_uq.workflow import inference_steps
+
+    seen = {}
+
+    class _Fit:
+        converged, failure_reasons = True, []
+
+    def fake_fit_global(records, bin_fits, *, surrogate=None, **kwargs):
+        seen["surrogate"] = surrogate
+        return _Fit()
+
+    monkeypatch.setattr(inference, "fit_global", fake_fit_global)
+    monkeypatch.setattr(inference_steps, "_save_fit", lambda fit, path: None)
+    batch = tmp_path / "batch_000"
+    batch.mkdir()
+    pd.DataFrame({"bin_id": [1], "status": ["error"]}).to_csv(batch / "summary.csv", index=False)
+    pd.DataFrame({"record_id": [0], "bin_id": [1]}).to_csv(tmp_path / "assign.csv", index=False)
+    cfg = load_yaml(CONFIG)
+    inference_steps.fit_global_model(
+        [batch],
+        tmp_path / "assign.csv",
+        tmp_path / "global.nc",
+        model="rho_only",
+        inference=cfg["inference"],
+        priors=cfg["priors"],
+        lidar=lidar,
+    )
+    assert seen["surrogate"] is get_surrogate(lidar)
+    assert re.search(r'lidar=config\["campaign"\]\["lidar"\]', _rule_text("fit_global_model"))
+    script = (REPO / "workflow/scripts/fit_global_model.py").read_text()
+    assert "lidar=snakemake.params.lidar" in script
+
+
 def test_schema_point_target_sampling_keys():
     """The "auto"-or-value keys of the point target accept "auto" or a bounded value only."""
     schema = load_yaml(SCHEMA)

@@ -51,6 +51,7 @@ rule fit_global_model:
     params:
         inference=config["inference"],
         priors=config["priors"],
+        lidar=config["campaign"]["lidar"],
     conda:
         "../envs/flidar_uq.yaml"
     log:

@@ -12,4 +12,5 @@ fit_global_model(
     model=snakemake.wildcards.model,
     inference=dict(snakemake.params.inference),
     priors=dict(snakemake.params.priors),
+    lidar=snakemake.params.lidar,
 )

@@ -173,15 +173,20 @@ def fit_global_model(
     model: str,
     inference: dict,
     priors: dict,
+    lidar: str,
 ) -> None:
     """Fit one global model (rho only / lever arm / lever arm + motion scale) on the gathered
     per-bin fits and write its posterior (NetCDF) to ``out_path``.
+
+    ``lidar`` (config ``campaign.lidar``) picks the sigma_Z surrogate, the same one
+    :func:`flidar_uq.workflow.propagation_step.propagate` uses.
 
     The three models run as parallel jobs; :func:`fit_global` then picks one by PSIS-LOO.
     Each model's draws depend only on the seed (``inference.fit_global`` seeds each model
     with its own child), so the result equals ``fit_global(..., lever_arm="auto")``.
     """
     from flidar_uq import inference as inf
+    from flidar_uq.physics.surrogate import get_surrogate
 
     bin_fits = gather_bin_summaries(batch_dirs)
     assigned = read_csv(assignments_path)
@@ -189,6 +194,7 @@ def fit_global_model(
     fit = inf.fit_global(
         assigned[assigned["bin_id"].isin(list(fits))].reset_index(drop=True),
         list(fits.values()),
+        surrogate=get_surrogate(lidar),
         settings=_settings(inference),
         seed=np.random.SeedSequence(entropy=int(inference["seed"]), spawn_key=(0,)),
         priors=_priors(priors),
