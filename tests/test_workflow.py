@@ -313,6 +313,10 @@ def test_tiny_end_to_end_rerun_nothing_clean_rerun_identical(tmp_path):
     # a rerun with the same config does nothing
     proc = snakemake(a, cfg_a, "-n", "--cores", "2")
     assert "Nothing to be done" in proc.stdout + proc.stderr
+    # snakemake's own report: the main outputs with their captions (workflow/report/*.rst)
+    snakemake(a, cfg_a, "--report", str(tmp_path / "snakemake_report.html"))
+    smk_report = (tmp_path / "snakemake_report.html").read_text()
+    assert "credible mass" in smk_report and "metrics.csv" in smk_report
     # a clean rerun elsewhere gives byte-identical results
     snakemake(b, cfg_b, "--cores", "2")
     ha, hb = result_hashes(a), result_hashes(b)
@@ -326,6 +330,13 @@ def test_tiny_end_to_end_rerun_nothing_clean_rerun_identical(tmp_path):
     assert "infer_batch" in out and "fit_global" in out
     for rule in ("rule campaign", "rule validate", "rule qc", "rule bins"):
         assert rule not in out, rule
+    # changing the lidar refits the global model and propagates again, not the bin fits
+    del data["inference"]["seed"]  # back to the run's inference seed
+    data["campaign"]["lidar"] = "windcube_v1"
+    cfg_a.write_text(yaml.safe_dump(data))
+    out = snakemake(a, cfg_a, "-n", "--cores", "2").stdout
+    assert "rule fit_global_model" in out and "rule propagate" in out
+    assert "rule infer_batch" not in out
 
 
 @pytest.mark.slow
@@ -529,6 +540,16 @@ def test_fit_global_model_uses_the_configured_lidars_surrogate(tmp_path, monkeyp
     assert re.search(r'lidar=config\["campaign"\]\["lidar"\]', _rule_text("fit_global_model"))
     script = (REPO / "workflow/scripts/fit_global_model.py").read_text()
     assert "lidar=snakemake.params.lidar" in script
+
+
+def test_snakemake_report_captions_exist_next_to_the_workflow():
+    """The main outputs carry report(...) captions from workflow/report/*.rst (style item 17)."""
+    text = "".join(p.read_text() for p in sorted((REPO / "workflow" / "rules").glob("*.smk")))
+    captions = re.findall(r'caption="\.\./report/([\w.]+\.rst)"', text)
+    assert {"records.rst", "bins.rst", "metrics.rst", "report_html.rst"} <= set(captions)
+    for name in captions:
+        assert (REPO / "workflow" / "report" / name).is_file(), name
+    assert 'report: "workflow/report/workflow.rst"' in (REPO / "Snakefile").read_text()
 
 
 def test_schema_point_target_sampling_keys():
