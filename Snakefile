@@ -14,6 +14,11 @@ min_version("9.0")
 configfile: os.path.join(workflow.basedir, "config", "config.yaml")
 
 
+# `snakemake --report report.html` (after a run): this description and the captions of the
+# main outputs (workflow/report/*.rst, attached with report(...) in the rules).
+report: "workflow/report/workflow.rst"
+
+
 # Bit-identical results on every executor (local, SLURM): single-threaded BLAS/OpenMP in
 # every job, so floating-point sums do not depend on the cores a job happens to get.
 # Parallelism comes from concurrent jobs and the campaign generator's worker processes.

@@ -36,8 +36,8 @@ from flidar_uq.inference import (  # noqa: E402
     fit_global,
     select_global_model,
 )
-from flidar_uq.workflow.pipeline import bin_seed  # noqa: E402
 from flidar_uq.physics.surrogate import get_surrogate  # noqa: E402
+from flidar_uq.workflow.inference_steps import bin_seed  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results"
 PIPELINE_BINS = Path(__file__).parents[1] / "results" / "bins"

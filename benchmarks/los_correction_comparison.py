@@ -48,14 +48,14 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from flidar_uq.physics import lidar as L  # noqa: E402
-from flidar_uq.physics import motion as M  # noqa: E402
 from flidar_uq.campaign.physics_mode import generate_campaign  # noqa: E402
 from flidar_uq.campaign.scenarios import DEFAULT_SCENARIO  # noqa: E402
-from flidar_uq.physics.variance_laws import corrected_std  # noqa: E402
 from flidar_uq.correction.los import correct_dbs_seed002, correct_ls_seed001  # noqa: E402
+from flidar_uq.physics import lidar as L  # noqa: E402
+from flidar_uq.physics import motion as M  # noqa: E402
 from flidar_uq.physics.simulator import los_vectors_earth, sigma_z, simulate_scans  # noqa: E402
 from flidar_uq.physics.turbulence import kaimal_series, offshore_sigma_ms, wind_enu_ms  # noqa: E402
+from flidar_uq.physics.variance_laws import corrected_std  # noqa: E402
 
 OUT = Path(__file__).parent / "results"
 SEED = 20261122

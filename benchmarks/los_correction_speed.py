@@ -27,13 +27,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from flidar_uq.physics import lidar as L  # noqa: E402
-from flidar_uq.physics import motion as M  # noqa: E402
 from flidar_uq.correction.los import (  # noqa: E402
     correct_dbs_seed002,
     correct_ls_seed001,
     imu_rotation_velocity,
 )
+from flidar_uq.physics import lidar as L  # noqa: E402
+from flidar_uq.physics import motion as M  # noqa: E402
 
 OUT = Path(__file__).parent / "results"
 TARGET_MS = 50.0

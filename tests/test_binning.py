@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flidar_uq.data.binning import bin_centre, bin_label, bin_records
+from flidar_uq.data.binning import bin_centre, bin_label, bin_records, speed_bin_ms
 
 
 def rec(hws, amp_roll, amp_pitch, per_roll, per_pitch) -> pd.DataFrame:
@@ -119,3 +119,26 @@ def test_counts_conserved_and_ids_consistent_hypothesis(seed, n, width):
     assert (table.set_index("bin_id")["count"] == counts.loc[table["bin_id"]].to_numpy()).all()
     # every record lies inside its bin
     assert (np.abs(assigned["hws_mean_ms"] - assigned["hws_bin_ms"]) <= width / 2 + 1e-12).all()
+
+
+def test_speed_bin_ms_centred_on_multiples_upper_edge_goes_up():
+    """IEC 61400-12-1: bins centred on integer multiples of the width; an edge value
+    goes to the upper bin (not numpy's round-half-to-even, 2.5 -> 2)."""
+    np.testing.assert_array_equal(
+        speed_bin_ms([0.49, 0.5, 2.5, 3.49, 7.999, np.nan]), [0.0, 1.0, 3.0, 3.0, 8.0, np.nan]
+    )
+    np.testing.assert_array_equal(speed_bin_ms([0.9, 1.0, 2.99, 3.0], 2.0), [0.0, 2.0, 2.0, 4.0])
+
+
+def test_one_speed_bin_rule_for_bins_speed_bins_and_plots():
+    """Bin table, speed-bin TI table and the per-record speed bins agree on an edge value."""
+    from flidar_uq.data import metrics
+
+    hws = np.array([2.5, 2.5, 3.4, 4.5])
+    records = pd.DataFrame(
+        {"hws_mean_ms": hws, "amplitude_deg": 1.0, "period_s": 4.0, "hws_std_ms": 0.3}
+    )
+    _, table = bin_records(records, min_count=1)
+    assert sorted(table["hws_ms"]) == sorted(set(speed_bin_ms(hws)))
+    ti = metrics.ti_by_speed_bin(hws, records["hws_std_ms"], hws_min_ms=0.0)
+    assert ti["hws_bin_ms"].tolist() == [3.0, 5.0]

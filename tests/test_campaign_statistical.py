@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from flidar_uq.campaign.statistical_mode import draw_true_params, generate_statistical_campaign
-from flidar_uq.physics.variance_laws import sigma_moving_pc
 from flidar_uq.physics.surrogate import get_surrogate
+from flidar_uq.physics.variance_laws import sigma_moving_pc
 
 CORE = [
     "timestamp",

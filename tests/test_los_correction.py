@@ -15,8 +15,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flidar_uq.physics import lidar as L
-from flidar_uq.physics import motion as M
 from flidar_uq.correction.los import (
     correct_dbs_seed002,
     correct_ls_seed001,
@@ -27,6 +25,8 @@ from flidar_uq.correction.los import (
     rotation_from_seed001_frame,
     velocity_from_seed001_frame,
 )
+from flidar_uq.physics import lidar as L
+from flidar_uq.physics import motion as M
 
 H = M.Harmonic
 WIND = np.array([-6.0, 3.0, 0.4])  # ENU, m/s

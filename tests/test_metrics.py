@@ -107,3 +107,47 @@ def test_rp18_kpis_hand_computed():
     assert k.slope_ok and k.r2_ok
     bad = metrics.rp18_mean_speed_kpis(1.03 * ref, ref)
     assert bad.slope == pytest.approx(1.03) and not bad.slope_ok and bad.r2_ok
+
+
+def test_md_rmse_counts_finite_pairs():
+    md, rmse, n = metrics.md_rmse([1.0, np.nan, 3.0], [0.0, 1.0, 1.0])
+    assert (md, n) == (pytest.approx(1.5), 2)
+    assert rmse == pytest.approx(np.sqrt((1.0 + 4.0) / 2))
+
+
+def test_interval_coverage_over_used_records_with_finite_reference():
+    ref = np.array([0.10, 0.20, np.nan, 0.40])
+    lo, hi = np.full(4, 0.15), np.full(4, 0.30)
+    used = np.array([True, True, True, False])
+    # used and finite: records 0 (outside) and 1 (inside)
+    assert metrics.interval_coverage(ref, lo, hi, used) == pytest.approx(0.5)
+
+
+def test_score_estimates_hand_computed():
+    import pandas as pd
+
+    rec = pd.DataFrame(
+        {
+            "hws_std_ms": [1.0, 1.2, 1.0],
+            "ti_uncorrected": [0.10, 0.12, 0.10],
+            "ti_corrected_median": [0.08, 0.10, np.nan],  # record 2 not scored
+            "ti_corrected_lo": [0.07, 0.09, np.nan],
+            "ti_corrected_hi": [0.09, 0.095, np.nan],
+            "std_corrected_median_ms": [0.8, 1.0, np.nan],
+            "lidar_std_ratio": [1.0, 1.0, 1.0],
+            **{f"ti_corrected_{k}": [0.09, 0.11, 0.09] for k in ("u", "c", "pc")},
+            **{f"std_corrected_{k}_ms": [0.9, 1.1, 0.9] for k in ("u", "c", "pc")},
+            "true_hws_std_ms": [0.8, 1.0, 5.0],
+            "true_hws_mean_ms": [10.0, 10.0, 10.0],
+        }
+    )
+    refs = metrics.reference_values(rec)
+    assert list(refs) == ["truth"]
+    np.testing.assert_allclose(refs["truth"][1], [0.08, 0.10, 0.5])
+    s = metrics.score_estimates(rec, refs).set_index("method")
+    assert list(s.columns) == metrics.SCORE_COLUMNS[:1] + metrics.SCORE_COLUMNS[2:]
+    assert s.loc["uncorrected", "n"] == 2
+    assert s.loc["uncorrected", "md_std_ms"] == pytest.approx(0.2)
+    assert s.loc["Bayesian", "rmse_ti"] == pytest.approx(0.0)
+    assert s.loc["Bayesian", "coverage"] == pytest.approx(0.5)  # 0.08 in, 0.10 above 0.095
+    assert np.isnan(s.loc["U", "coverage"])

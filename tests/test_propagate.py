@@ -7,10 +7,10 @@ import pandas as pd
 import pytest
 
 from flidar_uq.campaign.statistical_mode import generate_statistical_campaign
-from flidar_uq.physics.variance_laws import corrected_std
-from flidar_uq.inference import BinFit, GlobalFit, fit_bin, fit_global
 from flidar_uq.correction.propagation import corrected_ti
+from flidar_uq.inference import BinFit, GlobalFit, fit_bin, fit_global
 from flidar_uq.physics.surrogate import get_surrogate
+from flidar_uq.physics.variance_laws import corrected_std
 
 
 @pytest.fixture(scope="module")
@@ -181,3 +181,57 @@ def test_point_target_divides_by_lidar_std_ratio_and_widens_by_its_scatter(surro
         corrected_ti(rec, fits, _global_fit(0.4), lidar_std_ratio=np.array([1.0, 0.0, 1.0]), **kw)
     with pytest.raises(ValueError, match="point_log_sd needs"):
         corrected_ti(rec, fits, _global_fit(0.4), point_log_sd=np.zeros(3), **kw)
+
+
+def test_given_seed000_baseline_is_used_not_recomputed(surrogate, monkeypatch):
+    """The workflow computes seed 000's baseline once and passes it in; same result."""
+    from flidar_uq.correction import propagation as prop
+
+    rec = pd.concat([_records([0.6, 0.8], bin_id=0), _records([0.7], bin_id=1)], ignore_index=True)
+    fits = [_bin_fit(0, 3.0, 4.0), _bin_fit(1, 2.0, 5.0)]
+    ref, _ = corrected_ti(rec, fits, _global_fit(0.3), surrogate=surrogate, seed=5)
+    baseline = prop.seed000_baseline(rec, surrogate)
+
+    def fail(*args, **kwargs):
+        raise AssertionError("seed000_baseline recomputed")
+
+    monkeypatch.setattr(prop, "seed000_baseline", fail)
+    got, _ = corrected_ti(
+        rec, fits, _global_fit(0.3), surrogate=surrogate, baseline=baseline, seed=5
+    )
+    pd.testing.assert_frame_equal(got, ref)
+
+
+def test_record_flags_order_of_reasons():
+    from flidar_uq.correction.propagation import record_flags
+
+    fitted = pd.Series({1: True, 2: True, 3: True, 4: False})
+    status = pd.Series({1: "ok", 2: "failed", 3: "error"})
+    flags = record_flags(
+        ["hws_range", "", "", "", "", "", ""],
+        np.array([1.0, np.nan, 1.0, 2.0, 3.0, 4.0, 1.0]),
+        np.array([True, False, True, True, True, True, True]),
+        np.array([False, False, False, False, False, False, True]),
+        fitted=fitted,
+        status=status,
+        global_converged=True,
+    )
+    assert flags == [
+        "hws_range", "unbinned", "", "bin_failed", "bin_error", "bin_not_fitted",
+        "discriminant_negative",
+    ]  # fmt: skip
+    failed = record_flags(
+        ["", "qc"], np.array([1.0, 1.0]), np.array([True, True]), np.array([False, False]),
+        fitted=fitted, status=status, global_converged=False,
+    )  # fmt: skip
+    assert failed == ["global_fit_failed", "qc;global_fit_failed"]
+
+
+def test_speed_bins_use_the_package_speed_bin_rule(surrogate):
+    """8.5 m/s sits on an edge: with 8.51 in the upper bin (9), not numpy's round-half-even (8)."""
+    rec = _records([0.6, 0.7], hws=8.5)
+    _, pb = corrected_ti(
+        rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.3), surrogate=surrogate, seed=6
+    )
+    assert pb["speed_bin_ms"].tolist() == [9.0]
+    assert pb["n_records"].tolist() == [2]

@@ -24,7 +24,9 @@ import pandas as pd
 import pytest
 import yaml
 
-from flidar_uq.workflow.pipeline import RECORD_COLUMNS, assign_batches, bin_seed
+from flidar_uq.workflow.data_steps import assign_batches
+from flidar_uq.workflow.inference_steps import bin_seed
+from flidar_uq.workflow.propagation_step import RECORD_COLUMNS
 
 REPO = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
@@ -183,8 +185,8 @@ def test_schema_defaults_equal_the_shipped_config():
 
 def test_config_keys_match_library_dataclasses():
     """qc / inference / priors sections are passed as keyword arguments: names must exist."""
-    from flidar_uq.inference import Priors, SamplerSettings
     from flidar_uq.data.qc import QCConfig
+    from flidar_uq.inference import Priors, SamplerSettings
 
     cfg = load_yaml(CONFIG)
     assert set(cfg["qc"]) <= set(QCConfig.__dataclass_fields__)
@@ -311,6 +313,10 @@ def test_tiny_end_to_end_rerun_nothing_clean_rerun_identical(tmp_path):
     # a rerun with the same config does nothing
     proc = snakemake(a, cfg_a, "-n", "--cores", "2")
     assert "Nothing to be done" in proc.stdout + proc.stderr
+    # snakemake's own report: the main outputs with their captions (workflow/report/*.rst)
+    snakemake(a, cfg_a, "--report", str(tmp_path / "snakemake_report.html"))
+    smk_report = (tmp_path / "snakemake_report.html").read_text()
+    assert "credible mass" in smk_report and "metrics.csv" in smk_report
     # a clean rerun elsewhere gives byte-identical results
     snakemake(b, cfg_b, "--cores", "2")
     ha, hb = result_hashes(a), result_hashes(b)
@@ -324,6 +330,13 @@ def test_tiny_end_to_end_rerun_nothing_clean_rerun_identical(tmp_path):
     assert "infer_batch" in out and "fit_global" in out
     for rule in ("rule campaign", "rule validate", "rule qc", "rule bins"):
         assert rule not in out, rule
+    # changing the lidar refits the global model and propagates again, not the bin fits
+    del data["inference"]["seed"]  # back to the run's inference seed
+    data["campaign"]["lidar"] = "windcube_v1"
+    cfg_a.write_text(yaml.safe_dump(data))
+    out = snakemake(a, cfg_a, "-n", "--cores", "2").stdout
+    assert "rule fit_global_model" in out and "rule propagate" in out
+    assert "rule infer_batch" not in out
 
 
 @pytest.mark.slow
@@ -428,7 +441,7 @@ def _fake_bin_fit(bin_id: int, rng: np.random.Generator):
 
 def test_infer_batch_reports_a_raising_bin_and_fits_the_others(tmp_path, monkeypatch):
     from flidar_uq import inference
-    from flidar_uq.workflow import pipeline
+    from flidar_uq.workflow import inference_steps
 
     def fake_fit_bin(records, *, settings, seed, priors, bin_id):
         if bin_id == 2:
@@ -445,7 +458,7 @@ def test_infer_batch_reports_a_raising_bin_and_fits_the_others(tmp_path, monkeyp
     cfg = load_yaml(CONFIG)
     runs = []
     for name in ("a", "b"):
-        summary = pipeline.infer_batch(
+        summary = inference_steps.infer_batch(
             tmp_path / "assignments.csv",
             tmp_path / "table.csv",
             tmp_path / name,
@@ -466,6 +479,79 @@ def test_infer_batch_reports_a_raising_bin_and_fits_the_others(tmp_path, monkeyp
     # no wall-clock attribute: the same fit written twice is byte-identical
     assert (runs[0] / "bin_0001.nc").read_bytes() == (runs[1] / "bin_0001.nc").read_bytes()
     assert not (runs[0] / "bin_0003.nc").exists()  # not fitted, not in this batch
+
+
+def _rule_text(name: str) -> str:
+    """The text of rule ``name`` in workflow/rules/*.smk (up to the next rule)."""
+    text = "".join(p.read_text() for p in sorted((REPO / "workflow" / "rules").glob("*.smk")))
+    m = re.search(
+        rf"^(rule|checkpoint) {name}:\n(.*?)(?=^(rule|checkpoint) |\Z)", text, re.M | re.S
+    )
+    assert m, name
+    return m.group(2)
+
+
+def test_infer_batch_does_not_depend_on_the_lidar():
+    """The motion likelihood has no sigma_Z: changing campaign.lidar must not rerun every
+    per-bin fit, so neither the rule's params nor the step take the lidar."""
+    import inspect
+
+    from flidar_uq.workflow.inference_steps import infer_batch
+
+    assert "lidar" not in inspect.signature(infer_batch).parameters
+    assert not re.search(r"\blidar\b", _rule_text("infer_batch"))
+    assert not re.search(r"\blidar\b", (REPO / "workflow/scripts/infer_batch.py").read_text())
+
+
+@pytest.mark.parametrize("lidar", ["zephir300", "windcube_v1"])
+def test_fit_global_model_uses_the_configured_lidars_surrogate(tmp_path, monkeypatch, lidar):
+    """The global fit and the propagation use the same sigma_Z surrogate: the one of
+    config campaign.lidar (the rule passes it, as it does to propagate)."""
+    from flidar_uq import inference
+    from flidar_uq.physics.surrogate import get_surrogate
+    from flidar_uq.workflow import inference_steps
+
+    seen = {}
+
+    class _Fit:
+        converged, failure_reasons = True, []
+
+    def fake_fit_global(records, bin_fits, *, surrogate=None, **kwargs):
+        seen["surrogate"] = surrogate
+        return _Fit()
+
+    monkeypatch.setattr(inference, "fit_global", fake_fit_global)
+    # the NetCDF writer: the step's own now, flidar_uq.inference.save_fit after the split
+    monkeypatch.setattr(inference_steps, "_save_fit", lambda fit, path: None, raising=False)
+    monkeypatch.setattr(inference, "save_fit", lambda fit, path: None, raising=False)
+    batch = tmp_path / "batch_000"
+    batch.mkdir()
+    pd.DataFrame({"bin_id": [1], "status": ["error"]}).to_csv(batch / "summary.csv", index=False)
+    pd.DataFrame({"record_id": [0], "bin_id": [1]}).to_csv(tmp_path / "assign.csv", index=False)
+    cfg = load_yaml(CONFIG)
+    inference_steps.fit_global_model(
+        [batch],
+        tmp_path / "assign.csv",
+        tmp_path / "global.nc",
+        model="rho_only",
+        inference=cfg["inference"],
+        priors=cfg["priors"],
+        lidar=lidar,
+    )
+    assert seen["surrogate"] is get_surrogate(lidar)
+    assert re.search(r'lidar=config\["campaign"\]\["lidar"\]', _rule_text("fit_global_model"))
+    script = (REPO / "workflow/scripts/fit_global_model.py").read_text()
+    assert "lidar=snakemake.params.lidar" in script
+
+
+def test_snakemake_report_captions_exist_next_to_the_workflow():
+    """The main outputs carry report(...) captions from workflow/report/*.rst (style item 17)."""
+    text = "".join(p.read_text() for p in sorted((REPO / "workflow" / "rules").glob("*.smk")))
+    captions = re.findall(r'caption="\.\./report/([\w.]+\.rst)"', text)
+    assert {"records.rst", "bins.rst", "metrics.rst", "report_html.rst"} <= set(captions)
+    for name in captions:
+        assert (REPO / "workflow" / "report" / name).is_file(), name
+    assert 'report: "workflow/report/workflow.rst"' in (REPO / "Snakefile").read_text()
 
 
 def test_schema_point_target_sampling_keys():

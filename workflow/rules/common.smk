@@ -58,7 +58,7 @@ def batch_of_bin(wildcards):
 def propagation_params():
     """config["propagation"] with the "auto" sampling keys resolved: from the virtual
     campaign's scenario (source virtual), else the data-driven defaults of
-    flidar_uq.workflow.pipeline.propagate (heights counted in the records, continuous spectrum)."""
+    flidar_uq.workflow.propagation_step.propagate (heights counted in the records, continuous spectrum)."""
     params = dict(config["propagation"])
     sampling = {
         "scan_heights_in_turn": None,

@@ -12,7 +12,6 @@ rule infer_batch:
     params:
         inference=config["inference"],
         priors=config["priors"],
-        lidar=config["campaign"]["lidar"],
     conda:
         "../envs/flidar_uq.yaml"
     log:
@@ -52,6 +51,7 @@ rule fit_global_model:
     params:
         inference=config["inference"],
         priors=config["priors"],
+        lidar=config["campaign"]["lidar"],
     conda:
         "../envs/flidar_uq.yaml"
     log:
@@ -72,7 +72,9 @@ rule fit_global:
     output:
         posterior="results/posterior/global.nc",
         bin_fits="results/inference/bin_fits.csv",
-        summary="results/inference/global.csv",
+        summary=report(
+            "results/inference/global.csv", caption="../report/global.rst", category="Inference"
+        ),
     params:
         inference=config["inference"],
     conda:
@@ -96,10 +98,16 @@ rule propagate:
         bin_fits="results/inference/bin_fits.csv",
         flags="results/qc/flags.csv",
     output:
-        records="results/ti/records.csv",
-        bins="results/ti/bins.csv",
-        speed_bins="results/ti/speed_bins.csv",
-        metrics="results/ti/metrics.csv",
+        records=report(
+            "results/ti/records.csv", caption="../report/records.rst", category="Corrected TI"
+        ),
+        bins=report("results/ti/bins.csv", caption="../report/bins.rst", category="Corrected TI"),
+        speed_bins=report(
+            "results/ti/speed_bins.csv", caption="../report/speed_bins.rst", category="Corrected TI"
+        ),
+        metrics=report(
+            "results/ti/metrics.csv", caption="../report/metrics.rst", category="Corrected TI"
+        ),
     params:
         propagation=propagation_params(),
         qc=config["qc"],

@@ -16,7 +16,9 @@ rule report:
         posterior="results/posterior/global.nc",
         batches=expand("results/inference/batch_{batch}", batch=BATCHES),
     output:
-        "results/report/report.html",
+        report(
+            "results/report/report.html", caption="../report/report_html.rst", category="Report"
+        ),
     params:
         config=config,
         benchmarks_dir=os.path.join(REPO, config["report"]["benchmarks_dir"]),

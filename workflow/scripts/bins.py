@@ -1,10 +1,11 @@
-"""Checkpoint bins: bin table and batch assignment (pipeline.make_bins)."""
+"""Checkpoint bins: bin table and batch assignment (data_steps.make_bins)."""
 
-from flidar_uq.workflow import pipeline
+from flidar_uq.workflow.data_steps import make_bins
+from flidar_uq.workflow.files import setup_logging
 
 snakemake = globals()["snakemake"]  # injected by the script directive
-pipeline.setup_logging(snakemake.log[0])
-pipeline.make_bins(
+setup_logging(snakemake.log[0])
+make_bins(
     snakemake.input[0],
     snakemake.output.assignments,
     snakemake.output.table,

@@ -1,13 +1,14 @@
-"""Rule campaign: the virtual campaign, or the user's record table (pipeline.make_campaign)."""
+"""Rule campaign: the virtual campaign, or the user's record table (data_steps.make_campaign)."""
 
-from flidar_uq.workflow import pipeline
+from flidar_uq.workflow.data_steps import make_campaign
+from flidar_uq.workflow.files import setup_logging
 
 # The guard keeps the generator's worker processes (spawn/forkserver re-import this
 # module as __mp_main__) from re-running the rule body.
 if __name__ == "__main__":
     snakemake = globals()["snakemake"]  # injected by the script directive
-    pipeline.setup_logging(snakemake.log[0])
-    pipeline.make_campaign(
+    setup_logging(snakemake.log[0])
+    make_campaign(
         snakemake.output[0],
         source=snakemake.params.source,
         seed=snakemake.params.seed,

@@ -1,10 +1,11 @@
-"""Rule fit_global: pick the global model by PSIS-LOO, write the global results (pipeline.fit_global)."""
+"""Rule fit_global: pick the global model by PSIS-LOO, write the global results (inference_steps.fit_global)."""
 
-from flidar_uq.workflow import pipeline
+from flidar_uq.workflow.files import setup_logging
+from flidar_uq.workflow.inference_steps import fit_global
 
 snakemake = globals()["snakemake"]  # injected by the script directive
-pipeline.setup_logging(snakemake.log[0])
-pipeline.fit_global(
+setup_logging(snakemake.log[0])
+fit_global(
     list(snakemake.input.models),
     list(snakemake.input.batches),
     snakemake.output.posterior,

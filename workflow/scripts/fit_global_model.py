@@ -1,14 +1,16 @@
-"""Rule fit_global_model: one global model on the gathered per-bin fits (pipeline.fit_global_model)."""
+"""Rule fit_global_model: one global model on the gathered per-bin fits (inference_steps.fit_global_model)."""
 
-from flidar_uq.workflow import pipeline
+from flidar_uq.workflow.files import setup_logging
+from flidar_uq.workflow.inference_steps import fit_global_model
 
 snakemake = globals()["snakemake"]  # injected by the script directive
-pipeline.setup_logging(snakemake.log[0])
-pipeline.fit_global_model(
+setup_logging(snakemake.log[0])
+fit_global_model(
     list(snakemake.input.batches),
     snakemake.input.assignments,
     snakemake.output[0],
     model=snakemake.wildcards.model,
     inference=dict(snakemake.params.inference),
     priors=dict(snakemake.params.priors),
+    lidar=snakemake.params.lidar,
 )

@@ -1,9 +1,8 @@
-"""Rule motion_statistics: per-record motion amplitude/period (pipeline.motion_statistics)."""
+"""Rule motion_statistics: per-record motion amplitude/period (data_steps.motion_statistics)."""
 
-from flidar_uq.workflow import pipeline
+from flidar_uq.workflow.data_steps import motion_statistics
+from flidar_uq.workflow.files import setup_logging
 
 snakemake = globals()["snakemake"]  # injected by the script directive
-pipeline.setup_logging(snakemake.log[0])
-pipeline.motion_statistics(
-    snakemake.input[0], snakemake.output.records, snakemake.output.roll_pitch
-)
+setup_logging(snakemake.log[0])
+motion_statistics(snakemake.input[0], snakemake.output.records, snakemake.output.roll_pitch)

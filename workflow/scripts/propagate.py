@@ -1,10 +1,11 @@
-"""Rule propagate: corrected TI with credible intervals per record and bin (pipeline.propagate)."""
+"""Rule propagate: corrected TI with credible intervals per record and bin (propagation_step.propagate)."""
 
-from flidar_uq.workflow import pipeline
+from flidar_uq.workflow.files import setup_logging
+from flidar_uq.workflow.propagation_step import propagate
 
 snakemake = globals()["snakemake"]  # injected by the script directive
-pipeline.setup_logging(snakemake.log[0])
-pipeline.propagate(
+setup_logging(snakemake.log[0])
+propagate(
     records_path=snakemake.input.records,
     flags_path=snakemake.input.flags,
     assignments_path=snakemake.input.assignments,

@@ -1,10 +1,11 @@
-"""Rule qc: QC filters with reason flags (pipeline.run_qc)."""
+"""Rule qc: QC filters with reason flags (data_steps.run_qc)."""
 
-from flidar_uq.workflow import pipeline
+from flidar_uq.workflow.data_steps import run_qc
+from flidar_uq.workflow.files import setup_logging
 
 snakemake = globals()["snakemake"]  # injected by the script directive
-pipeline.setup_logging(snakemake.log[0])
-pipeline.run_qc(
+setup_logging(snakemake.log[0])
+run_qc(
     snakemake.input[0],
     snakemake.output.flags,
     snakemake.output.kept,

@@ -1,7 +1,8 @@
-"""Rule validate: read and validate the record table (pipeline.validate_records)."""
+"""Rule validate: read and validate the record table (data_steps.validate_records)."""
 
-from flidar_uq.workflow import pipeline
+from flidar_uq.workflow.data_steps import validate_records
+from flidar_uq.workflow.files import setup_logging
 
 snakemake = globals()["snakemake"]  # injected by the script directive
-pipeline.setup_logging(snakemake.log[0])
-pipeline.validate_records(snakemake.input[0], snakemake.output[0])
+setup_logging(snakemake.log[0])
+validate_records(snakemake.input[0], snakemake.output[0])

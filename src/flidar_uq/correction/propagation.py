@@ -28,11 +28,12 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from flidar_uq.physics.variance_laws import corrected_std, rho_seed000
-from flidar_uq.inference import imu_observations
+from flidar_uq.data.binning import speed_bin_ms
 from flidar_uq.data.metrics import representative_ti
+from flidar_uq.inference import imu_observations
+from flidar_uq.physics.variance_laws import corrected_std, rho_seed000
 
-__all__ = ["corrected_ti", "seed000_baseline"]
+__all__ = ["corrected_ti", "point_target", "record_flags", "seed000_baseline"]
 
 
 def seed000_baseline(records: pd.DataFrame, surrogate) -> tuple[np.ndarray, float]:
@@ -71,6 +72,123 @@ def seed000_baseline(records: pd.DataFrame, surrogate) -> tuple[np.ndarray, floa
     return sz, rho_seed000(np.array(bin_ref), np.array(bin_ez))
 
 
+def point_target(
+    hws_ms,
+    height_m,
+    lidar: str,
+    *,
+    heights_in_turn: int,
+    refocus_delay_s=(0.3, 0.7),
+    point_sample_interval_s: float = 1.0,
+    turbulence_dt_s: float | None = None,
+    seed: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Motionless lidar's std ratio to the point std and its log scatter, per record.
+
+    The inputs of step 4 above (``lidar_std_ratio`` and ``point_log_sd`` of
+    :func:`corrected_ti`).
+
+    Parameters
+    ----------
+    hws_ms, height_m : array_like, shape (n_records,)
+        Record mean HWS (m/s) and measurement height (m).
+    lidar : str
+        Lidar geometry name.
+    heights_in_turn : int
+        Heights the lidar scans in turn (-).
+    refocus_delay_s : pair of float
+        Refocus delay between scans (s).
+    point_sample_interval_s : float
+        Sampling interval of the point HWS (s).
+    turbulence_dt_s : float, optional
+        Time step of a synthetic turbulence series (s): the ratio is band-limited at
+        ``1 / (2 turbulence_dt_s)`` Hz; None: the atmosphere (continuous spectrum).
+    seed : int
+        Seed of :func:`flidar_uq.physics.lidar_response.lidar_point_log_sd`.
+
+    Returns
+    -------
+    lidar_std_ratio : numpy.ndarray, shape (n_records,)
+        Motionless-lidar std over point std (-),
+        :func:`flidar_uq.physics.lidar_response.lidar_std_ratio`.
+    point_log_sd : numpy.ndarray, shape (n_records,)
+        Std of its log, record to record (-),
+        :func:`flidar_uq.physics.lidar_response.lidar_point_log_sd`.
+    """
+    from flidar_uq.physics import lidar_response
+
+    g_ratio = lidar_response.lidar_std_ratio(
+        hws_ms,
+        height_m,
+        lidar,
+        turbulence_max_frequency_hz=None if turbulence_dt_s is None else 0.5 / turbulence_dt_s,
+    )
+    log_sd = lidar_response.lidar_point_log_sd(
+        hws_ms,
+        height_m,
+        lidar,
+        heights_in_turn=heights_in_turn,
+        refocus_delay_s=tuple(refocus_delay_s),
+        point_sample_interval_s=point_sample_interval_s,
+        turbulence_dt_s=turbulence_dt_s,
+        seed=int(seed),
+    )
+    return g_ratio, log_sd
+
+
+def record_flags(
+    qc_reasons,
+    bin_id,
+    binned,
+    discriminant_negative,
+    *,
+    fitted: pd.Series,
+    status: pd.Series,
+    global_converged: bool,
+) -> list[str]:
+    """Why a record has no (trustworthy) corrected TI: ``;``-joined reasons, "" when none.
+
+    Parameters
+    ----------
+    qc_reasons : sequence of str
+        QC reasons per record ("" or NaN when kept); a QC reason stands alone.
+    bin_id : array_like, shape (n_records,)
+        Bin id per record (NaN when unbinned).
+    binned : array_like of bool, shape (n_records,)
+        Record has a bin.
+    discriminant_negative : array_like of bool, shape (n_records,)
+        The deployment formula has no real root at the posterior medians.
+    fitted, status : pandas.Series
+        Per bin id: fitted (min_count met) and fit status ("ok" | "failed" | "error").
+    global_converged : bool
+        Global fit converged (else every record gets ``global_fit_failed``).
+
+    Returns
+    -------
+    list of str
+        One flag string per record: ``unbinned``, ``bin_not_fitted``, ``bin_failed``,
+        ``bin_error``, ``discriminant_negative``, ``global_fit_failed`` or the QC reason.
+    """
+    reasons = [[r] if isinstance(r, str) and r else [] for r in qc_reasons]
+    for i in range(len(reasons)):
+        if reasons[i]:
+            continue
+        if not binned[i]:
+            reasons[i].append("unbinned")  # kept by QC but a binning variable is missing
+            continue
+        b = int(bin_id[i])
+        if not bool(fitted.get(b, False)):
+            reasons[i].append("bin_not_fitted")
+        elif status.get(b) != "ok":
+            reasons[i].append("bin_failed" if status.get(b) == "failed" else "bin_error")
+        elif discriminant_negative[i]:
+            reasons[i].append("discriminant_negative")
+    if not global_converged:
+        for r in reasons:
+            r.append("global_fit_failed")
+    return [";".join(r) for r in reasons]
+
+
 def corrected_ti(
     records: pd.DataFrame,
     bin_fits,
@@ -83,6 +201,7 @@ def corrected_ti(
     scan_period_s: float = 1.0,
     lidar_std_ratio=None,
     point_log_sd=None,
+    baseline: tuple[np.ndarray, float] | None = None,
     seed,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Corrected std and TI as posterior draws, summarised per record and per speed bin.
@@ -100,7 +219,8 @@ def corrected_ti(
     ndraws : int
         Posterior draws propagated per record.
     speed_bin_width_ms : float
-        Width of the speed bins of the per-bin table (m/s), centred on multiples of it.
+        Width of the speed bins of the per-bin table (m/s), centred on multiples of it
+        (:func:`flidar_uq.data.binning.speed_bin_ms`).
     scan_period_s : float
         VAD scan duration (s), for the head-translation term when the global fit chose
         the lever-arm model (its ``lever_arm_m`` draws are then propagated too).
@@ -113,6 +233,9 @@ def corrected_ti(
         Std of ``log(motionless-lidar std / point std)`` per record (-), with
         ``lidar_std_ratio``: each draw is multiplied by ``exp(N(0, sd^2))`` so that the
         intervals are for the point std. Default None: no scatter.
+    baseline : (numpy.ndarray, float), optional
+        :func:`seed000_baseline` of ``records`` with the same surrogate, when the caller
+        has it already (computed here otherwise).
     seed : int or numpy.random.SeedSequence
 
     Returns
@@ -234,7 +357,7 @@ def corrected_ti(
             else np.zeros((3, 0))
         )
 
-    sz_seed, rho_seed = seed000_baseline(records, surrogate)
+    sz_seed, rho_seed = baseline if baseline is not None else seed000_baseline(records, surrogate)
     with np.errstate(invalid="ignore", divide="ignore"):
         ti_u = corrected_std(s, sz_seed, 0.0)[0] / m  # Eq. (16) of seed 000 inverted
         ti_c = corrected_std(s, sz_seed, 1.0)[0] / m  # Eq. (17) of seed 000 inverted
@@ -272,7 +395,7 @@ def corrected_ti(
 
 
 def _speed_bins(per_record, ti_draws, width, q):
-    centre = np.round(per_record["hws_mean_ms"].to_numpy() / width) * width
+    centre = speed_bin_ms(per_record["hws_mean_ms"].to_numpy(), width)
     conv = per_record["converged"].to_numpy()
     rows = []
     for c in np.unique(centre[np.isfinite(centre)]):

@@ -20,7 +20,7 @@ import pandas as pd
 
 from flidar_uq.data.imu import record_motion
 
-__all__ = ["bin_centre", "bin_label", "bin_records"]
+__all__ = ["bin_centre", "bin_label", "bin_records", "speed_bin_ms"]
 
 
 def bin_centre(x, width: float) -> np.ndarray:
@@ -41,6 +41,28 @@ def bin_centre(x, width: float) -> np.ndarray:
     if not width > 0:
         raise ValueError(f"bin_centre: width must be > 0, got {width!r}")
     return np.floor(np.asarray(x, dtype=np.float64) / width + 0.5) * width
+
+
+def speed_bin_ms(hws_ms, width_ms: float = 1.0) -> np.ndarray:
+    """Wind-speed bin of each HWS: the one speed-bin rule of the package.
+
+    Bins are centred on integer multiples of the width (IEC 61400-12-1 convention):
+    ``floor(hws / width + 0.5) * width``, bin ``[c - width/2, c + width/2)``, so a value
+    exactly on an edge (e.g. 8.5 m/s at width 1) goes to the upper bin.
+
+    Parameters
+    ----------
+    hws_ms : array_like
+        Horizontal wind speeds, m/s; NaN stays NaN.
+    width_ms : float
+        Bin width, m/s, > 0 (default 1).
+
+    Returns
+    -------
+    numpy.ndarray
+        Bin centres, m/s, shape of ``hws_ms``.
+    """
+    return bin_centre(hws_ms, width_ms)
 
 
 def _fmt(prefix: str, c: float) -> str:
@@ -97,8 +119,9 @@ def bin_records(
         out = record_motion(out)
     widths = (hws_width_ms, amplitude_width_deg, period_width_s)
     values = (out["hws_mean_ms"], out["amplitude_deg"], out["period_s"])
-    centres = [
-        bin_centre(v.to_numpy(dtype=np.float64), w) for v, w in zip(values, widths, strict=True)
+    centres = [speed_bin_ms(values[0].to_numpy(dtype=np.float64), widths[0])] + [
+        bin_centre(v.to_numpy(dtype=np.float64), w)
+        for v, w in zip(values[1:], widths[1:], strict=True)
     ]
     out["hws_bin_ms"], out["amplitude_bin_deg"], out["period_bin_s"] = centres
     ok = np.isfinite(np.column_stack(centres)).all(axis=1)

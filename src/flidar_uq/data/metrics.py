@@ -21,6 +21,12 @@ __all__ = [
     "RP18_R2_MIN",
     "mean_deviation",
     "rmse",
+    "md_rmse",
+    "interval_coverage",
+    "reference_values",
+    "score_estimates",
+    "CORRECTION_ESTIMATES",
+    "SCORE_COLUMNS",
     "ape_pct",
     "pearson_r",
     "DemingFit",
@@ -75,6 +81,158 @@ def rmse(moving, reference) -> float:
     """
     m, r = _pair(moving, reference, "rmse")
     return float(np.sqrt(np.mean((m - r) ** 2))) if m.size else np.nan  # Eq. (19) of seed 000
+
+
+def md_rmse(x, reference) -> tuple[float, float, int]:
+    """MD and RMSE of ``x`` against ``reference`` (seed 000 Eqs. 18-19) and the pair count.
+
+    Parameters
+    ----------
+    x, reference : array_like, shape (n,)
+        Estimates and reference values, same unit (std in m/s, or TI, -).
+
+    Returns
+    -------
+    md, rmse : float
+        Unit of the inputs (NaN without finite pairs).
+    n : int
+        Number of pairs where both values are finite.
+    """
+    n = int(np.sum(np.isfinite(x) & np.isfinite(reference)))
+    return mean_deviation(x, reference), rmse(x, reference), n
+
+
+def interval_coverage(reference, lo, hi, used) -> float:
+    """Share of ``reference`` inside ``[lo, hi]`` over the ``used`` records with a finite reference.
+
+    Parameters
+    ----------
+    reference, lo, hi : array_like, shape (n,)
+        Reference values and interval bounds, same unit (TI, -).
+    used : array_like of bool, shape (n,)
+        Records scored.
+
+    Returns
+    -------
+    float
+        Coverage in [0, 1], dimensionless (NaN without a scored record).
+    """
+    reference = np.asarray(reference, dtype=np.float64)
+    ok = np.asarray(used, dtype=bool) & np.isfinite(reference)
+    inside = (reference >= lo) & (reference <= hi)
+    return float(inside[ok].mean())
+
+
+def reference_values(records: pd.DataFrame) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Std (m/s) and TI (-) the estimates are scored against: the truth and/or the reference.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records with ``true_hws_std_ms`` (and ``true_ti`` or ``true_hws_mean_ms``, m/s) for
+        a virtual campaign and/or ``ref_hws_std_ms`` and ``ref_hws_mean_ms`` (m/s) for a
+        reference instrument.
+
+    Returns
+    -------
+    dict of str -> (numpy.ndarray, numpy.ndarray)
+        ``"truth"`` and/or ``"reference instrument"`` -> (std in m/s, TI, -), per record.
+    """
+    out = {}
+    if "true_hws_std_ms" in records:
+        std = records["true_hws_std_ms"].to_numpy(dtype=float)
+        ti = (
+            records["true_ti"].to_numpy(dtype=float)
+            if "true_ti" in records
+            else std / records["true_hws_mean_ms"].to_numpy(dtype=float)
+        )
+        out["truth"] = (std, ti)
+    if "ref_hws_std_ms" in records:
+        std = records["ref_hws_std_ms"].to_numpy(dtype=float)
+        out["reference instrument"] = (
+            std,
+            std / records["ref_hws_mean_ms"].to_numpy(dtype=float),
+        )
+    return out
+
+
+#: Estimates scored by :func:`score_estimates`: method -> (std column, m/s; TI column, -).
+CORRECTION_ESTIMATES = {
+    "uncorrected": ("hws_std_ms", "ti_uncorrected"),
+    "U": ("std_corrected_u_ms", "ti_corrected_u"),
+    "C": ("std_corrected_c_ms", "ti_corrected_c"),
+    "PC": ("std_corrected_pc_ms", "ti_corrected_pc"),
+    "Bayesian": ("std_corrected_median_ms", "ti_corrected_median"),
+}
+
+#: Columns of the score table of :func:`score_estimates`.
+SCORE_COLUMNS = [
+    "reference", "method", "n", "md_std_ms", "rmse_std_ms", "md_ti", "rmse_ti",
+    "mean_rel_ti_error", "mean_abs_rel_ti_error", "coverage",
+]  # fmt: skip
+
+
+def score_estimates(
+    records: pd.DataFrame, references: dict[str, tuple[np.ndarray, np.ndarray]]
+) -> pd.DataFrame:
+    """MD / RMSE of std and TI, relative TI error and interval coverage per method (Tables 2-3).
+
+    Every method is scored over the same records: those with a Bayesian corrected value
+    (finite ``ti_corrected_median``). The Bayesian estimate is compared in the reference's
+    own terms: its point value against the truth, times ``lidar_std_ratio`` (the
+    motionless-lidar value) against any other reference. Seed 000's U / C / PC laws
+    estimate the reference instrument's std, as published.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        results/ti/records.csv columns: the std (m/s) and TI (-) columns of
+        :data:`CORRECTION_ESTIMATES`, ``ti_corrected_lo`` / ``ti_corrected_hi`` (-) and
+        ``lidar_std_ratio`` (-).
+    references : dict
+        :func:`reference_values` of the records: name -> (std in m/s, TI, -).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per (reference, method), columns :data:`SCORE_COLUMNS`: ``n`` (records),
+        ``md_std_ms`` / ``rmse_std_ms`` (m/s), ``md_ti`` / ``rmse_ti`` (-),
+        ``mean_rel_ti_error`` / ``mean_abs_rel_ti_error`` (mean of ``TI / TI_ref - 1``, -),
+        ``coverage`` (share of the reference TI inside the credible interval, Bayesian only).
+    """
+    used = np.isfinite(records["ti_corrected_median"].to_numpy())  # same records for every method
+    g_all = records["lidar_std_ratio"].to_numpy(dtype=float)
+    rows = []
+    for ref_name, (ref_std, ref_ti) in references.items():
+        lo_hi = (records["ti_corrected_lo"].to_numpy(), records["ti_corrected_hi"].to_numpy())
+        for name, (scol, tcol) in CORRECTION_ESTIMATES.items():
+            scale = g_all if (name == "Bayesian" and ref_name != "truth") else 1.0
+            std = np.where(used, records[scol].to_numpy(dtype=float) * scale, np.nan)
+            ti = np.where(used, records[tcol].to_numpy(dtype=float) * scale, np.nan)
+            md_s, rmse_s, n_s = md_rmse(std, ref_std)
+            md_t, rmse_t, _ = md_rmse(ti, ref_ti)
+            with np.errstate(all="ignore"):
+                rel = ti / ref_ti - 1.0
+                mean_rel = float(np.nanmean(rel)) if n_s else float("nan")
+                mean_abs_rel = float(np.nanmean(np.abs(rel))) if n_s else float("nan")
+            coverage = float("nan")
+            if name == "Bayesian" and n_s:
+                coverage = interval_coverage(ref_ti, lo_hi[0] * scale, lo_hi[1] * scale, used)
+            rows.append(
+                {
+                    "reference": ref_name,
+                    "method": name,
+                    "n": n_s,
+                    "md_std_ms": md_s,
+                    "rmse_std_ms": rmse_s,
+                    "md_ti": md_t,
+                    "rmse_ti": rmse_t,
+                    "mean_rel_ti_error": mean_rel,
+                    "mean_abs_rel_ti_error": mean_abs_rel,
+                    "coverage": coverage,
+                }
+            )
+    return pd.DataFrame(rows, columns=SCORE_COLUMNS)
 
 
 def ape_pct(reference_mean, moving_mean) -> np.ndarray:
@@ -220,7 +378,10 @@ def ti_by_speed_bin(
     m = np.asarray(hws_mean_ms, dtype=np.float64)
     ti = turbulence_intensity(hws_std_ms, m)
     ok = np.isfinite(ti) & (m >= hws_min_ms) & (m <= hws_max_ms)
-    centre = np.floor(m[ok] / bin_width_ms + 0.5) * bin_width_ms
+    # imported here: binning -> imu -> metrics would be an import cycle at module level
+    from flidar_uq.data.binning import speed_bin_ms
+
+    centre = speed_bin_ms(m[ok], bin_width_ms)
     g = pd.Series(ti[ok]).groupby(centre)
     out = pd.DataFrame({"count": g.size(), "ti_mean": g.mean(), "ti_std": g.std(ddof=1)})
     out["ti_representative"] = out["ti_mean"] + REPRESENTATIVE_TI_FACTOR * out["ti_std"]

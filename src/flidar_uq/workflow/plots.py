@@ -15,6 +15,8 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
+from flidar_uq.data.binning import speed_bin_ms  # noqa: E402
+
 __all__ = [
     "calibration_figure",
     "convergence_figure",
@@ -94,7 +96,8 @@ def ti_vs_hws_figure(
     credible_mass : float
         Mass of the interval in the lo/hi columns (-), for the legend.
     bin_width_ms : float
-        Width of the HWS bins of the average traces (m/s).
+        Width of the HWS bins of the average traces (m/s), centred on multiples of it
+        (:func:`flidar_uq.data.binning.speed_bin_ms`).
 
     Returns
     -------
@@ -117,14 +120,11 @@ def ti_vs_hws_figure(
     if truth is not None:
         ax.plot(hws, r[truth], ".", color="tab:red", ms=2, alpha=0.4, label=truth)
     if len(r):
-        edges = np.arange(np.floor(hws.min()), np.ceil(hws.max()) + bin_width_ms, bin_width_ms)
-        centre = 0.5 * (edges[1:] + edges[:-1])
-        idx = np.digitize(hws, edges) - 1
-        grp = r.assign(_bin=idx).groupby("_bin")
+        grp = r.assign(_bin=speed_bin_ms(hws, bin_width_ms)).groupby("_bin")
         means = grp[
             ["ti_uncorrected", "ti_corrected_median", "ti_corrected_lo", "ti_corrected_hi"]
         ].mean()
-        c = centre[means.index.to_numpy()]
+        c = means.index.to_numpy()
         ax.fill_between(
             c,
             means["ti_corrected_lo"],
@@ -244,7 +244,8 @@ def calibration_figure(
     credible_mass : float
         Nominal coverage (-), drawn as a line with its binomial 95 % band per bin.
     speed_bin_width_ms : float
-        Width of the HWS bins (m/s).
+        Width of the HWS bins (m/s), centred on multiples of it
+        (:func:`flidar_uq.data.binning.speed_bin_ms`).
 
     Returns
     -------
@@ -253,7 +254,7 @@ def calibration_figure(
         error of the corrected TI per bin.
     """
     hws = np.asarray(hws_ms, float)
-    centre = np.round(hws / speed_bin_width_ms) * speed_bin_width_ms
+    centre = speed_bin_ms(hws, speed_bin_width_ms)
     fig, (ax_c, ax_e) = plt.subplots(1, 2, figsize=(10, 4))
     for k, (name, ref) in enumerate(references.items()):
         ref, scale = ref if isinstance(ref, tuple) else (ref, 1.0)

@@ -1,5 +1,8 @@
 """The self-contained HTML report: figures embedded as base64 PNG, tables as HTML.
 
+The HTML lives in Jinja2 templates shipped with the package
+(``flidar_uq/workflow/templates/*.html.j2``, the style sheet ``report.css``) and the
+report's captions in ``templates/captions/*.txt.j2`` (plain text, escaped where used).
 The report is deterministic for given inputs (no wall-clock time in it; PNGs written
 without a date), so a clean rerun reproduces it byte for byte.
 """
@@ -7,18 +10,21 @@ without a date), so a clean rerun reproduces it byte for byte.
 from __future__ import annotations
 
 import base64
-import html
+import functools
 import importlib.metadata
 import io as _io
 import platform
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
+import jinja2
 import pandas as pd
 import yaml
+from markupsafe import Markup
 
 __all__ = [
     "Section",
+    "caption",
     "figure_to_data_uri",
     "img_html",
     "package_versions",
@@ -26,6 +32,7 @@ __all__ = [
     "png_bytes_to_data_uri",
     "render_html",
     "table_html",
+    "templates",
 ]
 
 #: Packages whose versions go into the provenance section.
@@ -50,6 +57,24 @@ class Section:
     body_html: str
 
 
+@functools.cache
+def templates() -> jinja2.Environment:
+    """The Jinja2 environment of the package's report templates (HTML autoescaped)."""
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("flidar_uq.workflow", "templates"),
+        autoescape=jinja2.select_autoescape(enabled_extensions=("html.j2",)),
+        keep_trailing_newline=True,
+        undefined=jinja2.StrictUndefined,
+    )
+    env.filters["fmt"] = format  # {{ x|fmt(".3g") }}: Python format spec
+    return env
+
+
+def caption(name: str, **values) -> str:
+    """A report caption (plain text) from ``templates/captions/<name>.txt.j2``."""
+    return templates().get_template(f"captions/{name}.txt.j2").render(**values).strip()
+
+
 def png_bytes_to_data_uri(png: bytes) -> str:
     """``data:image/png;base64,...`` URI of PNG bytes."""
     return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
@@ -67,7 +92,7 @@ def figure_to_data_uri(fig, *, dpi: int = 90) -> str:
 
 def img_html(data_uri: str, alt: str) -> str:
     """An <img> element for a data URI."""
-    return f'<figure><img src="{data_uri}" alt="{html.escape(alt)}"><figcaption>{html.escape(alt)}</figcaption></figure>'
+    return templates().get_template("figure.html.j2").render(data_uri=data_uri, alt=alt)
 
 
 def table_html(df: pd.DataFrame, *, float_format: str = "{:.4g}", caption: str = "") -> str:
@@ -75,16 +100,18 @@ def table_html(df: pd.DataFrame, *, float_format: str = "{:.4g}", caption: str =
 
     def fmt(v):
         if isinstance(v, float):
-            return "&ndash;" if v != v else float_format.format(v)
-        return html.escape(str(v))
+            return None if v != v else float_format.format(v)  # None: shown as &ndash;
+        return str(v)
 
-    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
-    rows = "".join(
-        "<tr>" + "".join(f"<td>{fmt(v)}</td>" for v in row) + "</tr>"
-        for row in df.itertuples(index=False)
+    return (
+        templates()
+        .get_template("table.html.j2")
+        .render(
+            columns=[str(c) for c in df.columns],
+            rows=[[fmt(v) for v in row] for row in df.itertuples(index=False)],
+            caption=caption,
+        )
     )
-    cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
-    return f'<div class="tw"><table>{cap}<thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table></div>'
 
 
 def package_versions(packages: Iterable[str] = PROVENANCE_PACKAGES) -> dict[str, str]:
@@ -105,37 +132,30 @@ def provenance_html(config: dict, git_revision: str, versions: dict[str, str]) -
         "inference.seed": config.get("inference", {}).get("seed"),
     }
     ver = pd.DataFrame(sorted(versions.items()), columns=["package", "version"])
-    cfg = yaml.safe_dump(config, sort_keys=True)
     return (
-        f"<p>git revision: <code>{html.escape(git_revision or 'unknown (not a git checkout)')}</code></p>"
-        + table_html(pd.DataFrame(list(seeds.items()), columns=["seed", "value"]), caption="seeds")
-        + table_html(ver, caption="package versions")
-        + f"<h3>configuration</h3><pre>{html.escape(cfg)}</pre>"
+        templates()
+        .get_template("provenance.html.j2")
+        .render(
+            git_revision=git_revision,
+            seeds_table=Markup(
+                table_html(
+                    pd.DataFrame(list(seeds.items()), columns=["seed", "value"]), caption="seeds"
+                )
+            ),
+            versions_table=Markup(table_html(ver, caption="package versions")),
+            config_yaml=yaml.safe_dump(config, sort_keys=True),
+        )
     )
-
-
-_CSS = """
-body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}
-table{border-collapse:collapse;margin:0.5em 0 1.5em;font-size:0.85em}
-th,td{border:1px solid #bbb;padding:2px 6px;text-align:right}
-th{background:#eee} caption{font-weight:bold;text-align:left;padding:4px 0}
-figure{margin:1em 0} img{max-width:100%} figcaption{font-size:0.85em;color:#555}
-pre{background:#f6f6f6;padding:0.5em;font-size:0.8em;overflow-x:auto}
-.tw{overflow-x:auto}
-"""
 
 
 def render_html(title: str, sections: Sequence[Section], *, intro_html: str = "") -> str:
     """The complete, self-contained HTML document (inline CSS, no external resources)."""
-    toc = "".join(
-        f'<li><a href="#s{i}">{html.escape(s.title)}</a></li>' for i, s in enumerate(sections)
-    )
-    body = "".join(
-        f'<section id="s{i}"><h2>{html.escape(s.title)}</h2>{s.body_html}</section>'
-        for i, s in enumerate(sections)
-    )
     return (
-        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
-        f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>"
-        f"<h1>{html.escape(title)}</h1>{intro_html}<ol>{toc}</ol>{body}</body></html>\n"
+        templates()
+        .get_template("report.html.j2")
+        .render(
+            title=title,
+            intro_html=Markup(intro_html),
+            sections=[{"title": s.title, "body_html": Markup(s.body_html)} for s in sections],
+        )
     )

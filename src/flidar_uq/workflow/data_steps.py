@@ -1,0 +1,263 @@
+"""Workflow steps of the data layer: campaign, validation, QC, motion statistics, bins
+(with their batch assignment) and the sigma_Z table at the bin centres."""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from flidar_uq.workflow.files import read_csv, write_csv
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "assign_batches",
+    "make_bins",
+    "make_campaign",
+    "motion_statistics",
+    "run_qc",
+    "sigma_z_table",
+    "validate_records",
+]
+
+
+# --------------------------------------------------------------------------- campaign
+
+
+def make_campaign(
+    out_path: str | os.PathLike,
+    *,
+    source: str,
+    seed: int = 0,
+    scenario_path: str | os.PathLike | None = None,
+    records_path: str | os.PathLike | None = None,
+    threads: int = 1,
+) -> pd.DataFrame:
+    """Write the campaign's 10-min record table: the virtual campaign or the user's file.
+
+    Parameters
+    ----------
+    out_path : path
+        Output CSV (record format of docs/data-format.md).
+    source : {"virtual", "files"}
+        Generate the physics-mode virtual campaign, or read the user's table.
+    seed : int
+        SeedSequence entropy of the virtual campaign (-).
+    scenario_path : path, optional
+        Scenario YAML (config/scenarios/<name>.yaml), required for ``source="virtual"``.
+    records_path : path, optional
+        The user's record table (CSV or Parquet), required for ``source="files"``.
+    threads : int
+        Worker processes of the virtual-campaign generator (results do not depend on it).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The records written.
+
+    Raises
+    ------
+    ValueError
+        On an unknown ``source`` or a missing path.
+    """
+    from flidar_uq.data import io
+
+    if source == "virtual":
+        if not scenario_path:
+            raise ValueError("make_campaign: source='virtual' needs scenario_path")
+        from flidar_uq.campaign import physics_mode as campaign
+        from flidar_uq.campaign.scenarios import load_scenario
+
+        scenario = load_scenario(scenario_path)
+        records = campaign.generate_campaign(scenario, seed, n_workers=max(1, int(threads))).records
+    elif source == "files":
+        if not records_path:
+            raise ValueError(
+                "make_campaign: source='files' needs records_path (config campaign.records)"
+            )
+        records = io.read_records(records_path)
+    else:
+        raise ValueError(f"make_campaign: source must be 'virtual' or 'files', got {source!r}")
+    Path(out_path).parent.mkdir(parents=True, exist_ok=True)
+    io.write_records(records, out_path)
+    log.info("campaign: %d records (%s) -> %s", len(records), source, out_path)
+    return records
+
+
+def validate_records(in_path: str | os.PathLike, out_path: str | os.PathLike) -> pd.DataFrame:
+    """Validate a record table (io.read_records raises naming file, row and column) and copy it."""
+    from flidar_uq.data import io
+
+    records = io.read_records(in_path)
+    Path(out_path).parent.mkdir(parents=True, exist_ok=True)
+    io.write_records(records, out_path)
+    log.info("validate: %d records valid", len(records))
+    return records
+
+
+# --------------------------------------------------------------------------- QC, motion, bins
+
+
+def run_qc(
+    in_path: str | os.PathLike,
+    flags_path: str | os.PathLike,
+    kept_path: str | os.PathLike,
+    summary_path: str | os.PathLike,
+    qc_params: dict,
+) -> pd.DataFrame:
+    """Apply the QC filters; write every record with its reasons, the kept records, and counts.
+
+    Parameters
+    ----------
+    in_path : path
+        Validated record table.
+    flags_path, kept_path, summary_path : path
+        Outputs: the flags table (one row per input record: ``record_id``, ``reasons``,
+        ``kept``, one ``fail_<reason>`` column per filter), the kept records (with
+        ``record_id``), and the per-filter counts.
+    qc_params : dict
+        The ``qc`` section of the config: :class:`flidar_uq.data.qc.QCConfig` fields.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The flags table.
+    """
+    from flidar_uq.data import io, qc
+
+    records = io.read_records(in_path)
+    result = qc.run_qc(records, qc.QCConfig(**qc_params))
+    flags = result.flags.copy()
+    flags.insert(0, "record_id", np.arange(len(flags)))
+    kept = result.kept.copy()
+    kept.insert(0, "record_id", kept.index.to_numpy())
+    counts = result.counts.reset_index().rename(columns={"index": "reason"})
+    write_csv(flags, flags_path)
+    write_csv(kept, kept_path)
+    write_csv(counts, summary_path)
+    log.info("%s", result.summary())
+    return flags
+
+
+def motion_statistics(
+    in_path: str | os.PathLike, out_path: str | os.PathLike, roll_pitch_path: str | os.PathLike
+) -> pd.DataFrame:
+    """Per-record motion amplitude and period, and the roll-pitch correlation (seed 000 Sec. 2.4).
+
+    Adds ``amplitude_deg`` and ``period_s`` (the roll/pitch averages, seed 000 Sec. 2.4) to
+    each kept record; writes the roll-pitch correlation of amplitude and period.
+    """
+    from flidar_uq.data import imu
+
+    records = read_csv(in_path)
+    out = imu.record_motion(records)
+    corr = imu.roll_pitch_correlation(records)
+    write_csv(out, out_path)
+    write_csv(pd.DataFrame([corr]), roll_pitch_path)
+    return out
+
+
+def assign_batches(counts: Sequence[int], nbatches: int) -> np.ndarray:
+    """Spread bins over ``nbatches`` batch jobs, balancing record counts (greedy, deterministic).
+
+    Parameters
+    ----------
+    counts : sequence of int, shape (n_bins,)
+        Records per bin (the cost proxy of a fit).
+    nbatches : int
+        Number of batch jobs (>= 1).
+
+    Returns
+    -------
+    numpy.ndarray of int, shape (n_bins,)
+        Batch index of each bin, in ``[0, nbatches)``.
+
+    Raises
+    ------
+    ValueError
+        If ``nbatches < 1``.
+    """
+    if nbatches < 1:
+        raise ValueError(f"assign_batches: nbatches must be >= 1, got {nbatches}")
+    counts = np.asarray(counts, dtype=float)
+    load = np.zeros(nbatches)
+    batch = np.zeros(counts.size, dtype=int)
+    # longest-processing-time first; stable sort so ties keep bin order
+    for i in np.argsort(-counts, kind="stable"):
+        b = int(np.argmin(load))
+        batch[i] = b
+        load[b] += counts[i] + 1.0  # +1: fixed per-fit overhead
+    return batch
+
+
+def make_bins(
+    in_path: str | os.PathLike,
+    assignments_path: str | os.PathLike,
+    table_path: str | os.PathLike,
+    *,
+    hws_width_ms: float,
+    amplitude_width_deg: float,
+    period_width_s: float,
+    min_count: int,
+    nbatches: int,
+) -> pd.DataFrame:
+    """Bin the kept records (HWS x amplitude x period) and write the bin table with batches.
+
+    The bin table (seed 000 Table 1 style) is sorted by decreasing count; ``bin_id`` is the
+    case number (1 = most frequent). Bins with at least ``min_count`` records are
+    ``fitted`` and assigned a batch.
+    """
+    from flidar_uq.data import binning
+
+    records = read_csv(in_path)
+    assigned, table = binning.bin_records(
+        records,
+        hws_width_ms=hws_width_ms,
+        amplitude_width_deg=amplitude_width_deg,
+        period_width_s=period_width_s,
+        min_count=min_count,
+    )
+    # integer case number as the pipeline's bin id (file names, seeds); text label kept
+    table = table.rename(columns={"bin_id": "bin_label", "case_no": "bin_id"}).reset_index(
+        drop=True
+    )
+    assigned = assigned.rename(columns={"bin_id": "bin_label", "case_no": "bin_id"})
+    assigned = assigned[assigned["bin_id"] > 0].reset_index(drop=True)
+    table["fitted"] = ~table["below_min_count"].astype(bool)
+    table["batch"] = -1
+    fitted = table["fitted"].to_numpy()
+    table.loc[fitted, "batch"] = assign_batches(table.loc[fitted, "count"].to_numpy(), nbatches)
+    write_csv(assigned, assignments_path)
+    write_csv(table, table_path)
+    log.info(
+        "bins: %d bins, %d fitted, %d records unbinned",
+        len(table),
+        int(fitted.sum()),
+        len(records) - len(assigned),
+    )
+    return table
+
+
+def sigma_z_table(
+    table_path: str | os.PathLike, out_path: str | os.PathLike, *, lidar: str
+) -> pd.DataFrame:
+    """sigma_Z and E(Z) at each bin centre through the surrogate (seed 000 Eqs. 4-14)."""
+    from flidar_uq.physics.surrogate import get_surrogate
+
+    table = read_csv(table_path)
+    sur = get_surrogate(lidar)
+    args = (
+        table["hws_ms"].to_numpy(),
+        table["amplitude_deg"].to_numpy(),
+        table["period_s"].to_numpy(),
+    )
+    out = table[["bin_id", "hws_ms", "amplitude_deg", "period_s", "count"]].copy()
+    out["sigma_z_ms"] = sur.sigma_z_ms(*args)
+    out["mean_z_ms"] = sur.mean_z_ms(*args)
+    write_csv(out, out_path)
+    return out

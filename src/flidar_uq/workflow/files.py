@@ -1,0 +1,51 @@
+"""Shared file helpers of the workflow steps: deterministic CSV read/write, rule logging,
+and the lookup of a bin's posterior file among the batch directories."""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import pandas as pd
+
+__all__ = ["bin_file", "read_csv", "setup_logging", "write_csv"]
+
+
+def setup_logging(log_path: str | os.PathLike) -> None:
+    """Send INFO and above of every logger (and warnings) to ``log_path``, a rule's log file."""
+    logging.basicConfig(
+        filename=str(log_path),
+        filemode="w",
+        level=logging.INFO,
+        format="%(levelname)s %(name)s: %(message)s",
+        force=True,
+    )
+    logging.captureWarnings(True)
+
+
+def write_csv(df: pd.DataFrame, path: str | os.PathLike) -> None:
+    """Write a result table deterministically (fixed float format, no index)."""
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    df.to_csv(
+        path,
+        index=False,
+        float_format="%.10g",
+        lineterminator="\n",
+        date_format="%Y-%m-%dT%H:%M:%SZ",
+    )
+
+
+def read_csv(path: str | os.PathLike) -> pd.DataFrame:
+    """Read a result table written by :func:`write_csv`."""
+    return pd.read_csv(path, keep_default_na=True)
+
+
+def bin_file(batch_dirs: Sequence[str | os.PathLike], bin_id: int) -> Path:
+    """The posterior file ``bin_<id>.nc`` of one bin, found among the batch directories."""
+    for d in batch_dirs:
+        p = Path(d) / f"bin_{bin_id:04d}.nc"
+        if p.exists():
+            return p
+    raise ValueError(f"no posterior file for bin {bin_id} in {list(map(str, batch_dirs))}")

@@ -1,0 +1,228 @@
+"""Workflow steps of the inference layer: the per-bin fits of one batch, one global model
+on the gathered bin fits, and the PSIS-LOO choice among the global models."""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from flidar_uq.workflow.files import bin_file, read_csv, write_csv
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "bin_seed",
+    "fit_global",
+    "fit_global_model",
+    "gather_bin_summaries",
+    "infer_batch",
+    "load_bin_fits",
+]
+
+
+def bin_seed(seed: int, bin_id: int) -> np.random.SeedSequence:
+    """SeedSequence of one bin's fit: independent of the batch layout, so results are too."""
+    return np.random.SeedSequence(entropy=int(seed), spawn_key=(1, int(bin_id)))
+
+
+def _settings(inference: dict):
+    from flidar_uq.inference import SamplerSettings
+
+    fields = SamplerSettings.__dataclass_fields__
+    return SamplerSettings(**{k: v for k, v in inference.items() if k in fields})
+
+
+def _priors(priors: dict):
+    from flidar_uq.inference import Priors
+
+    return Priors(**priors)
+
+
+def _diagnostic_row(fit) -> dict:
+    """Worst-case convergence diagnostics of a fit, over its parameters."""
+    diag = fit.diagnostics
+    if not diag:
+        return {}
+    return {
+        "rhat_max": max(d["rhat"] for d in diag.values()),
+        "ess_bulk_min": min(d["ess_bulk"] for d in diag.values()),
+        "ess_tail_min": min(d["ess_tail"] for d in diag.values()),
+        "nsteps_over_tau_min": min(d["nsteps_over_tau"] for d in diag.values()),
+    }
+
+
+def infer_batch(
+    assignments_path: str | os.PathLike,
+    table_path: str | os.PathLike,
+    out_dir: str | os.PathLike,
+    *,
+    batch: int,
+    inference: dict,
+    priors: dict,
+) -> pd.DataFrame:
+    """Fit the motion posterior of every bin of one batch; a fit that raises is recorded, not fatal.
+
+    Parameters
+    ----------
+    assignments_path : path
+        Kept records with their ``bin_id`` (checkpoint ``bins``).
+    table_path : path
+        Bin table with ``bin_id``, ``fitted`` and ``batch``.
+    out_dir : path
+        Written: ``bin_<id>.nc`` for every bin of the batch (ArviZ DataTree; for a fit
+        that raised, an empty dataset with ``status="error"`` and the message in its
+        attributes) and ``summary.csv`` (one row per bin: ``bin_id, status`` =
+        "ok" | "failed" (convergence criteria missed) | "error" (raised), ``model``,
+        ``message`` and the worst-case diagnostics).
+    batch : int
+        Batch index (the ``batch`` column of the bin table).
+    inference, priors : dict
+        Config sections (:class:`~flidar_uq.inference.SamplerSettings` fields + ``seed``,
+        :class:`~flidar_uq.inference.Priors` fields). The motion likelihood needs no
+        lidar (no sigma_Z surrogate): the lidar enters later (global fit, propagation).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The summary table.
+    """
+    from flidar_uq import inference as inf
+
+    assigned = read_csv(assignments_path)
+    table = read_csv(table_path)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    settings, prior = _settings(inference), _priors(priors)
+    rows = []
+    for bin_id in table.loc[table["batch"] == batch, "bin_id"].astype(int):
+        path = out_dir / f"bin_{bin_id:04d}.nc"
+        recs = assigned[assigned["bin_id"] == bin_id]
+        try:
+            fit = inf.fit_bin(
+                recs,
+                settings=settings,
+                seed=bin_seed(inference["seed"], bin_id),
+                priors=prior,
+                bin_id=bin_id,
+            )
+            inf.save_fit(fit, path)
+            row = {
+                "bin_id": bin_id,
+                "status": "ok" if fit.converged else "failed",
+                "model": fit.model,
+                "n_records": len(recs),
+                "message": "; ".join(fit.failure_reasons),
+            } | _diagnostic_row(fit)
+        except Exception as exc:  # a failing bin is reported, never fatal for the others
+            log.exception("bin %d: fit raised", bin_id)
+            inf.write_failed_fit(path, bin_id, f"{type(exc).__name__}: {exc}")
+            row = {
+                "bin_id": bin_id,
+                "status": "error",
+                "n_records": len(recs),
+                "message": f"{type(exc).__name__}: {exc}",
+            }
+        log.info("bin %d: %s %s", bin_id, row["status"], row["message"])
+        rows.append(row)
+    summary = pd.DataFrame(
+        rows, columns=["bin_id", "status", "model", "n_records", "message"] if not rows else None
+    )
+    write_csv(summary, out_dir / "summary.csv")
+    return summary
+
+
+def load_bin_fits(batch_dirs: Sequence[str | os.PathLike], bin_fits: pd.DataFrame) -> dict:
+    """Load the BinFit of every bin whose fit ran (status ok or failed), keyed by bin id."""
+    from flidar_uq import inference as inf
+
+    ran = bin_fits.loc[bin_fits["status"] != "error", "bin_id"].astype(int)
+    return {b: inf.load_fit(bin_file(batch_dirs, b)) for b in ran}
+
+
+def fit_global_model(
+    batch_dirs: Sequence[str | os.PathLike],
+    assignments_path: str | os.PathLike,
+    out_path: str | os.PathLike,
+    *,
+    model: str,
+    inference: dict,
+    priors: dict,
+    lidar: str,
+) -> None:
+    """Fit one global model (rho only / lever arm / lever arm + motion scale) on the gathered
+    per-bin fits and write its posterior (NetCDF) to ``out_path``.
+
+    ``lidar`` (config ``campaign.lidar``) picks the sigma_Z surrogate, the same one
+    :func:`flidar_uq.workflow.propagation_step.propagate` uses.
+
+    The three models run as parallel jobs; :func:`fit_global` then picks one by PSIS-LOO.
+    Each model's draws depend only on the seed (``inference.fit_global`` seeds each model
+    with its own child), so the result equals ``fit_global(..., lever_arm="auto")``.
+    """
+    from flidar_uq import inference as inf
+    from flidar_uq.physics.surrogate import get_surrogate
+
+    bin_fits = gather_bin_summaries(batch_dirs)
+    assigned = read_csv(assignments_path)
+    fits = load_bin_fits(batch_dirs, bin_fits)
+    fit = inf.fit_global(
+        assigned[assigned["bin_id"].isin(list(fits))].reset_index(drop=True),
+        list(fits.values()),
+        surrogate=get_surrogate(lidar),
+        settings=_settings(inference),
+        seed=np.random.SeedSequence(entropy=int(inference["seed"]), spawn_key=(0,)),
+        priors=_priors(priors),
+        lever_arm=model,
+    )
+    Path(out_path).parent.mkdir(parents=True, exist_ok=True)
+    inf.save_fit(fit, out_path)
+    log.info(
+        "global model %s: converged=%s %s", model, fit.converged, "; ".join(fit.failure_reasons)
+    )
+
+
+def gather_bin_summaries(batch_dirs: Sequence[str | os.PathLike]) -> pd.DataFrame:
+    """The batches' per-bin summary tables, concatenated and sorted by bin id."""
+    bin_fits = pd.concat([read_csv(Path(d) / "summary.csv") for d in batch_dirs], ignore_index=True)
+    return bin_fits.sort_values("bin_id", kind="stable").reset_index(drop=True)
+
+
+def fit_global(
+    model_paths: Sequence[str | os.PathLike],
+    batch_dirs: Sequence[str | os.PathLike],
+    posterior_path: str | os.PathLike,
+    bin_fits_path: str | os.PathLike,
+    summary_path: str | os.PathLike,
+    *,
+    inference: dict,
+) -> pd.DataFrame:
+    """Pick the global model by PSIS-LOO (the gather step) and write the global results.
+
+    ``model_paths``: the posteriors of :func:`fit_global_model` in the order rho only,
+    lever arm, lever arm + motion scale (:func:`flidar_uq.inference.select_global_model`).
+    Writes the chosen global posterior (NetCDF), the concatenated per-bin summaries
+    (``bin_fits_path``) and the global parameter summary (``summary_path``, one row per
+    parameter with diagnostics, ``converged``, ``failure_reasons`` and the LOO
+    comparisons). Bins that failed or raised were excluded from the global fit.
+    """
+    from flidar_uq import inference as inf
+
+    fit = inf.select_global_model(
+        *(inf.load_fit(p) for p in model_paths), settings=_settings(inference)
+    )
+    Path(posterior_path).parent.mkdir(parents=True, exist_ok=True)
+    inf.save_fit(fit, posterior_path)
+    write_csv(gather_bin_summaries(batch_dirs), bin_fits_path)
+    write_csv(fit.summary(), summary_path)
+    log.info(
+        "global fit: model %s, converged=%s %s",
+        fit.info["loo"].get("model"),
+        fit.converged,
+        "; ".join(fit.failure_reasons),
+    )
+    return fit.summary()

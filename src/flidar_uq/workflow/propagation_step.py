@@ -1,0 +1,233 @@
+"""Workflow step of the correction layer: corrected TI per record, bin and speed bin, the
+record flags, and the MD / RMSE / coverage scores (results/ti/)."""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+
+from flidar_uq.workflow.files import read_csv, write_csv
+from flidar_uq.workflow.inference_steps import load_bin_fits
+
+log = logging.getLogger(__name__)
+
+__all__ = ["RECORD_COLUMNS", "propagate"]
+
+#: Columns of results/ti/records.csv that every run writes, in order (the output contract).
+RECORD_COLUMNS = [
+    "timestamp",
+    "height_m",
+    "bin_id",
+    "hws_mean_ms",
+    "ti_uncorrected",
+    "ti_corrected_median",
+    "ti_corrected_lo",
+    "ti_corrected_hi",
+    "flags",
+]
+
+
+def propagate(
+    *,
+    records_path: str | os.PathLike,
+    flags_path: str | os.PathLike,
+    assignments_path: str | os.PathLike,
+    table_path: str | os.PathLike,
+    sigma_z_path: str | os.PathLike,
+    bin_fits_path: str | os.PathLike,
+    batch_dirs: Sequence[str | os.PathLike],
+    global_path: str | os.PathLike,
+    records_out: str | os.PathLike,
+    bins_out: str | os.PathLike,
+    speed_bins_out: str | os.PathLike,
+    metrics_out: str | os.PathLike,
+    credible_mass: float,
+    ndraws: int,
+    seed: int,
+    lidar: str = "zephir300",
+    target: str = "point",
+    turbulence_dt_s: float | None = None,
+    point_sample_interval_s: float = 1.0,
+    scan_heights_in_turn: int | None = None,
+    scan_refocus_delay_s: Sequence[float] = (0.3, 0.7),
+) -> pd.DataFrame:
+    """Corrected std and TI per record, per bin and per speed bin, beside the baselines.
+
+    Calls :func:`flidar_uq.correction.propagation.corrected_ti` on the kept, binned records with the
+    converged bin fits and the global fit (posterior draws through the deployment formula;
+    median and equal-tailed ``credible_mass`` interval), and seed 000's U / C / PC laws.
+
+    ``target="point"`` turns the corrected std into the point (cup-like) std: divided by
+    the motionless lidar's std ratio (:func:`flidar_uq.physics.lidar_response.lidar_std_ratio`,
+    at the record's HWS and height, band-limited at ``1 / (2 turbulence_dt_s)`` for a
+    synthetic series; None: the atmosphere) with its record-to-record scatter
+    (:func:`flidar_uq.physics.lidar_response.lidar_point_log_sd`: the lidar scanning
+    ``scan_heights_in_turn`` heights in turn (None: the number of distinct heights in
+    the records) with ``scan_refocus_delay_s`` between scans, against the point HWS
+    sampled every ``point_sample_interval_s``). ``"motionless_lidar"`` keeps the std a
+    motionless lidar would measure (the reference the model is calibrated against).
+    ``lidar_std_ratio`` and ``point_log_sd`` are written per record.
+
+    ``metrics_out``: MD and RMSE (seed 000 Eqs. 18-19) of std (m/s) and TI for the
+    uncorrected, U, C, PC and Bayesian estimates against the truth (``true_*``, virtual
+    campaigns) or else the reference instrument, over the records with a Bayesian value;
+    and the coverage of the credible interval when the truth is known.
+    """
+    from flidar_uq import inference as inf
+    from flidar_uq.correction import propagation as prop
+    from flidar_uq.data import metrics
+    from flidar_uq.physics.surrogate import get_surrogate
+
+    flags = read_csv(flags_path)
+    assigned = read_csv(assignments_path)
+    table = read_csv(table_path)
+    sz_table = read_csv(sigma_z_path).set_index("bin_id")
+    bin_fits = read_csv(bin_fits_path)
+    gfit = inf.load_fit(global_path)
+    fits = load_bin_fits(batch_dirs, bin_fits)
+    surrogate = get_surrogate(lidar)
+
+    rid = flags["record_id"].to_numpy()
+    rec = read_csv(records_path).iloc[rid].reset_index(drop=True)  # every input record
+    rec["bin_id"] = assigned.set_index("record_id")["bin_id"].reindex(rid).to_numpy()
+    binned = rec["bin_id"].notna().to_numpy()
+    sub = rec[binned].astype({"bin_id": int})
+    if target not in ("point", "motionless_lidar"):
+        raise ValueError(f"propagate: target={target!r} must be 'point' or 'motionless_lidar'")
+    g_ratio, log_sd = np.ones(len(sub)), np.zeros(len(sub))
+    if target == "point":
+        heights = scan_heights_in_turn or int(rec["height_m"].nunique())
+        g_ratio, log_sd = prop.point_target(
+            sub["hws_mean_ms"].to_numpy(dtype=float),
+            sub["height_m"].to_numpy(dtype=float),
+            lidar,
+            heights_in_turn=heights,
+            refocus_delay_s=scan_refocus_delay_s,
+            point_sample_interval_s=point_sample_interval_s,
+            turbulence_dt_s=turbulence_dt_s,
+            seed=seed,
+        )
+        log.info(
+            "point target: lidar std ratio %.4f-%.4f, log-sd %.4f-%.4f (%d heights in turn)",
+            np.nanmin(g_ratio), np.nanmax(g_ratio), np.nanmin(log_sd), np.nanmax(log_sd), heights,
+        )  # fmt: skip
+    baseline = prop.seed000_baseline(sub, surrogate)
+    per_record, speed_bins = prop.corrected_ti(
+        sub,
+        [f for f in fits.values() if f.converged],
+        gfit,
+        surrogate=surrogate,
+        cred_mass=credible_mass,
+        ndraws=ndraws,
+        lidar_std_ratio=g_ratio,
+        point_log_sd=log_sd,
+        baseline=baseline,
+        seed=np.random.SeedSequence(entropy=int(seed), spawn_key=(2,)),
+    )
+    sz_seed, rho_seed = baseline
+
+    out = _records_table(rec, rid, flags["timestamp"], binned, per_record, sz_seed, sz_table)
+    neg = _scatter(per_record["discriminant_negative"].to_numpy(dtype=bool), binned, bool, False)
+    out["flags"] = prop.record_flags(
+        flags["reasons"].fillna(""),
+        out["bin_id"].to_numpy(),
+        binned,
+        neg,
+        fitted=table.set_index("bin_id")["fitted"],
+        status=bin_fits.set_index("bin_id")["status"],
+        global_converged=gfit.converged,
+    )
+    if "ref_hws_std_ms" in rec:
+        out["ref_hws_std_ms"] = rec["ref_hws_std_ms"].to_numpy(dtype=float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out["ti_ref"] = out["ref_hws_std_ms"] / rec["ref_hws_mean_ms"].to_numpy(dtype=float)
+    if "true_ti" in rec:
+        out["ti_true"] = rec["true_ti"].to_numpy(dtype=float)
+    if "true_hws_std_ms" in rec:
+        out["true_hws_std_ms"] = rec["true_hws_std_ms"].to_numpy(dtype=float)
+    out = out[RECORD_COLUMNS + [c for c in out.columns if c not in RECORD_COLUMNS]]
+    write_csv(out, records_out)
+    write_csv(speed_bins, speed_bins_out)
+    write_csv(_bins_table(table, sz_table, bin_fits, out), bins_out)
+
+    # MD / RMSE of std and TI (Tables 2-3 style) against the truth (virtual campaigns)
+    # and against the reference instrument, where present, over the same records.
+    scores = metrics.score_estimates(out, metrics.reference_values(rec))
+    scores["rho_seed000"] = rho_seed
+    scores["credible_mass"] = credible_mass
+    scores["target"] = target
+    write_csv(scores, metrics_out)
+    return out
+
+
+def _scatter(values, mask: np.ndarray, dtype=float, fill=np.nan) -> np.ndarray:
+    """``values`` of the binned records spread to every record (``fill`` elsewhere)."""
+    full = np.full(mask.size, fill, dtype=dtype)
+    full[mask] = values
+    return full
+
+
+def _records_table(
+    rec: pd.DataFrame,
+    rid: np.ndarray,
+    timestamp: pd.Series,
+    binned: np.ndarray,
+    per_record: pd.DataFrame,
+    sz_seed: np.ndarray,
+    sz_table: pd.DataFrame,
+) -> pd.DataFrame:
+    """results/ti/records.csv without flags and references: one row per input record, the
+    corrected values of :func:`~flidar_uq.correction.propagation.corrected_ti` where binned."""
+    m = rec["hws_mean_ms"].to_numpy(dtype=float)
+    s = rec["hws_std_ms"].to_numpy(dtype=float)
+    out = pd.DataFrame({"record_id": rid, "timestamp": timestamp, "height_m": rec["height_m"]})
+    out["bin_id"] = rec["bin_id"].to_numpy()
+    out["hws_mean_ms"] = m
+    out["hws_std_ms"] = s
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out["ti_uncorrected"] = s / m
+    for col in ("ti_corrected_median", "ti_corrected_lo", "ti_corrected_hi"):
+        out[col] = _scatter(per_record[col].to_numpy(), binned)
+    for col, src in (
+        ("std_corrected_median_ms", "sigma_corrected_median_ms"),
+        ("std_corrected_lo_ms", "sigma_corrected_lo_ms"),
+        ("std_corrected_hi_ms", "sigma_corrected_hi_ms"),
+        ("sigma_z_median_ms", "sigma_z_median_ms"),
+        ("lidar_std_ratio", "lidar_std_ratio"),
+        ("point_log_sd", "point_log_sd"),
+        ("p_discriminant_negative", "discriminant_negative_frac"),
+        ("ti_corrected_u", "ti_u"),
+        ("ti_corrected_c", "ti_c"),
+        ("ti_corrected_pc", "ti_pc"),
+    ):
+        out[col] = _scatter(per_record[src].to_numpy(), binned)
+    out["sigma_z_seed000_ms"] = _scatter(sz_seed, binned)
+    for law in ("u", "c", "pc"):
+        out[f"std_corrected_{law}_ms"] = out[f"ti_corrected_{law}"] * m
+    out["sigma_z_bin_ms"] = sz_table["sigma_z_ms"].reindex(out["bin_id"]).to_numpy(dtype=float)
+    return out
+
+
+def _bins_table(
+    table: pd.DataFrame, sz_table: pd.DataFrame, bin_fits: pd.DataFrame, out: pd.DataFrame
+) -> pd.DataFrame:
+    """results/ti/bins.csv: bin table + sigma_Z at the centre + fit status/diagnostics + TI means."""
+    bins = table.merge(sz_table[["sigma_z_ms", "mean_z_ms"]].reset_index(), on="bin_id", how="left")
+    bins = bins.merge(
+        bin_fits.drop(columns=[c for c in ("n_records",) if c in bin_fits]), on="bin_id", how="left"
+    )
+    bins["status"] = bins["status"].where(bins["fitted"], "not_fitted")
+    agg = {
+        "ti_uncorrected": "mean",
+        "ti_corrected_median": "mean",
+        "ti_corrected_lo": "mean",
+        "ti_corrected_hi": "mean",
+    }
+    if "ti_true" in out:
+        agg["ti_true"] = "mean"
+    means = out.groupby("bin_id").agg(agg).add_suffix("_mean").reset_index()
+    return bins.merge(means, on="bin_id", how="left")
