@@ -10,8 +10,20 @@ validate(config, schema="../schemas/config.schema.yaml")
 REPO = workflow.basedir
 NBATCHES = config["inference"]["nbatches"]
 BATCHES = [f"{b:03d}" for b in range(NBATCHES)]
-# The nested global models (flidar_uq.inference._GLOBAL_MODELS), fitted as parallel jobs.
-GLOBAL_MODELS = ["rho_only", "lever_arm", "lever_arm_scale"]
+# The global model(s): the record motion model, or the nested bin-motion models
+# (flidar_uq.inference.global_fit._GLOBAL_MODELS) fitted as parallel jobs.
+MOTION_MODEL = config["inference"]["motion_model"]
+GLOBAL_MODELS = (
+    ["record"] if MOTION_MODEL == "record" else ["rho_only", "lever_arm", "lever_arm_scale"]
+)
+
+
+def global_model_batches(wildcards):
+    """The per-bin fits a global model needs: none for the record motion model (its sigma_Z
+    comes from each record's own motion, so it runs beside the per-bin fits)."""
+    if wildcards.model == "record":
+        return []
+    return expand("results/inference/batch_{batch}", batch=BATCHES)
 
 
 def scenario_file(wildcards):

@@ -42,7 +42,7 @@ rule posterior_bin:
 
 rule fit_global_model:
     input:
-        batches=expand("results/inference/batch_{batch}", batch=BATCHES),
+        batches=global_model_batches,
         assignments="results/bins/assignments.csv",
     output:
         "results/inference/global_{model}.nc",

@@ -30,10 +30,17 @@ import pandas as pd
 
 from flidar_uq.data.binning import speed_bin_ms
 from flidar_uq.data.metrics import representative_ti
-from flidar_uq.inference import imu_observations
+from flidar_uq.inference import effective_sigma_z_ms, imu_observations, is_record_model
+from flidar_uq.inference.record_motion import record_motion
+from flidar_uq.physics.surrogate import default_surrogate
 from flidar_uq.physics.variance_laws import corrected_std, rho_seed000
+from flidar_uq.seeding import as_seedsequence
 
 __all__ = ["corrected_ti", "point_target", "record_flags", "seed000_baseline"]
+
+#: Records propagated together by the record motion model (bounds the draws' memory:
+#: ndraws x chunk floats per array).
+_RECORD_CHUNK = 20_000
 
 
 def seed000_baseline(records: pd.DataFrame, surrogate) -> tuple[np.ndarray, float]:
@@ -145,6 +152,7 @@ def record_flags(
     fitted: pd.Series,
     status: pd.Series,
     global_converged: bool,
+    motion_described=None,
 ) -> list[str]:
     """Why a record has no (trustworthy) corrected TI: ``;``-joined reasons, "" when none.
 
@@ -162,16 +170,26 @@ def record_flags(
         Per bin id: fitted (min_count met) and fit status ("ok" | "failed" | "error").
     global_converged : bool
         Global fit converged (else every record gets ``global_fit_failed``).
+    motion_described : array_like of bool, shape (n_records,), optional
+        Record motion model: the record has a motion description (else
+        ``no_motion_description``); bins and their fits then do not matter.
 
     Returns
     -------
     list of str
         One flag string per record: ``unbinned``, ``bin_not_fitted``, ``bin_failed``,
-        ``bin_error``, ``discriminant_negative``, ``global_fit_failed`` or the QC reason.
+        ``bin_error`` (bin motion model), ``no_motion_description`` (record motion model),
+        ``discriminant_negative``, ``global_fit_failed`` or the QC reason.
     """
     reasons = [[r] if isinstance(r, str) and r else [] for r in qc_reasons]
     for i in range(len(reasons)):
         if reasons[i]:
+            continue
+        if motion_described is not None:
+            if not motion_described[i]:
+                reasons[i].append("no_motion_description")
+            elif discriminant_negative[i]:
+                reasons[i].append("discriminant_negative")
             continue
         if not binned[i]:
             reasons[i].append("unbinned")  # kept by QC but a binning variable is missing
@@ -284,53 +302,26 @@ def corrected_ti(
                 f"corrected_ti: lidar_std_ratio must be {len(records)} positive values, got "
                 f"shape {g_ratio.shape}"
             )
-    if surrogate is None:
-        from flidar_uq.physics.surrogate import get_surrogate
-
-        surrogate = get_surrogate()
-    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-    rng = np.random.default_rng(ss)
+    surrogate = default_surrogate(surrogate)
+    rng = np.random.default_rng(as_seedsequence(seed))
     q = [(1.0 - cred_mass) / 2.0, 0.5, (1.0 + cred_mass) / 2.0]
     n = len(records)
     m = records["hws_mean_ms"].to_numpy(dtype=float)
     s = records["hws_std_ms"].to_numpy(dtype=float)
-    bins = records["bin_id"].to_numpy()
-    fits = {f.bin_id: f for f in bin_fits}
-
     g_idx = rng.choice(global_fit.flat("rho").size, size=ndraws, replace=True)
     rho = global_fit.flat("rho")[g_idx][:, None]
-    tau0 = global_fit.flat("tau0_ms")[g_idx][:, None]
     kappa = global_fit.flat("kappa")[g_idx][:, None]
     rho_med = float(np.median(global_fit.flat("rho")))
-    lever = (
-        global_fit.flat("lever_arm_m")[g_idx][:, None]
-        if "lever_arm_m" in global_fit.draws
-        else None
-    )
-    scale = (
-        global_fit.flat("motion_scale")[g_idx][:, None]
-        if "motion_scale" in global_fit.draws
-        else 1.0
-    )
 
     sig = np.full((ndraws, n), np.nan)
     neg_frac = np.full(n, np.nan)
     sz_med = np.full(n, np.nan)
     conv = np.zeros(n, dtype=bool)
     reasons = np.full(n, "", dtype=object)
-    for b in pd.unique(bins):
-        mask = bins == b
-        f = fits.get(b)
-        if f is None:
-            reasons[mask] = "no fit for this bin"
-            continue
-        nb = int(f.flat("amplitude_deg").size)
-        idx = rng.choice(nb, size=ndraws, replace=ndraws > nb)
-        sz, u2 = f._motion_draws(m[mask], surrogate, idx, scan_period_s)
-        sz = scale * sz  # motion-model discrepancy of the surrogate (global fit), 1 if absent
-        if lever is not None:  # head translation of the lever-arm model
-            sz = np.sqrt(sz**2 + lever**2 * u2)
-        tau = np.sqrt((kappa * s[mask][None, :]) ** 2 + tau0**2)
+    global_reasons = [f"global: {r}" for r in global_fit.failure_reasons]
+
+    def deploy(mask, sz, tau):
+        """Steps 2-4 of the module docstring for the records of ``mask`` (sZ draws given)."""
         s_star = np.abs(s[mask][None, :] + tau * rng.standard_normal((ndraws, int(mask.sum()))))
         c, neg = corrected_std(s_star, sz, rho)
         # point std (g = 1, sd = 0: the motionless-lidar std)
@@ -338,10 +329,59 @@ def corrected_ti(
         sig[:, mask] = c * point
         neg_frac[mask] = np.mean(neg, axis=0)
         sz_med[mask] = np.median(sz, axis=0)
-        conv[mask] = f.converged and global_fit.converged
-        reasons[mask] = "; ".join(
-            [*f.failure_reasons, *(f"global: {r}" for r in global_fit.failure_reasons)]
+
+    if is_record_model(global_fit):
+        # record motion model: each record's sigma_Z from its own measured motion, with the
+        # global lever arm, motion scale and the record-level motion error kappa_z
+        lever = global_fit.flat("lever_arm_m")[g_idx][:, None]
+        scale = global_fit.flat("motion_scale")[g_idx][:, None]
+        kappa_z = global_fit.flat("kappa_z")[g_idx][:, None]
+        mot = record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
+        szr = mot["sigma_z_rot_ms"].to_numpy()
+        u2 = mot["translation_unit_sq"].to_numpy()
+        described = np.isfinite(szr) & np.isfinite(u2)
+        reasons[~described] = "no motion description (IMU columns missing)"
+        for start in range(0, n, _RECORD_CHUNK):
+            mask = np.zeros(n, dtype=bool)
+            mask[start : start + _RECORD_CHUNK] = True
+            mask &= described
+            if not mask.any():
+                continue
+            k = int(mask.sum())
+            sz = effective_sigma_z_ms(szr[mask][None, :], u2[mask][None, :], lever, scale)
+            sz = sz * np.exp(kappa_z * rng.standard_normal((ndraws, k)))
+            deploy(mask, sz, kappa * s[mask][None, :])
+        conv[described] = global_fit.converged
+        reasons[described] = "; ".join(global_reasons)
+    else:
+        tau0 = global_fit.flat("tau0_ms")[g_idx][:, None]
+        lever = (
+            global_fit.flat("lever_arm_m")[g_idx][:, None]
+            if "lever_arm_m" in global_fit.draws
+            else None
         )
+        scale = (
+            global_fit.flat("motion_scale")[g_idx][:, None]
+            if "motion_scale" in global_fit.draws
+            else 1.0
+        )
+        bins = records["bin_id"].to_numpy()
+        fits = {f.bin_id: f for f in bin_fits}
+        for b in pd.unique(bins):
+            mask = bins == b
+            f = fits.get(b)
+            if f is None:
+                reasons[mask] = "no fit for this bin"
+                continue
+            nb = int(f.flat("amplitude_deg").size)
+            idx = rng.choice(nb, size=ndraws, replace=ndraws > nb)
+            sz, u2 = f._motion_draws(m[mask], surrogate, idx, scan_period_s)
+            sz = scale * sz  # motion-model discrepancy of the surrogate (global fit), 1 if absent
+            if lever is not None:  # head translation of the lever-arm model
+                sz = np.sqrt(sz**2 + lever**2 * u2)
+            deploy(mask, sz, np.sqrt((kappa * s[mask][None, :]) ** 2 + tau0**2))
+            conv[mask] = f.converged and global_fit.converged
+            reasons[mask] = "; ".join([*f.failure_reasons, *global_reasons])
 
     with np.errstate(invalid="ignore", divide="ignore"):
         ti = sig / m[None, :]
@@ -367,7 +407,7 @@ def corrected_ti(
 
     per_record = pd.DataFrame(
         {
-            "bin_id": bins,
+            "bin_id": records["bin_id"].to_numpy() if "bin_id" in records else np.nan,
             "hws_mean_ms": m,
             "ti_uncorrected": ti_unc,
             "sigma_corrected_median_ms": sq[1],

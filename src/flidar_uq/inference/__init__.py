@@ -37,7 +37,9 @@ never ``campaign``, ``correction`` or ``workflow``. One concern per module:
 - :mod:`.diagnostics` -- R-hat, ESS, autocorrelation times
 - :mod:`.loo` -- PSIS-LOO and the posterior predictive check
 - :mod:`.results` -- ``BinFit``, ``GlobalFit``, ``FailedFit``; NetCDF writer and reader
-- :mod:`.bin_fit`, :mod:`.global_fit` -- the two stages
+- :mod:`.bin_fit`, :mod:`.global_fit` -- the two stages (bin motion model)
+- :mod:`.record_motion`, :mod:`.record_fit` -- the record motion model: each record's
+  sigma_Z from its own along-wind tilt description, and the global fit on it
 - :mod:`.predictive` -- prior predictive draws
 
 This module only re-exports the public API.
@@ -55,6 +57,8 @@ from flidar_uq.inference.observations import (
 )
 from flidar_uq.inference.predictive import prior_predictive
 from flidar_uq.inference.priors import Priors, SamplerSettings, sample_motion_prior
+from flidar_uq.inference.record_fit import fit_record_model, is_record_model, log_prob_record_model
+from flidar_uq.inference.record_motion import record_motion
 from flidar_uq.inference.results import (
     BinFit,
     FailedFit,
@@ -65,6 +69,10 @@ from flidar_uq.inference.results import (
 )
 
 __all__ = [
+    "fit_record_model",
+    "is_record_model",
+    "log_prob_record_model",
+    "record_motion",
     "Priors",
     "SamplerSettings",
     "BinFit",

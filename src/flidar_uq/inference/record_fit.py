@@ -38,11 +38,21 @@ from flidar_uq.inference.sampler import _run_ensembles, laplace_init
 from flidar_uq.seeding import as_seedsequence
 from flidar_uq.threads import single_threaded
 
-__all__ = ["RECORD_MODEL_NAMES", "fit_record_model", "log_prob_record_model"]
+__all__ = [
+    "RECORD_MODEL_NAMES",
+    "fit_record_model",
+    "is_record_model",
+    "log_prob_record_model",
+]
 
 #: Parameters of the record model, in the order of its theta columns (natural scale names).
 RECORD_MODEL_NAMES = ("rho", "kappa", "kappa_z", "lever_arm_m", "motion_scale")
 _LOGS = (1, 2, 4)  # sampled as logs, reported natural
+
+
+def is_record_model(fit) -> bool:
+    """True if a global fit is the record motion model (else a bin-motion model)."""
+    return getattr(fit, "info", {}).get("loo", {}).get("model") == "record"
 
 
 def _record_loglik_pointwise(theta, s, r, sz_rot, u2):

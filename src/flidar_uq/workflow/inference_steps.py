@@ -167,15 +167,34 @@ def fit_global_model(
     from flidar_uq import inference as inf
     from flidar_uq.physics.surrogate import get_surrogate
 
-    bin_fits = gather_bin_summaries(batch_dirs)
+    seed = np.random.SeedSequence(entropy=int(inference["seed"]), spawn_key=(0,))
     assigned = read_csv(assignments_path)
+    if model == "record":
+        lever = inference.get("lever_arm_m")
+        fit = inf.fit_record_model(
+            assigned,
+            surrogate=get_surrogate(lidar),
+            settings=_settings(inference),
+            seed=seed,
+            priors=_priors(priors),
+            lever_arm_prior=None
+            if lever is None
+            else (float(lever), float(inference.get("lever_arm_sd_m", 0.3))),
+        )
+        Path(out_path).parent.mkdir(parents=True, exist_ok=True)
+        inf.save_fit(fit, out_path)
+        log.info("record model: converged=%s %s", fit.converged, "; ".join(fit.failure_reasons))
+        if "motion_scale_warning" in fit.info:
+            log.warning(fit.info["motion_scale_warning"])
+        return
+    bin_fits = gather_bin_summaries(batch_dirs)
     fits = load_bin_fits(batch_dirs, bin_fits)
     fit = inf.fit_global(
         assigned[assigned["bin_id"].isin(list(fits))].reset_index(drop=True),
         list(fits.values()),
         surrogate=get_surrogate(lidar),
         settings=_settings(inference),
-        seed=np.random.SeedSequence(entropy=int(inference["seed"]), spawn_key=(0,)),
+        seed=seed,
         priors=_priors(priors),
         lever_arm=model,
     )
@@ -212,9 +231,11 @@ def fit_global(
     """
     from flidar_uq import inference as inf
 
-    fit = inf.select_global_model(
-        *(inf.load_fit(p) for p in model_paths), settings=_settings(inference)
-    )
+    fits = [inf.load_fit(p) for p in model_paths]
+    if len(fits) == 1 and inf.is_record_model(fits[0]):
+        fit = fits[0]  # the record motion model: one model, nothing to choose
+    else:
+        fit = inf.select_global_model(*fits, settings=_settings(inference))
     Path(posterior_path).parent.mkdir(parents=True, exist_ok=True)
     inf.save_fit(fit, posterior_path)
     write_csv(gather_bin_summaries(batch_dirs), bin_fits_path)

@@ -95,7 +95,13 @@ def propagate(
     rec = read_csv(records_path).iloc[rid].reset_index(drop=True)  # every input record
     rec["bin_id"] = assigned.set_index("record_id")["bin_id"].reindex(rid).to_numpy()
     binned = rec["bin_id"].notna().to_numpy()
-    sub = rec[binned].astype({"bin_id": int})
+    record_model = inf.is_record_model(gfit)
+    if record_model:  # every QC-kept record, binned or not: its sigma_Z is its own
+        use = flags["reasons"].fillna("").eq("").to_numpy()
+        sub = rec[use]
+    else:
+        use = binned
+        sub = rec[use].astype({"bin_id": int})
     if target not in ("point", "motionless_lidar"):
         raise ValueError(f"propagate: target={target!r} must be 'point' or 'motionless_lidar'")
     g_ratio, log_sd = np.ones(len(sub)), np.zeros(len(sub))
@@ -130,8 +136,13 @@ def propagate(
     )
     sz_seed, rho_seed = baseline
 
-    out = _records_table(rec, rid, flags["timestamp"], binned, per_record, sz_seed, sz_table)
-    neg = _scatter(per_record["discriminant_negative"].to_numpy(dtype=bool), binned, bool, False)
+    out = _records_table(rec, rid, flags["timestamp"], use, per_record, sz_seed, sz_table)
+    neg = _scatter(per_record["discriminant_negative"].to_numpy(dtype=bool), use, bool, False)
+    described = (
+        _scatter(np.isfinite(per_record["sigma_z_median_ms"].to_numpy()), use, bool, False)
+        if record_model
+        else None
+    )
     out["flags"] = prop.record_flags(
         flags["reasons"].fillna(""),
         out["bin_id"].to_numpy(),
@@ -140,6 +151,7 @@ def propagate(
         fitted=table.set_index("bin_id")["fitted"],
         status=bin_fits.set_index("bin_id")["status"],
         global_converged=gfit.converged,
+        motion_described=described,
     )
     if "ref_hws_std_ms" in rec:
         out["ref_hws_std_ms"] = rec["ref_hws_std_ms"].to_numpy(dtype=float)
@@ -175,13 +187,13 @@ def _records_table(
     rec: pd.DataFrame,
     rid: np.ndarray,
     timestamp: pd.Series,
-    binned: np.ndarray,
+    use: np.ndarray,
     per_record: pd.DataFrame,
     sz_seed: np.ndarray,
     sz_table: pd.DataFrame,
 ) -> pd.DataFrame:
     """results/ti/records.csv without flags and references: one row per input record, the
-    corrected values of :func:`~flidar_uq.correction.propagation.corrected_ti` where binned."""
+    corrected values of :func:`~flidar_uq.correction.propagation.corrected_ti` where ``use``."""
     m = rec["hws_mean_ms"].to_numpy(dtype=float)
     s = rec["hws_std_ms"].to_numpy(dtype=float)
     out = pd.DataFrame({"record_id": rid, "timestamp": timestamp, "height_m": rec["height_m"]})
@@ -191,7 +203,7 @@ def _records_table(
     with np.errstate(invalid="ignore", divide="ignore"):
         out["ti_uncorrected"] = s / m
     for col in ("ti_corrected_median", "ti_corrected_lo", "ti_corrected_hi"):
-        out[col] = _scatter(per_record[col].to_numpy(), binned)
+        out[col] = _scatter(per_record[col].to_numpy(), use)
     for col, src in (
         ("std_corrected_median_ms", "sigma_corrected_median_ms"),
         ("std_corrected_lo_ms", "sigma_corrected_lo_ms"),
@@ -204,8 +216,8 @@ def _records_table(
         ("ti_corrected_c", "ti_c"),
         ("ti_corrected_pc", "ti_pc"),
     ):
-        out[col] = _scatter(per_record[src].to_numpy(), binned)
-    out["sigma_z_seed000_ms"] = _scatter(sz_seed, binned)
+        out[col] = _scatter(per_record[src].to_numpy(), use)
+    out["sigma_z_seed000_ms"] = _scatter(sz_seed, use)
     for law in ("u", "c", "pc"):
         out[f"std_corrected_{law}_ms"] = out[f"ti_corrected_{law}"] * m
     out["sigma_z_bin_ms"] = sz_table["sigma_z_ms"].reindex(out["bin_id"]).to_numpy(dtype=float)
