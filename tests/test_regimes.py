@@ -85,6 +85,19 @@ def test_short_reference_calibrates_the_deployment_after_it(seed):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("seed", SEEDS)
+def test_calibration_transfers_from_wind_sea_to_swell(seed):
+    # blocked cross-validation by sea-state class: calibrated on wind-sea records only,
+    # the swell records (60-120 deg off downwind) are corrected as deployment records
+    records, fit = scenario_records("misaligned_swell", seed, calibrate_on_sea_state="wind sea")
+    assert fit.converged, fit.failure_reasons
+    swell = records[records["sea_state"] == "swell"]
+    assert not swell["in_calibration"].any()
+    assert swell["ti_corrected_median"].notna().mean() >= 0.99
+    _check_calibrated(swell, f"swell records calibrated on wind sea, seed {seed}")
+
+
+@pytest.mark.slow
 @pytest.mark.xfail(
     strict=True,
     reason="known: on a weathervaning buoy the co-located virtual reference lidar scans "

@@ -24,6 +24,7 @@ import pandas as pd
 import pytest
 import yaml
 
+from flidar_uq.data.calibration import calibration_by_group, speed_group_label
 from flidar_uq.workflow.data_steps import assign_batches
 from flidar_uq.workflow.inference_steps import bin_seed
 from flidar_uq.workflow.propagation_step import RECORD_COLUMNS
@@ -591,3 +592,20 @@ def test_default_campaign_meets_the_corrected_ti_acceptance(tmp_path):
     rec = pd.read_csv(tmp_path / "results" / "ti" / "records.csv")
     kept = rec["ti_corrected_median"].notna()
     assert rec.loc[kept, "hws_mean_ms"].between(3.0, 20.0).all()
+    # issue 11: every QC-kept record in 3-20 m/s has a corrected TI with an interval, and
+    # the calibration holds in every 3-m/s speed group (not only in aggregate)
+    qc_flags = pd.read_csv(tmp_path / "results" / "qc" / "flags.csv").set_index("record_id")
+    qc_kept = qc_flags["kept"].reindex(rec["record_id"]).to_numpy(dtype=bool)
+    in_range = rec["hws_mean_ms"].between(3.0, 20.0, inclusive="left").to_numpy()
+    pool = rec[qc_kept & in_range]
+    answered = pool[["ti_corrected_median", "ti_corrected_lo", "ti_corrected_hi"]].notna()
+    assert answered.all(axis=1).mean() >= 0.99
+    pool = pool.assign(speed_group=speed_group_label(pool["hws_mean_ms"]))
+    groups = calibration_by_group(pool, "speed_group", min_count=200)
+    groups = groups[groups["n"] >= 200]
+    assert len(groups) >= 4
+    assert groups["coverage"].between(0.85, 0.95).all(), groups.to_string()
+    assert (groups["mean_rel_error"].abs() <= 0.015).all(), groups.to_string()
+    # the calibration is not bought with wider intervals: median width <= 1.2 x the bin
+    # model's 20 % of TI
+    assert (groups["median_rel_width"] <= 0.24).all(), groups.to_string()

@@ -63,6 +63,7 @@ def scenario_records(
     lever_arm_prior: tuple[float, float] | None = None,
     n_records: int | None = None,
     n_workers: int | None = None,
+    calibrate_on_sea_state: str | None = None,
 ) -> tuple[pd.DataFrame, object]:
     """Generate a scenario and correct every QC-kept record in 3-20 m/s (the pipeline's steps).
 
@@ -83,6 +84,9 @@ def scenario_records(
         Lever arm mean and sd (m) from the buoy geometry.
     n_records, n_workers : int, optional
         Override the scenario's number of 10-min records and worker processes.
+    calibrate_on_sea_state : {"wind sea", "swell"}, optional
+        Blocked cross-validation by sea-state class: only the references of this class
+        enter the fit (the others are corrected as deployment records).
 
     Returns
     -------
@@ -105,8 +109,16 @@ def scenario_records(
     kept = kept[(hws >= 3.0) & (hws < 20.0)].copy()
     kept["bin_id"] = np.nan
     surrogate = get_surrogate(lidar)
+    calib = kept
+    if calibrate_on_sea_state is not None:
+        if calibrate_on_sea_state not in ("wind sea", "swell"):
+            raise ValueError(
+                f"scenario_records: calibrate_on_sea_state={calibrate_on_sea_state!r} is not "
+                "'wind sea' or 'swell'"
+            )
+        calib = kept[regime_labels(kept)["sea_state"] == calibrate_on_sea_state]
     fit = fit_record_model(
-        kept, surrogate=surrogate, settings=settings, seed=ss_fit, lever_arm_prior=lever_arm_prior
+        calib, surrogate=surrogate, settings=settings, seed=ss_fit, lever_arm_prior=lever_arm_prior
     )
     sampling = reference_sampling(cfg)
     g, sd = point_target(
@@ -136,6 +148,7 @@ def scenario_records(
         out[c] = per_record[c].to_numpy()
     out["ti_true"] = kept["true_ti"].to_numpy(dtype=float)
     out["has_reference"] = np.isfinite(kept["ref_hws_std_ms"].to_numpy(dtype=float))
+    out["in_calibration"] = out["has_reference"] & kept.index.isin(calib.index)
     return pd.concat([out, regime_labels(out)], axis=1), fit
 
 
