@@ -141,3 +141,25 @@ def test_regime_labels_from_truth_columns():
         ti_true=0.1, ti_corrected_median=0.1, ti_corrected_lo=0.09, ti_corrected_hi=0.11
     )
     assert calibration_by_group(rec, "sea_state")["coverage"].tolist() == [1.0, 1.0]
+
+
+def test_report_regime_table_scores_qc_kept_records_only():
+    from flidar_uq.workflow.report_step import regime_calibration_table
+
+    rec = pd.DataFrame(
+        {
+            "hws_mean_ms": [4.0, 4.5, 5.0, 25.0],
+            "flags": ["", "discriminant_negative", "mad_outlier", ""],
+            "ti_true": [0.10, 0.10, 0.10, 0.10],
+            "ti_corrected_median": [0.10, 0.12, 0.10, 0.10],
+            "ti_corrected_lo": [0.09, 0.11, 0.09, 0.09],
+            "ti_corrected_hi": [0.11, 0.13, 0.11, 0.11],
+            "true_swell_present": [0.0, 1.0, 0.0, 0.0],
+        }
+    )
+    tab = regime_calibration_table(rec).set_index(["grouping", "group"])
+    # the QC outlier and the record above 20 m/s are out; the model-flagged one is in
+    assert tab.loc[("all", "all"), "n"] == 2
+    assert tab.loc[("all", "all"), "coverage"] == pytest.approx(0.5)
+    assert tab.loc[("sea_state", "swell"), "mean_rel_error"] == pytest.approx(0.2)
+    assert "heading" not in tab.index.get_level_values("grouping")  # no heading truth

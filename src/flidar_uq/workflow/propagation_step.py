@@ -161,6 +161,9 @@ def propagate(
         out["ti_true"] = rec["true_ti"].to_numpy(dtype=float)
     if "true_hws_std_ms" in rec:
         out["true_hws_std_ms"] = rec["true_hws_std_ms"].to_numpy(dtype=float)
+    for col in ("true_swell_present", "true_weathervane"):  # regime truth, for the report
+        if col in rec:
+            out[col] = rec[col].to_numpy(dtype=float)
     out = out[RECORD_COLUMNS + [c for c in out.columns if c not in RECORD_COLUMNS]]
     write_csv(out, records_out)
     write_csv(speed_bins, speed_bins_out)

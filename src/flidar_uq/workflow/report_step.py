@@ -34,6 +34,47 @@ def git_revision(repo_dir: str | os.PathLike) -> str:
     return out.stdout.strip()
 
 
+def regime_calibration_table(records: pd.DataFrame) -> pd.DataFrame:
+    """Calibration of the corrected TI per regime of a records.csv table with ``ti_true``.
+
+    The QC-kept records (no QC reason in ``flags``) in 3-20 m/s, grouped as
+    :func:`flidar_uq.validation.regimes.scenario_calibration` does (speed group; sea state
+    and heading where the truth columns ``true_swell_present`` / ``true_weathervane``
+    exist).
+    """
+    from flidar_uq.validation.regimes import regime_labels, scenario_calibration
+
+    qc_reasons = (
+        records["flags"]
+        .fillna("")
+        .str.split(";")
+        .map(lambda fl: any(f and f not in MODEL_FLAGS for f in fl))
+    )
+    hws = records["hws_mean_ms"].to_numpy(dtype=float)
+    pool = records[~qc_reasons.to_numpy() & (hws >= 3.0) & (hws < 20.0)]
+    pool = pd.concat([pool, regime_labels(pool)], axis=1)
+    tab = scenario_calibration(pool)
+    if "true_swell_present" not in records:
+        tab = tab[~tab["grouping"].isin(["sea_state", "sea_state_heading"])]
+    if "true_weathervane" not in records:
+        tab = tab[~tab["grouping"].isin(["heading", "sea_state_heading"])]
+    cols = ["grouping", "group", "n", "answered_share", "coverage", "coverage_lo"]
+    cols += ["coverage_hi", "mean_rel_error", "median_rel_width"]
+    return tab[cols].round(4)
+
+
+#: Flags set by the model (not by QC): a record with only these was kept by QC.
+MODEL_FLAGS = (
+    "unbinned",
+    "bin_not_fitted",
+    "bin_failed",
+    "bin_error",
+    "no_motion_description",
+    "discriminant_negative",
+    "global_fit_failed",
+)
+
+
 def _capped_table(rep, df: pd.DataFrame, name: str, max_rows: int = 40) -> str:
     caption = name if len(df) <= max_rows else f"{name}: first {max_rows} of {len(df)} rows"
     return rep.table_html(df.head(max_rows), caption=caption)
@@ -101,11 +142,32 @@ def build_report(
             ("bins whose fit raised (error)", int(status_counts.get("error", 0))),
             ("bins not fitted (too few records)", int(status_counts.get("not_fitted", 0))),
             ("global fit converged", bool(gfit.converged)),
+            ("motion model", "record" if inf.is_record_model(gfit) else "bin"),
         ],
         columns=["quantity", "value"],
     )
     del kept
     sections.append(rep.Section("Overview", rep.table_html(overview)))
+    warning = gfit.info.get("motion_scale_warning")
+    if warning:
+        sections.append(rep.Section("Warning: model discrepancy", f"<p>{warning}</p>"))
+    flag_counts = (
+        records["flags"]
+        .fillna("")
+        .replace("", "(none: corrected)")
+        .value_counts()
+        .rename_axis("flags")
+    )
+    sections.append(
+        rep.Section(
+            "What was flagged and why",
+            rep.table_html(
+                flag_counts.rename("records").reset_index(),
+                caption="records of results/ti/records.csv per flag string (QC reasons, "
+                "no_motion_description, discriminant_negative, bin_* with the bin model)",
+            ),
+        )
+    )
 
     sections.append(
         rep.Section(
@@ -237,6 +299,19 @@ def build_report(
                         )
                     ),
                     rep.caption("calibration", mass=mass),
+                ),
+            )
+        )
+    if "ti_true" in records:
+        sections.append(
+            rep.Section(
+                "Calibration by regime (against the truth)",
+                rep.table_html(
+                    regime_calibration_table(records),
+                    caption=f"{mass:.0%} intervals of the corrected TI against the virtual "
+                    "campaign's truth, QC-kept records in 3-20 m/s, per 3-m/s speed group, "
+                    "sea state and heading (truth columns); answered_share: records with a "
+                    "corrected TI; coverage with its 95 % Wilson interval",
                 ),
             )
         )
