@@ -4,8 +4,6 @@ from the records with a reference, and the choice among the nested global models
 
 from __future__ import annotations
 
-from dataclasses import asdict
-
 import numpy as np
 import pandas as pd
 from scipy.special import logsumexp
@@ -185,15 +183,7 @@ def fit_global(
         "u2": u2m[use],
         "bins": records["bin_id"].to_numpy()[use],
     }
-    f = settings.global_step_factor
-    gs = SamplerSettings(
-        **{
-            **asdict(settings),
-            "nsteps": int(round(settings.nsteps * f)),
-            "nburn": int(round(settings.nburn * f)),
-            "max_step_factor": settings.global_max_step_factor,
-        }
-    )
+    gs = settings.for_global_fit()
     fits, loos = {}, {}
     for name in models:
         k = _GLOBAL_MODELS.index(name)

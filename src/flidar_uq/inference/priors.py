@@ -5,7 +5,7 @@ Rule of inference/: depends on flidar_uq.physics, flidar_uq.data, seeding and th
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -121,6 +121,17 @@ class SamplerSettings:
     ess_min: float = 400.0
     n_autocorr: float = 50.0
     n_sz_draws: int = 200
+
+    def for_global_fit(self) -> SamplerSettings:
+        """These settings as a global fit runs them: ``global_step_factor`` times the steps
+        and burn-in, ``global_max_step_factor`` as the extension cap."""
+        f = self.global_step_factor
+        return replace(
+            self,
+            nsteps=int(round(self.nsteps * f)),
+            nburn=int(round(self.nburn * f)),
+            max_step_factor=self.global_max_step_factor,
+        )
 
     def __post_init__(self):
         if self.nensembles < 4:

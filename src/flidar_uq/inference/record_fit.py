@@ -23,8 +23,6 @@ slows the sampler).
 
 from __future__ import annotations
 
-from dataclasses import asdict
-
 import numpy as np
 import pandas as pd
 
@@ -205,15 +203,7 @@ def fit_record_model(
     use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.isfinite(szr) & np.isfinite(u2)
     s, r, szr, u2 = s[use], r[use], szr[use], u2[use]
     args = (s, r, szr, u2, priors, lever_arm_prior)
-    f = settings.global_step_factor
-    gs = SamplerSettings(
-        **{
-            **asdict(settings),
-            "nsteps": int(round(settings.nsteps * f)),
-            "nburn": int(round(settings.nburn * f)),
-            "max_step_factor": settings.global_max_step_factor,
-        }
-    )
+    gs = settings.for_global_fit()
     x0 = np.array(
         [
             0.0,
