@@ -24,7 +24,9 @@ class Priors:
     ``tau0 ~ HalfNormal(tau0_scale_ms)``; ``kappa ~ HalfNormal(kappa_scale)``;
     effective lever arm ``L ~ HalfNormal(lever_arm_scale_m)`` on [0, ``lever_arm_max_m``);
     motion-model scale of the surrogate's rotational sigma_Z
-    ``log k ~ Normal(0, motion_scale_log_sd)`` on ``|log k| < log 5``.
+    ``log k ~ Normal(0, motion_scale_log_sd)`` on ``|log k| < log 5``. Record motion model
+    (:mod:`flidar_uq.inference.record_fit`): ``kappa_z ~ HalfNormal(kappa_z_scale)``,
+    ``log k ~ Normal(0, record_motion_scale_log_sd)``.
     """
 
     amplitude_median_deg: float = 3.0
