@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy import stats
 
@@ -73,7 +74,7 @@ def test_record_sbc_replication_shape_ranges_and_determinism():
             assert np.isfinite(row[f"true_{name}"])
         assert 0 < row["n_records"] <= 30  # the fit drops records drawn with s <= 0
     again = sbc_record_replication(seeds[0], n_records=30, settings=tiny, n_rank_draws=19)
-    assert again == rows[0]
+    assert pd.Series(again).equals(pd.Series(rows[0]))  # NaN tau of tiny chains: equal
 
 
 def test_record_prior_draws_lie_in_the_record_model_prior_support():
