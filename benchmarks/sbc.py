@@ -24,7 +24,11 @@ from scipy import stats  # noqa: E402
 
 from flidar_uq.inference import SamplerSettings  # noqa: E402
 from flidar_uq.physics.surrogate import get_surrogate  # noqa: E402
-from flidar_uq.validation.sbc import SBC_PARAMS, sbc_replication  # noqa: E402
+from flidar_uq.validation.sbc import (  # noqa: E402
+    SBC_PARAMS,
+    rank_uniformity,
+    sbc_replication,
+)
 
 RESULTS = Path(__file__).parent / "results"
 N_RANK_DRAWS = 99  # ranks 0..99
@@ -32,14 +36,6 @@ N_HIST_BINS = 10
 SETTINGS = SamplerSettings(
     nwalkers=16, nsteps=200, nburn=100, ndraws=100, mixture="never", global_step_factor=2.0
 )
-
-
-def rank_uniformity(ranks: np.ndarray) -> tuple[float, np.ndarray]:
-    """Chi-square p-value of the rank histogram (10 bins) and its counts."""
-    counts = np.bincount(
-        np.asarray(ranks) * N_HIST_BINS // (N_RANK_DRAWS + 1), minlength=N_HIST_BINS
-    )
-    return float(stats.chisquare(counts).pvalue), counts
 
 
 def run(n_rep: int, seed: int, *, n_bins: int = 3, records_per_bin: int = 10) -> pd.DataFrame:
@@ -71,7 +67,7 @@ def main(n_rep: int = 120, seed: int = 20181122) -> None:
     rows = []
     fig, axes = plt.subplots(1, len(SBC_PARAMS), figsize=(3.2 * len(SBC_PARAMS), 3), sharey=True)
     for ax, name in zip(axes, SBC_PARAMS, strict=True):
-        p, counts = rank_uniformity(df[f"rank_{name}"].to_numpy())
+        p, counts = rank_uniformity(df[f"rank_{name}"].to_numpy(), N_RANK_DRAWS, N_HIST_BINS)
         rows.append(
             {
                 "param": name,

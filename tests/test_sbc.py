@@ -3,12 +3,20 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy import stats
 
 from flidar_uq.inference import SamplerSettings
 from flidar_uq.physics.surrogate import get_surrogate
-from flidar_uq.validation.sbc import SBC_PARAMS, sbc_replication
+from flidar_uq.validation.sbc import (
+    SBC_PARAMS,
+    SBC_RECORD_PARAMS,
+    draw_record_prior,
+    rank_uniformity,
+    sbc_record_replication,
+    sbc_replication,
+)
 
 N_REP = 100
 N_RANK_DRAWS = 99  # ranks 0..99 -> 10 histogram bins of 10 ranks
@@ -48,3 +56,71 @@ def test_sbc_rank_histograms_uniform_for_rho_and_motion_parameters():
         counts = np.bincount(ranks * 10 // (N_RANK_DRAWS + 1), minlength=10)
         pvalues[name] = stats.chisquare(counts).pvalue
     assert all(p > alpha for p in pvalues.values()), pvalues
+
+
+# --- the record motion model -----------------------------------------------------------
+
+N_REP_RECORD = 100
+N_RECORDS = 400
+
+
+def test_record_sbc_replication_shape_ranges_and_determinism():
+    tiny = SamplerSettings(nwalkers=10, nsteps=20, nburn=10, ndraws=20, global_max_step_factor=1.0)
+    seeds = np.random.SeedSequence(11).spawn(2)
+    rows = [sbc_record_replication(s, n_records=30, settings=tiny, n_rank_draws=19) for s in seeds]
+    for row in rows:
+        for name in SBC_RECORD_PARAMS:
+            assert 0 <= row[f"rank_{name}"] <= 19
+            assert np.isfinite(row[f"true_{name}"])
+        assert 0 < row["n_records"] <= 30  # the fit drops records drawn with s <= 0
+    again = sbc_record_replication(
+        np.random.SeedSequence(11).spawn(2)[0], n_records=30, settings=tiny, n_rank_draws=19
+    )
+    assert pd.Series(again).equals(pd.Series(rows[0]))  # NaN tau of tiny chains: equal
+
+
+def test_record_prior_draws_lie_in_the_record_model_prior_support():
+    from flidar_uq.inference import Priors
+    from flidar_uq.inference.record_fit import _log_prior
+
+    rng = np.random.default_rng(0)
+    draws = [draw_record_prior(rng) for _ in range(500)]
+    theta = np.array(
+        [
+            [
+                d["rho"],
+                np.log(d["kappa"]),
+                np.log(d["kappa_z"]),
+                d["lever_arm_m"],
+                np.log(d["motion_scale"]),
+            ]
+            for d in draws
+        ]
+    )
+    _, ok = _log_prior(theta, Priors(), None)
+    assert ok.all()
+    # half-normal(0.3) on kappa_z: median 0.3 * 0.674
+    assert np.median(theta[:, 2]) == pytest.approx(np.log(0.3 * 0.674), abs=0.15)
+
+
+def test_rank_uniformity_rejects_bins_that_do_not_divide_the_ranks():
+    with pytest.raises(ValueError, match="not a multiple of n_hist_bins"):
+        rank_uniformity([0, 1], n_rank_draws=98, n_hist_bins=10)
+
+
+@pytest.mark.slow
+def test_record_model_sbc_ranks_uniform_at_1pct_for_all_five_parameters():
+    """Issue 11: >= 100 replications, chi-square p > 0.01 per parameter (uncorrected)."""
+    sur = get_surrogate("zephir300")
+    root = np.random.SeedSequence(20260101)
+    rows = [
+        sbc_record_replication(child, n_records=N_RECORDS, n_rank_draws=N_RANK_DRAWS, surrogate=sur)
+        for child in root.spawn(N_REP_RECORD)
+    ]
+    pvalues = {
+        name: rank_uniformity([r[f"rank_{name}"] for r in rows], N_RANK_DRAWS, 10)[0]
+        for name in SBC_RECORD_PARAMS
+    }
+    assert all(p > 0.01 for p in pvalues.values()), pvalues
+    # rank draws nearly independent: one walker's rank draws many autocorrelation times apart
+    assert min(r["rank_spacing_over_tau"] for r in rows) > 2.0

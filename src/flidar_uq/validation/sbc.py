@@ -10,14 +10,61 @@ draws; uniform ranks over many replications <=> calibrated (``tests/test_sbc.py`
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
+from scipy import stats
 
 from flidar_uq.campaign.statistical_mode import draw_true_params, generate_statistical_campaign
-from flidar_uq.inference import Priors, SamplerSettings, fit_bin, fit_global
+from flidar_uq.inference import Priors, SamplerSettings, fit_bin, fit_global, fit_record_model
+from flidar_uq.inference.record_motion import record_motion
 from flidar_uq.seeding import as_seedsequence
 
-__all__ = ["SBC_PARAMS", "sbc_replication"]
+__all__ = [
+    "SBC_PARAMS",
+    "SBC_RECORD_PARAMS",
+    "draw_record_campaign",
+    "draw_record_prior",
+    "rank_uniformity",
+    "sbc_record_replication",
+    "sbc_replication",
+]
 
 _PRIORS = Priors()
+
+
+def rank_uniformity(ranks, n_rank_draws: int = 99, n_hist_bins: int = 10):
+    """Chi-square test of uniformity of SBC ranks (Talts et al. 2018).
+
+    Parameters
+    ----------
+    ranks : array_like of int
+        Ranks in ``0 .. n_rank_draws``.
+    n_rank_draws : int
+    n_hist_bins : int
+        Histogram bins; ``n_rank_draws + 1`` must be a multiple of it.
+
+    Returns
+    -------
+    (float, numpy.ndarray)
+        p-value and the histogram counts, shape (n_hist_bins,).
+    """
+    if (n_rank_draws + 1) % n_hist_bins:
+        raise ValueError(
+            f"rank_uniformity: n_rank_draws + 1 = {n_rank_draws + 1} is not a multiple of "
+            f"n_hist_bins = {n_hist_bins}"
+        )
+    counts = np.bincount(
+        np.asarray(ranks, dtype=int) * n_hist_bins // (n_rank_draws + 1), minlength=n_hist_bins
+    )
+    return float(stats.chisquare(counts).pvalue), counts
+
+
+def _rank(x, true, n_rank_draws):
+    """Rank (0 .. ``n_rank_draws``) of ``true`` among ``n_rank_draws`` draws taken uniformly
+    from the flat stored draws ``x`` (Talts et al. 2018, Algorithm 1)."""
+    x = np.asarray(x, dtype=float).ravel()
+    idx = np.linspace(0, x.size - 1, n_rank_draws).astype(int)
+    return int(np.sum(x[idx] < true))
+
 
 #: Parameters whose ranks one replication returns (global: rho, tau0_ms, kappa; bin 0:
 #: amplitude_deg, period_s).
@@ -91,8 +138,185 @@ def sbc_replication(
     for name in SBC_PARAMS:
         src = gf if name in ("rho", "tau0_ms", "kappa") else fits[0]
         true = truth[name] if src is gf else truth["bins"][0][name]
-        x = src.flat(name)
-        idx = np.linspace(0, x.size - 1, n_rank_draws).astype(int)
-        out[f"rank_{name}"] = int(np.sum(x[idx] < true))
+        out[f"rank_{name}"] = _rank(src.flat(name), true, n_rank_draws)
         out[f"true_{name}"] = float(true)
+    return out
+
+
+# --- the record motion model (flidar_uq.inference.record_fit) -------------------------
+
+#: Parameters of the record motion model whose ranks :func:`sbc_record_replication` returns.
+SBC_RECORD_PARAMS = ("rho", "kappa", "kappa_z", "lever_arm_m", "motion_scale")
+
+
+def _trunc_halfnormal(rng, scale, lo, hi):
+    """One draw of HalfNormal(``scale``) truncated to (``lo``, ``hi``) (rejection)."""
+    while True:
+        x = abs(rng.normal(0.0, scale))
+        if lo < x < hi:
+            return float(x)
+
+
+def draw_record_prior(rng, *, priors: Priors = _PRIORS, lever_arm_prior=None) -> dict:
+    """One draw from the record model's prior, as ``record_fit._log_prior`` states it.
+
+    ``rho ~ U(-1, 1)``; ``kappa ~ HalfNormal(kappa_scale)`` on (``kappa_min``, 2);
+    ``kappa_z ~ HalfNormal(kappa_z_scale)`` on (``kappa_min``, 5); lever arm (m)
+    ``~ HalfNormal(lever_arm_scale_m)`` on [0, ``lever_arm_max_m``) or, with
+    ``lever_arm_prior = (mean, sd)``, ``Normal(mean, sd)`` on the same interval;
+    ``log motion_scale ~ N(0, record_motion_scale_log_sd)`` on ``|log k| < log 5``.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+    priors : Priors
+    lever_arm_prior : (float, float), optional
+
+    Returns
+    -------
+    dict
+        The five parameters of :data:`SBC_RECORD_PARAMS` on their natural scale.
+    """
+    rho = float(rng.uniform(-1.0, 1.0))
+    kappa = _trunc_halfnormal(rng, priors.kappa_scale, priors.kappa_min, 2.0)
+    kappa_z = _trunc_halfnormal(rng, priors.kappa_z_scale, priors.kappa_min, 5.0)
+    while True:
+        if lever_arm_prior is None:
+            lever = abs(rng.normal(0.0, priors.lever_arm_scale_m))
+        else:
+            lever = rng.normal(lever_arm_prior[0], lever_arm_prior[1])
+        if 0.0 <= lever < priors.lever_arm_max_m:
+            break
+    while True:
+        log_k = rng.normal(0.0, priors.record_motion_scale_log_sd)
+        if abs(log_k) < np.log(5.0):
+            break
+    return {
+        "rho": rho,
+        "kappa": kappa,
+        "kappa_z": kappa_z,
+        "lever_arm_m": float(lever),
+        "motion_scale": float(np.exp(log_k)),
+    }
+
+
+def draw_record_campaign(rng, n_records: int, truth: dict, *, surrogate=None) -> pd.DataFrame:
+    """Records drawn from the record model's likelihood exactly as it is written.
+
+    Covariates: ``hws ~ U(4, 18)`` m/s, TI log-normal (median 0.08, log-sd 0.3), reference
+    std ``r = TI hws``; tilt std along the wind log-normal (median 1.6 deg, log-sd 0.4),
+    mean period ``U(2.5, 7)`` s. With ``sZ^2 = (k sZ_rot)^2 + L^2 u^2`` (from
+    :func:`~flidar_uq.inference.record_motion.record_motion`),
+    ``mu^2 = r^2 + sZ^2 + 2 rho r sZ`` (Eq. (15) of seed 000) and
+    ``tau^2 = (kappa mu)^2 + (kappa_z sZ dmu/dsZ)^2 + 1e-8``, the floating-lidar std is
+    ``s ~ Normal(mu, tau)`` (the record model's likelihood, not a different generative
+    story: SBC ranks are uniform only for the model as written).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+    n_records : int
+    truth : dict
+        The five parameters of :data:`SBC_RECORD_PARAMS`.
+    surrogate : SigmaZSurrogate, optional
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``hws_mean_ms``, ``tilt_along_wind_std_deg``, ``tilt_period_mean_s``,
+        ``hws_std_ms``, ``ref_hws_std_ms``.
+    """
+    hws = rng.uniform(4.0, 18.0, n_records)
+    r = np.exp(rng.normal(np.log(0.08), 0.3, n_records)) * hws
+    rec = pd.DataFrame(
+        {
+            "hws_mean_ms": hws,
+            "tilt_along_wind_std_deg": np.exp(rng.normal(np.log(1.6), 0.4, n_records)),
+            "tilt_period_mean_s": rng.uniform(2.5, 7.0, n_records),
+        }
+    )
+    mot = record_motion(rec, surrogate=surrogate)
+    szr, u2 = mot["sigma_z_rot_ms"].to_numpy(), mot["translation_unit_sq"].to_numpy()
+    sz_sq = (truth["motion_scale"] * szr) ** 2 + truth["lever_arm_m"] ** 2 * u2
+    sz = np.sqrt(sz_sq)
+    mu_sq = np.maximum(r**2 + sz_sq + 2.0 * truth["rho"] * r * sz, 1e-12)  # Eq. (15) of seed 000
+    dmu_sq = (sz + truth["rho"] * r) ** 2 / mu_sq
+    tau = np.sqrt(truth["kappa"] ** 2 * mu_sq + truth["kappa_z"] ** 2 * sz_sq * dmu_sq + 1e-8)
+    rec["hws_std_ms"] = np.sqrt(mu_sq) + tau * rng.standard_normal(n_records)
+    rec["ref_hws_std_ms"] = r
+    return rec
+
+
+def sbc_record_replication(
+    seed,
+    *,
+    n_records: int = 400,
+    settings=None,
+    priors: Priors = _PRIORS,
+    lever_arm_prior=None,
+    n_rank_draws: int = 99,
+    surrogate=None,
+) -> dict:
+    """One simulation-based-calibration replication (Talts et al. 2018) of the record model.
+
+    Draws the five parameters from the record model's prior (:func:`draw_record_prior`),
+    a campaign from its likelihood (:func:`draw_record_campaign`), fits it with
+    :func:`~flidar_uq.inference.record_fit.fit_record_model` and returns the rank of each
+    true value among ``n_rank_draws`` posterior draws taken uniformly from the stored
+    (already thinned) draws.
+
+    Parameters
+    ----------
+    seed : int or numpy.random.SeedSequence
+    n_records : int
+    settings : SamplerSettings, optional
+        Default: ``SamplerSettings(nsteps=300, nburn=150, ndraws=100,
+        global_max_step_factor=1.0)`` (fixed length: SBC does not condition on convergence).
+    priors : Priors
+    lever_arm_prior : (float, float), optional
+        Passed to both the prior draw and the fit.
+    n_rank_draws : int
+        Ranks are in ``0 .. n_rank_draws``.
+    surrogate : SigmaZSurrogate, optional
+
+    Returns
+    -------
+    dict
+        ``rank_<param>`` and ``true_<param>`` for :data:`SBC_RECORD_PARAMS`, ``converged``,
+        ``n_records``, ``max_tau_steps`` (largest integrated autocorrelation time, steps)
+        and ``rank_spacing_over_tau`` (steps between two rank draws of one walker over
+        ``max_tau_steps``; above ~2 the rank draws are nearly independent).
+    """
+    if settings is None:
+        settings = SamplerSettings(nsteps=300, nburn=150, ndraws=100, global_max_step_factor=1.0)
+    ss_truth, ss_data, ss_fit = as_seedsequence(seed).spawn(3)
+    truth = draw_record_prior(
+        np.random.default_rng(ss_truth), priors=priors, lever_arm_prior=lever_arm_prior
+    )
+    rec = draw_record_campaign(
+        np.random.default_rng(ss_data), n_records, truth, surrogate=surrogate
+    )
+    fit = fit_record_model(
+        rec,
+        surrogate=surrogate,
+        settings=settings,
+        seed=ss_fit,
+        priors=priors,
+        lever_arm_prior=lever_arm_prior,
+    )
+    taus = [fit.diagnostics[n]["tau"] for n in SBC_RECORD_PARAMS]
+    nsteps_run = fit.diagnostics["rho"]["nsteps_over_tau"] * fit.diagnostics["rho"]["tau"]
+    nens = fit.draws["rho"].shape[0]
+    # walker-major pooling: consecutive rank draws of one walker are this many steps apart
+    spacing = nens * settings.nwalkers * nsteps_run / n_rank_draws
+    tau_max = float(np.nanmax(taus))
+    out = {
+        "converged": bool(fit.converged),
+        "n_records": int(fit.info["n_records"]),
+        "max_tau_steps": tau_max,
+        "rank_spacing_over_tau": float(spacing / tau_max),
+    }
+    for name in SBC_RECORD_PARAMS:
+        out[f"rank_{name}"] = _rank(fit.flat(name), truth[name], n_rank_draws)
+        out[f"true_{name}"] = truth[name]
     return out
