@@ -50,7 +50,7 @@ import pandas as pd  # noqa: E402
 
 from flidar_uq.campaign.physics_mode import generate_campaign  # noqa: E402
 from flidar_uq.campaign.scenarios import DEFAULT_SCENARIO  # noqa: E402
-from flidar_uq.correction.los import correct_dbs_seed002, correct_ls_seed001  # noqa: E402
+from flidar_uq.correction.los import correct_dbs_motion, correct_least_squares  # noqa: E402
 from flidar_uq.physics import lidar as L  # noqa: E402
 from flidar_uq.physics import motion as M  # noqa: E402
 from flidar_uq.physics.simulator import los_vectors_earth, sigma_z, simulate_scans  # noqa: E402
@@ -156,19 +156,19 @@ def record_rows(lidar, motion, wind, statistical_motion, meta):
     series = {}
     if dbs:
         kw = dict(range_height_m=gates, target_height_m=[HEIGHT_M])
-        fixed = correct_dbs_seed002(geom, tf, azf, vrf, method="none", **kw).hws_ms[:, 0]
-        series["uncorrected"] = correct_dbs_seed002(geom, t, az, vr, method="none", **kw).hws_ms[
+        fixed = correct_dbs_motion(geom, tf, azf, vrf, method="none", **kw).hws_ms[:, 0]
+        series["uncorrected"] = correct_dbs_motion(geom, t, az, vr, method="none", **kw).hws_ms[
             :, 0
         ]
-        series["seed001 LS"] = correct_ls_seed001(geom, t, az, vr[:, g100], motion, step=1).hws_ms
+        series["seed001 LS"] = correct_least_squares(geom, t, az, vr[:, g100], motion, step=1).hws_ms
         for m in ("conventional", "new"):
-            series[f"seed002 {m}"] = correct_dbs_seed002(
+            series[f"seed002 {m}"] = correct_dbs_motion(
                 geom, t, az, vr, motion, method=m, **kw
             ).hws_ms[:, 0]
     else:
-        fixed = correct_ls_seed001(geom, tf, azf, vrf[:, 0]).hws_ms
-        series["uncorrected"] = correct_ls_seed001(geom, t, az, vr[:, 0]).hws_ms
-        series["seed001 LS"] = correct_ls_seed001(geom, t, az, vr[:, 0], motion).hws_ms
+        fixed = correct_least_squares(geom, tf, azf, vrf[:, 0]).hws_ms
+        series["uncorrected"] = correct_least_squares(geom, t, az, vr[:, 0]).hws_ms
+        series["seed001 LS"] = correct_least_squares(geom, t, az, vr[:, 0], motion).hws_ms
     mean_f, ti_f = _stats(fixed)
     mean_t, ti_t = _stats(wind.truth())
     rows = []
@@ -305,8 +305,8 @@ def part_c(ss):
             az = np.radians(los.azimuth_deg.to_numpy()[sel][:n])
             vr = los.radial_speed_ms.to_numpy()[sel][:n]
             series = {
-                "uncorrected": correct_ls_seed001("zephir300", t, az, vr).hws_ms,
-                "seed001 LS": correct_ls_seed001("zephir300", t, az, vr, motion).hws_ms,
+                "uncorrected": correct_least_squares("zephir300", t, az, vr).hws_ms,
+                "seed001 LS": correct_least_squares("zephir300", t, az, vr, motion).hws_ms,
             }
             out_rows = [
                 dict(method=k, mean_ms=np.nanmean(h), ti=np.nanstd(h) / np.nanmean(h))

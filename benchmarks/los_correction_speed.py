@@ -2,7 +2,7 @@
 
 Target (issue 7): correcting a 10-min record of 50-Hz LOS data (30,000 LOS, ZephIR-like
 CW VAD, 600 scans) in <= 50 ms on one core. Timed: the whole call of
-``correct_ls_seed001`` (IMU interpolation at the LOS times, rotations, CW sign
+``correct_least_squares`` (IMU interpolation at the LOS times, rotations, CW sign
 resolution, least squares), for a 20-Hz sampled IMU and for harmonic motion; the
 uncorrected retrieval and the seed-002 DBS algorithms for scale.
 
@@ -28,8 +28,8 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from flidar_uq.correction.los import (  # noqa: E402
-    correct_dbs_seed002,
-    correct_ls_seed001,
+    correct_dbs_motion,
+    correct_least_squares,
     imu_rotation_velocity,
 )
 from flidar_uq.physics import lidar as L  # noqa: E402
@@ -88,17 +88,17 @@ def main() -> pd.DataFrame:
     rot, vel = imu_rotation_velocity(sampled, t)
     rows = []
     cases = {
-        "seed001 LS, CW VAD, given per-LOS R and v_head": lambda: correct_ls_seed001(
+        "seed001 LS, CW VAD, given per-LOS R and v_head": lambda: correct_least_squares(
             "zephir300", t, az, vr, rotation=rot, head_velocity_ms=vel
         ),
         "IMU evaluation only (motion.py, 20-Hz sampled)": lambda: imu_rotation_velocity(sampled, t),
-        "seed001 LS, CW VAD, 20-Hz sampled IMU": lambda: correct_ls_seed001(
+        "seed001 LS, CW VAD, 20-Hz sampled IMU": lambda: correct_least_squares(
             "zephir300", t, az, vr, sampled
         ),
-        "seed001 LS, CW VAD, harmonic motion": lambda: correct_ls_seed001(
+        "seed001 LS, CW VAD, harmonic motion": lambda: correct_least_squares(
             "zephir300", t, az, vr, harmonic
         ),
-        "uncorrected CW VAD (same solver, no IMU)": lambda: correct_ls_seed001(
+        "uncorrected CW VAD (same solver, no IMU)": lambda: correct_least_squares(
             "zephir300", t, az, vr
         ),
     }
@@ -110,7 +110,7 @@ def main() -> pd.DataFrame:
     td, azd, vrd = _record(L.WINDCUBE_V1, 600.0, harmonic, wind, gates)
     for method in ("new", "conventional"):
         med, best = _timeit(
-            lambda m=method: correct_dbs_seed002(
+            lambda m=method: correct_dbs_motion(
                 "windcube_v1", td, azd, vrd, sampled, range_height_m=gates, method=m
             )
         )
@@ -124,7 +124,7 @@ def main() -> pd.DataFrame:
             )
         )
     med, best = _timeit(
-        lambda: correct_ls_seed001("windcube_v1", td, azd, vrd[:, 0], sampled, step=1)
+        lambda: correct_least_squares("windcube_v1", td, azd, vrd[:, 0], sampled, step=1)
     )
     rows.append(
         dict(

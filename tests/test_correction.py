@@ -11,7 +11,7 @@ from flidar_uq.physics.variance_laws import (
     corrected_std,
     corrected_std_c,
     corrected_std_u,
-    rho_seed000,
+    rho_bin_correlation,
     sigma_moving_c,
     sigma_moving_pc,
     sigma_moving_u,
@@ -79,9 +79,9 @@ def test_negative_discriminant_flagged_and_zero():
 
 def test_rho_seed000_perfect_linear_and_shape_error():
     x = np.array([4.0, 6.0, 8.0, 10.0])
-    assert rho_seed000(x, -0.01 * x) == pytest.approx(-1.0)
-    assert np.isnan(rho_seed000(x[:2], x[:2]))
+    assert rho_bin_correlation(x, -0.01 * x) == pytest.approx(-1.0)
+    assert np.isnan(rho_bin_correlation(x[:2], x[:2]))
     with pytest.raises(
         ValueError, match=r"bin_ref_hws_ms has shape \(4,\) but bin_mean_z_ms has \(3,\)"
     ):
-        rho_seed000(x, x[:3])
+        rho_bin_correlation(x, x[:3])

@@ -16,14 +16,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flidar_uq.correction.los import (
-    correct_dbs_seed002,
-    correct_ls_seed001,
+    correct_dbs_motion,
+    correct_least_squares,
     earth_beam_vectors,
-    height_correct_profile_seed003,
+    height_correct_profile,
     imu_rotation_velocity,
-    rotate_to_earth_seed003,
-    rotation_from_seed001_frame,
-    velocity_from_seed001_frame,
+    rotate_to_earth,
+    rotation_from_swd_frame,
+    velocity_from_swd_frame,
 )
 from flidar_uq.physics import lidar as L
 from flidar_uq.physics import motion as M
@@ -83,19 +83,19 @@ def _uvw(est):
 @pytest.mark.parametrize("motion", [STATIC_TILT, MOTION_6DOF], ids=["static_tilt", "harmonic_6dof"])
 def test_seed001_eq7_exact_recovery_rigid_body(geom, motion):
     t, az, vr = _los(geom, motion, WIND, nscan=25, t0_s=3.7)
-    est = correct_ls_seed001(geom, t, az, vr, motion)
+    est = correct_least_squares(geom, t, az, vr, motion)
     assert est.u_ms.shape == (25,)
     np.testing.assert_allclose(_uvw(est), np.broadcast_to(WIND, (25, 3)), atol=1e-10)
     np.testing.assert_allclose(est.residual_ms, 0.0, atol=1e-10)
     # the motion really matters: the uncorrected retrieval is off by > 0.05 m/s
-    unc = correct_ls_seed001(geom, t, az, vr, None)
+    unc = correct_least_squares(geom, t, az, vr, None)
     assert np.max(np.abs(unc.hws_ms - np.hypot(*WIND[:2]))) > 0.05
 
 
 @pytest.mark.parametrize("geom", [L.WINDCUBE_V1, L.WINDCUBE_V1_5BEAM], ids=lambda g: g.name)
 def test_seed001_eq7_dbs_sliding_windows_exact(geom):
     t, az, vr = _los(geom, MOTION_6DOF, WIND, nscan=10)
-    est = correct_ls_seed001(geom, t, az, vr, MOTION_6DOF, step=1)
+    est = correct_least_squares(geom, t, az, vr, MOTION_6DOF, step=1)
     assert est.u_ms.shape == (t.size - geom.n_los + 1,)
     np.testing.assert_allclose(_uvw(est), np.broadcast_to(WIND, est.u_ms.shape + (3,)), atol=1e-10)
 
@@ -107,15 +107,15 @@ def test_seed001_eq7_sampled_imu_converges_to_harmonic():
     sampled = M.SampledMotion(t_imu, roll, pitch, yaw)
     rigid = M.PlatformMotion(roll=MOTION_6DOF.roll, pitch=MOTION_6DOF.pitch, yaw=MOTION_6DOF.yaw)
     t, az, vr = _los(L.ZEPHIR300, rigid, WIND, nscan=30)
-    err = np.abs(correct_ls_seed001("zephir300", t, az, vr, sampled).hws_ms - np.hypot(*WIND[:2]))
-    unc = np.abs(correct_ls_seed001("zephir300", t, az, vr).hws_ms - np.hypot(*WIND[:2]))
+    err = np.abs(correct_least_squares("zephir300", t, az, vr, sampled).hws_ms - np.hypot(*WIND[:2]))
+    unc = np.abs(correct_least_squares("zephir300", t, az, vr).hws_ms - np.hypot(*WIND[:2]))
     assert err.max() < 1e-3 < unc.max()
 
 
 def test_uncorrected_dbs_equals_seed002_eq3_pair_formula():
     """With no motion data the LS of a 4-beam DBS cycle is the pair formula (seed 002 Eq. 3)."""
     t, az, vr = _los(L.WINDCUBE_V1, MOTION_6DOF, WIND, nscan=12)
-    est = correct_ls_seed001("windcube_v1", t, az, vr)
+    est = correct_least_squares("windcube_v1", t, az, vr)
     ref = L.retrieve_wind("windcube_v1", az.reshape(12, 4), vr.reshape(12, 4))
     np.testing.assert_allclose(est.u_ms, ref.u_ms, atol=1e-12)
     np.testing.assert_allclose(est.v_ms, ref.v_ms, atol=1e-12)
@@ -127,7 +127,7 @@ def test_cw_sign_resolution_matches_lidar_abs_fit_without_head_velocity():
     Eq. 4) on the same earth-frame beam vectors, including the 180-deg branch rule."""
     rot_only = M.PlatformMotion(roll=MOTION_6DOF.roll, pitch=MOTION_6DOF.pitch, yaw=MOTION_6DOF.yaw)
     t, az, vr = _los(L.ZEPHIR300, rot_only, WIND, nscan=8)
-    est = correct_ls_seed001("zephir300", t, az, vr, rot_only)
+    est = correct_least_squares("zephir300", t, az, vr, rot_only)
     rot, _ = imu_rotation_velocity(rot_only, t)
     d = earth_beam_vectors("zephir300", az, rot).reshape(8, 50, 3)
     ref = L.retrieve_wind(
@@ -143,7 +143,7 @@ def test_cw_missing_los_and_empty_windows_give_nan():
     vr = vr.copy()
     vr[5:9] = np.nan  # scan 0 loses 4 of 50 LOS: still exact
     vr[50:98] = np.nan  # scan 1 keeps 2 LOS: not solvable
-    est = correct_ls_seed001("zephir300", t, az, vr, MOTION_6DOF)
+    est = correct_least_squares("zephir300", t, az, vr, MOTION_6DOF)
     np.testing.assert_allclose(est.hws_ms[[0, 2]], np.hypot(*WIND[:2]), atol=1e-10)
     assert np.isnan(est.hws_ms[1]) and np.isnan(est.residual_ms[1])
 
@@ -169,7 +169,7 @@ def test_seed001_static_attitude_invariance_signed_dbs(roll, pitch, yaw, hws, wd
     """Any static attitude and wind: the corrected DBS (signed LOS) wind is the true one."""
     motion = _static_motion(roll, pitch, yaw)
     t, az, vr = _los(L.WINDCUBE_V1, motion, L.wind_vector_ms(hws, wd, w), nscan=2)
-    est = correct_ls_seed001(L.WINDCUBE_V1, t, az, vr, motion)
+    est = correct_least_squares(L.WINDCUBE_V1, t, az, vr, motion)
     np.testing.assert_allclose(est.hws_ms, hws, atol=1e-8 * (1 + hws))
 
 
@@ -186,7 +186,7 @@ def test_seed001_static_attitude_invariance_cw_in_qc_range(roll, pitch, yaw, hws
     """CW |v_r| (seed 001 Eq. 4): exact over the TI range of QC (HWS >= 3 m/s, |w| <= 1 m/s)."""
     motion = _static_motion(roll, pitch, yaw)
     t, az, vr = _los(L.ZEPHIR300, motion, L.wind_vector_ms(hws, wd, w), nscan=2)
-    est = correct_ls_seed001(L.ZEPHIR300, t, az, vr, motion)
+    est = correct_least_squares(L.ZEPHIR300, t, az, vr, motion)
     np.testing.assert_allclose(est.hws_ms, hws, atol=1e-8 * (1 + hws))
 
 
@@ -196,7 +196,7 @@ def test_cw_sign_resolution_failure_is_flagged_by_its_residual():
     fit the data, so its RMS residual exposes it (the exact branch has residual ~0)."""
     motion = _static_motion(-19.0, -19.0, -12.0)
     t, az, vr = _los(L.ZEPHIR300, motion, L.wind_vector_ms(1.0, 0.0, 1.0), nscan=2)
-    est = correct_ls_seed001(L.ZEPHIR300, t, az, vr, motion)
+    est = correct_least_squares(L.ZEPHIR300, t, az, vr, motion)
     wrong = np.abs(est.hws_ms - 1.0) > 1e-6
     # every scan is either exact or flagged by a residual far above round-off
     assert np.all(est.residual_ms[wrong] > 1e-3)
@@ -210,13 +210,13 @@ def test_seed001_frame_pure_roll_is_enu_pitch_of_opposite_sign():
     """Seed 001 roll beta is about the south axis = -north: an ENU pitch of -beta."""
     beta = np.radians(7.0)
     np.testing.assert_allclose(
-        rotation_from_seed001_frame(beta, 0.0, 0.0), M.rotation_matrix(0.0, -beta, 0.0), atol=1e-15
+        rotation_from_swd_frame(beta, 0.0, 0.0), M.rotation_matrix(0.0, -beta, 0.0), atol=1e-15
     )
     phi = np.radians(-4.0)  # about west = -east: ENU roll -phi
     np.testing.assert_allclose(
-        rotation_from_seed001_frame(0.0, phi, 0.0), M.rotation_matrix(-phi, 0.0, 0.0), atol=1e-15
+        rotation_from_swd_frame(0.0, phi, 0.0), M.rotation_matrix(-phi, 0.0, 0.0), atol=1e-15
     )
-    np.testing.assert_allclose(velocity_from_seed001_frame([1.0, 2.0, 3.0]), [-2.0, -1.0, -3.0])
+    np.testing.assert_allclose(velocity_from_swd_frame([1.0, 2.0, 3.0]), [-2.0, -1.0, -3.0])
 
 
 def test_seed001_frame_imu_input_exact_recovery():
@@ -225,11 +225,11 @@ def test_seed001_frame_imu_input_exact_recovery():
     rng = np.random.default_rng(7)
     angles = np.radians(rng.uniform(-15, 15, size=(3, t.size)))
     vel_seed = rng.normal(0, 0.5, size=(t.size, 3))
-    rot = rotation_from_seed001_frame(*angles)
-    vel = velocity_from_seed001_frame(vel_seed)
+    rot = rotation_from_swd_frame(*angles)
+    vel = velocity_from_swd_frame(vel_seed)
     d = earth_beam_vectors("windcube_v1", az, rot)
     vr = np.einsum("ni,ni->n", d, WIND[None] - vel)
-    est = correct_ls_seed001("windcube_v1", t, az, vr, rotation=rot, head_velocity_ms=vel)
+    est = correct_least_squares("windcube_v1", t, az, vr, rotation=rot, head_velocity_ms=vel)
     np.testing.assert_allclose(_uvw(est), np.broadcast_to(WIND, (6, 3)), atol=1e-10)
 
 
@@ -242,7 +242,7 @@ GATES_M = np.arange(40.0, 201.0, 20.0)
 def test_seed002_new_exact_with_shear_and_6dof(geom):
     t, az, vr = _los_levels(geom, MOTION_6DOF, _linear_shear, 12, GATES_M)
     target = np.array([60.0, 100.0, 150.0])
-    est = correct_dbs_seed002(
+    est = correct_dbs_motion(
         geom, t, az, vr, MOTION_6DOF, range_height_m=GATES_M, target_height_m=target
     )
     truth = _linear_shear(target)
@@ -260,7 +260,7 @@ def test_seed002_conventional_exact_for_static_tilt_and_translation():
         surge=(H(1e11, 1e12),),  # constant surge velocity 2 pi 1e11 / 1e12 = 0.63 m/s
     )
     t, az, vr = _los_levels(L.WINDCUBE_V1, motion, _linear_shear, 8, GATES_M)
-    est = correct_dbs_seed002(
+    est = correct_dbs_motion(
         "windcube_v1",
         t,
         az,
@@ -284,8 +284,8 @@ def test_seed002_conventional_error_grows_with_pitch_maximum():
         )
         t, az, vr = _los_levels(L.WINDCUBE_V1, motion, _linear_shear, 40, GATES_M)
         kw = dict(range_height_m=GATES_M, target_height_m=[100.0])
-        conv = correct_dbs_seed002("windcube_v1", t, az, vr, motion, method="conventional", **kw)
-        new = correct_dbs_seed002("windcube_v1", t, az, vr, motion, method="new", **kw)
+        conv = correct_dbs_motion("windcube_v1", t, az, vr, motion, method="conventional", **kw)
+        new = correct_dbs_motion("windcube_v1", t, az, vr, motion, method="new", **kw)
         std_conv.append(np.nanstd(conv.hws_ms - hws_true))
         np.testing.assert_allclose(new.hws_ms, hws_true, atol=1e-9)
     assert np.all(np.diff(std_conv) > 0) and std_conv[0] > 0.01
@@ -295,7 +295,7 @@ def test_seed002_none_on_level_lidar_is_eq3():
     """Fixed lidar at gate heights: method 'none' equals seed 002 Eq. (3) (lidar.retrieve_wind)."""
     still = M.PlatformMotion()
     t, az, vr = _los_levels(L.WINDCUBE_V1, still, _linear_shear, 5, GATES_M)
-    est = correct_dbs_seed002(
+    est = correct_dbs_motion(
         "windcube_v1", t, az, vr, range_height_m=GATES_M, method="none", step=4
     )
     ref = L.retrieve_wind(
@@ -318,7 +318,7 @@ def test_seed003_eqs1_4_printed_matrices():
     r = np.array([[1, 0, 0], [0, np.cos(b), -np.sin(b)], [0, np.sin(b), np.cos(b)]])
     v_body = np.array([3.0, -8.0, 0.5])
     np.testing.assert_allclose(
-        rotate_to_earth_seed003(v_body, 12.0, -7.0, 20.0), y @ p @ r @ v_body
+        rotate_to_earth(v_body, 12.0, -7.0, 20.0), y @ p @ r @ v_body
     )
 
 
@@ -329,7 +329,7 @@ def test_seed003_height_correction_exact_for_log_profile():
     prof = lambda zz: 10.0 * np.log(zz / 2e-4) / np.log(100.0 / 2e-4)  # noqa: E731
     reported = prof(z[None, :] * np.cos(np.radians(tilt))[:, None])
     np.testing.assert_allclose(
-        height_correct_profile_seed003(reported, z, tilt), prof(z)[None].repeat(4, 0)
+        height_correct_profile(reported, z, tilt), prof(z)[None].repeat(4, 0)
     )
 
 
@@ -344,7 +344,7 @@ def test_seed003_fig11_tilted_vad_error_at_100m():
     ring_z = z[:, None] / np.cos(np.radians(30.0)) * d[None, :, 2]
     vad = prof(ring_z).mean(axis=1)  # seed 003: average of the 50 speeds on the tilted cone
     before = vad[1] - prof(100.0)
-    after = height_correct_profile_seed003(vad, z, 40.0)[1] - prof(100.0)
+    after = height_correct_profile(vad, z, 40.0)[1] - prof(100.0)
     assert before == pytest.approx(-0.25, abs=0.01)
     assert abs(after) < abs(before) / 4.0
 
@@ -354,57 +354,57 @@ def test_seed003_fig11_tilted_vad_error_at_100m():
 
 def test_bad_input_raises_clear_value_errors():
     t, az, vr = _los(L.WINDCUBE_V1, MOTION_6DOF, WIND, nscan=3)
-    with pytest.raises(ValueError, match=r"correct_ls_seed001: azimuth_rad shape \(11,\)"):
-        correct_ls_seed001("windcube_v1", t, az[:-1], vr)
+    with pytest.raises(ValueError, match=r"correct_least_squares: azimuth_rad shape \(11,\)"):
+        correct_least_squares("windcube_v1", t, az[:-1], vr)
     with pytest.raises(ValueError, match=r"strictly increasing \(t_s\[3\] <= t_s\[2\]\)"):
-        correct_ls_seed001("windcube_v1", np.r_[t[:3], t[1:]][:12], az, vr)
+        correct_least_squares("windcube_v1", np.r_[t[:3], t[1:]][:12], az, vr)
     with pytest.raises(ValueError, match="fewer than one window of 4 LOS"):
-        correct_ls_seed001("windcube_v1", t[:3], az[:3], vr[:3])
+        correct_least_squares("windcube_v1", t[:3], az[:3], vr[:3])
     with pytest.raises(ValueError, match="has no attitude_rad/head_velocity_ms"):
-        correct_ls_seed001("windcube_v1", t, az, vr, motion="pitch 5 deg")
+        correct_least_squares("windcube_v1", t, az, vr, motion="pitch 5 deg")
     with pytest.raises(ValueError, match="needs \\|v_r\\| >= 0"):
-        correct_ls_seed001("zephir300", *_record(L.ZEPHIR300, 1), -np.ones(50))
+        correct_least_squares("zephir300", *_record(L.ZEPHIR300, 1), -np.ones(50))
     with pytest.raises(ValueError, match="unknown lidar 'lidar9'"):
-        correct_ls_seed001("lidar9", t, az, vr)
+        correct_least_squares("lidar9", t, az, vr)
     with pytest.raises(ValueError, match=r"rotation shape \(3, 3\) must be \(12, 3, 3\)"):
-        correct_ls_seed001("windcube_v1", t, az, vr, rotation=np.eye(3))
+        correct_least_squares("windcube_v1", t, az, vr, rotation=np.eye(3))
     with pytest.raises(ValueError, match="NaN azimuth only marks the vertical beam"):
-        correct_ls_seed001("windcube_v1", t, np.r_[np.nan, az[1:]], vr)
+        correct_least_squares("windcube_v1", t, np.r_[np.nan, az[1:]], vr)
 
 
 def test_seed002_bad_input_raises_clear_value_errors():
     t, az, vr = _los_levels(L.WINDCUBE_V1, MOTION_6DOF, _linear_shear, 3, GATES_M)
     kw = dict(range_height_m=GATES_M)
     with pytest.raises(ValueError, match="needs a pulsed DBS lidar, got 'zephir300'"):
-        correct_dbs_seed002("zephir300", t, az, vr, MOTION_6DOF, **kw)
+        correct_dbs_motion("zephir300", t, az, vr, MOTION_6DOF, **kw)
     with pytest.raises(ValueError, match="method must be 'new', 'conventional' or 'none'"):
-        correct_dbs_seed002("windcube_v1", t, az, vr, MOTION_6DOF, method="best", **kw)
+        correct_dbs_motion("windcube_v1", t, az, vr, MOTION_6DOF, method="best", **kw)
     with pytest.raises(ValueError, match="method='new' needs a motion model"):
-        correct_dbs_seed002("windcube_v1", t, az, vr, None, **kw)
+        correct_dbs_motion("windcube_v1", t, az, vr, None, **kw)
     with pytest.raises(ValueError, match="range_height_m must be increasing with 9 values"):
-        correct_dbs_seed002("windcube_v1", t, az, vr, MOTION_6DOF, range_height_m=GATES_M[:-1])
+        correct_dbs_motion("windcube_v1", t, az, vr, MOTION_6DOF, range_height_m=GATES_M[:-1])
     with pytest.raises(ValueError, match=r"radial_speed_ms shape \(12,\) must be \(n, nlevel\)"):
-        correct_dbs_seed002("windcube_v1", t, az, vr[:, 0], MOTION_6DOF, **kw)
+        correct_dbs_motion("windcube_v1", t, az, vr[:, 0], MOTION_6DOF, **kw)
     bad_az = az.copy()
     bad_az[2] = bad_az[1]
     with pytest.raises(
         ValueError, match="window 0 \\(LOS 0..3\\) does not hold each of the 4 beams"
     ):
-        correct_dbs_seed002("windcube_v1", t, bad_az, vr, MOTION_6DOF, **kw)
+        correct_dbs_motion("windcube_v1", t, bad_az, vr, MOTION_6DOF, **kw)
     bad_az[2] = 0.3
     with pytest.raises(ValueError, match=r"azimuth_rad\[2\] = 0.300000 rad is not a beam"):
-        correct_dbs_seed002("windcube_v1", t, bad_az, vr, MOTION_6DOF, **kw)
+        correct_dbs_motion("windcube_v1", t, bad_az, vr, MOTION_6DOF, **kw)
 
 
 def test_seed003_bad_input_raises_clear_value_errors():
     with pytest.raises(ValueError, match="height_m must be >= 2 increasing positive heights"):
-        height_correct_profile_seed003([5.0, 6.0], [100.0, 50.0], 3.0)
+        height_correct_profile([5.0, 6.0], [100.0, 50.0], 3.0)
     with pytest.raises(ValueError, match=r"hws_ms last axis \(3,\) must match height_m \(2,\)"):
-        height_correct_profile_seed003([5.0, 6.0, 7.0], [50.0, 100.0], 3.0)
+        height_correct_profile([5.0, 6.0, 7.0], [50.0, 100.0], 3.0)
     with pytest.raises(ValueError, match="wind_body_ms last axis must be 3"):
-        rotate_to_earth_seed003([1.0, 2.0], 1.0, 2.0)
+        rotate_to_earth([1.0, 2.0], 1.0, 2.0)
     with pytest.raises(ValueError, match="velocity_from_seed001_frame: last axis must be 3"):
-        velocity_from_seed001_frame(np.zeros((4, 2)))
+        velocity_from_swd_frame(np.zeros((4, 2)))
 
 
 def test_cw_branch_choice_robust_to_los_noise(rng):
@@ -419,12 +419,12 @@ def test_cw_branch_choice_robust_to_los_noise(rng):
     wind = L.wind_vector_ms(9.0, 200.0)
     t, az, vr = _los(L.ZEPHIR300, motion, wind, nscan=120)
     noisy = np.abs(vr + rng.normal(0.0, 0.2, vr.shape))
-    est = correct_ls_seed001("zephir300", t, az, noisy, motion)
+    est = correct_least_squares("zephir300", t, az, noisy, motion)
     assert np.abs(np.mean(est.hws_ms) - 9.0) < 0.05
     assert np.std(est.hws_ms) < 0.1
     assert np.abs((np.mean(est.wd_deg) - 200.0 + 180.0) % 360.0 - 180.0) < 5.0
     # with a vane pointing the wrong way every undecided scan takes the mirror branch
-    wrong = correct_ls_seed001("zephir300", t, az, noisy, motion, reference_wd_deg=20.0)
+    wrong = correct_least_squares("zephir300", t, az, noisy, motion, reference_wd_deg=20.0)
     assert np.std(wrong.hws_ms) > 3.0 * np.std(est.hws_ms)
 
 
@@ -440,7 +440,7 @@ def test_seed001_exact_on_simulator_los(geom):
     vr, unc = simulate_scans(
         geom, WIND, roll, pitch, yaw_rad=yaw, head_velocity_ms=vel, azimuth_rad=az[: geom.n_los]
     )
-    est = correct_ls_seed001(geom, t, az, vr.ravel(), MOTION_6DOF)
+    est = correct_least_squares(geom, t, az, vr.ravel(), MOTION_6DOF)
     np.testing.assert_allclose(_uvw(est), np.broadcast_to(WIND, (12, 3)), atol=1e-10)
     assert np.max(np.abs(unc.hws_ms - np.hypot(*WIND[:2]))) > 0.05
 
@@ -451,7 +451,7 @@ def test_explicit_rotation_needs_matching_velocity_shape():
     with pytest.raises(
         ValueError, match=r"head_velocity_ms shape \(2, 3\) must be \(3,\) or \(8, 3\)"
     ):
-        correct_ls_seed001(
+        correct_least_squares(
             "windcube_v1", t, az, vr, rotation=rot, head_velocity_ms=np.zeros((2, 3))
         )
 
@@ -500,7 +500,7 @@ def test_seed002_turbulent_conventional_overestimates_ti_new_removes_most(rng):
     wind = _frozen_kaimal_wind(10.0, 250.0, 1.2, rng)
     kw = dict(range_height_m=GATES_M, target_height_m=[100.0])
     t, az, vr_fixed = _turbulent_los(L.WINDCUBE_V1, M.PlatformMotion(), wind, GATES_M, 150)
-    ti_fixed = _ti(correct_dbs_seed002("windcube_v1", t, az, vr_fixed, method="none", **kw).hws_ms)
+    ti_fixed = _ti(correct_dbs_motion("windcube_v1", t, az, vr_fixed, method="none", **kw).hws_ms)
     err = {}
     for pmax in (5.0, 20.0):
         periods, phases = (5.0, 6.5, 8.0), (0.3, 2.1, 4.4)
@@ -511,7 +511,7 @@ def test_seed002_turbulent_conventional_overestimates_ti_new_removes_most(rng):
         )
         t, az, vr = _turbulent_los(L.WINDCUBE_V1, motion, wind, GATES_M, 150)
         for method in ("conventional", "new"):
-            est = correct_dbs_seed002("windcube_v1", t, az, vr, motion, method=method, **kw)
+            est = correct_dbs_motion("windcube_v1", t, az, vr, motion, method=method, **kw)
             err[method, pmax] = _ti(est.hws_ms) - ti_fixed
     # a 10-min record's TI scatters by ~1 percentage point: margins well above that
     assert err["conventional", 20.0] > err["conventional", 5.0] + 0.05
@@ -535,11 +535,11 @@ def test_seed001_turbulent_cw_removes_most_motion_ti_error(rng):
     signed = dataclasses.replace(L.ZEPHIR300, name="zephir300_signed", signed=True)
     t, az, vr_fixed = _turbulent_los(L.ZEPHIR300, M.PlatformMotion(), wind, [100.0], 300)
     t, az, vr = _turbulent_los(signed, motion, wind, [100.0], 300)
-    ti_fixed = _ti(correct_ls_seed001("zephir300", t, az, vr_fixed[:, 0]).hws_ms)
+    ti_fixed = _ti(correct_least_squares("zephir300", t, az, vr_fixed[:, 0]).hws_ms)
     cw = np.abs(vr[:, 0])
-    err_unc = _ti(correct_ls_seed001("zephir300", t, az, cw).hws_ms) - ti_fixed
-    hws_cw = correct_ls_seed001("zephir300", t, az, cw, motion).hws_ms
-    hws_signed = correct_ls_seed001(signed, t, az, vr[:, 0], motion).hws_ms
+    err_unc = _ti(correct_least_squares("zephir300", t, az, cw).hws_ms) - ti_fixed
+    hws_cw = correct_least_squares("zephir300", t, az, cw, motion).hws_ms
+    hws_signed = correct_least_squares(signed, t, az, vr[:, 0], motion).hws_ms
     assert np.std(hws_cw - hws_signed) < 0.05
     assert abs(_ti(hws_cw) - _ti(hws_signed)) < 0.001
     assert err_unc > 0.005

@@ -132,13 +132,13 @@ def test_noise_widens_interval(surrogate):
 
 
 def test_cred_mass_out_of_range_raises(surrogate):
-    with pytest.raises(ValueError, match=r"cred_mass=1.5 must be in \(0, 1\)"):
+    with pytest.raises(ValueError, match=r"credible_mass=1.5 must be in \(0, 1\)"):
         corrected_ti(
             _records([0.5]),
             [_bin_fit(0, 3, 4)],
             _global_fit(0.0),
             surrogate=surrogate,
-            cred_mass=1.5,
+            credible_mass=1.5,
             seed=1,
         )
 
@@ -190,12 +190,12 @@ def test_given_seed000_baseline_is_used_not_recomputed(surrogate, monkeypatch):
     rec = pd.concat([_records([0.6, 0.8], bin_id=0), _records([0.7], bin_id=1)], ignore_index=True)
     fits = [_bin_fit(0, 3.0, 4.0), _bin_fit(1, 2.0, 5.0)]
     ref, _ = corrected_ti(rec, fits, _global_fit(0.3), surrogate=surrogate, seed=5)
-    baseline = prop.seed000_baseline(rec, surrogate)
+    baseline = prop.variance_law_baselines(rec, surrogate)
 
     def fail(*args, **kwargs):
-        raise AssertionError("seed000_baseline recomputed")
+        raise AssertionError("variance_law_baselines recomputed")
 
-    monkeypatch.setattr(prop, "seed000_baseline", fail)
+    monkeypatch.setattr(prop, "variance_law_baselines", fail)
     got, _ = corrected_ti(
         rec, fits, _global_fit(0.3), surrogate=surrogate, baseline=baseline, seed=5
     )

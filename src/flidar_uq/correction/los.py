@@ -7,18 +7,18 @@ methods are implemented, all in the project's ENU frame (``docs/conventions.md``
 * Seed 001 (Grimstad hexapod), Eq. (7): least-squares wind vector from the LOS speeds
   with every beam rotated by the platform attitude at its own LOS time and the head
   velocity projected out, ``u = [(RN)^T RN]^-1 (RN)^T (v_r - v_rT)``.
-  :func:`correct_ls_seed001` (VAD / CW with its sign ambiguity, and DBS / pulsed).
+  :func:`correct_least_squares` (VAD / CW with its sign ambiguity, and DBS / pulsed).
 * Seed 002 (Yamaguchi & Ishihara), pulsed DBS lidar: LOS speeds interpolated along
   each beam to the target height, then the horizontal wind in the two opposite-beam
   planes; the *conventional* algorithm freezes attitude and velocity at the reference
   LOS of the DBS cycle, the *new* one uses them at each LOS time.
-  :func:`correct_dbs_seed002`.
+  :func:`correct_dbs_motion`.
 * Seed 003 (Nassif et al.): the frame rotation ``V = Y P R V'`` (Eqs. 1-4),
-  :func:`rotate_to_earth_seed003`, and the height correction of tilted scans
-  (Eq. 5, ``z' = z cos(delta)``), :func:`height_correct_profile_seed003`.
+  :func:`rotate_to_earth`, and the height correction of tilted scans
+  (Eq. 5, ``z' = z cos(delta)``), :func:`height_correct_profile`.
 
 Frame conversions at the edge: seed 001 uses x south, y west, z down
-(:func:`rotation_from_seed001_frame`, :func:`velocity_from_seed001_frame`); seed 002's
+(:func:`rotation_from_swd_frame`, :func:`velocity_from_swd_frame`); seed 002's
 Eq. (3) read with its Table 1 beam order gives ``u`` from ``V_W - V_E`` but ``v`` from
 ``V_N - V_S`` (inconsistent signs as printed; here both from speeds positive away); seed
 003 uses ENU with our rotation order (its Eq. 4 has a typo, ``R[0, 1] = 1``, read as 0).
@@ -46,12 +46,12 @@ __all__ = [
     "WindEstimate",
     "imu_rotation_velocity",
     "earth_beam_vectors",
-    "correct_ls_seed001",
-    "correct_dbs_seed002",
-    "rotation_from_seed001_frame",
-    "velocity_from_seed001_frame",
-    "rotate_to_earth_seed003",
-    "height_correct_profile_seed003",
+    "correct_least_squares",
+    "correct_dbs_motion",
+    "rotation_from_swd_frame",
+    "velocity_from_swd_frame",
+    "rotate_to_earth",
+    "height_correct_profile",
 ]
 
 # Seed 001 frame (x south, y west, z down) -> ENU: columns are the seed's axes in ENU.
@@ -330,7 +330,7 @@ def _ls_unsigned(
     return u_pick, np.where(np.isfinite(res_pick), res_pick, np.nan), ok
 
 
-def correct_ls_seed001(
+def correct_least_squares(
     lidar,
     t_s,
     azimuth_rad,
@@ -378,7 +378,7 @@ def correct_ls_seed001(
         LOS between successive windows; default ``los_per_window`` (non-overlapping).
     rotation, head_velocity_ms : array_like, optional
         Explicit per-LOS rotation matrices ``(n, 3, 3)`` and head velocities ``(n, 3)``
-        (e.g. from :func:`rotation_from_seed001_frame`), used instead of ``motion``.
+        (e.g. from :func:`rotation_from_swd_frame`), used instead of ``motion``.
     ncandidates, niter : int
         CW sign resolution: number of candidate sign patterns and refinement iterations.
     reference_wd_deg : float, optional
@@ -394,7 +394,7 @@ def correct_ls_seed001(
         One wind vector per window, ``t_s`` the mean LOS time of the window. Windows
         with fewer than 3 valid LOS or a singular geometry give NaN.
     """
-    where = "correct_ls_seed001"
+    where = "correct_least_squares"
     geom: LidarGeometry = get_lidar(lidar)
     t, az, vr = _check_los(t_s, azimuth_rad, radial_speed_ms, where, geom=geom)
     size = int(los_per_window or geom.n_los)
@@ -459,7 +459,7 @@ def _interp_along_beam(vr, range_m, target_range_m):
     return np.where(inside, out, np.nan)
 
 
-def correct_dbs_seed002(
+def correct_dbs_motion(
     lidar,
     t_s,
     azimuth_rad,
@@ -513,7 +513,7 @@ def correct_dbs_seed002(
         Arrays of shape ``(nwin, nheight)``; ``t_s`` is the reference LOS time; ``w_ms``
         and ``residual_ms`` are NaN. Targets outside the gates give NaN.
     """
-    where = "correct_dbs_seed002"
+    where = "correct_dbs_motion"
     geom: LidarGeometry = get_lidar(lidar)
     if not geom.signed or geom.kind != "dbs":
         raise ValueError(f"{where}: needs a pulsed DBS lidar, got {geom.name!r} ({geom.kind})")
@@ -600,7 +600,7 @@ def correct_dbs_seed002(
     return _wind_estimate(t[ref], u, v, nan, nan)
 
 
-def rotation_from_seed001_frame(roll_rad, pitch_rad, yaw_rad) -> np.ndarray:
+def rotation_from_swd_frame(roll_rad, pitch_rad, yaw_rad) -> np.ndarray:
     """ENU body-to-earth rotation from IMU angles given in seed 001's frame.
 
     Seed 001 (Sec. 3, Eq. 6) uses x south, y west, z down, and the passive matrices
@@ -634,7 +634,7 @@ def rotation_from_seed001_frame(roll_rad, pitch_rad, yaw_rad) -> np.ndarray:
     return _C_SEED001_TO_ENU @ r_body_to_earth @ _C_SEED001_TO_ENU.T
 
 
-def velocity_from_seed001_frame(velocity_ms) -> np.ndarray:
+def velocity_from_swd_frame(velocity_ms) -> np.ndarray:
     """Translational velocity from seed 001's frame (x south, y west, z down) to ENU.
 
     Parameters
@@ -653,7 +653,7 @@ def velocity_from_seed001_frame(velocity_ms) -> np.ndarray:
     return np.einsum("ij,...j->...i", _C_SEED001_TO_ENU, v)
 
 
-def rotate_to_earth_seed003(wind_body_ms, roll_deg, pitch_deg, yaw_deg=0.0) -> np.ndarray:
+def rotate_to_earth(wind_body_ms, roll_deg, pitch_deg, yaw_deg=0.0) -> np.ndarray:
     """Instrument-frame wind to the earth frame, ``V = Y P R V'`` (Eqs. 1-4 of seed 003).
 
     Seed 003's yaw (Eq. 2), pitch (Eq. 3) and roll (Eq. 4, read with ``R[0, 1] = 0``;
@@ -682,7 +682,7 @@ def rotate_to_earth_seed003(wind_body_ms, roll_deg, pitch_deg, yaw_deg=0.0) -> n
     return np.einsum("...ij,...j->...i", rot, v)  # Eq. (1) of seed 003: V = Y P R V'
 
 
-def height_correct_profile_seed003(hws_ms, height_m, tilt_deg) -> np.ndarray:
+def height_correct_profile(hws_ms, height_m, tilt_deg) -> np.ndarray:
     """Height correction of a tilted VAD profile (Eq. 5 of seed 003).
 
     A cone tilted by ``delta`` samples, around the target height ``z``, the centre

@@ -33,17 +33,17 @@ from flidar_uq.data.metrics import representative_ti
 from flidar_uq.inference import effective_sigma_z_ms, imu_observations, is_record_model
 from flidar_uq.inference.record_motion import record_motion
 from flidar_uq.physics.surrogate import default_surrogate
-from flidar_uq.physics.variance_laws import corrected_std, rho_seed000
+from flidar_uq.physics.variance_laws import corrected_std, rho_bin_correlation
 from flidar_uq.seeding import as_seedsequence
 
-__all__ = ["corrected_ti", "point_target", "record_flags", "seed000_baseline"]
+__all__ = ["corrected_ti", "point_target", "record_flags", "variance_law_baselines"]
 
 #: Records propagated together by the record motion model (bounds the draws' memory:
 #: ndraws x chunk floats per array).
 _RECORD_CHUNK = 20_000
 
 
-def seed000_baseline(records: pd.DataFrame, surrogate) -> tuple[np.ndarray, float]:
+def variance_law_baselines(records: pd.DataFrame, surrogate) -> tuple[np.ndarray, float]:
     """Seed 000's deterministic sigma_Z per record and its single rho.
 
     Parameters
@@ -76,7 +76,7 @@ def seed000_baseline(records: pd.DataFrame, surrogate) -> tuple[np.ndarray, floa
         sz[m] = surrogate.sigma_z_ms(hws[m], a, t)
         bin_ref.append(np.nanmean(ref[m]))
         bin_ez.append(float(surrogate.mean_z_ms(np.nanmean(hws[m]), a, t)))
-    return sz, rho_seed000(np.array(bin_ref), np.array(bin_ez))
+    return sz, rho_bin_correlation(np.array(bin_ref), np.array(bin_ez))
 
 
 def point_target(
@@ -213,7 +213,7 @@ def corrected_ti(
     global_fit,
     *,
     surrogate=None,
-    cred_mass: float = 0.9,
+    credible_mass: float = 0.9,
     ndraws: int = 400,
     speed_bin_width_ms: float = 1.0,
     scan_period_s: float = 1.0,
@@ -232,7 +232,7 @@ def corrected_ti(
     global_fit : GlobalFit
     surrogate : SigmaZSurrogate, optional
         Default ``get_surrogate()``.
-    cred_mass : float
+    credible_mass : float
         Equal-tailed credible mass in (0, 1) (default 0.9).
     ndraws : int
         Posterior draws propagated per record.
@@ -252,7 +252,7 @@ def corrected_ti(
         ``lidar_std_ratio``: each draw is multiplied by ``exp(N(0, sd^2))`` so that the
         intervals are for the point std. Default None: no scatter.
     baseline : (numpy.ndarray, float), optional
-        :func:`seed000_baseline` of ``records`` with the same surrogate, when the caller
+        :func:`variance_law_baselines` of ``records`` with the same surrogate, when the caller
         has it already (computed here otherwise).
     seed : int or numpy.random.SeedSequence
 
@@ -277,10 +277,10 @@ def corrected_ti(
     Raises
     ------
     ValueError
-        If ``cred_mass`` is not in (0, 1) or a required column is missing.
+        If ``credible_mass`` is not in (0, 1) or a required column is missing.
     """
-    if not 0.0 < cred_mass < 1.0:
-        raise ValueError(f"corrected_ti: cred_mass={cred_mass} must be in (0, 1)")
+    if not 0.0 < credible_mass < 1.0:
+        raise ValueError(f"corrected_ti: credible_mass={credible_mass} must be in (0, 1)")
     for c in ("bin_id", "hws_mean_ms", "hws_std_ms"):
         if c not in records:
             raise ValueError(f"corrected_ti: records lack column {c!r}")
@@ -304,7 +304,7 @@ def corrected_ti(
             )
     surrogate = default_surrogate(surrogate)
     rng = np.random.default_rng(as_seedsequence(seed))
-    q = [(1.0 - cred_mass) / 2.0, 0.5, (1.0 + cred_mass) / 2.0]
+    q = [(1.0 - credible_mass) / 2.0, 0.5, (1.0 + credible_mass) / 2.0]
     n = len(records)
     m = records["hws_mean_ms"].to_numpy(dtype=float)
     s = records["hws_std_ms"].to_numpy(dtype=float)
@@ -397,7 +397,7 @@ def corrected_ti(
             else np.zeros((3, 0))
         )
 
-    sz_seed, rho_seed = baseline if baseline is not None else seed000_baseline(records, surrogate)
+    sz_seed, rho_seed = baseline if baseline is not None else variance_law_baselines(records, surrogate)
     with np.errstate(invalid="ignore", divide="ignore"):
         ti_u = corrected_std(s, sz_seed, 0.0)[0] / m  # Eq. (16) of seed 000 inverted
         ti_c = corrected_std(s, sz_seed, 1.0)[0] / m  # Eq. (17) of seed 000 inverted

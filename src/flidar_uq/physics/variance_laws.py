@@ -29,7 +29,7 @@ __all__ = [
     "corrected_std",
     "corrected_std_u",
     "corrected_std_c",
-    "rho_seed000",
+    "rho_bin_correlation",
 ]
 
 
@@ -114,7 +114,7 @@ def corrected_std_c(sigma_moving_ms, sigma_z_ms):
     return corrected_std(sigma_moving_ms, sigma_z_ms, 1.0)
 
 
-def rho_seed000(bin_ref_hws_ms, bin_mean_z_ms):
+def rho_bin_correlation(bin_ref_hws_ms, bin_mean_z_ms):
     """Seed 000's rho: Pearson correlation over bins of (reference HWS, E(Z)) (Sec. 3.2).
 
     Seed 000 computed one (reference HWS, E(Z)) pair per bin (109 bins) and a single

@@ -58,7 +58,7 @@ def scenario_records(
     *,
     lidar: str = "zephir300",
     settings: SamplerSettings = SamplerSettings(),
-    cred_mass: float = 0.9,
+    credible_mass: float = 0.9,
     ndraws: int = 400,
     lever_arm_prior: tuple[float, float] | None = None,
     n_records: int | None = None,
@@ -76,7 +76,7 @@ def scenario_records(
     lidar : str
         Lidar of the surrogate (must be the scenario's lidar).
     settings : SamplerSettings
-    cred_mass : float
+    credible_mass : float
         Credible mass of the intervals, in (0, 1).
     ndraws : int
         Posterior draws propagated per record.
@@ -136,7 +136,7 @@ def scenario_records(
         [],
         fit,
         surrogate=surrogate,
-        cred_mass=cred_mass,
+        credible_mass=credible_mass,
         ndraws=ndraws,
         lidar_std_ratio=g,
         point_log_sd=sd,

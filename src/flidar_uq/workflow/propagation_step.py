@@ -121,13 +121,13 @@ def propagate(
             "point target: lidar std ratio %.4f-%.4f, log-sd %.4f-%.4f (%d heights in turn)",
             np.nanmin(g_ratio), np.nanmax(g_ratio), np.nanmin(log_sd), np.nanmax(log_sd), heights,
         )  # fmt: skip
-    baseline = prop.seed000_baseline(sub, surrogate)
+    baseline = prop.variance_law_baselines(sub, surrogate)
     per_record, speed_bins = prop.corrected_ti(
         sub,
         [f for f in fits.values() if f.converged],
         gfit,
         surrogate=surrogate,
-        cred_mass=credible_mass,
+        credible_mass=credible_mass,
         ndraws=ndraws,
         lidar_std_ratio=g_ratio,
         point_log_sd=log_sd,
