@@ -1,5 +1,7 @@
 """Virtual floating-lidar campaign, physics mode (issue 4).
 
+Size: the generator is one vectorised pipeline over a chunk of records (turbulence, sea state, scanning lidar, IMU, 10-min statistics) whose arrays are shared between its stages (~760 lines).
+
 Per 10-min record (``record_length_s``) and for every measurement height:
 
 1. Reference wind: mean HWS drawn from a truncated Weibull with lag-1 persistence

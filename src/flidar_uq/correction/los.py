@@ -1,5 +1,7 @@
 """LOS-level motion correction of floating-lidar wind retrievals (seeds 001, 002, 003).
 
+Size: seeds 001, 002 and 003's LOS-level corrections share the frame conversions and beam geometry helpers; one module keeps the three methods comparable (~730 lines, half of it docstrings).
+
 When the line-of-sight (LOS) speeds and the IMU series are available, the motion can be
 removed scan by scan instead of statistically (``correction.py``). Three published
 methods are implemented, all in the project's ENU frame (``docs/conventions.md``):

@@ -1,5 +1,7 @@
 """Motion statistics from raw IMU attitude series, per 10-min window.
 
+Size: the classic motion statistics (amplitude, period, two peaks) and the wind-frame tilt spectrum share the windowing, gap filling and Welch spectra (~730 lines, half of it docstrings).
+
 Estimators (``docs/conventions.md``; a harmonic is ``A sin(2 pi t / T + phi)``):
 
 Amplitude, deg

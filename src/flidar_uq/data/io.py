@@ -1,5 +1,7 @@
 """Reading and writing campaign tables with validation.
 
+Size: one reader/validator per input kind (records, IMU series, LOS) sharing the same error helpers; splitting them would scatter the one error policy (~620 lines).
+
 The record table, the raw IMU series and LOS-level data are CSV (optionally
 gzip-compressed, ``.csv.gz``) or Parquet (``.parquet``/``.pq``) files whose
 columns are defined in :mod:`flidar_uq.data.schema` and documented in

@@ -1,5 +1,7 @@
 """Per-record sigma_Z from the buoy's tilt spectrum (broadband, directional seas).
 
+Size: the band reduction, the band/moments sigma_Z, two-period detection and attitude replay are one method (design.md, "What real seas add") and test against each other (~650 lines, half of it docstrings).
+
 Seed 000's sigma_Z assumes harmonic roll and pitch of one amplitude and period. A real
 record is broadband and directional; this module computes its sigma_Z from the tilt
 spectrum resolved along and across the wind (design.md "What real seas add"):

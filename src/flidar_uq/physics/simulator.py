@@ -1,5 +1,7 @@
 """Moving-lidar simulator and the sigma_Z / E(Z) phase-moment integral (seed 000).
 
+Size: the scan simulation and the phase-moment integral share the VAD coefficient kernels; kept together so that the sigma_Z integral and the scans it is checked against cannot drift apart (~710 lines, half of it docstrings).
+
 Building blocks (vectorised over any batch of scans, for campaign generators):
 
 - :func:`los_vectors_earth` – earth-frame unit vectors of the lines of sight of tilted scans;
