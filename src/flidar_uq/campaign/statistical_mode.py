@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 from flidar_uq.inference import Priors, sample_motion_prior
+from flidar_uq.physics.surrogate import default_surrogate
 from flidar_uq.physics.variance_laws import sigma_moving_pc
 from flidar_uq.seeding import as_seedsequence
 
@@ -147,10 +148,7 @@ def generate_statistical_campaign(
         raise ValueError(
             f"generate_statistical_campaign: n_bins={n_bins} and records_per_bin={records_per_bin} must be >= 1"
         )
-    if surrogate is None:
-        from flidar_uq.physics.surrogate import get_surrogate
-
-        surrogate = get_surrogate()
+    surrogate = default_surrogate(surrogate)
     ss = as_seedsequence(seed)
     rng_par, rng_rec = (np.random.default_rng(c) for c in ss.spawn(2))
     if true_params is None:

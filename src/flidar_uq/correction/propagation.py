@@ -376,9 +376,10 @@ def corrected_ti(
             nb = int(f.flat("amplitude_deg").size)
             idx = rng.choice(nb, size=ndraws, replace=ndraws > nb)
             sz, u2 = f._motion_draws(m[mask], surrogate, idx, scan_period_s)
-            sz = scale * sz  # motion-model discrepancy of the surrogate (global fit), 1 if absent
-            if lever is not None:  # head translation of the lever-arm model
-                sz = np.sqrt(sz**2 + lever**2 * u2)
+            if lever is None:  # motion-model scale of the surrogate (1 if absent)
+                sz = scale * sz
+            else:  # plus the head translation of the lever-arm model
+                sz = effective_sigma_z_ms(sz, u2, lever, scale)
             deploy(mask, sz, np.sqrt((kappa * s[mask][None, :]) ** 2 + tau0**2))
             conv[mask] = f.converged and global_fit.converged
             reasons[mask] = "; ".join([*f.failure_reasons, *global_reasons])

@@ -203,6 +203,7 @@ def _global_loglik_pointwise(theta, s, r, sz_med, sz_var, u2=None):
             k_sq = np.exp(2.0 * theta[:, 4:5])
             sz_rot_sq = k_sq * sz_rot_sq
             sz_var = k_sq * sz_var
+        # effective_sigma_z_ms written in place (this is the global fit's inner loop)
         sz_sq = sz_rot_sq + theta[:, 3:4] ** 2 * u2  # translation of the head
         sz = np.sqrt(sz_sq)
         sz_var = sz_var * sz_rot_sq / np.maximum(sz_sq, 1e-24)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from flidar_uq.physics.surrogate import default_surrogate
 from flidar_uq.seeding import as_seedsequence
 from flidar_uq.threads import single_threaded
 
@@ -115,11 +116,7 @@ def _distinct_imu_records(records: pd.DataFrame) -> pd.DataFrame:
 
 
 def _default_surrogate(surrogate):
-    if surrogate is not None:
-        return surrogate
-    from flidar_uq.physics.surrogate import get_surrogate
-
-    return get_surrogate()
+    return default_surrogate(surrogate)
 
 
 @single_threaded

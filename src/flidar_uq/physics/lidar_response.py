@@ -41,6 +41,7 @@ from flidar_uq.physics.turbulence import (
     kaimal_psd,
     kaimal_series,
 )
+from flidar_uq.seeding import as_seedsequence
 
 __all__ = ["lidar_point_log_sd", "lidar_std_ratio", "scan_response"]
 
@@ -277,7 +278,7 @@ def lidar_point_log_sd(
     n = int(round(record_length_s / dt))
     every = max(int(round(point_sample_interval_s / dt)), 1)
     sds = []
-    for k, child in enumerate(np.random.SeedSequence(seed).spawn(grid.size)):
+    for k, child in enumerate(as_seedsequence(seed).spawn(grid.size)):
         rng = np.random.default_rng(child)
         hws = 42.0 / np.exp(grid[k])  # Lambda_1 = 42 m (z > 60 m): Lambda_1 / U = x
         x_t = kaimal_series(-(-n // step), dt * step, np.full(n_records, hws), 0.1 * hws, 85.0, rng)

@@ -14,8 +14,16 @@ import pandas as pd
 from scipy import stats
 
 from flidar_uq.campaign.statistical_mode import draw_true_params, generate_statistical_campaign
-from flidar_uq.inference import Priors, SamplerSettings, fit_bin, fit_global, fit_record_model
+from flidar_uq.inference import (
+    Priors,
+    SamplerSettings,
+    effective_sigma_z_ms,
+    fit_bin,
+    fit_global,
+    fit_record_model,
+)
 from flidar_uq.inference.record_motion import record_motion
+from flidar_uq.physics.surrogate import default_surrogate
 from flidar_uq.seeding import as_seedsequence
 
 __all__ = [
@@ -106,10 +114,7 @@ def sbc_replication(
     """
     if settings is None:
         settings = SamplerSettings(mixture="never")
-    if surrogate is None:
-        from flidar_uq.physics.surrogate import get_surrogate
-
-        surrogate = get_surrogate()
+    surrogate = default_surrogate(surrogate)
     ss = as_seedsequence(seed)
     ss_truth, ss_data, ss_fit, ss_glob = ss.spawn(4)
     truth = draw_true_params(n_bins, priors=priors, rng=np.random.default_rng(ss_truth))
@@ -237,7 +242,7 @@ def draw_record_campaign(rng, n_records: int, truth: dict, *, surrogate=None) ->
     )
     mot = record_motion(rec, surrogate=surrogate)
     szr, u2 = mot["sigma_z_rot_ms"].to_numpy(), mot["translation_unit_sq"].to_numpy()
-    sz_sq = (truth["motion_scale"] * szr) ** 2 + truth["lever_arm_m"] ** 2 * u2
+    sz_sq = effective_sigma_z_ms(szr, u2, truth["lever_arm_m"], truth["motion_scale"]) ** 2
     sz = np.sqrt(sz_sq)
     mu_sq = np.maximum(r**2 + sz_sq + 2.0 * truth["rho"] * r * sz, 1e-12)  # Eq. (15) of seed 000
     dmu_sq = (sz + truth["rho"] * r) ** 2 / mu_sq

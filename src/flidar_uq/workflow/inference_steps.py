@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from flidar_uq.seeding import child_seed
 from flidar_uq.workflow.files import bin_file, read_csv, write_csv
 
 log = logging.getLogger(__name__)
@@ -27,7 +28,7 @@ __all__ = [
 
 def bin_seed(seed: int, bin_id: int) -> np.random.SeedSequence:
     """SeedSequence of one bin's fit: independent of the batch layout, so results are too."""
-    return np.random.SeedSequence(entropy=int(seed), spawn_key=(1, int(bin_id)))
+    return child_seed(seed, 1, bin_id)
 
 
 def _settings(inference: dict):
@@ -167,7 +168,7 @@ def fit_global_model(
     from flidar_uq import inference as inf
     from flidar_uq.physics.surrogate import get_surrogate
 
-    seed = np.random.SeedSequence(entropy=int(inference["seed"]), spawn_key=(0,))
+    seed = child_seed(inference["seed"], 0)
     assigned = read_csv(assignments_path)
     if model == "record":
         lever = inference.get("lever_arm_m")

@@ -10,6 +10,7 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
+from flidar_uq.seeding import child_seed
 from flidar_uq.workflow.files import read_csv, write_csv
 from flidar_uq.workflow.inference_steps import load_bin_fits
 
@@ -132,7 +133,7 @@ def propagate(
         lidar_std_ratio=g_ratio,
         point_log_sd=log_sd,
         baseline=baseline,
-        seed=np.random.SeedSequence(entropy=int(seed), spawn_key=(2,)),
+        seed=child_seed(seed, 2),
     )
     sz_seed, rho_seed = baseline
 
