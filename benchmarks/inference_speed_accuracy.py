@@ -160,8 +160,8 @@ def _timing(n_bins_all, workers, sur) -> pd.DataFrame:
         lambda: fit_bin(rec2, settings=default, seed=5),
         target_s=2.0,
     )
-    screened = f2.info["loo"]["two_period_screened"]
-    rows[-1]["what"] += f", screened: {screened}, model chosen: {f2.model}"
+    share = f2.info["loo"]["two_peak_share"]
+    rows[-1]["what"] += f", two-peaked records: {share:.0%}, model chosen: {f2.model}"
     camp, _ = generate_statistical_campaign(
         n_bins_all, 30, seed=6, surrogate=sur, two_period_bins=n_bins_all // 3
     )

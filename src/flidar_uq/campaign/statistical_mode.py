@@ -48,7 +48,8 @@ def draw_true_params(n_bins, *, two_period_bins=0, priors: Priors = _PRIORS, rng
     dict
         ``rho``, ``tau0_ms``, ``kappa`` (floats) and ``bins``: list of dicts with
         ``amplitude_deg``, ``period_s`` (unimodal) or ``period1_s``, ``period2_s``,
-        ``weight1`` (two-period), ``scatter_amplitude``, ``scatter_period``.
+        ``weight1``, ``weight_concentration`` (two-period), ``scatter_amplitude``,
+        ``scatter_period``.
     """
     if not 0 <= two_period_bins <= n_bins:
         raise ValueError(
@@ -57,7 +58,7 @@ def draw_true_params(n_bins, *, two_period_bins=0, priors: Priors = _PRIORS, rng
     bins = []
     for b in range(n_bins):
         if b >= n_bins - two_period_bins:
-            th = sample_motion_prior(rng, 1, priors, 6)[0]
+            th = sample_motion_prior(rng, 1, priors, 7)[0]
             w = 1.0 / (1.0 + np.exp(-th[3]))
             bins.append(
                 {
@@ -67,6 +68,7 @@ def draw_true_params(n_bins, *, two_period_bins=0, priors: Priors = _PRIORS, rng
                     "weight1": float(w),
                     "scatter_amplitude": float(np.exp(th[4])),
                     "scatter_period": float(np.exp(th[5])),
+                    "weight_concentration": float(np.exp(th[6])),
                 }
             )
         else:
@@ -173,15 +175,22 @@ def generate_statistical_campaign(
             sz = surrogate.sigma_z_ms(m, p["amplitude_deg"], p["period_s"])
             per2, w1 = np.full(n, np.nan), np.full(n, np.nan)
             true_t = p["period_s"]
+            per = centre_t * np.exp(p["scatter_period"] * rng_rec.standard_normal(n))
+            per1 = np.full(n, np.nan)
         else:
-            first = rng_rec.uniform(size=n) < p["weight1"]
-            centre_t = np.where(first, p["period1_s"], p["period2_s"])
+            # every record has a two-peaked spectrum of its own (the model of
+            # flidar_uq.inference.densities.log_prob_two_period): both peak periods about
+            # the bin's, and its share of tilt variance in the short-period peak
+            # ~ Beta(w c, (1 - w) c); the record's (roll, pitch) period is its dominant peak's
+            c = p["weight_concentration"]
+            per1 = p["period1_s"] * np.exp(p["scatter_period"] * rng_rec.standard_normal(n))
+            per2 = p["period2_s"] * np.exp(p["scatter_period"] * rng_rec.standard_normal(n))
+            w1 = rng_rec.beta(p["weight1"] * c, (1.0 - p["weight1"]) * c)
+            per = np.where(w1 >= 0.5, per1, per2)
             sz = surrogate.sigma_z_two_period_ms(
                 m, p["amplitude_deg"], p["period1_s"], p["period2_s"], p["weight1"]
             )
-            per2, w1 = np.full(n, p["period2_s"]), np.full(n, p["weight1"])
             true_t = p["period1_s"]
-        per = centre_t * np.exp(p["scatter_period"] * rng_rec.standard_normal(n))
         sz = np.asarray(sz, dtype=float)
         mu = sigma_moving_pc(r, sz, true_params["rho"])  # Eq. (15) of seed 000
         tau = np.sqrt((true_params["kappa"] * mu) ** 2 + true_params["tau0_ms"] ** 2)
@@ -204,6 +213,7 @@ def generate_statistical_campaign(
                     "pitch_amplitude_deg": a * np.exp(-d_a),
                     "roll_period_s": per * np.exp(d_t),
                     "pitch_period_s": per * np.exp(-d_t),
+                    "period1_s": per1,
                     "period2_s": per2,
                     "weight1": w1,
                     "ref_hws_mean_ms": m,

@@ -48,12 +48,12 @@ This module only re-exports the public API.
 from flidar_uq.inference.bin_fit import fit_bin
 from flidar_uq.inference.densities import log_prob_global, log_prob_two_period, log_prob_unimodal
 from flidar_uq.inference.global_fit import fit_global, select_global_model
-from flidar_uq.inference.loo import period_kurtosis_ppc
 from flidar_uq.inference.observations import (
     effective_sigma_z_ms,
     imu_observations,
     record_sigma_z_moments,
     translation_unit_sq,
+    two_peak_observations,
 )
 from flidar_uq.inference.predictive import prior_predictive
 from flidar_uq.inference.priors import Priors, SamplerSettings, sample_motion_prior
@@ -88,9 +88,9 @@ __all__ = [
     "log_prob_two_period",
     "log_prob_global",
     "imu_observations",
+    "two_peak_observations",
     "prior_predictive",
     "sample_motion_prior",
-    "period_kurtosis_ppc",
     "record_sigma_z_moments",
     "translation_unit_sq",
     "effective_sigma_z_ms",

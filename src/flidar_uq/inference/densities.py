@@ -9,10 +9,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import gammaln
 
 from flidar_uq.inference.priors import Priors
 
 _LOG2PI = np.log(2.0 * np.pi)
+#: A record's variance share is clipped to [clip, 1 - clip] in the Beta likelihood.
+_SHARE_CLIP = 1e-3
 
 
 def _norm_logpdf(x, mu, sd):
@@ -51,29 +54,56 @@ def _loglik_pointwise_unimodal(theta, log_amp, log_per):
     return np.where(np.isfinite(la), la, 0.0) + np.where(np.isfinite(lt), lt, 0.0)
 
 
-def _loglik_pointwise_two_period(theta, log_amp, log_per):
-    """(n_walkers, n_obs) pointwise log-likelihood; NaN observations contribute 0."""
-    log_a, log_t1, log_t2, logit_w, log_sa, log_st = (theta[:, k : k + 1] for k in range(6))
-    st = np.exp(log_st)
+def _two_period_terms(theta):
+    """Unpack a two-period theta (n_walkers, 7): log A, log T1, log T2, log w, log(1 - w),
+    log s_a, log s_T, shape parameters a = w c and b = (1 - w) c of the records' shares."""
+    logit_w, log_c = theta[:, 3], theta[:, 6]
     log_w = -np.logaddexp(0.0, -logit_w)
     log_1mw = -np.logaddexp(0.0, logit_w)
+    c = np.exp(log_c)
+    return log_w, log_1mw, np.exp(log_w) * c, np.exp(log_1mw) * c, c
+
+
+def _beta_logpdf(log_x, log_1mx, a, b):
+    return (a - 1.0) * log_x + (b - 1.0) * log_1mx + gammaln(a + b) - gammaln(a) - gammaln(b)
+
+
+def _loglik_pointwise_two_period(theta, log_amp, log_per, log_p1, log_p2, share1):
+    """(n_walkers, n_obs) pointwise log-likelihood of the two-period model.
+
+    A record with a two-peaked spectrum of its own (``log_p1``, ``log_p2``, ``share1``
+    finite) contributes ``N(log p1; log T1, s_T) N(log p2; log T2, s_T) Beta(share1; w c,
+    (1 - w) c)``; a single-peaked record (its period ``log_per``) is the limit of a share 1
+    or 0 and contributes ``w N(log p; log T1, s_T) + (1 - w) N(log p; log T2, s_T)``: in
+    both, ``w`` is the expected share of a record's tilt variance in the short-period peak.
+    NaN observations contribute 0.
+    """
+    log_a, log_t1, log_t2 = (theta[:, k : k + 1] for k in range(3))
+    sa, st = np.exp(theta[:, 4:5]), np.exp(theta[:, 5:6])
+    log_w, log_1mw, a, b, _ = (x[:, None] for x in _two_period_terms(theta))
+    two = np.isfinite(log_p1) & np.isfinite(log_p2) & np.isfinite(share1)
+    sh = np.clip(np.where(two, share1, 0.5), _SHARE_CLIP, 1.0 - _SHARE_CLIP)
     with np.errstate(invalid="ignore"):
-        la = _norm_logpdf(log_amp[None, :], log_a, np.exp(log_sa))
-        lt = np.logaddexp(
+        la = _norm_logpdf(log_amp[None, :], log_a, sa)
+        l_two = (
+            _norm_logpdf(np.where(two, log_p1, 0.0)[None, :], log_t1, st)
+            + _norm_logpdf(np.where(two, log_p2, 0.0)[None, :], log_t2, st)
+            + _beta_logpdf(np.log(sh)[None, :], np.log1p(-sh)[None, :], a, b)
+        )
+        l_one = np.logaddexp(
             log_w + _norm_logpdf(log_per[None, :], log_t1, st),
             log_1mw + _norm_logpdf(log_per[None, :], log_t2, st),
         )
-    return np.where(np.isfinite(la), la, 0.0) + np.where(np.isfinite(lt), lt, 0.0)
+    lt = np.where(two[None, :], l_two, np.where(np.isfinite(l_one), l_one, 0.0))
+    return np.where(np.isfinite(la), la, 0.0) + lt
 
 
 @dataclass(frozen=True)
 class _MotionData:
-    """Sufficient statistics of a bin's IMU observations for the motion log-densities.
+    """Sufficient statistics of a bin's IMU observations for the unimodal model.
 
     ``n``, ``mean``, ``ss`` (sum of squared deviations) of the finite log amplitudes and
-    log periods (the normal likelihood depends on the data only through them), and the
-    distinct finite log periods with their counts (the mixture likelihood is a sum over
-    distinct values: records at several heights share one IMU record).
+    log periods: the normal likelihood depends on the data only through them.
     """
 
     n_amp: int
@@ -82,8 +112,6 @@ class _MotionData:
     n_per: int
     mean_per: float
     ss_per: float
-    per_values: np.ndarray
-    per_counts: np.ndarray
 
     @classmethod
     def from_observations(cls, log_amp, log_per):
@@ -92,7 +120,6 @@ class _MotionData:
         la, lt = la[np.isfinite(la)], lt[np.isfinite(lt)]
         ma = float(la.mean()) if la.size else 0.0
         mt = float(lt.mean()) if lt.size else 0.0
-        values, counts = np.unique(lt, return_counts=True)
         return cls(
             la.size,
             ma,
@@ -100,8 +127,6 @@ class _MotionData:
             lt.size,
             mt,
             float(np.sum((lt - mt) ** 2)),
-            values,
-            counts.astype(float),
         )
 
 
@@ -142,38 +167,126 @@ def log_prob_unimodal(theta, log_amp, log_per, priors=Priors()):
     return _log_prob_unimodal(theta, _MotionData.from_observations(log_amp, log_per), priors)
 
 
+@dataclass(frozen=True)
+class _TwoPeriodData:
+    """Sufficient statistics of a bin's IMU observations for the two-period model.
+
+    Amplitudes as :class:`_MotionData`; the two-peaked records' log periods ``p1``, ``p2``
+    (count, mean, sum of squared deviations) and ``sum log share1``, ``sum log(1 -
+    share1)``; the single-peaked records' distinct log periods with their counts.
+    """
+
+    n_amp: int
+    mean_amp: float
+    ss_amp: float
+    n_two: int
+    mean_p1: float
+    ss_p1: float
+    mean_p2: float
+    ss_p2: float
+    sum_log_share: float
+    sum_log_1mshare: float
+    per_values: np.ndarray
+    per_counts: np.ndarray
+
+    @classmethod
+    def from_observations(cls, log_amp, log_per, log_p1, log_p2, share1):
+        la = np.asarray(log_amp, dtype=float)
+        la = la[np.isfinite(la)]
+        p1, p2, sh = (np.asarray(x, dtype=float) for x in (log_p1, log_p2, share1))
+        two = np.isfinite(p1) & np.isfinite(p2) & np.isfinite(sh)
+        lt = np.asarray(log_per, dtype=float)
+        lt = lt[~two & np.isfinite(lt)]
+        p1, p2 = p1[two], p2[two]
+        sh = np.clip(sh[two], _SHARE_CLIP, 1.0 - _SHARE_CLIP)
+        values, counts = np.unique(lt, return_counts=True)
+
+        def moments(x):
+            m = float(x.mean()) if x.size else 0.0
+            return m, float(np.sum((x - m) ** 2))
+
+        ma, ssa = moments(la)
+        m1, ss1 = moments(p1)
+        m2, ss2 = moments(p2)
+        return cls(
+            la.size,
+            ma,
+            ssa,
+            int(two.sum()),
+            m1,
+            ss1,
+            m2,
+            ss2,
+            float(np.log(sh).sum()),
+            float(np.log1p(-sh).sum()),
+            values,
+            counts.astype(float),
+        )
+
+
 def _log_prob_two_period(theta, data, priors):
-    """:func:`log_prob_two_period` on :class:`_MotionData` (the sampler's target)."""
+    """:func:`log_prob_two_period` on :class:`_TwoPeriodData` (the sampler's target)."""
     theta = np.atleast_2d(np.asarray(theta, dtype=float))
     with np.errstate(all="ignore"):
         lp, ok = _log_prior_motion(
             theta[:, 0], [theta[:, 1], theta[:, 2]], theta[:, 4], theta[:, 5], priors
         )
         ok &= (theta[:, 1] < theta[:, 2]) & (np.abs(theta[:, 3]) < 12.0)
-        log_w = -np.logaddexp(0.0, -theta[:, 3])
-        log_1mw = -np.logaddexp(0.0, theta[:, 3])
+        ok &= _in(
+            theta[:, 6],
+            np.log(priors.weight_concentration_min),
+            np.log(priors.weight_concentration_max),
+        )
+        log_w, log_1mw, a, b, c = _two_period_terms(theta)
         # Beta(b, b) on w plus the logit Jacobian w (1 - w); log 2: two orderings
         lp = lp + priors.weight_beta * (log_w + log_1mw) + np.log(2.0)
-        ll_a = _normal_loglik(data.n_amp, data.mean_amp, data.ss_amp, theta[:, 0], theta[:, 4])
+        lp = lp + _norm_logpdf(
+            theta[:, 6],
+            np.log(priors.weight_concentration_median),
+            priors.weight_concentration_log_sd,
+        )
+        ll = _normal_loglik(data.n_amp, data.mean_amp, data.ss_amp, theta[:, 0], theta[:, 4])
+        # two-peaked records: both periods about T1, T2 and the variance share about w
+        ll = ll + _normal_loglik(data.n_two, data.mean_p1, data.ss_p1, theta[:, 1], theta[:, 5])
+        ll = ll + _normal_loglik(data.n_two, data.mean_p2, data.ss_p2, theta[:, 2], theta[:, 5])
+        ll = ll + (
+            (a - 1.0) * data.sum_log_share
+            + (b - 1.0) * data.sum_log_1mshare
+            + data.n_two * (gammaln(c) - gammaln(a) - gammaln(b))
+        )
+        # single-peaked records: all variance at T1 (probability w) or at T2
         inv_sd = np.exp(-theta[:, 5:6])
         x = data.per_values[None, :]
         mix = np.logaddexp(
             log_w[:, None] - 0.5 * ((x - theta[:, 1:2]) * inv_sd) ** 2,
             log_1mw[:, None] - 0.5 * ((x - theta[:, 2:3]) * inv_sd) ** 2,
         )
-        ll_t = mix @ data.per_counts - data.n_per * (theta[:, 5] + 0.5 * _LOG2PI)
-        out = lp + ll_a + ll_t
+        n_one = float(data.per_counts.sum())
+        ll = ll + mix @ data.per_counts - n_one * (theta[:, 5] + 0.5 * _LOG2PI)
+        out = lp + ll
     return np.where(ok & np.isfinite(out), out, -np.inf)
 
 
-def log_prob_two_period(theta, log_amp, log_per, priors=Priors()):
+def log_prob_two_period(theta, log_amp, log_per, log_p1, log_p2, share1, priors=Priors()):
     """Log posterior of the two-period per-bin model, vectorised over walkers.
+
+    The records' own spectra carry the two periods: see
+    :func:`_loglik_pointwise_two_period` for the likelihood (``w`` is the expected share
+    of a record's tilt variance in the short-period peak, the meaning it has in
+    :meth:`flidar_uq.physics.surrogate.SigmaZSurrogate.sigma_z_two_period_ms`).
 
     Parameters
     ----------
-    theta : array_like, shape (n_walkers, 6) or (6,)
-        ``(log A_deg, log T1_s, log T2_s, logit w, log s_a, log s_T)``, ``T1 < T2``.
+    theta : array_like, shape (n_walkers, 7) or (7,)
+        ``(log A_deg, log T1_s, log T2_s, logit w, log s_a, log s_T, log c)``, ``T1 < T2``;
+        ``c`` the concentration of the records' variance shares about ``w`` (-).
     log_amp, log_per : numpy.ndarray, shape (n_obs,)
+        Log of the records' IMU amplitude (deg) and period (s); NaN = missing.
+    log_p1, log_p2 : numpy.ndarray, shape (n_obs,)
+        Log of the records' short and long spectral peak periods (s); NaN = single-peaked.
+    share1 : numpy.ndarray, shape (n_obs,)
+        The records' share of tilt variance in the short-period peak (-); NaN =
+        single-peaked.
     priors : Priors
 
     Returns
@@ -181,7 +294,9 @@ def log_prob_two_period(theta, log_amp, log_per, priors=Priors()):
     numpy.ndarray, shape (n_walkers,)
         ``-inf`` outside the support (incl. ``T1 >= T2``), never NaN.
     """
-    return _log_prob_two_period(theta, _MotionData.from_observations(log_amp, log_per), priors)
+    return _log_prob_two_period(
+        theta, _TwoPeriodData.from_observations(log_amp, log_per, log_p1, log_p2, share1), priors
+    )
 
 
 def _global_loglik_pointwise(theta, s, r, sz_med, sz_var, u2=None):

@@ -124,38 +124,3 @@ def _loo_compare(a, b):
     """elpd(a) - elpd(b) with the pointwise standard error of the difference."""
     d = a["elpd_i"] - b["elpd_i"]
     return float(d.sum()), float(np.sqrt(d.size * np.var(d))) if d.size > 1 else float("nan")
-
-
-def period_kurtosis_ppc(log_per, draws, *, rng, nrep=400) -> float:
-    """Posterior predictive p-value of the log-periods' kurtosis under the unimodal model.
-
-    Two well separated periods give a platykurtic (kurtosis < 3) sample; the p-value is
-    ``P(k_rep <= k_obs)`` over replicated data sets drawn from the unimodal posterior.
-
-    Parameters
-    ----------
-    log_per : numpy.ndarray, shape (n_obs,)
-        Log IMU periods (NaN ignored).
-    draws : dict
-        Unimodal posterior draws ``period_s`` and ``scatter_period``.
-    rng : numpy.random.Generator
-    nrep : int
-
-    Returns
-    -------
-    float
-        p-value in [0, 1]; NaN with fewer than 4 periods.
-    """
-    x = log_per[np.isfinite(log_per)]
-    if x.size < 4:
-        return float("nan")
-
-    def kurt(y):
-        d = y - y.mean(axis=-1, keepdims=True)
-        return np.mean(d**4, axis=-1) / np.maximum(np.mean(d**2, axis=-1) ** 2, 1e-300)
-
-    t = np.log(np.asarray(draws["period_s"]).ravel())
-    sd = np.asarray(draws["scatter_period"]).ravel()
-    idx = rng.choice(t.size, size=nrep)
-    rep = t[idx, None] + sd[idx, None] * rng.standard_normal((nrep, x.size))
-    return float(np.mean(kurt(rep) <= kurt(x)))

@@ -104,6 +104,41 @@ def imu_observations(records: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     return out[0], out[1]
 
 
+def two_peak_observations(records: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-record two-peaked motion spectrum: log short and long period, variance share.
+
+    From the optional record columns ``period1_s``, ``period2_s`` and ``weight1`` (the
+    record's own spectrum, :func:`flidar_uq.data.imu.two_peaks`; docs/data-format.md). A
+    record is two-peaked where ``period2_s`` and ``weight1`` are finite; ``period1_s``
+    absent or NaN falls back to the geometric mean of the roll and pitch periods.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+
+    Returns
+    -------
+    log_p1, log_p2 : numpy.ndarray, shape (n_records,)
+        Natural logs of the short and long peak periods (s); NaN if single-peaked.
+    share1 : numpy.ndarray, shape (n_records,)
+        Share of the record's tilt variance in the short-period peak (-); NaN if
+        single-peaked.
+    """
+    n = len(records)
+
+    def col(name):
+        return records[name].to_numpy(dtype=float) if name in records else np.full(n, np.nan)
+
+    p2, w1 = col("period2_s"), col("weight1")
+    p1 = col("period1_s")
+    _, log_per = imu_observations(records)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        log_p1 = np.where(p1 > 0, np.log(np.where(p1 > 0, p1, 1.0)), log_per)
+        two = (p2 > 0) & (w1 >= 0) & (w1 <= 1) & np.isfinite(log_p1)
+        log_p2 = np.where(two, np.log(np.where(p2 > 0, p2, 1.0)), np.nan)
+    return np.where(two, log_p1, np.nan), log_p2, np.where(two, w1, np.nan)
+
+
 def _distinct_imu_records(records: pd.DataFrame) -> pd.DataFrame:
     """One row per IMU record: the heights of one 10-min record share the buoy's IMU
     statistics, which must count once in the motion likelihood (not once per height)."""

@@ -18,7 +18,11 @@ class Priors:
     ``amplitude_log_sd``, truncated to [``amplitude_min_deg``, ``amplitude_max_deg``].
     Periods ``T`` (s): log-normal, median ``period_median_s``, log-sd ``period_log_sd``,
     truncated to [``period_min_s``, ``period_max_s``]; two-period: both periods with this
-    prior and ordered ``T1 < T2``; weight ``w ~ Beta(weight_beta, weight_beta)``.
+    prior and ordered ``T1 < T2``; weight ``w ~ Beta(weight_beta, weight_beta)`` (the
+    expected share of a record's tilt variance in the short-period peak); concentration of
+    the records' variance shares about ``w``, ``log c ~ Normal(log
+    weight_concentration_median, weight_concentration_log_sd)`` on
+    [``weight_concentration_min``, ``weight_concentration_max``].
     Within-bin log-scatter of the IMU statistics: half-normal(``scatter_scale``) on
     [``scatter_min``, ``scatter_max``]. ``rho ~ Uniform(-1, 1)``;
     ``tau0 ~ HalfNormal(tau0_scale_ms)``; ``kappa ~ HalfNormal(kappa_scale)``;
@@ -38,6 +42,10 @@ class Priors:
     period_min_s: float = 1.0
     period_max_s: float = 20.0
     weight_beta: float = 2.0
+    weight_concentration_median: float = 10.0
+    weight_concentration_log_sd: float = 1.0
+    weight_concentration_min: float = 0.5
+    weight_concentration_max: float = 2000.0
     scatter_scale: float = 0.3
     scatter_min: float = 0.03
     scatter_max: float = 2.0
@@ -79,10 +87,14 @@ class SamplerSettings:
         expected acceptance rate when that is below 0.5 (a posterior at a boundary or
         banana-shaped is left mostly to DE; the adaptive extension lengthens such chains).
     mixture : str
-        ``"auto"``: fit the unimodal model; if the posterior predictive check of the
-        periods' kurtosis has p < ``screen_pvalue``, also fit the two-period model and keep it if
-        PSIS-LOO prefers it by more than ``loo_threshold_se`` standard errors and it
-        converged. ``"never"`` or ``"always"`` (fit both, keep the two-period model).
+        ``"auto"``: the two-period model when at least ``two_period_min_share`` of the
+        bin's IMU records (and at least 3) have a two-peaked motion spectrum of their own
+        (``period1_s``, ``period2_s``, ``weight1`` given), else the unimodal model;
+        ``"never"``; ``"always"`` (two-period whenever 3 records are two-peaked).
+    two_period_min_share : float
+        See ``mixture``. The per-record detection calls a single-peaked sea two-peaked in
+        ~1 % of records and a wind sea plus swell in ~99 % (:func:`flidar_uq.data.imu.two_peaks`),
+        so the default 0.5 is far from both.
     max_step_factor : float
         The main phase is extended adaptively (all ensembles equally), and every
         convergence criterion (R-hat, bulk/tail ESS, ``n_autocorr``) re-checked after each
@@ -90,7 +102,7 @@ class SamplerSettings:
         autocorrelation times, at most to this many times ``nsteps`` (the stated cap; a
         criterion still missed there marks the fit failed).
     two_period_step_factor : float
-        The two-period model (6 parameters, longer autocorrelation) runs this many times
+        The two-period model (7 parameters, longer autocorrelation) runs this many times
         ``nsteps`` and ``nburn``.
     global_step_factor : float
         The global fit runs this many times ``nsteps`` and ``nburn`` (1: on a campaign its
@@ -116,8 +128,8 @@ class SamplerSettings:
     max_step_factor: float = 6.0
     global_step_factor: float = 1.0
     global_max_step_factor: float = 12.0
-    screen_pvalue: float = 0.05
     mixture: str = "auto"
+    two_period_min_share: float = 0.5
     loo_threshold_se: float = 2.0
     rhat_max: float = 1.01
     ess_min: float = 400.0
@@ -140,6 +152,10 @@ class SamplerSettings:
             raise ValueError(f"SamplerSettings: nensembles={self.nensembles} < 4 (design.md)")
         if self.mixture not in {"auto", "never", "always"}:
             raise ValueError(f"SamplerSettings: mixture={self.mixture!r} not auto/never/always")
+        if not 0.0 < self.two_period_min_share <= 1.0:
+            raise ValueError(
+                f"SamplerSettings: two_period_min_share={self.two_period_min_share} not in (0, 1]"
+            )
         if self.nsteps < 10 or self.nburn < 0 or self.nwalkers < 8:
             raise ValueError(
                 f"SamplerSettings: need nsteps >= 10, nburn >= 0, nwalkers >= 8; got "
@@ -157,8 +173,8 @@ def sample_motion_prior(rng, n, priors, ndim):
         Number of draws.
     priors : Priors
     ndim : int
-        4 (unimodal: log A, log T, log s_a, log s_T) or 6 (two-period: log A, log T1,
-        log T2, logit w, log s_a, log s_T with T1 < T2).
+        4 (unimodal: log A, log T, log s_a, log s_T) or 7 (two-period: log A, log T1,
+        log T2, logit w, log s_a, log s_T, log c with T1 < T2).
 
     Returns
     -------
@@ -180,7 +196,7 @@ def sample_motion_prior(rng, n, priors, ndim):
         trunc_lognormal(
             priors.period_median_s, priors.period_log_sd, priors.period_min_s, priors.period_max_s
         )
-        for _ in range(2 if ndim == 6 else 1)
+        for _ in range(2 if ndim == 7 else 1)
     ]
     sc = []
     for _ in range(2):
@@ -190,6 +206,20 @@ def sample_motion_prior(rng, n, priors, ndim):
         return np.column_stack([np.log(a), np.log(ts[0]), np.log(sc[0]), np.log(sc[1])])
     t1, t2 = np.minimum(ts[0], ts[1]), np.maximum(ts[0], ts[1])
     w = rng.beta(priors.weight_beta, priors.weight_beta, size=n)
+    c = trunc_lognormal(
+        priors.weight_concentration_median,
+        priors.weight_concentration_log_sd,
+        priors.weight_concentration_min,
+        priors.weight_concentration_max,
+    )
     return np.column_stack(
-        [np.log(a), np.log(t1), np.log(t2), np.log(w / (1 - w)), np.log(sc[0]), np.log(sc[1])]
+        [
+            np.log(a),
+            np.log(t1),
+            np.log(t2),
+            np.log(w / (1 - w)),
+            np.log(sc[0]),
+            np.log(sc[1]),
+            np.log(c),
+        ]
     )

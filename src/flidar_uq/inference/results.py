@@ -100,12 +100,15 @@ class BinFit(_FitBase):
     Attributes
     ----------
     draws : dict
-        ``amplitude_deg``, ``period_s`` (``period1_s``, ``period2_s``, ``weight1`` for the
-        two-period model), ``scatter_amplitude``, ``scatter_period``; each (nensembles, ndraws).
+        ``amplitude_deg``, ``period_s`` (``period1_s``, ``period2_s``, ``weight1`` (the
+        expected share of a record's tilt variance in the short-period peak) and
+        ``weight_concentration`` for the two-period model), ``scatter_amplitude``,
+        ``scatter_period``; each (nensembles, ndraws).
     info : dict
         ``bin_id``, ``model`` ("unimodal"/"two_period"), ``n_records``, ``n_imu``,
-        ``prior_only`` (no IMU statistics: posterior = prior), ``loo`` (elpd, se, p_loo,
-        max Pareto k of each model, elpd difference two_period - unimodal and its se),
+        ``prior_only`` (no IMU statistics: posterior = prior), ``loo`` (``n_two_peak`` and
+        ``two_peak_share``: the bin's IMU records with a two-peaked spectrum of their own,
+        which choose the model; elpd and max Pareto k of the chosen model),
         ``constant`` (record_index, hws_mean_ms).
     """
 
@@ -186,9 +189,7 @@ class BinFit(_FitBase):
             "n_records": self.info["n_records"],
             "n_imu": self.info["n_imu"],
             "prior_only": self.info["prior_only"],
-            "ppc_kurtosis_p": loo.get("ppc_kurtosis_p", np.nan),
-            "elpd_diff_two_period": loo.get("elpd_diff", np.nan),
-            "elpd_diff_se": loo.get("elpd_diff_se", np.nan),
+            "two_peak_share": loo.get("two_peak_share", np.nan),
             "pareto_k_max": loo.get(f"{self.model}_pareto_k_max", np.nan),
         }
         return self._summary_rows(extra)
