@@ -25,7 +25,9 @@ def test_laplace_is_exact_on_a_gaussian():
     mode, hess = laplace_approximation(_gauss_logp, (mean, prec), np.zeros(2))
     assert np.allclose(mode, mean, atol=1e-4)
     assert np.allclose(hess, prec, rtol=1e-4)
-    x, outside = normal_draws(_gauss_logp, (mean, prec), mode, hess, 20000, np.random.default_rng(0))
+    x, outside = normal_draws(
+        _gauss_logp, (mean, prec), mode, hess, 20000, np.random.default_rng(0)
+    )
     assert outside == 0.0
     assert np.allclose(np.cov(x.T), cov, atol=0.02)
 
