@@ -40,6 +40,8 @@ never ``campaign``, ``correction`` or ``workflow``. One concern per module:
 - :mod:`.bin_fit`, :mod:`.global_fit` -- the two stages (bin motion model)
 - :mod:`.record_motion`, :mod:`.record_fit` -- the record motion model: each record's
   sigma_Z from its own along-wind tilt description, and the global fit on it
+- :mod:`.laplace` -- Laplace (normal) approximation of the record model's posterior, a fast
+  stand-in for emcee that says where it breaks
 - :mod:`.predictive` -- prior predictive draws
 
 This module only re-exports the public API.

@@ -30,6 +30,11 @@ _INIT_WIDENING = 3.0
 _INDEPENDENCE_FULL_ACCEPTANCE = 0.5
 
 
+# central-difference step of the Laplace Hessian (sampler coordinates): its stencil
+# reaches 2 steps from the mode
+_HESSIAN_STEP = 1e-4
+
+
 def _fit_proposal(sampler, nens, start_frac):
     """Student-t proposal per ensemble block from a burn-in phase's samples.
 
@@ -189,21 +194,30 @@ def _extension_target(nsteps, diag, reasons, settings):
     return max(need, int(np.ceil(1.5 * nsteps)))
 
 
-def laplace_init(log_prob, args, x0, broad):
-    """Overdispersed starting positions from a widened Laplace approximation.
+def laplace_approximation(log_prob, args, x0) -> tuple[np.ndarray, np.ndarray]:
+    """Posterior mode and the Hessian of the negative log posterior there (Laplace).
 
-    The posterior mode (Nelder-Mead on ``log_prob(theta[None], *args)``, from ``x0``) and
-    the inverse of a central-difference Hessian there give a normal approximation;
-    walkers start from it with ``_INIT_WIDENING`` times its sd (overdispersed relative to
-    the posterior, so R-hat across ensembles stays meaningful, yet close enough for a
-    short burn-in). Walkers outside the support, a parameter whose mode sits on the edge
-    of the support (zero width), or all walkers when the Hessian is not positive definite
-    or the ensemble would be degenerate, start from ``broad(rng, n)`` draws instead.
+    The mode comes from Nelder-Mead on ``-log_prob(theta[None], *args)`` started at
+    ``x0`` (non-finite values count as 1e300); the Hessian from central differences
+    with step ``_HESSIAN_STEP`` (1e-4) in the sampler's coordinates. ``N(mode, inv(hessian))`` is the normal
+    (Laplace) approximation of the posterior; it is exact for a Gaussian posterior and
+    breaks where the posterior is skewed or its mode sits on (or near) the edge of the
+    support (docs/inference.md, "Method frontier").
+
+    Parameters
+    ----------
+    log_prob : callable
+        Vectorised log posterior, ``log_prob(theta (n, ndim), *args) -> (n,)``.
+    args : tuple
+        Extra arguments of ``log_prob``.
+    x0 : array_like, shape (ndim,)
+        Starting point of the mode search (sampler coordinates).
 
     Returns
     -------
-    callable
-        ``init(rng, nwalkers) -> (nwalkers, ndim)`` for :func:`_run_ensembles`.
+    mode : numpy.ndarray, shape (ndim,)
+    hessian : numpy.ndarray, shape (ndim, ndim)
+        Of ``-log_prob`` at ``mode`` (not necessarily positive definite).
     """
     x0 = np.asarray(x0, dtype=float)
     ndim = x0.size
@@ -215,7 +229,7 @@ def laplace_init(log_prob, args, x0, broad):
     mode = optimize.minimize(
         neg_lp, x0, method="Nelder-Mead", options={"xatol": 1e-5, "fatol": 1e-6, "maxiter": 4000}
     ).x
-    h = 1e-4
+    h = _HESSIAN_STEP
     hess = np.empty((ndim, ndim))
     eye = np.eye(ndim) * h
     for i in range(ndim):
@@ -226,6 +240,27 @@ def laplace_init(log_prob, args, x0, broad):
                 - neg_lp(mode - eye[i] + eye[j])
                 + neg_lp(mode - eye[i] - eye[j])
             ) / (4 * h * h)
+    return mode, hess
+
+
+def laplace_init(log_prob, args, x0, broad):
+    """Overdispersed starting positions from a widened Laplace approximation.
+
+    The posterior mode and Hessian of :func:`laplace_approximation` give a normal
+    approximation; walkers start from it with ``_INIT_WIDENING`` times its sd
+    (overdispersed relative to
+    the posterior, so R-hat across ensembles stays meaningful, yet close enough for a
+    short burn-in). Walkers outside the support, a parameter whose mode sits on the edge
+    of the support (zero width), or all walkers when the Hessian is not positive definite
+    or the ensemble would be degenerate, start from ``broad(rng, n)`` draws instead.
+
+    Returns
+    -------
+    callable
+        ``init(rng, nwalkers) -> (nwalkers, ndim)`` for :func:`_run_ensembles`.
+    """
+    mode, hess = laplace_approximation(log_prob, args, x0)
+    ndim = mode.size
     try:
         chol = np.linalg.cholesky(np.linalg.inv(hess))
     except np.linalg.LinAlgError:
