@@ -1,0 +1,76 @@
+"""The uncertainty budget: variance shares from reruns with one source held at its median."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from test_propagate import _bin_fit, _records
+
+from flidar_uq.correction.propagation import UNCERTAINTY_SOURCES, corrected_ti
+from flidar_uq.correction.uncertainty_budget import uncertainty_budget
+from flidar_uq.inference import GlobalFit
+from flidar_uq.physics.surrogate import get_surrogate
+
+
+def test_additive_sources_give_their_analytic_shares(rng):
+    """Y = A (shared by all records) + B_i (independent per record): the group mean has
+    Var = var(A) + var(B) / n, and holding either source removes exactly its part."""
+    nd, n = 20000, 25
+    a = rng.normal(0.10, 0.004, nd)
+    b = rng.normal(0.0, 0.01, (nd, n))
+    draws = {"all": a[:, None] + b, "rho": np.median(a) + b, "sampling": a[:, None] + 0 * b}
+    keys = pd.DataFrame({"height_m": np.full(n, 80.0)})
+    tab = uncertainty_budget(draws, keys, np.ones(n, bool))
+    var_a, var_b = 0.004**2, 0.01**2 / n
+    row = tab.iloc[0]
+    assert row.n == n
+    np.testing.assert_allclose(row.share_rho, var_a / (var_a + var_b), atol=0.02)
+    np.testing.assert_allclose(row.share_sampling, var_b / (var_a + var_b), atol=0.02)
+    assert abs(row.remainder) < 0.03
+    np.testing.assert_allclose(row.sd, np.sqrt(var_a + var_b), rtol=0.02)
+    assert row.width_sampling < row.width < 2 * 1.645 * np.sqrt(var_a + var_b) * 1.05
+
+
+def test_budget_of_the_propagation_finds_the_dominant_source():
+    """rho uncertain (sd 0.1), sampling noise small: rho dominates the campaign mean; for
+    a single record the sampling share grows."""
+    rng = np.random.default_rng(5)
+    shape = (4, 250)
+    gfit = GlobalFit(
+        draws={
+            "rho": np.clip(rng.normal(0.3, 0.1, shape), -0.99, 0.99),
+            "tau0_ms": np.full(shape, 1e-3),
+            "kappa": np.full(shape, 0.03),
+        },
+        log_lik=np.zeros((*shape, 1)),
+        diagnostics={},
+        failure_reasons=[],
+        info={"n_records": 1, "prior_only": False, "loo": {}},
+    )
+    rec = _records(np.linspace(0.6, 1.0, 60)).assign(height_m=np.repeat([50.0, 90.0], 30))
+    fits, sur = [_bin_fit(0, 3.0, 4.0)], get_surrogate("zephir300")
+    draws = {}
+    for k in ("all", *UNCERTAINTY_SOURCES):
+        hold = () if k == "all" else (k,)
+        pr, _, draws[k] = corrected_ti(
+            rec, fits, gfit, surrogate=sur, hold=hold, ndraws=2000, return_draws=True, seed=3
+        )
+    tab = uncertainty_budget(draws, rec[["height_m"]], pr["converged"].to_numpy())
+    assert tab["height_m"].tolist() == [50.0, 90.0]
+    assert (tab["share_rho"] > 0.8).all()
+    assert (tab["share_sampling"] < 0.15).all()
+    # motion is exact in this fit: holding it changes nothing
+    np.testing.assert_allclose(tab["share_motion"], 0.0, atol=1e-9)
+    one = uncertainty_budget(
+        {k: v[:, :1] for k, v in draws.items()}, rec[["height_m"]].iloc[:1], [True], min_count=1
+    )
+    assert one["share_sampling"].iloc[0] > tab["share_sampling"].max()
+
+
+def test_budget_rejects_unknown_sources_and_missing_full_draws():
+    keys = pd.DataFrame({"h": [1.0]})
+    with pytest.raises(ValueError, match="needs the unheld draws under 'all'"):
+        uncertainty_budget({"rho": np.zeros((3, 1))}, keys, [True])
+    with pytest.raises(ValueError, match=r"unknown sources \['wind'\]"):
+        uncertainty_budget({"all": np.zeros((3, 1)), "wind": np.zeros((3, 1))}, keys, [True])
