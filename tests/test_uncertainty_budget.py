@@ -19,9 +19,9 @@ def test_additive_sources_give_their_analytic_shares(rng):
     nd, n = 20000, 25
     a = rng.normal(0.10, 0.004, nd)
     b = rng.normal(0.0, 0.01, (nd, n))
-    draws = {"all": a[:, None] + b, "rho": np.median(a) + b, "sampling": a[:, None] + 0 * b}
-    keys = pd.DataFrame({"height_m": np.full(n, 80.0)})
-    tab = uncertainty_budget(draws, keys, np.ones(n, bool))
+    draws = {(): a[:, None] + b, ("rho",): np.median(a) + b, ("sampling",): a[:, None] + 0 * b}
+    keys = {"campaign": pd.DataFrame({"height_m": np.full(n, 80.0)})}
+    tab = uncertainty_budget(draws.get, keys, np.ones(n, bool), sources=("rho", "sampling"))
     var_a, var_b = 0.004**2, 0.01**2 / n
     row = tab.iloc[0]
     assert row.n == n
@@ -51,26 +51,28 @@ def test_budget_of_the_propagation_finds_the_dominant_source():
     rec = _records(np.linspace(0.6, 1.0, 60)).assign(height_m=np.repeat([50.0, 90.0], 30))
     fits, sur = [_bin_fit(0, 3.0, 4.0)], get_surrogate("zephir300")
     draws = {}
-    for k in ("all", *UNCERTAINTY_SOURCES):
-        hold = () if k == "all" else (k,)
-        pr, _, draws[k] = corrected_ti(
+    for hold in ((), *((k,) for k in UNCERTAINTY_SOURCES)):
+        pr, _, draws[hold] = corrected_ti(
             rec, fits, gfit, surrogate=sur, hold=hold, ndraws=2000, return_draws=True, seed=3
         )
-    tab = uncertainty_budget(draws, rec[["height_m"]], pr["converged"].to_numpy())
+    keys = {"campaign": rec[["height_m"]], "speed bin": rec[["height_m"]].assign(b=8.0)}
+    tab = uncertainty_budget(draws.get, keys, pr["converged"].to_numpy())
+    assert tab["grouping"].tolist() == ["campaign"] * 2 + ["speed bin"] * 2
+    tab = tab[tab["grouping"] == "campaign"]
     assert tab["height_m"].tolist() == [50.0, 90.0]
     assert (tab["share_rho"] > 0.8).all()
     assert (tab["share_sampling"] < 0.15).all()
     # motion is exact in this fit: holding it changes nothing
     np.testing.assert_allclose(tab["share_motion"], 0.0, atol=1e-9)
     one = uncertainty_budget(
-        {k: v[:, :1] for k, v in draws.items()}, rec[["height_m"]].iloc[:1], [True], min_count=1
+        lambda hold: draws[hold][:, :1], {"one": rec[["height_m"]].iloc[:1]}, [True], min_count=1
     )
     assert one["share_sampling"].iloc[0] > tab["share_sampling"].max()
 
 
-def test_budget_rejects_unknown_sources_and_missing_full_draws():
-    keys = pd.DataFrame({"h": [1.0]})
-    with pytest.raises(ValueError, match="needs the unheld draws under 'all'"):
-        uncertainty_budget({"rho": np.zeros((3, 1))}, keys, [True])
+def test_budget_rejects_unknown_sources_and_wrong_shapes():
+    keys = {"c": pd.DataFrame({"h": [1.0]})}
     with pytest.raises(ValueError, match=r"unknown sources \['wind'\]"):
-        uncertainty_budget({"all": np.zeros((3, 1)), "wind": np.zeros((3, 1))}, keys, [True])
+        uncertainty_budget(lambda hold: np.zeros((3, 1)), keys, [True], sources=("wind",))
+    with pytest.raises(ValueError, match=r"have shape \(3, 2\), expected \(ndraws, 1\)"):
+        uncertainty_budget(lambda hold: np.zeros((3, 2)), keys, [True])

@@ -26,7 +26,7 @@ sampling of the measured 10-min std.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -47,10 +47,11 @@ def _group_mean_draws(ti_draws: np.ndarray, codes: np.ndarray, ngroups: int) -> 
 
 
 def uncertainty_budget(
-    ti_draws: Mapping[str, np.ndarray],
-    keys: pd.DataFrame,
+    draws_for: Callable[[tuple[str, ...]], np.ndarray],
+    keys: Mapping[str, pd.DataFrame],
     usable,
     *,
+    sources: Sequence[str] = UNCERTAINTY_SOURCES,
     credible_mass: float = 0.9,
     min_count: int = 2,
 ) -> pd.DataFrame:
@@ -58,14 +59,20 @@ def uncertainty_budget(
 
     Parameters
     ----------
-    ti_draws : mapping of str -> numpy.ndarray, shape (ndraws, n_records)
-        Corrected TI draws (-): ``"all"`` with every source free and one entry per held
-        source (names from ``UNCERTAINTY_SOURCES``), all from the same seed.
-    keys : pandas.DataFrame
-        Group key columns, one row per record (e.g. ``height_m`` alone for the campaign
-        mean of each height, or ``height_m, hws_bin_ms``); NaN keys are left out.
+    draws_for : callable
+        ``draws_for(hold)`` returns the corrected TI draws (-), shape (ndraws, n_records),
+        with the sources in ``hold`` held at their median and the same random numbers for
+        every ``hold`` (e.g. :func:`flidar_uq.correction.propagation.corrected_ti` with
+        ``return_draws=True`` and a fixed seed). Called once with ``()`` and once per
+        source; each result is reduced to group means at once (memory of one draw matrix).
+    keys : mapping of str -> pandas.DataFrame
+        Groupings: name -> group key columns, one row per record (e.g. ``"campaign"``:
+        ``height_m`` alone, the campaign mean of each height; ``"speed bin"``:
+        ``height_m, hws_bin_ms``); NaN keys are left out.
     usable : array_like of bool, shape (n_records,)
         Records entering the statistic (converged, finite draws).
+    sources : sequence of str
+        The sources to hold, one at a time (default all of ``UNCERTAINTY_SOURCES``).
     credible_mass : float
         Mass of the equal-tailed intervals whose widths are reported.
     min_count : int
@@ -74,65 +81,69 @@ def uncertainty_budget(
     Returns
     -------
     pandas.DataFrame
-        One row per group: the key columns, ``n``, ``ti_mean`` (posterior median of the
-        group mean), ``width`` (its interval width, -), ``sd`` (posterior std, -), per
-        source ``share_<source>`` (``1 - Var(held) / Var(all)``) and
+        One row per group: ``grouping``, the key columns, ``n``, ``ti_mean`` (posterior
+        median of the group mean), ``width`` (its interval width, -), ``sd`` (posterior std,
+        -), per source ``share_<source>`` (``1 - Var(held) / Var(all)``) and
         ``width_<source>`` (interval width with it held), and ``remainder``
         (``1 - sum of shares``: interactions and correlated sources).
 
     Raises
     ------
     ValueError
-        If ``"all"`` is missing, a source is unknown or the shapes do not match.
+        If a source is unknown or the shapes do not match.
     """
-    if "all" not in ti_draws:
-        raise ValueError("uncertainty_budget: ti_draws needs the unheld draws under 'all'")
-    sources = [k for k in ti_draws if k != "all"]
     unknown = [k for k in sources if k not in UNCERTAINTY_SOURCES]
     if unknown:
         raise ValueError(
             f"uncertainty_budget: unknown sources {unknown}; known: {list(UNCERTAINTY_SOURCES)}"
         )
-    full = np.asarray(ti_draws["all"], dtype=float)
     usable = np.asarray(usable, dtype=bool)
-    for k, d in ti_draws.items():
-        if np.shape(d) != full.shape:
+    tables = {}
+    for name, kv in keys.items():
+        if len(kv) != usable.size:
             raise ValueError(
-                f"uncertainty_budget: draws of {k!r} have shape {np.shape(d)}, "
-                f"'all' has {full.shape}"
+                f"uncertainty_budget: {len(kv)} key rows of {name!r} for {usable.size} records"
             )
-    if len(keys) != full.shape[1] or usable.shape != (full.shape[1],):
-        raise ValueError(
-            f"uncertainty_budget: {len(keys)} key rows and {usable.size} usable flags for "
-            f"{full.shape[1]} records"
-        )
-    kv = keys.reset_index(drop=True)
-    valid = kv.notna().all(axis=1).to_numpy() & usable
-    groups = kv[valid].drop_duplicates().sort_values(list(kv.columns)).reset_index(drop=True)
-    codes = np.full(len(kv), -1)
-    codes[valid] = (
-        kv[valid].merge(groups.reset_index(), on=list(kv.columns), how="left")["index"].to_numpy()
-    )
+        kv = kv.reset_index(drop=True)
+        valid = kv.notna().all(axis=1).to_numpy() & usable
+        groups = kv[valid].drop_duplicates().sort_values(list(kv.columns)).reset_index(drop=True)
+        codes = np.full(len(kv), -1)
+        merged = kv[valid].merge(groups.reset_index(), on=list(kv.columns), how="left")
+        codes[valid] = merged["index"].to_numpy()
+        tables[name] = (groups, codes)
     q = [(1.0 - credible_mass) / 2.0, (1.0 + credible_mass) / 2.0]
+
+    def reduce(hold):
+        d = np.asarray(draws_for(hold), dtype=float)
+        if d.ndim != 2 or d.shape[1] != usable.size:
+            raise ValueError(
+                f"uncertainty_budget: draws for hold={list(hold)} have shape {d.shape}, "
+                f"expected (ndraws, {usable.size})"
+            )
+        return {n: _group_mean_draws(d, c, len(g)) for n, (g, c) in tables.items()}
 
     def width(y):
         lo, hi = np.quantile(y, q, axis=0)
         return hi - lo
 
-    y_all = _group_mean_draws(full, codes, len(groups))
-    var_all = np.var(y_all, axis=0, ddof=1)
-    out = groups.copy()
-    out["n"] = np.bincount(codes[codes >= 0], minlength=len(groups))
-    out["ti_mean"] = np.median(y_all, axis=0)
-    out["width"] = width(y_all)
-    out["sd"] = np.sqrt(var_all)
-    shares = []
-    for k in sources:
-        y = _group_mean_draws(np.asarray(ti_draws[k], dtype=float), codes, len(groups))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            share = 1.0 - np.var(y, axis=0, ddof=1) / var_all
-        out[f"share_{k}"] = share
-        out[f"width_{k}"] = width(y)
-        shares.append(share)
-    out["remainder"] = 1.0 - np.sum(shares, axis=0) if shares else np.nan
-    return out[out["n"] >= min_count].reset_index(drop=True)
+    y_all = reduce(())
+    y_held = {k: reduce((k,)) for k in sources}
+    out = []
+    for name, (groups, codes) in tables.items():
+        t = groups.copy()
+        t.insert(0, "grouping", name)
+        var_all = np.var(y_all[name], axis=0, ddof=1)
+        t["n"] = np.bincount(codes[codes >= 0], minlength=len(groups))
+        t["ti_mean"] = np.median(y_all[name], axis=0)
+        t["width"] = width(y_all[name])
+        t["sd"] = np.sqrt(var_all)
+        shares = []
+        for k in sources:
+            with np.errstate(invalid="ignore", divide="ignore"):
+                share = 1.0 - np.var(y_held[k][name], axis=0, ddof=1) / var_all
+            t[f"share_{k}"] = share
+            t[f"width_{k}"] = width(y_held[k][name])
+            shares.append(share)
+        t["remainder"] = 1.0 - np.sum(shares, axis=0) if shares else np.nan
+        out.append(t[t["n"] >= min_count])
+    return pd.concat(out, ignore_index=True)
