@@ -76,3 +76,24 @@ def test_budget_rejects_unknown_sources_and_wrong_shapes():
         uncertainty_budget(lambda hold: np.zeros((3, 1)), keys, [True], sources=("wind",))
     with pytest.raises(ValueError, match=r"have shape \(3, 2\), expected \(ndraws, 1\)"):
         uncertainty_budget(lambda hold: np.zeros((3, 2)), keys, [True])
+
+
+def test_holding_a_source_conditions_the_correlated_global_parameters(rng):
+    """kappa = 0.1 + 0.5 (rho - 0.3) + small noise in the posterior: holding rho leaves
+    kappa only its conditional spread (the small noise), around its conditional mean."""
+    from flidar_uq.correction.propagation import _held_global_draws
+
+    shape = (4, 2000)
+    rho = rng.normal(0.3, 0.05, shape)
+    kappa = 0.1 + 0.5 * (rho - 0.3) + rng.normal(0, 0.002, shape)
+    gfit = GlobalFit(
+        draws={"rho": rho, "kappa": kappa, "tau0_ms": np.full(shape, 1e-3)},
+        log_lik=np.zeros((*shape, 1)), diagnostics={}, failure_reasons=[],
+        info={"n_records": 1, "prior_only": False, "loo": {}},
+    )  # fmt: skip
+    idx = rng.choice(rho.size, 4000)
+    held = _held_global_draws(gfit, idx, {"rho"})
+    assert np.ptp(held["rho"]) == 0 and np.isclose(held["rho"][0], np.median(rho))
+    np.testing.assert_allclose(np.std(held["kappa"]), 0.002, rtol=0.1)
+    np.testing.assert_allclose(np.mean(held["kappa"]), 0.1, atol=1e-3)
+    assert _held_global_draws(gfit, idx, {"sampling"}) == {}

@@ -159,6 +159,44 @@ def point_target(
     return g_ratio, log_sd
 
 
+#: Which uncertainty source each global parameter belongs to (``hold`` of corrected_ti).
+_GLOBAL_SOURCES = {
+    "rho": "rho",
+    "kappa": "noise_model",
+    "tau0_ms": "noise_model",
+    "lever_arm_m": "motion",
+    "motion_scale": "motion",
+    "kappa_z": "motion",
+}
+
+
+def _held_global_draws(global_fit, g_idx: np.ndarray, hold) -> dict[str, np.ndarray]:
+    """Global draws with the held sources' parameters at their posterior median and the
+    others conditioned on that (Gaussian approximation of the joint posterior:
+    ``x_free - C_fh C_hh^-1 (x_held - median)``), so that holding rho also moves the
+    parameters that compensate it in the fit (e.g. the motion scale); {} if none is held."""
+    names = [n for n in _GLOBAL_SOURCES if n in global_fit.draws]
+    held = [n for n in names if _GLOBAL_SOURCES[n] in hold]
+    if not held:
+        return {}
+    free = [n for n in names if n not in held]
+    flat = np.column_stack([global_fit.flat(n) for n in names])
+    med = np.median(flat, axis=0)
+    x = flat[g_idx].copy()
+    h = [names.index(n) for n in held]
+    f = [names.index(n) for n in free]
+    if f and flat.shape[0] > len(names):
+        cov = np.cov(flat, rowvar=False)
+        c_hh = cov[np.ix_(h, h)] + 1e-12 * np.eye(len(h))
+        gain = np.linalg.solve(c_hh, cov[np.ix_(h, f)])  # (n_held, n_free)
+        x[:, f] -= (x[:, h] - med[h]) @ gain
+        for j in f:  # positive parameters stay positive; rho in (-1, 1)
+            lo, hi = (-0.999, 0.999) if names[j] == "rho" else (0.0, np.inf)
+            x[:, j] = np.clip(x[:, j], lo, hi)
+    x[:, h] = med[h]
+    return {n: x[:, k] for k, n in enumerate(names)}
+
+
 def record_flags(
     qc_reasons,
     bin_id,
@@ -274,8 +312,10 @@ def corrected_ti(
         has it already (computed here otherwise).
     hold : collection of str
         Uncertainty sources held at their median (the uncertainty budget,
-        :mod:`flidar_uq.correction.uncertainty_budget`): ``"motion"`` (each record's sigma_Z
-        at its posterior median), ``"rho"``, ``"noise_model"`` (``kappa``, ``tau0``),
+        :mod:`flidar_uq.correction.uncertainty_budget`): ``"motion"`` (the global motion
+        parameters, and each record's sigma_Z at its posterior median), ``"rho"``,
+        ``"noise_model"`` (``kappa``, ``tau0``); the other global parameters are then
+        conditioned on the held ones (Gaussian approximation of the joint posterior),
         ``"reference_response"`` (the point scatter ``e = 0``), ``"sampling"`` (``z = 0``:
         the measured 10-min std taken as noise-free). The same random numbers are drawn
         whatever is held (common random numbers: with the same ``seed`` the runs differ
@@ -348,11 +388,11 @@ def corrected_ti(
     s = records["hws_std_ms"].to_numpy(dtype=float)
     g_idx = rng.choice(global_fit.flat("rho").size, size=ndraws, replace=True)
 
+    held_globals = _held_global_draws(global_fit, g_idx, hold)
+
     def global_draws(name, source):
-        """Posterior draws of a global parameter, or its median where ``source`` is held."""
-        flat = global_fit.flat(name)
-        x = np.full(ndraws, np.median(flat)) if source in hold else flat[g_idx]
-        return x[:, None]
+        """Posterior draws of a global parameter (conditioned on the held ones)."""
+        return held_globals.get(name, global_fit.flat(name)[g_idx])[:, None]
 
     rho = global_draws("rho", "rho")
     kappa = global_draws("kappa", "noise_model")

@@ -10,13 +10,15 @@ is
 
     share_k = 1 - Var(Y | k held) / Var(Y),
 
-the fraction of the posterior variance that would go if ``k`` were known exactly. For a
-statistic linear in independent sources the shares are the first-order Sobol indices and
-sum to 1; otherwise they need not: interactions between sources make the sum exceed or fall
-short of 1, and posterior correlation between sources (e.g. rho against the motion scale,
-which compensate each other in the fit) can make a share negative (holding one source
-removes the compensation). The table gives the remainder ``1 - sum`` so that this is seen,
-and the interval width with each source held.
+the fraction of the posterior variance that would go if ``k`` were known exactly. The
+global parameters of the other sources are conditioned on the held value (Gaussian
+approximation of their joint posterior), so that a source's share includes what the
+parameters correlated with it (e.g. the motion scale, which compensates rho in the fit)
+would lose with it. For a statistic linear in independent sources the shares are the
+first-order Sobol indices and sum to 1; otherwise they need not: correlated sources explain
+the same part of the variance (the sum exceeds 1) and interactions make it fall short. The
+table gives the remainder ``1 - sum`` so that this is seen, and the interval width with each
+source held.
 
 The sources are :data:`flidar_uq.correction.propagation.UNCERTAINTY_SOURCES`: the motion
 description (sigma_Z), rho, the noise model (kappa, tau0), the reference's response to
