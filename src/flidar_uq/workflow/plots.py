@@ -143,7 +143,7 @@ def ti_speed_bins_figure(
         The bands are the credible intervals of the bin mean and of the bin's
         representative TI (from the draws of the bin statistic), as the legend says.
     """
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    fig, ax = plt.subplots(figsize=(10.5, 4.5))
     b = speed_bins[np.isfinite(speed_bins["ti_mean"])].sort_values("hws_bin_ms")
     if records is not None and len(records):
         ax.plot(
@@ -167,7 +167,7 @@ def ti_speed_bins_figure(
     ax.plot(v, b["ti_mean_uncorrected"], "--", color="k", lw=1, label="uncorrected bin mean")
     ax.plot(v, b["ti_rep_uncorrected"], ":", color="k", lw=1.2, label="uncorrected repr. TI")
     if truth is not None and len(truth):
-        t = truth.sort_values("hws_bin_ms")
+        t = truth[truth["hws_bin_ms"].isin(b["hws_bin_ms"])].sort_values("hws_bin_ms")
         ax.plot(t["hws_bin_ms"], t["ti_mean"], "x", color="tab:red", ms=5, label="true bin mean")
         ax.plot(t["hws_bin_ms"], t["ti_rep"], "+", color="tab:red", ms=6, label="true repr. TI")
     vv = np.linspace(
@@ -186,7 +186,7 @@ def ti_speed_bins_figure(
     ax.set_ylabel("TI [-]")
     ax.set_title(title + " (green: IEC 61400-1 ed. 4 categories, representative TI)", fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=2, loc="upper right")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     return fig
 

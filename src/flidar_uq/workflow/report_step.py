@@ -194,6 +194,27 @@ def _truth_speed_bins(records: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame({"ti_mean": g.mean(), "ti_rep": g.agg(representative_ti)}).reset_index()
 
 
+def _truth_check(speed_bins: pd.DataFrame, truth_bins: pd.DataFrame) -> str:
+    """How often the bin-statistic intervals hold the true statistic (virtual campaigns)."""
+    m = speed_bins.merge(truth_bins, on=["height_m", "hws_bin_ms"], suffixes=("", "_true"))
+    m = m.dropna(subset=["ti_mean", "ti_mean_true"])
+    parts = []
+    for stat, name in (("ti_mean", "mean"), ("ti_rep", "representative TI")):
+        inside = (m[f"{stat}_lo"] <= m[f"{stat}_true"]) & (m[f"{stat}_true"] <= m[f"{stat}_hi"])
+        err = float(np.mean(m[stat] / m[f"{stat}_true"] - 1.0)) if len(m) else np.nan
+        parts.append(
+            f"the interval of the bin {name} holds the true value in {int(inside.sum())} of "
+            f"{len(m)} bins (mean relative error {100 * err:+.1f} %)"
+        )
+    return (
+        "Against the virtual campaign's truth: "
+        + "; ".join(parts)
+        + ". The bin-statistic intervals carry the posterior uncertainty only; a systematic "
+        "model error of a few tenths of a percent, small against the per-record intervals, "
+        "is of the order of these narrow intervals."
+    )
+
+
 def _speed_bin_table(b: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(
         {
@@ -368,7 +389,7 @@ def build_report(
                 + f"; global fit {'converged' if gfit.converged else 'NOT converged'}",
             ),
         ],
-        columns=["", ""],
+        columns=["item", "value"],
     )
     summary_html = (
         rep.templates()
@@ -409,6 +430,8 @@ def build_report(
             caption=f"{h:g} m: TI per 1-m/s bin ({mass:.0%} intervals of the bin statistic)",
         )
     body += _link_note(len(speed_bins), len(speed_bins), "ti/speed_bins.csv")
+    if len(truth_bins):
+        body += f"<p>{_truth_check(speed_bins, truth_bins)}</p>"
     sections.append(rep.Section("Turbulence intensity per height and speed bin", body))
 
     # ------------------------------------------------------------------ sectors and sea states
