@@ -336,7 +336,7 @@ def test_tiny_end_to_end_rerun_nothing_clean_rerun_identical(tmp_path):
     assert "sha256" in html and "requirements.lock" in html
     sb = pd.read_csv(a / "results" / "ti" / "speed_bins.csv")
     assert set(sb["height_m"]) == set(TINY_SCENARIO["heights_m"])
-    snakemake(a, cfg_a, "results/report/developer.html", "--cores", "1")
+    snakemake(a, cfg_a, "--cores", "1", "results/report/developer.html")
     dev = (a / "results" / "report" / "developer.html").read_text()
     assert dev.count("<img ") == len(list((tmp_path / "benchmark_charts").glob("*.png")))
     assert (
