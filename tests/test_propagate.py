@@ -88,7 +88,7 @@ def test_point_posterior_reproduces_deployment_formula(surrogate):
     # the seed baselines use the bin's median IMU statistics: same sZ here; U law = rho 0
     np.testing.assert_allclose(pr.ti_u, corrected_std(rec.hws_std_ms, sz, 0.0)[0] / rec.hws_mean_ms)
     assert {"ti_c", "ti_pc", "rho_seed"} <= set(pr.columns)
-    assert len(pb) == 1 and pb.n_records.iloc[0] == 3
+    assert len(pb) == 1 and pb.n.iloc[0] == 3
 
 
 def test_stability_sigma_moving_below_sigma_z_flagged(surrogate):
@@ -233,5 +233,71 @@ def test_speed_bins_use_the_package_speed_bin_rule(surrogate):
     _, pb = corrected_ti(
         rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.3), surrogate=surrogate, seed=6
     )
-    assert pb["speed_bin_ms"].tolist() == [9.0]
-    assert pb["n_records"].tolist() == [2]
+    assert pb["hws_bin_ms"].tolist() == [9.0]
+    assert pb["n"].tolist() == [2]
+
+
+def test_speed_bins_per_height_with_the_issue_columns(surrogate):
+    rec = pd.concat(
+        [_records([0.6, 0.7, 0.8]).assign(height_m=h) for h in (40.0, 100.0)], ignore_index=True
+    )
+    _, pb = corrected_ti(
+        rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.3, 0.02, 0.05), surrogate=surrogate, seed=7
+    )
+    cols = "height_m, hws_bin_ms, n, ti_mean, ti_mean_lo, ti_mean_hi, ti_rep, ti_rep_lo, "
+    cols += "ti_rep_hi, ti_p90, ti_p90_lo, ti_p90_hi"
+    assert list(pb.columns[:12]) == cols.split(", ")
+    assert {"ti_mean_uncorrected", "ti_rep_uncorrected", "ti_p90_uncorrected"} <= set(pb)
+    assert pb["height_m"].tolist() == [40.0, 100.0] and pb["n"].tolist() == [3, 3]
+    for s in ("ti_mean", "ti_rep", "ti_p90"):
+        assert (pb[f"{s}_lo"] < pb[s]).all() and (pb[s] < pb[f"{s}_hi"]).all()
+
+
+def test_bin_statistic_interval_is_the_quantile_of_the_statistic_draws(surrogate):
+    """The interval on a bin's mean TI comes from the draws of the bin mean (computed here
+    directly from the draw matrix), not from the average of the records' intervals, which
+    is several times wider when the records' errors are independent."""
+    rec = _records(np.linspace(0.6, 1.0, 40))
+    pr, pb, draws = corrected_ti(
+        rec,
+        [_bin_fit(0, 3.0, 4.0)],
+        _global_fit(0.3, 0.02, 0.08),
+        surrogate=surrogate,
+        ndraws=2000,
+        return_draws=True,
+        seed=8,
+    )
+    assert draws.shape == (2000, 40)
+    mean_draws = draws.mean(axis=1)
+    lo, med, hi = np.quantile(mean_draws, [0.05, 0.5, 0.95])
+    row = pb.iloc[0]
+    np.testing.assert_allclose([row.ti_mean_lo, row.ti_mean, row.ti_mean_hi], [lo, med, hi])
+    rep = mean_draws + 1.28 * draws.std(axis=1, ddof=1)
+    np.testing.assert_allclose(
+        [row.ti_rep_lo, row.ti_rep_hi], np.quantile(rep, [0.05, 0.95]), rtol=1e-12
+    )
+    p90 = np.quantile(draws, 0.9, axis=1)
+    np.testing.assert_allclose([row.ti_p90_lo, row.ti_p90_hi], np.quantile(p90, [0.05, 0.95]))
+    # 40 records with independent sampling noise: the mean's interval is much narrower
+    avg_record_width = float((pr.ti_corrected_hi - pr.ti_corrected_lo).mean())
+    assert row.ti_mean_hi - row.ti_mean_lo < 0.4 * avg_record_width
+    np.testing.assert_allclose(row.ti_mean_uncorrected, pr.ti_uncorrected.mean())
+
+
+def test_hold_removes_a_source_and_only_that_source(surrogate):
+    """Common random numbers: holding the sampling noise leaves only rho's spread (zero
+    here), holding rho (constant) changes nothing; an unknown source is an error."""
+    rec = _records([0.7, 0.8])
+    fits, g = [_bin_fit(0, 3.0, 4.0)], _global_fit(0.3, 0.02, 0.08)
+    _, _, full = corrected_ti(rec, fits, g, surrogate=surrogate, return_draws=True, seed=9)
+    _, _, rho = corrected_ti(
+        rec, fits, g, surrogate=surrogate, return_draws=True, hold={"rho"}, seed=9
+    )
+    _, _, both = corrected_ti(
+        rec, fits, g, surrogate=surrogate, hold={"sampling", "noise_model"}, return_draws=True,
+        seed=9,
+    )  # fmt: skip
+    np.testing.assert_array_equal(full, rho)
+    assert np.ptp(both, axis=0).max() < 1e-9 < np.ptp(full, axis=0).min()
+    with pytest.raises(ValueError, match=r"hold=\['wind'\] must be among"):
+        corrected_ti(rec, fits, g, surrogate=surrogate, hold={"wind"}, seed=9)

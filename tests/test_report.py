@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from conftest import require_tool
+from markupsafe import Markup
 
 from flidar_uq.workflow import plots
 from flidar_uq.workflow import report as rep
@@ -56,6 +57,43 @@ def chromium_image_widths(html_path: Path, work_dir: Path | None = None) -> list
     return [int(w) for w in m.group(1).split(",") if w]
 
 
+#: Appended to a copy of the report: page width, viewport and where the summary ends.
+_LAYOUT_PROBE = (
+    "<script>window.addEventListener('load',()=>{const s=document.getElementById('summary');"
+    "const r=s?s.getBoundingClientRect():{top:-1,bottom:-1};const b=document.body;"
+    "b.setAttribute('data-layout',[document.documentElement.scrollWidth,window.innerWidth,"
+    "window.innerHeight,Math.round(r.top),Math.round(r.bottom)].join(','));"
+    "b.setAttribute('data-h2',Array.from(document.querySelectorAll('h2')).map(h=>h.textContent)"
+    ".join('|'));});</script>"
+)
+
+
+def chromium_layout(html_path: Path, work_dir: Path, width: int = 1280, height: int = 1000):
+    """Page scroll width, viewport width/height, the summary's top/bottom (px) and the h2 titles."""
+    probe = work_dir / (html_path.stem + "_layout.html")
+    probe.write_text(html_path.read_text().replace("</body>", _LAYOUT_PROBE + "</body>"))
+    proc = _chromium(
+        [f"--window-size={width},{height}", "--virtual-time-budget=10000", "--dump-dom",
+         probe.as_uri()]
+    )  # fmt: skip
+    m = re.search(r'data-layout="([^"]*)"', proc.stdout)
+    assert m, f"layout probe not found; chromium stderr: {proc.stderr[-2000:]}"
+    scroll_w, view_w, view_h, top, bottom = (int(v) for v in m.group(1).split(","))
+    titles = re.search(r'data-h2="([^"]*)"', proc.stdout).group(1).split("|")
+    return {"scroll_width": scroll_w, "view_width": view_w, "view_height": view_h,
+            "summary_top": top, "summary_bottom": bottom, "h2": titles}  # fmt: skip
+
+
+def assert_report_layout(html_path: Path, tmp_path: Path, sections=()) -> None:
+    """At 1280 x 1000 px: no horizontal overflow, the summary is on the first screen
+    (its headline table above the fold), and the named sections are there."""
+    lay = chromium_layout(html_path, tmp_path)
+    assert lay["scroll_width"] <= lay["view_width"], lay
+    assert 0 <= lay["summary_top"] and lay["summary_bottom"] <= lay["view_height"], lay
+    for title in ("Summary", *sections):
+        assert title in lay["h2"], (title, lay["h2"])
+
+
 def chromium_screenshot(html_path: Path, png_path: Path) -> np.ndarray:
     """Screenshot of the page as an RGB(A) float array in [0, 1]."""
     proc = _chromium([f"--screenshot={png_path}", "--window-size=1200,2400", html_path.as_uri()])
@@ -92,25 +130,57 @@ def synthetic_records(rng: np.random.Generator, n: int = 200) -> pd.DataFrame:
     )
 
 
+def synthetic_speed_bins(recs: pd.DataFrame) -> pd.DataFrame:
+    """speed_bins.csv-like rows of one height from synthetic records (narrow bin intervals)."""
+    from flidar_uq.data.binning import speed_bin_ms
+
+    g = recs.assign(hws_bin_ms=speed_bin_ms(recs["hws_mean_ms"])).groupby("hws_bin_ms")
+    b = pd.DataFrame(
+        {
+            "ti_mean": g["ti_corrected_median"].mean(),
+            "ti_rep": g["ti_corrected_median"].mean() + 1.28 * g["ti_corrected_median"].std(),
+            "ti_mean_uncorrected": g["ti_uncorrected"].mean(),
+        }
+    ).reset_index()
+    b["ti_rep_uncorrected"] = b["ti_rep"] + 0.02
+    for c in ("ti_mean", "ti_rep"):
+        b[f"{c}_lo"], b[f"{c}_hi"] = b[c] - 0.002, b[c] + 0.002
+    return b
+
+
 def small_report(rng: np.random.Generator) -> str:
     recs = synthetic_records(rng)
-    fig = plots.ti_vs_hws_figure(recs, credible_mass=0.9)
+    fig = plots.ti_speed_bins_figure(synthetic_speed_bins(recs), recs, credible_mass=0.9)
     table = pd.DataFrame({"method": ["uncorrected", "Bayesian"], "md_ti": [0.02, np.nan]})
+    summary = (
+        rep.templates()
+        .get_template("sections/summary.html.j2")
+        .render(
+            facts=Markup(rep.table_html(pd.DataFrame({"": ["heights (m)"], " ": ["85"]}))),
+            headline=Markup(rep.table_html(table, caption="headline")),
+            warnings=["Model discrepancy: motion_scale 1.40 outside [0.8, 1.25]."],
+            top_flags=[("(none: corrected)", 190), ("sv", 10)],
+            loo="",
+        )
+    )
+    wide = pd.DataFrame(rng.normal(size=(3, 40)), columns=[f"column_{k}" for k in range(40)])
     sections = [
         rep.Section("figure", rep.img_html(rep.figure_to_data_uri(fig), "TI against HWS")),
+        rep.Section("wide table", rep.table_html(wide, caption="40 columns scroll in their box")),
         rep.Section("table", rep.table_html(table, caption="MD")),
         rep.Section(
             "provenance",
             rep.provenance_html({"campaign": {"seed": 1}}, "abc123", rep.package_versions()),
         ),
     ]
-    return rep.render_html("test report", sections)
+    return rep.render_html("test report", sections, intro_html=summary)
 
 
 def test_figure_png_is_deterministic_and_decodes(rng):
     recs = synthetic_records(rng)
-    a = rep.figure_to_data_uri(plots.ti_vs_hws_figure(recs, credible_mass=0.9))
-    b = rep.figure_to_data_uri(plots.ti_vs_hws_figure(recs, credible_mass=0.9))
+    bins = synthetic_speed_bins(recs)
+    a = rep.figure_to_data_uri(plots.ti_speed_bins_figure(bins, recs, credible_mass=0.9))
+    b = rep.figure_to_data_uri(plots.ti_speed_bins_figure(bins, recs, credible_mass=0.9))
     assert a == b
     png = base64.b64decode(a.split(",", 1)[1])
     img = matplotlib.image.imread(io.BytesIO(png), format="png")
@@ -144,6 +214,19 @@ def test_report_rendered_by_headless_chromium(rng, tmp_path):
     path = tmp_path / "report.html"
     path.write_text(small_report(rng))
     assert_report_renders(path, tmp_path)
+    assert_report_layout(path, tmp_path, sections=("figure", "wide table", "provenance"))
+
+
+def test_layout_probe_detects_overflow_and_a_summary_below_the_fold(tmp_path):
+    """The layout check can fail: a 3000-px-wide element and a summary after 2000 px."""
+    path = tmp_path / "bad.html"
+    path.write_text(
+        '<!DOCTYPE html><html><body><div style="height:2000px;width:3000px">x</div>'
+        '<section id="summary"><h2>Summary</h2></section></body></html>'
+    )
+    lay = chromium_layout(path, tmp_path)
+    assert lay["scroll_width"] > lay["view_width"] == 1280
+    assert lay["summary_top"] > lay["view_height"]
 
 
 def test_chromium_probe_detects_a_broken_image(tmp_path):
@@ -156,10 +239,30 @@ def test_chromium_probe_detects_a_broken_image(tmp_path):
 
 
 @pytest.mark.parametrize("credible_mass", [0.5, 0.9])
-def test_ti_vs_hws_figure_handles_no_corrected_records(credible_mass):
-    recs = synthetic_records(np.random.default_rng(1), 5).assign(ti_corrected_median=np.nan)
-    fig = plots.ti_vs_hws_figure(recs, credible_mass=credible_mass)
-    assert fig.axes[0].get_xlabel() == "HWS [m/s]"
+def test_ti_speed_bins_figure_draws_the_interval_of_the_bin_mean(credible_mass):
+    """The shaded band of the bin mean is the speed_bins interval (what the legend says),
+    not an average of the records' intervals; the IEC curves follow I_ref (0.75 + 5.6/V)."""
+    recs = synthetic_records(np.random.default_rng(1), 300)
+    bins = synthetic_speed_bins(recs)
+    fig = plots.ti_speed_bins_figure(bins, recs, credible_mass=credible_mass)
+    ax = fig.axes[0]
+    band = ax.collections[0].get_paths()[0].vertices
+    inside = band[(band[:, 0] > 5) & (band[:, 0] < 15)]
+    half = np.ptp(inside[:, 1].reshape(-1)) if len(inside) else 1.0
+    assert half < 0.2  # the band spans the bin means +-0.002, not the records' spread
+    ys = np.unique(np.round(band[:, 1], 6))
+    expected = np.round(np.r_[bins["ti_mean_lo"], bins["ti_mean_hi"]], 6)
+    assert np.isin(ys, expected).all()
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert f"corrected bin mean, {credible_mass:.0%} interval of the mean" in labels
+    np.testing.assert_allclose(plots.iec_representative_ti(15.0, 0.16), 0.16 * (0.75 + 5.6 / 15))
+    assert ax.get_xlabel() == "HWS bin [m/s]"
+
+
+def test_ti_speed_bins_figure_handles_an_empty_height():
+    empty = synthetic_speed_bins(synthetic_records(np.random.default_rng(1), 5)).iloc[:0]
+    fig = plots.ti_speed_bins_figure(empty, None, credible_mass=0.9)
+    assert fig.axes[0].get_ylabel() == "TI [-]"
 
 
 def test_calibration_figure_reports_the_coverage_it_draws(rng):
@@ -201,8 +304,10 @@ def test_templates_and_captions_ship_with_the_package():
     captions = [p.name.removesuffix(".txt.j2") for p in (root / "captions").iterdir()]
     assert "metrics" in captions and "bin_table" in captions
     values = {"mass": 0.9, "n_hidden": 3, "label": "truth", "rho_pc": 0.78, "rho_src": "seed 000"}
+    values |= {"height": "85", "min_count": 10, "names": "rho, kappa"}
     for name in captions:
         text = rep.caption(name, bin_id=7, **values)
         assert text and "{" not in text and "\n" not in text, name
-    assert "90%" in rep.caption("ti_vs_hws", mass=0.9)
+    assert "90%" in rep.caption("ti_speed_bins", mass=0.9, height="85")
+    assert "(rho, kappa, kappa_z)" in rep.caption("global_posterior", names="rho, kappa, kappa_z")
     assert "rho = 0.78 (seed 000)" in rep.caption("sigma_scatter", **values)

@@ -292,6 +292,20 @@ def check_outputs(workdir: Path, *, truth: bool) -> pd.DataFrame:
     assert (ok["ti_corrected_median"] <= ok["ti_corrected_hi"]).all()
     for log_dir in ("logs", "benchmarks"):
         assert any((res / log_dir).iterdir())
+    # issue 14: TI statistics per height and speed bin with intervals of the statistic
+    sb = pd.read_csv(res / "ti" / "speed_bins.csv")
+    cols = "height_m, hws_bin_ms, n, ti_mean, ti_mean_lo, ti_mean_hi, ti_rep, ti_rep_lo, "
+    cols += "ti_rep_hi, ti_p90, ti_p90_lo, ti_p90_hi"
+    assert list(sb.columns[:12]) == cols.split(", ")
+    assert set(sb["height_m"]) == set(records.loc[corrected, "height_m"])
+    full = sb.dropna(subset=["ti_mean"])
+    for stat in ("ti_mean", "ti_rep", "ti_p90"):
+        assert (full[f"{stat}_lo"] <= full[stat]).all() and (full[stat] <= full[f"{stat}_hi"]).all()
+    groups = pd.read_csv(res / "ti" / "groups.csv")
+    assert {"campaign", "direction sector", "sea state"} <= set(groups["grouping"])
+    budget = pd.read_csv(res / "ti" / "uncertainty_budget.csv")
+    assert "campaign" in set(budget["grouping"])
+    assert ("speed bin" in set(budget["grouping"])) == bool((sb["n"] >= 10).any())
     return records
 
 
@@ -303,10 +317,29 @@ def test_tiny_end_to_end_rerun_nothing_clean_rerun_identical(tmp_path):
     cfg_a, cfg_b = tiny_config(a, tmp_path), tiny_config(b, tmp_path)
     snakemake(a, cfg_a, "--cores", "2")
     check_outputs(a, truth=True)
-    from test_report import assert_report_renders
+    from test_report import assert_report_layout, assert_report_renders
 
     assert_report_renders(a / "results" / "report" / "report.html", tmp_path)
+    sections = (
+        "Turbulence intensity per height and speed bin",
+        "Direction sectors and sea states",
+        "Uncertainty budget",
+        "How to cite",
+        "Provenance and how to rerun",
+    )
+    assert_report_layout(a / "results" / "report" / "report.html", tmp_path, sections)
     html = (a / "results" / "report" / "report.html").read_text()
+    # issue 14: no development benchmark in the user's report; they are in the developer one
+    for png in (tmp_path / "benchmark_charts").glob("*.png"):
+        assert png.name not in html
+    assert "Speed-accuracy" not in html
+    assert "sha256" in html and "requirements.lock" in html
+    sb = pd.read_csv(a / "results" / "ti" / "speed_bins.csv")
+    assert set(sb["height_m"]) == set(TINY_SCENARIO["heights_m"])
+    snakemake(a, cfg_a, "--cores", "1", "results/report/developer.html")
+    dev = (a / "results" / "report" / "developer.html").read_text()
+    assert dev.count("<img ") == len(list((tmp_path / "benchmark_charts").glob("*.png")))
+    (a / "results" / "report" / "developer.html").unlink()  # on demand: not in run b
     assert (
         "data:image/png;base64," in html
         and "<script" not in html
@@ -319,6 +352,7 @@ def test_tiny_end_to_end_rerun_nothing_clean_rerun_identical(tmp_path):
     snakemake(a, cfg_a, "--report", str(tmp_path / "snakemake_report.html"))
     smk_report = (tmp_path / "snakemake_report.html").read_text()
     assert "credible mass" in smk_report and "metrics.csv" in smk_report
+    assert "speed_bins.csv" in smk_report and "uncertainty_budget.csv" in smk_report
     # a clean rerun elsewhere gives byte-identical results
     snakemake(b, cfg_b, "--cores", "2")
     ha, hb = result_hashes(a), result_hashes(b)

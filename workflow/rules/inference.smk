@@ -108,8 +108,18 @@ rule propagate:
         metrics=report(
             "results/ti/metrics.csv", caption="../report/metrics.rst", category="Corrected TI"
         ),
+        groups=report(
+            "results/ti/groups.csv", caption="../report/groups.rst", category="Corrected TI"
+        ),
+        budget=report(
+            "results/ti/uncertainty_budget.csv",
+            caption="../report/uncertainty_budget.rst",
+            category="Corrected TI",
+        ),
     params:
         propagation=propagation_params(),
+        sector_width_deg=config["report"]["sector_width_deg"],
+        group_min_count=config["report"]["group_min_count"],
         qc=config["qc"],
         lidar=config["campaign"]["lidar"],
         seed=config["inference"]["seed"],

@@ -1,4 +1,5 @@
-# The self-contained HTML report.
+# The self-contained HTML report of the user's campaign, and (on demand) the developer
+# report of the project's own benchmarks: `snakemake results/report/developer.html`.
 
 
 rule report:
@@ -7,6 +8,8 @@ rule report:
         bins="results/ti/bins.csv",
         metrics="results/ti/metrics.csv",
         speed_bins="results/ti/speed_bins.csv",
+        groups="results/ti/groups.csv",
+        budget="results/ti/uncertainty_budget.csv",
         table="results/bins/table.csv",
         sigma_z="results/bins/sigma_z.csv",
         qc_summary="results/qc/summary.csv",
@@ -14,6 +17,8 @@ rule report:
         bin_fits="results/inference/bin_fits.csv",
         global_summary="results/inference/global.csv",
         posterior="results/posterior/global.nc",
+        campaign="results/campaign/records.csv",
+        validated="results/data/records.csv",
         batches=expand("results/inference/batch_{batch}", batch=BATCHES),
     output:
         report(
@@ -21,8 +26,10 @@ rule report:
         ),
     params:
         config=config,
-        benchmarks_dir=os.path.join(REPO, config["report"]["benchmarks_dir"]),
         repo=REPO,
+        user_records=config["campaign"]["records"] if config["campaign"]["source"] == "files" else "",
+        lock_file=os.path.join(REPO, "requirements.lock"),
+        frontier_png=os.path.join(REPO, config["report"]["benchmarks_dir"], "method_frontier.png"),
     conda:
         "../envs/flidar_uq.yaml"
     log:
@@ -31,3 +38,17 @@ rule report:
         "results/benchmarks/report.tsv"
     script:
         "../scripts/report.py"
+
+
+rule developer_report:
+    output:
+        "results/report/developer.html",
+    params:
+        benchmarks_dir=os.path.join(REPO, config["report"]["benchmarks_dir"]),
+        repo=REPO,
+    conda:
+        "../envs/flidar_uq.yaml"
+    log:
+        "results/logs/developer_report.log",
+    script:
+        "../scripts/developer_report.py"

@@ -5,11 +5,17 @@ from flidar_uq.workflow.report_step import build_report, git_revision
 
 snakemake = globals()["snakemake"]  # injected by the script directive
 setup_logging(snakemake.log[0])
+inputs = {"results/campaign/records.csv (input records)": snakemake.input.campaign}
+if snakemake.params.user_records:
+    inputs = {snakemake.params.user_records: snakemake.params.user_records} | inputs
+inputs["results/data/records.csv (validated)"] = snakemake.input.validated
+inputs["requirements.lock"] = snakemake.params.lock_file
 build_report(
     out_path=snakemake.output[0],
     results_dir="results",
     batch_dirs=list(snakemake.input.batches),
     config=dict(snakemake.params.config),
-    benchmarks_dir=snakemake.params.benchmarks_dir,
     git_revision=git_revision(snakemake.params.repo),
+    input_files=inputs,
+    frontier_png=snakemake.params.frontier_png,
 )

@@ -25,18 +25,34 @@ rho (correlation over bins of reference HWS and E(Z), Sec. 3.2).
 
 from __future__ import annotations
 
+from collections.abc import Collection
+
 import numpy as np
 import pandas as pd
 
 from flidar_uq.data.binning import speed_bin_ms
-from flidar_uq.data.metrics import representative_ti
+from flidar_uq.data.metrics import REPRESENTATIVE_TI_FACTOR, representative_ti
 from flidar_uq.inference import effective_sigma_z_ms, imu_observations, is_record_model
 from flidar_uq.inference.record_motion import record_motion
 from flidar_uq.physics.surrogate import default_surrogate
 from flidar_uq.physics.variance_laws import corrected_std, rho_bin_correlation
 from flidar_uq.seeding import as_seedsequence
 
-__all__ = ["corrected_ti", "point_target", "record_flags", "variance_law_baselines"]
+__all__ = [
+    "UNCERTAINTY_SOURCES",
+    "corrected_ti",
+    "point_target",
+    "record_flags",
+    "ti_group_statistics",
+    "variance_law_baselines",
+]
+
+#: Sources of the corrected TI's uncertainty that :func:`corrected_ti` can hold at their
+#: median (``hold``): the motion description (sigma_Z: motion parameters, lever arm,
+#: motion scale, record-level motion error), rho, the noise model's parameters (kappa,
+#: tau0), the reference's response to turbulence (the point scatter of g), and the
+#: sampling of the measured 10-min std.
+UNCERTAINTY_SOURCES = ("motion", "rho", "noise_model", "reference_response", "sampling")
 
 #: Records propagated together by the record motion model (bounds the draws' memory:
 #: ndraws x chunk floats per array).
@@ -143,6 +159,44 @@ def point_target(
     return g_ratio, log_sd
 
 
+#: Which uncertainty source each global parameter belongs to (``hold`` of corrected_ti).
+_GLOBAL_SOURCES = {
+    "rho": "rho",
+    "kappa": "noise_model",
+    "tau0_ms": "noise_model",
+    "lever_arm_m": "motion",
+    "motion_scale": "motion",
+    "kappa_z": "motion",
+}
+
+
+def _held_global_draws(global_fit, g_idx: np.ndarray, hold) -> dict[str, np.ndarray]:
+    """Global draws with the held sources' parameters at their posterior median and the
+    others conditioned on that (Gaussian approximation of the joint posterior:
+    ``x_free - C_fh C_hh^-1 (x_held - median)``), so that holding rho also moves the
+    parameters that compensate it in the fit (e.g. the motion scale); {} if none is held."""
+    names = [n for n in _GLOBAL_SOURCES if n in global_fit.draws]
+    held = [n for n in names if _GLOBAL_SOURCES[n] in hold]
+    if not held:
+        return {}
+    free = [n for n in names if n not in held]
+    flat = np.column_stack([global_fit.flat(n) for n in names])
+    med = np.median(flat, axis=0)
+    x = flat[g_idx].copy()
+    h = [names.index(n) for n in held]
+    f = [names.index(n) for n in free]
+    if f and flat.shape[0] > len(names):
+        cov = np.cov(flat, rowvar=False)
+        c_hh = cov[np.ix_(h, h)] + 1e-12 * np.eye(len(h))
+        gain = np.linalg.solve(c_hh, cov[np.ix_(h, f)])  # (n_held, n_free)
+        x[:, f] -= (x[:, h] - med[h]) @ gain
+        for j in f:  # positive parameters stay positive; rho in (-1, 1)
+            lo, hi = (-0.999, 0.999) if names[j] == "rho" else (0.0, np.inf)
+            x[:, j] = np.clip(x[:, j], lo, hi)
+    x[:, h] = med[h]
+    return {n: x[:, k] for k, n in enumerate(names)}
+
+
 def record_flags(
     qc_reasons,
     bin_id,
@@ -220,8 +274,10 @@ def corrected_ti(
     lidar_std_ratio=None,
     point_log_sd=None,
     baseline: tuple[np.ndarray, float] | None = None,
+    hold: Collection[str] = (),
+    return_draws: bool = False,
     seed,
-) -> tuple[pd.DataFrame, pd.DataFrame]:
+):
     """Corrected std and TI as posterior draws, summarised per record and per speed bin.
 
     Parameters
@@ -254,6 +310,18 @@ def corrected_ti(
     baseline : (numpy.ndarray, float), optional
         :func:`variance_law_baselines` of ``records`` with the same surrogate, when the caller
         has it already (computed here otherwise).
+    hold : collection of str
+        Uncertainty sources held at their median (the uncertainty budget,
+        :mod:`flidar_uq.correction.uncertainty_budget`): ``"motion"`` (the global motion
+        parameters, and each record's sigma_Z at its posterior median), ``"rho"``,
+        ``"noise_model"`` (``kappa``, ``tau0``); the other global parameters are then
+        conditioned on the held ones (Gaussian approximation of the joint posterior),
+        ``"reference_response"`` (the point scatter ``e = 0``), ``"sampling"`` (``z = 0``:
+        the measured 10-min std taken as noise-free). The same random numbers are drawn
+        whatever is held (common random numbers: with the same ``seed`` the runs differ
+        only by the held source).
+    return_draws : bool
+        Also return the draw matrix of the corrected TI.
     seed : int or numpy.random.SeedSequence
 
     Returns
@@ -270,9 +338,14 @@ def corrected_ti(
         ``ti_u``, ``ti_c``, ``ti_pc``, ``rho_seed`` (seed 000's laws, as published: they
         estimate the reference instrument's std).
     per_bin : pandas.DataFrame
-        One row per speed bin: ``speed_bin_ms``, ``n_records``, ``n_not_converged``
-        (excluded), ``ti_mean_{median,lo,hi}``, ``ti_rep_{median,lo,hi}`` (representative
-        TI, mean + 1.28 std), ``ti_rep_uncorrected``, ``ti_rep_u``, ``ti_rep_c``, ``ti_rep_pc``.
+        One row per height and speed bin (``height_m``, ``hws_bin_ms``; 0 m when the
+        records have no height), the statistics of :func:`ti_group_statistics`: mean,
+        representative TI (mean + 1.28 std), 90th percentile and std of the corrected TI
+        with credible intervals of the statistic, beside the uncorrected and seed 000 values.
+    ti_draws : numpy.ndarray, shape (ndraws, n_records)
+        With ``return_draws``: the corrected TI draws (-); draw ``d`` of every record uses
+        the same global posterior draw, so a statistic over records per draw is a draw of
+        that statistic's posterior.
 
     Raises
     ------
@@ -281,6 +354,11 @@ def corrected_ti(
     """
     if not 0.0 < credible_mass < 1.0:
         raise ValueError(f"corrected_ti: credible_mass={credible_mass} must be in (0, 1)")
+    hold = frozenset(hold)
+    if not hold <= set(UNCERTAINTY_SOURCES):
+        raise ValueError(
+            f"corrected_ti: hold={sorted(hold)} must be among {list(UNCERTAINTY_SOURCES)}"
+        )
     for c in ("bin_id", "hws_mean_ms", "hws_std_ms"):
         if c not in records:
             raise ValueError(f"corrected_ti: records lack column {c!r}")
@@ -309,8 +387,15 @@ def corrected_ti(
     m = records["hws_mean_ms"].to_numpy(dtype=float)
     s = records["hws_std_ms"].to_numpy(dtype=float)
     g_idx = rng.choice(global_fit.flat("rho").size, size=ndraws, replace=True)
-    rho = global_fit.flat("rho")[g_idx][:, None]
-    kappa = global_fit.flat("kappa")[g_idx][:, None]
+
+    held_globals = _held_global_draws(global_fit, g_idx, hold)
+
+    def global_draws(name, source):
+        """Posterior draws of a global parameter (conditioned on the held ones)."""
+        return held_globals.get(name, global_fit.flat(name)[g_idx])[:, None]
+
+    rho = global_draws("rho", "rho")
+    kappa = global_draws("kappa", "noise_model")
     rho_med = float(np.median(global_fit.flat("rho")))
 
     sig = np.full((ndraws, n), np.nan)
@@ -322,10 +407,14 @@ def corrected_ti(
 
     def deploy(mask, sz, tau):
         """Steps 2-4 of the module docstring for the records of ``mask`` (sZ draws given)."""
-        s_star = np.abs(s[mask][None, :] + tau * rng.standard_normal((ndraws, int(mask.sum()))))
+        z = rng.standard_normal((ndraws, int(mask.sum())))
+        s_star = np.abs(s[mask][None, :] + tau * (0.0 if "sampling" in hold else z))
+        if "motion" in hold:
+            sz = np.broadcast_to(np.median(sz, axis=0), sz.shape)
         c, neg = corrected_std(s_star, sz, rho)
         # point std (g = 1, sd = 0: the motionless-lidar std)
-        point = np.exp(log_sd[mask] * rng.standard_normal(c.shape)) / g_ratio[mask]
+        e = rng.standard_normal(c.shape)
+        point = np.exp(log_sd[mask] * (0.0 if "reference_response" in hold else e)) / g_ratio[mask]
         sig[:, mask] = c * point
         neg_frac[mask] = np.mean(neg, axis=0)
         sz_med[mask] = np.median(sz, axis=0)
@@ -333,9 +422,9 @@ def corrected_ti(
     if is_record_model(global_fit):
         # record motion model: each record's sigma_Z from its own measured motion, with the
         # global lever arm, motion scale and the record-level motion error kappa_z
-        lever = global_fit.flat("lever_arm_m")[g_idx][:, None]
-        scale = global_fit.flat("motion_scale")[g_idx][:, None]
-        kappa_z = global_fit.flat("kappa_z")[g_idx][:, None]
+        lever = global_draws("lever_arm_m", "motion")
+        scale = global_draws("motion_scale", "motion")
+        kappa_z = global_draws("kappa_z", "motion")
         mot = record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
         szr = mot["sigma_z_rot_ms"].to_numpy()
         u2 = mot["translation_unit_sq"].to_numpy()
@@ -354,16 +443,10 @@ def corrected_ti(
         conv[described] = global_fit.converged
         reasons[described] = "; ".join(global_reasons)
     else:
-        tau0 = global_fit.flat("tau0_ms")[g_idx][:, None]
-        lever = (
-            global_fit.flat("lever_arm_m")[g_idx][:, None]
-            if "lever_arm_m" in global_fit.draws
-            else None
-        )
+        tau0 = global_draws("tau0_ms", "noise_model")
+        lever = global_draws("lever_arm_m", "motion") if "lever_arm_m" in global_fit.draws else None
         scale = (
-            global_fit.flat("motion_scale")[g_idx][:, None]
-            if "motion_scale" in global_fit.draws
-            else 1.0
+            global_draws("motion_scale", "motion") if "motion_scale" in global_fit.draws else 1.0
         )
         bins = records["bin_id"].to_numpy()
         fits = {f.bin_id: f for f in bin_fits}
@@ -431,37 +514,125 @@ def corrected_ti(
         },
         index=records.index,
     )
-    per_bin = _speed_bins(per_record, ti, speed_bin_width_ms, q)
+    heights = (
+        records["height_m"].to_numpy(dtype=float) if "height_m" in records else np.zeros(n)
+    )
+    keys = pd.DataFrame(
+        {"height_m": heights, "hws_bin_ms": speed_bin_ms(m, speed_bin_width_ms)},
+        index=records.index,
+    )
+    per_bin = ti_group_statistics(
+        ti, per_record, keys, credible_mass=credible_mass, min_count=2
+    )
+    if return_draws:
+        return per_record, per_bin, ti
     return per_record, per_bin
 
 
-def _speed_bins(per_record, ti_draws, width, q):
-    centre = speed_bin_ms(per_record["hws_mean_ms"].to_numpy(), width)
-    conv = per_record["converged"].to_numpy()
+def ti_group_statistics(
+    ti_draws,
+    per_record: pd.DataFrame,
+    keys: pd.DataFrame,
+    *,
+    credible_mass: float = 0.9,
+    min_count: int = 2,
+) -> pd.DataFrame:
+    """TI statistics per group of records (height x speed bin, sector, sea state) with
+    credible intervals of the statistic itself, from the joint posterior draws.
+
+    For every posterior draw ``d`` the statistic is computed over the group's records
+    (mean, sample std, representative TI ``mean + 1.28 std`` of IEC 61400-1, 90th
+    percentile); because draw ``d`` of every record comes from the same global posterior
+    draw (:func:`corrected_ti`), these are draws of the statistic's posterior, and its
+    median and equal-tailed interval are reported. This is the uncertainty of the
+    statistic over the measured records (motion, correlation, noise, reference response),
+    not the sampling uncertainty of the site's climate. The average of per-record
+    intervals would be a different (much wider) quantity.
+
+    Parameters
+    ----------
+    ti_draws : numpy.ndarray, shape (ndraws, n_records)
+        Corrected TI draws (-), columns in the order of ``per_record``.
+    per_record : pandas.DataFrame
+        :func:`corrected_ti`'s per-record table: ``converged``, ``ti_uncorrected``,
+        ``ti_u``, ``ti_c``, ``ti_pc`` (the last three optional).
+    keys : pandas.DataFrame
+        Group key columns, one row per record (same order); rows with a NaN key are left out.
+    credible_mass : float
+        Equal-tailed credible mass in (0, 1).
+    min_count : int
+        Fewest records with a corrected TI for the statistics of a group (>= 2); groups
+        below it keep their count and NaN statistics.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per group (sorted by the keys): the key columns, ``n`` (records with a
+        corrected TI in the statistics), ``ti_mean``, ``ti_rep``, ``ti_p90``, ``ti_sd``
+        (posterior medians of the statistic) each followed by its ``_lo`` / ``_hi`` bounds,
+        the same statistics of the uncorrected TI of the same records
+        (``ti_mean_uncorrected``, ``ti_sd_uncorrected``, ``ti_rep_uncorrected``,
+        ``ti_p90_uncorrected``), ``n_not_converged`` (left out: their fit did not converge)
+        and seed 000's representative TI ``ti_rep_u``, ``ti_rep_c``, ``ti_rep_pc`` where
+        ``per_record`` has them.
+    """
+    if not 0.0 < credible_mass < 1.0:
+        raise ValueError(f"ti_group_statistics: credible_mass={credible_mass} must be in (0, 1)")
+    if int(min_count) < 2:
+        raise ValueError(f"ti_group_statistics: min_count={min_count} must be >= 2")
+    ti_draws = np.asarray(ti_draws, dtype=float)
+    if ti_draws.ndim != 2 or ti_draws.shape[1] != len(per_record) or len(keys) != len(per_record):
+        raise ValueError(
+            f"ti_group_statistics: ti_draws shape {ti_draws.shape}, {len(per_record)} records "
+            f"and {len(keys)} key rows do not match"
+        )
+    q = [(1.0 - credible_mass) / 2.0, 0.5, (1.0 + credible_mass) / 2.0]
+    key_cols = list(keys.columns)
+    conv = per_record["converged"].to_numpy(dtype=bool)
+    finite = np.all(np.isfinite(ti_draws), axis=0) if ti_draws.shape[0] else conv
+    usable = conv & finite
+    kv = keys.reset_index(drop=True)
+    valid = kv.notna().all(axis=1).to_numpy()
+    stats = ("ti_mean", "ti_sd", "ti_rep", "ti_p90")
     rows = []
-    for c in np.unique(centre[np.isfinite(centre)]):
-        m = centre == c
-        k = m & conv
-        row = {
-            "speed_bin_ms": c,
-            "n_records": int(m.sum()),
-            "n_not_converged": int((m & ~conv).sum()),
-        }
-        if k.sum() >= 2:
-            draws = ti_draws[:, k]
-            mean_d = np.nanmean(draws, axis=1)
-            rep_d = np.array([representative_ti(d) for d in draws])
-            for name, x in (("ti_mean", mean_d), ("ti_rep", rep_d)):
-                qq = np.nanquantile(x, q)
-                row.update({f"{name}_lo": qq[0], f"{name}_median": qq[1], f"{name}_hi": qq[2]})
-        for col, out in (
-            ("ti_uncorrected", "ti_rep_uncorrected"),
-            ("ti_u", "ti_rep_u"),
-            ("ti_c", "ti_rep_c"),
-            ("ti_pc", "ti_rep_pc"),
-        ):
-            row[out] = (
-                float(representative_ti(per_record[col].to_numpy()[k])) if k.sum() >= 2 else np.nan
-            )
+    for key, idx in kv[valid].groupby(key_cols, sort=True).indices.items():
+        members = np.flatnonzero(valid)[idx]
+        key = key if isinstance(key, tuple) else (key,)
+        k = members[usable[members]]
+        row = dict(zip(key_cols, key, strict=True))
+        row["n"] = int(k.size)
+        row["n_not_converged"] = int((~conv[members]).sum())
+        enough = k.size >= min_count
+        if enough:
+            d = ti_draws[:, k]
+            draws = _statistics(d, axis=1)
+            for name, x in zip(stats, draws, strict=True):
+                lo, med, hi = np.quantile(x, q)
+                row.update({name: med, f"{name}_lo": lo, f"{name}_hi": hi})
+        else:
+            row.update({f"{n}{s}": np.nan for n in stats for s in ("", "_lo", "_hi")})
+        unc = per_record["ti_uncorrected"].to_numpy(dtype=float)[k]
+        unc = unc[np.isfinite(unc)]
+        for name, x in zip(stats, _statistics(unc, axis=0), strict=True):
+            row[f"{name}_uncorrected"] = float(x) if enough and unc.size >= 2 else np.nan
+        for col, out in (("ti_u", "ti_rep_u"), ("ti_c", "ti_rep_c"), ("ti_pc", "ti_rep_pc")):
+            if col in per_record:
+                v = per_record[col].to_numpy(dtype=float)[k]
+                row[out] = representative_ti(v) if enough else np.nan
         rows.append(row)
-    return pd.DataFrame(rows)
+    cols = [*key_cols, "n"]
+    cols += [f"{n}{s}" for n in ("ti_mean", "ti_rep", "ti_p90", "ti_sd") for s in ("", "_lo", "_hi")]
+    cols += [f"{n}_uncorrected" for n in stats] + ["n_not_converged"]
+    cols += [c for c in ("ti_rep_u", "ti_rep_c", "ti_rep_pc") if rows and c in rows[0]]
+    return pd.DataFrame(rows, columns=cols)
+
+
+def _statistics(ti, axis: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Mean, sample std, representative TI (IEC 61400-1) and 90th percentile along ``axis``."""
+    ti = np.asarray(ti, dtype=float)
+    if ti.shape[axis] < 2:
+        nan = np.full(np.delete(ti.shape, axis), np.nan)
+        return nan, nan, nan, nan
+    mean = np.mean(ti, axis=axis)
+    sd = np.std(ti, axis=axis, ddof=1)
+    return mean, sd, mean + REPRESENTATIVE_TI_FACTOR * sd, np.quantile(ti, 0.9, axis=axis)

@@ -20,7 +20,7 @@ Files written (the pipeline's output contract, see README):
 * ``results/ti/bins.csv``: one row per bin (``bin_id`` = case no. of seed 000 Table 1)
   with the bin table, sigma_Z at the bin centre, fit status and diagnostics, and bin means
   of the uncorrected and corrected TI.
-* ``results/ti/speed_bins.csv``: mean and representative TI per speed bin with intervals.
+* ``results/ti/speed_bins.csv``: per height and speed bin the mean, representative TI and P90 of the corrected TI with intervals of the statistic; ``groups.csv`` (campaign, sectors, sea states) and ``uncertainty_budget.csv`` beside it.
 * ``results/ti/metrics.csv``: MD / RMSE of uncorrected, U, C, PC and Bayesian estimates.
 * ``results/posterior/bin_<id>.nc`` (one per fitted bin) and ``results/posterior/global.nc``
   (ArviZ DataTree, NetCDF).

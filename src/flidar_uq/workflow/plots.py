@@ -18,12 +18,41 @@ from matplotlib.figure import Figure  # noqa: E402
 from flidar_uq.data.binning import speed_bin_ms  # noqa: E402
 
 __all__ = [
+    "IEC_TURBULENCE_CATEGORIES",
+    "budget_figure",
     "calibration_figure",
     "convergence_figure",
+    "iec_representative_ti",
     "posterior_figure",
     "sigma_scatter_figure",
-    "ti_vs_hws_figure",
+    "ti_speed_bins_figure",
 ]
+
+#: Reference turbulence intensity I_ref of the IEC 61400-1 ed. 4 (2019) turbulence
+#: categories (Table 1), -.
+IEC_TURBULENCE_CATEGORIES = {"A+": 0.18, "A": 0.16, "B": 0.14, "C": 0.12}
+
+
+def iec_representative_ti(hws_ms, i_ref: float) -> np.ndarray:
+    """Representative TI of an IEC turbulence category: ``I_ref (0.75 + 5.6 / V)``.
+
+    The normal turbulence model of IEC 61400-1 ed. 4 (2019), Eq. (10):
+    ``sigma_1 = I_ref (0.75 V_hub + b)``, ``b = 5.6 m/s``, divided by ``V_hub``.
+
+    Parameters
+    ----------
+    hws_ms : array_like
+        Hub-height wind speed V (m/s), > 0.
+    i_ref : float
+        Reference turbulence intensity of the category (-).
+
+    Returns
+    -------
+    numpy.ndarray
+        Representative (90 % quantile) TI (-).
+    """
+    v = np.asarray(hws_ms, dtype=float)
+    return i_ref * (0.75 + 5.6 / v)  # Eq. (10) of IEC 61400-1 ed. 4 divided by V
 
 
 def _one_to_one(ax, x, y) -> None:
@@ -83,71 +112,113 @@ def sigma_scatter_figure(
     return fig
 
 
-def ti_vs_hws_figure(
-    records: pd.DataFrame, *, credible_mass: float, bin_width_ms: float = 1.0
+def ti_speed_bins_figure(
+    speed_bins: pd.DataFrame,
+    records: pd.DataFrame | None = None,
+    *,
+    credible_mass: float,
+    title: str = "",
+    truth: pd.DataFrame | None = None,
 ) -> Figure:
-    """TI against HWS with credible bands (seed 000 Fig. 8b style).
+    """Corrected TI per speed bin with the IEC 61400-1 categories (seed 000 Fig. 8b style).
 
     Parameters
     ----------
-    records : pandas.DataFrame
-        results/ti/records.csv: ``hws_mean_ms, ti_uncorrected, ti_corrected_median,
-        ti_corrected_lo, ti_corrected_hi`` and optionally ``ti_true`` / ``ti_ref``.
+    speed_bins : pandas.DataFrame
+        Rows of results/ti/speed_bins.csv of one height: ``hws_bin_ms``, ``ti_mean``,
+        ``ti_mean_lo``, ``ti_mean_hi``, ``ti_rep``, ``ti_rep_lo``, ``ti_rep_hi``,
+        ``ti_mean_uncorrected``, ``ti_rep_uncorrected``.
+    records : pandas.DataFrame, optional
+        Records of the same height (``hws_mean_ms``, ``ti_corrected_median``): drawn as
+        faint points.
     credible_mass : float
-        Mass of the interval in the lo/hi columns (-), for the legend.
-    bin_width_ms : float
-        Width of the HWS bins of the average traces (m/s), centred on multiples of it
-        (:func:`flidar_uq.data.binning.speed_bin_ms`).
+        Mass of the intervals (-), for the legend.
+    title : str
+    truth : pandas.DataFrame, optional
+        ``hws_bin_ms``, ``ti_mean``, ``ti_rep`` of the true TI per bin (virtual campaigns).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The bands are the credible intervals of the bin mean and of the bin's
+        representative TI (from the draws of the bin statistic), as the legend says.
+    """
+    fig, ax = plt.subplots(figsize=(10.5, 4.5))
+    b = speed_bins[np.isfinite(speed_bins["ti_mean"])].sort_values("hws_bin_ms")
+    if records is not None and len(records):
+        ax.plot(
+            records["hws_mean_ms"],
+            records["ti_corrected_median"],
+            ".",
+            color="0.75",
+            ms=1.5,
+            alpha=0.4,
+            label="records, corrected (median)",
+            zorder=1,
+        )
+    v = b["hws_bin_ms"].to_numpy(dtype=float)
+    pct = f"{credible_mass:.0%}"
+    ax.fill_between(v, b["ti_mean_lo"], b["ti_mean_hi"], color="tab:blue", alpha=0.35, zorder=2)
+    ax.plot(v, b["ti_mean"], "o-", color="tab:blue", ms=3, lw=1.5, zorder=3,
+            label=f"corrected bin mean, {pct} interval of the mean")  # fmt: skip
+    ax.fill_between(v, b["ti_rep_lo"], b["ti_rep_hi"], color="tab:orange", alpha=0.35, zorder=2)
+    ax.plot(v, b["ti_rep"], "s-", color="tab:orange", ms=3, lw=1.5, zorder=3,
+            label=f"corrected representative TI, {pct} interval")  # fmt: skip
+    ax.plot(v, b["ti_mean_uncorrected"], "--", color="k", lw=1, label="uncorrected bin mean")
+    ax.plot(v, b["ti_rep_uncorrected"], ":", color="k", lw=1.2, label="uncorrected repr. TI")
+    if truth is not None and len(truth):
+        t = truth[truth["hws_bin_ms"].isin(b["hws_bin_ms"])].sort_values("hws_bin_ms")
+        ax.plot(t["hws_bin_ms"], t["ti_mean"], "x", color="tab:red", ms=5, label="true bin mean")
+        ax.plot(t["hws_bin_ms"], t["ti_rep"], "+", color="tab:red", ms=6, label="true repr. TI")
+    vv = np.linspace(
+        max(2.0, v.min() - 0.5) if v.size else 3.0, (v.max() + 0.5) if v.size else 20.0
+    )
+    for (cat, i_ref), ls in zip(
+        IEC_TURBULENCE_CATEGORIES.items(), ("-", "--", "-.", ":"), strict=True
+    ):
+        ax.plot(vv, iec_representative_ti(vv, i_ref), ls, color="tab:green", lw=0.9, alpha=0.8)
+        ax.annotate(f"IEC {cat}", (vv[-1], iec_representative_ti(vv[-1], i_ref)), fontsize=7,
+                    color="tab:green", xytext=(2, 0), textcoords="offset points", va="center")  # fmt: skip
+    ax.set_xlim(vv[0], vv[-1] + 1.3)
+    top = np.nanmax(np.r_[b["ti_rep_hi"].to_numpy(dtype=float), 0.1]) if len(b) else 0.3
+    ax.set_ylim(0, max(0.12, min(1.2 * top, 0.6)))
+    ax.set_xlabel("HWS bin [m/s]")
+    ax.set_ylabel("TI [-]")
+    ax.set_title(title + " (green: IEC 61400-1 ed. 4 categories, representative TI)", fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    fig.tight_layout()
+    return fig
+
+
+def budget_figure(budget: pd.DataFrame, sources) -> Figure:
+    """Variance share of each uncertainty source against the speed bin, one panel per height.
+
+    Parameters
+    ----------
+    budget : pandas.DataFrame
+        ``grouping == "speed bin"`` rows of results/ti/uncertainty_budget.csv:
+        ``height_m``, ``hws_bin_ms`` and ``share_<source>``.
+    sources : sequence of str
+        The source names (columns ``share_<source>``).
 
     Returns
     -------
     matplotlib.figure.Figure
     """
-    fig, ax = plt.subplots(figsize=(8, 4.5))
-    r = records[np.isfinite(records["ti_corrected_median"])]
-    hws = r["hws_mean_ms"].to_numpy()
-    ax.plot(hws, r["ti_uncorrected"], ".", color="k", ms=2, alpha=0.4, label=r"$TI_{moving}$")
-    ax.plot(
-        hws,
-        r["ti_corrected_median"],
-        ".",
-        color="0.55",
-        ms=2,
-        alpha=0.4,
-        label="TI corrected (median)",
-    )
-    truth = "ti_true" if "ti_true" in r else ("ti_ref" if "ti_ref" in r else None)
-    if truth is not None:
-        ax.plot(hws, r[truth], ".", color="tab:red", ms=2, alpha=0.4, label=truth)
-    if len(r):
-        grp = r.assign(_bin=speed_bin_ms(hws, bin_width_ms)).groupby("_bin")
-        means = grp[
-            ["ti_uncorrected", "ti_corrected_median", "ti_corrected_lo", "ti_corrected_hi"]
-        ].mean()
-        c = means.index.to_numpy()
-        ax.fill_between(
-            c,
-            means["ti_corrected_lo"],
-            means["ti_corrected_hi"],
-            color="tab:blue",
-            alpha=0.25,
-            label=f"{credible_mass:.0%} credible band (bin mean)",
-        )
-        ax.plot(c, means["ti_uncorrected"], "-", color="k", lw=2, label="moving, bin mean")
-        ax.plot(
-            c,
-            means["ti_corrected_median"],
-            "-",
-            color="tab:blue",
-            lw=2,
-            label="corrected, bin mean",
-        )
-        if truth is not None:
-            ax.plot(c, grp[truth].mean(), "-", color="tab:red", lw=2, label=f"{truth}, bin mean")
-    ax.set_xlabel("HWS [m/s]")
-    ax.set_ylabel("TI [-]")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, ncol=2)
+    heights = sorted(budget["height_m"].unique()) or [np.nan]
+    fig, axes = plt.subplots(1, len(heights), figsize=(3.6 * len(heights) + 1, 3.4),
+                             sharey=True, squeeze=False)  # fmt: skip
+    for ax, h in zip(axes[0], heights, strict=True):
+        b = budget[budget["height_m"] == h].sort_values("hws_bin_ms")
+        for k in sources:
+            ax.plot(b["hws_bin_ms"], 100 * b[f"share_{k}"], "o-", ms=3, label=k)
+        ax.set_title(f"{h:g} m", fontsize=10)
+        ax.set_xlabel("HWS bin [m/s]")
+        ax.axhline(0, color="k", lw=0.8)
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("share of the variance of the bin mean [%]")
+    axes[0][-1].legend(fontsize=7)
     fig.tight_layout()
     return fig
 

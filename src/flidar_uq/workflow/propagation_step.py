@@ -10,13 +10,14 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
+from flidar_uq.data.binning import bin_centre, speed_bin_ms
 from flidar_uq.seeding import child_seed
 from flidar_uq.workflow.files import read_csv, write_csv
 from flidar_uq.workflow.inference_steps import load_bin_fits
 
 log = logging.getLogger(__name__)
 
-__all__ = ["RECORD_COLUMNS", "propagate"]
+__all__ = ["RECORD_COLUMNS", "propagate", "record_groups"]
 
 #: Columns of results/ti/records.csv that every run writes, in order (the output contract).
 RECORD_COLUMNS = [
@@ -55,6 +56,10 @@ def propagate(
     point_sample_interval_s: float = 1.0,
     scan_heights_in_turn: int | None = None,
     scan_refocus_delay_s: Sequence[float] = (0.3, 0.7),
+    groups_out: str | os.PathLike | None = None,
+    budget_out: str | os.PathLike | None = None,
+    sector_width_deg: float = 30.0,
+    min_count: int = 10,
 ) -> pd.DataFrame:
     """Corrected std and TI per record, per bin and per speed bin, beside the baselines.
 
@@ -72,6 +77,15 @@ def propagate(
     sampled every ``point_sample_interval_s``). ``"motionless_lidar"`` keeps the std a
     motionless lidar would measure (the reference the model is calibrated against).
     ``lidar_std_ratio`` and ``point_log_sd`` are written per record.
+
+    ``speed_bins_out``: per height and 1-m/s speed bin, the mean, representative TI,
+    90th percentile and std of the corrected TI with credible intervals of the statistic
+    (:func:`flidar_uq.correction.propagation.ti_group_statistics`; groups with fewer than
+    ``min_count`` records keep their count only). ``groups_out``: the same per height for
+    the whole campaign, per wind-direction sector (``sector_width_deg`` wide, centred on
+    multiples of it from north) and per sea-state class (:func:`record_groups`).
+    ``budget_out``: the uncertainty budget of the campaign mean and of each speed bin's
+    mean (:func:`flidar_uq.correction.uncertainty_budget.uncertainty_budget`).
 
     ``metrics_out``: MD and RMSE (seed 000 Eqs. 18-19) of std (m/s) and TI for the
     uncorrected, U, C, PC and Bayesian estimates against the truth (``true_*``, virtual
@@ -123,19 +137,62 @@ def propagate(
             np.nanmin(g_ratio), np.nanmax(g_ratio), np.nanmin(log_sd), np.nanmax(log_sd), heights,
         )  # fmt: skip
     baseline = prop.variance_law_baselines(sub, surrogate)
-    per_record, speed_bins = prop.corrected_ti(
-        sub,
-        [f for f in fits.values() if f.converged],
-        gfit,
-        surrogate=surrogate,
-        credible_mass=credible_mass,
-        ndraws=ndraws,
-        lidar_std_ratio=g_ratio,
-        point_log_sd=log_sd,
-        baseline=baseline,
-        seed=child_seed(seed, 2),
-    )
+
+    def correct(hold=()):
+        return prop.corrected_ti(
+            sub,
+            [f for f in fits.values() if f.converged],
+            gfit,
+            surrogate=surrogate,
+            credible_mass=credible_mass,
+            ndraws=ndraws,
+            lidar_std_ratio=g_ratio,
+            point_log_sd=log_sd,
+            baseline=baseline,
+            hold=hold,
+            return_draws=True,
+            seed=child_seed(seed, 2),
+        )
+
+    per_record, _, ti_draws = correct()
     sz_seed, rho_seed = baseline
+    heights = sub["height_m"].to_numpy(dtype=float)
+    speed_keys = pd.DataFrame(
+        {"height_m": heights, "hws_bin_ms": speed_bin_ms(sub["hws_mean_ms"].to_numpy(dtype=float))}
+    )
+    speed_bins = prop.ti_group_statistics(
+        ti_draws, per_record, speed_keys, credible_mass=credible_mass, min_count=min_count
+    )
+    if groups_out is not None:
+        labels = record_groups(sub, sector_width_deg=sector_width_deg)
+        tables = []
+        for grouping, col in (
+            ("campaign", None),
+            ("direction sector", "sector_deg"),
+            ("sea state", "sea_state"),
+        ):
+            group = np.full(len(sub), "all", dtype=object) if col is None else labels[col]
+            keys = pd.DataFrame({"height_m": heights, "group": np.asarray(group, dtype=object)})
+            t = prop.ti_group_statistics(
+                ti_draws, per_record, keys, credible_mass=credible_mass, min_count=min_count
+            )
+            t.insert(0, "grouping", grouping)
+            tables.append(t)
+        write_csv(pd.concat(tables, ignore_index=True), groups_out)
+    if budget_out is not None:
+        from flidar_uq.correction.uncertainty_budget import uncertainty_budget
+
+        usable = per_record["converged"].to_numpy(dtype=bool) & np.all(
+            np.isfinite(ti_draws), axis=0
+        )
+        budget = uncertainty_budget(
+            lambda hold: ti_draws if not hold else correct(hold)[2],
+            {"campaign": speed_keys[["height_m"]], "speed bin": speed_keys},
+            usable,
+            credible_mass=credible_mass,
+            min_count=min_count,
+        )
+        write_csv(budget, budget_out)
 
     out = _records_table(rec, rid, flags["timestamp"], use, per_record, sz_seed, sz_table)
     neg = _scatter(per_record["discriminant_negative"].to_numpy(dtype=bool), use, bool, False)
@@ -178,6 +235,53 @@ def propagate(
     scores["target"] = target
     write_csv(scores, metrics_out)
     return out
+
+
+def record_groups(records: pd.DataFrame, *, sector_width_deg: float = 30.0) -> pd.DataFrame:
+    """Direction sector and sea-state class of each record, from the measured columns.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records with ``wd_mean_deg`` and, for the sea state, ``period2_s`` (second
+        spectral peak of roll and pitch, NaN when unimodal) and the wind-frame tilt stds
+        ``tilt_along_wind_std_deg`` / ``tilt_across_wind_std_deg``.
+    sector_width_deg : float
+        Width of the direction sectors (deg), which are centred on multiples of it from
+        north (the default 30 gives the 12 sectors 0, 30, ..., 330 deg).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``sector_deg`` (sector centre, deg, NaN without a direction) and ``sea_state``:
+        ``"one peak"`` / ``"two peaks"`` (one or two spectral peaks of roll and pitch: a
+        second peak is typically a swell beside the wind sea), joined with ``"tilt along
+        wind"`` / ``"tilt across wind"`` (which of the wind-frame tilt stds is larger: the
+        along-wind tilt is what inflates the measured std, design notes); parts whose
+        columns are absent or NaN are left out; ``"unknown"`` when nothing is known.
+    """
+    if not 0 < sector_width_deg <= 180 or not (360.0 / sector_width_deg).is_integer():
+        raise ValueError(
+            f"record_groups: sector_width_deg={sector_width_deg} must divide 360 (0 < width <= 180)"
+        )
+    n = len(records)
+    wd = (
+        records["wd_mean_deg"].to_numpy(dtype=float)
+        if "wd_mean_deg" in records
+        else np.full(n, np.nan)
+    )
+    sector = np.mod(bin_centre(np.mod(wd, 360.0), sector_width_deg), 360.0)
+
+    def col(name):
+        return records[name].to_numpy(dtype=float) if name in records else np.full(n, np.nan)
+
+    peaks = np.where(np.isfinite(col("period2_s")), "two peaks", "one peak")
+    peaks = np.where("period2_s" in records, peaks, "")
+    along, across = col("tilt_along_wind_std_deg"), col("tilt_across_wind_std_deg")
+    known = np.isfinite(along) & np.isfinite(across)
+    tilt = np.where(~known, "", np.where(along >= across, "tilt along wind", "tilt across wind"))
+    sea = [", ".join(p for p in parts if p) or "unknown" for parts in zip(peaks, tilt, strict=True)]
+    return pd.DataFrame({"sector_deg": sector, "sea_state": sea}, index=records.index)
 
 
 def _scatter(values, mask: np.ndarray, dtype=float, fill=np.nan) -> np.ndarray:

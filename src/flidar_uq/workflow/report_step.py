@@ -8,10 +8,18 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from markupsafe import Markup
 
 from flidar_uq.workflow.files import bin_file, read_csv
 
-__all__ = ["build_report", "git_revision"]
+__all__ = [
+    "build_developer_report",
+    "build_report",
+    "file_provenance",
+    "git_revision",
+    "loo_statement",
+    "reference_kind",
+]
 
 
 def git_revision(repo_dir: str | os.PathLike) -> str:
@@ -75,9 +83,171 @@ MODEL_FLAGS = (
 )
 
 
-def _capped_table(rep, df: pd.DataFrame, name: str, max_rows: int = 40) -> str:
-    caption = name if len(df) <= max_rows else f"{name}: first {max_rows} of {len(df)} rows"
-    return rep.table_html(df.head(max_rows), caption=caption)
+#: Sources of the uncertainty budget in the report's words.
+SOURCE_LABELS = {
+    "motion": "motion (sigma_Z)",
+    "rho": "rho",
+    "noise_model": "noise model",
+    "reference_response": "reference response g",
+    "sampling": "10-min std sampling",
+}
+
+
+def reference_kind(config: dict) -> str:
+    """What the corrected TI is calibrated against, in words.
+
+    ``config["reference"]["kind"]`` when the config names it; otherwise derived from
+    ``propagation.target`` (the model is calibrated against a motionless reference lidar).
+    """
+    kind = (config.get("reference") or {}).get("kind")
+    if kind:
+        return str(kind)
+    target = config.get("propagation", {}).get("target", "point")
+    if target == "point":
+        return (
+            "fixed (motionless) lidar; corrected TI given as the point (cup-like) TI "
+            "(derived from propagation.target: point)"
+        )
+    return "fixed (motionless) lidar; corrected TI given as that lidar's TI (propagation.target)"
+
+
+def file_provenance(paths: dict[str, str | os.PathLike]) -> pd.DataFrame:
+    """Name, SHA-256, size and data rows of each existing file (the report's provenance)."""
+    import hashlib
+
+    rows = []
+    for label, path in paths.items():
+        p = Path(path)
+        if not p.is_file():
+            continue
+        data = p.read_bytes()
+        n_rows = data.count(b"\n") - 1 if p.suffix == ".csv" else None
+        rows.append(
+            {
+                "file": label,
+                "sha256": hashlib.sha256(data).hexdigest(),
+                "bytes": len(data),
+                "data rows": n_rows,
+            }
+        )
+    return pd.DataFrame(rows, columns=["file", "sha256", "bytes", "data rows"])
+
+
+def loo_statement(global_summary: pd.DataFrame) -> str:
+    """The global model's PSIS-LOO comparisons (global.csv) in words; "" without any."""
+    if not len(global_summary):
+        return ""
+    row = global_summary.iloc[0]
+    out = []
+    model = row.get("global_model", "")
+    if isinstance(model, str) and model:
+        out.append(f"Global model chosen: {model}.")
+    d, se = row.get("elpd_diff_per_bin_rho", np.nan), row.get("elpd_diff_se", np.nan)
+    if row.get("preferred_rho_model") == "per_bin":
+        out.append(
+            f"PSIS-LOO prefers a separate rho per bin to the single global rho (elpd "
+            f"difference {d:.0f} +- {se:.0f}): the correlation between the motion error and "
+            "the turbulence differs between bins, so the global rho is a compromise and the "
+            "intervals of bins far from the average may be too narrow or too wide."
+        )
+    elif np.isfinite(d):
+        out.append(
+            f"A per-bin rho is not preferred to the global rho by PSIS-LOO (elpd difference "
+            f"{d:.1f} +- {se:.1f})."
+        )
+    return " ".join(out)
+
+
+def _fmt_interval(med, lo, hi, digits: int = 3) -> str | None:
+    if not np.isfinite(med):
+        return None
+    return f"{med:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"
+
+
+def _link_note(n_shown: int, n_total: int, csv: str) -> str:
+    """'n of N rows shown; full table: <link>' below a summarised table."""
+    from markupsafe import escape
+
+    shown = f"all {n_total} rows" if n_shown >= n_total else f"{n_shown} of {n_total} rows shown"
+    return (
+        f'<p class="more">{shown}; full table: <a href="../{escape(csv)}">'
+        f"results/{escape(csv)}</a></p>"
+    )
+
+
+def _summarised(rep, df: pd.DataFrame, caption: str, csv: str, max_rows: int = 15) -> str:
+    return rep.table_html(df.head(max_rows), caption=caption) + _link_note(
+        min(max_rows, len(df)), len(df), csv
+    )
+
+
+def _truth_speed_bins(records: pd.DataFrame) -> pd.DataFrame:
+    """True TI per height and speed bin over the records with a corrected TI (virtual campaigns)."""
+    from flidar_uq.data.binning import speed_bin_ms
+    from flidar_uq.data.metrics import representative_ti
+
+    if "ti_true" not in records:
+        return pd.DataFrame(columns=["height_m", "hws_bin_ms", "ti_mean", "ti_rep"])
+    r = records[records["ti_corrected_median"].notna()]
+    r = r.assign(hws_bin_ms=speed_bin_ms(r["hws_mean_ms"].to_numpy(dtype=float)))
+    g = r.groupby(["height_m", "hws_bin_ms"])["ti_true"]
+    return pd.DataFrame({"ti_mean": g.mean(), "ti_rep": g.agg(representative_ti)}).reset_index()
+
+
+def _truth_check(speed_bins: pd.DataFrame, truth_bins: pd.DataFrame) -> str:
+    """How often the bin-statistic intervals hold the true statistic (virtual campaigns)."""
+    m = speed_bins.merge(truth_bins, on=["height_m", "hws_bin_ms"], suffixes=("", "_true"))
+    m = m.dropna(subset=["ti_mean", "ti_mean_true"])
+    parts = []
+    for stat, name in (("ti_mean", "mean"), ("ti_rep", "representative TI")):
+        inside = (m[f"{stat}_lo"] <= m[f"{stat}_true"]) & (m[f"{stat}_true"] <= m[f"{stat}_hi"])
+        err = float(np.mean(m[stat] / m[f"{stat}_true"] - 1.0)) if len(m) else np.nan
+        parts.append(
+            f"the interval of the bin {name} holds the true value in {int(inside.sum())} of "
+            f"{len(m)} bins (mean relative error {100 * err:+.1f} %)"
+        )
+    return (
+        "Against the virtual campaign's truth: "
+        + "; ".join(parts)
+        + ". The bin-statistic intervals carry the posterior uncertainty only; a systematic "
+        "model error of a few tenths of a percent, small against the per-record intervals, "
+        "is of the order of these narrow intervals."
+    )
+
+
+def _speed_bin_table(b: pd.DataFrame) -> pd.DataFrame:
+    return pd.DataFrame(
+        {
+            "HWS bin (m/s)": b["hws_bin_ms"].map(lambda v: f"{v:g}"),
+            "n": b["n"],
+            "mean TI [interval]": [
+                _fmt_interval(*x) for x in b[["ti_mean", "ti_mean_lo", "ti_mean_hi"]].to_numpy()
+            ],
+            "representative TI [interval]": [
+                _fmt_interval(*x) for x in b[["ti_rep", "ti_rep_lo", "ti_rep_hi"]].to_numpy()
+            ],
+            "P90 TI [interval]": [
+                _fmt_interval(*x) for x in b[["ti_p90", "ti_p90_lo", "ti_p90_hi"]].to_numpy()
+            ],
+            "uncorrected mean": b["ti_mean_uncorrected"],
+            "uncorrected repr.": b["ti_rep_uncorrected"],
+        }
+    )
+
+
+def _group_pivot(groups: pd.DataFrame, grouping: str, label: str) -> pd.DataFrame:
+    """One row per group, one column per height: 'mean [lo, hi] (n)'."""
+    g = groups[groups["grouping"] == grouping]
+    out = {}
+    for h, sub in g.groupby("height_m", sort=True):
+        cells = {}
+        for _, r in sub.iterrows():
+            txt = _fmt_interval(r["ti_mean"], r["ti_mean_lo"], r["ti_mean_hi"])
+            cells[r["group"]] = f"{txt} (n={int(r['n'])})" if txt else f"too few (n={int(r['n'])})"
+        out[f"{h:g} m: mean TI [interval] (n)"] = cells
+    tab = pd.DataFrame(out)
+    tab.index.name = label
+    return tab.reset_index()
 
 
 def build_report(
@@ -86,25 +256,31 @@ def build_report(
     results_dir: str | os.PathLike,
     batch_dirs: Sequence[str | os.PathLike],
     config: dict,
-    benchmarks_dir: str | os.PathLike | None = None,
     git_revision: str = "",
+    input_files: dict[str, str | os.PathLike] | None = None,
+    frontier_png: str | os.PathLike | None = None,
 ) -> str:
-    """Write the self-contained HTML report from the pipeline's result files.
+    """Write the self-contained HTML report of the user's campaign from the result files.
 
     Parameters
     ----------
     out_path : path
-        The HTML file.
+        The HTML file (normally results/report/report.html: the links to the full CSV
+        tables are relative to it, ``../ti/...``).
     results_dir : path
-        The pipeline's ``results/`` directory (ti/, bins/, qc/, motion/, inference/, posterior/).
+        The pipeline's ``results/`` directory (ti/, bins/, qc/, motion/, inference/,
+        posterior/, data/).
     batch_dirs : sequence of path
         The per-bin inference batch directories.
     config : dict
-        The run's configuration (provenance; thresholds of the convergence plot).
-    benchmarks_dir : path, optional
-        Directory of benchmark PNG charts (and ``los_*.csv`` comparison tables); skipped if absent.
+        The run's configuration (provenance, thresholds, reference kind).
     git_revision : str
         Revision of the workflow's repository.
+    input_files : dict of str -> path, optional
+        Files whose SHA-256 and row count go into the provenance (label -> path): the
+        input record table, the validated table, requirements.lock.
+    frontier_png : path, optional
+        The method-frontier chart (benchmarks), shown when the file exists.
 
     Returns
     -------
@@ -112,6 +288,7 @@ def build_report(
         The HTML text written.
     """
     from flidar_uq import inference as inf
+    from flidar_uq.correction.propagation import UNCERTAINTY_SOURCES
     from flidar_uq.physics import variance_laws as correction
     from flidar_uq.workflow import plots
     from flidar_uq.workflow import report as rep
@@ -119,6 +296,9 @@ def build_report(
     res = Path(results_dir)
     records = read_csv(res / "ti" / "records.csv")
     bins = read_csv(res / "ti" / "bins.csv")
+    speed_bins = read_csv(res / "ti" / "speed_bins.csv")
+    groups = read_csv(res / "ti" / "groups.csv")
+    budget = read_csv(res / "ti" / "uncertainty_budget.csv")
     metrics = read_csv(res / "ti" / "metrics.csv")
     qc_counts = read_csv(res / "qc" / "summary.csv")
     roll_pitch = read_csv(res / "motion" / "roll_pitch.csv")
@@ -126,80 +306,256 @@ def build_report(
     global_summary = read_csv(res / "inference" / "global.csv")
     gfit = inf.load_fit(res / "posterior" / "global.nc")
     mass = float(config["propagation"]["credible_mass"])
+    min_count = int(config.get("report", {}).get("group_min_count", 10))
     sections = []
 
-    n_in = len(records)
-    kept = records["flags"].fillna("").eq("") | records["ti_corrected_median"].notna()
+    # ------------------------------------------------------------------ summary
+    heights = sorted(records["height_m"].dropna().unique())
+    ts = pd.to_datetime(records["timestamp"], utc=True, errors="coerce")
     status_counts = bins["status"].value_counts()
-    overview = pd.DataFrame(
+    n_failed = int(status_counts.get("failed", 0) + status_counts.get("error", 0))
+    flags = records["flags"].fillna("")
+    model_flag = flags.str.split(";").map(lambda fl: all(f in MODEL_FLAGS for f in fl if f))
+    n_qc = int(((flags != "") & ~model_flag).sum())
+    warnings = []
+    if gfit.info.get("motion_scale_warning"):
+        warnings.append("Model discrepancy: " + gfit.info["motion_scale_warning"] + ".")
+    loo_words = loo_statement(global_summary)
+    if "per bin to the single global rho" in loo_words:
+        warnings.append(loo_words.split("Global model chosen: ")[-1].split(". ", 1)[-1])
+    if not gfit.converged:
+        warnings.append(
+            "The global fit missed the convergence criteria: every record is flagged "
+            "global_fit_failed (" + "; ".join(gfit.failure_reasons) + ")."
+        )
+    motion_model = "record" if inf.is_record_model(gfit) else "bin"
+    if n_failed and motion_model == "bin":
+        warnings.append(f"{n_failed} bin fits failed; their records have no corrected TI.")
+    elif n_failed:
+        warnings.append(
+            f"{n_failed} per-bin motion fits (reported for seed 000's bin table) missed the "
+            "convergence criteria; the corrected TI does not use them (record motion model)."
+        )
+    n_neg = int(flags.str.contains("discriminant_negative").sum())
+    if n_neg:
+        warnings.append(
+            f"{n_neg} records have a measured std below the motion-induced std "
+            "(discriminant_negative): corrected TI 0 at the posterior median."
+        )
+    camp = groups[groups["grouping"] == "campaign"].set_index("height_m")
+    headline = pd.DataFrame(
+        {
+            "height (m)": [f"{h:g}" for h in camp.index],
+            "records": camp["n"].to_numpy(),
+            f"corrected mean TI [{mass:.0%} interval]": [
+                _fmt_interval(*x, digits=4)
+                for x in camp[["ti_mean", "ti_mean_lo", "ti_mean_hi"]].to_numpy()
+            ],
+            "uncorrected mean TI": camp["ti_mean_uncorrected"].map(lambda v: f"{v:.4f}"),
+        }
+    )
+    flag_counts = flags.replace("", "(none: corrected)").value_counts()
+    campaign_cfg = config.get("campaign", {})
+    what = (
+        f"virtual campaign, scenario {campaign_cfg.get('scenario')}, seed {campaign_cfg.get('seed')}"
+        if campaign_cfg.get("source") == "virtual"
+        else f"records file {campaign_cfg.get('records')}"
+    )
+    facts = pd.DataFrame(
         [
-            ("input records", n_in),
-            ("records with a corrected TI", int(records["ti_corrected_median"].notna().sum())),
-            ("records flagged (any reason)", int((records["flags"].fillna("") != "").sum())),
-            ("bins", len(bins)),
-            ("bins fitted and converged (ok)", int(status_counts.get("ok", 0))),
-            ("bins failed (convergence missed)", int(status_counts.get("failed", 0))),
-            ("bins whose fit raised (error)", int(status_counts.get("error", 0))),
-            ("bins not fitted (too few records)", int(status_counts.get("not_fitted", 0))),
-            ("global fit converged", bool(gfit.converged)),
-            ("motion model", "record" if inf.is_record_model(gfit) else "bin"),
+            ("campaign", what),
+            ("lidar", campaign_cfg.get("lidar", "")),
+            ("heights (m)", ", ".join(f"{h:g}" for h in heights)),
+            (
+                "period (UTC)",
+                f"{ts.min():%Y-%m-%d %H:%M} to {ts.max():%Y-%m-%d %H:%M}"
+                if ts.notna().any()
+                else "",
+            ),
+            (
+                "records",
+                f"{len(records)} input, {int(records['ti_corrected_median'].notna().sum())} "
+                f"with a corrected TI, {n_qc} removed by QC",
+            ),
+            ("reference", reference_kind(config)),
+            (
+                "model",
+                f"{motion_model} motion model"
+                + (
+                    f", global model {gfit.info['loo'].get('model')}"
+                    if gfit.info.get("loo")
+                    else ""
+                )
+                + f"; global fit {'converged' if gfit.converged else 'NOT converged'}",
+            ),
         ],
-        columns=["quantity", "value"],
+        columns=["item", "value"],
     )
-    del kept
-    sections.append(rep.Section("Overview", rep.table_html(overview)))
-    warning = gfit.info.get("motion_scale_warning")
-    if warning:
-        sections.append(rep.Section("Warning: model discrepancy", f"<p>{warning}</p>"))
-    flag_counts = (
-        records["flags"]
-        .fillna("")
-        .replace("", "(none: corrected)")
-        .value_counts()
-        .rename_axis("flags")
+    summary_html = (
+        rep.templates()
+        .get_template("sections/summary.html.j2")
+        .render(
+            facts=Markup(rep.table_html(facts, caption="")),
+            headline=Markup(
+                rep.table_html(
+                    headline,
+                    caption=f"headline: corrected TI per height, campaign mean over the records "
+                    f"with a corrected TI ({mass:.0%} credible interval of the mean)",
+                )
+            ),
+            warnings=warnings,
+            top_flags=[(str(k), int(v)) for k, v in flag_counts.head(4).items()],
+            loo=loo_words,
+        )
     )
+
+    # ------------------------------------------------------------------ speed bins per height
+    truth_bins = _truth_speed_bins(records)
+    body = f"<p>{rep.caption('speed_bins', mass=mass, min_count=min_count)}</p>"
+    for h in heights:
+        b = speed_bins[speed_bins["height_m"] == h].sort_values("hws_bin_ms")
+        rec_h = records[(records["height_m"] == h) & records["ti_corrected_median"].notna()]
+        fig = plots.ti_speed_bins_figure(
+            b,
+            rec_h,
+            credible_mass=mass,
+            title=f"{h:g} m",
+            truth=truth_bins[truth_bins["height_m"] == h] if len(truth_bins) else None,
+        )
+        body += f"<h3>{h:g} m</h3>" + rep.img_html(
+            rep.figure_to_data_uri(fig), rep.caption("ti_speed_bins", mass=mass, height=f"{h:g}")
+        )
+        body += rep.table_html(
+            _speed_bin_table(b[b["n"] > 0]),
+            caption=f"{h:g} m: TI per 1-m/s bin ({mass:.0%} intervals of the bin statistic)",
+        )
+    body += _link_note(len(speed_bins), len(speed_bins), "ti/speed_bins.csv")
+    if len(truth_bins):
+        body += f"<p>{_truth_check(speed_bins, truth_bins)}</p>"
+    sections.append(rep.Section("Turbulence intensity per height and speed bin", body))
+
+    # ------------------------------------------------------------------ sectors and sea states
+    body = f"<p>{rep.caption('groups', mass=mass, min_count=min_count)}</p>"
+    sec = _group_pivot(groups, "direction sector", "sector centre (deg)")
+    body += rep.table_html(sec, caption="corrected mean TI per wind-direction sector")
+    body += rep.table_html(
+        _group_pivot(groups, "sea state", "sea-state class"),
+        caption="corrected mean TI per sea-state class (from the record's motion)",
+    )
+    body += _link_note(len(groups), len(groups), "ti/groups.csv")
+    sections.append(rep.Section("Direction sectors and sea states", body))
+
+    # ------------------------------------------------------------------ budget
+    sources = [k for k in UNCERTAINTY_SOURCES if f"share_{k}" in budget]
+    cb = budget[budget["grouping"] == "campaign"]
+    btab = pd.DataFrame({"height (m)": cb["height_m"].map(lambda v: f"{v:g}")})
+    btab[f"{mass:.0%} width of the mean"] = cb["width"].map(lambda v: f"{v:.2g}")
+    for k in sources:
+        btab[SOURCE_LABELS[k] + " (%)"] = (100 * cb[f"share_{k}"]).map(lambda v: f"{v:.0f}")
+    btab["remainder (%)"] = (100 * cb["remainder"]).map(lambda v: f"{v:.0f}")
+    body = f"<p>{rep.caption('budget')}</p>" + rep.table_html(
+        btab, caption="campaign-mean corrected TI per height: share of the posterior variance"
+    )
+    sb = budget[budget["grouping"] == "speed bin"]
+    if len(sb):
+        body += rep.img_html(
+            rep.figure_to_data_uri(plots.budget_figure(sb, sources)),
+            "share of the variance of each speed bin's mean corrected TI per source",
+        )
+    body += _link_note(len(budget), len(budget), "ti/uncertainty_budget.csv")
+    sections.append(rep.Section("Uncertainty budget", body))
+
+    # ------------------------------------------------------------------ flags and QC
     sections.append(
         rep.Section(
             "What was flagged and why",
             rep.table_html(
-                flag_counts.rename("records").reset_index(),
+                flag_counts.rename_axis("flags").rename("records").reset_index(),
                 caption="records of results/ti/records.csv per flag string (QC reasons, "
                 "no_motion_description, discriminant_negative, bin_* with the bin model)",
-            ),
+            )
+            + _link_note(0, len(records), "ti/records.csv").replace("0 of", "per record, 0 of"),
         )
     )
-
     sections.append(
         rep.Section(
             "Quality control",
             rep.table_html(qc_counts, caption=rep.caption("qc_filters"))
-            + rep.table_html(
-                roll_pitch,
-                caption=rep.caption("roll_pitch"),
-            ),
+            + rep.table_html(roll_pitch, caption=rep.caption("roll_pitch")),
         )
     )
 
+    # ------------------------------------------------------------------ validation
+    body = rep.table_html(metrics, caption=rep.caption("metrics"))
+    rho_med = float(np.median(gfit.flat("rho")))
+    rho_seed = float(metrics["rho_seed000"].iloc[0]) if len(metrics) else float("nan")
+    ref_col = next((c for c in ("ref_hws_std_ms", "true_hws_std_ms") if c in records), None)
+    if ref_col is not None:
+        r = records[records["ti_corrected_median"].notna()]
+        ref = r[ref_col].to_numpy(dtype=float)
+        rho_pc, rho_src = (
+            (rho_seed, "seed 000") if np.isfinite(rho_seed) else (rho_med, "posterior median")
+        )
+        szb = r["sigma_z_seed000_ms"].to_numpy(dtype=float)
+        corr = {
+            "U": correction.sigma_moving_u(ref, szb),
+            "C": correction.sigma_moving_c(ref, szb),
+            "PC": correction.sigma_moving_pc(ref, szb, rho_pc),
+            "Bayesian": correction.sigma_moving_pc(
+                ref, r["sigma_z_median_ms"].to_numpy(dtype=float), rho_med
+            ),
+        }
+        label = "reference" if ref_col == "ref_hws_std_ms" else "truth"
+        body += rep.img_html(
+            rep.figure_to_data_uri(
+                plots.sigma_scatter_figure(r["hws_std_ms"].to_numpy(), ref, corr, ref_label=label)
+            ),
+            rep.caption("sigma_scatter", label=label, rho_pc=rho_pc, rho_src=rho_src),
+        )
+    refs = {}
+    if "ti_true" in records:
+        refs["truth"] = records["ti_true"].to_numpy(dtype=float)
+    if "ti_ref" in records:
+        refs["reference lidar (interval x lidar_std_ratio)"] = (
+            records["ti_ref"].to_numpy(dtype=float),
+            records["lidar_std_ratio"].to_numpy(dtype=float),
+        )
+    if refs:
+        body += rep.img_html(
+            rep.figure_to_data_uri(
+                plots.calibration_figure(
+                    records["hws_mean_ms"].to_numpy(dtype=float),
+                    records["ti_corrected_median"].to_numpy(dtype=float),
+                    records["ti_corrected_lo"].to_numpy(dtype=float),
+                    records["ti_corrected_hi"].to_numpy(dtype=float),
+                    refs,
+                    credible_mass=mass,
+                )
+            ),
+            rep.caption("calibration", mass=mass),
+        )
+    if "ti_true" in records:
+        body += rep.table_html(
+            regime_calibration_table(records),
+            caption=f"{mass:.0%} intervals of the corrected TI against the virtual "
+            "campaign's truth, QC-kept records in 3-20 m/s, per 3-m/s speed group, "
+            "sea state and heading (truth columns); answered_share: records with a "
+            "corrected TI; coverage with its 95 % Wilson interval",
+        )
+    sections.append(
+        rep.Section("Validation against the reference (seed 000 Tables 2-3 style)", body)
+    )
+
+    # ------------------------------------------------------------------ bin table
     cols = [
         c
         for c in (
-            "bin_id",
-            "hws_ms",
-            "amplitude_deg",
-            "period_s",
-            "count",
-            "sigma_z_ms",
-            "mean_z_ms",
-            "status",
-            "model",
-            "ti_uncorrected_mean",
-            "ti_corrected_median_mean",
-            "ti_corrected_lo_mean",
-            "ti_corrected_hi_mean",
+            "bin_id", "hws_ms", "amplitude_deg", "period_s", "count", "sigma_z_ms", "mean_z_ms",
+            "status", "model", "ti_uncorrected_mean", "ti_corrected_median_mean",
             "ti_true_mean",
         )
         if c in bins
-    ]
+    ]  # fmt: skip
     shown = bins["status"] != "not_fitted"
     table1 = bins.loc[shown, cols].rename(
         columns={
@@ -214,125 +570,25 @@ def build_report(
     sections.append(
         rep.Section(
             "Bin table (seed 000 Table 1 style)",
-            rep.table_html(
+            _summarised(
+                rep,
                 table1,
-                caption=rep.caption("bin_table", mass=mass, n_hidden=int((~shown).sum())),
+                rep.caption("bin_table", mass=mass, n_hidden=int((~shown).sum())),
+                "ti/bins.csv",
             ),
         )
     )
 
-    rho_med = float(np.median(gfit.flat("rho")))
-    rho_seed = float(metrics["rho_seed000"].iloc[0]) if len(metrics) else float("nan")
-    ref_col = next((c for c in ("ref_hws_std_ms", "true_hws_std_ms") if c in records), None)
-    if ref_col is not None:
-        ok = records["ti_corrected_median"].notna()
-        r = records[ok]
-        ref = r[ref_col].to_numpy(dtype=float)
-        # seed 000's rho needs >= 3 bins; otherwise the PC curve uses the posterior median
-        rho_pc, rho_src = (
-            (rho_seed, "seed 000") if np.isfinite(rho_seed) else (rho_med, "posterior median")
-        )
-        szb = r["sigma_z_seed000_ms"].to_numpy(dtype=float)
-        corr = {
-            "U": correction.sigma_moving_u(ref, szb),
-            "C": correction.sigma_moving_c(ref, szb),
-            "PC": correction.sigma_moving_pc(ref, szb, rho_pc),
-            "Bayesian": correction.sigma_moving_pc(
-                ref, r["sigma_z_median_ms"].to_numpy(dtype=float), rho_med
-            ),
-        }
-        label = "reference" if ref_col == "ref_hws_std_ms" else "truth"
-        body = rep.img_html(
-            rep.figure_to_data_uri(
-                plots.sigma_scatter_figure(r["hws_std_ms"].to_numpy(), ref, corr, ref_label=label)
-            ),
-            rep.caption("sigma_scatter", label=label, rho_pc=rho_pc, rho_src=rho_src),
-        )
-        top = bins.loc[bins["status"] == "ok", "bin_id"].head(3).tolist()
-        for bid in top:
-            sel = (r["bin_id"] == bid).to_numpy()
-            sub = {k: v[sel] for k, v in corr.items() if k in ("PC", "Bayesian")}
-            body += rep.img_html(
-                rep.figure_to_data_uri(
-                    plots.sigma_scatter_figure(
-                        r["hws_std_ms"].to_numpy()[sel], ref[sel], sub, ref_label=label
-                    )
-                ),
-                rep.caption("sigma_scatter_case", bin_id=bid),
-            )
-        sections.append(
-            rep.Section(
-                "sigma_moving against sigma_ref and sigma_corr (seed 000 Figs. 4-5 style)", body
-            )
-        )
-
-    sections.append(
-        rep.Section(
-            "MD and RMSE by correction method (seed 000 Tables 2-3 style)",
-            rep.table_html(
-                metrics,
-                caption=rep.caption("metrics"),
-            ),
-        )
-    )
-    refs = {}
-    if "ti_true" in records:
-        refs["truth"] = records["ti_true"].to_numpy(dtype=float)
-    if "ti_ref" in records:
-        refs["reference lidar (interval x lidar_std_ratio)"] = (
-            records["ti_ref"].to_numpy(dtype=float),
-            records["lidar_std_ratio"].to_numpy(dtype=float),
-        )
-    if refs:
-        sections.append(
-            rep.Section(
-                "Calibration of the credible intervals by wind speed",
-                rep.img_html(
-                    rep.figure_to_data_uri(
-                        plots.calibration_figure(
-                            records["hws_mean_ms"].to_numpy(dtype=float),
-                            records["ti_corrected_median"].to_numpy(dtype=float),
-                            records["ti_corrected_lo"].to_numpy(dtype=float),
-                            records["ti_corrected_hi"].to_numpy(dtype=float),
-                            refs,
-                            credible_mass=mass,
-                        )
-                    ),
-                    rep.caption("calibration", mass=mass),
-                ),
-            )
-        )
-    if "ti_true" in records:
-        sections.append(
-            rep.Section(
-                "Calibration by regime (against the truth)",
-                rep.table_html(
-                    regime_calibration_table(records),
-                    caption=f"{mass:.0%} intervals of the corrected TI against the virtual "
-                    "campaign's truth, QC-kept records in 3-20 m/s, per 3-m/s speed group, "
-                    "sea state and heading (truth columns); answered_share: records with a "
-                    "corrected TI; coverage with its 95 % Wilson interval",
-                ),
-            )
-        )
-    sections.append(
-        rep.Section(
-            "TI against HWS with credible bands (seed 000 Fig. 8 style)",
-            rep.img_html(
-                rep.figure_to_data_uri(plots.ti_vs_hws_figure(records, credible_mass=mass)),
-                rep.caption("ti_vs_hws", mass=mass),
-            ),
-        )
-    )
-
-    post = rep.img_html(
+    # ------------------------------------------------------------------ posteriors
+    names = list(gfit.draws)
+    post = (f"<p>{loo_words}</p>" if loo_words else "") + rep.img_html(
         rep.figure_to_data_uri(
             plots.posterior_figure(
                 {k: np.asarray(v) for k, v in gfit.draws.items()},
                 title="global posterior, one line per ensemble",
             )
         ),
-        rep.caption("global_posterior"),
+        rep.caption("global_posterior", names=", ".join(names)),
     )
     post += rep.table_html(global_summary, caption=rep.caption("global_summary"))
     ok_bins = bin_fits.loc[bin_fits["status"] == "ok", "bin_id"].astype(int).head(1).tolist()
@@ -357,35 +613,102 @@ def build_report(
         ),
         rep.caption("convergence"),
     )
-    post += rep.table_html(bin_fits, caption=rep.caption("bin_fits"))
+    worst = bin_fits.sort_values("status", key=lambda s: s.eq("ok"))
+    post += _summarised(rep, worst, rep.caption("bin_fits"), "inference/bin_fits.csv")
     sections.append(rep.Section("Posteriors and convergence", post))
 
-    if benchmarks_dir is not None and Path(benchmarks_dir).is_dir():
-        bdir = Path(benchmarks_dir)
-        los = sorted(bdir.glob("los*comparison.csv"))
-        if los:
-            sections.append(
-                rep.Section(
-                    "LOS-level correction compared with the statistical correction",
-                    "".join(_capped_table(rep, read_csv(p), p.name) for p in los),
-                )
+    if frontier_png is not None and Path(frontier_png).is_file():
+        sections.append(
+            rep.Section(
+                "Method frontier",
+                rep.img_html(
+                    rep.png_bytes_to_data_uri(Path(frontier_png).read_bytes()),
+                    "wall time against accuracy of the correction methods on a campaign "
+                    "with truth (benchmarks/results/method_frontier.png)",
+                ),
             )
-        pngs = sorted(bdir.glob("*.png"))
-        if pngs:
-            sections.append(
-                rep.Section(
-                    "Speed-accuracy charts (benchmarks/results)",
-                    "".join(
-                        rep.img_html(rep.png_bytes_to_data_uri(p.read_bytes()), p.name)
-                        for p in pngs
-                    ),
-                )
-            )
+        )
 
     sections.append(
-        rep.Section("Provenance", rep.provenance_html(config, git_revision, rep.package_versions()))
+        rep.Section(
+            "How to cite", rep.templates().get_template("sections/references.html.j2").render()
+        )
     )
-    text = rep.render_html("flidar_uq report: motion-corrected turbulence intensity", sections)
+    prov = file_provenance(input_files or {})
+    sections.append(
+        rep.Section(
+            "Provenance and how to rerun",
+            rep.templates()
+            .get_template("sections/rerun.html.j2")
+            .render(files=Markup(rep.table_html(prov, caption="input files")))
+            + rep.provenance_html(config, git_revision, rep.package_versions()),
+        )
+    )
+    text = rep.render_html(
+        "flidar_uq report: motion-corrected turbulence intensity",
+        sections,
+        intro_html=summary_html,
+    )
+    Path(out_path).parent.mkdir(parents=True, exist_ok=True)
+    Path(out_path).write_text(text, encoding="utf-8")
+    return text
+
+
+def build_developer_report(
+    *,
+    out_path: str | os.PathLike,
+    benchmarks_dir: str | os.PathLike,
+    git_revision: str = "",
+) -> str:
+    """Write the developer report: the project's benchmark charts and LOS comparison tables.
+
+    Kept apart from the user's campaign report (results/report/report.html).
+
+    Parameters
+    ----------
+    out_path : path
+        The HTML file (normally results/report/developer.html).
+    benchmarks_dir : path
+        Directory of benchmark PNG charts and ``los*comparison.csv`` tables.
+    git_revision : str
+        Revision of the repository.
+
+    Returns
+    -------
+    str
+        The HTML text written.
+
+    Raises
+    ------
+    ValueError
+        If ``benchmarks_dir`` is not a directory.
+    """
+    from flidar_uq.workflow import report as rep
+
+    bdir = Path(benchmarks_dir)
+    if not bdir.is_dir():
+        raise ValueError(f"build_developer_report: {bdir} is not a directory")
+    sections = []
+    los = sorted(bdir.glob("los*comparison.csv"))
+    if los:
+        sections.append(
+            rep.Section(
+                "LOS-level correction compared with the statistical correction",
+                "".join(rep.table_html(read_csv(p), caption=p.name) for p in los),
+            )
+        )
+    pngs = sorted(bdir.glob("*.png"))
+    sections.append(
+        rep.Section(
+            f"Speed-accuracy charts ({bdir.name})",
+            "".join(rep.img_html(rep.png_bytes_to_data_uri(p.read_bytes()), p.name) for p in pngs)
+            or "<p>no chart found</p>",
+        )
+    )
+    sections.append(
+        rep.Section("Provenance", rep.provenance_html({}, git_revision, rep.package_versions()))
+    )
+    text = rep.render_html("flidar_uq developer report: benchmarks", sections)
     Path(out_path).parent.mkdir(parents=True, exist_ok=True)
     Path(out_path).write_text(text, encoding="utf-8")
     return text
