@@ -259,8 +259,14 @@ def _read_table(path: str | Path) -> tuple[pd.DataFrame, str, bool]:
         raise DataValidationError(source, None, None, "is a directory, not a file", whole_file=True)
     if kind == "parquet":
         try:
-            return pd.read_parquet(path), source, False
-        except (OSError, ValueError, TypeError) as exc:  # pyarrow's errors are among these
+            df = pd.read_parquet(path)
+            for c in df.columns:  # text is decoded lazily: invalid UTF-8 surfaces here
+                if pd.api.types.is_string_dtype(df[c].dtype):
+                    df[c] = df[c].astype(object)
+            return df, source, False
+        except MemoryError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - pyarrow and pandas metadata errors vary
             reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             raise DataValidationError(
                 source, None, None, f"not a readable Parquet file ({reason})", whole_file=True
@@ -315,6 +321,11 @@ def _first(mask: np.ndarray) -> tuple[int, int]:
     return int(idx[0]) + 1, int(idx.size - 1)
 
 
+def _plain(value):
+    """A numpy scalar as the Python value (for messages)."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
 def _parse_datetime(s: pd.Series, name: str, source: str, csv: bool) -> pd.Series:
     if isinstance(s.dtype, pd.DatetimeTZDtype):
         out = s.dt.tz_convert("UTC")
@@ -327,7 +338,7 @@ def _parse_datetime(s: pd.Series, name: str, source: str, csv: bool) -> pd.Serie
                 source,
                 row,
                 name,
-                f"number {s.iloc[row - 1]!r} is not an ISO 8601 timestamp",
+                f"number {_plain(s.iloc[row - 1])!r} is not an ISO 8601 timestamp",
                 csv=csv,
                 n_more=more,
             )
@@ -351,6 +362,18 @@ def _parse_datetime(s: pd.Series, name: str, source: str, csv: bool) -> pd.Serie
                 n_more=more,
             )
         _check_time_zones(s, name, source, csv)
+    lo, hi = pd.Timestamp.min.tz_localize("UTC"), pd.Timestamp.max.tz_localize("UTC")
+    outside = ((out < lo) | (out > hi)).to_numpy()
+    if outside.any():
+        row, more = _first(outside)
+        raise DataValidationError(
+            source,
+            row,
+            name,
+            f"timestamp {s.iloc[row - 1]!s} outside the supported years 1678-2261",
+            csv=csv,
+            n_more=more,
+        )
     return out.astype("datetime64[ns, UTC]")
 
 
@@ -423,7 +446,7 @@ def _parse_float(s: pd.Series, name: str, source: str, csv: bool) -> pd.Series:
     bad = (out.isna() & s.notna()).to_numpy()
     if bad.any():
         row, more = _first(bad)
-        value = s.iloc[row - 1]
+        value = _plain(s.iloc[row - 1])
         hint = ""
         if isinstance(value, str) and re.fullmatch(r"\s*[-+]?\d+,\d+\s*", value):
             hint = " (a decimal comma? numbers must use '.')"

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import logging
 import os
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -111,7 +112,7 @@ def validate_records(
     heights_m: Sequence[float] | None = None,
 ) -> pd.DataFrame:
     """Validate the campaign's record table, refuse what would leave every record
-    uncorrectable, and write it with the inspection report (warnings logged).
+    uncorrectable, and write it with the inspection report (warnings logged and on stderr).
 
     Parameters
     ----------
@@ -149,6 +150,7 @@ def validate_records(
     )
     for w in report["warnings"]:
         log.warning("%s", w)
+        print(f"flidar-uq: warning: {w}", file=sys.stderr)
     Path(out_path).parent.mkdir(parents=True, exist_ok=True)
     io.write_records(records, out_path, allow_small_angles=allow_small_angles)
     if report_path is not None:

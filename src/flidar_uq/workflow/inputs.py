@@ -536,9 +536,9 @@ def pipeline_preflight(config: dict, *, read_data: bool = True, stream=None) -> 
 
     Validates the config (:func:`check_config`, defaults filled in place) and, for
     ``campaign.source: files`` with ``read_data``, reads the record table as the pipeline
-    will (:func:`read_campaign_records`), refuses what would make every record
-    uncorrectable (:func:`reference_problems`) and prints the warnings of
-    :func:`inspect_records`.
+    will (:func:`read_campaign_records`) and refuses what would make every record
+    uncorrectable (:func:`reference_problems`). The warnings of :func:`inspect_records`
+    come from the ``validate`` rule (they need the inference layer, slow to import).
 
     Returns
     -------
@@ -552,17 +552,9 @@ def pipeline_preflight(config: dict, *, read_data: bool = True, stream=None) -> 
         camp = config["campaign"]
         if read_data and camp["source"] == "files":
             records = read_campaign_records(camp["records"], camp)
-            report = inspect_records(
-                records,
-                source=str(camp["records"]),
-                qc_params=config["qc"],
-                heights=camp["heights"],
-            )
-            if report["blocking"]:
-                print(f"flidar-uq: error: {report['blocking'][0]}", file=stream)
-                return EXIT_DATA
-            for w in report["warnings"]:
-                print(f"flidar-uq: warning: {w}", file=stream)
+            problems = reference_problems(records, str(camp["records"]))
+            if problems:
+                raise problems[0]
     except Exception as exc:  # noqa: BLE001 - classified below, re-raised if not bad input
         code = exit_status(exc)
         if code is None:
