@@ -379,8 +379,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI; returns the exit status (0 ok, 2 usage error, 3 bad data, 1 internal
-    error: :data:`flidar_uq.workflow.inputs.EXIT_CODES`)."""
+    """Run the CLI; returns the exit status (0 ok, 2 usage, 3 bad data, 1 internal error).
+
+    The classes are :data:`flidar_uq.workflow.inputs.EXIT_CODES`.
+    """
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

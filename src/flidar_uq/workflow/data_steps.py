@@ -111,8 +111,10 @@ def validate_records(
     qc_params: dict | None = None,
     heights_m: Sequence[float] | None = None,
 ) -> pd.DataFrame:
-    """Validate the campaign's record table, refuse what would leave every record
-    uncorrectable, and write it with the inspection report (warnings logged and on stderr).
+    """Validate the record table, refuse what leaves every record uncorrectable, report.
+
+    Writes the validated table and the inspection report; warnings are logged and
+    printed on stderr.
 
     Parameters
     ----------

@@ -1,5 +1,6 @@
-"""The user's inputs before any expensive step: the config, the record table and what the
-pipeline will make of it.
+"""The user's config and data, checked before any expensive step.
+
+What is checked: the config, the record table and what the pipeline will make of it.
 
 One policy for the command line (``flidar-uq validate``) and the pipeline (checked when
 the Snakefile is parsed, :func:`pipeline_preflight`, and by the ``validate`` rule):
@@ -160,8 +161,10 @@ def _schema_error(err, schema: dict) -> ConfigError:
 
 
 def check_config(config: dict, *, schema: dict | None = None) -> dict:
-    """Validate a pipeline config against the closed schema, fill in the defaults, and
-    check what the schema cannot (cross-key conditions, the library's own limits).
+    """Validate a pipeline config: closed schema, defaults, cross-key conditions.
+
+    What the schema cannot say is checked too (cross-key conditions, the library's own
+    limits).
 
     Parameters
     ----------
@@ -566,8 +569,10 @@ def pipeline_preflight(config: dict, *, read_data: bool = True, stream=None) -> 
 
 @contextmanager
 def step_errors_exit():
-    """In a workflow script: a bad input ends the job with one line on stderr (and in the
-    log) and its exit status (:data:`EXIT_CODES`) instead of a traceback."""
+    """In a workflow script: a bad input ends the job with one line and its exit status.
+
+    The line goes to stderr and the log; the status is that of :data:`EXIT_CODES`, no
+    traceback."""
     try:
         yield
     except Exception as exc:  # noqa: BLE001 - classified below, re-raised if not bad input
