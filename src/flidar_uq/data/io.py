@@ -146,7 +146,7 @@ def _kind(path: Path) -> str:
 
 #: CSV files up to this size are checked line by line before parsing (field counts, blank
 #: lines, encoding); larger ones (raw IMU and LOS series) go to the parser directly.
-_PRESCAN_MAX_BYTES = 256 * 2**20
+_PRESCAN_MAX_BYTES = 128 * 2**20
 
 
 def _csv_text(path: Path, source: str) -> str | None:

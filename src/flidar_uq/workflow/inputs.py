@@ -231,13 +231,6 @@ def _check_semantics(config: dict) -> None:
     ):
         if not pri[lo] < pri[hi]:
             raise ConfigError(f"priors.{lo}", f"{pri[lo]} must be below priors.{hi} = {pri[hi]}")
-    inf = config["inference"]
-    if inf["ndraws"] > inf["nsteps"] * inf["nwalkers"]:
-        raise ConfigError(
-            "inference.ndraws",
-            f"{inf['ndraws']} draws per ensemble but only nsteps x nwalkers = "
-            f"{inf['nsteps'] * inf['nwalkers']} kept samples",
-        )
 
 
 def _check_scenario(scenario: str) -> None:
