@@ -91,12 +91,35 @@ def test_hand_written_campaign_is_valid():
     assert {"ref_hws_mean_ms", "ref_hws_std_ms", "sv"} <= set(rec.columns)
 
 
-def test_naive_and_offset_timestamps_become_utc(tmp_path):
+def test_offset_and_naive_timestamps_become_utc(tmp_path):
     df = make_records(4)
-    df["timestamp"] = ["2015-04-01T02:00:00+02:00"] * 2 + ["2015-04-01T00:10:00"] * 2
+    df["timestamp"] = ["2015-04-01T02:00:00+02:00"] * 2 + ["2015-04-01T02:10:00+02:00"] * 2
     rec = read_records(write_csv(df, tmp_path))
     assert rec["timestamp"].iloc[0] == pd.Timestamp("2015-04-01T00:00:00Z")
     assert rec["timestamp"].iloc[2] == pd.Timestamp("2015-04-01T00:10:00Z")
+    df["timestamp"] = ["2015-04-01T00:00:00"] * 2 + ["2015-04-01 00:10"] * 2
+    rec = read_records(write_csv(df, tmp_path))
+    assert rec["timestamp"].iloc[2] == pd.Timestamp("2015-04-01T00:10:00Z")
+
+
+@pytest.mark.parametrize(
+    "stamps",
+    [
+        ["2015-04-01T02:00:00+02:00", "2015-04-01T00:10:00"],  # zone and no zone
+        ["2015-04-01T02:00:00+02:00", "2015-04-01T01:10:00+01:00"],  # daylight saving
+        ["2015-04-01T00:00:00Z", "2015-04-01T00:10:00"],
+    ],
+)
+def test_bad_mixed_time_zones(tmp_path, stamps):
+    df = make_records(4)
+    df["timestamp"] = [stamps[0]] * 2 + [stamps[1]] * 2
+    expect(write_csv(df, tmp_path), 3, "timestamp", "mixed time zones")
+
+
+def test_same_zone_written_differently_is_one_zone(tmp_path):
+    df = make_records(4)
+    df["timestamp"] = ["2015-04-01T00:00:00Z"] * 2 + ["2015-04-01T00:10:00+00:00"] * 2
+    assert len(read_records(write_csv(df, tmp_path))) == 4
 
 
 def test_motion_columns_optional_when_imu_series_given():
@@ -281,7 +304,7 @@ def test_write_refuses_invalid_table(tmp_path):
 
 
 def test_unknown_suffix_is_refused(tmp_path):
-    with pytest.raises(ValueError, match=r"x\.xlsx: unknown file type"):
+    with pytest.raises(DataValidationError, match=r"x\.xlsx: unknown file type \(export"):
         read_records(tmp_path / "x.xlsx")
 
 
@@ -407,7 +430,8 @@ def test_bad_malformed_csv_line(tmp_path):
     lines[4] += ",1.0,2.0"  # data row 4 has two extra fields
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(
-        DataValidationError, match=r"campaign\.csv: row 4 \(line 5\): malformed CSV .*line 5"
+        DataValidationError,
+        match=r"campaign\.csv: row 4 \(line 5\): 18 fields where the header has 16$",
     ):
         read_records(path)
 

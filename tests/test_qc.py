@@ -66,6 +66,30 @@ def test_spatial_variation_seed000_006():
     assert r.counts.loc["sv_high", "applicable"]
 
 
+def test_zero_std_of_the_lidar_or_the_reference_is_flagged_not_dropped():
+    r = run_qc(
+        records(
+            hws_std_ms=[0.6, 0.0, 0.6, 0.6, 0.6, 0.6],
+            ref_hws_std_ms=[0.5, 0.5, 0.5, 0.0, np.nan, 0.5],
+        ),
+        QCConfig(mad=False),
+    )
+    assert failed(r, "zero_std") == [2, 4]  # a missing reference std is not a zero one
+    assert r.n_in == 6 and len(r.flags) == 6
+    off = run_qc(records(hws_std_ms=[0.0] * 6), QCConfig(mad=False, zero_std=False))
+    assert off.n_kept == 6
+
+
+def test_height_selection_flags_the_other_heights():
+    df = records(height_m=[58.0, 85.0, 100.0, 58.0, 85.0, 100.0])
+    r = run_qc(df, QCConfig(mad=False, heights_m=[85, 100.0000001]))
+    assert failed(r, "height_not_selected") == [1, 4]
+    assert r.counts.loc["height_not_selected", "threshold"] == "not in 85, 100 m"
+    assert not run_qc(df, QCConfig(mad=False)).counts.loc["height_not_selected", "applicable"]
+    with pytest.raises(ValueError, match="heights_m must be positive heights"):
+        QCConfig(heights_m=[-5.0])
+
+
 def test_sv_filter_not_applicable_without_column():
     r = run_qc(records())
     assert not r.counts.loc["sv_high", "applicable"]

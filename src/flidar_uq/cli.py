@@ -1,15 +1,18 @@
 """``flidar-uq`` command line.
 
 Subcommands are registered in :data:`SUBCOMMANDS` (name -> ``(add_arguments, run, help)``);
-other modules' commands are added there. Every command prints its result on stdout;
-bad input gives exactly one line on stderr naming the argument and exit status 2,
-never a traceback.
+other modules' commands are added there. Every command prints its result on stdout as
+one JSON object; bad input gives exactly one line on stderr naming the argument, config
+key or file, row and column, never a traceback, and an exit status per class
+(:data:`flidar_uq.workflow.inputs.EXIT_CODES`): 0 ok, 2 usage error (argument or config
+key), 3 bad data (file missing, unreadable, malformed, wrong units), 1 internal error.
 
 Example::
 
     flidar-uq sigma-z --hws-ms 8 --amplitude-deg 3 --period-s 4
     flidar-uq sigma-z --hws-ms 8 --amplitude-deg 3 --period-s 4 --period2-s 12 --weight1 0.6
     flidar-uq validate my_campaign.csv
+    flidar-uq validate --config my_config.yaml
     flidar-uq generate-campaign --scenario tiny --seed 1 --output tiny.csv
 """
 
@@ -21,10 +24,16 @@ import math
 import sys
 from collections.abc import Callable, Sequence
 
-__all__ = ["main", "build_parser", "SUBCOMMANDS", "CliError"]
+from flidar_uq.workflow.inputs import (
+    EXIT_CODES,
+    EXIT_DATA,
+    EXIT_INTERNAL,
+    EXIT_OK,
+    EXIT_USAGE,
+    exit_status,
+)
 
-EXIT_USAGE = 2
-EXIT_INTERNAL = 1
+__all__ = ["main", "build_parser", "SUBCOMMANDS", "CliError"]
 
 
 class CliError(Exception):
@@ -223,20 +232,78 @@ def _run_sigma_z(args: argparse.Namespace) -> dict:
 
 
 def _add_validate(p: argparse.ArgumentParser) -> None:
-    p.add_argument("path", help="record table (.csv, .csv.gz, .parquet), see docs/data-format.md")
+    p.add_argument(
+        "path",
+        nargs="?",
+        default=None,
+        help="record table (.csv, .csv.gz, .parquet), docs/data-format.md; default: the "
+        "config's campaign.records",
+    )
+    p.add_argument(
+        "--config",
+        default=None,
+        help="pipeline config (YAML, as for snakemake --configfile): checked like the "
+        "pipeline does; its campaign.columns, heights, allow_small_angles and qc apply",
+    )
     p.add_argument(
         "--allow-small-angles",
         action="store_true",
-        help="do not reject motion amplitudes that look like radians",
+        help="do not reject motion amplitudes that look like radians (a calm site)",
     )
+    p.add_argument("--imu-series", default=None, help="also check a raw IMU series file")
+    p.add_argument("--los-series", default=None, help="also check a LOS file (needs --imu-series)")
 
 
 def _run_validate(args: argparse.Namespace) -> dict:
-    from flidar_uq.data.io import read_records
+    from flidar_uq.data.io import los_imu_match, read_imu_series, read_los_series
+    from flidar_uq.workflow.inputs import (
+        check_config,
+        inspect_records,
+        load_config_file,
+        read_campaign_records,
+    )
 
-    records = read_records(args.path, allow_small_angles=args.allow_small_angles)
-    heights = sorted(float(h) for h in records["height_m"].unique())
-    return {"path": str(args.path), "valid": True, "n_records": len(records), "heights_m": heights}
+    config = None
+    if args.config is not None:
+        config = check_config(load_config_file(args.config))
+    campaign = config["campaign"] if config else {}
+    path = args.path or campaign.get("records")
+    if not path:
+        raise CliError(
+            "flidar-uq validate: error: argument path: give the record table, or --config "
+            "with campaign.records"
+        )
+    if args.los_series and not args.imu_series:
+        raise CliError(
+            "flidar-uq validate: error: argument --los-series: a LOS file needs its IMU "
+            "series (--imu-series)"
+        )
+    small = bool(args.allow_small_angles or campaign.get("allow_small_angles", False))
+    records = read_campaign_records(path, campaign, allow_small_angles=small)
+    report = inspect_records(
+        records,
+        source=str(path),
+        qc_params=config["qc"] if config else None,
+        heights=campaign.get("heights"),
+        columns=campaign.get("columns"),
+    )
+    out = {"path": str(path), "valid": True, **report}
+    if args.imu_series:
+        imu = read_imu_series(args.imu_series, allow_small_angles=small)
+        out["imu_series"] = {"path": args.imu_series, "n_samples": len(imu)}
+        if args.los_series:
+            los = read_los_series(args.los_series)
+            ok = los_imu_match(los, imu, los_source=args.los_series, imu_source=args.imu_series)
+            out["los_series"] = {
+                "path": args.los_series,
+                "n_measurements": len(los),
+                "share_with_imu": round(float(ok.mean()), 4) if len(ok) else 0.0,
+            }
+    for line in report["blocking"]:
+        print(f"flidar-uq validate: warning: {line} (the pipeline stops on this)", file=sys.stderr)
+    for line in report["warnings"]:
+        print(f"flidar-uq validate: warning: {line}", file=sys.stderr)
+    return out
 
 
 # ---- generate-campaign ---------------------------------------------------------------------
@@ -300,18 +367,22 @@ def build_parser() -> argparse.ArgumentParser:
     """The ``flidar-uq`` parser with one subparser per entry of :data:`SUBCOMMANDS`."""
     from flidar_uq import __version__
 
-    parser = _OneLineParser(prog="flidar-uq", description=__doc__.splitlines()[0])
+    epilog = "exit status: " + "; ".join(f"{k} {v}" for k, v in sorted(EXIT_CODES.items()))
+    parser = _OneLineParser(prog="flidar-uq", description=__doc__.splitlines()[0], epilog=epilog)
     parser.add_argument("--version", action="version", version=f"flidar-uq {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_OneLineParser)
     for name, (add, run, helptext) in SUBCOMMANDS.items():
-        p = sub.add_parser(name, help=helptext, description=helptext)
+        p = sub.add_parser(name, help=helptext, description=helptext, epilog=epilog)
         add(p)
         p.set_defaults(_run=run)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI; returns the exit status (0 ok, 2 bad input, 1 internal error)."""
+    """Run the CLI; returns the exit status (0 ok, 2 usage, 3 bad data, 1 internal error).
+
+    The classes are :data:`flidar_uq.workflow.inputs.EXIT_CODES`.
+    """
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -321,14 +392,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     except CliError as exc:
         print(str(exc), file=sys.stderr)
         return EXIT_USAGE
-    except ValueError as exc:  # misuse detected inside the library
-        print(f"flidar-uq: error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
     except Exception as exc:  # noqa: BLE001 - the CLI never shows a traceback
+        code = exit_status(exc)
+        if code is not None:  # a config key or the data
+            print(f"flidar-uq: error: {exc}", file=sys.stderr)
+            return code
+        if isinstance(exc, ValueError):  # misuse detected inside the library
+            print(f"flidar-uq: error: {exc}", file=sys.stderr)
+            return EXIT_USAGE
+        if isinstance(exc, OSError):  # a file the command writes
+            print(f"flidar-uq: error: {exc.filename or ''}: {_reason(exc)}", file=sys.stderr)
+            return EXIT_DATA
         print(f"flidar-uq: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
         return EXIT_INTERNAL
     print(json.dumps(result))
-    return 0
+    return EXIT_OK
+
+
+def _reason(exc: OSError) -> str:
+    return exc.strerror or str(exc)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,11 +1,18 @@
 # Helpers shared by the rules: config validation at parse time, input functions.
 import os
+import sys
 
-from snakemake.utils import validate
+from flidar_uq.workflow.inputs import pipeline_preflight
 
 
-# Closed schema; fills in defaults. Raises at parse time on unknown keys or bad values.
-validate(config, schema="../schemas/config.schema.yaml")
+# Before any job: the closed schema (workflow/schemas/config.schema.yaml, defaults filled
+# in), cross-key checks and, for campaign.source files, the record table read as the
+# pipeline will (main process only, not in cluster jobs). A bad input stops the run here
+# with one line naming the key or the file, row and column, and exit status 2 (config)
+# or 3 (data); warnings are printed and the run goes on.
+_status = pipeline_preflight(config, read_data=workflow.is_main_process)
+if _status:
+    sys.exit(_status)
 
 REPO = workflow.basedir
 NBATCHES = config["inference"]["nbatches"]
@@ -40,10 +47,7 @@ def user_records(wildcards):
     """The user's record table when campaign.source is 'files'."""
     if config["campaign"]["source"] != "files":
         return []
-    path = config["campaign"]["records"]
-    if not path:
-        raise ValueError("config campaign.records: empty, but campaign.source is 'files'")
-    return path
+    return config["campaign"]["records"]  # non-empty: checked by pipeline_preflight
 
 
 def bin_ids():

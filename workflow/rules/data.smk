@@ -11,6 +11,8 @@ rule campaign:
         source=config["campaign"]["source"],
         scenario=config["campaign"]["scenario"],
         seed=config["campaign"]["seed"],
+        columns=config["campaign"]["columns"] if config["campaign"]["source"] == "files" else {},
+        allow_small_angles=config["campaign"]["allow_small_angles"],
     conda:
         "../envs/flidar_uq.yaml"
     log:
@@ -28,7 +30,12 @@ rule validate:
     input:
         "results/campaign/records.csv",
     output:
-        "results/data/records.csv",
+        records="results/data/records.csv",
+        report="results/data/validation.json",
+    params:
+        allow_small_angles=config["campaign"]["allow_small_angles"],
+        qc=config["qc"],
+        heights=config["campaign"]["heights"],
     conda:
         "../envs/flidar_uq.yaml"
     log:
@@ -48,6 +55,8 @@ rule qc:
         summary="results/qc/summary.csv",
     params:
         qc=config["qc"],
+        heights=config["campaign"]["heights"],
+        allow_small_angles=config["campaign"]["allow_small_angles"],
     conda:
         "../envs/flidar_uq.yaml"
     log:

@@ -11,4 +11,6 @@ run_qc(
     snakemake.output.kept,
     snakemake.output.summary,
     dict(snakemake.params.qc),
+    heights_m=snakemake.params.heights,
+    allow_small_angles=snakemake.params.allow_small_angles,
 )

@@ -15,8 +15,11 @@ number of further offending rows.
 
 from __future__ import annotations
 
+import csv
 import gzip
+import io
 import re
+import zlib
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
@@ -26,18 +29,25 @@ import pandas as pd
 from flidar_uq.data.schema import (
     IMU_COLUMNS,
     IMU_RATE_RANGE_HZ,
+    KMH_SUSPECT_MEDIAN_MS,
     LOS_COLUMNS,
     MOTION_COLUMNS,
     RADIAN_SUSPECT_MAX_DEG,
     RADIAN_SUSPECT_MIN_COUNT,
     RECORD_COLUMNS,
+    TI_AS_STD_MAX_RATIO,
+    TI_PCT_AS_STD_MIN_RATIO,
     TRUTH_PREFIX,
+    UNIT_CHECK_MIN_COUNT,
+    UNIT_CHECK_MIN_HWS_MS,
     Column,
     record_column,
 )
 
 __all__ = [
     "DataValidationError",
+    "HEIGHT_FIELD",
+    "check_column_map",
     "read_records",
     "write_records",
     "validate_records",
@@ -47,6 +57,7 @@ __all__ = [
     "read_los_series",
     "validate_los_series",
     "write_los_series",
+    "los_imu_match",
 ]
 
 _CSV_SUFFIXES = (".csv", ".csv.gz")
@@ -64,10 +75,12 @@ class DataValidationError(ValueError):
         File path (or ``"<DataFrame>"``).
     row : int or None
         1-based data row (the first row after the CSV header is row 1); None for
-        problems of the header (message says ``header``) or of a whole column
-        (``all rows``).
+        problems of the header (message says ``header``), of a whole column
+        (``all rows``) or of the whole file.
     column : str or None
-        Offending column name.
+        Offending column name (the name in the file when a column map renamed it).
+    problem : str
+        What is wrong, without the location.
     """
 
     def __init__(
@@ -80,15 +93,38 @@ class DataValidationError(ValueError):
         csv: bool = False,
         n_more: int = 0,
         header: bool = False,
+        whole_file: bool = False,
+        mapped_from: str | None = None,
     ) -> None:
-        self.source, self.row, self.column = source, row, column
-        if row is None:
+        self.source, self.row, self.column, self.problem = source, row, column, problem
+        self._kw = dict(csv=csv, n_more=n_more, header=header, whole_file=whole_file)
+        if whole_file:
+            where = ""
+        elif row is None:
             where = "header" if header or column is None else "all rows"
         else:
             where = f"row {row}" + (f" (line {row + 1})" if csv else "")
-        col = "" if column is None else f", column {column!r}"
+        col = ""
+        if column is not None:
+            col = f"column {column!r}" + (
+                f" (mapped to {mapped_from!r})" if mapped_from and mapped_from != column else ""
+            )
+        loc = ", ".join(x for x in (where, col) if x)
         more = f" (and {n_more} more row{'s' if n_more != 1 else ''})" if n_more else ""
-        super().__init__(f"{source}: {where}{col}: {problem}{more}")
+        super().__init__(f"{source}: {loc + ': ' if loc else ''}{problem}{more}")
+
+    def renamed(self, file_names: Mapping[str, str]) -> DataValidationError:
+        """The same error naming the file's column (``file_names``: canonical -> file name)."""
+        if self.column is None or self.column not in file_names:
+            return self
+        return DataValidationError(
+            self.source,
+            self.row,
+            file_names[self.column],
+            self.problem,
+            mapped_from=self.column,
+            **self._kw,
+        )
 
 
 # --------------------------------------------------------------------------- helpers
@@ -98,47 +134,196 @@ def _kind(path: Path) -> str:
         return "csv"
     if name.endswith(_PARQUET_SUFFIXES):
         return "parquet"
-    raise ValueError(f"{path}: unknown file type; use one of {_CSV_SUFFIXES + _PARQUET_SUFFIXES}")
+    hint = " (export the sheet as CSV)" if name.endswith((".xls", ".xlsx", ".ods")) else ""
+    raise DataValidationError(
+        str(path),
+        None,
+        None,
+        f"unknown file type{hint}; use one of {', '.join(_CSV_SUFFIXES + _PARQUET_SUFFIXES)}",
+        whole_file=True,
+    )
 
 
-def _csv_header(path: Path) -> list[str]:
-    opener = gzip.open if path.name.lower().endswith(".gz") else open
-    with opener(path, "rt", encoding="utf-8") as fh:
-        line = fh.readline()
-    return [c.strip().strip('"') for c in line.rstrip("\r\n").split(",")]
+#: CSV files up to this size are checked line by line before parsing (field counts, blank
+#: lines, encoding); larger ones (raw IMU and LOS series) go to the parser directly.
+_PRESCAN_MAX_BYTES = 128 * 2**20
+
+
+def _csv_text(path: Path, source: str) -> str | None:
+    """The decoded text of a CSV file (``None`` when too large to check line by line)."""
+    gz = path.name.lower().endswith(".gz")
+    if not gz and path.stat().st_size > _PRESCAN_MAX_BYTES:
+        return None
+    try:
+        if gz:
+            with gzip.open(path, "rb") as fh:
+                data = fh.read(_PRESCAN_MAX_BYTES + 1)
+            if len(data) > _PRESCAN_MAX_BYTES:
+                return None
+        else:
+            data = path.read_bytes()
+    except (OSError, EOFError, zlib.error) as exc:
+        raise DataValidationError(
+            source, None, None, f"cannot read the file ({_os_reason(exc)})", whole_file=True
+        ) from None
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        raise DataValidationError(
+            source,
+            line - 1 if line > 1 else None,
+            None,
+            f"not UTF-8 text (byte {data[exc.start]:#04x} at line {line}); save the file as UTF-8",
+            csv=True,
+            whole_file=line == 1,
+        ) from None
+    return text
+
+
+def _os_reason(exc: BaseException) -> str:
+    return getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+
+
+def _check_csv_lines(text: str, source: str) -> list[str]:
+    """Header names of a CSV text; raise on a wrong delimiter, NUL bytes, blank lines inside
+    the table or rows whose number of fields differs from the header's."""
+    lines = text.split("\n")
+    if lines and lines[-1] == "":
+        lines.pop()
+    lines = [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
+    while lines and not lines[-1].strip():  # trailing blank lines are harmless
+        lines.pop()
+    if not lines:
+        raise DataValidationError(source, None, None, "the file is empty", whole_file=True)
+    head = lines[0]
+    if "," not in head:
+        for sep, name in ((";", "semicolons"), ("\t", "tabs"), ("|", "'|'")):
+            if sep in head:
+                decimal = any(re.search(r"\d,\d", ln) for ln in lines[1:50])
+                raise DataValidationError(
+                    source,
+                    None,
+                    None,
+                    f"the fields are separated by {name}, expected commas"
+                    + (" (and the numbers use decimal commas, expected '.')" if decimal else "")
+                    + ": export the table as CSV with ',' between fields and '.' in numbers",
+                    header=True,
+                )
+    nul = text.find("\x00")
+    if nul >= 0:
+        line = text.count("\n", 0, nul) + 1
+        raise DataValidationError(
+            source, line - 1 or None, None, "NUL byte in the file (binary data?)", csv=True,
+            header=line == 1,
+        )  # fmt: skip
+    if '"' in text:  # quoted fields (may span lines): the csv module counts the fields
+        reader = csv.reader(lines)
+        parsed = []
+        try:
+            for fields in reader:
+                parsed.append((reader.line_num, fields))
+        except csv.Error as exc:
+            raise DataValidationError(
+                source, reader.line_num - 1 or None, None, f"malformed CSV ({exc})", csv=True,
+                header=reader.line_num <= 1,
+            ) from None  # fmt: skip
+    else:
+        parsed = [(i + 1, ln.split(",")) for i, ln in enumerate(lines)]
+    header = [c.strip().strip('"') for c in parsed[0][1]]
+    n = len(header)
+    for line, fields in parsed[1:]:
+        if not fields or (len(fields) == 1 and not fields[0].strip()):
+            raise DataValidationError(
+                source, line - 1, None, "empty line inside the table", csv=True
+            )
+        if len(fields) != n:
+            hint = ""
+            text_line = lines[line - 1]
+            if len(fields) > n and "." not in text_line and re.search(r"\d,\d", text_line):
+                hint = " (decimal commas? numbers must use '.')"
+            raise DataValidationError(
+                source, line - 1, None, f"{len(fields)} fields where the header has {n}{hint}",
+                csv=True,
+            )  # fmt: skip
+    return header
 
 
 def _read_table(path: str | Path) -> tuple[pd.DataFrame, str, bool]:
     path = Path(path)
-    kind = _kind(path)
     source = str(path)
+    kind = _kind(path)
     if not path.exists():
-        raise FileNotFoundError(f"{source}: no such file")
-    if kind == "csv":
-        header = _csv_header(path)
-        seen: set[str] = set()
-        for name in header:
-            if name in seen:
-                raise DataValidationError(source, None, name, "duplicated column name", header=True)
-            seen.add(name)
-        # pandas infers numbers; text left in a numeric column is reported by _coerce.
-        # low_memory=False gives one dtype per column
+        raise DataValidationError(source, None, None, "no such file", whole_file=True)
+    if path.is_dir():
+        raise DataValidationError(source, None, None, "is a directory, not a file", whole_file=True)
+    if kind == "parquet":
         try:
-            df = pd.read_csv(path, low_memory=False, skipinitialspace=True)
-        except (pd.errors.ParserError, UnicodeDecodeError) as exc:
-            m = re.search(r"line (\d+)", str(exc))
-            row = int(m.group(1)) - 1 if m else None
+            df = pd.read_parquet(path)
+            for c in df.columns:  # text is decoded lazily: invalid UTF-8 surfaces here
+                if pd.api.types.is_string_dtype(df[c].dtype):
+                    df[c] = df[c].astype(object)
+            return df, source, False
+        except MemoryError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - pyarrow and pandas metadata errors vary
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             raise DataValidationError(
-                source, row, None, f"malformed CSV ({exc})".replace("\n", " "), csv=True
-            ) from exc
-        return df, source, True
-    return pd.read_parquet(path), source, False
+                source, None, None, f"not a readable Parquet file ({reason})", whole_file=True
+            ) from None
+    text = _csv_text(path, source)
+    if text is not None:
+        header = _check_csv_lines(text, source)
+    else:
+        opener = gzip.open if path.name.lower().endswith(".gz") else open
+        with opener(path, "rt", encoding="utf-8-sig") as fh:
+            header = [c.strip().strip('"') for c in fh.readline().rstrip("\r\n").split(",")]
+    seen: set[str] = set()
+    for name in header:
+        if name in seen:
+            raise DataValidationError(source, None, name, "duplicated column name", header=True)
+        seen.add(name)
+    # pandas infers numbers; text left in a numeric column is reported by _coerce.
+    # low_memory=False gives one dtype per column
+    try:
+        df = pd.read_csv(
+            io.StringIO(text) if text is not None else path,
+            low_memory=False,
+            skipinitialspace=True,
+            encoding="utf-8-sig",
+        )
+    except (
+        pd.errors.ParserError,
+        pd.errors.EmptyDataError,
+        UnicodeError,
+        ValueError,
+        OverflowError,
+        OSError,
+        EOFError,
+        zlib.error,
+    ) as exc:
+        m = re.search(r"line (\d+)", str(exc))
+        row = int(m.group(1)) - 1 if m else None
+        raise DataValidationError(
+            source,
+            row if row else None,
+            None,
+            f"malformed CSV ({exc})".replace("\n", " "),
+            csv=True,
+            whole_file=not row,
+        ) from None
+    return df, source, True
 
 
 def _first(mask: np.ndarray) -> tuple[int, int]:
     """Return (1-based row of the first True, number of further True)."""
     idx = np.flatnonzero(mask)
     return int(idx[0]) + 1, int(idx.size - 1)
+
+
+def _plain(value):
+    """A numpy scalar as the Python value (for messages)."""
+    return value.item() if isinstance(value, np.generic) else value
 
 
 def _parse_datetime(s: pd.Series, name: str, source: str, csv: bool) -> pd.Series:
@@ -153,11 +338,18 @@ def _parse_datetime(s: pd.Series, name: str, source: str, csv: bool) -> pd.Serie
                 source,
                 row,
                 name,
-                f"number {s.iloc[row - 1]!r} is not an ISO 8601 timestamp",
+                f"number {_plain(s.iloc[row - 1])!r} is not an ISO 8601 timestamp",
                 csv=csv,
                 n_more=more,
             )
-        out = pd.to_datetime(s, utc=True, format="ISO8601", errors="coerce")
+        try:
+            out = pd.to_datetime(s, utc=True, format="ISO8601", errors="coerce")
+        except (ValueError, TypeError, OverflowError):  # e.g. mixed types in a Parquet column
+            out = pd.Series(
+                [pd.to_datetime(v, utc=True, format="ISO8601", errors="coerce") for v in s],
+                index=s.index,
+                dtype="datetime64[ns, UTC]",
+            )
         bad = (out.isna() & s.notna()).to_numpy()
         if bad.any():
             row, more = _first(bad)
@@ -169,7 +361,71 @@ def _parse_datetime(s: pd.Series, name: str, source: str, csv: bool) -> pd.Serie
                 csv=csv,
                 n_more=more,
             )
+        _check_time_zones(s, name, source, csv)
+    lo, hi = pd.Timestamp.min.tz_localize("UTC"), pd.Timestamp.max.tz_localize("UTC")
+    outside = ((out < lo) | (out > hi)).to_numpy()
+    if outside.any():
+        row, more = _first(outside)
+        raise DataValidationError(
+            source,
+            row,
+            name,
+            f"timestamp {s.iloc[row - 1]!s} outside the supported years 1678-2261",
+            csv=csv,
+            n_more=more,
+        )
     return out.astype("datetime64[ns, UTC]")
+
+
+_ZONE = re.compile(r"\d{2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?\s*(Z|[+-]\d{2}(?::?\d{2})?)?\s*$")
+
+
+def _zone_minutes(text: str) -> float:
+    """UTC offset of an ISO 8601 timestamp text, minutes; NaN without a zone ('' if no time)."""
+    m = _ZONE.search(text)
+    if m is None or m.group(1) is None:
+        return np.nan
+    z = m.group(1)
+    if z == "Z":
+        return 0.0
+    digits = z[1:].replace(":", "")
+    minutes = int(digits[:2]) * 60 + (int(digits[2:4]) if len(digits) > 2 else 0)
+    return float(minutes if z[0] == "+" else -minutes)
+
+
+def _check_time_zones(s: pd.Series, name: str, source: str, csv: bool) -> None:
+    """All timestamp texts must carry the same UTC offset, or all none (naive = UTC)."""
+    txt = s[s.notna()].astype(str)
+    if txt.empty:
+        return
+    tail = txt.str[-24:]  # the zone is at the end: evaluate each distinct tail once
+    uniq, inverse = np.unique(tail.to_numpy(dtype=str), return_inverse=True)
+    zones = np.array([_zone_minutes(t) for t in uniq])[inverse.ravel()]
+    first = zones[0]
+    differs = ~np.isnan(zones) if np.isnan(first) else (zones != first)
+    if differs.any():
+        k = int(np.argmax(differs))
+        row = int(np.flatnonzero(s.notna().to_numpy())[k]) + 1
+        first_row = int(np.flatnonzero(s.notna().to_numpy())[0]) + 1
+
+        def label(z: float) -> str:
+            if np.isnan(z):
+                return "no time zone"
+            return (
+                "UTC"
+                if z == 0
+                else f"UTC{'+' if z > 0 else '-'}{abs(z) // 60:02.0f}:{abs(z) % 60:02.0f}"
+            )
+
+        raise DataValidationError(
+            source,
+            row,
+            name,
+            f"mixed time zones: {txt.iloc[k]!r} has {label(zones[k])}, row {first_row} has "
+            f"{label(first)}; write every timestamp in one zone, preferably UTC",
+            csv=csv,
+            n_more=int(differs.sum()) - 1,
+        )
 
 
 def _parse_float(s: pd.Series, name: str, source: str, csv: bool) -> pd.Series:
@@ -178,20 +434,38 @@ def _parse_float(s: pd.Series, name: str, source: str, csv: bool) -> pd.Series:
             source, 1, name, "boolean values where a number is expected", csv=csv, n_more=len(s) - 1
         )
     if pd.api.types.is_numeric_dtype(s.dtype):
+        if pd.api.types.is_complex_dtype(s.dtype):
+            raise DataValidationError(
+                source, 1, name, "complex numbers where a real number is expected", csv=csv
+            )
         return s.astype(np.float64)
-    out = pd.to_numeric(s, errors="coerce")
+    try:
+        out = pd.to_numeric(s, errors="coerce")
+    except (TypeError, ValueError):  # e.g. lists in a Parquet column
+        out = pd.Series([_to_float(v) for v in s], index=s.index, dtype=np.float64)
     bad = (out.isna() & s.notna()).to_numpy()
     if bad.any():
         row, more = _first(bad)
+        value = _plain(s.iloc[row - 1])
+        hint = ""
+        if isinstance(value, str) and re.fullmatch(r"\s*[-+]?\d+,\d+\s*", value):
+            hint = " (a decimal comma? numbers must use '.')"
         raise DataValidationError(
             source,
             row,
             name,
-            f"cannot parse {s.iloc[row - 1]!r} as a number",
+            f"cannot parse {value!r} as a number{hint}",
             csv=csv,
             n_more=more,
         )
     return out.astype(np.float64)
+
+
+def _to_float(value) -> float:
+    try:
+        return float(value)
+    except (TypeError, ValueError, OverflowError):
+        return np.nan
 
 
 def _bounds_problem(col: Column, value: float) -> str:
@@ -247,6 +521,51 @@ def _check_values(df: pd.DataFrame, col: Column, source: str, csv: bool) -> None
         )
 
 
+def _check_units(df: pd.DataFrame, source: str, csv: bool) -> None:
+    """Reject speeds that look like km/h and std columns that look like TI (data-format.md)."""
+    for mean_col, std_col in (("hws_mean_ms", "hws_std_ms"), ("ref_hws_mean_ms", "ref_hws_std_ms")):
+        if mean_col not in df.columns:
+            continue
+        m = df[mean_col].to_numpy(dtype=np.float64)
+        fin = np.isfinite(m)
+        if fin.sum() >= UNIT_CHECK_MIN_COUNT and np.median(m[fin]) > KMH_SUSPECT_MEDIAN_MS:
+            raise DataValidationError(
+                source,
+                None,
+                mean_col,
+                f"median {np.median(m[fin]):.3g} over {int(fin.sum())} records is above "
+                f"{KMH_SUSPECT_MEDIAN_MS:g} m/s, implausible for a campaign: speeds in km/h? "
+                "(divide by 3.6)",
+            )
+        if std_col not in df.columns:
+            continue
+        s = df[std_col].to_numpy(dtype=np.float64)
+        use = fin & np.isfinite(s) & (s > 0) & (m >= UNIT_CHECK_MIN_HWS_MS)
+        if use.sum() < UNIT_CHECK_MIN_COUNT:
+            continue
+        ratio = float(np.median(s[use] / m[use]))
+        if ratio < TI_AS_STD_MAX_RATIO:
+            what = "the turbulence intensity (std / mean)"
+        elif ratio > TI_PCT_AS_STD_MIN_RATIO:
+            what = "the turbulence intensity in %"
+        else:
+            continue
+        raise DataValidationError(
+            source,
+            None,
+            std_col,
+            f"median {std_col} / {mean_col} is {ratio:.3g} over {int(use.sum())} records "
+            f"(expected {TI_AS_STD_MAX_RATIO:g}-{TI_PCT_AS_STD_MIN_RATIO:g}): the column looks "
+            f"like {what}, expected the standard deviation in m/s",
+        )
+
+
+_SMALL_ANGLES_HINT = (
+    "if the motion really is that small, allow it: config key campaign.allow_small_angles, "
+    "flidar-uq validate --allow-small-angles, allow_small_angles=True in Python"
+)
+
+
 def _check_radians(
     df: pd.DataFrame, names: Iterable[str], source: str, csv: bool, *, absolute: bool
 ) -> None:
@@ -268,7 +587,7 @@ def _check_radians(
             names[c],
             f"every non-zero {kind} in {names} is below {RADIAN_SUSPECT_MAX_DEG} deg "
             f"(largest {vmax.max():.4g} here): the angles look like radians, expected degrees "
-            "(pass allow_small_angles=True if the motion really is that small)",
+            f"({_SMALL_ANGLES_HINT})",
             csv=csv,
         )
 
@@ -362,6 +681,126 @@ def _check_columns(
 
 
 # --------------------------------------------------------------------------- records
+HEIGHT_FIELD = "{height}"
+"""Placeholder in a column-map name for the height of a wide table (``"Spd{height}mN"``)."""
+
+
+def check_column_map(columns: Mapping[str, str | None]) -> None:
+    """Check a column map (see :func:`validate_records`) without a file.
+
+    Raises
+    ------
+    ValueError
+        Naming the entry whose target is not a record column, repeats another entry's
+        target, or whose name holds :data:`HEIGHT_FIELD` more than once.
+    """
+    if not isinstance(columns, Mapping):
+        raise ValueError(f"column map: must be a mapping of names, got {columns!r}")
+    known = {c.name for c in RECORD_COLUMNS}
+    seen: dict[str, str] = {}
+    for name, target in columns.items():
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"column map: file column names must be text, got {name!r}")
+        if name.count(HEIGHT_FIELD) > 1:
+            raise ValueError(f"column map: {name!r} has {HEIGHT_FIELD} more than once")
+        if target is None:
+            continue
+        if not isinstance(target, str) or not (target in known or target.startswith(TRUTH_PREFIX)):
+            raise ValueError(
+                f"column map: {name!r} -> {target!r}: not a record column "
+                "(docs/data-format.md; null drops the column)"
+            )
+        if target == "height_m" and HEIGHT_FIELD in name:
+            raise ValueError(
+                f"column map: {name!r} -> 'height_m': heights come from {HEIGHT_FIELD}"
+            )
+        if target in seen:
+            raise ValueError(f"column map: {seen[target]!r} and {name!r} both map to {target!r}")
+        seen[target] = name
+
+
+def _apply_column_map(
+    df: pd.DataFrame, columns: Mapping[str, str | None], source: str
+) -> list[tuple[pd.DataFrame, dict[str, str]]]:
+    """Rename (and for a wide table, split per height) the file's columns.
+
+    Returns one ``(table, canonical -> file column)`` pair per height of a wide table
+    (names with :data:`HEIGHT_FIELD`), else a single pair; each table keeps the file's
+    rows in order, so row numbers in messages stay those of the file.
+    """
+    check_column_map(columns)
+    templates = {k: v for k, v in columns.items() if HEIGHT_FIELD in k}
+    plain = {k: v for k, v in columns.items() if HEIGHT_FIELD not in k}
+    for name, target in plain.items():
+        if name not in df.columns:
+            to = "dropped" if target is None else f"-> {target!r}"
+            raise DataValidationError(
+                source, None, name, f"in the column map ({to}) but not in the file", header=True
+            )
+    rename = {k: v for k, v in plain.items() if v is not None}
+    for name, target in rename.items():
+        if target in df.columns and target not in rename:
+            raise DataValidationError(
+                source,
+                None,
+                target,
+                f"the file has this column and the column map also maps {name!r} to it",
+                header=True,
+            )
+    back = {v: k for k, v in rename.items()}
+    if not templates:
+        drop = [k for k, v in plain.items() if v is None]
+        return [(df.drop(columns=drop).rename(columns=rename), back)]
+    patterns = {}
+    for k in templates:
+        pre, post = k.split(HEIGHT_FIELD)
+        patterns[k] = re.compile(re.escape(pre) + r"(\d+(?:\.\d+)?)" + re.escape(post))
+    labels: dict[float, str] = {}
+    matched: dict[tuple[str, float], str] = {}
+    for col in df.columns:
+        if not isinstance(col, str) or col in plain:
+            continue
+        for k, rx in patterns.items():
+            m = rx.fullmatch(col)
+            if m:
+                h = float(m.group(1))
+                labels.setdefault(h, m.group(1))
+                matched[(k, h)] = col
+    if not labels:
+        raise DataValidationError(
+            source,
+            None,
+            None,
+            f"no column matches the per-height names {sorted(templates)} of the column map",
+            header=True,
+        )
+    if "height_m" in df.columns or "height_m" in rename.values():
+        raise DataValidationError(
+            source,
+            None,
+            back.get("height_m", "height_m"),
+            f"a per-height column map ({HEIGHT_FIELD} in a name) takes the heights from the "
+            "column names: the table must not have a height column",
+            header=True,
+        )
+    drop = [k for k, v in plain.items() if v is None] + sorted(set(matched.values()))
+    shared = df.drop(columns=drop).rename(columns=rename)
+    parts = []
+    for h in sorted(labels):
+        part = shared.copy()
+        part["height_m"] = h
+        names = dict(back)
+        for k, target in templates.items():
+            if target is None:
+                continue
+            col = matched.get((k, h))
+            names[target] = col or k.replace(HEIGHT_FIELD, labels[h])
+            if col is not None:
+                part[target] = df[col].to_numpy()
+        parts.append((part, names))
+    return parts
+
+
 def validate_records(
     df: pd.DataFrame,
     source: str = "<DataFrame>",
@@ -369,6 +808,7 @@ def validate_records(
     require_motion: bool = True,
     allow_small_angles: bool = False,
     csv: bool = False,
+    columns: Mapping[str, str | None] | None = None,
 ) -> pd.DataFrame:
     """Validate a record table and return it normalised.
 
@@ -376,9 +816,17 @@ def validate_records(
     ----------
     df : pandas.DataFrame
         Record table, one row per 10-min record and height (columns in
-        ``docs/data-format.md``).
+        ``docs/data-format.md``), or, with a per-height ``columns`` map, one row per
+        10-min record with one column per quantity and height.
     source : str
         Name used in error messages (the file path).
+    columns : mapping of str to str or None, optional
+        Column map, the file's name -> the record column (``docs/data-format.md``);
+        ``None`` drops a column. A name containing :data:`HEIGHT_FIELD`
+        (``"Spd{height}mN": "hws_mean_ms"``) marks a wide table: each height found in
+        the names becomes one record per row (``height_m`` from the name), and the
+        columns not mapped per height are shared by all heights. Messages name the
+        file's columns. Records come out per row in file order, heights ascending.
     require_motion : bool
         If False the IMU motion columns may be absent (they will be derived from
         a raw IMU series with :func:`flidar_uq.data.imu.motion_statistics`).
@@ -397,7 +845,31 @@ def validate_records(
     ------
     DataValidationError
         On the first problem found, naming file, row and column.
+    ValueError
+        On a column map whose targets are not record columns or repeat.
     """
+    kw = dict(require_motion=require_motion, allow_small_angles=allow_small_angles, csv=csv)
+    if not columns:
+        return _validate_records(df, source, **kw)
+    parts = []
+    for part, names in _apply_column_map(df, columns, source):
+        try:
+            parts.append(_validate_records(part, source, **kw))
+        except DataValidationError as exc:
+            raise exc.renamed(names) from None
+    if len(parts) == 1:
+        return parts[0]
+    n = len(df)
+    out = pd.concat(parts, ignore_index=True)
+    order = np.lexsort((np.repeat(np.arange(len(parts)), n), np.tile(np.arange(n), len(parts))))
+    out = out.iloc[order].reset_index(drop=True)
+    names = [c.name for c in RECORD_COLUMNS if c.name in out.columns]
+    return out[names + [c for c in out.columns if c not in names]]
+
+
+def _validate_records(
+    df: pd.DataFrame, source: str, *, require_motion: bool, allow_small_angles: bool, csv: bool
+) -> pd.DataFrame:
     known = {c.name: c for c in RECORD_COLUMNS}
     required = [
         c.name
@@ -442,6 +914,7 @@ def validate_records(
                     csv=csv,
                     n_more=more,
                 )
+    _check_units(out, source, csv)
     if not allow_small_angles:
         _check_radians(
             out, ["roll_amplitude_deg", "pitch_amplitude_deg"], source, csv, absolute=False
@@ -455,7 +928,7 @@ def validate_records(
                 row,
                 "wd_mean_deg",
                 f"all {fin.size} wind directions are <= 2*pi (largest {fin.max():.4g}): they look "
-                "like radians, expected degrees (pass allow_small_angles=True to accept)",
+                f"like radians, expected degrees ({_SMALL_ANGLES_HINT})",
                 csv=csv,
             )
     _check_time_order(out, source, csv, by="height_m", strict=True)
@@ -465,7 +938,11 @@ def validate_records(
 
 
 def read_records(
-    path: str | Path, *, require_motion: bool = True, allow_small_angles: bool = False
+    path: str | Path,
+    *,
+    require_motion: bool = True,
+    allow_small_angles: bool = False,
+    columns: Mapping[str, str | None] | None = None,
 ) -> pd.DataFrame:
     """Read and validate a record table (CSV or Parquet).
 
@@ -475,6 +952,8 @@ def read_records(
         ``.csv``, ``.csv.gz``, ``.parquet`` or ``.pq`` file.
     require_motion, allow_small_angles : bool
         See :func:`validate_records`.
+    columns : mapping, optional
+        Column map of a file whose names differ, see :func:`validate_records`.
 
     Returns
     -------
@@ -488,7 +967,12 @@ def read_records(
     """
     df, source, csv = _read_table(path)
     return validate_records(
-        df, source, require_motion=require_motion, allow_small_angles=allow_small_angles, csv=csv
+        df,
+        source,
+        require_motion=require_motion,
+        allow_small_angles=allow_small_angles,
+        csv=csv,
+        columns=columns,
     )
 
 
@@ -573,7 +1057,8 @@ def validate_imu_series(
                 source,
                 None,
                 "timestamp",
-                f"median sampling rate {rate_hz:.3g} Hz outside the supported {lo:g}-{hi:g} Hz",
+                f"median sampling rate {rate_hz:.3g} Hz outside the supported {lo:g}-{hi:g} Hz "
+                "(resample the series to 5-20 Hz)",
             )
     if not allow_small_angles:
         _check_radians(out, ["roll_deg", "pitch_deg"], source, csv, absolute=True)
@@ -625,3 +1110,63 @@ def read_los_series(path: str | Path) -> pd.DataFrame:
 def write_los_series(df: pd.DataFrame, path: str | Path) -> Path:
     """Validate and write LOS-level data; the format follows the file suffix."""
     return _write(validate_los_series(df, f"<DataFrame for {path}>"), path)
+
+
+def los_imu_match(
+    los: pd.DataFrame,
+    imu: pd.DataFrame,
+    *,
+    max_gap_s: float = 1.0,
+    los_source: str = "<LOS>",
+    imu_source: str = "<IMU>",
+) -> np.ndarray:
+    """Which LOS measurements have an IMU sample within ``max_gap_s``.
+
+    Parameters
+    ----------
+    los, imu : pandas.DataFrame
+        Validated LOS table and IMU series (:func:`validate_los_series`,
+        :func:`validate_imu_series`).
+    max_gap_s : float
+        Largest distance (s) from a LOS measurement to the nearest IMU sample.
+    los_source, imu_source : str
+        File names for the message.
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (len(los),)
+        True where the attitude is known (callers flag the others).
+
+    Raises
+    ------
+    DataValidationError
+        When no LOS measurement has a matching IMU sample (a LOS file without its IMU
+        series), naming the LOS file, its first row and both time spans.
+    """
+    t_los = pd.DatetimeIndex(los["timestamp"]).as_unit("ns").asi8
+    t_imu = np.sort(pd.DatetimeIndex(imu["timestamp"]).as_unit("ns").asi8)
+    if t_imu.size == 0:
+        raise DataValidationError(
+            imu_source, None, None, "the IMU series is empty", whole_file=True
+        )
+    k = np.clip(np.searchsorted(t_imu, t_los), 1, t_imu.size - 1) if t_imu.size > 1 else None
+    if k is None:
+        dist = np.abs(t_los - t_imu[0])
+    else:
+        dist = np.minimum(np.abs(t_los - t_imu[k - 1]), np.abs(t_los - t_imu[k]))
+    ok = dist <= max_gap_s * 1e9
+    if t_los.size and not ok.any():
+
+        def span(t: np.ndarray) -> str:
+            a, b = pd.to_datetime([t.min(), t.max()], utc=True)
+            return f"{a.isoformat()} to {b.isoformat()}"
+
+        raise DataValidationError(
+            los_source,
+            1,
+            "timestamp",
+            f"no LOS measurement has an IMU sample of {imu_source} within {max_gap_s:g} s "
+            f"(LOS {span(t_los)}, IMU {span(t_imu)}): the IMU series of this LOS file is missing",
+            n_more=t_los.size - 1,
+        )
+    return ok

@@ -20,6 +20,10 @@ reason                    rule (flagged if ...)                                 
 ``low_availability``      ``availability_pct < 50``                              seed 001 Sec. 4.2
 ``imu_gap``               a motion statistic NaN, or ``imu_availability_pct``    data contract
                           below its minimum (80 %)
+``zero_std``              ``hws_std_ms`` or ``ref_hws_std_ms`` exactly 0 (a      data contract
+                          frozen sensor; such a record cannot enter the fit)
+``height_not_selected``   ``height_m`` not among the selected heights           config
+                          (``heights_m``, config ``campaign.heights``)
 ========================  ====================================================  ============
 
 LOS-level filter (:func:`run_los_qc`): ``cnr_low``, CNR below -23 dB or missing
@@ -56,6 +60,8 @@ RECORD_REASONS = (
     "relative_sigma",
     "low_availability",
     "imu_gap",
+    "zero_std",
+    "height_not_selected",
 )
 LOS_REASONS = ("cnr_low",)
 
@@ -108,6 +114,11 @@ class QCConfig:
         Flag records with missing motion statistics or low IMU coverage.
     imu_availability_min_pct : float
         Minimum ``imu_availability_pct``, % (80), when that column exists.
+    zero_std : bool
+        Flag records whose ``hws_std_ms`` or ``ref_hws_std_ms`` is exactly 0 m/s.
+    heights_m : tuple of float, optional
+        Selected measurement heights, m; records at other heights are flagged
+        ``height_not_selected`` (None: every height).
     cnr : bool
         Flag LOS measurements with CNR below ``cnr_min_db`` (LOS data only).
     cnr_min_db : float
@@ -133,10 +144,19 @@ class QCConfig:
     availability_min_pct: float = 50.0
     imu_gap: bool = True
     imu_availability_min_pct: float = 80.0
+    zero_std: bool = True
+    heights_m: tuple[float, ...] | None = None
     cnr: bool = True
     cnr_min_db: float = -23.0
 
     def __post_init__(self) -> None:
+        if self.heights_m is not None:
+            heights = tuple(float(h) for h in self.heights_m)
+            if not heights or not all(np.isfinite(h) and h > 0 for h in heights):
+                raise ValueError(
+                    f"QCConfig.heights_m must be positive heights in m, got {self.heights_m!r}"
+                )
+            object.__setattr__(self, "heights_m", heights)
         positive = {
             "hws_max_ms": self.hws_max_ms,
             "sv_max": self.sv_max,
@@ -278,6 +298,12 @@ def _threshold_texts(config: QCConfig) -> dict[str, str]:
         "relative_sigma": f"ref/moving std - 1 > {c.relative_sigma_max:g}",
         "low_availability": f"< {c.availability_min_pct:g} %",
         "imu_gap": f"motion NaN or IMU < {c.imu_availability_min_pct:g} %",
+        "zero_std": "hws_std or ref_hws_std = 0 m/s",
+        "height_not_selected": (
+            "all heights"
+            if c.heights_m is None
+            else "not in " + ", ".join(f"{h:g}" for h in c.heights_m) + " m"
+        ),
         "cnr_low": f"CNR < {c.cnr_min_db:g} dB or NaN",
     }
 
@@ -336,6 +362,16 @@ def _record_masks(records: pd.DataFrame, c: QCConfig) -> dict[str, tuple[bool, b
         if "imu_availability_pct" in cols:
             imu = imu | (_col(records, "imu_availability_pct") < c.imu_availability_min_pct)
         out["imu_gap"] = (c.imu_gap, bool(motion) or "imu_availability_pct" in cols, imu)
+        zero = std == 0
+        if "ref_hws_std_ms" in cols:
+            zero = zero | (_col(records, "ref_hws_std_ms") == 0)
+        out["zero_std"] = (c.zero_std, True, zero)
+        if c.heights_m is None:
+            other = none
+        else:
+            h = _col(records, "height_m")
+            other = ~np.isclose(h[:, None], np.asarray(c.heights_m)[None, :], atol=1e-6).any(axis=1)
+        out["height_not_selected"] = (True, c.heights_m is not None, other)
     return out
 
 

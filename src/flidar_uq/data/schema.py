@@ -27,6 +27,11 @@ __all__ = [
     "RADIAN_SUSPECT_MAX_DEG",
     "RADIAN_SUSPECT_MIN_COUNT",
     "IMU_RATE_RANGE_HZ",
+    "KMH_SUSPECT_MEDIAN_MS",
+    "TI_AS_STD_MAX_RATIO",
+    "TI_PCT_AS_STD_MIN_RATIO",
+    "UNIT_CHECK_MIN_COUNT",
+    "UNIT_CHECK_MIN_HWS_MS",
     "record_column",
     "record_columns_by_name",
 ]
@@ -86,6 +91,18 @@ RADIAN_SUSPECT_MAX_DEG = 0.2
 RADIAN_SUSPECT_MIN_COUNT = 5
 #: Accepted median IMU sampling rate (Hz), inclusive; nominal 5-20 Hz with 5 % tolerance.
 IMU_RATE_RANGE_HZ = (4.75, 21.0)
+
+# Unit checks of the record table (rules documented in data-format.md, "Wrong units"):
+#: a median mean speed above this (m/s) over a whole campaign is implausible: km/h?
+KMH_SUSPECT_MEDIAN_MS = 25.0
+#: a median std / mean below this (-) means the std column holds TI as a fraction ...
+TI_AS_STD_MAX_RATIO = 0.015
+#: ... and above this (-) TI in percent
+TI_PCT_AS_STD_MIN_RATIO = 0.5
+#: the unit checks judge only records with a mean speed of at least this (m/s) ...
+UNIT_CHECK_MIN_HWS_MS = 4.0
+#: ... and only when there are at least this many such records
+UNIT_CHECK_MIN_COUNT = 10
 
 #: Measurement height, shared by the record and LOS tables (one definition, one bound).
 _HEIGHT_M = Column(

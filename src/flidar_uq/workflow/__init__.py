@@ -3,7 +3,9 @@
 The top layer; may import anything in flidar_uq. ``snakemake`` itself is touched
 only in the repository's ``workflow/scripts/``.
 
-Modules: :mod:`.files` (CSV read/write, logging), :mod:`.data_steps` (campaign, validate,
+Modules: :mod:`.inputs` (the config and the user's data checked before any expensive
+step, exit statuses, the validation report), :mod:`.files` (CSV read/write, logging),
+:mod:`.data_steps` (campaign, validate,
 QC, motion statistics, bins, sigma_Z table), :mod:`.inference_steps` (per-bin batches, global
 models, global fit), :mod:`.propagation_step` (corrected TI), :mod:`.report_step` (HTML
 report), :mod:`.report` (HTML building blocks), :mod:`.plots` (figures).

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import logging
 import os
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -37,6 +38,8 @@ def make_campaign(
     scenario_path: str | os.PathLike | None = None,
     records_path: str | os.PathLike | None = None,
     threads: int = 1,
+    columns: dict | None = None,
+    allow_small_angles: bool = False,
 ) -> pd.DataFrame:
     """Write the campaign's 10-min record table: the virtual campaign or the user's file.
 
@@ -54,16 +57,24 @@ def make_campaign(
         The user's record table (CSV or Parquet), required for ``source="files"``.
     threads : int
         Worker processes of the virtual-campaign generator (results do not depend on it).
+    columns : dict, optional
+        Column map of the user's table (config ``campaign.columns``,
+        :func:`flidar_uq.data.io.validate_records`).
+    allow_small_angles : bool
+        Accept motion amplitudes that all look like radians (config
+        ``campaign.allow_small_angles``).
 
     Returns
     -------
     pandas.DataFrame
-        The records written.
+        The records written (every record of the file).
 
     Raises
     ------
     ValueError
         On an unknown ``source`` or a missing path.
+    flidar_uq.data.io.DataValidationError
+        On a problem of the user's file (names file, row and column).
     """
     from flidar_uq.data import io
 
@@ -80,22 +91,72 @@ def make_campaign(
             raise ValueError(
                 "make_campaign: source='files' needs records_path (config campaign.records)"
             )
-        records = io.read_records(records_path)
+        records = io.read_records(
+            records_path, columns=columns or None, allow_small_angles=allow_small_angles
+        )
     else:
         raise ValueError(f"make_campaign: source must be 'virtual' or 'files', got {source!r}")
     Path(out_path).parent.mkdir(parents=True, exist_ok=True)
-    io.write_records(records, out_path)
+    io.write_records(records, out_path, allow_small_angles=allow_small_angles)
     log.info("campaign: %d records (%s) -> %s", len(records), source, out_path)
     return records
 
 
-def validate_records(in_path: str | os.PathLike, out_path: str | os.PathLike) -> pd.DataFrame:
-    """Validate a record table (io.read_records raises naming file, row and column) and copy it."""
-    from flidar_uq.data import io
+def validate_records(
+    in_path: str | os.PathLike,
+    out_path: str | os.PathLike,
+    report_path: str | os.PathLike | None = None,
+    *,
+    allow_small_angles: bool = False,
+    qc_params: dict | None = None,
+    heights_m: Sequence[float] | None = None,
+) -> pd.DataFrame:
+    """Validate the record table, refuse what leaves every record uncorrectable, report.
 
-    records = io.read_records(in_path)
+    Writes the validated table and the inspection report; warnings are logged and
+    printed on stderr.
+
+    Parameters
+    ----------
+    in_path, out_path : path
+        The campaign's record table and its validated copy.
+    report_path : path, optional
+        JSON report of :func:`flidar_uq.workflow.inputs.inspect_records` (columns, time
+        span, heights, gaps, reference share, QC preview, warnings).
+    allow_small_angles : bool
+        Config ``campaign.allow_small_angles``.
+    qc_params : dict, optional
+        The config's ``qc`` section, for the QC preview.
+    heights_m : sequence of float, optional
+        Selected heights, m (config ``campaign.heights``).
+
+    Raises
+    ------
+    flidar_uq.data.io.DataValidationError
+        On a bad record (names file, row and column) or a reference mean without a std.
+    """
+    import json
+
+    from flidar_uq.data import io
+    from flidar_uq.workflow.inputs import inspect_records, reference_problems
+
+    records = io.read_records(in_path, allow_small_angles=allow_small_angles)
+    problems = reference_problems(records, str(in_path))
+    if problems:
+        raise problems[0]
+    report = inspect_records(
+        records,
+        source=str(in_path),
+        qc_params=qc_params,
+        heights=list(heights_m) if heights_m else None,
+    )
+    for w in report["warnings"]:
+        log.warning("%s", w)
+        print(f"flidar-uq: warning: {w}", file=sys.stderr)
     Path(out_path).parent.mkdir(parents=True, exist_ok=True)
-    io.write_records(records, out_path)
+    io.write_records(records, out_path, allow_small_angles=allow_small_angles)
+    if report_path is not None:
+        Path(report_path).write_text(json.dumps(report, indent=1, sort_keys=True) + "\n")
     log.info("validate: %d records valid", len(records))
     return records
 
@@ -109,6 +170,9 @@ def run_qc(
     kept_path: str | os.PathLike,
     summary_path: str | os.PathLike,
     qc_params: dict,
+    *,
+    heights_m: Sequence[float] | None = None,
+    allow_small_angles: bool = False,
 ) -> pd.DataFrame:
     """Apply the QC filters; write every record with its reasons, the kept records, and counts.
 
@@ -122,6 +186,11 @@ def run_qc(
         ``record_id``), and the per-filter counts.
     qc_params : dict
         The ``qc`` section of the config: :class:`flidar_uq.data.qc.QCConfig` fields.
+    heights_m : sequence of float, optional
+        Selected heights, m (config ``campaign.heights``): records at other heights are
+        flagged ``height_not_selected``.
+    allow_small_angles : bool
+        Config ``campaign.allow_small_angles``.
 
     Returns
     -------
@@ -130,8 +199,9 @@ def run_qc(
     """
     from flidar_uq.data import io, qc
 
-    records = io.read_records(in_path)
-    result = qc.run_qc(records, qc.QCConfig(**qc_params))
+    records = io.read_records(in_path, allow_small_angles=allow_small_angles)
+    heights = tuple(heights_m) if heights_m else None
+    result = qc.run_qc(records, qc.QCConfig(**qc_params, heights_m=heights))
     flags = result.flags.copy()
     flags.insert(0, "record_id", np.arange(len(flags)))
     kept = result.kept.copy()

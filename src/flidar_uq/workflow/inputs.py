@@ -1,0 +1,577 @@
+"""The user's config and data, checked before any expensive step.
+
+What is checked: the config, the record table and what the pipeline will make of it.
+
+One policy for the command line (``flidar-uq validate``) and the pipeline (checked when
+the Snakefile is parsed, :func:`pipeline_preflight`, and by the ``validate`` rule):
+
+* every bad input is one line naming the file, row and column, or the config key;
+* the exit status says which class of problem it is (:data:`EXIT_CODES`):
+  ``2`` a usage error (command line, config key missing, unknown or out of range),
+  ``3`` bad data (a file missing, unreadable, malformed, in the wrong units or
+  inconsistent), ``1`` an internal error (a bug: please report it);
+* what would later make whole groups of records uncorrectable is reported as a warning
+  (:func:`inspect_records`), and the pipeline refuses to start on what would make every
+  record uncorrectable (a reference mean without a reference std).
+"""
+
+from __future__ import annotations
+
+import difflib
+import logging
+import os
+import re
+import sys
+from collections.abc import Mapping
+from contextlib import contextmanager
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # numpy and pandas are imported where used: `flidar-uq --help` stays fast
+    import pandas as pd
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "EXIT_CODES",
+    "EXIT_DATA",
+    "EXIT_INTERNAL",
+    "EXIT_OK",
+    "EXIT_USAGE",
+    "SCHEMA_PATH",
+    "ConfigError",
+    "check_config",
+    "exit_status",
+    "inspect_records",
+    "load_config_file",
+    "pipeline_preflight",
+    "read_campaign_records",
+    "reference_problems",
+    "step_errors_exit",
+]
+
+EXIT_OK = 0
+EXIT_INTERNAL = 1
+EXIT_USAGE = 2
+EXIT_DATA = 3
+#: Exit status -> meaning, for the command line's --help and the README.
+EXIT_CODES = {
+    EXIT_OK: "success (warnings, if any, on stderr)",
+    EXIT_INTERNAL: "internal error (a bug; please report it with the command)",
+    EXIT_USAGE: "usage error: bad command-line argument or config key (missing, unknown, "
+    "out of range)",
+    EXIT_DATA: "bad data: an input file missing, unreadable, malformed, in wrong units or "
+    "inconsistent",
+}
+
+#: The closed config schema of the pipeline (the repository's workflow/schemas/).
+SCHEMA_PATH = Path(__file__).resolve().parents[3] / "workflow" / "schemas" / "config.schema.yaml"
+
+#: Share of records one QC filter may flag before :func:`inspect_records` warns.
+_QC_WARN_SHARE = 0.5
+#: Fewest records with a reference std for rho to be learnt without a warning.
+_MIN_REFERENCE_RECORDS = 10
+#: Nominal record length (s).
+_RECORD_S = 600.0
+
+
+class ConfigError(ValueError):
+    """A config key missing, unknown or out of range; the message names the key.
+
+    Attributes
+    ----------
+    key : str
+        Dotted key (``"qc.sv_max"``), or the config file for a file-level problem.
+    """
+
+    def __init__(self, key: str, problem: str) -> None:
+        self.key, self.problem = key, problem
+        super().__init__(f"config key {key}: {problem}")
+
+
+# --------------------------------------------------------------------------- config
+
+
+def load_config_file(path: str | os.PathLike) -> dict:
+    """Read a YAML config file (the pipeline's format), without defaults.
+
+    Raises
+    ------
+    ConfigError
+        When the file is missing, not YAML or not a mapping (key: the file).
+    """
+    import yaml
+
+    p = Path(path)
+    if not p.is_file():
+        raise ConfigError(str(p), "no such config file")
+    try:
+        with open(p, encoding="utf-8") as fh:
+            data = yaml.safe_load(fh)
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" (line {mark.line + 1})" if mark is not None else ""
+        raise ConfigError(str(p), f"not valid YAML{where}") from None
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise ConfigError(str(p), f"must hold a mapping of sections, got {type(data).__name__}")
+    return data
+
+
+def _load_schema() -> dict:
+    import yaml
+
+    with open(SCHEMA_PATH, encoding="utf-8") as fh:
+        return yaml.safe_load(fh)
+
+
+def _fill_defaults(config: dict, schema: dict) -> None:
+    for key, sub in schema.get("properties", {}).items():
+        if key not in config and "default" in sub:
+            default = sub["default"]
+            config[key] = dict(default) if isinstance(default, dict) else default
+        if sub.get("type") == "object" and isinstance(config.get(key), dict):
+            _fill_defaults(config[key], sub)
+
+
+def _schema_error(err, schema: dict) -> ConfigError:
+    """One line for a jsonschema error: the dotted key and the problem."""
+    path = [str(p) for p in err.absolute_path]
+    if err.validator == "additionalProperties" and isinstance(err.instance, dict):
+        known = sorted(err.schema.get("properties", {}))
+        extra = sorted(k for k in err.instance if k not in known)
+        name = str(extra[0]) if extra else "?"
+        key = ".".join([*path, name])
+        close = difflib.get_close_matches(name, known, n=1)
+        hint = (
+            f"did you mean {'.'.join([*path, close[0]])}?"
+            if close
+            else (f"known keys{' of ' + '.'.join(path) if path else ''}: {', '.join(known)}")
+        )
+        return ConfigError(key, f"unknown key ({hint})")
+    key = ".".join(path) if path else "(top level)"
+    problem = err.message
+    if len(problem) > 200:
+        problem = problem[:197] + "..."
+    desc = err.schema.get("description") if isinstance(err.schema, dict) else None
+    if desc and len(desc) < 160 and err.validator != "type":
+        problem += f" [{desc}]"
+    return ConfigError(key, problem)
+
+
+def check_config(config: dict, *, schema: dict | None = None) -> dict:
+    """Validate a pipeline config: closed schema, defaults, cross-key conditions.
+
+    What the schema cannot say is checked too (cross-key conditions, the library's own
+    limits).
+
+    Parameters
+    ----------
+    config : dict
+        The config as Snakemake loaded it, or a user file (:func:`load_config_file`);
+        completed in place with the schema defaults.
+    schema : dict, optional
+        The schema (default: :data:`SCHEMA_PATH`).
+
+    Returns
+    -------
+    dict
+        ``config``, completed.
+
+    Raises
+    ------
+    ConfigError
+        On the first problem, naming the dotted key.
+    """
+    import jsonschema
+
+    schema = _load_schema() if schema is None else schema
+    if not isinstance(config, dict):
+        raise ConfigError("(top level)", f"must be a mapping of sections, got {config!r}")
+    validator = jsonschema.Draft202012Validator(schema)
+    errors = list(validator.iter_errors(config))
+    if errors:
+        # the error deepest in the config first: it names the most precise key
+        errors.sort(key=lambda e: (-len(e.absolute_path), [str(p) for p in e.absolute_path]))
+        raise _schema_error(errors[0], schema)
+    _fill_defaults(config, schema)
+    _check_semantics(config)
+    return config
+
+
+def _check_semantics(config: dict) -> None:
+    from flidar_uq.data.io import check_column_map
+    from flidar_uq.data.qc import QCConfig
+
+    camp = config["campaign"]
+    if camp["source"] == "files" and not camp["records"]:
+        raise ConfigError(
+            "campaign.records",
+            "missing, but campaign.source is 'files': give the path of your record table "
+            "(CSV or Parquet, docs/data-format.md)",
+        )
+    if camp["source"] == "virtual":
+        _check_scenario(camp["scenario"])
+    try:
+        check_column_map(camp["columns"])
+    except ValueError as exc:
+        raise ConfigError("campaign.columns", str(exc).removeprefix("column map: ")) from None
+    try:
+        QCConfig(**config["qc"])
+    except ValueError as exc:
+        m = re.search(r"QCConfig\.(\w+)", str(exc))
+        names = re.findall(r"\b(ti_hws_\w+)\b", str(exc))
+        key = f"qc.{m.group(1)}" if m else ("qc." + names[0] if names else "qc")
+        raise ConfigError(key, re.sub(r"QCConfig\.?\w* ?", "", str(exc)).strip()) from None
+    pri = config["priors"]
+    for lo, hi in (
+        ("amplitude_min_deg", "amplitude_max_deg"),
+        ("period_min_s", "period_max_s"),
+    ):
+        if not pri[lo] < pri[hi]:
+            raise ConfigError(f"priors.{lo}", f"{pri[lo]} must be below priors.{hi} = {pri[hi]}")
+
+
+def _check_scenario(scenario: str) -> None:
+    from flidar_uq.campaign.scenarios import scenario_dir
+
+    if scenario.endswith((".yaml", ".yml")):
+        if not Path(scenario).is_file():
+            raise ConfigError("campaign.scenario", f"no such scenario file {scenario!r}")
+        return
+    shipped = sorted(p.stem for p in scenario_dir().glob("*.yaml"))
+    if shipped and scenario not in shipped:
+        raise ConfigError(
+            "campaign.scenario",
+            f"no shipped scenario {scenario!r}; shipped: {', '.join(shipped)} "
+            "(or a path ending in .yaml)",
+        )
+
+
+# --------------------------------------------------------------------------- records
+
+
+def read_campaign_records(
+    path: str | os.PathLike,
+    campaign: Mapping | None = None,
+    *,
+    allow_small_angles: bool | None = None,
+) -> pd.DataFrame:
+    """Read and validate the user's record table as the pipeline does.
+
+    Parameters
+    ----------
+    path : path
+        The record table (CSV or Parquet).
+    campaign : mapping, optional
+        The config's ``campaign`` section: ``columns`` (column map), ``heights``
+        (selected heights, m: each must occur in the file) and ``allow_small_angles``.
+    allow_small_angles : bool, optional
+        Overrides ``campaign["allow_small_angles"]`` when given.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Every record of the file (heights not selected included: QC flags them).
+
+    Raises
+    ------
+    flidar_uq.data.io.DataValidationError
+        On a problem of the file (names file, row and column).
+    ConfigError
+        When a selected height does not occur in the file.
+    """
+    import numpy as np
+
+    from flidar_uq.data import io
+
+    campaign = dict(campaign or {})
+    if allow_small_angles is None:
+        allow_small_angles = bool(campaign.get("allow_small_angles", False))
+    records = io.read_records(
+        path, columns=campaign.get("columns") or None, allow_small_angles=allow_small_angles
+    )
+    heights = campaign.get("heights")
+    if heights:
+        present = np.unique(records["height_m"].to_numpy(dtype=float))
+        for h in heights:
+            if not np.isclose(present, float(h), atol=1e-6).any():
+                raise ConfigError(
+                    "campaign.heights",
+                    f"{h:g} m is not a height of {path} (its heights: "
+                    f"{', '.join(f'{x:g}' for x in present)} m)",
+                )
+    return records
+
+
+def reference_problems(records: pd.DataFrame, source: str) -> list:
+    """What makes every record uncorrectable: a reference mean without a reference std.
+
+    rho (and with it every corrected value) is learnt only from records with
+    ``ref_hws_std_ms``; a file with the reference's mean speed but no std would run to the
+    end and flag every record ``global_fit_failed``.
+
+    Returns
+    -------
+    list of flidar_uq.data.io.DataValidationError
+        Empty when fine (the pipeline raises the first one, the command line warns).
+    """
+    import numpy as np
+
+    from flidar_uq.data.io import DataValidationError
+
+    if "ref_hws_mean_ms" not in records:
+        return []
+    mean = records["ref_hws_mean_ms"].to_numpy(dtype=float)
+    std = (
+        records["ref_hws_std_ms"].to_numpy(dtype=float)
+        if "ref_hws_std_ms" in records
+        else np.full(len(records), np.nan)
+    )
+    if np.isfinite(mean).any() and not np.isfinite(std).any():
+        what = "has no value" if "ref_hws_std_ms" in records else "is missing"
+        return [
+            DataValidationError(
+                source,
+                None,
+                "ref_hws_std_ms",
+                f"the reference mean ref_hws_mean_ms is given but its std {what}: rho is "
+                "learnt only from the reference std, so every record would be flagged "
+                "global_fit_failed; add (or map, campaign.columns) the reference std column, "
+                "or drop the mean (campaign.columns: {<its name>: null})",
+            )
+        ]
+    return []
+
+
+def _gaps(records: pd.DataFrame) -> tuple[float, list[dict]]:
+    """Median record spacing (s) and the sampling gaps per height."""
+    import numpy as np
+    import pandas as pd
+
+    out = []
+    spacings = []
+    for h, grp in records.groupby("height_m", sort=True):
+        t = pd.DatetimeIndex(grp["timestamp"]).as_unit("ns").asi8 * 1e-9
+        dt = np.diff(np.sort(t))
+        spacings.append(dt)
+        out.append({"height_m": float(h), "n_records": len(grp), "dt": dt})
+    alldt = np.concatenate(spacings) if spacings else np.array([])
+    step = float(np.median(alldt)) if alldt.size else float("nan")
+    per_height = []
+    for row in out:
+        dt = row.pop("dt")
+        gap = dt > 1.5 * step if np.isfinite(step) else np.zeros(dt.shape, bool)
+        missing = int(np.sum(np.round(dt[gap] / step) - 1)) if gap.any() else 0
+        row.update(
+            n_gaps=int(gap.sum()),
+            missing_records=missing,
+            largest_gap_h=round(float(dt.max()) / 3600.0, 3) if dt.size else 0.0,
+        )
+        per_height.append(row)
+    return step, per_height
+
+
+def inspect_records(
+    records: pd.DataFrame,
+    *,
+    source: str = "<DataFrame>",
+    qc_params: Mapping | None = None,
+    heights: list[float] | None = None,
+    columns: Mapping | None = None,
+) -> dict:
+    """What the pipeline will find in a validated record table, and warnings.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        A validated record table (:func:`read_campaign_records`).
+    source : str
+        File name for the messages.
+    qc_params : mapping, optional
+        The config's ``qc`` section (default: the QC defaults).
+    heights : list of float, optional
+        The selected heights, m (config ``campaign.heights``).
+    columns : mapping, optional
+        The column map used to read the file (reported).
+
+    Returns
+    -------
+    dict
+        ``n_records``, ``heights_m``; ``columns`` (``present``, ``absent_optional``,
+        ``truth``, ``renamed``); ``time_span`` (``start``, ``end`` ISO 8601 UTC, ``days``);
+        ``sampling`` (``interval_s``, per height ``n_records``, ``n_gaps``,
+        ``missing_records``, ``largest_gap_h``); ``reference`` (shares of records with a
+        reference mean and std); ``motion_description`` (records per description of
+        :func:`flidar_uq.inference.record_motion.record_motion`); ``qc_preview``
+        (``n_kept``, ``n_flagged`` and per filter the records it flags); ``warnings``
+        (one line each) and ``blocking`` (what the pipeline refuses, one line each).
+    """
+    import numpy as np
+    import pandas as pd
+
+    from flidar_uq.data import qc
+    from flidar_uq.data.schema import RECORD_COLUMNS, TRUTH_PREFIX
+    from flidar_uq.inference.record_motion import record_motion
+
+    n = len(records)
+    names = [c.name for c in RECORD_COLUMNS]
+    present = [c for c in names if c in records]
+    truth = [c for c in records if str(c).startswith(TRUTH_PREFIX)]
+    absent = [c.name for c in RECORD_COLUMNS if not c.required and c.name not in records]
+    t = pd.DatetimeIndex(records["timestamp"])
+    step, per_height = _gaps(records)
+    share = {}
+    for c in ("ref_hws_mean_ms", "ref_hws_std_ms"):
+        share[c] = (
+            float(np.isfinite(records[c].to_numpy(dtype=float)).mean()) if c in records else 0.0
+        )
+    config = qc.QCConfig(**dict(qc_params or {}), heights_m=tuple(heights) if heights else None)
+    res = qc.run_qc(records, config)
+    by_filter = {
+        r: int(row["n_failed"])
+        for r, row in res.counts.iterrows()
+        if row["enabled"] and row["applicable"]
+    }
+    motion = record_motion(records)
+    kinds = motion["motion_description"]
+    counts = {k: int((kinds == k).sum()) for k in ("along_wind", "roll_pitch", "none")}
+
+    warnings: list[str] = []
+    blocking = [str(e) for e in reference_problems(records, source)]
+    if share["ref_hws_std_ms"] == 0.0 and not blocking:
+        warnings.append(
+            "no reference std (ref_hws_std_ms): rho cannot be learnt, its posterior is the "
+            "prior, the intervals are wide and every record is flagged global_fit_failed"
+        )
+    elif 0 < share["ref_hws_std_ms"] * n < _MIN_REFERENCE_RECORDS:
+        warnings.append(
+            f"only {round(share['ref_hws_std_ms'] * n)} records with a reference std: rho "
+            "is learnt from few records, the intervals will be wide"
+        )
+    kept = res.flags["kept"].to_numpy()
+    none_kept = int(((kinds == "none").to_numpy() & kept).sum())
+    if none_kept:
+        warnings.append(
+            f"{none_kept} of {int(kept.sum())} QC-kept records have neither the along-wind "
+            "tilt columns nor complete roll/pitch statistics: they will be flagged "
+            "no_motion_description (no corrected TI)"
+        )
+    for h_row in per_height:
+        h = h_row["height_m"]
+        at = np.isclose(records["height_m"].to_numpy(dtype=float), h)
+        if kept[at].sum() == 0 and (heights is None or np.isclose(heights, h).any()):
+            reasons = res.flags.loc[at, "reasons"].astype(str).str.split(";").explode()
+            top = reasons.value_counts().index[0] if len(reasons) else "?"
+            warnings.append(
+                f"QC keeps no record at {h:g} m (most frequent reason: {top}): nothing "
+                "is corrected at this height"
+            )
+    for reason, k in by_filter.items():
+        if reason != "height_not_selected" and n and k / n > _QC_WARN_SHARE:
+            thr = res.counts.loc[reason, "threshold"]
+            warnings.append(
+                f"QC filter {reason} ({thr}) flags {k} of {n} records ({100 * k / n:.0f} %): "
+                "check the units of the column it tests or the threshold in the config's qc section"
+            )
+    if np.isfinite(step) and abs(step - _RECORD_S) > 1.0:
+        warnings.append(
+            f"the median spacing of the records at one height is {step:g} s, expected "
+            f"{_RECORD_S:g} s (10-min records): the statistics must be over 10 minutes"
+        )
+    rename = {}
+    for name, target in (columns or {}).items():
+        rename[name] = target
+    return {
+        "n_records": n,
+        "heights_m": sorted(float(h) for h in records["height_m"].unique()),
+        "columns": {
+            "present": present,
+            "absent_optional": absent,
+            "truth": truth,
+            "renamed": rename,
+        },
+        "time_span": {
+            "start": t.min().isoformat() if n else None,
+            "end": t.max().isoformat() if n else None,
+            "days": round((t.max() - t.min()).total_seconds() / 86400.0, 3) if n else 0.0,
+        },
+        "sampling": {"interval_s": step, "per_height": per_height},
+        "reference": {
+            "share_with_mean": round(share["ref_hws_mean_ms"], 4),
+            "share_with_std": round(share["ref_hws_std_ms"], 4),
+        },
+        "motion_description": counts,
+        "qc_preview": {
+            "n_kept": int(res.n_kept),
+            "n_flagged": int(res.n_flagged),
+            "by_filter": by_filter,
+        },
+        "warnings": warnings,
+        "blocking": blocking,
+    }
+
+
+# --------------------------------------------------------------------------- exit status
+
+
+def exit_status(exc: BaseException) -> int | None:
+    """The exit status of a bad-input exception (None: not a bad input, an internal error)."""
+    from flidar_uq.data.io import DataValidationError
+
+    if isinstance(exc, ConfigError):
+        return EXIT_USAGE
+    if isinstance(exc, DataValidationError):
+        return EXIT_DATA
+    return None
+
+
+def pipeline_preflight(config: dict, *, read_data: bool = True, stream=None) -> int:
+    """The checks at the start of a pipeline run (the Snakefile calls this when parsed).
+
+    Validates the config (:func:`check_config`, defaults filled in place) and, for
+    ``campaign.source: files`` with ``read_data``, reads the record table as the pipeline
+    will (:func:`read_campaign_records`) and refuses what would make every record
+    uncorrectable (:func:`reference_problems`). The warnings of :func:`inspect_records`
+    come from the ``validate`` rule (they need the inference layer, slow to import).
+
+    Returns
+    -------
+    int
+        :data:`EXIT_OK`, or the exit status of the problem, whose one-line message was
+        printed on ``stream`` (default stderr).
+    """
+    stream = sys.stderr if stream is None else stream
+    try:
+        check_config(config)
+        camp = config["campaign"]
+        if read_data and camp["source"] == "files":
+            records = read_campaign_records(camp["records"], camp)
+            problems = reference_problems(records, str(camp["records"]))
+            if problems:
+                raise problems[0]
+    except Exception as exc:  # noqa: BLE001 - classified below, re-raised if not bad input
+        code = exit_status(exc)
+        if code is None:
+            raise
+        print(f"flidar-uq: error: {exc}", file=stream)
+        return code
+    return EXIT_OK
+
+
+@contextmanager
+def step_errors_exit():
+    """In a workflow script: a bad input ends the job with one line and its exit status.
+
+    The line goes to stderr and the log; the status is that of :data:`EXIT_CODES`, no
+    traceback."""
+    try:
+        yield
+    except Exception as exc:  # noqa: BLE001 - classified below, re-raised if not bad input
+        code = exit_status(exc)
+        if code is None:
+            raise
+        log.error("%s", exc)
+        print(f"flidar-uq: error: {exc}", file=sys.stderr)
+        sys.exit(code)
