@@ -1,6 +1,7 @@
 # Helpers shared by the rules: config validation at parse time, input functions.
 import os
 
+from snakemake.exceptions import WorkflowError
 from snakemake.utils import validate
 
 
@@ -44,6 +45,45 @@ def user_records(wildcards):
     if not path:
         raise ValueError("config campaign.records: empty, but campaign.source is 'files'")
     return path
+
+
+def _record_columns(path):
+    """Column names of the user's record table (None when it cannot be read here: the
+    validate step then reports the file's error)."""
+    import pandas as pd
+
+    try:
+        if str(path).lower().endswith((".parquet", ".pq")):
+            import pyarrow.parquet as pq
+
+            return list(pq.read_schema(path).names)
+        return list(pd.read_csv(path, nrows=0).columns)
+    except Exception:
+        return None
+
+
+def reference_params():
+    """config["reference"] with its kind decided (flidar_uq.workflow.propagation_step.
+    resolve_reference): from the virtual campaign's scenario, else required when the
+    user's records carry ref_* columns (one-line error at parse time)."""
+    from flidar_uq.workflow.propagation_step import resolve_reference
+
+    virtual_kind, columns = None, None
+    if config["campaign"]["source"] == "virtual":
+        from flidar_uq.campaign.scenarios import reference_sampling
+
+        virtual_kind = reference_sampling(scenario_file(None))["reference_kind"]
+    elif config["campaign"]["records"]:
+        columns = _record_columns(config["campaign"]["records"])
+    try:
+        return resolve_reference(
+            dict(config["reference"]),
+            virtual_kind=virtual_kind,
+            record_columns=columns,
+            lidar=config["campaign"]["lidar"],
+        )
+    except ValueError as err:
+        raise WorkflowError(str(err)) from None
 
 
 def bin_ids():

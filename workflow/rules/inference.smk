@@ -110,6 +110,7 @@ rule propagate:
         ),
     params:
         propagation=propagation_params(),
+        reference=reference_params(),
         qc=config["qc"],
         lidar=config["campaign"]["lidar"],
         seed=config["inference"]["seed"],

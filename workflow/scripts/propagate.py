@@ -20,5 +20,6 @@ propagate(
     metrics_out=snakemake.output.metrics,
     seed=snakemake.params.seed,
     lidar=snakemake.params.lidar,
+    reference=dict(snakemake.params.reference),
     **dict(snakemake.params.propagation),
 )

@@ -279,10 +279,18 @@ def build_report(
     if "ti_true" in records:
         refs["truth"] = records["ti_true"].to_numpy(dtype=float)
     if "ti_ref" in records:
-        refs["reference lidar (interval x lidar_std_ratio)"] = (
-            records["ti_ref"].to_numpy(dtype=float),
-            records["lidar_std_ratio"].to_numpy(dtype=float),
+        from flidar_uq.data.metrics import LIDAR_REFERENCE_LABELS, REFERENCE_LABELS
+
+        label = next(
+            (r for r in metrics.get("reference", []) if r != "truth"), REFERENCE_LABELS[None]
         )
+        if label in (*LIDAR_REFERENCE_LABELS, REFERENCE_LABELS[None]):
+            refs[f"{label} (interval x lidar_std_ratio)"] = (
+                records["ti_ref"].to_numpy(dtype=float),
+                records["lidar_std_ratio"].to_numpy(dtype=float),
+            )
+        else:  # a cup or sonic: the point value itself
+            refs[label] = records["ti_ref"].to_numpy(dtype=float)
     if refs:
         sections.append(
             rep.Section(
