@@ -112,7 +112,8 @@ def test_calibration_transfers_from_wind_sea_to_swell(seed):
     reason="known: on a weathervaning buoy the co-located virtual reference lidar scans "
     "at another azimuth, its 10-min std scatters against the floating lidar's by more "
     "than the motion explains (kappa 0.05 against 0.02), and the propagation counts that "
-    "scatter as uncertainty of the point TI: 90 % intervals cover 96-97 % (docs/inference.md)",
+    "scatter as uncertainty of the point TI: 90 % intervals cover 96-97 % (docs/inference.md); "
+    "with a cup reference they are calibrated (tests/test_reference.py)",
 )
 def test_weathervaning_buoy_coverage_within_85_95_percent():
     records, _ = _run("weathervane_broadband", 1)

@@ -67,10 +67,12 @@ def test_loo_statement_says_per_bin_rho_in_words():
     assert loo_statement(pd.DataFrame()) == ""
 
 
-def test_reference_kind_from_config_or_target():
-    assert reference_kind({"reference": {"kind": "cup"}}) == "cup"
-    assert "point (cup-like)" in reference_kind({"propagation": {"target": "point"}})
-    assert "lidar's TI" in reference_kind({"propagation": {"target": "motionless_lidar"}})
+def test_reference_kind_from_the_run_or_the_config():
+    assert reference_kind({"reference": {"kind": "cup"}}).startswith("cup (cup anemometer")
+    resolved = pd.DataFrame({"reference_kind": ["fixed_lidar"]})
+    text = reference_kind({"reference": {"kind": None}}, resolved)
+    assert text.startswith("fixed_lidar (") and "std ratio g" in text
+    assert reference_kind({}).startswith("none (")
 
 
 def test_developer_report_holds_the_benchmarks(tmp_path):

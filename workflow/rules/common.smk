@@ -50,6 +50,26 @@ def user_records(wildcards):
     return config["campaign"]["records"]  # non-empty: checked by pipeline_preflight
 
 
+def reference_params():
+    """config["reference"] with its kind decided (flidar_uq.workflow.propagation_step.
+    resolve_reference): from the virtual campaign's scenario; for the user's files the
+    config's kind, checked against the records' ref_* columns by pipeline_preflight at
+    parse time (one line, exit status 2)."""
+    from flidar_uq.workflow.propagation_step import resolve_reference
+
+    virtual_kind = None
+    if config["campaign"]["source"] == "virtual":
+        from flidar_uq.campaign.scenarios import reference_sampling
+
+        virtual_kind = reference_sampling(scenario_file(None))["reference_kind"]
+    return resolve_reference(
+        dict(config["reference"]),
+        virtual_kind=virtual_kind,
+        record_columns=None,
+        lidar=config["campaign"]["lidar"],
+    )
+
+
 def bin_ids():
     """Bin ids written by checkpoint `bins` (only the fitted ones, min_count met)."""
     import pandas as pd

@@ -120,6 +120,7 @@ rule propagate:
         propagation=propagation_params(),
         sector_width_deg=config["report"]["sector_width_deg"],
         group_min_count=config["report"]["group_min_count"],
+        reference=reference_params(),
         qc=config["qc"],
         lidar=config["campaign"]["lidar"],
         seed=config["inference"]["seed"],

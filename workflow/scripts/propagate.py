@@ -24,5 +24,6 @@ propagate(
     min_count=snakemake.params.group_min_count,
     seed=snakemake.params.seed,
     lidar=snakemake.params.lidar,
+    reference=dict(snakemake.params.reference),
     **dict(snakemake.params.propagation),
 )

@@ -33,9 +33,10 @@ Per 10-min record (``record_length_s``) and for every measurement height:
    Eq. 4) and retrieved with the nominal body geometry (VAD least squares with the
    sign unfolding of the ``|.|`` fit); spatial variation ``sv`` is the RMS fit
    residual over HWS. Occasional scans drop out.
-4. A fixed reference lidar with the same schedule sees the same wind without
-   motion (``ref_hws_*``; only in the first ``reference_days`` if set, always in
-   ``true_ref_hws_*``); IMU roll/pitch/yaw sampled at ``imu.rate_hz`` with noise
+4. The reference instrument (scenario ``reference_instrument``): a fixed reference
+   lidar with the same schedule sees the same wind without motion, or a cup / sonic
+   records the point HWS series (the truth series, 1 Hz) (``ref_hws_*``; only in the
+   first ``reference_days`` if set, always in ``true_ref_hws_*``); IMU roll/pitch/yaw sampled at ``imu.rate_hz`` with noise
    and gaps; 10-min statistics in the record format of ``docs/data-format.md``
    plus ``true_*`` columns.
 
@@ -528,18 +529,21 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
             true_period = t1
         regime = _regime_truth(settings, par, c, roll[c], pitch[c], yaw[c])
         ref_days = settings["reference_days"]
+        point_ref = settings["reference_instrument"] != "fixed_lidar"
         has_ref = ref_days is None or rec * t_len < float(ref_days) * 86400.0
         for h in range(n_h):
             sel = ok[c] & (h_idx[c] == h)
             sel_ref = valid[c] & (h_idx[c] == h)
             n_nom = max(int(sel_ref.sum()), 1)
-            hs, h0 = hws_scan[c][sel], hws0[c][sel_ref]
+            hs = hws_scan[c][sel]
             zc = (hws_scan[c] - hws0[c])[sel]
             truth = (
                 fl[c, h, :: max(int(round(TRUTH_SAMPLE_INTERVAL_S / (dt * step))), 1), :2]
                 + hws_h[c, h] * e_wind[c, :2]
             )
             true_hws = np.hypot(truth[:, 0], truth[:, 1])
+            # the reference: a motionless lidar's scans, or the point series (cup, sonic)
+            h0 = true_hws if point_ref else hws0[c][sel_ref]
             enough = sel.sum() >= 2
             rows.append(
                 {
@@ -620,9 +624,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     # spectral moments and periods: the per-record motion description (docs/data-format.md)
     per_row = np.repeat(np.arange(len(series)), n_h)
     att_rows = [np.stack([a[k] for a in imu_att])[per_row] for k in range(3)]
-    spec = _imu.tilt_band_statistics(
-        *att_rows, np.array([r["wd_mean_deg"] for r in rows]), rate
-    )
+    spec = _imu.tilt_band_statistics(*att_rows, np.array([r["wd_mean_deg"] for r in rows]), rate)
     for key, col in _imu.tilt_spectrum_columns(spec).items():
         for r, v in zip(rows, col, strict=True):
             r[key] = float(v)

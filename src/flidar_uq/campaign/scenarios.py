@@ -23,6 +23,7 @@ __all__ = [
     "DEFAULT_SCENARIO",
     "HARMONIC_CASE_KEYS",
     "HEADING_MODES",
+    "REFERENCE_INSTRUMENTS",
     "TRUTH_SAMPLE_INTERVAL_S",
     "CampaignConfig",
     "load_scenario",
@@ -39,6 +40,9 @@ __all__ = [
 #: at this interval, s (a cup's 1-Hz series).
 TRUTH_SAMPLE_INTERVAL_S = 1.0
 
+#: Reference instruments a virtual campaign can carry (scenario key ``reference_instrument``).
+REFERENCE_INSTRUMENTS = ("fixed_lidar", "cup", "sonic")
+
 #: Every key a scenario may set, with its default (units in the key names).
 DEFAULT_SCENARIO: dict = {
     "name": "default",
@@ -51,6 +55,11 @@ DEFAULT_SCENARIO: dict = {
     # the reference (ref_* columns) exists only in the first reference_days days of the
     # campaign (a short mast or fixed-lidar period before deployment); null: throughout
     "reference_days": None,
+    # the reference instrument behind the ref_* columns: "fixed_lidar" (a motionless lidar
+    # of the same type with the same scan schedule), "cup" or "sonic" (the point HWS
+    # series at the same height sampled every TRUTH_SAMPLE_INTERVAL_S: a cup's 1-Hz series;
+    # the virtual sonic is the same point series, no cup overspeeding is modelled)
+    "reference_instrument": "fixed_lidar",
     "lidar": {
         "name": "zephir300",
         "refocus_delay_s": [0.3, 0.7],  # uniform range of the delay between scans
@@ -223,6 +232,11 @@ class CampaignConfig:
         _check_sea_state(s)
         if s["reference_days"] is not None:
             _check_positive(s, "reference_days", s["reference_days"])
+        if s["reference_instrument"] not in REFERENCE_INSTRUMENTS:
+            raise ValueError(
+                f"scenario: reference_instrument must be one of {REFERENCE_INSTRUMENTS}, got "
+                f"{s['reference_instrument']!r}"
+            )
         if s["lidar"]["scan_phase"] not in ("prism", "random"):
             raise ValueError(
                 f"scenario: lidar.scan_phase must be 'prism' or 'random', got {s['lidar']['scan_phase']!r}"
@@ -251,7 +265,9 @@ def reference_sampling(scenario: str | Path | Mapping) -> dict:
         series are synthesised at this interval, rounded to a multiple of the
         line-of-sight time, and held in between: no variance above ``1 / (2 dt)``), and
         ``point_sample_interval_s`` (the truth columns are the std of the point HWS
-        sampled every second).
+        sampled every second), ``reference_kind`` (the scenario's
+        ``reference_instrument``: "fixed_lidar", "cup" or "sonic") and ``lidar`` (its
+        lidar's name).
     """
     data = scenario if isinstance(scenario, Mapping) else load_scenario(scenario)
     settings = CampaignConfig.from_dict(data).settings
@@ -262,6 +278,8 @@ def reference_sampling(scenario: str | Path | Mapping) -> dict:
         "refocus_delay_s": (float(lo), float(hi)),
         "turbulence_dt_s": wind_step_slots(settings, dt) * dt,
         "point_sample_interval_s": TRUTH_SAMPLE_INTERVAL_S,
+        "reference_kind": settings["reference_instrument"],
+        "lidar": settings["lidar"]["name"],
     }
 
 

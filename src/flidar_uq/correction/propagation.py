@@ -12,11 +12,15 @@ For every record ``i`` and posterior draw ``d`` (docs/inference.md, "Propagation
 3. the deployment formula ``c = -rho sZ + sqrt(s*^2 - (1 - rho^2) sZ^2)``
    (:func:`flidar_uq.physics.variance_laws.corrected_std`, Eq. 15 of seed 000 inverted) and
    ``TI = c / m_i``. Draws with a negative discriminant give ``c = 0`` and are counted.
-4. optionally, the point (cup-like) std ``c exp(e_id) / g_i``: the model is calibrated
-   against a motionless reference lidar, so ``c`` is the std that lidar would measure;
-   ``g_i`` is that lidar's mean std ratio to the point wind
-   (:func:`flidar_uq.physics.lidar_response.lidar_std_ratio`) and ``e_id ~ N(0, sd_i^2)`` its
-   record-to-record scatter (:func:`flidar_uq.physics.lidar_response.lidar_point_log_sd`).
+4. the point (cup-like) std, according to the reference the model is calibrated against
+   (:func:`reference_target`): a cup or sonic -> ``c`` is the point std already (the noise
+   term ``kappa`` has absorbed the floating-lidar-vs-point scatter); a fixed (motionless)
+   lidar -> ``c`` is the std that lidar would measure and the point std is
+   ``c exp(e_id - b_d) / g_i``, with ``g_i`` that lidar's mean std ratio to the point wind
+   (:func:`flidar_uq.physics.lidar_response.lidar_std_ratio`), ``e_id ~ N(0, sd_i^2)`` its
+   record-to-record scatter (:func:`flidar_uq.physics.lidar_response.lidar_point_log_sd`)
+   and ``b_d ~ N(0, sd_g^2)`` one draw per posterior draw for all records: the prior of the
+   ratio's own error (probe-volume averaging, stability; docs/lidar-response.md).
 
 Baselines beside it: uncorrected TI and seed 000's U / C / PC laws (Eqs. 15-17) with
 sigma_Z from the surrogate at the bin's median IMU amplitude and period and seed 000's
@@ -39,10 +43,13 @@ from flidar_uq.physics.variance_laws import corrected_std, rho_bin_correlation
 from flidar_uq.seeding import as_seedsequence
 
 __all__ = [
+    "LIDAR_STD_RATIO_LOG_SD",
+    "REFERENCE_KINDS",
     "UNCERTAINTY_SOURCES",
     "corrected_ti",
     "point_target",
     "record_flags",
+    "reference_target",
     "ti_group_statistics",
     "variance_law_baselines",
 ]
@@ -50,9 +57,20 @@ __all__ = [
 #: Sources of the corrected TI's uncertainty that :func:`corrected_ti` can hold at their
 #: median (``hold``): the motion description (sigma_Z: motion parameters, lever arm,
 #: motion scale, record-level motion error), rho, the noise model's parameters (kappa,
-#: tau0), the reference's response to turbulence (the point scatter of g), and the
+#: tau0), the reference's response to turbulence (the point scatter of g and its prior), and the
 #: sampling of the measured 10-min std.
 UNCERTAINTY_SOURCES = ("motion", "rho", "noise_model", "reference_response", "sampling")
+
+#: Reference instruments of config key ``reference.kind``: the model is calibrated to the
+#: point wind directly (cup, sonic), to a motionless lidar (fixed_lidar), or has no
+#: reference (none: it is the motionless lidar of the floating lidar's type).
+REFERENCE_KINDS = ("cup", "sonic", "fixed_lidar", "none")
+
+#: Default prior sd of log g, the error of the motionless lidar's std ratio to the point
+#: wind beyond its temporal part (-): probe-volume and scan-disk averaging (-1 to -3 %
+#: at 1-4 m probe lengths and 30-90 m heights, Sathe et al. 2011) and stability
+#: (docs/lidar-response.md, "Uncertainty of g").
+LIDAR_STD_RATIO_LOG_SD = 0.02
 
 #: Records propagated together by the record motion model (bounds the draws' memory:
 #: ndraws x chunk floats per array).
@@ -197,6 +215,47 @@ def _held_global_draws(global_fit, g_idx: np.ndarray, hold) -> dict[str, np.ndar
     return {n: x[:, k] for k, n in enumerate(names)}
 
 
+def reference_target(
+    kind: str,
+    hws_ms,
+    height_m,
+    lidar: str,
+    **sampling,
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The point-target inputs of :func:`corrected_ti` for a reference instrument.
+
+    Parameters
+    ----------
+    kind : {"cup", "sonic", "fixed_lidar", "none"}
+        The reference the model is calibrated against (:data:`REFERENCE_KINDS`).
+    hws_ms, height_m : array_like, shape (n_records,)
+        Record mean HWS (m/s) and measurement height (m).
+    lidar : str
+        Geometry name of the lidar whose std is turned into the point std: the fixed
+        reference lidar (``fixed_lidar``) or the floating lidar itself (``none``: the
+        deployment formula then gives the std a motionless lidar of its type measures).
+    **sampling
+        Keyword arguments of :func:`point_target` (``heights_in_turn``,
+        ``refocus_delay_s``, ``point_sample_interval_s``, ``turbulence_dt_s``, ``seed``).
+
+    Returns
+    -------
+    lidar_std_ratio, point_log_sd : numpy.ndarray or None
+        None for a cup or sonic (the corrected std is the point std already, and the noise
+        term kappa has absorbed the floating-lidar-vs-point scatter); else :func:`point_target`.
+
+    Raises
+    ------
+    ValueError
+        If ``kind`` is not one of :data:`REFERENCE_KINDS`.
+    """
+    if kind not in REFERENCE_KINDS:
+        raise ValueError(f"reference_target: kind={kind!r} must be one of {REFERENCE_KINDS}")
+    if kind in ("cup", "sonic"):
+        return None, None
+    return point_target(hws_ms, height_m, lidar, **sampling)
+
+
 def record_flags(
     qc_reasons,
     bin_id,
@@ -273,6 +332,7 @@ def corrected_ti(
     scan_period_s: float = 1.0,
     lidar_std_ratio=None,
     point_log_sd=None,
+    lidar_std_ratio_log_sd: float = 0.0,
     baseline: tuple[np.ndarray, float] | None = None,
     hold: Collection[str] = (),
     return_draws: bool = False,
@@ -307,6 +367,10 @@ def corrected_ti(
         Std of ``log(motionless-lidar std / point std)`` per record (-), with
         ``lidar_std_ratio``: each draw is multiplied by ``exp(N(0, sd^2))`` so that the
         intervals are for the point std. Default None: no scatter.
+    lidar_std_ratio_log_sd : float
+        Prior sd of ``log g`` (-), with ``lidar_std_ratio``: every posterior draw divides
+        by ``g exp(N(0, sd^2))``, one factor per draw shared by all records (the ratio's
+        error is systematic: probe-volume averaging, stability). Default 0: g exact.
     baseline : (numpy.ndarray, float), optional
         :func:`variance_law_baselines` of ``records`` with the same surrogate, when the caller
         has it already (computed here otherwise).
@@ -373,6 +437,12 @@ def corrected_ti(
                 f"corrected_ti: point_log_sd must be {len(records)} values >= 0, got shape "
                 f"{log_sd.shape}"
             )
+    if not lidar_std_ratio_log_sd >= 0.0:
+        raise ValueError(
+            f"corrected_ti: lidar_std_ratio_log_sd={lidar_std_ratio_log_sd} must be >= 0"
+        )
+    if lidar_std_ratio_log_sd > 0.0 and lidar_std_ratio is None:
+        raise ValueError("corrected_ti: lidar_std_ratio_log_sd needs lidar_std_ratio")
     if lidar_std_ratio is not None:
         g_ratio = np.asarray(lidar_std_ratio, dtype=float)
         if g_ratio.shape != (len(records),) or np.any(~(g_ratio > 0)):
@@ -397,6 +467,14 @@ def corrected_ti(
     rho = global_draws("rho", "rho")
     kappa = global_draws("kappa", "noise_model")
     rho_med = float(np.median(global_fit.flat("rho")))
+    # the ratio's systematic error: one factor per draw, shared by every record
+    g_draw = (
+        np.exp(-lidar_std_ratio_log_sd * rng.standard_normal((ndraws, 1)))
+        if lidar_std_ratio_log_sd > 0.0
+        else 1.0
+    )
+    if "reference_response" in hold:
+        g_draw = 1.0
 
     sig = np.full((ndraws, n), np.nan)
     neg_frac = np.full(n, np.nan)
@@ -412,9 +490,10 @@ def corrected_ti(
         if "motion" in hold:
             sz = np.broadcast_to(np.median(sz, axis=0), sz.shape)
         c, neg = corrected_std(s_star, sz, rho)
-        # point std (g = 1, sd = 0: the motionless-lidar std)
+        # point std (g = 1, sd = 0: the reference's own std, a cup's or sonic's point std)
         e = rng.standard_normal(c.shape)
-        point = np.exp(log_sd[mask] * (0.0 if "reference_response" in hold else e)) / g_ratio[mask]
+        point = g_draw * np.exp(log_sd[mask] * (0.0 if "reference_response" in hold else e))
+        point = point / g_ratio[mask]
         sig[:, mask] = c * point
         neg_frac[mask] = np.mean(neg, axis=0)
         sz_med[mask] = np.median(sz, axis=0)
@@ -481,7 +560,9 @@ def corrected_ti(
             else np.zeros((3, 0))
         )
 
-    sz_seed, rho_seed = baseline if baseline is not None else variance_law_baselines(records, surrogate)
+    sz_seed, rho_seed = (
+        baseline if baseline is not None else variance_law_baselines(records, surrogate)
+    )
     with np.errstate(invalid="ignore", divide="ignore"):
         ti_u = corrected_std(s, sz_seed, 0.0)[0] / m  # Eq. (16) of seed 000 inverted
         ti_c = corrected_std(s, sz_seed, 1.0)[0] / m  # Eq. (17) of seed 000 inverted

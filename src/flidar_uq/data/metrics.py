@@ -24,6 +24,9 @@ __all__ = [
     "md_rmse",
     "interval_coverage",
     "reference_values",
+    "reference_label",
+    "REFERENCE_LABELS",
+    "LIDAR_REFERENCE_LABELS",
     "score_estimates",
     "CORRECTION_ESTIMATES",
     "SCORE_COLUMNS",
@@ -123,7 +126,36 @@ def interval_coverage(reference, lo, hi, used) -> float:
     return float(inside[ok].mean())
 
 
-def reference_values(records: pd.DataFrame) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+#: Name of the reference instrument in score tables and report labels, per
+#: ``reference.kind`` (a lidar reference is compared with the motionless-lidar value).
+REFERENCE_LABELS = {
+    "cup": "reference cup",
+    "sonic": "reference sonic",
+    "fixed_lidar": "reference fixed lidar",
+    None: "reference instrument",
+}
+
+#: Labels of the references that are lidars (scored against the point value times g).
+LIDAR_REFERENCE_LABELS = (REFERENCE_LABELS["fixed_lidar"],)
+
+
+def reference_label(kind: str | None) -> str:
+    """Label of the reference instrument ``kind`` (``reference.kind``) in tables and reports.
+
+    Raises
+    ------
+    ValueError
+        If ``kind`` is not a reference kind with ``ref_*`` columns (cup, sonic, fixed_lidar)
+        or None (not named).
+    """
+    if kind not in REFERENCE_LABELS:
+        raise ValueError(f"reference_label: kind={kind!r} must be cup, sonic, fixed_lidar or None")
+    return REFERENCE_LABELS[kind]
+
+
+def reference_values(
+    records: pd.DataFrame, kind: str | None = None
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Std (m/s) and TI (-) the estimates are scored against: the truth and/or the reference.
 
     Parameters
@@ -132,11 +164,16 @@ def reference_values(records: pd.DataFrame) -> dict[str, tuple[np.ndarray, np.nd
         Records with ``true_hws_std_ms`` (and ``true_ti`` or ``true_hws_mean_ms``, m/s) for
         a virtual campaign and/or ``ref_hws_std_ms`` and ``ref_hws_mean_ms`` (m/s) for a
         reference instrument.
+    kind : {"cup", "sonic", "fixed_lidar"} or None
+        The reference instrument (``reference.kind``): names it (:func:`reference_label`);
+        "none" counts as None.
 
     Returns
     -------
     dict of str -> (numpy.ndarray, numpy.ndarray)
-        ``"truth"`` and/or ``"reference instrument"`` -> (std in m/s, TI, -), per record.
+        ``"truth"`` and/or the reference's label (``"reference cup"``, ``"reference
+        sonic"``, ``"reference fixed lidar"``; ``"reference instrument"`` when not named)
+        -> (std in m/s, TI, -), per record.
     """
     out = {}
     if "true_hws_std_ms" in records:
@@ -149,7 +186,7 @@ def reference_values(records: pd.DataFrame) -> dict[str, tuple[np.ndarray, np.nd
         out["truth"] = (std, ti)
     if "ref_hws_std_ms" in records:
         std = records["ref_hws_std_ms"].to_numpy(dtype=float)
-        out["reference instrument"] = (
+        out[reference_label(None if kind == "none" else kind)] = (
             std,
             std / records["ref_hws_mean_ms"].to_numpy(dtype=float),
         )
@@ -179,9 +216,10 @@ def score_estimates(
 
     Every method is scored over the same records: those with a Bayesian corrected value
     (finite ``ti_corrected_median``). The Bayesian estimate is compared in the reference's
-    own terms: its point value against the truth, times ``lidar_std_ratio`` (the
-    motionless-lidar value) against any other reference. Seed 000's U / C / PC laws
-    estimate the reference instrument's std, as published.
+    own terms: its point value against the truth, a cup or a sonic, times
+    ``lidar_std_ratio`` (the motionless-lidar value) against a fixed lidar or an unnamed
+    reference instrument. Seed 000's U / C / PC laws estimate the reference instrument's
+    std, as published.
 
     Parameters
     ----------
@@ -206,7 +244,8 @@ def score_estimates(
     for ref_name, (ref_std, ref_ti) in references.items():
         lo_hi = (records["ti_corrected_lo"].to_numpy(), records["ti_corrected_hi"].to_numpy())
         for name, (scol, tcol) in CORRECTION_ESTIMATES.items():
-            scale = g_all if (name == "Bayesian" and ref_name != "truth") else 1.0
+            lidar_ref = ref_name in (*LIDAR_REFERENCE_LABELS, REFERENCE_LABELS[None])
+            scale = g_all if (name == "Bayesian" and lidar_ref) else 1.0
             std = np.where(used, records[scol].to_numpy(dtype=float) * scale, np.nan)
             ti = np.where(used, records[tcol].to_numpy(dtype=float) * scale, np.nan)
             md_s, rmse_s, n_s = md_rmse(std, ref_std)

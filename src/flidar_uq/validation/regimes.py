@@ -19,7 +19,11 @@ import pandas as pd
 
 from flidar_uq.campaign.physics_mode import generate_campaign
 from flidar_uq.campaign.scenarios import load_scenario, reference_sampling
-from flidar_uq.correction.propagation import corrected_ti, point_target
+from flidar_uq.correction.propagation import (
+    LIDAR_STD_RATIO_LOG_SD,
+    corrected_ti,
+    reference_target,
+)
 from flidar_uq.data.calibration import calibration_by_group, speed_group_label
 from flidar_uq.data.qc import QCConfig, run_qc
 from flidar_uq.inference import SamplerSettings, fit_record_model
@@ -64,6 +68,7 @@ def scenario_records(
     n_records: int | None = None,
     n_workers: int | None = None,
     calibrate_on_sea_state: str | None = None,
+    lidar_std_ratio_log_sd: float = LIDAR_STD_RATIO_LOG_SD,
 ) -> tuple[pd.DataFrame, object]:
     """Generate a scenario and correct every QC-kept record in 3-20 m/s (the pipeline's steps).
 
@@ -87,6 +92,11 @@ def scenario_records(
     calibrate_on_sea_state : {"wind sea", "swell"}, optional
         Blocked cross-validation by sea-state class: only the references of this class
         enter the fit (the others are corrected as deployment records).
+    lidar_std_ratio_log_sd : float
+        Prior sd of log g (-) when the scenario's reference is a fixed lidar.
+
+    The point target follows the scenario's ``reference_instrument`` as the pipeline's
+    ``reference.kind`` does (:func:`flidar_uq.correction.propagation.reference_target`).
 
     Returns
     -------
@@ -121,7 +131,9 @@ def scenario_records(
         calib, surrogate=surrogate, settings=settings, seed=ss_fit, lever_arm_prior=lever_arm_prior
     )
     sampling = reference_sampling(cfg)
-    g, sd = point_target(
+    kind = sampling["reference_kind"]
+    g, sd = reference_target(
+        kind,
         kept["hws_mean_ms"].to_numpy(dtype=float),
         kept["height_m"].to_numpy(dtype=float),
         lidar,
@@ -140,6 +152,7 @@ def scenario_records(
         ndraws=ndraws,
         lidar_std_ratio=g,
         point_log_sd=sd,
+        lidar_std_ratio_log_sd=lidar_std_ratio_log_sd if g is not None else 0.0,
         baseline=(np.full(len(kept), np.nan), np.nan),
         seed=ss_prop,
     )

@@ -84,9 +84,9 @@ class ConfigError(ValueError):
         Dotted key (``"qc.sv_max"``), or the config file for a file-level problem.
     """
 
-    def __init__(self, key: str, problem: str) -> None:
+    def __init__(self, key: str, problem: str, *, message: str | None = None) -> None:
         self.key, self.problem = key, problem
-        super().__init__(f"config key {key}: {problem}")
+        super().__init__(message or f"config key {key}: {problem}")
 
 
 # --------------------------------------------------------------------------- config
@@ -527,13 +527,44 @@ def exit_status(exc: BaseException) -> int | None:
     return None
 
 
+def check_reference(config: dict, record_columns=None) -> dict:
+    """``config["reference"]`` resolved for the user's records (``record_columns``: their
+    columns after the column map) or the virtual campaign's scenario:
+    :func:`flidar_uq.workflow.propagation_step.resolve_reference`, whose one-line error
+    becomes a :class:`ConfigError` naming the key (exit status 2)."""
+    from flidar_uq.workflow.propagation_step import resolve_reference
+
+    camp = config["campaign"]
+    virtual_kind = None
+    if camp["source"] == "virtual":
+        from flidar_uq.campaign.scenarios import reference_sampling, scenario_dir
+
+        scenario = camp["scenario"]
+        path = (
+            scenario
+            if scenario.endswith((".yaml", ".yml"))
+            else scenario_dir() / f"{scenario}.yaml"
+        )
+        virtual_kind = reference_sampling(path)["reference_kind"]
+    try:
+        return resolve_reference(
+            dict(config.get("reference") or {}),
+            virtual_kind=virtual_kind,
+            record_columns=record_columns,
+            lidar=camp["lidar"],
+        )
+    except ValueError as err:
+        raise ConfigError("reference", str(err), message=str(err)) from None
+
+
 def pipeline_preflight(config: dict, *, read_data: bool = True, stream=None) -> int:
     """The checks at the start of a pipeline run (the Snakefile calls this when parsed).
 
     Validates the config (:func:`check_config`, defaults filled in place) and, for
     ``campaign.source: files`` with ``read_data``, reads the record table as the pipeline
-    will (:func:`read_campaign_records`) and refuses what would make every record
-    uncorrectable (:func:`reference_problems`). The warnings of :func:`inspect_records`
+    will (:func:`read_campaign_records`), refuses what would make every record
+    uncorrectable (:func:`reference_problems`) and a reference kind missing for records
+    with a reference (:func:`check_reference`). The warnings of :func:`inspect_records`
     come from the ``validate`` rule (they need the inference layer, slow to import).
 
     Returns
@@ -551,6 +582,9 @@ def pipeline_preflight(config: dict, *, read_data: bool = True, stream=None) -> 
             problems = reference_problems(records, str(camp["records"]))
             if problems:
                 raise problems[0]
+            check_reference(config, list(records.columns))
+        elif camp["source"] == "virtual":
+            check_reference(config)
     except Exception as exc:  # noqa: BLE001 - classified below, re-raised if not bad input
         code = exit_status(exc)
         if code is None:

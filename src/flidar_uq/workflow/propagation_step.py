@@ -17,7 +17,78 @@ from flidar_uq.workflow.inference_steps import load_bin_fits
 
 log = logging.getLogger(__name__)
 
-__all__ = ["RECORD_COLUMNS", "propagate", "record_groups"]
+__all__ = ["RECORD_COLUMNS", "propagate", "record_groups", "resolve_reference"]
+
+#: The reference columns whose presence makes ``reference.kind`` required.
+_REFERENCE_COLUMNS = ("ref_hws_mean_ms", "ref_hws_std_ms")
+
+
+def resolve_reference(
+    reference: dict,
+    *,
+    virtual_kind: str | None,
+    record_columns: Sequence[str] | None,
+    lidar: str,
+) -> dict:
+    """The config's ``reference`` section with its kind and lidar decided, or a one-line error.
+
+    Parameters
+    ----------
+    reference : dict
+        ``config["reference"]``: ``kind`` (None when not set), ``lidar`` (None: the
+        floating lidar's type), ``height_m``, ``separation_m``, ``lidar_std_ratio_log_sd``.
+    virtual_kind : str or None
+        The virtual campaign's ``reference_instrument`` (source virtual), else None.
+    record_columns : sequence of str or None
+        Columns of the user's record table (source files), else None.
+    lidar : str
+        The floating lidar's geometry name (``lidar.name``).
+
+    Returns
+    -------
+    dict
+        ``reference`` with ``kind`` set ("cup" | "sonic" | "fixed_lidar" | "none") and
+        ``lidar`` set (the fixed lidar's geometry, or the floating lidar's).
+
+    Raises
+    ------
+    ValueError
+        If the records carry ``ref_*`` columns and ``reference.kind`` is not set, if it
+        contradicts the virtual campaign's reference, or is "none" with ``ref_*`` columns.
+    """
+    out = dict(reference)
+    kind = out.get("kind")
+    if virtual_kind is not None:
+        if kind is not None and kind != virtual_kind:
+            raise ValueError(
+                f"config key reference.kind={kind!r} contradicts the virtual campaign's "
+                f"reference_instrument {virtual_kind!r} (leave reference.kind unset)"
+            )
+        kind = virtual_kind
+    elif record_columns is not None:
+        has_ref = [c for c in _REFERENCE_COLUMNS if c in record_columns]
+        if has_ref and kind is None:
+            raise ValueError(
+                f"config key reference.kind is missing: the records carry {', '.join(has_ref)}; "
+                "set it to cup, sonic or fixed_lidar"
+            )
+        if has_ref and kind == "none":
+            raise ValueError(
+                f"config key reference.kind is 'none' but the records carry {', '.join(has_ref)}"
+            )
+        kind = kind or "none"
+    out["kind"] = kind or "none"
+    out["lidar"] = out.get("lidar") or lidar
+    from flidar_uq.physics.lidar import get_lidar
+
+    try:
+        get_lidar(out["lidar"])
+    except (KeyError, ValueError):
+        raise ValueError(
+            f"config key reference.lidar={out['lidar']!r} is not a known lidar geometry"
+        ) from None
+    return out
+
 
 #: Columns of results/ti/records.csv that every run writes, in order (the output contract).
 RECORD_COLUMNS = [
@@ -51,7 +122,7 @@ def propagate(
     ndraws: int,
     seed: int,
     lidar: str = "zephir300",
-    target: str = "point",
+    reference: dict | None = None,
     turbulence_dt_s: float | None = None,
     point_sample_interval_s: float = 1.0,
     scan_heights_in_turn: int | None = None,
@@ -67,16 +138,21 @@ def propagate(
     converged bin fits and the global fit (posterior draws through the deployment formula;
     median and equal-tailed ``credible_mass`` interval), and seed 000's U / C / PC laws.
 
-    ``target="point"`` turns the corrected std into the point (cup-like) std: divided by
-    the motionless lidar's std ratio (:func:`flidar_uq.physics.lidar_response.lidar_std_ratio`,
+    The corrected std is always the point (cup-like) std; how it is reached follows the
+    reference instrument (``reference``, :func:`resolve_reference`'s output; default: a
+    fixed lidar of the floating lidar's type):
+    ``kind`` "cup" or "sonic": the model is calibrated to the point wind directly (no
+    ratio, no extra scatter). "fixed_lidar" (or "none": the deployment formula gives a
+    motionless lidar of the floating lidar's type): divided by that lidar's std ratio
+    (:func:`flidar_uq.physics.lidar_response.lidar_std_ratio` of ``reference["lidar"]``,
     at the record's HWS and height, band-limited at ``1 / (2 turbulence_dt_s)`` for a
-    synthetic series; None: the atmosphere) with its record-to-record scatter
+    synthetic series; None: the atmosphere) with its prior sd
+    ``reference["lidar_std_ratio_log_sd"]`` and its record-to-record scatter
     (:func:`flidar_uq.physics.lidar_response.lidar_point_log_sd`: the lidar scanning
     ``scan_heights_in_turn`` heights in turn (None: the number of distinct heights in
     the records) with ``scan_refocus_delay_s`` between scans, against the point HWS
-    sampled every ``point_sample_interval_s``). ``"motionless_lidar"`` keeps the std a
-    motionless lidar would measure (the reference the model is calibrated against).
-    ``lidar_std_ratio`` and ``point_log_sd`` are written per record.
+    sampled every ``point_sample_interval_s``). ``lidar_std_ratio`` and ``point_log_sd``
+    are written per record (1 and 0 for a cup or sonic).
 
     ``speed_bins_out``: per height and 1-m/s speed bin, the mean, representative TI,
     90th percentile and std of the corrected TI with credible intervals of the statistic
@@ -117,21 +193,26 @@ def propagate(
     else:
         use = binned
         sub = rec[use].astype({"bin_id": int})
-    if target not in ("point", "motionless_lidar"):
-        raise ValueError(f"propagate: target={target!r} must be 'point' or 'motionless_lidar'")
-    g_ratio, log_sd = np.ones(len(sub)), np.zeros(len(sub))
-    if target == "point":
-        heights = scan_heights_in_turn or int(rec["height_m"].nunique())
-        g_ratio, log_sd = prop.point_target(
-            sub["hws_mean_ms"].to_numpy(dtype=float),
-            sub["height_m"].to_numpy(dtype=float),
-            lidar,
-            heights_in_turn=heights,
-            refocus_delay_s=scan_refocus_delay_s,
-            point_sample_interval_s=point_sample_interval_s,
-            turbulence_dt_s=turbulence_dt_s,
-            seed=seed,
-        )
+    ref = resolve_reference(
+        reference or {"kind": "fixed_lidar"}, virtual_kind=None, record_columns=None, lidar=lidar
+    )
+    heights = scan_heights_in_turn or int(rec["height_m"].nunique())
+    g_ratio, log_sd = prop.reference_target(
+        ref["kind"],
+        sub["hws_mean_ms"].to_numpy(dtype=float),
+        sub["height_m"].to_numpy(dtype=float),
+        ref["lidar"],
+        heights_in_turn=heights,
+        refocus_delay_s=scan_refocus_delay_s,
+        point_sample_interval_s=point_sample_interval_s,
+        turbulence_dt_s=turbulence_dt_s,
+        seed=seed,
+    )
+    g_log_sd = float(ref.get("lidar_std_ratio_log_sd", prop.LIDAR_STD_RATIO_LOG_SD))
+    if g_ratio is None:
+        log.info("point target: reference %s, calibrated to the point wind", ref["kind"])
+        g_log_sd = 0.0
+    else:
         log.info(
             "point target: lidar std ratio %.4f-%.4f, log-sd %.4f-%.4f (%d heights in turn)",
             np.nanmin(g_ratio), np.nanmax(g_ratio), np.nanmin(log_sd), np.nanmax(log_sd), heights,
@@ -148,6 +229,7 @@ def propagate(
             ndraws=ndraws,
             lidar_std_ratio=g_ratio,
             point_log_sd=log_sd,
+            lidar_std_ratio_log_sd=g_log_sd,
             baseline=baseline,
             hold=hold,
             return_draws=True,
@@ -229,10 +311,15 @@ def propagate(
 
     # MD / RMSE of std and TI (Tables 2-3 style) against the truth (virtual campaigns)
     # and against the reference instrument, where present, over the same records.
-    scores = metrics.score_estimates(out, metrics.reference_values(rec))
+    scores = metrics.score_estimates(out, metrics.reference_values(rec, kind=ref["kind"]))
     scores["rho_seed000"] = rho_seed
     scores["credible_mass"] = credible_mass
-    scores["target"] = target
+    scores["reference_kind"] = ref["kind"]
+    height = ref.get("height_m")
+    scores["reference_height_m"] = (
+        ";".join(f"{h:g}" for h in np.atleast_1d(height)) if height is not None else "lidar"
+    )
+    scores["reference_separation_m"] = float(ref.get("separation_m") or 0.0)
     write_csv(scores, metrics_out)
     return out
 

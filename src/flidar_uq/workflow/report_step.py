@@ -93,22 +93,25 @@ SOURCE_LABELS = {
 }
 
 
-def reference_kind(config: dict) -> str:
+def reference_kind(config: dict, metrics: pd.DataFrame | None = None) -> str:
     """What the corrected TI is calibrated against, in words.
 
-    ``config["reference"]["kind"]`` when the config names it; otherwise derived from
-    ``propagation.target`` (the model is calibrated against a motionless reference lidar).
+    The kind the run resolved (``metrics["reference_kind"]``, written by the propagation:
+    the config's ``reference.kind``, or the virtual scenario's reference instrument),
+    else ``config["reference"]["kind"]``; the corrected TI is the point (cup-like) TI.
     """
-    kind = (config.get("reference") or {}).get("kind")
-    if kind:
-        return str(kind)
-    target = config.get("propagation", {}).get("target", "point")
-    if target == "point":
-        return (
-            "fixed (motionless) lidar; corrected TI given as the point (cup-like) TI "
-            "(derived from propagation.target: point)"
-        )
-    return "fixed (motionless) lidar; corrected TI given as that lidar's TI (propagation.target)"
+    kind = None
+    if metrics is not None and "reference_kind" in metrics and len(metrics):
+        kind = str(metrics["reference_kind"].iloc[0])
+    kind = kind or (config.get("reference") or {}).get("kind") or "none"
+    words = {
+        "cup": "cup anemometer: the model is calibrated to the point wind directly",
+        "sonic": "sonic anemometer: the model is calibrated to the point wind directly",
+        "fixed_lidar": "fixed (motionless) lidar: the point TI through its std ratio g, "
+        "with g's uncertainty",
+        "none": "none: the point TI through a motionless lidar of the floating lidar's type",
+    }
+    return f"{kind} ({words.get(kind, kind)}); corrected TI given as the point (cup-like) TI"
 
 
 def file_provenance(paths: dict[str, str | os.PathLike]) -> pd.DataFrame:
@@ -377,7 +380,7 @@ def build_report(
                 f"{len(records)} input, {int(records['ti_corrected_median'].notna().sum())} "
                 f"with a corrected TI, {n_qc} removed by QC",
             ),
-            ("reference", reference_kind(config)),
+            ("reference", reference_kind(config, metrics)),
             (
                 "model",
                 f"{motion_model} motion model"
@@ -516,10 +519,18 @@ def build_report(
     if "ti_true" in records:
         refs["truth"] = records["ti_true"].to_numpy(dtype=float)
     if "ti_ref" in records:
-        refs["reference lidar (interval x lidar_std_ratio)"] = (
-            records["ti_ref"].to_numpy(dtype=float),
-            records["lidar_std_ratio"].to_numpy(dtype=float),
+        from flidar_uq.data.metrics import LIDAR_REFERENCE_LABELS, REFERENCE_LABELS
+
+        label = next(
+            (r for r in metrics.get("reference", []) if r != "truth"), REFERENCE_LABELS[None]
         )
+        if label in (*LIDAR_REFERENCE_LABELS, REFERENCE_LABELS[None]):
+            refs[f"{label} (interval x lidar_std_ratio)"] = (
+                records["ti_ref"].to_numpy(dtype=float),
+                records["lidar_std_ratio"].to_numpy(dtype=float),
+            )
+        else:  # a cup or sonic: the point value itself
+            refs[label] = records["ti_ref"].to_numpy(dtype=float)
     if refs:
         body += rep.img_html(
             rep.figure_to_data_uri(
