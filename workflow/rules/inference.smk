@@ -30,6 +30,11 @@ rule posterior_bin:
         batch_of_bin,
     output:
         "results/posterior/bin_{bin}.nc",
+    params:
+        # relative link target (portable: BSD ln has no -r)
+        target=lambda wildcards, input: os.path.relpath(
+            os.path.join(input[0], f"bin_{wildcards.bin}.nc"), "results/posterior"
+        ),
     conda:
         "../envs/flidar_uq.yaml"
     log:
@@ -37,9 +42,9 @@ rule posterior_bin:
     benchmark:
         "results/benchmarks/posterior_bin_{bin}.tsv"
     # a relative symbolic link to the batch's file, not a copy (issue 13: output size); the
-    # link itself is new, so its time stamp (Snakemake reads links' own) follows the batch
+    # link itself is new, so its own time stamp (which Snakemake reads) follows the batch
     shell:
-        "ln -sfr {input}/bin_{wildcards.bin}.nc {output} 2> {log}"
+        "ln -sf {params.target} {output} 2> {log}"
 
 
 rule fit_global_model:
