@@ -309,3 +309,39 @@ def test_sigma_z_exact_direction_symmetries(wd, amp, per, arm):
             rtol=0,
             atol=tol * ref[0],
         )
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    hws=st.floats(2.0, 21.0),
+    amp=st.floats(0.0, 25.0),
+    per=st.floats(1.0, 20.0),
+    wd=st.floats(0.0, 360.0),
+    arm=st.sampled_from([0.0, 2.5]),
+    pitch_ratio=st.sampled_from([None, 0.0, 0.5]),
+)
+def test_sigma_z_default_within_rtol_of_a_finer_grid(hws, amp, per, wd, arm, pitch_ratio):
+    """The default (rtol 1e-6, error from the nested half grid) against an independent grid
+    twice as fine in every phase, over the pipeline's parameter space (bins 2-21 m/s, the
+    surrogate's 0-25 deg x 1-20 s, any direction, the default scenario's 2.5 m lever arm,
+    roll-only and unequal pitch). Issue 13 item 4."""
+    pamp = None if pitch_ratio is None or amp == 0.0 else pitch_ratio * amp
+    kw = dict(lever_arm_m=arm, pitch_amplitude_deg=pamp)
+    res = sigma_z(hws, amp, per, wd, **kw)
+    assert res.converged
+    ref = sigma_z_grid(hws, amp, per, wd, nphase=2 * res.n_phase, **kw)
+    scale = max(ref[0], abs(ref[1]), 1e-8 * hws)  # floor: no motion, round-off only
+    assert abs(res.sigma_z_ms - ref[0]) <= 1e-6 * scale
+    assert abs(res.mean_z_ms - ref[1]) <= 1e-6 * scale
+
+
+@settings(max_examples=5, deadline=None)
+@given(hws=st.floats(2.0, 21.0), amp=st.floats(0.5, 10.0), per=st.floats(1.0, 20.0))
+def test_sigma_z_default_within_rtol_dbs(hws, amp, per):
+    """The same for a DBS lidar (direct method; the beams are not subsampled)."""
+    res = sigma_z(hws, amp, per, 30.0, WINDCUBE_V1)
+    assert res.converged
+    ref = sigma_z_grid(hws, amp, per, 30.0, WINDCUBE_V1, nphase=2 * res.n_phase)
+    scale = max(ref[0], abs(ref[1]))
+    assert abs(res.sigma_z_ms - ref[0]) <= 1e-6 * scale
+    assert abs(res.mean_z_ms - ref[1]) <= 1e-6 * scale

@@ -30,14 +30,21 @@ rule posterior_bin:
         batch_of_bin,
     output:
         "results/posterior/bin_{bin}.nc",
+    params:
+        # relative link target (portable: BSD ln has no -r)
+        target=lambda wildcards, input: os.path.relpath(
+            os.path.join(input[0], f"bin_{wildcards.bin}.nc"), "results/posterior"
+        ),
     conda:
         "../envs/flidar_uq.yaml"
     log:
         "results/logs/posterior_bin_{bin}.log",
     benchmark:
         "results/benchmarks/posterior_bin_{bin}.tsv"
+    # a relative symbolic link to the batch's file, not a copy (issue 13: output size); the
+    # link itself is new, so its own time stamp (which Snakemake reads) follows the batch
     shell:
-        "cp {input}/bin_{wildcards.bin}.nc {output} 2> {log}"
+        "ln -sf {params.target} {output} 2> {log}"
 
 
 rule fit_global_model:

@@ -308,10 +308,7 @@ def select_global_model(
     idx = [np.asarray(f.info.get("constant", {}).get("record_index", [])) for f in fits.values()]
     if any(i.shape != idx[0].shape or not np.array_equal(i, idx[0]) for i in idx[1:]):
         raise ValueError("select_global_model: the fits were not made on the same records")
-    loos = {
-        name: None if f.info["prior_only"] else _loo(np.asarray(f.log_lik))
-        for name, f in fits.items()
-    }
+    loos = {name: None if f.info["prior_only"] else f.loo() for name, f in fits.items()}
     return _select_global(fits, loos, settings)
 
 
@@ -341,4 +338,5 @@ def _select_global(fits, loos, settings):
         diagnostics=fit.diagnostics,
         failure_reasons=list(fit.failure_reasons),
         info=info,
+        pointwise_loo=fit.pointwise_loo,
     )

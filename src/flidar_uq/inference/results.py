@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from flidar_uq.inference.loo import _loo
 from flidar_uq.inference.observations import (
     _default_surrogate,
     effective_sigma_z_ms,
@@ -33,10 +34,22 @@ def _jsonable(x):
 class _FitBase:
     kind = "base"
     draws: dict  # name -> (nensembles, ndraws)
-    log_lik: np.ndarray  # (nensembles, ndraws, n_obs)
+    log_lik: np.ndarray | None  # (nensembles, ndraws, n_obs); None: read from a file (global)
     diagnostics: dict
     failure_reasons: list
     info: dict = field(default_factory=dict)
+    # PSIS-LOO of the stored draws (``_loo``'s dict) when ``log_lik`` was not stored
+    pointwise_loo: dict | None = None
+
+    def loo(self) -> dict | None:
+        """PSIS-LOO (``elpd``, ``se``, ``p_loo``, pointwise ``elpd_i``, ``pareto_k``) or None.
+
+        From ``log_lik`` when it is held, else the values :func:`save_fit` computed from it
+        (a :class:`GlobalFit` file keeps only these, see :func:`save_fit`).
+        """
+        if self.log_lik is not None:
+            return _loo(np.asarray(self.log_lik))
+        return self.pointwise_loo
 
     @property
     def converged(self) -> bool:
@@ -69,17 +82,24 @@ class _FitBase:
         return pd.DataFrame(rows)
 
     def to_datatree(self):
-        """ArviZ 1.x DataTree: posterior, log_likelihood, constant_data; diagnostics in attrs."""
+        """ArviZ 1.x DataTree: posterior, log_likelihood (if held), constant_data, and the
+        stored PSIS-LOO (group ``pointwise_loo``, if held); diagnostics in attrs."""
         post = {n: np.asarray(v) for n, v in self.draws.items()}
-        dt = az.from_dict(
-            {
-                "posterior": post,
-                "log_likelihood": {"obs": self.log_lik},
-                "constant_data": {
-                    k: np.asarray(v) for k, v in self.info.get("constant", {}).items()
-                },
-            }
-        )
+        groups = {
+            "posterior": post,
+            "constant_data": {k: np.asarray(v) for k, v in self.info.get("constant", {}).items()},
+        }
+        if self.log_lik is not None:
+            groups["log_likelihood"] = {"obs": np.asarray(self.log_lik)}
+        dt = az.from_dict(groups)
+        if self.pointwise_loo is not None:
+            loo = self.pointwise_loo
+            dt["pointwise_loo"] = xr.DataTree(
+                xr.Dataset(
+                    {k: ("obs_dim_0", np.asarray(loo[k], float)) for k in _LOO_ARRAYS},
+                    attrs={k: float(loo[k]) for k in _LOO_SCALARS},
+                )
+            )
         dt.attrs["flidar_uq_kind"] = self.kind
         dt.attrs["converged"] = int(self.converged)
         dt.attrs["failure_reasons"] = json.dumps(self.failure_reasons)
@@ -256,21 +276,63 @@ class FailedFit:
 _VOLATILE_ATTRS = ("created_at", "creation_library_version")
 
 
+# the PSIS-LOO dict of loo._loo: pointwise arrays and scalars
+_LOO_ARRAYS = ("elpd_i", "pareto_k")
+_LOO_SCALARS = ("elpd", "se", "p_loo")
+# lossless compression of every stored variable (HDF5 deflate after byte shuffle)
+_COMPRESSION = {"zlib": True, "complevel": 4, "shuffle": True}
+
+
+def _encoding(dt) -> dict:
+    """Per-group NetCDF encoding: compressed, the pointwise log-likelihood in float32."""
+    enc = {}
+    for node in dt.subtree:
+        ds = node.to_dataset()
+        venc = {
+            v: dict(_COMPRESSION)
+            for v in [*ds.data_vars, *ds.coords]
+            if ds[v].ndim > 0 and ds[v].dtype.kind in "fiu"
+        }
+        if node.name == "log_likelihood" and "obs" in venc:
+            venc["obs"]["dtype"] = "float32"
+        if venc:
+            enc[node.path] = venc
+    return enc
+
+
 def save_fit(fit: BinFit | GlobalFit | FailedFit, path) -> None:
     """Write a fit to NetCDF (h5netcdf engine), readable by :func:`load_fit`.
 
     A :class:`BinFit` / :class:`GlobalFit` is written as its ArviZ DataTree
     (:meth:`~BinFit.to_datatree`) without wall-clock attributes, so a rerun writes the same
     bytes; a :class:`FailedFit` as by :func:`write_failed_fit`.
+
+    Every variable is deflate-compressed (lossless). A :class:`BinFit` keeps its pointwise
+    log-likelihood in float32 (relative rounding 6e-8, far below anything PSIS-LOO resolves;
+    its LOO is already in ``info``). A :class:`GlobalFit` keeps, instead of its
+    (chain, draw, record) log-likelihood (~180 MB in float64 for the default campaign), the
+    PSIS-LOO computed from it in float64 (group ``pointwise_loo``: ``elpd_i``, ``pareto_k``
+    per record; ``elpd``, ``se``, ``p_loo``), which is all the model choice
+    (:func:`~flidar_uq.inference.global_fit.select_global_model`) reads; :meth:`~BinFit.loo`
+    returns the same dict before and after the round trip.
     """
     if isinstance(fit, FailedFit):
         write_failed_fit(path, fit.bin_id, fit.reason)
         return
+    if isinstance(fit, GlobalFit) and fit.log_lik is not None:
+        fit = GlobalFit(
+            draws=fit.draws,
+            log_lik=None,
+            diagnostics=fit.diagnostics,
+            failure_reasons=list(fit.failure_reasons),
+            info=fit.info,
+            pointwise_loo=fit.loo(),
+        )
     dt = fit.to_datatree()
     for node in dt.subtree:
         for a in _VOLATILE_ATTRS:
             node.attrs.pop(a, None)
-    dt.to_netcdf(path, engine="h5netcdf")
+    dt.to_netcdf(path, engine="h5netcdf", encoding=_encoding(dt))
 
 
 def write_failed_fit(path, bin_id, reason_text: str) -> None:
@@ -307,7 +369,14 @@ def load_fit(path) -> BinFit | GlobalFit | FailedFit:
         )
     post = dt["posterior"].to_dataset()
     draws = {n: post[n].values for n in post.data_vars}
-    log_lik = dt["log_likelihood"].to_dataset()["obs"].values
+    log_lik = None
+    if "log_likelihood" in dt.children:
+        log_lik = dt["log_likelihood"].to_dataset()["obs"].values
+    pointwise_loo = None
+    if "pointwise_loo" in dt.children:
+        ds = dt["pointwise_loo"].to_dataset()
+        pointwise_loo = {k: ds[k].values for k in _LOO_ARRAYS}
+        pointwise_loo |= {k: float(ds.attrs[k]) for k in _LOO_SCALARS}
     info = json.loads(dt.attrs["info"])
     if "constant_data" in dt.children:
         cd = dt["constant_data"].to_dataset()
@@ -319,4 +388,5 @@ def load_fit(path) -> BinFit | GlobalFit | FailedFit:
         diagnostics=json.loads(dt.attrs["diagnostics"]),
         failure_reasons=json.loads(dt.attrs["failure_reasons"]),
         info=info,
+        pointwise_loo=pointwise_loo,
     )
