@@ -55,10 +55,13 @@ def draw_true_params(n_bins, *, two_period_bins=0, priors: Priors = _PRIORS, rng
         raise ValueError(
             f"draw_true_params: two_period_bins={two_period_bins} not in [0, {n_bins}]"
         )
+    # the two-period concentration from its own stream: rng's draws (the other truths) are
+    # those of a campaign without it
+    rng_c = rng.spawn(1)[0]
     bins = []
     for b in range(n_bins):
         if b >= n_bins - two_period_bins:
-            th = sample_motion_prior(rng, 1, priors, 7)[0]
+            th = sample_motion_prior(rng, 1, priors, 7, concentration_rng=rng_c)[0]
             w = 1.0 / (1.0 + np.exp(-th[3]))
             bins.append(
                 {
@@ -185,7 +188,7 @@ def generate_statistical_campaign(
             c = p["weight_concentration"]
             per1 = p["period1_s"] * np.exp(p["scatter_period"] * rng_rec.standard_normal(n))
             per2 = p["period2_s"] * np.exp(p["scatter_period"] * rng_rec.standard_normal(n))
-            w1 = rng_rec.beta(p["weight1"] * c, (1.0 - p["weight1"]) * c)
+            w1 = rng_rec.beta(p["weight1"] * c, (1.0 - p["weight1"]) * c, size=n)
             per = np.where(w1 >= 0.5, per1, per2)
             sz = surrogate.sigma_z_two_period_ms(
                 m, p["amplitude_deg"], p["period1_s"], p["period2_s"], p["weight1"]

@@ -163,7 +163,7 @@ class SamplerSettings:
             )
 
 
-def sample_motion_prior(rng, n, priors, ndim):
+def sample_motion_prior(rng, n, priors, ndim, *, concentration_rng=None):
     """Draws from the per-bin motion prior, in the sampler's (log / logit) coordinates.
 
     Parameters
@@ -175,6 +175,9 @@ def sample_motion_prior(rng, n, priors, ndim):
     ndim : int
         4 (unimodal: log A, log T, log s_a, log s_T) or 7 (two-period: log A, log T1,
         log T2, logit w, log s_a, log s_T, log c with T1 < T2).
+    concentration_rng : numpy.random.Generator, optional
+        Draws ``c`` (two-period) from this generator instead of ``rng``, so that ``rng``'s
+        stream is the same as without ``c`` (a campaign's other truths do not move).
 
     Returns
     -------
@@ -206,6 +209,8 @@ def sample_motion_prior(rng, n, priors, ndim):
         return np.column_stack([np.log(a), np.log(ts[0]), np.log(sc[0]), np.log(sc[1])])
     t1, t2 = np.minimum(ts[0], ts[1]), np.maximum(ts[0], ts[1])
     w = rng.beta(priors.weight_beta, priors.weight_beta, size=n)
+    if concentration_rng is not None:
+        rng = concentration_rng
     c = trunc_lognormal(
         priors.weight_concentration_median,
         priors.weight_concentration_log_sd,
