@@ -172,17 +172,12 @@ def campaign_methods(rec, sur):
         )
         return per, time.perf_counter() - t
 
-    for i, (label, nw, ns, nb, maxf) in enumerate(BUDGETS):
-        settings = SamplerSettings(
-            nwalkers=nw, nsteps=ns, nburn=nb, ndraws=min(ns, 250), global_max_step_factor=maxf
-        )
-        t0 = time.perf_counter()
-        fit = fit_record_model(rec, surrogate=sur, settings=settings, seed=SEED + i)
-        t_fit = time.perf_counter() - t0
-        per, t_prop = propagate(fit, SEED + 100 + i)
-        rows += score(
+    def score_fit(label, method, fit, t_fit, prop_seed, **extra):
+        """Propagate a global fit and score it (wall time: fit + propagation + point target)."""
+        per, t_prop = propagate(fit, prop_seed)
+        return score(
             label,
-            "Bayesian (emcee)",
+            method,
             t_fit + t_prop + t_point,
             per["ti_corrected_median"].to_numpy(),
             truth,
@@ -194,29 +189,29 @@ def campaign_methods(rec, sur):
                 converged=fit.converged,
                 rho_median=float(np.median(fit.flat("rho"))),
                 lever_arm_median_m=float(np.median(fit.flat("lever_arm_m"))),
-                log_prob_evals_nominal=nw * fit.draws["rho"].shape[0] * (ns + nb),
+                **extra,
             ),
+        )
+
+    for i, (label, nw, ns, nb, maxf) in enumerate(BUDGETS):
+        settings = SamplerSettings(
+            nwalkers=nw, nsteps=ns, nburn=nb, ndraws=min(ns, 250), global_max_step_factor=maxf
+        )
+        t0 = time.perf_counter()
+        fit = fit_record_model(rec, surrogate=sur, settings=settings, seed=SEED + i)
+        t_fit = time.perf_counter() - t0
+        rows += score_fit(
+            label,
+            "Bayesian (emcee)",
+            fit,
+            t_fit,
+            SEED + 100 + i,
+            log_prob_evals_nominal=nw * fit.draws["rho"].shape[0] * (ns + nb),
         )
     t0 = time.perf_counter()
     lap = laplace_record_model(rec, surrogate=sur, ndraws=1000, seed=SEED + 50)
     t_fit = time.perf_counter() - t0
-    per, t_prop = propagate(lap, SEED + 150)
-    rows += score(
-        "Laplace",
-        "Laplace approximation",
-        t_fit + t_prop + t_point,
-        per["ti_corrected_median"].to_numpy(),
-        truth,
-        hws_true,
-        per["ti_corrected_lo"].to_numpy(),
-        per["ti_corrected_hi"].to_numpy(),
-        dict(
-            fit_s=t_fit,
-            converged=lap.converged,
-            rho_median=float(np.median(lap.flat("rho"))),
-            lever_arm_median_m=float(np.median(lap.flat("lever_arm_m"))),
-        ),
-    )
+    rows += score_fit("Laplace", "Laplace approximation", lap, t_fit, SEED + 150)
     for r in rows:
         r.update(campaign=f"default scenario, {len(rec)} QC-kept records", point_target_s=t_point)
     return rows

@@ -24,8 +24,13 @@ import numpy as np
 import pandas as pd
 
 from flidar_uq.inference.priors import Priors
-from flidar_uq.inference.record_fit import _LOGS, RECORD_MODEL_NAMES, log_prob_record_model
-from flidar_uq.inference.record_motion import record_motion
+from flidar_uq.inference.record_fit import (
+    _LOGS,
+    RECORD_MODEL_NAMES,
+    _record_observations,
+    _start,
+    log_prob_record_model,
+)
 from flidar_uq.inference.results import GlobalFit
 from flidar_uq.inference.sampler import _HESSIAN_STEP, laplace_approximation
 from flidar_uq.seeding import as_seedsequence
@@ -134,30 +139,13 @@ def laplace_record_model(
         if c not in records:
             raise ValueError(f"laplace_record_model: records lack column {c!r}")
     rng = np.random.default_rng(as_seedsequence(seed))
-    mot = record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
-    s = records["hws_std_ms"].to_numpy(dtype=float)
-    r = (
-        records["ref_hws_std_ms"].to_numpy(dtype=float)
-        if "ref_hws_std_ms" in records
-        else np.full(len(records), np.nan)
-    )
-    szr = mot["sigma_z_rot_ms"].to_numpy()
-    u2 = mot["translation_unit_sq"].to_numpy()
-    use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.isfinite(szr) & np.isfinite(u2)
+    obs, use, _ = _record_observations(records, surrogate, scan_period_s)
     if not use.any():
         raise ValueError(
             "laplace_record_model: no record with a reference std and a motion description"
         )
-    args = (s[use], r[use], szr[use], u2[use], priors, lever_arm_prior)
-    x0 = np.array(
-        [
-            0.0,
-            np.log(0.05),
-            np.log(0.15),
-            2.0 if lever_arm_prior is None else lever_arm_prior[0],
-            0.0,
-        ]
-    )
+    args = (*obs, priors, lever_arm_prior)
+    x0 = _start(lever_arm_prior)
     mode, hess = laplace_approximation(log_prob_record_model, args, x0)
     reasons = []
     # a mode within the Hessian's stencil of the support's edge: the differences there

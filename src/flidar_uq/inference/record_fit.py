@@ -140,6 +140,42 @@ def _broad(lever_arm_prior):
 
 
 @single_threaded
+def _record_observations(records, surrogate, scan_period_s):
+    """The records the record model can use and their observations.
+
+    Returns ``((s, r, sz_rot, u2), use, kinds)``: measured std ``s`` (m/s), reference std
+    ``r`` (m/s), rotational sigma_Z (m/s) and translation term ``u2`` ((m/s)^2 / m^2) of
+    the usable records (all finite and ``s, r > 0``), the mask ``use`` over ``records``
+    and every record's motion description kind.
+    """
+    mot = record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
+    s = records["hws_std_ms"].to_numpy(dtype=float)
+    r = (
+        records["ref_hws_std_ms"].to_numpy(dtype=float)
+        if "ref_hws_std_ms" in records
+        else np.full(len(records), np.nan)
+    )
+    kinds = mot["motion_description"].to_numpy()
+    szr = mot["sigma_z_rot_ms"].to_numpy()
+    u2 = mot["translation_unit_sq"].to_numpy()
+    use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.isfinite(szr) & np.isfinite(u2)
+    return (s[use], r[use], szr[use], u2[use]), use, kinds
+
+
+def _start(lever_arm_prior):
+    """Starting point of the mode search (sampler coordinates: rho, log kappa, log kappa_z,
+    L, log k)."""
+    return np.array(
+        [
+            0.0,
+            np.log(0.05),
+            np.log(0.15),
+            2.0 if lever_arm_prior is None else lever_arm_prior[0],
+            0.0,
+        ]
+    )
+
+
 def fit_record_model(
     records: pd.DataFrame,
     *,
@@ -190,29 +226,10 @@ def fit_record_model(
             )
         lever_arm_prior = (mean, sd)
     seedseq = as_seedsequence(seed)
-    mot = record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
-    s = records["hws_std_ms"].to_numpy(dtype=float)
-    r = (
-        records["ref_hws_std_ms"].to_numpy(dtype=float)
-        if "ref_hws_std_ms" in records
-        else np.full(len(records), np.nan)
-    )
-    kinds = mot["motion_description"].to_numpy()
-    szr = mot["sigma_z_rot_ms"].to_numpy()
-    u2 = mot["translation_unit_sq"].to_numpy()
-    use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.isfinite(szr) & np.isfinite(u2)
-    s, r, szr, u2 = s[use], r[use], szr[use], u2[use]
+    (s, r, szr, u2), use, kinds = _record_observations(records, surrogate, scan_period_s)
     args = (s, r, szr, u2, priors, lever_arm_prior)
     gs = settings.for_global_fit()
-    x0 = np.array(
-        [
-            0.0,
-            np.log(0.05),
-            np.log(0.15),
-            2.0 if lever_arm_prior is None else lever_arm_prior[0],
-            0.0,
-        ]
-    )
+    x0 = _start(lever_arm_prior)
     init = laplace_init(log_prob_record_model, args, x0, _broad(lever_arm_prior))
     ndim = len(RECORD_MODEL_NAMES)
     logs = list(_LOGS)
