@@ -90,3 +90,68 @@ def propagation_params():
         if params[key] == "auto":
             params[key] = value
     return params
+
+
+def _series_paths():
+    """(IMU series, LOS series) of the run, '' when absent: the user's files (source files)
+    or the virtual campaign's (campaign.virtual_series). Checks the keys go together."""
+    c = config["campaign"]
+    if c["source"] == "virtual":
+        if c["imu_series"] or c["los_series"]:
+            raise ValueError(
+                "config campaign.imu_series / campaign.los_series: only with source 'files'; "
+                "with source 'virtual' set campaign.virtual_series"
+            )
+        return (
+            "results/campaign/imu.parquet" if c["virtual_series"] != "none" else "",
+            "results/campaign/los.parquet" if c["virtual_series"] == "imu_los" else "",
+        )
+    if c["virtual_series"] != "none":
+        raise ValueError("config campaign.virtual_series: only with source 'virtual'")
+    if c["los_series"] and not c["imu_series"]:
+        raise ValueError(
+            "config campaign.los_series: needs campaign.imu_series (the LOS correction "
+            "needs the buoy's motion)"
+        )
+    return c["imu_series"], c["los_series"]
+
+
+# The raw series of the run ('' = none): the imu_statistics rule and the LOS branch run
+# only when they are given.
+IMU_SERIES, LOS_SERIES = _series_paths()
+# Written by rule campaign beside the records when the virtual campaign gives its series.
+VIRTUAL_SERIES_OUTPUTS = {
+    k: v
+    for k, v in (("imu", IMU_SERIES), ("los", LOS_SERIES))
+    if v and config["campaign"]["source"] == "virtual"
+}
+# Optional inputs of rule report: the IMU summary and gaps, the LOS agreement.
+SERIES_REPORT_INPUTS = (
+    {"imu_summary": "results/imu/summary.csv", "imu_gaps": "results/imu/gaps.csv"}
+    if IMU_SERIES
+    else {}
+) | (
+    {
+        "los_records": "results/los/records.csv",
+        "los_agreement": "results/los/agreement.csv",
+        "los_figure": "results/los/agreement.png",
+    }
+    if LOS_SERIES
+    else {}
+)
+
+
+def los_lever_arm_m():
+    """Lidar head from the buoy's rotation centre (body frame, m) for the LOS correction:
+    (0, 0, inference.lever_arm_m) when given, else the virtual campaign's scenario value."""
+    if config["inference"]["lever_arm_m"] is not None:
+        return [0.0, 0.0, float(config["inference"]["lever_arm_m"])]
+    if config["campaign"]["source"] == "virtual":
+        from flidar_uq.campaign.scenarios import CampaignConfig, load_scenario
+
+        settings = CampaignConfig.from_dict(load_scenario(scenario_file(None))).settings
+        return [float(x) for x in settings["lidar"]["lever_arm_m"]]
+    raise ValueError(
+        "config campaign.los_series: the LOS correction needs the lidar head's height above "
+        "the buoy's rotation centre; set inference.lever_arm_m (m)"
+    )

@@ -15,6 +15,8 @@ rule report:
         global_summary="results/inference/global.csv",
         posterior="results/posterior/global.nc",
         batches=expand("results/inference/batch_{batch}", batch=BATCHES),
+        # the IMU series and LOS branch sections, when those inputs are given
+        **SERIES_REPORT_INPUTS,
     output:
         report(
             "results/report/report.html", caption="../report/report_html.rst", category="Report"

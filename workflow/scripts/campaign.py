@@ -9,10 +9,13 @@ if __name__ == "__main__":
     snakemake = globals()["snakemake"]  # injected by the script directive
     setup_logging(snakemake.log[0])
     make_campaign(
-        snakemake.output[0],
+        snakemake.output.records,
         source=snakemake.params.source,
         seed=snakemake.params.seed,
         scenario_path=snakemake.input.scenario or None,
         records_path=snakemake.input.records or None,
         threads=snakemake.threads,
+        require_motion=snakemake.params.require_motion,
+        imu_out=snakemake.output.get("imu"),
+        los_out=snakemake.output.get("los"),
     )

@@ -3,6 +3,9 @@
 from flidar_uq.workflow.files import setup_logging
 from flidar_uq.workflow.report_step import build_report, git_revision
 
+# optional inputs of the raw IMU series and the LOS branch (SERIES_REPORT_INPUTS, common.smk)
+SERIES_KEYS = ("imu_summary", "imu_gaps", "los_records", "los_agreement", "los_figure")
+
 snakemake = globals()["snakemake"]  # injected by the script directive
 setup_logging(snakemake.log[0])
 build_report(
@@ -12,4 +15,5 @@ build_report(
     config=dict(snakemake.params.config),
     benchmarks_dir=snakemake.params.benchmarks_dir,
     git_revision=git_revision(snakemake.params.repo),
+    series_paths={k: snakemake.input[k] for k in SERIES_KEYS if k in snakemake.input.keys()},
 )

@@ -68,6 +68,9 @@ class DataValidationError(ValueError):
         (``all rows``).
     column : str or None
         Offending column name.
+    problem, csv, n_more
+        The constructor's arguments of the same names (what is wrong, whether the source
+        is a CSV file, further offending rows).
     """
 
     def __init__(
@@ -82,6 +85,8 @@ class DataValidationError(ValueError):
         header: bool = False,
     ) -> None:
         self.source, self.row, self.column = source, row, column
+        # kept so that a chunked reader can re-raise with the row counted from the file start
+        self.problem, self.csv, self.n_more = problem, csv, n_more
         if row is None:
             where = "header" if header or column is None else "all rows"
         else:

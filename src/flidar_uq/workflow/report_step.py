@@ -88,6 +88,7 @@ def build_report(
     config: dict,
     benchmarks_dir: str | os.PathLike | None = None,
     git_revision: str = "",
+    series_paths: dict | None = None,
 ) -> str:
     """Write the self-contained HTML report from the pipeline's result files.
 
@@ -105,6 +106,9 @@ def build_report(
         Directory of benchmark PNG charts (and ``los_*.csv`` comparison tables); skipped if absent.
     git_revision : str
         Revision of the workflow's repository.
+    series_paths : dict, optional
+        Result files of the raw IMU series and the LOS branch, when given
+        (:func:`flidar_uq.workflow.series_report.series_sections`).
 
     Returns
     -------
@@ -382,6 +386,9 @@ def build_report(
                 )
             )
 
+    from flidar_uq.workflow.series_report import series_sections
+
+    sections += series_sections(**(series_paths or {}))  # raw IMU series, LOS branch
     sections.append(
         rep.Section("Provenance", rep.provenance_html(config, git_revision, rep.package_versions()))
     )
