@@ -134,12 +134,13 @@ def _imu_covered(t_imu: np.ndarray, t_start: np.ndarray, t_end: np.ndarray, max_
     return inside & ~overlap
 
 
-def _ti(hws: np.ndarray) -> tuple[float, float, float]:
-    h = hws[np.isfinite(hws)]
+def _ti(hws: np.ndarray | None) -> tuple[int, float, float, float]:
+    """Scans with a finite HWS, their mean and std (m/s) and TI (-)."""
+    h = np.empty(0) if hws is None else hws[np.isfinite(hws)]
     if h.size < 2:
-        return np.nan, np.nan, np.nan
+        return h.size, np.nan, np.nan, np.nan
     m, s = float(h.mean()), float(h.std(ddof=1))
-    return m, s, s / m
+    return h.size, m, s, s / m
 
 
 def los_record_ti(
@@ -190,8 +191,10 @@ def los_record_ti(
     pandas.DataFrame
         One row per height: ``height_m``, ``n_los``, ``n_scans`` (complete), ``n_scans_used``
         (with IMU), ``los_flags`` (:data:`LOS_RECORD_REASONS`, ``;``-separated), and per
-        method ``m`` of :func:`los_methods`: ``hws_mean_ms_<m>``, ``hws_std_ms_<m>``
-        (m/s, over the scans' HWS) and ``ti_los_<m>`` (-).
+        method ``m`` of :func:`los_methods`: ``n_hws_<m>`` (scans with a retrieved HWS; a
+        seed 002 target above the top gate or a singular scan gives none),
+        ``hws_mean_ms_<m>``, ``hws_std_ms_<m>`` (m/s, over those scans' HWS) and
+        ``ti_los_<m>`` (-).
 
     Raises
     ------
@@ -277,7 +280,14 @@ def los_record_ti(
                     geom, t[li], az[li], vr[li], motion, reference_wd_deg=ref
                 ).hws_ms
         for m in methods:
-            mean, std, ti = _ti(hws[m]) if hws[m] is not None else (np.nan,) * 3
-            row.update({f"hws_mean_ms_{m}": mean, f"hws_std_ms_{m}": std, f"ti_los_{m}": ti})
+            n, mean, std, ti = _ti(hws[m])
+            row.update(
+                {
+                    f"n_hws_{m}": n,
+                    f"hws_mean_ms_{m}": mean,
+                    f"hws_std_ms_{m}": std,
+                    f"ti_los_{m}": ti,
+                }
+            )
         rows.append(row)
     return pd.DataFrame(rows)

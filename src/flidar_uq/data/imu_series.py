@@ -103,11 +103,12 @@ def _validated_chunks(
         try:
             df = validate(raw, source, csv=csv)
         except io.DataValidationError as exc:
-            if offset == 0 and exc.row is not None:
+            whole_file = offset == 0 and len(raw) < chunk_rows
+            if exc.header or (exc.row is not None and offset == 0) or exc.column is None:
                 raise
-            if exc.row is None and exc.column is not None and offset == 0:
+            if exc.row is None and whole_file:
                 raise
-            if exc.row is None:  # a whole-chunk problem (the rate): name the rows
+            if exc.row is None:  # a problem of the chunk's rows (the rate): name them
                 raise io.DataValidationError(
                     source,
                     offset + 1,
@@ -320,7 +321,9 @@ class TimeCursor:
         if self._it is None:
             self._it = iter(self.chunks)
         start_ns, end_ns = pd.Timestamp(start).value, pd.Timestamp(end).value
-        while not self._done and (self._buf is None or _ns(self._buf["timestamp"])[-1] < end_ns):
+        while not self._done and (
+            self._buf is None or len(self._buf) == 0 or _ns(self._buf["timestamp"])[-1] < end_ns
+        ):
             nxt = next(self._it, None)
             if nxt is None:
                 self._done = True

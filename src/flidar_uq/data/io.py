@@ -68,9 +68,9 @@ class DataValidationError(ValueError):
         (``all rows``).
     column : str or None
         Offending column name.
-    problem, csv, n_more
+    problem, csv, n_more, header
         The constructor's arguments of the same names (what is wrong, whether the source
-        is a CSV file, further offending rows).
+        is a CSV file, further offending rows, a problem of the header).
     """
 
     def __init__(
@@ -86,7 +86,7 @@ class DataValidationError(ValueError):
     ) -> None:
         self.source, self.row, self.column = source, row, column
         # kept so that a chunked reader can re-raise with the row counted from the file start
-        self.problem, self.csv, self.n_more = problem, csv, n_more
+        self.problem, self.csv, self.n_more, self.header = problem, csv, n_more, header
         if row is None:
             where = "header" if header or column is None else "all rows"
         else:
@@ -320,6 +320,7 @@ def _coerce(
     df: pd.DataFrame, columns: Mapping[str, Column], source: str, csv: bool
 ) -> pd.DataFrame:
     out = {}
+    df = df.reset_index(drop=True)  # rows by position (a filtered frame keeps its labels)
     for name in df.columns:
         col = columns[name]
         parse = _parse_datetime if col.dtype == "datetime" else _parse_float

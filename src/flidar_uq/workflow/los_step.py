@@ -126,7 +126,9 @@ def los_correction(
             out.insert(0, "timestamp", start)
             rows.append(out)
     columns = ["n_los", "n_scans", "n_scans_used", "los_flags"]
-    columns += [f"{q}_{m}" for m in methods for q in ("hws_mean_ms", "hws_std_ms", "ti_los")]
+    columns += [
+        f"{q}_{m}" for m in methods for q in ("n_hws", "hws_mean_ms", "hws_std_ms", "ti_los")
+    ]
     table = records[["timestamp", "height_m"]]
     if rows:
         table = table.merge(
@@ -134,7 +136,7 @@ def los_correction(
         )
     table = table.reindex(columns=["timestamp", "height_m", *columns])
     table["los_flags"] = table["los_flags"].where(table["los_flags"].notna(), "no_los")
-    for col in ("n_los", "n_scans", "n_scans_used"):
+    for col in ["n_los", "n_scans", "n_scans_used", *[f"n_hws_{m}" for m in methods]]:
         table[col] = table[col].fillna(0).astype(int)
     log.info(
         "LOS branch (%s): %d record rows, %d with a seed 001 TI; %d record windows without "
