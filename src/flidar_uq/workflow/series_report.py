@@ -81,7 +81,7 @@ def series_context(
         los = {
             "methods": ", ".join(methods),
             "n": int(agreement["n_records"].max()),
-            "n_flagged": int(records["los_flags"].fillna("").ne("").sum()),
+            "n_flagged": int(records["los_flags"].notna().sum()),  # "" is read as NaN
             "agreement_table": Markup(
                 rep.table_html(
                     agreement,
