@@ -46,8 +46,9 @@ __all__ = [
     "window_batches",
 ]
 
-#: Rows read per chunk (a 20-Hz IMU chunk of 1e6 rows is 14 h of data, ~100 MB in memory).
-DEFAULT_CHUNK_ROWS = 1_000_000
+#: Rows read per chunk (a 20-Hz IMU chunk of 2.5e5 rows is 3.5 h of data; ~400 bytes per row
+#: of a CSV chunk at the peak, text included, so ~100 MB above the ~170 MB of the libraries).
+DEFAULT_CHUNK_ROWS = 250_000
 
 #: Record columns derived from a raw IMU series (they replace those of the record table).
 SERIES_MOTION_COLUMNS: tuple[str, ...] = (*_imu.MOTION_STAT_COLUMNS, *TILT_SPECTRUM_COLUMNS)
@@ -446,7 +447,7 @@ def series_motion_statistics(
     window_s : float
         Record length, s.
     chunk_rows : int
-        Rows read at a time (memory ~ 100 bytes per row of a chunk).
+        Rows read at a time (memory ~ 400 bytes per row of a CSV chunk at the peak).
     min_coverage_pct : float
         Windows with fewer nominal samples present get NaN statistics, %.
     allow_small_angles : bool

@@ -40,7 +40,7 @@ def los_correction(
     lidar: str,
     lever_arm_m: Sequence[float],
     qc_params: dict | None = None,
-    chunk_rows: int = 1_000_000,
+    chunk_rows: int = 250_000,
     allow_small_angles: bool = False,
     window_s: float = 600.0,
 ) -> pd.DataFrame:
