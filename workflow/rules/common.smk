@@ -119,13 +119,13 @@ def _series_paths():
 # The raw series of the run ('' = none): the imu_statistics rule and the LOS branch run
 # only when they are given.
 IMU_SERIES, LOS_SERIES = _series_paths()
-# Written by rule campaign beside the records when the virtual campaign gives its series.
+# Written by the campaign step beside the records when the virtual campaign gives its series.
 VIRTUAL_SERIES_OUTPUTS = {
     k: v
     for k, v in (("imu", IMU_SERIES), ("los", LOS_SERIES))
     if v and config["campaign"]["source"] == "virtual"
 }
-# Optional inputs of rule report: the IMU summary and gaps, the LOS agreement.
+# Optional inputs of the report (the IMU summary and gaps, the LOS agreement).
 SERIES_REPORT_INPUTS = (
     {"imu_summary": "results/imu/summary.csv", "imu_gaps": "results/imu/gaps.csv"}
     if IMU_SERIES
