@@ -77,7 +77,11 @@ def _raw_chunks(path: Path, chunk_rows: int) -> Iterator[tuple[pd.DataFrame, boo
         return
     import pyarrow.parquet as pq
 
-    for batch in pq.ParquetFile(path).iter_batches(batch_size=chunk_rows):
+    # pre_buffer=False: with read-ahead, arrow kept the already-read column chunks and the
+    # peak memory grew with the file (365 MB at 1 day, 1.9 GB at 30 days of 20-Hz data);
+    # without it the memory follows the chunk and the file's row-group size
+    pf = pq.ParquetFile(path, pre_buffer=False)
+    for batch in pf.iter_batches(batch_size=chunk_rows, use_threads=False):
         yield batch.to_pandas(), False
 
 
