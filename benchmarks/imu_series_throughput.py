@@ -7,7 +7,7 @@ statistics at once (``imu.motion_statistics``, ``imu.tilt_spectrum_statistics`` 
 Both run here side by side on synthetic 20-Hz series (roll, pitch and yaw: two swell/wind-sea
 tones, noise, a 2-min gap per day) of growing length, Parquet and CSV, with a record table of
 three heights per 10-min window (the default campaign's). Each measurement runs in a fresh
-process, which reports its peak resident memory (``ru_maxrss``) and wall time.
+process, which reports its peak resident memory (``VmHWM``) and wall time.
 
 Target (issue 12): a year at 20 Hz processed in memory bounded by the chunk (default
 2.5e5 rows), not by the series; the peak RSS must not grow with the length, and time is reported
@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import json
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -122,7 +121,11 @@ def child(path: str, days: int, method: str) -> None:
             n_ok += int(tab["tilt_along_wind_std_deg"].notna().sum())
         del ms
     elapsed = time.perf_counter() - t0
-    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # kB on Linux
+    # VmHWM: the peak RSS of this program's own address space (ru_maxrss would carry the
+    # parent's peak over fork + exec on Linux)
+    with open("/proc/self/status") as fh:
+        hwm_kb = next(int(line.split()[1]) for line in fh if line.startswith("VmHWM:"))
+    peak_mb = hwm_kb / 1024.0
     print(json.dumps({"time_s": elapsed, "peak_rss_mb": peak_mb, "record_rows_ok": n_ok}))
 
 

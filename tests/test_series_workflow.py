@@ -107,6 +107,60 @@ def test_merge_replaces_the_tables_motion_columns_and_counts_them(tmp_path):
         merge_series_motion(records.iloc[:1], path)
 
 
+def test_los_correction_streams_every_record_row(tmp_path):
+    """The LOS step over files read in small chunks: every record row appears, a record
+    without LOS rows is flagged no_los, LOS rows of a window without records are skipped."""
+    import copy
+
+    from flidar_uq.campaign.physics_mode import generate_campaign
+    from flidar_uq.campaign.scenarios import DEFAULT_SCENARIO
+    from flidar_uq.workflow.los_step import los_correction
+
+    sc = copy.deepcopy(DEFAULT_SCENARIO)
+    sc.update(name="los_step_test", n_records=5, heights_m=[58.0, 85.0])
+    out = generate_campaign(sc, 4, return_imu=True, return_los=True, n_workers=1)
+    starts = out.records["timestamp"].unique()
+    los = out.los[(out.los["timestamp"] < starts[2]) | (out.los["timestamp"] >= starts[3])]
+    records = out.records[out.records["timestamp"] != starts[4]]  # its LOS rows: no record
+    io.write_records(records, tmp_path / "records.csv")
+    io.write_imu_series(out.imu, tmp_path / "imu.parquet")
+    io.write_los_series(los, tmp_path / "los.csv")
+    table = los_correction(
+        records_path=tmp_path / "records.csv",
+        los_path=tmp_path / "los.csv",
+        imu_path=tmp_path / "imu.parquet",
+        out_path=tmp_path / "corrected.csv",
+        lidar="zephir300",
+        lever_arm_m=(0.0, 0.0, 2.5),
+        chunk_rows=4000,  # ~ a fifth of a record: windows span chunks
+    )
+    assert len(table) == len(records)
+    assert (table["timestamp"].to_numpy() == records["timestamp"].to_numpy()).all()
+    no_los = table["timestamp"] == starts[2]
+    assert (table.loc[no_los, "los_flags"] == "no_los").all()
+    assert table.loc[no_los, "ti_los_seed001_ls"].isna().all()
+    assert (table.loc[~no_los, "los_flags"] == "").all()
+    assert table.loc[~no_los, "ti_los_seed001_ls"].notna().all()
+    # the same numbers as the record function on each whole window
+    from flidar_uq.correction.los_records import los_record_ti
+
+    start = starts[1]
+    window = pd.Timedelta(600, "s")
+    rec = records[records["timestamp"] == start]
+    direct = los_record_ti(
+        los[(los["timestamp"] >= start) & (los["timestamp"] < start + window)],
+        out.imu,
+        start=start,
+        heights_m=rec["height_m"].to_numpy(),
+        wd_deg=rec["wd_mean_deg"].to_numpy(),
+        lidar="zephir300",
+        lever_arm_m=(0.0, 0.0, 2.5),
+    )
+    np.testing.assert_allclose(
+        table.loc[table["timestamp"] == start, "ti_los_seed001_ls"], direct["ti_los_seed001_ls"]
+    )
+
+
 def write_agreement_inputs(tmp_path: Path) -> tuple[Path, Path]:
     ts = pd.date_range("2015-04-01", periods=4, freq="10min", tz="UTC")
     ti = pd.DataFrame(

@@ -49,7 +49,8 @@ def los_correction(
     The LOS and IMU series are streamed in chunks (:mod:`flidar_uq.data.imu_series`), record
     window by record window, through :func:`flidar_uq.correction.los_records.los_record_ti`.
     Every record row of the table appears in the output; one without LOS data is flagged
-    ``no_los``. LOS rows outside every record window are counted in the log.
+    ``no_los``. LOS rows outside every record window or (VAD) at a height without a record
+    row are counted in the log.
 
     Parameters
     ----------
@@ -89,6 +90,7 @@ def los_correction(
         window_batches,
     )
     from flidar_uq.data.qc import QCConfig
+    from flidar_uq.physics.lidar import get_lidar
 
     records = io.read_records(records_path, require_motion=False)
     qc = QCConfig(**(qc_params or {}))
@@ -101,7 +103,8 @@ def los_correction(
     )
     methods = los_methods(lidar)
     rows, seen = [], set()
-    n_los_outside = 0
+    n_los_outside = n_los_other_height = 0
+    dbs = get_lidar(lidar).kind == "dbs"
     for batch in window_batches(
         iter_los_series(los_path, chunk_rows=chunk_rows), window_s=window_s, offset_s=offset_s
     ):
@@ -113,6 +116,8 @@ def los_correction(
                 n_los_outside += len(los)
                 continue
             seen.add(start)
+            if not dbs:  # a DBS lidar's other heights are range gates, used for interpolation
+                n_los_other_height += int((~los["height_m"].isin(rec["height_m"])).sum())
             out = los_record_ti(
                 los.reset_index(drop=True),
                 imu.take(start - margin, start + window + margin),
@@ -140,12 +145,13 @@ def los_correction(
         table[col] = table[col].fillna(0).astype(int)
     log.info(
         "LOS branch (%s): %d record rows, %d with a seed 001 TI; %d record windows without "
-        "LOS rows; %d LOS rows outside every record window",
+        "LOS rows; %d LOS rows outside every record window, %d at heights without a record row",
         lidar,
         len(table),
         int(table["ti_los_seed001_ls"].notna().sum()),
         len(by_start) - len(seen),
         n_los_outside,
+        n_los_other_height,
     )
     write_csv(table, out_path)
     return table
