@@ -30,6 +30,7 @@ include: "workflow/rules/common.smk"
 include: "workflow/rules/data.smk"
 include: "workflow/rules/inference.smk"
 include: "workflow/rules/report.smk"
+include: "workflow/rules/los.smk"
 
 
 # Light steps run on the submitting host under a cluster executor; campaign generation,
@@ -45,6 +46,7 @@ localrules:
     posterior_bin,
     fit_global,
     report,
+    los_agreement,
 
 
 rule all:
@@ -54,4 +56,5 @@ rule all:
         "results/posterior/global.nc",
         posterior_bin_files,
         "results/report/report.html",
+        LOS_OUTPUTS,
     default_target: True

@@ -114,3 +114,53 @@ def propagation_params():
         if params[key] == "auto":
             params[key] = value
     return params
+
+
+def _series_paths():
+    """(IMU series, LOS series) of the run, '' when absent: the user's files (source files)
+    or the virtual campaign's (campaign.virtual_series); the keys were checked together by
+    pipeline_preflight."""
+    c = config["campaign"]
+    if c["source"] == "virtual":
+        return (
+            "results/campaign/imu.parquet" if c["virtual_series"] != "none" else "",
+            "results/campaign/los.parquet" if c["virtual_series"] == "imu_los" else "",
+        )
+    return c["imu_series"], c["los_series"]
+
+
+# The raw series of the run ('' = none): the imu_statistics rule and the LOS branch run
+# only when they are given.
+IMU_SERIES, LOS_SERIES = _series_paths()
+# Written by the campaign step beside the records when the virtual campaign gives its series.
+VIRTUAL_SERIES_OUTPUTS = {
+    k: v
+    for k, v in (("imu", IMU_SERIES), ("los", LOS_SERIES))
+    if v and config["campaign"]["source"] == "virtual"
+}
+# Optional inputs of the report (the IMU summary and gaps, the LOS agreement).
+SERIES_REPORT_INPUTS = (
+    {"imu_summary": "results/imu/summary.csv", "imu_gaps": "results/imu/gaps.csv"}
+    if IMU_SERIES
+    else {}
+) | (
+    {
+        "los_records": "results/los/records.csv",
+        "los_agreement": "results/los/agreement.csv",
+        "los_figure": "results/los/agreement.png",
+    }
+    if LOS_SERIES
+    else {}
+)
+
+
+def los_lever_arm_m():
+    """Lidar head from the buoy's rotation centre (body frame, m) for the LOS correction:
+    (0, 0, inference.lever_arm_m) when given (required with the user's LOS series, checked
+    by pipeline_preflight), else the virtual campaign's scenario value."""
+    if config["inference"]["lever_arm_m"] is not None:
+        return [0.0, 0.0, float(config["inference"]["lever_arm_m"])]
+    from flidar_uq.campaign.scenarios import CampaignConfig, load_scenario
+
+    settings = CampaignConfig.from_dict(load_scenario(scenario_file(None))).settings
+    return [float(x) for x in settings["lidar"]["lever_arm_m"]]

@@ -6,13 +6,16 @@ rule campaign:
         scenario=scenario_file,
         records=user_records,
     output:
-        "results/campaign/records.csv",
+        records="results/campaign/records.csv",
+        **VIRTUAL_SERIES_OUTPUTS,
     params:
         source=config["campaign"]["source"],
         scenario=config["campaign"]["scenario"],
         seed=config["campaign"]["seed"],
         columns=config["campaign"]["columns"] if config["campaign"]["source"] == "files" else {},
         allow_small_angles=config["campaign"]["allow_small_angles"],
+        # motion columns may be absent from the user's table when an IMU series gives them
+        require_motion=not IMU_SERIES,
     conda:
         "../envs/flidar_uq.yaml"
     log:
@@ -26,9 +29,39 @@ rule campaign:
         "../scripts/campaign.py"
 
 
+# Motion statistics of every record from the raw IMU series, streamed in chunks; the IMU
+# gaps are reported (results/imu/gaps.csv) and flagged by QC (imu_gap) through the records'
+# imu_availability_pct.
+if IMU_SERIES:
+
+    rule imu_statistics:
+        input:
+            records="results/campaign/records.csv",
+            imu=IMU_SERIES,
+        output:
+            statistics="results/imu/statistics.csv",
+            gaps="results/imu/gaps.csv",
+            summary="results/imu/summary.csv",
+        params:
+            chunk_rows=config["campaign"]["series_chunk_rows"],
+            min_coverage_pct=config["qc"]["imu_availability_min_pct"],
+        conda:
+            "../envs/flidar_uq.yaml"
+        log:
+            "results/logs/imu_statistics.log",
+        benchmark:
+            "results/benchmarks/imu_statistics.tsv"
+        resources:
+            mem_mb=1000,
+        script:
+            "../scripts/imu_statistics.py"
+
+
 rule validate:
     input:
-        "results/campaign/records.csv",
+        records="results/campaign/records.csv",
+        # the IMU series' statistics replace the table's motion columns (the series wins)
+        **({"imu_statistics": "results/imu/statistics.csv"} if IMU_SERIES else {}),
     output:
         records="results/data/records.csv",
         report="results/data/validation.json",

@@ -20,6 +20,8 @@ rule report:
         campaign="results/campaign/records.csv",
         validated="results/data/records.csv",
         batches=expand("results/inference/batch_{batch}", batch=BATCHES),
+        # the IMU series and LOS branch sections, when those inputs are given
+        **SERIES_REPORT_INPUTS,
     output:
         report(
             "results/report/report.html", caption="../report/report_html.rst", category="Report"

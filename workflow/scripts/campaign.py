@@ -11,7 +11,7 @@ if __name__ == "__main__":
     setup_logging(snakemake.log[0])
     with step_errors_exit():
         make_campaign(
-            snakemake.output[0],
+            snakemake.output.records,
             source=snakemake.params.source,
             seed=snakemake.params.seed,
             scenario_path=snakemake.input.scenario or None,
@@ -19,4 +19,7 @@ if __name__ == "__main__":
             threads=snakemake.threads,
             columns=snakemake.params.columns,
             allow_small_angles=snakemake.params.allow_small_angles,
+            require_motion=snakemake.params.require_motion,
+            imu_out=snakemake.output.get("imu"),
+            los_out=snakemake.output.get("los"),
         )

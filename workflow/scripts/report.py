@@ -3,12 +3,18 @@
 from flidar_uq.workflow.files import setup_logging
 from flidar_uq.workflow.report_step import build_report, git_revision
 
+# optional inputs of the raw IMU series and the LOS branch (SERIES_REPORT_INPUTS, common.smk)
+SERIES_KEYS = ("imu_summary", "imu_gaps", "los_records", "los_agreement", "los_figure")
+
 snakemake = globals()["snakemake"]  # injected by the script directive
 setup_logging(snakemake.log[0])
 inputs = {"results/campaign/records.csv (input records)": snakemake.input.campaign}
 if snakemake.params.user_records:
     inputs = {snakemake.params.user_records: snakemake.params.user_records} | inputs
 inputs["results/data/records.csv (validated)"] = snakemake.input.validated
+for key in ("imu_series", "los_series"):  # the raw series, when given
+    if path := snakemake.params.config["campaign"].get(key):
+        inputs[path] = path
 inputs["requirements.lock"] = snakemake.params.lock_file
 build_report(
     out_path=snakemake.output[0],
@@ -18,4 +24,5 @@ build_report(
     git_revision=git_revision(snakemake.params.repo),
     input_files=inputs,
     frontier_png=snakemake.params.frontier_png,
+    series_paths={k: snakemake.input[k] for k in SERIES_KEYS if k in snakemake.input.keys()},
 )

@@ -468,6 +468,7 @@ def motion_statistics(
     period_max_s: float = 30.0,
     min_coverage_pct: float = 80.0,
     bimodal: bool = True,
+    fs_hz: float | None = None,
 ) -> pd.DataFrame:
     """Per-window motion statistics of a raw IMU series, as record columns.
 
@@ -490,6 +491,10 @@ def motion_statistics(
         Windows with fewer nominal samples present get NaN statistics, %.
     bimodal : bool
         Detect two spectral peaks (``period1_s``, ``period2_s``, ``weight1``).
+    fs_hz : float, optional
+        Nominal sampling rate, Hz; default from the median sampling interval
+        (:func:`window_series`). Give it when the series is processed in pieces, so that
+        every piece uses the same sample grid.
 
     Returns
     -------
@@ -510,7 +515,7 @@ def motion_statistics(
     window_ns = int(round(window_s * 1e9))
     t0_ns = (int(t_ns[0]) // window_ns) * window_ns
     vals = imu[["roll_deg", "pitch_deg"]].to_numpy(dtype=np.float64)
-    start_s, grid, fs = window_series((t_ns - t0_ns) * 1e-9, vals, window_s=window_s)
+    start_s, grid, fs = window_series((t_ns - t0_ns) * 1e-9, vals, window_s=window_s, fs_hz=fs_hz)
     coverage = 100.0 * np.isfinite(grid).all(axis=-1).mean(axis=-1)
     present = np.isfinite(grid).any(axis=(1, 2))
     good = present & (coverage >= min_coverage_pct)
@@ -682,6 +687,7 @@ def tilt_spectrum_statistics(
     segment_s: float = 200.0,
     n_bands: int = 8,
     min_coverage_pct: float = 80.0,
+    fs_hz: float | None = None,
 ) -> tuple[pd.DataFrame, TiltBandSpectrum]:
     """Wind-frame tilt statistics of a raw IMU series, per 10-min window.
 
@@ -696,6 +702,9 @@ def tilt_spectrum_statistics(
         or a function of the window-start timestamps returning an array.
     window_s, segment_s, n_bands, min_coverage_pct
         Window length (s), Welch segment (s), number of bands, coverage threshold (%).
+    fs_hz : float, optional
+        Nominal sampling rate, Hz (default: from the median interval, as in
+        :func:`motion_statistics`).
 
     Returns
     -------
@@ -711,7 +720,7 @@ def tilt_spectrum_statistics(
     t0_ns = (int(t_ns[0]) // window_ns) * window_ns
     names = ["roll_deg", "pitch_deg"] + (["yaw_deg"] if "yaw_deg" in imu.columns else [])
     vals = imu[names].to_numpy(dtype=np.float64)
-    start_s, grid, fs = window_series((t_ns - t0_ns) * 1e-9, vals, window_s=window_s)
+    start_s, grid, fs = window_series((t_ns - t0_ns) * 1e-9, vals, window_s=window_s, fs_hz=fs_hz)
     stamps = pd.to_datetime(t0_ns + np.rint(start_s * 1e9).astype(np.int64), utc=True)
     if callable(wd_deg):
         wd = np.asarray(wd_deg(stamps), np.float64)

@@ -79,8 +79,9 @@ class DataValidationError(ValueError):
         (``all rows``) or of the whole file.
     column : str or None
         Offending column name (the name in the file when a column map renamed it).
-    problem : str
-        What is wrong, without the location.
+    problem, csv, n_more, header
+        The constructor's arguments of the same names (what is wrong, whether the source
+        is a CSV file, further offending rows, a problem of the header).
     """
 
     def __init__(
@@ -96,7 +97,9 @@ class DataValidationError(ValueError):
         whole_file: bool = False,
         mapped_from: str | None = None,
     ) -> None:
-        self.source, self.row, self.column, self.problem = source, row, column, problem
+        self.source, self.row, self.column = source, row, column
+        # kept so that a chunked reader can re-raise with the row counted from the file start
+        self.problem, self.csv, self.n_more, self.header = problem, csv, n_more, header
         self._kw = dict(csv=csv, n_more=n_more, header=header, whole_file=whole_file)
         if whole_file:
             where = ""
@@ -634,6 +637,7 @@ def _coerce(
     df: pd.DataFrame, columns: Mapping[str, Column], source: str, csv: bool
 ) -> pd.DataFrame:
     out = {}
+    df = df.reset_index(drop=True)  # rows by position (a filtered frame keeps its labels)
     for name in df.columns:
         col = columns[name]
         parse = _parse_datetime if col.dtype == "datetime" else _parse_float

@@ -6,9 +6,11 @@ only in the repository's ``workflow/scripts/``.
 Modules: :mod:`.inputs` (the config and the user's data checked before any expensive
 step, exit statuses, the validation report), :mod:`.files` (CSV read/write, logging),
 :mod:`.data_steps` (campaign, validate,
-QC, motion statistics, bins, sigma_Z table), :mod:`.inference_steps` (per-bin batches, global
-models, global fit), :mod:`.propagation_step` (corrected TI), :mod:`.report_step` (HTML
-report), :mod:`.report` (HTML building blocks), :mod:`.plots` (figures).
+QC, motion statistics, bins, sigma_Z table), :mod:`.imu_step` (motion statistics of a raw IMU
+series), :mod:`.inference_steps` (per-bin batches, global models, global fit),
+:mod:`.propagation_step` (corrected TI), :mod:`.los_step` (the LOS branch and its agreement
+with the Bayesian TI), :mod:`.report_step` (HTML report), :mod:`.series_report` (its section
+of the raw series), :mod:`.report` (HTML building blocks), :mod:`.plots` (figures).
 
 Each public step function is what one workflow script (``workflow/scripts/*.py``) calls;
 the scripts only unpack ``snakemake.input/output/params``. No Snakemake import lives here,

@@ -16,6 +16,9 @@ from flidar_uq.workflow.files import read_csv, write_csv
 
 log = logging.getLogger(__name__)
 
+#: Largest virtual campaign written with its LOS series (~19,000 rows per record in memory).
+MAX_VIRTUAL_LOS_RECORDS = 2000
+
 __all__ = [
     "assign_batches",
     "make_bins",
@@ -40,6 +43,9 @@ def make_campaign(
     threads: int = 1,
     columns: dict | None = None,
     allow_small_angles: bool = False,
+    require_motion: bool = True,
+    imu_out: str | os.PathLike | None = None,
+    los_out: str | os.PathLike | None = None,
 ) -> pd.DataFrame:
     """Write the campaign's 10-min record table: the virtual campaign or the user's file.
 
@@ -63,6 +69,13 @@ def make_campaign(
     allow_small_angles : bool
         Accept motion amplitudes that all look like radians (config
         ``campaign.allow_small_angles``).
+    require_motion : bool
+        ``source="files"``: the motion columns must be in the table (False when they come
+        from a raw IMU series, config ``campaign.imu_series``).
+    imu_out, los_out : path, optional
+        ``source="virtual"``: also write the campaign's raw IMU series / LOS series there
+        (config ``campaign.virtual_series``; LOS data are ~19,000 rows per record, so at
+        most :data:`MAX_VIRTUAL_LOS_RECORDS` records).
 
     Returns
     -------
@@ -82,22 +95,47 @@ def make_campaign(
         if not scenario_path:
             raise ValueError("make_campaign: source='virtual' needs scenario_path")
         from flidar_uq.campaign import physics_mode as campaign
-        from flidar_uq.campaign.scenarios import load_scenario
+        from flidar_uq.campaign.scenarios import CampaignConfig, load_scenario
 
-        scenario = load_scenario(scenario_path)
-        records = campaign.generate_campaign(scenario, seed, n_workers=max(1, int(threads))).records
+        scenario = CampaignConfig.from_dict(load_scenario(scenario_path))
+        n_records = int(scenario.settings["n_records"])
+        if los_out and n_records > MAX_VIRTUAL_LOS_RECORDS:
+            raise ValueError(
+                f"make_campaign: a virtual LOS series of {n_records} records would hold "
+                f"~{19_000 * n_records:.2g} rows in memory; use a scenario of at most "
+                f"{MAX_VIRTUAL_LOS_RECORDS} records with campaign.virtual_series: imu_los"
+            )
+        out = campaign.generate_campaign(
+            scenario,
+            seed,
+            n_workers=max(1, int(threads)),
+            return_imu=bool(imu_out),
+            return_los=bool(los_out),
+        )
+        records = out.records
+        if imu_out:
+            io.write_imu_series(out.imu, imu_out)
+            log.info("campaign: IMU series, %d samples -> %s", len(out.imu), imu_out)
+        if los_out:
+            io.write_los_series(out.los, los_out)
+            log.info("campaign: LOS series, %d rows -> %s", len(out.los), los_out)
     elif source == "files":
         if not records_path:
             raise ValueError(
                 "make_campaign: source='files' needs records_path (config campaign.records)"
             )
         records = io.read_records(
-            records_path, columns=columns or None, allow_small_angles=allow_small_angles
+            records_path,
+            columns=columns or None,
+            allow_small_angles=allow_small_angles,
+            require_motion=require_motion,
         )
     else:
         raise ValueError(f"make_campaign: source must be 'virtual' or 'files', got {source!r}")
     Path(out_path).parent.mkdir(parents=True, exist_ok=True)
-    io.write_records(records, out_path, allow_small_angles=allow_small_angles)
+    io.write_records(
+        records, out_path, allow_small_angles=allow_small_angles, require_motion=require_motion
+    )
     log.info("campaign: %d records (%s) -> %s", len(records), source, out_path)
     return records
 
@@ -110,6 +148,7 @@ def validate_records(
     allow_small_angles: bool = False,
     qc_params: dict | None = None,
     heights_m: Sequence[float] | None = None,
+    imu_statistics_path: str | os.PathLike | None = None,
 ) -> pd.DataFrame:
     """Validate the record table, refuse what leaves every record uncorrectable, report.
 
@@ -129,6 +168,10 @@ def validate_records(
         The config's ``qc`` section, for the QC preview.
     heights_m : sequence of float, optional
         Selected heights, m (config ``campaign.heights``).
+    imu_statistics_path : path, optional
+        Per-record motion statistics of a raw IMU series (rule imu_statistics, config
+        ``campaign.imu_series``): they replace the table's own motion columns (the series
+        wins; logged).
 
     Raises
     ------
@@ -140,7 +183,18 @@ def validate_records(
     from flidar_uq.data import io
     from flidar_uq.workflow.inputs import inspect_records, reference_problems
 
-    records = io.read_records(in_path, allow_small_angles=allow_small_angles)
+    if imu_statistics_path:
+        from flidar_uq.workflow.imu_step import merge_series_motion
+
+        records, _ = merge_series_motion(
+            io.read_records(in_path, require_motion=False, allow_small_angles=allow_small_angles),
+            imu_statistics_path,
+        )
+        records = io.validate_records(
+            records, f"{in_path} + {imu_statistics_path}", allow_small_angles=allow_small_angles
+        )
+    else:
+        records = io.read_records(in_path, allow_small_angles=allow_small_angles)
     problems = reference_problems(records, str(in_path))
     if problems:
         raise problems[0]

@@ -25,13 +25,14 @@ def setup_logging(log_path: str | os.PathLike) -> None:
     logging.captureWarnings(True)
 
 
-def write_csv(df: pd.DataFrame, path: str | os.PathLike) -> None:
-    """Write a result table deterministically (fixed float format, no index)."""
+def write_csv(df: pd.DataFrame, path: str | os.PathLike, *, float_format: str = "%.10g") -> None:
+    """Write a result table deterministically (fixed float format, no index; ``"%.17g"``
+    keeps every bit of a float64, for tables that feed later steps exactly)."""
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     df.to_csv(
         path,
         index=False,
-        float_format="%.10g",
+        float_format=float_format,
         lineterminator="\n",
         date_format="%Y-%m-%dT%H:%M:%SZ",
     )

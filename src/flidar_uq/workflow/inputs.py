@@ -213,6 +213,7 @@ def _check_semantics(config: dict) -> None:
         )
     if camp["source"] == "virtual":
         _check_scenario(camp["scenario"])
+    _check_series_keys(config)
     try:
         check_column_map(camp["columns"])
     except ValueError as exc:
@@ -231,6 +232,39 @@ def _check_semantics(config: dict) -> None:
     ):
         if not pri[lo] < pri[hi]:
             raise ConfigError(f"priors.{lo}", f"{pri[lo]} must be below priors.{hi} = {pri[hi]}")
+
+
+def _check_series_keys(config: dict) -> None:
+    """The raw-series keys go together: the user's series with source files (LOS needs the
+    IMU series and, for its correction, the lever arm); a virtual campaign's with
+    ``virtual_series``; a given series file must exist."""
+    camp = config["campaign"]
+    if camp["source"] == "virtual":
+        for key in ("imu_series", "los_series"):
+            if camp[key]:
+                raise ConfigError(
+                    f"campaign.{key}",
+                    "only with campaign.source 'files'; a virtual campaign writes its own "
+                    "series with campaign.virtual_series",
+                )
+        return
+    if camp["virtual_series"] != "none":
+        raise ConfigError("campaign.virtual_series", "only with campaign.source 'virtual'")
+    if camp["los_series"] and not camp["imu_series"]:
+        raise ConfigError(
+            "campaign.imu_series",
+            "missing, but campaign.los_series is given: the LOS correction needs the "
+            "buoy's motion (a raw IMU series, docs/data-format.md)",
+        )
+    if camp["los_series"] and config["inference"]["lever_arm_m"] is None:
+        raise ConfigError(
+            "inference.lever_arm_m",
+            "missing, but campaign.los_series is given: the LOS correction needs the lidar "
+            "head's height above the buoy's rotation centre (m)",
+        )
+    for key in ("imu_series", "los_series"):
+        if camp[key] and not Path(camp[key]).is_file():
+            raise ConfigError(f"campaign.{key}", f"no such file {camp[key]!r}")
 
 
 def _check_scenario(scenario: str) -> None:
@@ -266,7 +300,8 @@ def read_campaign_records(
         The record table (CSV or Parquet).
     campaign : mapping, optional
         The config's ``campaign`` section: ``columns`` (column map), ``heights``
-        (selected heights, m: each must occur in the file) and ``allow_small_angles``.
+        (selected heights, m: each must occur in the file), ``allow_small_angles`` and
+        ``imu_series`` (when given, the table's motion columns are optional).
     allow_small_angles : bool, optional
         Overrides ``campaign["allow_small_angles"]`` when given.
 
@@ -290,7 +325,11 @@ def read_campaign_records(
     if allow_small_angles is None:
         allow_small_angles = bool(campaign.get("allow_small_angles", False))
     records = io.read_records(
-        path, columns=campaign.get("columns") or None, allow_small_angles=allow_small_angles
+        path,
+        columns=campaign.get("columns") or None,
+        allow_small_angles=allow_small_angles,
+        # the motion columns may be absent when a raw IMU series gives them
+        require_motion=not campaign.get("imu_series"),
     )
     heights = campaign.get("heights")
     if heights:

@@ -262,6 +262,7 @@ def build_report(
     git_revision: str = "",
     input_files: dict[str, str | os.PathLike] | None = None,
     frontier_png: str | os.PathLike | None = None,
+    series_paths: dict | None = None,
 ) -> str:
     """Write the self-contained HTML report of the user's campaign from the result files.
 
@@ -284,6 +285,9 @@ def build_report(
         input record table, the validated table, requirements.lock.
     frontier_png : path, optional
         The method-frontier chart (benchmarks), shown when the file exists.
+    series_paths : dict, optional
+        Result files of the raw IMU series and the LOS branch, when given
+        (:func:`flidar_uq.workflow.series_report.series_sections`).
 
     Returns
     -------
@@ -640,6 +644,9 @@ def build_report(
             )
         )
 
+    from flidar_uq.workflow.series_report import series_sections
+
+    sections += series_sections(**(series_paths or {}))  # raw IMU series, LOS branch
     sections.append(
         rep.Section(
             "How to cite", rep.templates().get_template("sections/references.html.j2").render()

@@ -1,0 +1,293 @@
+"""LOS-level motion-corrected TI of one 10-min record, from its LOS data and the IMU series.
+
+The scan-by-scan corrections of :mod:`flidar_uq.correction.los` (seed 001 Eq. 7,
+:func:`~flidar_uq.correction.los.correct_least_squares`; for a pulsed DBS lidar also seed
+002's conventional and new algorithms, :func:`~flidar_uq.correction.los.correct_dbs_motion`)
+applied to a record as a user has it: LOS rows in the format of ``docs/data-format.md``
+(CNR-filtered with :func:`flidar_uq.data.qc.run_los_qc`) and the raw IMU series as a
+:class:`flidar_uq.physics.motion.SampledMotion` with the lidar head's lever arm (head
+velocity from the angle rates). Every method retrieves the HWS of each complete scan (VAD)
+or DBS cycle; the record's TI is the std over mean of those HWS, over the same scans for
+every method (the uncorrected retrieval included), so the methods differ only in how they
+treat the motion.
+
+Scans are the runs of ``lidar.n_los`` lines of sight at one height without a pause longer
+than 1.5 LOS durations (a DBS cycle must also hold the beams in the lidar's order, from its
+first beam); a scan during which the IMU pauses for more than ``imu_max_gap_s`` is not
+used (its motion is unknown), and is counted.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+
+from flidar_uq.correction.los import correct_dbs_motion, correct_least_squares
+from flidar_uq.data.qc import QCConfig, run_los_qc
+from flidar_uq.physics.lidar import LidarGeometry, get_lidar, scan_times_azimuths
+from flidar_uq.physics.motion import SampledMotion
+
+__all__ = ["LOS_RECORD_REASONS", "los_methods", "los_record_ti", "complete_scans"]
+
+#: Why a record height has no LOS-corrected TI (column ``los_flags``).
+LOS_RECORD_REASONS = {
+    "no_los": "no LOS rows in the record's window at this height",
+    "imu_gap": "fewer than min_scans scans with IMU coverage",
+    "few_scans": "fewer than min_scans complete scans",
+}
+
+#: Margin of IMU samples read around a record window (head-velocity differences), s.
+IMU_MARGIN_S = 5.0
+
+
+def los_methods(lidar: str | LidarGeometry) -> tuple[str, ...]:
+    """Method names of the LOS branch for a lidar: ``uncorrected``, ``seed001_ls`` and, for a
+    pulsed DBS lidar, ``seed002_conventional`` and ``seed002_new``."""
+    geom = get_lidar(lidar)
+    if geom.kind == "dbs":
+        return ("uncorrected", "seed001_ls", "seed002_conventional", "seed002_new")
+    return ("uncorrected", "seed001_ls")
+
+
+def complete_scans(t_s: np.ndarray, azimuth_rad: np.ndarray, lidar) -> np.ndarray:
+    """Indices of the complete scans in a time-ordered LOS sequence of one height.
+
+    Parameters
+    ----------
+    t_s : numpy.ndarray, shape (n,)
+        LOS times, s, strictly increasing.
+    azimuth_rad : numpy.ndarray, shape (n,)
+        Body-frame beam azimuths, rad.
+    lidar : str or LidarGeometry
+        VAD: a scan is ``n_los`` consecutive LOS without a pause (longer runs are cut into
+        scans of ``n_los``); DBS: ``n_los`` consecutive LOS holding the beams in the
+        lidar's scan order, starting with its first beam.
+
+    Returns
+    -------
+    numpy.ndarray of int, shape (nscan, n_los)
+        Row indices of each complete scan.
+    """
+    geom = get_lidar(lidar)
+    n = geom.n_los
+    t = np.asarray(t_s, float)
+    if t.size < n:
+        return np.empty((0, n), dtype=int)
+    brk = np.flatnonzero(np.diff(t) > 1.5 * geom.los_duration_s) + 1
+    if geom.kind == "dbs":
+        _, pattern = scan_times_azimuths(geom)
+        diff = np.abs(np.angle(np.exp(1j * (np.asarray(azimuth_rad)[:, None] - pattern[None]))))
+        ids = np.argmin(diff, axis=1)
+        ids = np.where(diff[np.arange(t.size), ids] < 1e-3, ids, -1)
+        start = np.flatnonzero(ids[: t.size - n + 1] == 0)
+        idx = start[:, None] + np.arange(n)
+        ok = (ids[idx] == np.arange(n)).all(axis=1)
+        ok &= (np.diff(t[idx], axis=1) <= 1.5 * geom.los_duration_s).all(axis=1)
+        return idx[ok]
+    scans = []
+    for a, b in zip(np.r_[0, brk], np.r_[brk, t.size], strict=True):
+        k = (b - a) // n
+        if k:
+            scans.append(a + np.arange(k * n).reshape(k, n))
+    return np.concatenate(scans) if scans else np.empty((0, n), dtype=int)
+
+
+def _imu_motion(
+    imu: pd.DataFrame, t0: pd.Timestamp, lever_arm_m: Sequence[float]
+) -> tuple[SampledMotion | None, np.ndarray]:
+    """The IMU samples (valid roll and pitch) as a motion model, times in s from ``t0``."""
+    if len(imu) == 0:
+        return None, np.empty(0)
+    ang = ["roll_deg", "pitch_deg"] + (["yaw_deg"] if "yaw_deg" in imu.columns else [])
+    ok = np.isfinite(imu[ang].to_numpy(dtype=float)).all(axis=1)
+    sub = imu.loc[ok]
+    t = (sub["timestamp"] - t0).dt.total_seconds().to_numpy()
+    if t.size < 2:
+        return None, t
+    yaw = None
+    if "yaw_deg" in sub.columns:  # a heading crossing +-180 deg must not look like a fast turn
+        yaw = np.degrees(np.unwrap(np.radians(sub["yaw_deg"].to_numpy(dtype=float))))
+    motion = SampledMotion(
+        t,
+        sub["roll_deg"].to_numpy(dtype=float),
+        sub["pitch_deg"].to_numpy(dtype=float),
+        yaw,
+        lever_arm_m=tuple(float(x) for x in lever_arm_m),
+    )
+    return motion, t
+
+
+def _imu_covered(t_imu: np.ndarray, t_start: np.ndarray, t_end: np.ndarray, max_gap_s: float):
+    """Scans ``[t_start, t_end]`` inside the IMU span without a pause > ``max_gap_s``."""
+    if t_imu.size < 2:
+        return np.zeros(t_start.shape, dtype=bool)
+    inside = (t_start >= t_imu[0]) & (t_end <= t_imu[-1])
+    gap = np.flatnonzero(np.diff(t_imu) > max_gap_s)
+    if gap.size == 0:
+        return inside
+    g0, g1 = t_imu[gap], t_imu[gap + 1]
+    # a scan overlaps gap k iff g0 < t_end and g1 > t_start; gaps are disjoint and ordered
+    k = np.searchsorted(g0, t_end, side="left") - 1  # last gap starting before the scan end
+    overlap = (k >= 0) & (g1[np.clip(k, 0, None)] > t_start)
+    return inside & ~overlap
+
+
+def _ti(hws: np.ndarray | None) -> tuple[int, float, float, float]:
+    """Scans with a finite HWS, their mean and std (m/s) and TI (-)."""
+    h = np.empty(0) if hws is None else hws[np.isfinite(hws)]
+    if h.size < 2:
+        return h.size, np.nan, np.nan, np.nan
+    m, s = float(h.mean()), float(h.std(ddof=1))
+    return h.size, m, s, s / m
+
+
+def los_record_ti(
+    los: pd.DataFrame,
+    imu: pd.DataFrame,
+    *,
+    start: pd.Timestamp,
+    heights_m: Sequence[float],
+    wd_deg: Sequence[float],
+    lidar: str | LidarGeometry,
+    lever_arm_m: Sequence[float],
+    qc: QCConfig | None = None,
+    imu_max_gap_s: float = 1.0,
+    min_scans: int = 30,
+) -> pd.DataFrame:
+    """LOS-level corrected HWS statistics and TI of one record, per height and method.
+
+    Parameters
+    ----------
+    los : pandas.DataFrame
+        The record window's LOS rows (validated LOS format, time-ordered): ``timestamp,
+        height_m, azimuth_deg, radial_speed_ms, cnr_db``. A DBS lidar writes one row per
+        range gate (``height_m``) and LOS time.
+    imu : pandas.DataFrame
+        IMU rows covering the window (with :data:`IMU_MARGIN_S` on both sides).
+    start : pandas.Timestamp
+        Start of the record window (UTC).
+    heights_m : sequence of float
+        The record's heights, m.
+    wd_deg : sequence of float
+        The record's mean wind direction per height (``wd_mean_deg``), deg: chooses the
+        180-deg branch of a CW lidar's scans (``reference_wd_deg`` of
+        :func:`~flidar_uq.correction.los.correct_least_squares`); NaN: the method's default.
+    lidar : str or LidarGeometry
+        ``"zephir300"`` (CW VAD) or a pulsed DBS lidar without vertical beam (``"windcube_v1"``).
+    lever_arm_m : sequence of 3 float
+        Lidar head position from the buoy's rotation centre, body frame, m.
+    qc : QCConfig, optional
+        CNR filter settings (``cnr``, ``cnr_min_db``); default :class:`QCConfig`.
+    imu_max_gap_s : float
+        Longest IMU pause tolerated during a scan, s.
+    min_scans : int
+        Fewer usable scans give NaN (a 10-min std from 30 scans has a relative sampling
+        error of about 1 / sqrt(2 * 30) = 13 %).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per height: ``height_m``, ``n_los``, ``n_scans`` (complete), ``n_scans_used``
+        (with IMU), ``los_flags`` (:data:`LOS_RECORD_REASONS`, ``;``-separated), and per
+        method ``m`` of :func:`los_methods`: ``n_hws_<m>`` (scans with a retrieved HWS; a
+        seed 002 target above the top gate or a singular scan gives none),
+        ``hws_mean_ms_<m>``, ``hws_std_ms_<m>`` (m/s, over those scans' HWS) and
+        ``ti_los_<m>`` (-).
+
+    Raises
+    ------
+    ValueError
+        A CW lidar with negative radial speeds, or a DBS lidar with a vertical beam (the
+        LOS format has no vertical-beam azimuth).
+    """
+    geom = get_lidar(lidar)
+    if geom.kind == "dbs" and geom.vertical_beam:
+        raise ValueError(
+            f"los_record_ti: {geom.name!r} has a vertical beam, which the LOS format cannot "
+            "hold (azimuth_deg must be finite); use its four-beam variant"
+        )
+    methods = los_methods(geom)
+    vr_all = los["radial_speed_ms"].to_numpy(dtype=float).copy()
+    if len(los):
+        vr_all[~run_los_qc(los, qc).flags["kept"].to_numpy(dtype=bool)] = np.nan
+    if not geom.signed and np.any(vr_all[np.isfinite(vr_all)] < 0):
+        bad = los["timestamp"].iloc[int(np.argmax(np.nan_to_num(vr_all) < 0))]
+        raise ValueError(
+            f"LOS series: negative radial speed at {bad.isoformat()} for the CW lidar "
+            f"{geom.name!r}, which reports |v_r|"
+        )
+    t_los = (los["timestamp"] - start).dt.total_seconds().to_numpy() if len(los) else np.empty(0)
+    motion, t_imu = _imu_motion(imu, start, lever_arm_m)
+    rows = []
+    if geom.kind == "dbs":
+        # one row per LOS time, one column per range gate
+        gates = np.sort(los["height_m"].unique()) if len(los) else np.empty(0)
+        wide = (
+            pd.DataFrame({"t": t_los, "h": los["height_m"].to_numpy(), "vr": vr_all})
+            .pivot_table(index="t", columns="h", values="vr", aggfunc="first", dropna=False)
+            .reindex(columns=gates)
+        )
+        az_t = pd.Series(los["azimuth_deg"].to_numpy(), index=t_los).groupby(level=0).first()
+        t_d = wide.index.to_numpy(dtype=float)
+        az_d = np.radians(az_t.reindex(wide.index).to_numpy(dtype=float))
+        vr_d = wide.to_numpy(dtype=float)
+    for h, wd in zip(heights_m, wd_deg, strict=True):
+        row: dict = {"height_m": float(h)}
+        if geom.kind == "dbs":
+            t, az = t_d, az_d
+            n_here = int((los["height_m"] == h).sum()) if len(los) else 0
+        else:
+            sel = los["height_m"].to_numpy() == h if len(los) else np.zeros(0, bool)
+            t, az, vr = t_los[sel], np.radians(los["azimuth_deg"].to_numpy()[sel]), vr_all[sel]
+            n_here = int(sel.sum())
+        scans = complete_scans(t, az, geom) if n_here else np.empty((0, geom.n_los), int)
+        covered = _imu_covered(t_imu, t[scans[:, 0]], t[scans[:, -1]], imu_max_gap_s)
+        used = scans[covered]
+        row.update(n_los=n_here, n_scans=len(scans), n_scans_used=len(used))
+        flags = []
+        if n_here == 0:
+            flags.append("no_los")
+        elif len(scans) < min_scans:
+            flags.append("few_scans")
+        elif len(used) < min_scans:
+            flags.append("imu_gap")
+        row["los_flags"] = ";".join(flags)
+        hws = dict.fromkeys(methods)
+        if not flags:
+            li = used.ravel()
+            ref = float(wd) if np.isfinite(wd) else None
+            if geom.kind == "dbs":
+                kw = dict(range_height_m=gates, target_height_m=[h], step=geom.n_los)
+                hws["uncorrected"] = correct_dbs_motion(
+                    geom, t[li], az[li], vr_d[li], method="none", **kw
+                ).hws_ms[:, 0]
+                for m in ("conventional", "new"):
+                    hws[f"seed002_{m}"] = correct_dbs_motion(
+                        geom, t[li], az[li], vr_d[li], motion, method=m, **kw
+                    ).hws_ms[:, 0]
+                if h in gates:
+                    g = int(np.flatnonzero(gates == h)[0])
+                    hws["seed001_ls"] = correct_least_squares(
+                        geom, t[li], az[li], vr_d[li, g], motion
+                    ).hws_ms
+            else:
+                hws["uncorrected"] = correct_least_squares(
+                    geom, t[li], az[li], vr[li], reference_wd_deg=ref
+                ).hws_ms
+                hws["seed001_ls"] = correct_least_squares(
+                    geom, t[li], az[li], vr[li], motion, reference_wd_deg=ref
+                ).hws_ms
+        for m in methods:
+            n, mean, std, ti = _ti(hws[m])
+            row.update(
+                {
+                    f"n_hws_{m}": n,
+                    f"hws_mean_ms_{m}": mean,
+                    f"hws_std_ms_{m}": std,
+                    f"ti_los_{m}": ti,
+                }
+            )
+        rows.append(row)
+    return pd.DataFrame(rows)

@@ -1,0 +1,591 @@
+"""Raw IMU and LOS series read from file in chunks, and per-record motion statistics.
+
+A year of attitude at 20 Hz is 6.3e8 samples (about 20 GB as float64 columns), more than
+a workstation holds. The readers here go through a CSV or Parquet file ``chunk_rows`` rows
+at a time: every chunk is validated against the data contract
+(:func:`flidar_uq.data.io.validate_imu_series`, :func:`flidar_uq.data.io.validate_los_series`;
+error rows are counted from the start of the file), and the checks that span chunks (time
+order, a constant sampling rate, angles that look like radians) are made on the way.
+:func:`window_batches` regroups the chunks into batches of whole record windows, and
+:func:`series_motion_statistics` reduces each batch to the per-record statistics of
+:mod:`flidar_uq.data.imu` before the next chunk is read, so memory is bounded by a chunk
+plus one window whatever the length of the series (``benchmarks/imu_series_throughput.py``).
+:class:`TimeCursor` serves the rows of a second time-ordered stream window by window (the
+IMU beside the LOS data).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from flidar_uq.data import imu as _imu
+from flidar_uq.data import io
+from flidar_uq.data.schema import (
+    RADIAN_SUSPECT_MAX_DEG,
+    RADIAN_SUSPECT_MIN_COUNT,
+    TILT_SPECTRUM_COLUMNS,
+)
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "DEFAULT_CHUNK_ROWS",
+    "SERIES_MOTION_COLUMNS",
+    "SeriesMotion",
+    "TimeCursor",
+    "iter_imu_series",
+    "iter_los_series",
+    "record_window_offset_s",
+    "series_motion_statistics",
+    "window_batches",
+]
+
+#: Rows read per chunk (a 20-Hz IMU chunk of 2.5e5 rows is 3.5 h of data; ~400 bytes per row
+#: of a CSV chunk at the peak, text included, so ~100 MB above the ~170 MB of the libraries).
+DEFAULT_CHUNK_ROWS = 250_000
+
+#: Record columns derived from a raw IMU series (they replace those of the record table).
+SERIES_MOTION_COLUMNS: tuple[str, ...] = (*_imu.MOTION_STAT_COLUMNS, *TILT_SPECTRUM_COLUMNS)
+
+#: Relative change of the median sampling interval between chunks that is an error.
+_RATE_TOLERANCE = 0.01
+
+
+# --------------------------------------------------------------------------- chunked reading
+def _raw_chunks(path: Path, chunk_rows: int) -> Iterator[tuple[pd.DataFrame, bool]]:
+    """The file's rows in chunks, unvalidated; ``(chunk, is_csv)``."""
+    kind = io._kind(path)  # the suffix rule of the readers (.csv, .csv.gz, .parquet, .pq)
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no such file")
+    if kind == "csv":
+        try:
+            with pd.read_csv(
+                path, chunksize=chunk_rows, low_memory=False, skipinitialspace=True
+            ) as reader:
+                for chunk in reader:
+                    yield chunk.reset_index(drop=True), True
+        except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+            raise io.DataValidationError(
+                str(path), None, None, f"malformed CSV ({exc})".replace("\n", " "), csv=True
+            ) from exc
+        return
+    import pyarrow.parquet as pq
+
+    # pre_buffer=False: with read-ahead, arrow kept the already-read column chunks and the
+    # peak memory grew with the file (365 MB at 1 day, 1.9 GB at 30 days of 20-Hz data);
+    # without it the memory follows the chunk and the file's row-group size
+    pf = pq.ParquetFile(path, pre_buffer=False)
+    for batch in pf.iter_batches(batch_size=chunk_rows, use_threads=False):
+        yield batch.to_pandas(), False
+
+
+def _validated_chunks(
+    path: str | Path,
+    validate: Callable[..., pd.DataFrame],
+    chunk_rows: int,
+    *,
+    strict: bool,
+    what: str,
+) -> Iterator[tuple[int, pd.DataFrame, bool]]:
+    """Validated chunks ``(row offset, chunk, is_csv)``; timestamps increasing (``strict``)
+    or non-decreasing across the whole file, the median sampling interval constant."""
+    if chunk_rows < 2:
+        raise ValueError(f"chunk_rows must be >= 2, got {chunk_rows}")
+    path = Path(path)
+    source = str(path)
+    offset = 0
+    last: pd.Timestamp | None = None
+    dt0_ns: float | None = None
+    for raw, csv in _raw_chunks(path, chunk_rows):
+        if len(raw) == 0:
+            continue
+        try:
+            df = validate(raw, source, csv=csv)
+        except io.DataValidationError as exc:
+            whole_file = offset == 0 and len(raw) < chunk_rows
+            if exc.header or (exc.row is not None and offset == 0) or exc.column is None:
+                raise
+            if exc.row is None and whole_file:
+                raise
+            if exc.row is None:  # a problem of the chunk's rows (the rate): name them
+                raise io.DataValidationError(
+                    source,
+                    offset + 1,
+                    exc.column,
+                    f"{exc.problem} (in rows {offset + 1}-{offset + len(raw)})",
+                    csv=csv,
+                ) from None
+            raise io.DataValidationError(
+                source, exc.row + offset, exc.column, exc.problem, csv=csv, n_more=exc.n_more
+            ) from None
+        t_ns = pd.DatetimeIndex(df["timestamp"]).as_unit("ns").asi8
+        back = np.diff(t_ns) < 0
+        if back.any():  # LOS: the contract orders by height; the stream needs time order
+            row = offset + int(np.argmax(back)) + 2
+            raise io.DataValidationError(
+                source,
+                row,
+                "timestamp",
+                f"{what} must be sorted by time for the pipeline (it is read in chunks): "
+                f"{df['timestamp'].iloc[row - offset - 1].isoformat()} comes after a later "
+                "timestamp; sort the file by timestamp",
+                csv=csv,
+            )
+        if last is not None:
+            first = df["timestamp"].iloc[0]
+            if first < last or (strict and first == last):
+                raise io.DataValidationError(
+                    source,
+                    offset + 1,
+                    "timestamp",
+                    f"timestamps not increasing: {first.isoformat()} comes after "
+                    f"{last.isoformat()} (row {offset})",
+                    csv=csv,
+                )
+        if strict and t_ns.size >= 2:
+            dt_ns = float(np.median(np.diff(t_ns)))
+            if dt0_ns is None:
+                dt0_ns = dt_ns
+            elif abs(dt_ns / dt0_ns - 1.0) > _RATE_TOLERANCE:
+                raise io.DataValidationError(
+                    source,
+                    offset + 1,
+                    "timestamp",
+                    f"the sampling rate changes from {1e9 / dt0_ns:.4g} Hz to {1e9 / dt_ns:.4g} "
+                    f"Hz (rows {offset + 1}-{offset + len(raw)}); split the series at the change",
+                    csv=csv,
+                )
+        last = df["timestamp"].iloc[-1]
+        yield offset, df, csv
+        offset += len(raw)
+    if offset == 0:
+        raise io.DataValidationError(source, None, None, "the table has no data rows")
+
+
+def iter_imu_series(
+    path: str | Path,
+    *,
+    chunk_rows: int = DEFAULT_CHUNK_ROWS,
+    allow_small_angles: bool = False,
+) -> Iterator[pd.DataFrame]:
+    """Read a raw IMU series (CSV or Parquet) chunk by chunk, validated.
+
+    Each chunk passes :func:`flidar_uq.data.io.validate_imu_series` (errors name the row
+    counted from the start of the file); across chunks the timestamps must keep increasing
+    and the median sampling interval must stay within 1 % of the first chunk's. The
+    "angles look like radians" rule of ``docs/data-format.md`` is applied to the whole
+    series, so it is raised after the last chunk.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        ``.csv``, ``.csv.gz``, ``.parquet`` or ``.pq`` file (``timestamp, roll_deg,
+        pitch_deg[, yaw_deg]``).
+    chunk_rows : int
+        Rows per chunk (>= 2).
+    allow_small_angles : bool
+        Skip the radians check.
+
+    Yields
+    ------
+    pandas.DataFrame
+        Normalised chunks (UTC timestamps, float64 angles in deg).
+
+    Raises
+    ------
+    flidar_uq.data.io.DataValidationError
+        Naming file, row and column of the first problem.
+    """
+    count, largest = 0, 0.0
+    source = str(path)
+    for _, df, _ in _validated_chunks(
+        path,
+        lambda d, s, csv: io.validate_imu_series(d, s, allow_small_angles=True, csv=csv),
+        chunk_rows,
+        strict=True,
+        what="the IMU series",
+    ):
+        if not allow_small_angles:
+            vals = np.abs(df[["roll_deg", "pitch_deg"]].to_numpy(dtype=np.float64))
+            use = np.isfinite(vals) & (vals > 0)
+            count += int(use.sum())
+            if use.any():
+                largest = max(largest, float(vals[use].max()))
+        yield df
+    if not allow_small_angles and count >= RADIAN_SUSPECT_MIN_COUNT:
+        if largest < RADIAN_SUSPECT_MAX_DEG:
+            raise io.DataValidationError(
+                source,
+                None,
+                "roll_deg",
+                f"every non-zero |angle| in ['roll_deg', 'pitch_deg'] is below "
+                f"{RADIAN_SUSPECT_MAX_DEG} deg (largest {largest:.4g}): the angles look like "
+                "radians, expected degrees (set allow_small_angles if the motion really is "
+                "that small)",
+            )
+
+
+def iter_los_series(
+    path: str | Path, *, chunk_rows: int = DEFAULT_CHUNK_ROWS
+) -> Iterator[pd.DataFrame]:
+    """Read LOS-level data (CSV or Parquet) chunk by chunk, validated and in time order.
+
+    Each chunk passes :func:`flidar_uq.data.io.validate_los_series`; the stream needs
+    the rows sorted by time across heights (non-decreasing timestamps), which is stricter
+    than the contract's per-height order: an unsorted file is an error that says so.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        ``.csv``, ``.csv.gz``, ``.parquet`` or ``.pq`` file.
+    chunk_rows : int
+        Rows per chunk (>= 2).
+
+    Yields
+    ------
+    pandas.DataFrame
+        Normalised chunks.
+    """
+    for _, df, _ in _validated_chunks(
+        path,
+        lambda d, s, csv: io.validate_los_series(d, s, csv=csv),
+        chunk_rows,
+        strict=False,
+        what="the LOS series",
+    ):
+        yield df
+
+
+# --------------------------------------------------------------------------- windows
+def _ns(timestamps) -> np.ndarray:
+    return pd.DatetimeIndex(timestamps).as_unit("ns").asi8
+
+
+def window_batches(
+    chunks: Iterable[pd.DataFrame], *, window_s: float = 600.0, offset_s: float = 0.0
+) -> Iterator[pd.DataFrame]:
+    """Regroup time-ordered chunks into batches that hold whole windows only.
+
+    Windows start at ``offset_s`` plus multiples of ``window_s`` since the Unix epoch. The
+    rows of a window that continues into the next chunk are carried over, so a batch holds
+    at most one chunk plus one window.
+
+    Parameters
+    ----------
+    chunks : iterable of pandas.DataFrame
+        Chunks with a ``timestamp`` column (UTC), non-decreasing across chunks.
+    window_s : float
+        Window length, s.
+    offset_s : float
+        Start of the windows after the epoch's multiples of ``window_s``, s.
+
+    Yields
+    ------
+    pandas.DataFrame
+        Batches (RangeIndex), each ending at a window boundary except the last.
+    """
+    window_ns = int(round(window_s * 1e9))
+    offset_ns = int(round(offset_s * 1e9))
+    carry: pd.DataFrame | None = None
+    for chunk in chunks:
+        df = chunk if carry is None else pd.concat([carry, chunk], ignore_index=True)
+        t = _ns(df["timestamp"])
+        if t.size == 0:
+            continue
+        boundary = ((int(t[-1]) - offset_ns) // window_ns) * window_ns + offset_ns
+        cut = int(np.searchsorted(t, boundary, side="left"))
+        if cut > 0:
+            yield df.iloc[:cut].reset_index(drop=True)
+        carry = df.iloc[cut:].reset_index(drop=True)
+    if carry is not None and len(carry):
+        yield carry
+
+
+@dataclass
+class TimeCursor:
+    """Rows of a time-ordered chunk stream served by increasing time ranges.
+
+    :meth:`take` returns the rows in ``[start, end)`` and forgets the rows before
+    ``start``; ranges must be requested with non-decreasing starts (they may overlap).
+    Memory: the rows between the current start and the furthest end asked, plus a chunk.
+    """
+
+    chunks: Iterable[pd.DataFrame]
+    _it: Iterator[pd.DataFrame] | None = field(default=None, init=False, repr=False)
+    _buf: pd.DataFrame | None = field(default=None, init=False, repr=False)
+    _done: bool = field(default=False, init=False, repr=False)
+
+    def take(self, start: pd.Timestamp, end: pd.Timestamp) -> pd.DataFrame:
+        """Rows with ``start <= timestamp < end`` (a copy; may be empty)."""
+        if self._it is None:
+            self._it = iter(self.chunks)
+        start_ns, end_ns = pd.Timestamp(start).value, pd.Timestamp(end).value
+        while not self._done and (
+            self._buf is None or len(self._buf) == 0 or _ns(self._buf["timestamp"])[-1] < end_ns
+        ):
+            nxt = next(self._it, None)
+            if nxt is None:
+                self._done = True
+            elif len(nxt):
+                self._buf = (
+                    nxt if self._buf is None else pd.concat([self._buf, nxt], ignore_index=True)
+                )
+                drop = int(np.searchsorted(_ns(self._buf["timestamp"]), start_ns, side="left"))
+                self._buf = self._buf.iloc[drop:].reset_index(drop=True)
+        if self._buf is None or len(self._buf) == 0:
+            return pd.DataFrame(columns=["timestamp"])
+        t = _ns(self._buf["timestamp"])
+        lo = int(np.searchsorted(t, start_ns, side="left"))
+        hi = int(np.searchsorted(t, end_ns, side="left"))
+        self._buf = self._buf.iloc[lo:].reset_index(drop=True)
+        return self._buf.iloc[: hi - lo].copy()
+
+
+# --------------------------------------------------------------------------- statistics
+@dataclass
+class SeriesMotion:
+    """Result of :func:`series_motion_statistics`.
+
+    Attributes
+    ----------
+    statistics : pandas.DataFrame
+        One row per record row (same order): ``timestamp``, ``height_m`` and the columns
+        of :data:`SERIES_MOTION_COLUMNS` (``imu_availability_pct`` 0 where the series has
+        no sample in the record's window).
+    gaps : pandas.DataFrame
+        Gaps of at least ``gap_min_s`` without a valid sample (absent rows or NaN angles):
+        ``kind`` (``inside``, ``before_first_sample``, ``after_last_sample``), ``start``
+        (last valid sample before, or the first record's start), ``end`` (next valid
+        sample, or the last record's end), ``duration_s`` (s without samples beyond the
+        nominal interval), ``missing_samples``.
+    summary : dict
+        Counts for the log and the report (rows, valid samples, rate, span, gaps, records
+        with statistics, below the coverage threshold, without samples).
+    """
+
+    statistics: pd.DataFrame
+    gaps: pd.DataFrame
+    summary: dict
+
+
+def record_window_offset_s(records: pd.DataFrame, window_s: float = 600.0) -> float:
+    """Start of the records' windows after the epoch's multiples of ``window_s``, s.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records with ``timestamp`` (UTC window starts).
+    window_s : float
+        Record length, s.
+
+    Returns
+    -------
+    float
+        The common offset, s, in ``[0, window_s)``.
+
+    Raises
+    ------
+    ValueError
+        If the records are not on one grid of ``window_s`` (naming the first record off it).
+    """
+    window_ns = int(round(window_s * 1e9))
+    t = _ns(records["timestamp"])
+    off = np.mod(t, window_ns)
+    bad = off != off[0]
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(
+            f"record timestamps are not on one {window_s:g}-s grid: record row {i + 1} "
+            f"({records['timestamp'].iloc[i].isoformat()}) is offset from row 1 "
+            f"({records['timestamp'].iloc[0].isoformat()}); the series' windows follow the "
+            "records"
+        )
+    return float(off[0]) * 1e-9
+
+
+def _runs(window_index: np.ndarray, max_windows: int) -> list[slice]:
+    """Row slices of consecutive windows, at most ``max_windows`` windows each (the window
+    grid of :func:`flidar_uq.data.imu.window_series` spans every window of a run)."""
+    starts = [0]
+    first = window_index[0]
+    for j in np.flatnonzero(np.diff(window_index) > 0) + 1:
+        if window_index[j] - window_index[j - 1] > 1 or window_index[j] - first >= max_windows:
+            starts.append(int(j))
+            first = window_index[j]
+    bounds = [*starts, window_index.size]
+    return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+
+
+def series_motion_statistics(
+    path: str | Path,
+    records: pd.DataFrame,
+    *,
+    window_s: float = 600.0,
+    chunk_rows: int = DEFAULT_CHUNK_ROWS,
+    min_coverage_pct: float = 80.0,
+    allow_small_angles: bool = False,
+    gap_min_s: float = 1.0,
+) -> SeriesMotion:
+    """Per-record motion statistics of a raw IMU series file, streamed in chunks.
+
+    For every record window (``window_s`` from each record's ``timestamp``; the records
+    must lie on one grid), the roll/pitch amplitude, period and two-peak statistics
+    (:func:`flidar_uq.data.imu.motion_statistics`) and the tilt along and across the
+    record's own wind direction ``wd_mean_deg``, per height
+    (:func:`flidar_uq.data.imu.tilt_spectrum_statistics`), with their default estimators:
+    the same numbers as on the whole series at once. The sample grid uses the rate of the
+    first chunk (median interval rounded to 1 microsecond).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The IMU series (CSV or Parquet, ``docs/data-format.md``).
+    records : pandas.DataFrame
+        Record rows: ``timestamp`` (UTC window start), ``height_m``, ``wd_mean_deg`` (deg).
+    window_s : float
+        Record length, s.
+    chunk_rows : int
+        Rows read at a time (memory ~ 400 bytes per row of a CSV chunk at the peak).
+    min_coverage_pct : float
+        Windows with fewer nominal samples present get NaN statistics, %.
+    allow_small_angles : bool
+        Skip the "angles look like radians" check.
+    gap_min_s : float
+        Shortest gap listed in :attr:`SeriesMotion.gaps`, s (all gaps are counted).
+
+    Returns
+    -------
+    SeriesMotion
+    """
+    window_ns = int(round(window_s * 1e9))
+    offset_ns = int(round(record_window_offset_s(records, window_s) * 1e9))
+    rec_t = _ns(records["timestamp"]) - offset_ns
+    rec_keys = pd.DataFrame(
+        {"timestamp": pd.to_datetime(rec_t, utc=True), "height_m": records["height_m"].to_numpy()}
+    )
+    wd_by_height = {
+        h: pd.Series(
+            records.loc[sel, "wd_mean_deg"].to_numpy(dtype=float),
+            index=pd.to_datetime(rec_t[sel.to_numpy()], utc=True),
+        )
+        for h, sel in ((h, records["height_m"] == h) for h in records["height_m"].unique())
+    }
+    wanted = set(rec_t.tolist())
+    motion_rows, tilt_rows = [], []
+    fs: float | None = None
+    n_rows = n_valid = n_missing = n_gaps = 0
+    gaps: list[tuple] = []
+    first_valid = last_valid = None
+    shifted = (
+        c.assign(timestamp=c["timestamp"] - pd.Timedelta(offset_ns, "ns")) if offset_ns else c
+        for c in iter_imu_series(path, chunk_rows=chunk_rows, allow_small_angles=allow_small_angles)
+    )
+    for batch in window_batches(shifted, window_s=window_s):
+        t = _ns(batch["timestamp"])
+        n_rows += t.size
+        if fs is None:
+            if t.size < 2:
+                raise ValueError(f"{path}: the IMU series needs at least 2 samples")
+            fs = 1.0 / (round(float(np.median(np.diff(t))) * 1e-3) * 1e-6)
+        # gaps: intervals between valid samples longer than 1.5 nominal intervals
+        ok = np.isfinite(batch[["roll_deg", "pitch_deg"]].to_numpy(dtype=float)).all(axis=1)
+        tv = t[ok]
+        n_valid += tv.size
+        if tv.size:
+            edges = tv if last_valid is None else np.r_[last_valid, tv]
+            dt = np.diff(edges)
+            big = dt > 1.5e9 / fs
+            missing = np.rint(dt[big] * fs * 1e-9).astype(np.int64) - 1
+            n_gaps += int(big.sum())
+            n_missing += int(missing.sum())
+            for a, b, k in zip(edges[:-1][big], edges[1:][big], missing, strict=True):
+                if (b - a) * 1e-9 - 1.0 / fs >= gap_min_s:
+                    gaps.append(("inside", a, b, (b - a) * 1e-9 - 1.0 / fs, int(k)))
+            first_valid = tv[0] if first_valid is None else first_valid
+            last_valid = tv[-1]
+        # statistics, run by run of consecutive windows
+        win = t // window_ns
+        m = int(round(window_s * fs))
+        for sl in _runs(win, max(1, chunk_rows // m)):
+            if not any(int(w) * window_ns in wanted for w in np.unique(win[sl])):
+                continue
+            part = batch.iloc[sl]
+            ms = _imu.motion_statistics(
+                part, window_s=window_s, min_coverage_pct=min_coverage_pct, fs_hz=fs
+            )
+            motion_rows.append(ms[ms["timestamp"].isin(rec_keys["timestamp"])])
+            for h, wd in wd_by_height.items():
+                tab, _ = _imu.tilt_spectrum_statistics(
+                    part, wd, window_s=window_s, min_coverage_pct=min_coverage_pct, fs_hz=fs
+                )
+                tab = tab[tab["timestamp"].isin(wd.index)]
+                tilt_rows.append(tab.assign(height_m=h))
+    out = rec_keys.copy()
+    stat_cols = list(_imu.MOTION_STAT_COLUMNS)
+    if motion_rows:
+        ms = pd.concat(motion_rows, ignore_index=True)
+        out = out.merge(ms, on="timestamp", how="left")
+    else:
+        out = out.assign(**{c: np.nan for c in stat_cols})
+    if tilt_rows:
+        tl = pd.concat(tilt_rows, ignore_index=True)
+        out = out.merge(tl, on=["timestamp", "height_m"], how="left")
+    else:
+        out = out.assign(**{c: np.nan for c in TILT_SPECTRUM_COLUMNS})
+    out["imu_availability_pct"] = out["imu_availability_pct"].fillna(0.0)
+    out["timestamp"] = records["timestamp"].to_numpy()  # back to the records' own times
+    out = out[["timestamp", "height_m", *SERIES_MOTION_COLUMNS]]
+
+    # gaps before the first and after the last valid sample, within the records' span
+    span_lo = int(rec_t.min())
+    span_hi = int(rec_t.max()) + window_ns
+    if first_valid is None:
+        gaps.append(("no_valid_sample", span_lo, span_hi, (span_hi - span_lo) * 1e-9, 0))
+    else:
+        if first_valid > span_lo:
+            gaps.append(
+                ("before_first_sample", span_lo, first_valid, (first_valid - span_lo) * 1e-9, 0)
+            )
+        if last_valid < span_hi - 1e9 / fs:
+            gaps.append(
+                ("after_last_sample", last_valid, span_hi, (span_hi - last_valid) * 1e-9, 0)
+            )
+    gap_table = pd.DataFrame(
+        gaps, columns=["kind", "start", "end", "duration_s", "missing_samples"]
+    )
+    for col in ("start", "end"):
+        gap_table[col] = pd.to_datetime(gap_table[col].astype(np.int64) + offset_ns, utc=True)
+    stats_ok = np.isfinite(out["roll_amplitude_deg"].to_numpy())
+    avail = out["imu_availability_pct"].to_numpy()
+    summary = {
+        "imu_series": str(path),
+        "rows": n_rows,
+        "valid_samples": n_valid,
+        "rate_hz": fs,
+        "first_sample": None
+        if first_valid is None
+        else pd.Timestamp(first_valid + offset_ns, tz="UTC").isoformat(),
+        "last_sample": None
+        if last_valid is None
+        else pd.Timestamp(last_valid + offset_ns, tz="UTC").isoformat(),
+        "gaps": n_gaps,
+        "missing_samples_inside": n_missing,
+        f"gaps_listed_ge_{gap_min_s:g}_s": int((gap_table["kind"] == "inside").sum()),
+        "longest_gap_inside_s": float(
+            gap_table.loc[gap_table["kind"] == "inside", "duration_s"].max()
+        )
+        if (gap_table["kind"] == "inside").any()
+        else 0.0,
+        "record_rows": len(out),
+        "record_rows_with_statistics": int(stats_ok.sum()),
+        "record_rows_below_coverage": int((avail < min_coverage_pct).sum()),
+        "record_rows_without_samples": int((avail == 0).sum()),
+    }
+    log.info("IMU series %s: %s", path, summary)
+    return SeriesMotion(out, gap_table, summary)

@@ -1,0 +1,239 @@
+"""LOS-level corrected TI of a record from LOS rows and the IMU series
+(flidar_uq.correction.los_records): scans, IMU gaps, the CW VAD on the virtual campaign and a
+pulsed DBS lidar with a known wind."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from flidar_uq.campaign.physics_mode import generate_campaign
+from flidar_uq.campaign.scenarios import DEFAULT_SCENARIO
+from flidar_uq.correction.los import earth_beam_vectors, imu_rotation_velocity
+from flidar_uq.correction.los_records import complete_scans, los_methods, los_record_ti
+from flidar_uq.physics import lidar as L
+from flidar_uq.physics import motion as M
+
+T0 = pd.Timestamp("2015-04-01T00:00:00Z")
+WINDOW = pd.Timedelta(600, "s")
+MARGIN = pd.Timedelta(5, "s")
+
+
+@pytest.fixture(scope="module")
+def campaign():
+    sc = copy.deepcopy(DEFAULT_SCENARIO)
+    sc.update(name="los_records_test", n_records=8, heights_m=[58.0, 85.0])
+    sc["imu"]["gap_probability"] = 0.0
+    return generate_campaign(sc, 5, return_imu=True, return_los=True, n_workers=1)
+
+
+def record_inputs(out, k: int):
+    start = out.records["timestamp"].unique()[k]
+    los = out.los[(out.los["timestamp"] >= start) & (out.los["timestamp"] < start + WINDOW)]
+    imu = out.imu[
+        (out.imu["timestamp"] >= start - MARGIN) & (out.imu["timestamp"] < start + WINDOW + MARGIN)
+    ]
+    rec = out.records[out.records["timestamp"] == start]
+    return start, los.reset_index(drop=True), imu.reset_index(drop=True), rec
+
+
+def test_complete_scans_vad_pauses_partial_scans_and_long_runs():
+    geom = L.get_lidar("zephir300")
+    dt = geom.los_duration_s
+    pieces, t0 = [], 0.0
+    for n in (50, 30, 50, 100):  # a partial scan, then a 100-LOS run without a pause
+        pieces.append(t0 + dt * np.arange(n))
+        t0 = pieces[-1][-1] + 0.5
+    t = np.concatenate(pieces)
+    scans = complete_scans(t, np.zeros_like(t), geom)
+    assert scans.shape == (4, 50)
+    assert scans[0, 0] == 0 and scans[1, 0] == 80 and scans[2, 0] == 130 and scans[3, 0] == 180
+
+
+def test_complete_scans_dbs_start_mid_cycle_and_missing_beam():
+    geom = L.get_lidar("windcube_v1")
+    beams = np.array([2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 3, 0, 1, 2, 3])  # beam 2 lost at 12
+    t = np.arange(beams.size) * geom.los_duration_s
+    t[12:] += geom.los_duration_s  # the lost beam leaves a pause
+    az = np.radians(np.asarray(geom.beam_azimuths_deg)[beams])
+    scans = complete_scans(t, az, geom)
+    assert scans[:, 0].tolist() == [2, 6, 13]
+
+
+def test_cw_vad_on_the_virtual_campaign_matches_the_lidar_and_removes_the_motion(campaign):
+    """Uncorrected LOS retrieval = the floating lidar's own record TI (same scans, same
+    retrieval up to the sign resolution); seed 001 LS recovers the fixed reference lidar's
+    TI (benchmarks/los_correction_comparison.py part C: ~90 % of the motion error removed)."""
+    rows = []
+    for k in range(8):
+        start, los, imu, rec = record_inputs(campaign, k)
+        out = los_record_ti(
+            los,
+            imu,
+            start=start,
+            heights_m=rec["height_m"].to_numpy(),
+            wd_deg=rec["wd_mean_deg"].to_numpy(),
+            lidar="zephir300",
+            lever_arm_m=(0.0, 0.0, 2.5),
+        )
+        rows.append(out.assign(**{c: rec[c].to_numpy() for c in rec.columns if c != "height_m"}))
+    res = pd.concat(rows, ignore_index=True)
+    assert list(los_methods("zephir300")) == ["uncorrected", "seed001_ls"]
+    assert (res["los_flags"] == "").all()
+    assert (res["n_scans_used"] == res["n_scans"]).all() and (res["n_scans"] > 150).all()
+    ti_lidar = res["hws_std_ms"] / res["hws_mean_ms"]
+    np.testing.assert_allclose(res["ti_los_uncorrected"], ti_lidar, rtol=0.02)
+    ti_ref = res["ref_hws_std_ms"] / res["ref_hws_mean_ms"]
+    err_unc = (res["ti_los_uncorrected"] - ti_ref).abs().mean()
+    err_ls = (res["ti_los_seed001_ls"] - ti_ref).abs().mean()
+    assert err_ls < 0.3 * err_unc
+
+
+def test_imu_gaps_remove_scans_and_no_imu_flags_the_record(campaign):
+    start, los, imu, rec = record_inputs(campaign, 0)
+    kw = dict(
+        start=start,
+        heights_m=rec["height_m"].to_numpy(),
+        wd_deg=rec["wd_mean_deg"].to_numpy(),
+        lidar="zephir300",
+        lever_arm_m=(0.0, 0.0, 2.5),
+    )
+    full = los_record_ti(los, imu, **kw)
+    t = (imu["timestamp"] - start).dt.total_seconds()
+    gap = los_record_ti(los, imu[(t < 200.0) | (t >= 260.0)], **kw)
+    lost = full["n_scans_used"] - gap["n_scans_used"]
+    # 60 s without IMU: the scans in it (and those straddling its ends) are not used
+    per_height_rate = full["n_scans"] / 600.0
+    assert ((lost >= 60 * per_height_rate - 2) & (lost <= 60 * per_height_rate + 4)).all()
+    assert (gap["n_scans"] == full["n_scans"]).all()
+    none = los_record_ti(los, imu.iloc[:0], **kw)
+    assert (none["los_flags"] == "imu_gap").all()
+    assert none["ti_los_seed001_ls"].isna().all() and none["ti_los_uncorrected"].isna().all()
+    empty = los_record_ti(los.iloc[:0], imu, **kw)
+    assert (empty["los_flags"] == "no_los").all() and (empty["n_los"] == 0).all()
+
+
+def test_low_cnr_los_are_not_used(campaign):
+    start, los, imu, rec = record_inputs(campaign, 1)
+    kw = dict(
+        start=start,
+        heights_m=rec["height_m"].to_numpy()[:1],
+        wd_deg=rec["wd_mean_deg"].to_numpy()[:1],
+        lidar="zephir300",
+        lever_arm_m=(0.0, 0.0, 2.5),
+    )
+    noisy = los.copy()
+    bad = np.zeros(len(los), bool)
+    bad[::7] = True
+    noisy.loc[bad, "radial_speed_ms"] = 50.0  # garbage measured with a low CNR
+    noisy.loc[bad, "cnr_db"] = -30.0
+    ref = los_record_ti(los, imu, **kw)
+    got = los_record_ti(noisy, imu, **kw)
+    assert got["ti_los_seed001_ls"].iloc[0] == pytest.approx(
+        ref["ti_los_seed001_ls"].iloc[0], rel=0.05
+    )
+
+
+def test_cw_negative_speed_is_an_error(campaign):
+    start, los, imu, rec = record_inputs(campaign, 0)
+    los = los.copy()
+    los.loc[10, "radial_speed_ms"] = -3.0
+    with pytest.raises(ValueError, match="negative radial speed .* CW lidar 'zephir300'"):
+        los_record_ti(
+            los,
+            imu,
+            start=start,
+            heights_m=[58.0],
+            wd_deg=[240.0],
+            lidar="zephir300",
+            lever_arm_m=(0, 0, 2.5),
+        )
+
+
+def dbs_record(rng, *, n_cycles=150, gates=(40.0, 60.0, 80.0, 100.0, 120.0)):
+    """A pulsed-DBS record in the LOS format with a wind that is uniform in space and
+    constant within each 4-s cycle (so each cycle's wind is retrievable exactly), on a buoy
+    pitching and rolling 5 deg with its head 2.5 m above the rotation centre (no heave: the
+    IMU format carries the attitude only), and its IMU series at 20 Hz."""
+    geom = L.get_lidar("windcube_v1")
+    motion = M.PlatformMotion(
+        roll=(M.Harmonic(5.0, 6.0, 0.3),),
+        pitch=(M.Harmonic(5.0, 6.5, 1.2),),
+        lever_arm_m=(0.0, 0.0, 2.5),
+    )
+    t_s, az = L.scan_times_azimuths(geom)
+    t = (np.arange(n_cycles)[:, None] * geom.scan_period_s + t_s[None]).ravel() + 0.5
+    az = np.tile(az, n_cycles)
+    u_cycle = np.column_stack(
+        [6.0 + 0.8 * rng.standard_normal(n_cycles), 4.0 + 0.8 * rng.standard_normal(n_cycles)]
+    )
+    u = np.repeat(np.column_stack([u_cycle, np.zeros(n_cycles)]), geom.n_los, axis=0)
+    rot, vel = imu_rotation_velocity(motion, t)
+    vr = np.einsum("ni,ni->n", earth_beam_vectors(geom, az, rot), u - vel)
+    stamps = T0 + pd.to_timedelta(np.round(t * 1e6).astype(np.int64), unit="us")
+    los = pd.DataFrame(
+        {
+            "timestamp": np.repeat(stamps, len(gates)),
+            "height_m": np.tile(gates, t.size),
+            "azimuth_deg": np.repeat(np.degrees(az), len(gates)),
+            "radial_speed_ms": np.repeat(vr, len(gates)),
+            "cnr_db": -10.0,
+        }
+    )
+    t_imu = np.arange(-5.0, 605.0, 0.05)
+    roll, pitch, yaw = (np.degrees(a) for a in motion.attitude_rad(t_imu))
+    imu = pd.DataFrame(
+        {
+            "timestamp": T0 + pd.to_timedelta(np.round(t_imu * 1e6).astype(np.int64), unit="us"),
+            "roll_deg": roll,
+            "pitch_deg": pitch,
+            "yaw_deg": yaw,
+        }
+    )
+    hws = np.hypot(u_cycle[:, 0], u_cycle[:, 1])
+    return los, imu, hws.std(ddof=1) / hws.mean()
+
+
+def test_dbs_lidar_seed001_and_seed002_new_recover_the_ti(rng):
+    los, imu, ti_true = dbs_record(rng)
+    out = los_record_ti(
+        los,
+        imu,
+        start=T0,
+        heights_m=[60.0, 100.0],
+        wd_deg=[np.nan, np.nan],
+        lidar="windcube_v1",
+        lever_arm_m=(0.0, 0.0, 2.5),
+    )
+    assert list(los_methods("windcube_v1")) == [
+        "uncorrected",
+        "seed001_ls",
+        "seed002_conventional",
+        "seed002_new",
+    ]
+    assert (out["los_flags"] == "").all() and (out["n_scans_used"] == 150).all()
+    for m in ("seed001_ls", "seed002_new"):
+        np.testing.assert_allclose(out[f"ti_los_{m}"], ti_true, rtol=0.01, err_msg=m)
+        assert (out[f"n_hws_{m}"] == 150).all()
+    # the motion inflates the uncorrected TI; the conventional algorithm (attitude frozen at
+    # one LOS of the cycle) removes part of it
+    assert (out["ti_los_uncorrected"] > 1.1 * ti_true).all()
+    conv = out["ti_los_seed002_conventional"]
+    assert ((conv - ti_true).abs() < (out["ti_los_uncorrected"] - ti_true).abs()).all()
+
+
+def test_dbs_with_a_vertical_beam_is_refused(rng):
+    los, imu, _ = dbs_record(rng, n_cycles=2)
+    with pytest.raises(ValueError, match="vertical beam"):
+        los_record_ti(
+            los,
+            imu,
+            start=T0,
+            heights_m=[60.0],
+            wd_deg=[np.nan],
+            lidar="windcube_v1_5beam",
+            lever_arm_m=(0, 0, 2.5),
+        )
