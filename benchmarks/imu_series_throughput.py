@@ -11,10 +11,10 @@ process, which reports its peak resident memory (``VmHWM``) and wall time.
 
 Target (issue 12): a year at 20 Hz processed in memory bounded by the chunk (default
 2.5e5 rows), not by the series; the peak RSS must not grow with the length, and time is reported
-per month of data (the year is extrapolated: 12 x the 30-day time).
+per month of data; the 365-day case is the year itself.
 
 Writes benchmarks/results/imu_series_throughput.csv and .png; prints the table and the
-ratios. Runtime: ~10-15 min on one core (series files of up to 30 days, ~3 GB on disk in a
+ratios. Runtime: ~50 min on one core (series files of up to 365 days, ~20 GB on disk in a
 temporary directory, removed afterwards).
 """
 
@@ -35,16 +35,22 @@ OUT = Path(__file__).parent / "results"
 FS_HZ = 20.0
 HEIGHTS_M = (27.0, 58.0, 85.0)
 T0 = pd.Timestamp("2015-04-01T00:00:00Z")
-# (format, days, method): streaming for every length; in memory up to a week (it grows)
+# (format, days, method, allocator): streaming for every length; in memory up to a week (it
+# grows with the series). "mmap128k" runs the same with glibc's mmap threshold fixed at
+# 128 kB (MALLOC_MMAP_THRESHOLD_): the slow creep of the streamed RSS with length is heap
+# fragmentation (glibc raises its threshold after large frees), not data kept, and it goes
+# with the fixed threshold.
 CASES = [
-    ("parquet", 1, "streamed"),
-    ("parquet", 1, "in_memory"),
-    ("parquet", 7, "streamed"),
-    ("parquet", 7, "in_memory"),
-    ("parquet", 30, "streamed"),
-    ("csv", 1, "streamed"),
-    ("csv", 1, "in_memory"),
-    ("csv", 7, "streamed"),
+    ("parquet", 1, "streamed", "default"),
+    ("parquet", 1, "in_memory", "default"),
+    ("parquet", 7, "streamed", "default"),
+    ("parquet", 7, "in_memory", "default"),
+    ("parquet", 30, "streamed", "default"),
+    ("parquet", 30, "streamed", "mmap128k"),
+    ("parquet", 365, "streamed", "default"),
+    ("csv", 1, "streamed", "default"),
+    ("csv", 1, "in_memory", "default"),
+    ("csv", 7, "streamed", "default"),
 ]
 
 
@@ -134,7 +140,7 @@ def main() -> None:
     rows = []
     with tempfile.TemporaryDirectory(prefix="imu_series_bench_") as tmp:
         files = {}
-        for fmt, days, method in CASES:
+        for fmt, days, method, allocator in CASES:
             path = Path(tmp) / f"imu_{days}d.{fmt}"
             if path not in files:
                 t0 = time.perf_counter()
@@ -142,6 +148,8 @@ def main() -> None:
                 files[path] = time.perf_counter() - t0
                 print(f"wrote {path.name}: {path.stat().st_size / 1e6:.0f} MB", flush=True)
             env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+            if allocator == "mmap128k":
+                env["MALLOC_MMAP_THRESHOLD_"] = "131072"
             proc = subprocess.run(
                 [sys.executable, __file__, "--child", str(path), str(days), method],
                 capture_output=True,
@@ -156,6 +164,7 @@ def main() -> None:
                     "format": fmt,
                     "days": days,
                     "method": method,
+                    "allocator": allocator,
                     "samples": n_rows,
                     "file_mb": path.stat().st_size / 1e6,
                     "time_s": res["time_s"],
@@ -175,9 +184,12 @@ def main() -> None:
         f"cores available to this process: {len(os.sched_getaffinity(0))}; "
         f"load average {os.getloadavg()}"
     )
+    default = table[table["allocator"] == "default"]
     for fmt in ("parquet", "csv"):
-        s = table[(table["format"] == fmt) & (table["method"] == "streamed")].set_index("days")
-        m = table[(table["format"] == fmt) & (table["method"] == "in_memory")].set_index("days")
+        s = default[(default["format"] == fmt) & (default["method"] == "streamed")]
+        s = s.set_index("days")
+        m = default[(default["format"] == fmt) & (default["method"] == "in_memory")]
+        m = m.set_index("days")
         if len(s) >= 2:
             print(
                 f"{fmt}, streamed: peak RSS {s['peak_rss_mb'].iloc[-1]:.0f} MB at "
@@ -193,6 +205,13 @@ def main() -> None:
                     f"{m.loc[days, 'peak_rss_mb'] / s.loc[days, 'peak_rss_mb']:.2f}, time "
                     f"{m.loc[days, 'time_s'] / s.loc[days, 'time_s']:.2f}"
                 )
+    fixed = table[table["allocator"] == "mmap128k"].set_index("days")
+    if len(fixed) >= 2:
+        print(
+            f"parquet, streamed, mmap threshold 128 kB: peak RSS {fixed['peak_rss_mb'].iloc[-1]:.0f}"
+            f" MB at {fixed.index[-1]} days vs {fixed['peak_rss_mb'].iloc[0]:.0f} MB at "
+            f"{fixed.index[0]} days"
+        )
     plot(table)
 
 
@@ -203,10 +222,11 @@ def plot(table: pd.DataFrame) -> None:
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    for (fmt, method), g in table.groupby(["format", "method"]):
-        style = "-o" if method == "streamed" else "--s"
-        axes[0].plot(g["days"], g["peak_rss_mb"], style, label=f"{fmt}, {method}")
-        axes[1].plot(g["days"], g["time_per_month_s"], style, label=f"{fmt}, {method}")
+    for (fmt, method, alloc), g in table.groupby(["format", "method", "allocator"]):
+        style = ("-o" if method == "streamed" else "--s") if alloc == "default" else ":^"
+        label = f"{fmt}, {method}" + ("" if alloc == "default" else ", mmap threshold 128 kB")
+        axes[0].plot(g["days"], g["peak_rss_mb"], style, label=label)
+        axes[1].plot(g["days"], g["time_per_month_s"], style, label=label)
     axes[0].set_xlabel("length of the 20-Hz series (days)")
     axes[0].set_ylabel("peak RSS (MB)")
     axes[0].set_title("memory: bounded by the chunk when streamed")
