@@ -680,6 +680,50 @@ def test_pipeline_preflight_one_line_and_exit_status(tmp_path, config, records, 
     assert len(lines) == 1 and re.search(pattern, lines[0]), lines
 
 
+@pytest.mark.parametrize(
+    ("imu", "los", "code", "pattern"),
+    [
+        ({}, {}, EXIT_OK, None),
+        ({"fs_hz": 1.0}, None, EXIT_DATA, r"imu\.csv: .*median sampling rate 1 Hz outside"),
+        (
+            {},
+            {"start": "2016-06-01T00:00:00Z"},
+            EXIT_DATA,
+            r"los\.csv: row 1 \(line 2\), column 'timestamp': the LOS series \(2016-06-01.*do "
+            r"not overlap: the IMU series of this LOS file is missing",
+        ),
+        ({}, {"azimuth_deg": 400.0}, EXIT_DATA, r"los\.csv: row 1 .*'azimuth_deg': direction 400"),
+        (
+            {"roll_deg": lambda d: d["roll_deg"].map(lambda x: f"{x:.3f}".replace(".", ","))},
+            None,
+            EXIT_DATA,
+            r"imu\.csv: row 1 \(line 2\), column 'roll_deg'",
+        ),
+    ],
+)
+def test_pipeline_preflight_checks_the_raw_series(tmp_path, imu, los, code, pattern):
+    # the head of each series and the overlap of their spans (read from the files' ends),
+    # before any step of the run
+    records = write_text(tmp_path, _csv(valid_records()))
+    campaign = {
+        "source": "files",
+        "records": str(records),
+        "imu_series": str(imu_series(tmp_path, **imu)),
+    }
+    if los is not None:
+        campaign["los_series"] = str(los_series(tmp_path, **los))
+    config = {
+        "campaign": campaign,
+        "reference": {"kind": "cup"},
+        "inference": {"lever_arm_m": 2.0},
+    }
+    stream = io.StringIO()
+    assert pipeline_preflight(config, stream=stream) == code, stream.getvalue()
+    if pattern is not None:
+        lines = stream.getvalue().strip().splitlines()
+        assert len(lines) == 1 and re.search(pattern, lines[0]), lines
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("campaign", "code", "needle"),

@@ -19,6 +19,7 @@ from flidar_uq.data.imu_series import (
     iter_los_series,
     record_window_offset_s,
     series_motion_statistics,
+    series_span,
     window_batches,
 )
 
@@ -212,6 +213,26 @@ def test_radians_rule_applies_to_the_whole_series(tmp_path):
     moving = sine_series(300.0, amp=2.0, start=T0 + pd.Timedelta(seconds=300))
     write_csv_text(path, pd.concat([calm, moving], ignore_index=True))
     assert sum(len(c) for c in iter_imu_series(path, chunk_rows=1000)) == 3000
+
+
+@pytest.mark.parametrize("suffix", ["csv", "csv.gz", "parquet"])
+def test_series_span_reads_the_head_and_the_end_only(tmp_path, suffix):
+    # 2 h at 5 Hz: the head validated (2,000 rows) and the last timestamp from the file's
+    # end (the last Parquet row group, the last CSV line) equal those of the whole series
+    series = sine_series(7200.0)
+    path = tmp_path / f"imu.{suffix}"
+    if suffix == "parquet":
+        series.to_parquet(path, index=False, row_group_size=5000)
+    else:
+        series.to_csv(path, index=False, date_format="%Y-%m-%dT%H:%M:%S.%fZ")
+    first, last = series_span(path, head_rows=2000)
+    assert first == series["timestamp"].iloc[0]
+    assert last == series["timestamp"].iloc[-1]
+    # a bad value in the head is refused with its row
+    series.loc[100, "roll_deg"] = 120.0
+    write_csv_text(tmp_path / "bad.csv", series)
+    with pytest.raises(io.DataValidationError, match=r"row 101 \(line 102\), column 'roll_deg'"):
+        series_span(tmp_path / "bad.csv", head_rows=2000)
 
 
 def test_missing_file_and_empty_file(tmp_path):

@@ -16,9 +16,12 @@ IMU beside the LOS data).
 
 from __future__ import annotations
 
+import gzip
 import logging
+import os
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
+from io import StringIO
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +46,7 @@ __all__ = [
     "iter_los_series",
     "record_window_offset_s",
     "series_motion_statistics",
+    "series_span",
     "window_batches",
 ]
 
@@ -260,6 +264,74 @@ def iter_los_series(
         what="the LOS series",
     ):
         yield df
+
+
+def _last_timestamp(path: Path, csv: bool, validate: Callable[..., pd.DataFrame]) -> pd.Timestamp:
+    """The file's last timestamp without reading it whole: the last row of the last Parquet
+    row group, or the last line of a CSV (read from the end), passed through ``validate``."""
+    if not csv:
+        import pyarrow.parquet as pq
+
+        pf = pq.ParquetFile(path, pre_buffer=False)
+        tail = pf.read_row_group(pf.num_row_groups - 1).to_pandas().iloc[-1:]
+    else:
+        if path.name.lower().endswith(".gz"):  # no seeking in a gzip stream: stream to the end
+            with gzip.open(path, "rt", encoding="utf-8-sig") as fh:
+                header, line = fh.readline(), ""
+                for raw in fh:
+                    line = raw if raw.strip() else line
+        else:
+            with open(path, "rb") as fh:
+                header = fh.readline().decode("utf-8-sig")
+                fh.seek(0, os.SEEK_END)
+                fh.seek(max(0, fh.tell() - 65536))
+                lines = [x for x in fh.read().decode("utf-8", "replace").splitlines() if x.strip()]
+                line = lines[-1] if lines else ""
+        tail = pd.read_csv(StringIO(header.rstrip("\r\n") + "\n" + line.rstrip("\r\n") + "\n"))
+    return pd.Timestamp(
+        validate(tail.reset_index(drop=True), f"{path} (last row)", csv=csv)["timestamp"].iloc[-1]
+    )
+
+
+def series_span(
+    path: str | Path, *, what: str = "imu", head_rows: int = 20_000
+) -> tuple[pd.Timestamp, pd.Timestamp]:
+    """First and last timestamp of a series file, its head validated, in bounded time.
+
+    The check at the start of a pipeline run (:func:`flidar_uq.workflow.inputs.
+    pipeline_preflight`): the first ``head_rows`` rows pass the reader's validation
+    (columns, delimiter, units, the IMU's sampling rate), and the last timestamp comes from
+    the end of the file, so a year of 20-Hz data is not read for it.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The IMU or LOS series (CSV or Parquet).
+    what : {"imu", "los"}
+        Which series (its validation).
+    head_rows : int
+        Rows validated at the head of the file (>= 2).
+
+    Returns
+    -------
+    (pandas.Timestamp, pandas.Timestamp)
+        First and last timestamp (UTC).
+
+    Raises
+    ------
+    flidar_uq.data.io.DataValidationError
+        On a problem of the head (names file, row and column).
+    """
+    if what == "imu":
+        head = next(iter_imu_series(path, chunk_rows=head_rows, allow_small_angles=True))
+
+        def validate(d, s, csv):
+            return io.validate_imu_series(d, s, allow_small_angles=True, csv=csv)
+    else:
+        head = next(iter_los_series(path, chunk_rows=head_rows))
+        validate = io.validate_los_series
+    csv = io._kind(Path(path)) == "csv"
+    return pd.Timestamp(head["timestamp"].iloc[0]), _last_timestamp(Path(path), csv, validate)
 
 
 # --------------------------------------------------------------------------- windows

@@ -41,6 +41,8 @@ __all__ = [
     "SCHEMA_PATH",
     "ConfigError",
     "check_config",
+    "check_reference",
+    "check_series",
     "exit_status",
     "inspect_records",
     "load_config_file",
@@ -596,14 +598,53 @@ def check_reference(config: dict, record_columns=None) -> dict:
         raise ConfigError("reference", str(err), message=str(err)) from None
 
 
+def check_series(campaign: Mapping) -> None:
+    """The raw series of a run, checked before any expensive step.
+
+    The head of the IMU and the LOS series is validated (columns, delimiter, units, the
+    IMU's sampling rate) and their time spans are compared, from the ends of the files
+    (:func:`flidar_uq.data.imu_series.series_span`): a LOS file whose span no IMU sample
+    overlaps is refused. The whole series are validated again as they are read.
+
+    Parameters
+    ----------
+    campaign : mapping
+        The config's ``campaign`` section (``imu_series``, ``los_series``).
+
+    Raises
+    ------
+    flidar_uq.data.io.DataValidationError
+        Naming the file, row and column of the problem.
+    """
+    from flidar_uq.data.imu_series import series_span
+    from flidar_uq.data.io import DataValidationError
+
+    if not campaign.get("imu_series"):
+        return
+    imu = series_span(campaign["imu_series"], what="imu")
+    if not campaign.get("los_series"):
+        return
+    los = series_span(campaign["los_series"], what="los")
+    if los[1] < imu[0] or los[0] > imu[1]:
+        raise DataValidationError(
+            str(campaign["los_series"]),
+            1,
+            "timestamp",
+            f"the LOS series ({los[0].isoformat()} to {los[1].isoformat()}) and the IMU "
+            f"series {campaign['imu_series']} ({imu[0].isoformat()} to {imu[1].isoformat()}) "
+            "do not overlap: the IMU series of this LOS file is missing",
+            csv=str(campaign["los_series"]).lower().endswith((".csv", ".csv.gz")),
+        )
+
+
 def pipeline_preflight(config: dict, *, read_data: bool = True, stream=None) -> int:
     """The checks at the start of a pipeline run (the Snakefile calls this when parsed).
 
     Validates the config (:func:`check_config`, defaults filled in place) and, for
     ``campaign.source: files`` with ``read_data``, reads the record table as the pipeline
     will (:func:`read_campaign_records`), refuses what would make every record
-    uncorrectable (:func:`reference_problems`) and a reference kind missing for records
-    with a reference (:func:`check_reference`). The warnings of :func:`inspect_records`
+    uncorrectable (:func:`reference_problems`), a reference kind missing for records
+    with a reference (:func:`check_reference`) and bad raw series (:func:`check_series`). The warnings of :func:`inspect_records`
     come from the ``validate`` rule (they need the inference layer, slow to import).
 
     Returns
@@ -622,6 +663,7 @@ def pipeline_preflight(config: dict, *, read_data: bool = True, stream=None) -> 
             if problems:
                 raise problems[0]
             check_reference(config, list(records.columns))
+            check_series(camp)
         elif camp["source"] == "virtual":
             check_reference(config)
     except Exception as exc:  # noqa: BLE001 - classified below, re-raised if not bad input
