@@ -45,6 +45,7 @@ if IMU_SERIES:
         params:
             chunk_rows=config["campaign"]["series_chunk_rows"],
             min_coverage_pct=config["qc"]["imu_availability_min_pct"],
+            allow_small_angles=config["campaign"]["allow_small_angles"],
         conda:
             "../envs/flidar_uq.yaml"
         log:

@@ -22,6 +22,7 @@ if LOS_SERIES:
             lever_arm_m=los_lever_arm_m(),
             qc=config["qc"],
             chunk_rows=config["campaign"]["series_chunk_rows"],
+            allow_small_angles=config["campaign"]["allow_small_angles"],
         conda:
             "../envs/flidar_uq.yaml"
         log:

@@ -15,4 +15,5 @@ with step_errors_exit():
         snakemake.output.summary,
         chunk_rows=snakemake.params.chunk_rows,
         min_coverage_pct=snakemake.params.min_coverage_pct,
+        allow_small_angles=snakemake.params.allow_small_angles,
     )

@@ -16,4 +16,5 @@ with step_errors_exit():
         lever_arm_m=snakemake.params.lever_arm_m,
         qc_params=dict(snakemake.params.qc),
         chunk_rows=snakemake.params.chunk_rows,
+        allow_small_angles=snakemake.params.allow_small_angles,
     )
