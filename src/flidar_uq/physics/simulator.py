@@ -29,7 +29,6 @@ from flidar_uq.physics.lidar import (
     retrieve_wind,
     scan_times_azimuths,
     wind_direction_deg,
-    wind_vector_ms,
 )
 from flidar_uq.physics.motion import rotation_matrix, rotation_matrix_derivatives
 
@@ -593,14 +592,22 @@ def sigma_z_grid(
 
 def _moments(z: np.ndarray) -> tuple[float, float]:
     """``(sigma_Z, E(Z))`` of ``Z`` on a uniform product grid of phases (all axes)."""
-    mean = float(z.mean())  # Eqs. (6)-(14) of seed 000: uniform phases, product trapezoid rule
+    # Eqs. (6)-(14) of seed 000: uniform phases, product trapezoid rule (a plain ufunc
+    # reduction: np.mean's Python wrapper costs as much as the sum on these small grids)
+    mean = float(np.add.reduce(z, None)) / z.size
     d = z - mean
     var = float(np.vdot(d, d)) / d.size  # Eq. (4) of seed 000 (two-pass form)
     return math.sqrt(var), mean
 
 
 def _motion_setup(
-    hws_ms, amplitude_deg, period_s, wd_deg, amplitude2_deg, period2_s, lever_arm_m,
+    hws_ms,
+    amplitude_deg,
+    period_s,
+    wd_deg,
+    amplitude2_deg,
+    period2_s,
+    lever_arm_m,
     pitch_amplitude_deg,
 ):
     """``(wind (3,) m/s, roll components, pitch components, lever arm (3,) m)`` of the
@@ -620,7 +627,9 @@ def _motion_setup(
             (a * pitch_amplitude_deg / amplitude_deg if amplitude_deg > 0 else 0.0, t)
             for a, t in comps
         ]
-    return wind_vector_ms(hws_ms, wd_deg), comps, pcomps, arm
+    wd = math.radians(wd_deg)  # scalar form of wind_vector_ms (docs/conventions.md)
+    wind = np.array([-hws_ms * math.sin(wd), -hws_ms * math.cos(wd), 0.0])
+    return wind, comps, pcomps, arm
 
 
 def _z_grid(
@@ -643,7 +652,13 @@ def _z_grid(
     and whether the scan axis is a uniform grid of the scan phase (VAD; DBS: the beams)."""
     g = get_lidar(lidar)
     wind, comps, pcomps, arm = _motion_setup(
-        hws_ms, amplitude_deg, period_s, wd_deg, amplitude2_deg, period2_s, lever_arm_m,
+        hws_ms,
+        amplitude_deg,
+        period_s,
+        wd_deg,
+        amplitude2_deg,
+        period2_s,
+        lever_arm_m,
         pitch_amplitude_deg,
     )
     nscan = _SCAN_PHASE_FACTOR * nphase if nphase_scan is None else int(nphase_scan)
@@ -751,8 +766,8 @@ def sigma_z(
     below ``rtol``: the change from the nested half grid (every second point, no extra
     evaluation) times the contraction ``rho ** (N / 2)`` that geometric convergence at a
     rate ``rho`` per point implies from ``N / 2`` to ``N`` points. ``rho`` is bounded a
-    priori from the motion (VAD kernel, one period >= 2 s, lever-arm ratio
-    ``lambda = A omega |r| / HWS < 0.5``):
+    priori from the motion (VAD kernel, one period >= 2 s, amplitude <= 20 deg, lever-arm
+    ratio ``lambda = A omega |r| / HWS < 0.5``):
     ``rho <= 0.05 + 0.8 A + 2.5 lambda`` (``A`` the larger of the roll and pitch
     amplitudes, rad), about 1.3 times the envelope measured against a 64-point reference
     (docs/simulator.md); elsewhere the contraction is 1 (the plain half-grid difference).
@@ -781,8 +796,8 @@ def sigma_z(
         ``max(sigma_Z, |E(Z)|)``).
     nphase_start, nphase_max : int
         First (even) and largest number of roll/pitch points per phase (the scan phase
-        gets 4 times more, see :func:`sigma_z_grid`). Default start: 8 where ``rho`` is
-        bounded (above), else 16. Default max: 256 for one period, 64 for
+        gets 4 times more, see :func:`sigma_z_grid`). Default start: 8 where ``rho < 0.2``,
+        12 where ``rho < 0.35``, else 16. Default max: 256 for one period, 64 for
         two periods; direct method 64, or 16 with two periods or ``sign_ambiguity``.
     sign_ambiguity : bool
         VAD only: simulate the CW ``|v_r|`` and its nonlinear fit (slow direct method).
@@ -831,12 +846,18 @@ def sigma_z(
         else:  # the direct method is much slower; the CW |v_r| fit is also non-smooth
             nphase_max = 16 if (two or sign_ambiguity) else 64
     wind, comps, pcomps, arm3 = _motion_setup(
-        hws, amp, per, wd, amp2 if two else None, per2 if two else None,
-        float(arm[0]) if arm.shape == (1,) else arm, pamp,
+        hws,
+        amp,
+        per,
+        wd,
+        amp2 if two else None,
+        per2 if two else None,
+        float(arm[0]) if arm.shape == (1,) else arm,
+        pamp,
     )
     rho = _rate_bound(comps, pcomps, arm3, hws) if fast else 1.0
-    if nphase_start is None:
-        nphase_start = 8 if rho < 1.0 else 16
+    if nphase_start is None:  # measured: rho < 0.2 mostly passes at 8, rho < 0.35 at 12
+        nphase_start = 8 if rho < 0.2 else (12 if rho < 0.35 else 16)
     n = _check_scalar("nphase_start", nphase_start)
     if n < 2 or n % 2 or n != int(n):
         raise ValueError(f"sigma_z: nphase_start must be an even number >= 2, got {nphase_start!r}")
@@ -848,9 +869,19 @@ def sigma_z(
             scan_nested, shift = True, hws
         else:
             z, scan_nested = _z_grid(
-                hws, amp, per, wd, g, nphase=n, method="direct", nphase_scan=None,
-                amplitude2_deg=amp2 if two else None, period2_s=per2 if two else None,
-                lever_arm_m=arm3, sign_ambiguity=sign_ambiguity, pitch_amplitude_deg=pamp,
+                hws,
+                amp,
+                per,
+                wd,
+                g,
+                nphase=n,
+                method="direct",
+                nphase_scan=None,
+                amplitude2_deg=amp2 if two else None,
+                period2_s=per2 if two else None,
+                lever_arm_m=arm3,
+                sign_ambiguity=sign_ambiguity,
+                pitch_amplitude_deg=pamp,
             )
             shift = 0.0
         (s, m), half = _moments(z), _moments(_subgrid(z, 2, scan_nested))
@@ -868,10 +899,13 @@ def sigma_z(
 # A-priori bound of the per-point geometric rate of the phase quadrature (issue 13): the
 # trapezoid error of this smooth periodic integrand falls like rho^N, rho set by the size of
 # the perturbation of the retrieved wind (tilt amplitude A and lever-arm head speed over the
-# wind speed). Measured envelope over 900 cases (2-21 m/s, 0-25 deg, 1-20 s, lever arm 0-3 m,
-# any direction, equal / half / zero pitch; benchmarks/sigma_z_speed_accuracy.py, table in
-# docs/simulator.md): rho <= 0.04 + 0.6 A + 1.9 lambda for lambda < 0.5; used with ~1.3x margin.
+# wind speed). Measured envelope of (err(N) / err(N/2))^(2/N), N = 8, 12, 16, against a
+# 64-point reference over 500 cases (2-21 m/s, 0-25 deg, 2-20 s, lever arm 0-3 m, any
+# direction, equal / half / zero pitch; docs/simulator.md): rho <= 0.04 + 0.6 A + 1.9 lambda
+# for lambda < 0.5; used with ~1.3x margin, where it was checked: A <= 20 deg (above, near
+# T = 2 s, the convergence stalls at 1e-5 for a while: no bound).
 _RATE_BOUND = (0.05, 0.8, 2.5)  # (constant, per rad of amplitude, per unit lambda)
+_RATE_AMPLITUDE_MAX_RAD = math.radians(20.0)
 _RATE_LAMBDA_MAX = 0.5  # beyond: the retrieved vector can pass near 0, a cusp (no bound)
 _RATE_PERIOD_MIN_S = 2.0  # shorter periods approach the scan period: not bounded here
 
@@ -881,11 +915,13 @@ def _rate_bound(comps, pcomps, arm_m: np.ndarray, hws_ms: float) -> float:
 
     ``comps``/``pcomps`` are the roll/pitch ``(amplitude rad, period s)`` components, ``arm_m``
     the lever arm (m), ``hws_ms`` the wind speed (m/s). Bounded for one period >= 2 s and
-    a lever-arm ratio ``lambda = A omega |r| / HWS < 0.5``.
+    a lever-arm ratio ``lambda = A omega |r| / HWS < 0.5``, amplitude ``A <= 20`` deg.
     """
     if len(comps) != 1 or comps[0][1] < _RATE_PERIOD_MIN_S:
         return 1.0
     amp = max(comps[0][0], pcomps[0][0])
+    if amp > _RATE_AMPLITUDE_MAX_RAD:
+        return 1.0
     arm = math.sqrt(float(arm_m @ arm_m))
     head_speed = amp * 2.0 * math.pi / comps[0][1] * arm  # m/s
     if head_speed == 0.0:
