@@ -10,7 +10,9 @@ Building blocks (vectorised over any batch of scans, for campaign generators):
 - :func:`simulate_scan` – one scan under a :class:`~flidar_uq.physics.motion.PlatformMotion`;
 - :func:`sigma_z` – std and mean of ``Z = retrieved HWS - true HWS`` over uniform roll,
   pitch and scan phases (seed 000 Eqs. 1-14), by a fast exact reformulation of the VAD
-  retrieval (see ``docs/simulator.md``) and trapezoidal quadrature with adaptive doubling.
+  retrieval (see ``docs/simulator.md``) and trapezoidal quadrature on a grid chosen from an
+  a-priori bound of its geometric convergence rate (doubled while the error estimate is above
+  ``rtol``).
 """
 
 from __future__ import annotations
