@@ -353,7 +353,7 @@ def test_sigma_z_default_within_rtol_dbs(hws, amp, per):
 # ---- issue 13 item 4: the a-priori error bound of the default ---------------------------
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(
     hws=st.floats(2.0, 21.0),
     amp=st.floats(0.0, 20.0),

@@ -347,6 +347,14 @@ def _scan_basis(nscan: int) -> np.ndarray:
     return b
 
 
+@functools.lru_cache(maxsize=8)
+def _scan_times(g: LidarGeometry) -> np.ndarray:
+    """Line-of-sight times of one scan, s (``scan_times_azimuths``; cached, read-only)."""
+    t_s = scan_times_azimuths(g)[0]
+    t_s.flags.writeable = False
+    return t_s
+
+
 def _factor_table(angle_rad: np.ndarray, rate_rad_s: np.ndarray) -> np.ndarray:
     """Stack (1, cos, sin, rate) along a new first axis: (n, m) -> (4, n, m)."""
     f = np.empty((4,) + angle_rad.shape)
@@ -446,7 +454,7 @@ _SCAN_PHASE_FACTOR = 4
 
 def _hws_vad(g, wind, roll_comps, pitch_comps, arm, nphase, nscan):
     """Retrieved HWS (m/s) on the phase grid, axes (scan, pitch phase(s), roll phase(s))."""
-    t_s = np.arange(g.n_los) * g.los_duration_s  # as scan_times_azimuths(g)[0]
+    t_s = _scan_times(g)
     f = _factor_table(*_histories(roll_comps, t_s, nphase))
     gp = f if pitch_comps == roll_comps else _factor_table(*_histories(pitch_comps, t_s, nphase))
     a = _vad_coefficients_ri(g, (wind[0], wind[1], arm[0], arm[1], arm[2]), f, gp)
