@@ -294,12 +294,14 @@ def _xyz_coefficients(u_x: float, u_y: float, arm: np.ndarray) -> np.ndarray:
     return c
 
 
-def _vad_weight_table_uncached(g: LidarGeometry) -> np.ndarray:
+@functools.lru_cache(maxsize=8)
+def _vad_weight_table(g: LidarGeometry) -> np.ndarray:
     """Per-LOS weights ``W[s, k, (c, a), b]`` of ``Re/Im(A0, A1, A2)`` (``c``) in the products
     ``f_a(roll_k) g_b(pitch_k)`` for the five linear sources ``s`` = (U_x, U_y, r_x, r_y, r_z).
 
     The retrieved coefficients are linear in the wind and in the lever arm, so the weights of
-    any case are ``(U_x, U_y, r_x, r_y, r_z) @ W``: a parameter-independent table.
+    any case are ``(U_x, U_y, r_x, r_y, r_z) @ W``: a parameter-independent table (cached
+    per geometry, read-only).
     """
     n = g.n_los
     th = g.half_cone_angle_rad
@@ -326,9 +328,6 @@ def _vad_weight_table_uncached(g: LidarGeometry) -> np.ndarray:
     out = out.reshape(5, n * 96)
     out.flags.writeable = False
     return out
-
-
-_vad_weight_table = functools.lru_cache(maxsize=8)(_vad_weight_table_uncached)
 
 
 @functools.lru_cache(maxsize=32)
