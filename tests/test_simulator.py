@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import flidar_uq
@@ -348,3 +348,56 @@ def test_sigma_z_default_within_rtol_dbs(hws, amp, per):
     scale = max(ref[0], abs(ref[1]))
     assert abs(res.sigma_z_ms - ref[0]) <= 1e-6 * scale
     assert abs(res.mean_z_ms - ref[1]) <= 1e-6 * scale
+
+
+# ---- issue 13 item 4: the a-priori error bound of the default ---------------------------
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    hws=st.floats(2.0, 21.0),
+    amp=st.floats(0.0, 20.0),
+    per=st.floats(2.0, 20.0),
+    wd=st.floats(0.0, 360.0),
+    arm=st.floats(0.0, 3.0),
+    pitch_ratio=st.sampled_from([None, 0.0, 0.5]),
+)
+def test_sigma_z_default_within_rtol_of_converged_reference(hws, amp, per, wd, arm, pitch_ratio):
+    """The default (a-priori rate bound, start grid 8/12/16) against a converged 48 x 48 x 192
+    reference over the project's ranges (bins 2-21 m/s, amplitude <= 20 deg, periods
+    2-20 s, lever arm 0-3 m, any direction, equal / half / zero pitch): relative error
+    <= 1e-6 of max(sigma_Z, |E(Z)|), and the returned error estimate bounds the error."""
+    pamp = None if pitch_ratio is None or amp == 0.0 else pitch_ratio * amp
+    kw = dict(lever_arm_m=arm, pitch_amplitude_deg=pamp)
+    res = sigma_z(hws, amp, per, wd, **kw)
+    assert res.converged
+    # 48 x 48 x 192 (converged to 1e-13 where the bound applies), always finer than the default
+    n_ref = max(48, 2 * res.n_phase)
+    assume(n_ref <= 128)  # beyond (a cusp near HWS ~ head speed) no finer grid fits in memory
+    ref = sigma_z_grid(hws, amp, per, wd, nphase=n_ref, **kw)
+    scale = max(ref[0], abs(ref[1]), 1e-8 * hws)  # floor: no motion, round-off only
+    err = max(abs(res.sigma_z_ms - ref[0]), abs(res.mean_z_ms - ref[1]))
+    assert err <= 1e-6 * scale
+    assert err <= max(res.error_estimate_ms, 1e-12 * hws)  # floor: round-off
+
+
+def test_sigma_z_default_grid_is_chosen_a_priori():
+    # inside the bounded domain one grid is evaluated: 8 points where rho < 0.2, 12 where
+    # rho < 0.35, 16 above, and the result is the converged value
+    cases = [((8.0, 3.0, 4.0), 0.0, 8), ((8.0, 12.0, 6.0), 0.0, 12), ((8.0, 18.0, 6.0), 2.5, 16)]
+    for args, arm, n in cases:
+        res = sigma_z(*args, lever_arm_m=arm)
+        assert res.n_phase == n and res.converged
+        ref = sigma_z_grid(*args, nphase=48, lever_arm_m=arm)
+        assert res.sigma_z_ms == pytest.approx(ref[0], rel=1e-6)
+        assert res.mean_z_ms == pytest.approx(ref[1], abs=1e-6 * ref[0])
+    # outside it (period near the scan period, 25 deg) the plain half-grid difference from
+    # 16 points decides, as before: the 16 -> 32 doubling
+    extreme = sigma_z(8.0, 25.0, 1.2)
+    assert extreme.n_phase == 32 and extreme.converged
+    # the estimate is the half-grid difference contracted by rho^(N/2) < 1 in the domain
+    small = sigma_z(8.0, 3.0, 4.0)
+    z = sigma_z_grid(8.0, 3.0, 4.0, nphase=8)
+    half = sigma_z_grid(8.0, 3.0, 4.0, nphase=4)
+    d = max(abs(z[0] - half[0]), abs(z[1] - half[1]))
+    assert 0 < small.error_estimate_ms < 1e-2 * d
