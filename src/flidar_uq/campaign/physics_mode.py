@@ -351,50 +351,57 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
 # ---------------------------------------------------------------------------
 
 
-def _regime_truth(settings, par, c, roll_deg, pitch_deg, yaw_deg) -> dict:
-    """Truth columns of a record's sea-state and heading regime (issue 11).
+def _regime_truth(settings, par, roll_deg, pitch_deg, yaw_deg) -> list[dict]:
+    """Truth columns of the records' sea-state and heading regime (issue 11), one dict each.
 
     The tilt along / across the wind is the lean of the body z axis toward the direction
     the wind blows to / 90 deg to its left, ``sqrt(2)`` x its std (deg, the amplitude
     convention of docs/conventions.md), from the attitude sampled every 0.1 s. Directions of travel are compass (clockwise
     from north); the swell offset is signed, swell minus downwind, in (-180, 180].
+    ``roll_deg``, ``pitch_deg``, ``yaw_deg``: shape (records of the chunk, LOS slots).
     """
     # on a 0.1-s clock: the attitude varies on seconds, and the full LOS clock (0.02 s)
     # would cost a fifth of the record's simulation time
-    stride = max(int(round(0.1 / (float(settings["record_length_s"]) / roll_deg.size))), 1)
-    roll_deg, pitch_deg, yaw_deg = roll_deg[::stride], pitch_deg[::stride], yaw_deg[::stride]
+    stride = max(int(round(0.1 / (float(settings["record_length_s"]) / roll_deg.shape[-1]))), 1)
+    roll_deg, pitch_deg, yaw_deg = (a[:, ::stride] for a in (roll_deg, pitch_deg, yaw_deg))
     r, p, y = (np.deg2rad(a) for a in (roll_deg, pitch_deg, yaw_deg))
     zx_b, zy_b, zz = np.sin(p) * np.cos(r), -np.sin(r), np.cos(p) * np.cos(r)  # R @ e_z
     ze = np.cos(y) * zx_b - np.sin(y) * zy_b
     zn = np.sin(y) * zx_b + np.cos(y) * zy_b
-    wd = np.deg2rad(par["wd_deg"][c])
+    wd = np.deg2rad(par["wd_deg"])[:, None]
     along = np.rad2deg(np.arctan2(-np.sin(wd) * ze - np.cos(wd) * zn, zz))
     across = np.rad2deg(np.arctan2(np.cos(wd) * ze - np.sin(wd) * zn, zz))
-    yaw_mean = float(_circ_mean_deg(yaw_deg, np.ones(yaw_deg.shape, bool), 0))
+    yaw_mean = _circ_mean_deg(yaw_deg, np.ones(yaw_deg.shape, bool), -1)
     yaw_mean = (yaw_mean + 180.0) % 360.0 - 180.0
-    out = {
-        "true_yaw_deg": yaw_mean,
-        "true_yaw_minus_upwind_deg": float(_wrap180(yaw_mean - (90.0 - par["wd_deg"][c]))),
-        "true_weathervane": float(par["weathervane"][c]),
-        "true_tilt_along_wind_amplitude_deg": float(np.sqrt(2.0) * along.std()),
-        "true_tilt_across_wind_amplitude_deg": float(np.sqrt(2.0) * across.std()),
-        "true_swell_present": np.nan,
-        "true_wind_sea_gamma": np.nan,
-        "true_wind_sea_direction_deg": np.nan,
-        "true_swell_direction_deg": np.nan,
-        "true_swell_direction_offset_deg": np.nan,
-    }
-    if settings["motion"]["model"] == "sea_state":
-        swell = bool(np.isfinite(par["tp2_s"][c]))
-        d2 = float(par["dir2_deg"][c]) % 360.0
-        off = -float(_wrap180(-(d2 - par["wd_deg"][c] - 180.0)))  # (-180, 180]
-        out.update(
-            true_swell_present=float(swell),
-            true_wind_sea_gamma=float(par["gamma1"][c]),
-            true_wind_sea_direction_deg=float(par["dir1_deg"][c]) % 360.0,
-            true_swell_direction_deg=d2 if swell else np.nan,
-            true_swell_direction_offset_deg=off if swell else np.nan,
-        )
+    along_amp = np.sqrt(2.0) * along.std(axis=-1)
+    across_amp = np.sqrt(2.0) * across.std(axis=-1)
+    sea_state = settings["motion"]["model"] == "sea_state"
+    out = []
+    for c in range(roll_deg.shape[0]):
+        d = {
+            "true_yaw_deg": float(yaw_mean[c]),
+            "true_yaw_minus_upwind_deg": float(_wrap180(yaw_mean[c] - (90.0 - par["wd_deg"][c]))),
+            "true_weathervane": float(par["weathervane"][c]),
+            "true_tilt_along_wind_amplitude_deg": float(along_amp[c]),
+            "true_tilt_across_wind_amplitude_deg": float(across_amp[c]),
+            "true_swell_present": np.nan,
+            "true_wind_sea_gamma": np.nan,
+            "true_wind_sea_direction_deg": np.nan,
+            "true_swell_direction_deg": np.nan,
+            "true_swell_direction_offset_deg": np.nan,
+        }
+        if sea_state:
+            swell = bool(np.isfinite(par["tp2_s"][c]))
+            d2 = float(par["dir2_deg"][c]) % 360.0
+            off = -float(_wrap180(-(d2 - par["wd_deg"][c] - 180.0)))  # (-180, 180]
+            d.update(
+                true_swell_present=float(swell),
+                true_wind_sea_gamma=float(par["gamma1"][c]),
+                true_wind_sea_direction_deg=float(par["dir1_deg"][c]) % 360.0,
+                true_swell_direction_deg=d2 if swell else np.nan,
+                true_swell_direction_offset_deg=off if swell else np.nan,
+            )
+        out.append(d)
     return out
 
 
@@ -507,6 +514,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     los_frames, imu_att, imu_ns = [], [], []
     start0 = pd.Timestamp(settings["start_utc"])
     rate = float(settings["imu"]["rate_hz"])
+    regimes = _regime_truth(settings, par, roll, pitch, yaw)
     for c, s in enumerate(series):
         rec = int(rec_idx[c])
         ts = start0 + pd.Timedelta(seconds=rec * t_len)
@@ -533,7 +541,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
             w1_true, t2 = 1.0, np.nan
             t1 = par["period_s"][c] if tilted else np.nan
             true_period = t1
-        regime = _regime_truth(settings, par, c, roll[c], pitch[c], yaw[c])
+        regime = regimes[c]
         ref_days = settings["reference_days"]
         point_ref = settings["reference_instrument"] != "fixed_lidar"
         has_ref = ref_days is None or rec * t_len < float(ref_days) * 86400.0
