@@ -365,9 +365,10 @@ def _regime_truth(settings, par, roll_deg, pitch_deg, yaw_deg) -> list[dict]:
     stride = max(int(round(0.1 / (float(settings["record_length_s"]) / roll_deg.shape[-1]))), 1)
     roll_deg, pitch_deg, yaw_deg = (a[:, ::stride] for a in (roll_deg, pitch_deg, yaw_deg))
     r, p, y = (np.deg2rad(a) for a in (roll_deg, pitch_deg, yaw_deg))
-    zx_b, zy_b, zz = np.sin(p) * np.cos(r), -np.sin(r), np.cos(p) * np.cos(r)  # R @ e_z
-    ze = np.cos(y) * zx_b - np.sin(y) * zy_b
-    zn = np.sin(y) * zx_b + np.cos(y) * zy_b
+    cr, cy, sy = np.cos(r), np.cos(y), np.sin(y)
+    zx_b, zy_b, zz = np.sin(p) * cr, -np.sin(r), np.cos(p) * cr  # R @ e_z
+    ze = cy * zx_b - sy * zy_b
+    zn = sy * zx_b + cy * zy_b
     wd = np.deg2rad(par["wd_deg"])[:, None]
     along = np.rad2deg(np.arctan2(-np.sin(wd) * ze - np.cos(wd) * zn, zz))
     across = np.rad2deg(np.arctan2(np.cos(wd) * ze - np.sin(wd) * zn, zz))
@@ -515,6 +516,8 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     start0 = pd.Timestamp(settings["start_utc"])
     rate = float(settings["imu"]["rate_hz"])
     regimes = _regime_truth(settings, par, roll, pitch, yaw)
+    # truth of the motion (noise-free, gap-free series on the LOS clock)
+    roll_amp, pitch_amp = (np.sqrt(2.0) * a.std(axis=-1) for a in (roll, pitch))
     for c, s in enumerate(series):
         rec = int(rec_idx[c])
         ts = start0 + pd.Timedelta(seconds=rec * t_len)
@@ -528,9 +531,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
             g = (t_imu >= s["imu_gap"][0]) & (t_imu < s["imu_gap"][1])
             for a in att:
                 a[g] = np.nan
-        # truth of the motion (noise-free, gap-free series on the LOS clock)
-        true_ra = np.sqrt(2.0) * roll[c].std()
-        true_pa = np.sqrt(2.0) * pitch[c].std()
+        true_ra, true_pa = roll_amp[c], pitch_amp[c]
         true_amp = np.sqrt(0.5 * (true_ra**2 + true_pa**2))
         if settings["motion"]["model"] == "sea_state":
             w1_true = par["weight1"][c]
