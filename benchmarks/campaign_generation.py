@@ -1,12 +1,18 @@
-"""Benchmark: wall time and peak memory of the virtual-campaign generator (issue 4).
+"""Benchmark: wall time, CPU time and peak memory of the virtual-campaign generator.
 
-Runs the shipped ``default`` scenario (8640 10-min records x 3 heights, 60 days) with
-1 and 2 worker processes, plus smaller campaigns to show the scaling, and writes
-``benchmarks/results/campaign_generation.csv`` and ``.png``. Target: the default
-campaign in <= 120 s on 2 cores.
+Issue 13 item 7: the shipped ``default`` scenario (8640 10-min records x 3 heights,
+60 days) in <= 25 s on 2 cores, results unchanged. The current generator and the
+reference generator of commit :data:`REFERENCE_COMMIT` (before the issue-13 work, read
+from the git history into a temporary module, so no old code lives in ``src``) run side
+by side in one process, alternating, on the same records: 1 worker on
+``--small`` records (CPU per record, robust to other jobs) and 2 workers on the whole
+default campaign (the wall time of the pipeline's ``campaign`` rule, ``threads: 2``).
+Each pair's outputs are compared column by column (max absolute and relative
+difference, byte identity). Writes ``benchmarks/results/campaign_generation.csv``,
+``campaign_generation_diff.csv`` and ``campaign_generation.png``.
 
-Usage: ``python benchmarks/campaign_generation.py [--quick]`` (``--quick``: 576
-records only, for a smoke run).
+Usage: ``python benchmarks/campaign_generation.py [--quick] [--small N]``
+(``--quick``: 144 and 576 records only, for a smoke run).
 
 ``--scenarios [N]``: CPU seconds per record of each shipped scenario of issue 11
 (misaligned swell, weathervane/fixed heading, broadband/narrow seas, short reference,
@@ -23,15 +29,19 @@ for _k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_k, "1")  # one BLAS thread per process (2 processes on 2 cores)
 
 import argparse  # noqa: E402
+import importlib  # noqa: E402
 import resource  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import matplotlib  # noqa: E402
-import matplotlib.ticker  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from flidar_uq.campaign.physics_mode import generate_campaign  # noqa: E402
@@ -39,11 +49,39 @@ from flidar_uq.campaign.scenarios import load_scenario  # noqa: E402
 from flidar_uq.data.io import validate_records  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
-TARGET_S = 120.0
+REPO = Path(__file__).resolve().parents[1]
+TARGET_S = 25.0  # issue 13 item 7: the default campaign on 2 cores
+#: The generator before the issue-13 speed work (the reference of "results unchanged").
+REFERENCE_COMMIT = "38465224c0a642f774a011f0cd7d14cf413d6d04"
+SEED = 20181122  # config/config.yaml campaign.seed
+
+
+def _reference_generator():
+    """``generate_campaign`` of :data:`REFERENCE_COMMIT`, imported from a temporary file.
+
+    The file is a module on ``sys.path`` (spawned worker processes inherit the path and
+    import it by name, as they import the current generator).
+    """
+    src = subprocess.run(
+        [
+            "git",
+            "-C",
+            str(REPO),
+            "show",
+            f"{REFERENCE_COMMIT}:src/flidar_uq/campaign/physics_mode.py",
+        ],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout
+    tmp = Path(tempfile.mkdtemp(prefix="campaign_reference_"))
+    (tmp / "_campaign_reference.py").write_text(src)
+    sys.path.insert(0, str(tmp))
+    return importlib.import_module("_campaign_reference").generate_campaign
 
 
 def _peak_mb() -> tuple[float, float]:
-    """Peak resident memory (MB) of this process and of the largest child process."""
+    """Peak resident memory (MB) of this process and of the largest child process so far."""
     own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     child = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
     return own, child
@@ -56,17 +94,19 @@ def _cpu_s() -> float:
     return own.ru_utime + own.ru_stime + ch.ru_utime + ch.ru_stime
 
 
-def run(n_records: int, n_workers: int, seed: int = 1) -> dict:
+def run(gen, impl: str, n_records: int, n_workers: int) -> tuple[dict, pd.DataFrame]:
+    """Time ``gen`` on the first ``n_records`` of the default scenario."""
     sc = load_scenario("default") | {"n_records": n_records}
     load0 = os.getloadavg()[0]
     cpu0 = _cpu_s()
     t0 = time.perf_counter()
-    out = generate_campaign(sc, seed, n_workers=n_workers)
+    out = gen(sc, SEED, n_workers=n_workers)
     wall = time.perf_counter() - t0
     cpu = _cpu_s() - cpu0
     validate_records(out.records, "benchmark")
     own, child = _peak_mb()
     return {
+        "implementation": impl,
         "n_records": n_records,
         "n_rows": len(out.records),
         "n_workers": n_workers,
@@ -83,7 +123,48 @@ def run(n_records: int, n_workers: int, seed: int = 1) -> dict:
         # wall time in context (2 cores: load > 2 means the run did not own them)
         "load_avg_before": load0,
         "load_avg_after": os.getloadavg()[0],
-    }
+    }, out.records
+
+
+def compare(ref: pd.DataFrame, new: pd.DataFrame, n_records: int) -> pd.DataFrame:
+    """Max absolute / relative difference of every column of two campaigns."""
+    if list(ref.columns) != list(new.columns) or len(ref) != len(new):
+        raise RuntimeError(
+            f"campaigns differ in shape: {ref.shape} vs {new.shape}, "
+            f"columns {sorted(set(ref.columns) ^ set(new.columns))}"
+        )
+    rows = []
+    for c in ref.columns:
+        a, b = ref[c], new[c]
+        if a.dtype.kind == "f":
+            x, y = a.to_numpy(), b.to_numpy()
+            nan_mismatch = int((np.isnan(x) != np.isnan(y)).sum())
+            ok = np.isfinite(x) & np.isfinite(y)
+            d = np.abs(x[ok] - y[ok])
+            rel = d / np.maximum(np.abs(x[ok]), np.finfo(float).tiny)
+            rows.append(
+                {
+                    "n_records": n_records,
+                    "column": c,
+                    "identical": bool(np.array_equal(x, y, equal_nan=True) and a.dtype == b.dtype),
+                    "max_abs_diff": float(d.max()) if d.size else 0.0,
+                    "max_rel_diff": float(rel.max()) if rel.size else 0.0,
+                    "nan_mismatch": nan_mismatch,
+                }
+            )
+        else:
+            same = bool(a.equals(b))
+            rows.append(
+                {
+                    "n_records": n_records,
+                    "column": c,
+                    "identical": same,
+                    "max_abs_diff": np.nan,
+                    "max_rel_diff": np.nan,
+                    "nan_mismatch": 0 if same else -1,
+                }
+            )
+    return pd.DataFrame(rows)
 
 
 SCENARIOS = (
@@ -131,6 +212,7 @@ def scenario_speeds(n_records: int = 96, seed: int = 1) -> pd.DataFrame:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="small campaigns only")
+    ap.add_argument("--small", type=int, default=576, help="records of the 1-worker runs")
     ap.add_argument("--plot-only", action="store_true", help="redraw the PNG from the CSV")
     ap.add_argument(
         "--scenarios",
@@ -146,61 +228,89 @@ def main() -> None:
         scenario_speeds(args.scenarios)
         return
     full = int(load_scenario("default")["n_records"])
-    plan = (
-        [(144, 1), (576, 1), (576, 2)] if args.quick else [(576, 1), (576, 2), (2304, 2), (full, 2)]
-    )
-    rows = []
+    plan = [(144, 1), (576, 2)] if args.quick else [(args.small, 1), (full, 2)]
     suffix = "_quick" if args.quick else ""
-    if args.plot_only:
-        plan = []
-        rows = pd.read_csv(RESULTS / f"campaign_generation{suffix}.csv").to_dict("records")
-    for n, w in plan:
-        r = run(n, w)
-        rows.append(r)
-        print(
-            f"n_records={n:5d} workers={w}: {r['wall_s']:7.1f} s  "
-            f"({r['ms_per_record']:.1f} ms/record; CPU {r['cpu_s']:.1f} s)  peak parent {r['peak_parent_mb']:.0f} MB, "
-            f"largest worker {r['peak_worker_mb']:.0f} MB; load average "
-            f"{r['load_avg_before']:.1f} -> {r['load_avg_after']:.1f}"
-        )
-    df = pd.DataFrame(rows)
+    csv, diff_csv = (RESULTS / f"campaign_generation{s}{suffix}.csv" for s in ("", "_diff"))
     RESULTS.mkdir(parents=True, exist_ok=True)
-    df.to_csv(RESULTS / f"campaign_generation{suffix}.csv", index=False)
+    if args.plot_only:
+        df = pd.read_csv(csv)
+    else:
+        gens = {"reference": _reference_generator(), "current": generate_campaign}
+        for g in gens.values():  # warm-up: imports, caches
+            g(load_scenario("default") | {"n_records": 2}, SEED, n_workers=1)
+        rows, diffs = [], []
+        for n, w in plan:
+            outs = {}
+            for impl, g in gens.items():
+                r, outs[impl] = run(g, impl, n, w)
+                rows.append(r)
+                print(
+                    f"{impl:9s} n_records={n:5d} workers={w}: {r['wall_s']:7.1f} s wall, "
+                    f"CPU {r['cpu_s']:.1f} s ({r['cpu_ms_per_record']:.1f} ms/record); "
+                    f"peak parent {r['peak_parent_mb']:.0f} MB, largest worker "
+                    f"{r['peak_worker_mb']:.0f} MB; load average "
+                    f"{r['load_avg_before']:.1f} -> {r['load_avg_after']:.1f}",
+                    flush=True,
+                )
+            d = compare(outs["reference"], outs["current"], n)
+            diffs.append(d)
+            worst = d.sort_values("max_rel_diff", ascending=False).iloc[0]
+            print(
+                f"  outputs: {int(d['identical'].sum())}/{len(d)} columns byte-identical"
+                + (
+                    ""
+                    if d["identical"].all()
+                    else f"; largest relative difference "
+                    f"{worst['max_rel_diff']:.2g} ({worst['column']})"
+                ),
+                flush=True,
+            )
+        df = pd.DataFrame(rows)
+        df.to_csv(csv, index=False)
+        pd.concat(diffs, ignore_index=True).to_csv(diff_csv, index=False)
 
-    fig, ax = plt.subplots(1, 2, figsize=(9, 3.5))
-    for w, g in df.groupby("n_workers"):
-        ax[0].plot(g["n_records"], g["wall_s"], "o-", label=f"{w} worker(s), wall")
-        ax[0].plot(g["n_records"], g["cpu_s"] / w, "s--", ms=4, label=f"{w} worker(s), CPU / {w}")
-        ax[1].plot(g["n_records"], g["ms_per_record"], "o-", label=f"{w} worker(s)")
-    ax[0].axhline(TARGET_S, color="k", ls="--", lw=0.8, label="target 120 s")
-    ax[0].axvline(full, color="grey", ls=":", lw=0.8)
-    ax[0].set(
-        xlabel="10-min records (3 heights)", ylabel="wall time (s)", xscale="log", yscale="log"
+    fig, ax = plt.subplots(1, 2, figsize=(9, 3.6))
+    impls = ["reference", "current"]
+    for k, (n, g) in enumerate(df.groupby("n_records", sort=True)):
+        g = g.set_index("implementation").loc[impls]
+        w = int(g["n_workers"].iloc[0])
+        x = np.arange(2) + 3 * k
+        ax[0].bar(x, g["wall_s"], color=["0.6", "C0"])
+        ax[0].plot(x, g["cpu_s"] / w, "k_", ms=14, mew=2)
+        for xi, v in zip(x, g["wall_s"], strict=True):
+            ax[0].text(xi, v, f"{v:.1f}", ha="center", va="bottom", fontsize=8)
+        ax[0].text(x.mean(), 0, f"{n} rec.\n{w} worker(s)", ha="center", va="top", fontsize=8)
+        ax[1].bar(x, g["cpu_ms_per_record"], color=["0.6", "C0"])
+    ax[0].axhline(
+        TARGET_S, color="r", ls="--", lw=0.8, label=f"target {TARGET_S:.0f} s (full, 2 cores)"
     )
-    ax[1].set(xlabel="10-min records (3 heights)", ylabel="ms per record", xscale="log")
-    for a in ax:
-        a.xaxis.set_major_formatter(matplotlib.ticker.ScalarFormatter())
-        a.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
-        a.set_xticks(sorted(df["n_records"].unique()))
-    ax[0].legend(fontsize=8)
-    ax[1].legend(fontsize=8)
-    fig.suptitle("Virtual campaign generation (physics mode, ZephIR, 50 LOS per scan)")
+    ax[0].plot([], [], "k_", ms=10, mew=2, label="CPU s / workers")
+    ax[0].bar([0], [0], color="0.6", label=f"reference ({REFERENCE_COMMIT[:7]})")
+    ax[0].bar([0], [0], color="C0", label="current")
+    ax[0].set(ylabel="wall time (s)", xticks=[])
+    ax[1].set(ylabel="CPU ms per record", xticks=[])
+    ax[0].legend(fontsize=7)
+    load = df["load_avg_before"].max()
+    fig.suptitle(
+        f"Virtual campaign generation, default scenario (max 1-min load average {load:.1f} on 2 cores)",
+        fontsize=9,
+    )
     fig.tight_layout()
     fig.savefig(RESULTS / f"campaign_generation{suffix}.png", dpi=110)
 
     # the measured figures side by side
-    last = df.iloc[-1]
-    est = last["ms_per_record"] * full / 1e3
-    est_cpu = last["cpu_ms_per_record"] * full / 1e3 / last["n_workers"]
-    print(
-        f"\ndefault campaign ({full} records x 3 heights), {int(last['n_workers'])} workers: "
-        f"{'measured' if last['n_records'] == full else 'extrapolated'} wall {est:.1f} s "
-        f"(load average {last['load_avg_before']:.1f}) vs target {TARGET_S:.0f} s "
-        f"(ratio {est / TARGET_S:.2f}); CPU-time estimate on {int(last['n_workers'])} dedicated "
-        f"cores {est_cpu:.1f} s (ratio {est_cpu / TARGET_S:.2f}); peak memory parent "
-        f"{df['peak_parent_mb'].max():.0f} MB + {int(last['n_workers'])} x worker <= "
-        f"{df['peak_worker_mb'].max():.0f} MB"
-    )
+    for n, g in df.groupby("n_records", sort=True):
+        g = g.set_index("implementation")
+        w = int(g.loc["current", "n_workers"])
+        print(
+            f"\n{n} records, {w} worker(s): wall {g.loc['reference', 'wall_s']:.1f} s -> "
+            f"{g.loc['current', 'wall_s']:.1f} s (x{g.loc['reference', 'wall_s'] / g.loc['current', 'wall_s']:.2f}); "
+            f"CPU {g.loc['reference', 'cpu_ms_per_record']:.1f} -> "
+            f"{g.loc['current', 'cpu_ms_per_record']:.1f} ms/record "
+            f"(x{g.loc['reference', 'cpu_s'] / g.loc['current', 'cpu_s']:.2f}); "
+            f"CPU / {w} = {g.loc['current', 'cpu_s'] / w:.1f} s vs target {TARGET_S:.0f} s "
+            f"(load average {g['load_avg_before'].max():.1f})"
+        )
 
 
 if __name__ == "__main__":

@@ -183,6 +183,39 @@ def test_same_seed_identical_and_independent_of_chunking_and_workers():
     assert not np.allclose(a["hws_std_ms"], d["hws_std_ms"], equal_nan=True)
 
 
+#: Column sums of the default scenario's first 3 records (seed 20181122, 9 rows) from the
+#: generator of commit 3846522, before the issue-13 speed work (benchmarks/campaign_generation.py
+#: compares the two in full). The speed work left the output byte-identical on the
+#: benchmark machine; the tolerance allows for other BLAS kernels (FMA order, ~1e-15).
+DEFAULT_REFERENCE_SUMS = {
+    "hws_mean_ms": 50.88965295297946,
+    "hws_std_ms": 6.368770488471178,
+    "wd_mean_deg": 1549.730271157997,
+    "sv": 0.1766179771970157,
+    "ref_hws_std_ms": 6.115821453809223,
+    "true_ti": 1.0224166790237497,
+    "true_sigma_z_ms": 1.7745832033108186,
+    "true_roll_amplitude_deg": 19.858460359640898,
+    "true_tilt_along_wind_amplitude_deg": 20.186146430222042,
+    "roll_amplitude_deg": 19.87339889376645,
+    "period1_s": 20.192544966209816,
+    "imu_availability_pct": 900.0,
+    "tilt_along_wind_std_deg": 14.2336286048318,
+    "tilt_period_mean_s": 22.042694471690083,
+}
+
+
+def test_default_scenario_unchanged_and_independent_of_workers():
+    sc = load_scenario("default") | {"n_records": 3}
+    a = generate_campaign(sc, 20181122, n_workers=1, chunk_records=3).records
+    assert a[list(DEFAULT_REFERENCE_SUMS)].notna().all().all()
+    sums = {c: float(a[c].sum()) for c in DEFAULT_REFERENCE_SUMS}
+    assert sums == pytest.approx(DEFAULT_REFERENCE_SUMS, rel=1e-10, abs=0.0)
+    # two spawned workers, one record per chunk: byte-identical to the single process
+    b = generate_campaign(sc, 20181122, n_workers=2, chunk_records=1).records
+    pd.testing.assert_frame_equal(a, b, check_exact=True)
+
+
 # --------------------------------------------------------------------------- configs
 
 
