@@ -427,3 +427,22 @@ def test_record_sbc_replication_with_a_reference_lidar_pair_term():
         np.random.SeedSequence(12), n_records=30, settings=tiny, n_rank_draws=19, pair_log_sd=0.04
     )
     assert pd.Series(again).equals(pd.Series(row))
+
+
+@pytest.mark.slow
+def test_record_model_sbc_with_a_known_reference_pair_scatter():
+    """The record model with the pair term (a weathervaning buoy's 0.045 against a fixed
+    lidar): >= 100 replications, rank chi-square p > 0.01 for each of the five parameters."""
+    from flidar_uq.validation.sbc import SBC_RECORD_PARAMS, rank_uniformity, sbc_record_replication
+
+    sur = get_surrogate("zephir300")
+    rows = [
+        sbc_record_replication(child, n_records=400, n_rank_draws=99, surrogate=sur,
+                               pair_log_sd=0.045)
+        for child in np.random.SeedSequence(20261129).spawn(100)
+    ]  # fmt: skip
+    pvalues = {
+        name: rank_uniformity([r[f"rank_{name}"] for r in rows], 99, 10)[0]
+        for name in SBC_RECORD_PARAMS
+    }
+    assert all(p > 0.01 for p in pvalues.values()), pvalues
