@@ -145,3 +145,18 @@ def test_report_regime_table_scores_qc_kept_records_only():
     assert tab.loc[("all", "all"), "coverage"] == pytest.approx(0.5)
     assert tab.loc[("sea_state", "swell"), "mean_rel_error"] == pytest.approx(0.2)
     assert "heading" not in tab.index.get_level_values("grouping")  # no heading truth
+
+
+def test_record_heading_is_the_circular_mean_of_the_imu_yaw_over_the_record():
+    from flidar_uq.validation.regimes import _record_heading_deg
+
+    t0 = pd.Timestamp("2020-01-01T00:00:00Z")
+    t = t0 + pd.to_timedelta(np.arange(0, 1200, 100), unit="s")  # two 10-min records
+    yaw = np.array([350.0, 10.0, 355.0, 5.0, np.nan, 0.0] + [170.0, -170.0] * 3)
+    imu = pd.DataFrame({"timestamp": t, "yaw_deg": yaw})
+    rec = pd.DataFrame({"timestamp": [t0, t0, t0 + pd.Timedelta(minutes=10),
+                                      t0 + pd.Timedelta(minutes=20)]})  # fmt: skip
+    got = _record_heading_deg(imu, rec, 600.0)
+    np.testing.assert_allclose(got[:2], 0.0, atol=1e-9)  # across 0 deg, NaN left out
+    assert abs(got[2]) == pytest.approx(180.0)
+    assert np.isnan(got[3])  # no IMU for that record
