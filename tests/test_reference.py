@@ -387,10 +387,11 @@ def test_reference_sampling_is_propagated_once():
                     info=dict(glob.info))  # fmt: skip
     width = 2 * 1.645
     eta = np.sqrt(0.05**2 - 2 * 0.03**2)
-    split = _interval_log_width(fit)  # default c = 0
+    split = _interval_log_width(fit, reference_sampling_correlation=0.0)
     same_scans = _interval_log_width(fit, reference_sampling_correlation=1.0)
     assert split == pytest.approx(width * np.hypot(eta, 0.03), rel=0.08)
     assert same_scans == pytest.approx(width * np.hypot(0.05, 0.03), rel=0.08)
+    assert _interval_log_width(fit) == pytest.approx(same_scans, rel=0.02)  # default: whole
     fit.info["pair_log_sd_median"] = 0.04  # kappa of a fit with the pair term: as is
     assert _interval_log_width(fit) == pytest.approx(same_scans, rel=0.02)
     with pytest.raises(ValueError, match="reference_sampling_correlation must be in"):

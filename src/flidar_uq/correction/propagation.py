@@ -413,7 +413,7 @@ def corrected_ti(
     lidar_std_ratio=None,
     point_log_sd=None,
     lidar_std_ratio_log_sd: float = 0.0,
-    reference_sampling_correlation=REFERENCE_SAMPLING_CORRELATION,
+    reference_sampling_correlation=None,
     baseline: tuple[np.ndarray, float] | None = None,
     hold: Collection[str] = (),
     return_draws: bool = False,
@@ -452,13 +452,15 @@ def corrected_ti(
         Prior sd of ``log g`` (-), with ``lidar_std_ratio``: every posterior draw divides
         by ``g exp(N(0, sd^2))``, one factor per draw shared by all records (the ratio's
         error is systematic: probe-volume averaging, stability). Default 0: g exact.
-    reference_sampling_correlation : float or array_like, shape (n_records,)
+    reference_sampling_correlation : float or array_like, shape (n_records,), optional
         With ``point_log_sd`` (a lidar reference) and a global fit that did not take the
         two lidars' sampling scatter as known (no ``info["pair_log_sd_median"]``):
         correlation ``c`` in [-1, 1] (-) of the reference lidar's and the floating lidar's
         sampling errors against the point wind; the part ``2 (1 - c) sd^2`` of ``kappa^2``
-        is not propagated (:func:`split_noise`). Default
-        :data:`REFERENCE_SAMPLING_CORRELATION` (a lidar on its own scan schedule).
+        is not propagated (:func:`split_noise`; :data:`REFERENCE_SAMPLING_CORRELATION`
+        for a lidar on its own scan schedule). Default None: ``kappa`` propagated whole,
+        as ``c = 1`` (never narrower; the reference's sampling counted twice when the
+        lidars' scans differ).
     baseline : (numpy.ndarray, float), optional
         :func:`variance_law_baselines` of ``records`` with the same surrogate, when the caller
         has it already (computed here otherwise).
@@ -529,9 +531,13 @@ def corrected_ti(
         raise ValueError(
             f"corrected_ti: lidar_std_ratio_log_sd={lidar_std_ratio_log_sd} must be >= 0"
         )
-    corr = np.broadcast_to(np.asarray(reference_sampling_correlation, dtype=float), (len(records),))
-    if np.any(~((corr >= -1.0) & (corr <= 1.0))):
-        raise ValueError("corrected_ti: reference_sampling_correlation must be in [-1, 1]")
+    corr = None
+    if reference_sampling_correlation is not None:
+        corr = np.broadcast_to(
+            np.asarray(reference_sampling_correlation, dtype=float), (len(records),)
+        )
+        if np.any(~((corr >= -1.0) & (corr <= 1.0))):
+            raise ValueError("corrected_ti: reference_sampling_correlation must be in [-1, 1]")
     if lidar_std_ratio_log_sd > 0.0 and lidar_std_ratio is None:
         raise ValueError("corrected_ti: lidar_std_ratio_log_sd needs lidar_std_ratio")
     if lidar_std_ratio is not None:
@@ -563,7 +569,7 @@ def corrected_ti(
 
     def own_noise(mask):
         """The floating lidar's relative noise on s, (ndraws, n_mask) or (ndraws, 1)."""
-        if pair_known or point_log_sd is None:
+        if pair_known or point_log_sd is None or corr is None:
             return kappa
         return split_noise(kappa, log_sd[mask][None, :], corr[mask][None, :])
 

@@ -194,6 +194,7 @@ def scenario_records(
         lidar_std_ratio=g,
         point_log_sd=sd,
         lidar_std_ratio_log_sd=lidar_std_ratio_log_sd if g is not None else 0.0,
+        reference_sampling_correlation=REFERENCE_SAMPLING_CORRELATION,
         baseline=(np.full(len(kept), np.nan), np.nan),
         seed=ss_prop,
     )
