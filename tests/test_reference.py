@@ -320,3 +320,130 @@ def test_weathervaning_buoy_with_a_cup_reference_is_calibrated(seed):
     assert groups["coverage"].between(0.85, 0.95).all(), shown
     assert (groups["mean_rel_error"].abs() <= 0.015).all(), shown
     assert abs(overall["mean_rel_error"]) <= 0.01, shown
+
+
+# --------------------------------------------------------------------------- noise split
+
+
+def test_pair_scatter_is_the_uncorrelated_part_of_both_lidars_sampling():
+    from flidar_uq.correction.propagation import reference_pair_log_sd, split_noise
+
+    sd = np.array([0.03, 0.035])
+    np.testing.assert_allclose(reference_pair_log_sd(sd, 0.0), np.sqrt(2) * sd)
+    np.testing.assert_allclose(reference_pair_log_sd(sd, 1.0), 0.0)
+    np.testing.assert_allclose(reference_pair_log_sd(sd, [0.5, -0.5]), [0.03, 0.035 * np.sqrt(3)])
+    # kappa^2 = eta^2 + 2 (1 - c) sd^2: eta is what is left of kappa
+    kappa = 0.05
+    np.testing.assert_allclose(split_noise(kappa, 0.03, 0.0), np.sqrt(0.05**2 - 2 * 0.03**2))
+    np.testing.assert_allclose(split_noise(kappa, 0.03, 1.0), kappa)  # same scans: all eta
+    np.testing.assert_allclose(split_noise(kappa, 0.0, 0.0), kappa)  # a cup: nothing to split
+    assert split_noise(0.02, 0.03, 0.0) == 0.0  # the lidars agree better than c implies
+    with pytest.raises(ValueError, match="correlation must be in"):
+        reference_pair_log_sd(sd, 1.5)
+
+
+def test_record_likelihood_adds_the_pair_scatter_to_kappa_in_quadrature():
+    from flidar_uq.inference import log_prob_record_model
+
+    rng = np.random.default_rng(3)
+    n = 50
+    s, r = rng.uniform(0.5, 1.5, n), rng.uniform(0.5, 1.5, n)
+    szr, u2 = rng.uniform(0.05, 0.3, n), rng.uniform(0.0, 0.01, n)
+    kappa, pair = 0.02, 0.04
+    theta = np.array([[0.1, np.log(kappa), np.log(0.1), 2.0, 0.0]])
+    both = np.array([[0.1, np.log(np.hypot(kappa, pair)), np.log(0.1), 2.0, 0.0]])
+    with_pair = log_prob_record_model(theta, s, r, szr, u2, pair_log_sd=np.full(n, pair))
+    merged = log_prob_record_model(both, s, r, szr, u2)
+    # equal likelihood; the priors differ only by the half-normal of log kappa
+    from flidar_uq.inference.densities import _log_halfnormal_logscale
+    from flidar_uq.inference.priors import Priors
+
+    dprior = _log_halfnormal_logscale(theta[:, 1], Priors().kappa_scale) - _log_halfnormal_logscale(
+        both[:, 1], Priors().kappa_scale
+    )
+    np.testing.assert_allclose(with_pair - merged, dprior, rtol=1e-9)
+
+
+def _interval_log_width(glob, **kw):
+    rec = _records([1.0, 1.1, 1.2, 0.9] * 50)
+    bins, _ = _fits()
+    out, _ = corrected_ti(
+        rec, bins, glob, surrogate=get_surrogate("zephir300"), seed=5, ndraws=4000,
+        lidar_std_ratio=np.full(len(rec), 1.03), point_log_sd=np.full(len(rec), 0.03), **kw
+    )  # fmt: skip
+    return np.median(np.log(out["sigma_corrected_hi_ms"] / out["sigma_corrected_lo_ms"]))
+
+
+def test_reference_sampling_is_propagated_once():
+    # kappa 0.05 against a reference lidar whose point scatter is 0.03: independent lidars
+    # (c = 0) leave eta^2 = 0.05^2 - 2 0.03^2 of it to the floating lidar; its own 0.03 is
+    # drawn as e. A fit that took the pair as known has kappa = eta already.
+    from flidar_uq.inference import GlobalFit
+
+    _, glob = _fits()
+    shape = glob.draws["rho"].shape
+    draws = {**glob.draws, "kappa": np.full(shape, 0.05), "rho": np.full(shape, 0.0)}
+    fit = GlobalFit(draws=draws, log_lik=glob.log_lik, diagnostics={}, failure_reasons=[],
+                    info=dict(glob.info))  # fmt: skip
+    width = 2 * 1.645
+    eta = np.sqrt(0.05**2 - 2 * 0.03**2)
+    split = _interval_log_width(fit, reference_sampling_correlation=0.0)
+    same_scans = _interval_log_width(fit, reference_sampling_correlation=1.0)
+    assert split == pytest.approx(width * np.hypot(eta, 0.03), rel=0.08)
+    assert same_scans == pytest.approx(width * np.hypot(0.05, 0.03), rel=0.08)
+    assert _interval_log_width(fit) == pytest.approx(same_scans, rel=0.02)  # default: whole
+    fit.info["pair_log_sd_median"] = 0.04  # kappa of a fit with the pair term: as is
+    assert _interval_log_width(fit) == pytest.approx(same_scans, rel=0.02)
+    with pytest.raises(ValueError, match="reference_sampling_correlation must be in"):
+        _interval_log_width(fit, reference_sampling_correlation=2.0)
+
+
+def test_two_lidars_sampling_errors_decorrelate_with_azimuth_offset_and_own_schedules():
+    from flidar_uq.physics.lidar_response import lidar_pair_correlation
+
+    kw = dict(heights_in_turn=3, refocus_delay_s=(0.3, 0.7), turbulence_dt_s=0.1, n_records=120)
+    c = lidar_pair_correlation([0.0, 30.0, 90.0, 180.0, -90.0], seed=7, **kw)
+    assert c[0] > 0.97  # one schedule, the same azimuths: the same samples
+    assert c[1] > 0.8
+    assert c[2] < 0.6 and c[3] < 0.2
+    assert c[4] == pytest.approx(c[2])  # symmetric in the offset
+    own = lidar_pair_correlation(45.0, synchronized=False, seed=7, **kw)
+    assert abs(float(own)) < 0.25  # independent lidars: nearly uncorrelated
+    again = lidar_pair_correlation([0.0, 30.0, 90.0, 180.0, -90.0], seed=7, **kw)
+    np.testing.assert_array_equal(c, again)
+    with pytest.raises(ValueError, match="n_records >= 8"):
+        lidar_pair_correlation(0.0, n_records=4)
+
+
+def test_record_sbc_replication_with_a_reference_lidar_pair_term():
+    from flidar_uq.inference import SamplerSettings
+    from flidar_uq.validation.sbc import SBC_RECORD_PARAMS, sbc_record_replication
+
+    tiny = SamplerSettings(nwalkers=10, nsteps=20, nburn=10, ndraws=20, global_max_step_factor=1.0)
+    seed = np.random.SeedSequence(12)
+    row = sbc_record_replication(seed, n_records=30, settings=tiny, n_rank_draws=19, pair_log_sd=0.04)
+    for name in SBC_RECORD_PARAMS:
+        assert 0 <= row[f"rank_{name}"] <= 19
+    again = sbc_record_replication(
+        np.random.SeedSequence(12), n_records=30, settings=tiny, n_rank_draws=19, pair_log_sd=0.04
+    )
+    assert pd.Series(again).equals(pd.Series(row))
+
+
+@pytest.mark.slow
+def test_record_model_sbc_with_a_known_reference_pair_scatter():
+    """The record model with the pair term (a weathervaning buoy's 0.045 against a fixed
+    lidar): >= 100 replications, rank chi-square p > 0.01 for each of the five parameters."""
+    from flidar_uq.validation.sbc import SBC_RECORD_PARAMS, rank_uniformity, sbc_record_replication
+
+    sur = get_surrogate("zephir300")
+    rows = [
+        sbc_record_replication(child, n_records=400, n_rank_draws=99, surrogate=sur,
+                               pair_log_sd=0.045)
+        for child in np.random.SeedSequence(20261129).spawn(100)
+    ]  # fmt: skip
+    pvalues = {
+        name: rank_uniformity([r[f"rank_{name}"] for r in rows], 99, 10)[0]
+        for name in SBC_RECORD_PARAMS
+    }
+    assert all(p > 0.01 for p in pvalues.values()), pvalues

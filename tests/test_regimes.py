@@ -44,7 +44,15 @@ def _check_calibrated(records: pd.DataFrame, what: str) -> None:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", SEEDS)
-@pytest.mark.parametrize("scenario", ["misaligned_swell"])
+@pytest.mark.parametrize(
+    "scenario",
+    # all with the virtual fixed reference lidar; the last three with a buoy whose heading
+    # differs from the reference's (weathervaning: the broadband and the narrow sea;
+    # fixed_heading 30 deg off, drifting 2 deg/day): the record fit takes the two lidars'
+    # sampling scatter as known (docs/inference.md, "Noise split with a reference lidar");
+    # without it the weathervaning ones covered 0.95-0.97
+    ["misaligned_swell", "weathervane_broadband", "narrow_sea", "fixed_heading"],
+)
 def test_every_record_corrected_and_calibrated_in_every_regime(scenario, seed):
     records, fit = _run(scenario, seed)
     assert fit.converged, fit.failure_reasons
@@ -54,28 +62,19 @@ def test_every_record_corrected_and_calibrated_in_every_regime(scenario, seed):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    ("scenario", "seed"),
-    [
-        ("sparse_30day", 1),
-        ("sparse_30day", 2),
-        ("weathervane_broadband", 1),
-        ("weathervane_broadband", 2),
-        ("narrow_sea", 1),
-    ],
-)
-def test_every_record_corrected_unbiased_never_overconfident(scenario, seed):
-    # buoys whose heading differs from the virtual reference lidar's (weathervaning: the
-    # 30-day campaign half the time, the broadband and the narrow sea always): every
-    # record answered, no bias, intervals never too narrow; they are too wide (coverage
-    # up to 0.96-0.98, docs/inference.md "Known limitation")
-    records, fit = _run(scenario, seed)
+@pytest.mark.parametrize("seed", SEEDS)
+def test_sparse_30day_every_record_corrected_unbiased_never_overconfident(seed):
+    # one height, weathervaning above 8 m/s: with the pair term its intervals still cover
+    # 0.93-0.96 per group (seed 2), in the fixed-heading half as much as in the
+    # weathervaning half, so it is not the reference's sampling (docs/inference.md)
+    records, fit = _run("sparse_30day", seed)
     assert fit.converged, fit.failure_reasons
     assert records["ti_corrected_median"].notna().mean() >= 0.99
     tab = scenario_calibration(records)
     overall = tab[tab["grouping"] == "all"].iloc[0]
     groups = _groups(records)
     shown = groups[["grouping", "group", "n", "coverage", "mean_rel_error"]].to_string()
+    assert len(groups) >= 5, shown
     assert (groups["coverage"] >= 0.85).all(), shown
     assert (groups["mean_rel_error"].abs() <= 0.015).all(), shown
     assert abs(overall["mean_rel_error"]) <= 0.01
@@ -107,18 +106,19 @@ def test_calibration_transfers_from_wind_sea_to_swell(seed):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="known: on a weathervaning buoy the co-located virtual reference lidar scans "
-    "at another azimuth, its 10-min std scatters against the floating lidar's by more "
-    "than the motion explains (kappa 0.05 against 0.02), and the propagation counts that "
-    "scatter as uncertainty of the point TI: 90 % intervals cover 96-97 % (docs/inference.md); "
-    "with a cup reference they are calibrated (tests/test_reference.py)",
-)
-def test_weathervaning_buoy_coverage_within_85_95_percent():
-    records, _ = _run("weathervane_broadband", 1)
-    groups = _groups(records)
-    assert groups["coverage"].between(0.85, 0.95).all(), groups.to_string()
+def test_weathervaning_buoy_without_the_pair_term_double_counts_the_reference():
+    # the fit without the two lidars' sampling scatter: its kappa (0.048) holds it; taken
+    # out after the fit with c = 0 (a real reference lidar's) the synchronised virtual
+    # twin's pair is overstated, kept whole (c = 1) it is counted twice: the heading-based
+    # c inside the fit is what calibrates (test above)
+    records, fit = scenario_records("weathervane_broadband", 1, reference_pair=False)
+    assert fit.info["pair_log_sd_median"] is None
+    assert float(np.median(fit.draws["kappa"])) > 0.04
+    overall = scenario_calibration(records).query("grouping == 'all'").iloc[0]
+    assert overall["coverage"] < 0.88, overall
+    paired, pfit = _run("weathervane_broadband", 1)
+    assert float(np.median(pfit.draws["kappa"])) < 0.03
+    assert pfit.info["pair_log_sd_median"] > 0.03
 
 
 def test_regime_labels_from_truth_columns():
@@ -164,3 +164,18 @@ def test_report_regime_table_scores_qc_kept_records_only():
     assert tab.loc[("all", "all"), "coverage"] == pytest.approx(0.5)
     assert tab.loc[("sea_state", "swell"), "mean_rel_error"] == pytest.approx(0.2)
     assert "heading" not in tab.index.get_level_values("grouping")  # no heading truth
+
+
+def test_record_heading_is_the_circular_mean_of_the_imu_yaw_over_the_record():
+    from flidar_uq.validation.regimes import _record_heading_deg
+
+    t0 = pd.Timestamp("2020-01-01T00:00:00Z")
+    t = t0 + pd.to_timedelta(np.arange(0, 1200, 100), unit="s")  # two 10-min records
+    yaw = np.array([350.0, 10.0, 355.0, 5.0, np.nan, 0.0] + [170.0, -170.0] * 3)
+    imu = pd.DataFrame({"timestamp": t, "yaw_deg": yaw})
+    rec = pd.DataFrame({"timestamp": [t0, t0, t0 + pd.Timedelta(minutes=10),
+                                      t0 + pd.Timedelta(minutes=20)]})  # fmt: skip
+    got = _record_heading_deg(imu, rec, 600.0)
+    np.testing.assert_allclose(got[:2], 0.0, atol=1e-9)  # across 0 deg, NaN left out
+    assert abs(got[2]) == pytest.approx(180.0)
+    assert np.isnan(got[3])  # no IMU for that record

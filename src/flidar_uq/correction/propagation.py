@@ -45,11 +45,14 @@ from flidar_uq.seeding import as_seedsequence
 __all__ = [
     "LIDAR_STD_RATIO_LOG_SD",
     "REFERENCE_KINDS",
+    "REFERENCE_SAMPLING_CORRELATION",
     "UNCERTAINTY_SOURCES",
     "corrected_ti",
     "point_target",
     "record_flags",
+    "reference_pair_log_sd",
     "reference_target",
+    "split_noise",
     "ti_group_statistics",
     "variance_law_baselines",
 ]
@@ -72,9 +75,86 @@ REFERENCE_KINDS = ("cup", "sonic", "fixed_lidar", "none")
 #: (docs/lidar-response.md, "Uncertainty of g").
 LIDAR_STD_RATIO_LOG_SD = 0.02
 
+#: Default correlation (-) of a fixed reference lidar's sampling errors against the point
+#: wind with the floating lidar's own (:func:`reference_pair_log_sd`): 0, two lidars that
+#: scan on their own schedules
+#: (:func:`flidar_uq.physics.lidar_response.lidar_pair_correlation`, ZephIR 300, 3 heights
+#: in turn: 0.02; -0.07 to +0.10 at 5-16 m/s). On one schedule (the virtual campaign's
+#: reference lidar) it falls from 1 at the same azimuths to 0.89 at 30 deg, 0.25-0.32 at
+#: 90 deg and -0.1 at 180 deg (docs/inference.md).
+REFERENCE_SAMPLING_CORRELATION = 0.0
+
 #: Records propagated together by the record motion model (bounds the draws' memory:
 #: ndraws x chunk floats per array).
 _RECORD_CHUNK = 20_000
+
+
+def reference_pair_log_sd(point_log_sd, correlation=REFERENCE_SAMPLING_CORRELATION):
+    """Std of ``log(floating-lidar std / reference-lidar std)`` from the two lidars' sampling (-).
+
+    Both lidars (the same type) scatter about the point std by their sampling, ``e_f`` and
+    ``e_r``, each with sd ``sd`` (:func:`flidar_uq.physics.lidar_response.lidar_point_log_sd`),
+    correlated by ``c`` (:func:`flidar_uq.physics.lidar_response.lidar_pair_correlation`):
+    ``Var(e_f - e_r) = 2 (1 - c) sd^2``. This is the part of the observed scatter of ``s``
+    against ``r`` that is not the floating lidar's motion; the record fit takes it as known
+    (``fit_record_model(pair_log_sd=...)``) so that ``kappa`` is the floating lidar's own
+    noise beyond it (docs/inference.md, "Noise split with a reference lidar").
+
+    Parameters
+    ----------
+    point_log_sd : array_like
+        ``sd`` per record (-).
+    correlation : array_like
+        ``c`` in [-1, 1] (-), broadcast with ``point_log_sd``.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``sqrt(2 (1 - c)) sd`` (-).
+
+    Raises
+    ------
+    ValueError
+        If a correlation is outside [-1, 1] or a ``sd`` is negative.
+    """
+    c = np.asarray(correlation, dtype=float)
+    sd = np.asarray(point_log_sd, dtype=float)
+    if np.any(~((c >= -1.0) & (c <= 1.0))) or np.any(~(sd >= 0.0)):
+        raise ValueError(
+            "reference_pair_log_sd: correlation must be in [-1, 1] and point_log_sd >= 0"
+        )
+    return np.sqrt(2.0 * (1.0 - c)) * sd
+
+
+def split_noise(kappa, point_log_sd, correlation=REFERENCE_SAMPLING_CORRELATION):
+    """The floating lidar's own share of a ``kappa`` fitted without the pair term (-).
+
+    For a record fit that did not take the two lidars' sampling scatter as known (the bin
+    model, or ``fit_record_model`` without ``pair_log_sd``), ``kappa^2`` holds it:
+    ``kappa^2 = eta^2 + pair^2`` with ``pair`` of :func:`reference_pair_log_sd`. The point
+    std given ``s`` is uncertain by ``eta^2 + sd^2`` (the floating lidar's own sampling
+    ``sd`` is drawn as ``e`` by :func:`corrected_ti`), so ``eta`` is what is propagated on
+    ``s``: the reference's sampling, which the fit saw in ``kappa``, is not counted twice.
+    ``eta = sqrt(max(kappa^2 - pair^2, 0))``: when the lidars scatter less against each other
+    than ``c`` implies, their errors are more correlated than assumed and the floating
+    lidar's own sampling is all that is left. ``sd = 0`` (a cup or sonic) leaves ``kappa``.
+
+    Parameters
+    ----------
+    kappa : array_like
+        Relative noise of the floating lidar's std against the reference's (-).
+    point_log_sd : array_like
+        ``sd`` (-), broadcast with ``kappa``.
+    correlation : array_like
+        ``c`` in [-1, 1] (-).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``eta`` (-), broadcast shape.
+    """
+    pair = reference_pair_log_sd(point_log_sd, correlation)
+    return np.sqrt(np.maximum(np.asarray(kappa, dtype=float) ** 2 - pair**2, 0.0))
 
 
 def variance_law_baselines(records: pd.DataFrame, surrogate) -> tuple[np.ndarray, float]:
@@ -333,6 +413,7 @@ def corrected_ti(
     lidar_std_ratio=None,
     point_log_sd=None,
     lidar_std_ratio_log_sd: float = 0.0,
+    reference_sampling_correlation=None,
     baseline: tuple[np.ndarray, float] | None = None,
     hold: Collection[str] = (),
     return_draws: bool = False,
@@ -371,6 +452,15 @@ def corrected_ti(
         Prior sd of ``log g`` (-), with ``lidar_std_ratio``: every posterior draw divides
         by ``g exp(N(0, sd^2))``, one factor per draw shared by all records (the ratio's
         error is systematic: probe-volume averaging, stability). Default 0: g exact.
+    reference_sampling_correlation : float or array_like, shape (n_records,), optional
+        With ``point_log_sd`` (a lidar reference) and a global fit that did not take the
+        two lidars' sampling scatter as known (no ``info["pair_log_sd_median"]``):
+        correlation ``c`` in [-1, 1] (-) of the reference lidar's and the floating lidar's
+        sampling errors against the point wind; the part ``2 (1 - c) sd^2`` of ``kappa^2``
+        is not propagated (:func:`split_noise`; :data:`REFERENCE_SAMPLING_CORRELATION`
+        for a lidar on its own scan schedule). Default None: ``kappa`` propagated whole,
+        as ``c = 1`` (never narrower; the reference's sampling counted twice when the
+        lidars' scans differ).
     baseline : (numpy.ndarray, float), optional
         :func:`variance_law_baselines` of ``records`` with the same surrogate, when the caller
         has it already (computed here otherwise).
@@ -441,6 +531,13 @@ def corrected_ti(
         raise ValueError(
             f"corrected_ti: lidar_std_ratio_log_sd={lidar_std_ratio_log_sd} must be >= 0"
         )
+    corr = None
+    if reference_sampling_correlation is not None:
+        corr = np.broadcast_to(
+            np.asarray(reference_sampling_correlation, dtype=float), (len(records),)
+        )
+        if np.any(~((corr >= -1.0) & (corr <= 1.0))):
+            raise ValueError("corrected_ti: reference_sampling_correlation must be in [-1, 1]")
     if lidar_std_ratio_log_sd > 0.0 and lidar_std_ratio is None:
         raise ValueError("corrected_ti: lidar_std_ratio_log_sd needs lidar_std_ratio")
     if lidar_std_ratio is not None:
@@ -466,6 +563,16 @@ def corrected_ti(
 
     rho = global_draws("rho", "rho")
     kappa = global_draws("kappa", "noise_model")
+    # kappa of a fit that took the lidars' sampling scatter as known is the floating lidar's
+    # own noise; otherwise the reference's share is taken out here (split_noise)
+    pair_known = global_fit.info.get("pair_log_sd_median") is not None
+
+    def own_noise(mask):
+        """The floating lidar's relative noise on s, (ndraws, n_mask) or (ndraws, 1)."""
+        if pair_known or point_log_sd is None or corr is None:
+            return kappa
+        return split_noise(kappa, log_sd[mask][None, :], corr[mask][None, :])
+
     rho_med = float(np.median(global_fit.flat("rho")))
     # the ratio's systematic error: one factor per draw, shared by every record
     g_draw = (
@@ -484,7 +591,8 @@ def corrected_ti(
     global_reasons = [f"global: {r}" for r in global_fit.failure_reasons]
 
     def deploy(mask, sz, tau):
-        """Steps 2-4 of the module docstring for the records of ``mask`` (sZ draws given)."""
+        """Steps 2-4 of the module docstring for the records of ``mask`` (sZ draws given;
+        ``tau`` the floating lidar's sampling sd about its motionless-lidar std)."""
         z = rng.standard_normal((ndraws, int(mask.sum())))
         s_star = np.abs(s[mask][None, :] + tau * (0.0 if "sampling" in hold else z))
         if "motion" in hold:
@@ -518,7 +626,7 @@ def corrected_ti(
             k = int(mask.sum())
             sz = effective_sigma_z_ms(szr[mask][None, :], u2[mask][None, :], lever, scale)
             sz = sz * np.exp(kappa_z * rng.standard_normal((ndraws, k)))
-            deploy(mask, sz, kappa * s[mask][None, :])
+            deploy(mask, sz, own_noise(mask) * s[mask][None, :])
         conv[described] = global_fit.converged
         reasons[described] = "; ".join(global_reasons)
     else:
@@ -542,7 +650,7 @@ def corrected_ti(
                 sz = scale * sz
             else:  # plus the head translation of the lever-arm model
                 sz = effective_sigma_z_ms(sz, u2, lever, scale)
-            deploy(mask, sz, np.sqrt((kappa * s[mask][None, :]) ** 2 + tau0**2))
+            deploy(mask, sz, np.sqrt((own_noise(mask) * s[mask][None, :]) ** 2 + tau0**2))
             conv[mask] = f.converged and global_fit.converged
             reasons[mask] = "; ".join([*f.failure_reasons, *global_reasons])
 

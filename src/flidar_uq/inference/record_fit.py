@@ -53,8 +53,9 @@ def is_record_model(fit) -> bool:
     return getattr(fit, "info", {}).get("loo", {}).get("model") == "record"
 
 
-def _record_loglik_pointwise(theta, s, r, sz_rot, u2):
-    """(n_walkers, n_obs) pointwise log-likelihood of the record model (module docstring)."""
+def _record_loglik_pointwise(theta, s, r, sz_rot, u2, pair_sq=0.0):
+    """(n_walkers, n_obs) pointwise log-likelihood of the record model (module docstring);
+    ``pair_sq``: the known relative variance of the two instruments' sampling (-)."""
     rho = theta[:, 0:1]
     kappa_sq = np.exp(2.0 * theta[:, 1:2])
     kz_sq = np.exp(2.0 * theta[:, 2:3])
@@ -64,7 +65,7 @@ def _record_loglik_pointwise(theta, s, r, sz_rot, u2):
     sz = np.sqrt(sz_sq)
     mu_sq = np.maximum(r**2 + sz_sq + 2.0 * rho * r * sz, 1e-12)  # Eq. (15) of seed 000
     dmu = (sz + rho * r) ** 2 / mu_sq  # (dmu/dsZ)^2
-    tau_sq = kappa_sq * mu_sq + kz_sq * sz_sq * dmu + 1e-8
+    tau_sq = (kappa_sq + pair_sq) * mu_sq + kz_sq * sz_sq * dmu + 1e-8
     z = s - np.sqrt(mu_sq)
     return -0.5 * (z * z / tau_sq + np.log(tau_sq) + _LOG2PI)
 
@@ -87,7 +88,9 @@ def _log_prior(theta, priors: Priors, lever_arm_prior):
     return lp, ok
 
 
-def log_prob_record_model(theta, s, r, sz_rot, u2, priors=Priors(), lever_arm_prior=None):
+def log_prob_record_model(
+    theta, s, r, sz_rot, u2, priors=Priors(), lever_arm_prior=None, pair_log_sd=None
+):
     """Log posterior of the record model, vectorised over walkers.
 
     Parameters
@@ -103,6 +106,9 @@ def log_prob_record_model(theta, s, r, sz_rot, u2, priors=Priors(), lever_arm_pr
     lever_arm_prior : (float, float), optional
         Mean and sd (m) of a normal prior on the lever arm from the buoy's geometry;
         default: half-normal(``priors.lever_arm_scale_m``).
+    pair_log_sd : numpy.ndarray, shape (n_obs,), optional
+        Known std of ``log(s / r)`` from the two instruments' sampling alone (-): added to
+        ``kappa`` in quadrature (module docstring); default None: 0.
 
     Returns
     -------
@@ -114,7 +120,8 @@ def log_prob_record_model(theta, s, r, sz_rot, u2, priors=Priors(), lever_arm_pr
     out = np.full(theta.shape[0], -np.inf)
     if np.any(ok):
         with np.errstate(all="ignore"):
-            ll = _record_loglik_pointwise(theta[ok], s, r, sz_rot, u2).sum(axis=1)
+            pair_sq = 0.0 if pair_log_sd is None else np.asarray(pair_log_sd) ** 2
+            ll = _record_loglik_pointwise(theta[ok], s, r, sz_rot, u2, pair_sq).sum(axis=1)
         out[ok] = lp[ok] + ll
     return np.where(np.isfinite(out), out, -np.inf)
 
@@ -185,6 +192,7 @@ def fit_record_model(
     priors: Priors = Priors(),
     lever_arm_prior: tuple[float, float] | None = None,
     scan_period_s: float = 1.0,
+    pair_log_sd=None,
 ) -> GlobalFit:
     """Posterior of ``rho``, ``kappa``, ``kappa_z``, ``lever_arm_m``, ``motion_scale`` (record model).
 
@@ -206,6 +214,13 @@ def fit_record_model(
         Mean and sd (m) of the lever arm from the buoy's geometry (config).
     scan_period_s : float
         VAD scan duration (s).
+    pair_log_sd : array_like, shape (n_records,), optional
+        With a reference lidar: the std of ``log(s / r)`` that the two lidars' sampling
+        against each other gives alone (-), per record
+        (:func:`flidar_uq.correction.propagation.reference_pair_log_sd`). It is added to
+        ``kappa`` in quadrature, so that ``kappa`` is the floating lidar's own noise beyond
+        it. Default None: 0 (a cup or sonic: ``kappa`` is the floating-lidar-vs-point
+        scatter itself).
 
     Returns
     -------
@@ -227,7 +242,16 @@ def fit_record_model(
         lever_arm_prior = (mean, sd)
     seedseq = as_seedsequence(seed)
     (s, r, szr, u2), use, kinds = _record_observations(records, surrogate, scan_period_s)
-    args = (s, r, szr, u2, priors, lever_arm_prior)
+    pair = None
+    if pair_log_sd is not None:
+        pair_all = np.asarray(pair_log_sd, dtype=float)
+        if pair_all.shape != (len(records),) or np.any(~(pair_all[use] >= 0)):
+            raise ValueError(
+                f"fit_record_model: pair_log_sd must be {len(records)} values >= 0 (finite "
+                f"where the record has a reference), got shape {pair_all.shape}"
+            )
+        pair = pair_all[use]
+    args = (s, r, szr, u2, priors, lever_arm_prior, pair)
     gs = settings.for_global_fit()
     x0 = _start(lever_arm_prior)
     init = laplace_init(log_prob_record_model, args, x0, _broad(lever_arm_prior))
@@ -243,7 +267,9 @@ def fit_record_model(
         log_prob_record_model, args, init, ndim, gs, seedseq, check
     )
     thin = _thin(chains, settings.ndraws)
-    ll = _record_loglik_pointwise(thin.reshape(-1, ndim), s, r, szr, u2)
+    ll = _record_loglik_pointwise(
+        thin.reshape(-1, ndim), s, r, szr, u2, 0.0 if pair is None else pair**2
+    )
     ll = ll.reshape(thin.shape[0], thin.shape[1], -1)
     draws = {
         n: (np.exp(thin[..., k]) if k in _LOGS else thin[..., k])
@@ -264,6 +290,8 @@ def fit_record_model(
             str(k): int(v) for k, v in pd.Series(kinds[use]).value_counts().sort_index().items()
         },
         "lever_arm_prior": list(lever_arm_prior) if lever_arm_prior else None,
+        # kappa is the floating lidar's noise beyond the two lidars' sampling scatter
+        "pair_log_sd_median": None if pair is None or not pair.size else float(np.median(pair)),
         "rho_mass_beyond_0p98": float(np.mean(np.abs(draws["rho"]) > 0.98)),
         "constant": {"record_index": np.asarray(records.index)[use]},
     }

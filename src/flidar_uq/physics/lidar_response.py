@@ -43,7 +43,7 @@ from flidar_uq.physics.turbulence import (
 )
 from flidar_uq.seeding import as_seedsequence
 
-__all__ = ["lidar_point_log_sd", "lidar_std_ratio", "scan_response"]
+__all__ = ["lidar_pair_correlation", "lidar_point_log_sd", "lidar_std_ratio", "scan_response"]
 
 
 def _time_scale_s(hws_ms, height_m):
@@ -316,3 +316,141 @@ def lidar_point_log_sd(
     else:
         out[ok] = sds.mean()
     return out
+
+
+def lidar_pair_correlation(
+    azimuth_offset_deg,
+    lidar="zephir300",
+    *,
+    synchronized: bool = True,
+    hws_ms: float = 10.0,
+    height_m: float = 85.0,
+    heights_in_turn: int = 1,
+    refocus_delay_s: tuple[float, float] = (0.0, 0.0),
+    point_sample_interval_s: float = 1.0,
+    turbulence_dt_s: float | None = None,
+    record_length_s: float = 600.0,
+    n_records: int = 300,
+    seed: int = 0,
+):
+    """Correlation of two motionless lidars' sampling errors against the point std, by simulation.
+
+    Two lidars of the same type measure the same wind: the record-to-record errors
+    ``e_1, e_2 = log(lidar 10-min std / point 10-min std)`` of
+    :func:`lidar_point_log_sd` are correlated as far as they sample the wind at the same
+    instants along the same azimuths. The scatter of one lidar's std against the other's
+    is then ``Var(e_1 - e_2) = 2 (1 - c) sd^2`` (each with sd ``sd``): the part of an
+    observed floating-lidar-vs-reference-lidar scatter that is the two lidars' sampling,
+    not the motion (docs/inference.md, "Noise split with a reference lidar").
+
+    ``synchronized``: both lidars scan on one schedule (the same scan start times and
+    line-of-sight instants), the second one's azimuths turned by ``azimuth_offset_deg``
+    (a buoy heading different from a co-located reference's, as in the virtual campaign);
+    else each lidar has its own refocus delays and scan phase (two separate lidars; the
+    offset does not matter). Simulated as :func:`lidar_point_log_sd` (IEC Kaimal ``u', v',
+    w'``, TI 0.1, least-squares scans, random wind direction) at one ``Lambda_1(z) / U``;
+    the synchronized correlation is computed at offsets 0-180 deg every 30 deg and smoothed
+    by a cosine series of order 3 in the offset (``c(-d) = c(d)``).
+
+    Parameters
+    ----------
+    azimuth_offset_deg : array_like
+        Azimuth of the second lidar's scan relative to the first's (deg).
+    lidar : str or LidarGeometry
+        Scan geometry of both lidars.
+    synchronized : bool
+        One scan schedule for both (True) or independent schedules (False).
+    hws_ms, height_m : float
+        Mean HWS (m/s, > 0) and height (m, > 0) of the simulated records.
+    heights_in_turn, refocus_delay_s, point_sample_interval_s, turbulence_dt_s, record_length_s
+        As for :func:`lidar_point_log_sd` (-, s, s, s, s).
+    n_records : int
+        Simulated records (>= 8).
+    seed : int
+        Seed (numpy SeedSequence entropy): the result is deterministic.
+
+    Returns
+    -------
+    numpy.ndarray
+        Correlation ``c`` (-) in [-1, 1], shape of ``azimuth_offset_deg``.
+
+    Raises
+    ------
+    ValueError
+        For invalid scan settings, a non-positive HWS or height, or fewer than 8 records.
+    """
+    g = _lidar.get_lidar(lidar)
+    lo_d, hi_d = (float(v) for v in refocus_delay_s)
+    dt = g.los_duration_s
+    t_dt = dt if turbulence_dt_s is None else float(turbulence_dt_s)
+    if int(heights_in_turn) < 1 or not 0.0 <= lo_d <= hi_d:
+        raise ValueError(
+            f"lidar_pair_correlation: need heights_in_turn >= 1 and 0 <= refocus_delay_s[0] "
+            f"<= [1], got {heights_in_turn!r}, {refocus_delay_s!r}"
+        )
+    if not (point_sample_interval_s > 0 and t_dt > 0 and record_length_s > 0):
+        raise ValueError(
+            "lidar_pair_correlation: point_sample_interval_s, turbulence_dt_s and "
+            f"record_length_s must be > 0, got {point_sample_interval_s!r}, "
+            f"{turbulence_dt_s!r}, {record_length_s!r}"
+        )
+    if not (hws_ms > 0 and height_m > 0) or int(n_records) < 8:
+        raise ValueError(
+            f"lidar_pair_correlation: need hws_ms > 0 m/s, height_m > 0 m and n_records >= 8, "
+            f"got {hws_ms!r}, {height_m!r}, {n_records!r}"
+        )
+    offsets = np.asarray(azimuth_offset_deg, dtype=float)
+    grid = np.arange(0.0, 181.0, 30.0) if synchronized else np.array([0.0])
+    rng = np.random.default_rng(as_seedsequence(seed))
+    step = max(int(round(t_dt / dt)), 1)
+    n = int(round(record_length_s / dt))
+    every = max(int(round(point_sample_interval_s / dt)), 1)
+    t_s, az0 = _lidar.scan_times_azimuths(g, 0.0)
+    lag = np.rint(t_s / dt).astype(int)
+
+    def schedule():
+        gaps = g.n_los + rng.integers(
+            int(round(lo_d / dt)), int(round(hi_d / dt)) + 1, size=n // g.n_los + 1
+        )
+        starts = np.cumsum(gaps) - gaps[0]
+        starts = starts[starts + g.n_los <= n][rng.integers(heights_in_turn) :: heights_in_turn]
+        return starts, rng.uniform(0.0, 2.0 * np.pi, size=(starts.size, 1))
+
+    def log_ratio(wind, starts, phase, point_std):
+        az = (
+            az0[None, :] + phase
+            if g.kind != "dbs"
+            else np.broadcast_to(az0, (starts.size, lag.size))
+        )
+        d = _lidar.beam_unit_vectors_body(g, az)
+        uvw = np.einsum("jck,jk->jc", _lidar.vad_pseudo_inverse(d),
+                        np.einsum("jkc,jkc->jk", d, wind[starts[:, None] + lag[None, :]]))  # fmt: skip
+        return np.log(np.hypot(uvw[:, 0], uvw[:, 1]).std(ddof=1) / point_std)
+
+    x_t = kaimal_series(
+        -(-n // step), dt * step, np.full(int(n_records), float(hws_ms)), 0.1 * hws_ms,
+        float(height_m), rng,
+    )  # fmt: skip
+    x_t = np.repeat(x_t, step, axis=-1)[..., :n]
+    e1 = np.empty(int(n_records))
+    e2 = np.empty((grid.size, int(n_records)))
+    for r in range(int(n_records)):
+        beta = rng.uniform(0.0, 2.0 * np.pi)
+        rot = np.array(
+            [[np.cos(beta), np.sin(beta), 0.0], [-np.sin(beta), np.cos(beta), 0.0], [0, 0, 1.0]]
+        )
+        wind = hws_ms * rot[0] + x_t[r].T @ rot
+        point_std = np.hypot(wind[::every, 0], wind[::every, 1]).std(ddof=1)
+        starts, phase = schedule()
+        e1[r] = log_ratio(wind, starts, phase, point_std)
+        if not synchronized:
+            starts, phase = schedule()
+        for k, d in enumerate(grid):
+            e2[k, r] = log_ratio(wind, starts, phase + np.deg2rad(d), point_std)
+    c = np.array([np.corrcoef(e1, e2[k])[0, 1] for k in range(grid.size)])
+    if not synchronized:
+        return np.full(offsets.shape, float(c[0]))
+    basis = np.cos(np.deg2rad(grid)[:, None] * np.arange(4)[None, :])
+    coef = np.linalg.lstsq(basis, c, rcond=None)[0]
+    out = np.cos(np.deg2rad(offsets)[..., None] * np.arange(4)) @ coef
+    return np.clip(out, -1.0, 1.0)

@@ -21,12 +21,15 @@ from flidar_uq.campaign.physics_mode import generate_campaign
 from flidar_uq.campaign.scenarios import load_scenario, reference_sampling
 from flidar_uq.correction.propagation import (
     LIDAR_STD_RATIO_LOG_SD,
+    REFERENCE_SAMPLING_CORRELATION,
     corrected_ti,
+    reference_pair_log_sd,
     reference_target,
 )
 from flidar_uq.data.calibration import calibration_by_group, speed_group_label
 from flidar_uq.data.qc import QCConfig, run_qc
 from flidar_uq.inference import SamplerSettings, fit_record_model
+from flidar_uq.physics.lidar_response import lidar_pair_correlation
 from flidar_uq.physics.surrogate import get_surrogate
 from flidar_uq.seeding import as_seedsequence
 
@@ -69,6 +72,7 @@ def scenario_records(
     n_workers: int | None = None,
     calibrate_on_sea_state: str | None = None,
     lidar_std_ratio_log_sd: float = LIDAR_STD_RATIO_LOG_SD,
+    reference_pair: bool = True,
 ) -> tuple[pd.DataFrame, object]:
     """Generate a scenario and correct every QC-kept record in 3-20 m/s (the pipeline's steps).
 
@@ -94,6 +98,15 @@ def scenario_records(
         enter the fit (the others are corrected as deployment records).
     lidar_std_ratio_log_sd : float
         Prior sd of log g (-) when the scenario's reference is a fixed lidar.
+    reference_pair : bool
+        With a fixed reference lidar: the record fit takes the two lidars' sampling scatter
+        against each other as known (``fit_record_model(pair_log_sd=...)``). The virtual
+        reference lidar scans on the floating lidar's schedule at the azimuths of a buoy
+        heading of 0 (campaign generator, step 4), so each record's correlation is
+        :func:`~flidar_uq.physics.lidar_response.lidar_pair_correlation` (synchronised) at
+        the buoy's mean heading over the record, from the raw IMU yaw. False: the fit
+        without it, and the propagation splits ``kappa`` with ``c = 0``
+        (:func:`~flidar_uq.correction.propagation.split_noise`).
 
     The point target follows the scenario's ``reference_instrument`` as the pipeline's
     ``reference.kind`` does (:func:`flidar_uq.correction.propagation.reference_target`).
@@ -113,12 +126,45 @@ def scenario_records(
     if n_workers is not None:
         cfg["n_workers"] = int(n_workers)
     ss_camp, ss_fit, ss_point, ss_prop = as_seedsequence(seed).spawn(4)
-    campaign = generate_campaign(cfg, ss_camp).records
-    kept = run_qc(campaign, QCConfig()).kept
+    sampling = reference_sampling(cfg)
+    kind = sampling["reference_kind"]
+    pair = kind == "fixed_lidar" and reference_pair
+    generated = generate_campaign(cfg, ss_camp, return_imu=pair)
+    kept = run_qc(generated.records, QCConfig()).kept
     hws = kept["hws_mean_ms"].to_numpy(dtype=float)
     kept = kept[(hws >= 3.0) & (hws < 20.0)].copy()
     kept["bin_id"] = np.nan
     surrogate = get_surrogate(lidar)
+    scan = {
+        "heights_in_turn": sampling["heights_in_turn"],
+        "refocus_delay_s": sampling["refocus_delay_s"],
+        "point_sample_interval_s": sampling["point_sample_interval_s"],
+        "turbulence_dt_s": sampling["turbulence_dt_s"],
+    }
+    point_seed, pair_seed = (int(x) for x in ss_point.generate_state(2))
+    g, sd = reference_target(
+        kind,
+        kept["hws_mean_ms"].to_numpy(dtype=float),
+        kept["height_m"].to_numpy(dtype=float),
+        lidar,
+        **scan,
+        seed=point_seed,
+    )
+    pair_log_sd = None
+    if pair:
+        heading = _record_heading_deg(generated.imu, kept, float(cfg.get("record_length_s", 600.0)))
+        corr = lidar_pair_correlation(
+            heading,
+            lidar,
+            synchronized=True,
+            hws_ms=float(np.median(kept["hws_mean_ms"])),
+            height_m=float(np.median(kept["height_m"])),
+            **scan,
+            seed=pair_seed,
+        )
+        # a record without yaw: the lidars taken as independent
+        corr = np.where(np.isfinite(corr), corr, REFERENCE_SAMPLING_CORRELATION)
+        pair_log_sd = reference_pair_log_sd(sd, corr)
     calib = kept
     if calibrate_on_sea_state is not None:
         if calibrate_on_sea_state not in ("wind sea", "swell"):
@@ -126,22 +172,17 @@ def scenario_records(
                 f"scenario_records: calibrate_on_sea_state={calibrate_on_sea_state!r} is not "
                 "'wind sea' or 'swell'"
             )
-        calib = kept[regime_labels(kept)["sea_state"] == calibrate_on_sea_state]
+        in_calib = (regime_labels(kept)["sea_state"] == calibrate_on_sea_state).to_numpy()
+        calib = kept[in_calib]
+        if pair_log_sd is not None:
+            pair_log_sd = pair_log_sd[in_calib]
     fit = fit_record_model(
-        calib, surrogate=surrogate, settings=settings, seed=ss_fit, lever_arm_prior=lever_arm_prior
-    )
-    sampling = reference_sampling(cfg)
-    kind = sampling["reference_kind"]
-    g, sd = reference_target(
-        kind,
-        kept["hws_mean_ms"].to_numpy(dtype=float),
-        kept["height_m"].to_numpy(dtype=float),
-        lidar,
-        heights_in_turn=sampling["heights_in_turn"],
-        refocus_delay_s=sampling["refocus_delay_s"],
-        point_sample_interval_s=sampling["point_sample_interval_s"],
-        turbulence_dt_s=sampling["turbulence_dt_s"],
-        seed=int(ss_point.generate_state(1)[0]),
+        calib,
+        surrogate=surrogate,
+        settings=settings,
+        seed=ss_fit,
+        lever_arm_prior=lever_arm_prior,
+        pair_log_sd=pair_log_sd,
     )
     per_record, _ = corrected_ti(
         kept,
@@ -153,6 +194,7 @@ def scenario_records(
         lidar_std_ratio=g,
         point_log_sd=sd,
         lidar_std_ratio_log_sd=lidar_std_ratio_log_sd if g is not None else 0.0,
+        reference_sampling_correlation=REFERENCE_SAMPLING_CORRELATION,
         baseline=(np.full(len(kept), np.nan), np.nan),
         seed=ss_prop,
     )
@@ -163,6 +205,17 @@ def scenario_records(
     out["has_reference"] = np.isfinite(kept["ref_hws_std_ms"].to_numpy(dtype=float))
     out["in_calibration"] = out["has_reference"] & kept.index.isin(calib.index)
     return pd.concat([out, regime_labels(out)], axis=1), fit
+
+
+def _record_heading_deg(imu: pd.DataFrame, records: pd.DataFrame, record_length_s: float):
+    """Circular mean of the raw IMU yaw (deg) over each record's 10 minutes (NaN: no yaw)."""
+    t0 = imu["timestamp"].dt.floor(f"{int(round(record_length_s))}s")
+    yaw = np.deg2rad(imu["yaw_deg"].to_numpy(dtype=float))
+    ok = np.isfinite(yaw)
+    trig = pd.DataFrame({"t": t0[ok].to_numpy(), "c": np.cos(yaw[ok]), "s": np.sin(yaw[ok])})
+    mean = trig.groupby("t")[["c", "s"]].mean()
+    heading = np.rad2deg(np.arctan2(mean["s"], mean["c"]))
+    return heading.reindex(pd.to_datetime(records["timestamp"], utc=True)).to_numpy()
 
 
 def scenario_calibration(records: pd.DataFrame, *, min_count: int = 1) -> pd.DataFrame:

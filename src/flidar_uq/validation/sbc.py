@@ -205,7 +205,9 @@ def draw_record_prior(rng, *, priors: Priors = _PRIORS, lever_arm_prior=None) ->
     }
 
 
-def draw_record_campaign(rng, n_records: int, truth: dict, *, surrogate=None) -> pd.DataFrame:
+def draw_record_campaign(
+    rng, n_records: int, truth: dict, *, surrogate=None, pair_log_sd: float = 0.0
+) -> pd.DataFrame:
     """Records drawn from the record model's likelihood exactly as it is written.
 
     Covariates: ``hws ~ U(4, 18)`` m/s, TI log-normal (median 0.08, log-sd 0.3), reference
@@ -213,7 +215,8 @@ def draw_record_campaign(rng, n_records: int, truth: dict, *, surrogate=None) ->
     mean period ``U(2.5, 7)`` s. With ``sZ^2 = (k sZ_rot)^2 + L^2 u^2`` (from
     :func:`~flidar_uq.inference.record_motion.record_motion`),
     ``mu^2 = r^2 + sZ^2 + 2 rho r sZ`` (Eq. (15) of seed 000) and
-    ``tau^2 = (kappa mu)^2 + (kappa_z sZ dmu/dsZ)^2 + 1e-8``, the floating-lidar std is
+    ``tau^2 = (kappa^2 + pair_log_sd^2) mu^2 + (kappa_z sZ dmu/dsZ)^2 + 1e-8``, the
+    floating-lidar std is
     ``s ~ Normal(mu, tau)`` (the record model's likelihood, not a different generative
     story: SBC ranks are uniform only for the model as written).
 
@@ -224,6 +227,9 @@ def draw_record_campaign(rng, n_records: int, truth: dict, *, surrogate=None) ->
     truth : dict
         The five parameters of :data:`SBC_RECORD_PARAMS`.
     surrogate : SigmaZSurrogate, optional
+    pair_log_sd : float
+        The known relative sampling scatter of a reference lidar pair (-), every record
+        (``fit_record_model(pair_log_sd=...)``); 0: a point reference.
 
     Returns
     -------
@@ -246,7 +252,8 @@ def draw_record_campaign(rng, n_records: int, truth: dict, *, surrogate=None) ->
     sz = np.sqrt(sz_sq)
     mu_sq = np.maximum(r**2 + sz_sq + 2.0 * truth["rho"] * r * sz, 1e-12)  # Eq. (15) of seed 000
     dmu_sq = (sz + truth["rho"] * r) ** 2 / mu_sq
-    tau = np.sqrt(truth["kappa"] ** 2 * mu_sq + truth["kappa_z"] ** 2 * sz_sq * dmu_sq + 1e-8)
+    kappa_sq = truth["kappa"] ** 2 + float(pair_log_sd) ** 2
+    tau = np.sqrt(kappa_sq * mu_sq + truth["kappa_z"] ** 2 * sz_sq * dmu_sq + 1e-8)
     rec["hws_std_ms"] = np.sqrt(mu_sq) + tau * rng.standard_normal(n_records)
     rec["ref_hws_std_ms"] = r
     return rec
@@ -261,6 +268,7 @@ def sbc_record_replication(
     lever_arm_prior=None,
     n_rank_draws: int = 99,
     surrogate=None,
+    pair_log_sd: float = 0.0,
 ) -> dict:
     """One simulation-based-calibration replication (Talts et al. 2018) of the record model.
 
@@ -283,6 +291,9 @@ def sbc_record_replication(
     n_rank_draws : int
         Ranks are in ``0 .. n_rank_draws``.
     surrogate : SigmaZSurrogate, optional
+    pair_log_sd : float
+        Known sampling scatter of a reference lidar pair (-), in the data and in the fit
+        (:func:`draw_record_campaign`); 0: a point reference.
 
     Returns
     -------
@@ -299,8 +310,9 @@ def sbc_record_replication(
         np.random.default_rng(ss_truth), priors=priors, lever_arm_prior=lever_arm_prior
     )
     rec = draw_record_campaign(
-        np.random.default_rng(ss_data), n_records, truth, surrogate=surrogate
-    )
+        np.random.default_rng(ss_data), n_records, truth, surrogate=surrogate,
+        pair_log_sd=pair_log_sd,
+    )  # fmt: skip
     fit = fit_record_model(
         rec,
         surrogate=surrogate,
@@ -308,6 +320,7 @@ def sbc_record_replication(
         seed=ss_fit,
         priors=priors,
         lever_arm_prior=lever_arm_prior,
+        pair_log_sd=np.full(len(rec), float(pair_log_sd)) if pair_log_sd > 0 else None,
     )
     taus = [fit.diagnostics[n]["tau"] for n in SBC_RECORD_PARAMS]
     nsteps_run = fit.diagnostics["rho"]["nsteps_over_tau"] * fit.diagnostics["rho"]["tau"]
