@@ -292,7 +292,7 @@ def dominant(g: pd.DataFrame) -> pd.Series:
 
 def plot(df: pd.DataFrame) -> None:
     """Log-log CPU time, wall time and memory per step vs rows; exponents; dominant step named."""
-    fig, axes = plt.subplots(1, 3, figsize=(18, 6))
+    fig, axes = plt.subplots(1, 3, figsize=(18, 8.5))
     steps = [s for s in STEP_ORDER if s in set(df["step"])]
     cmap = plt.get_cmap("tab20")
     panels = (
@@ -318,7 +318,7 @@ def plot(df: pd.DataFrame) -> None:
         ax.set_xlabel("record rows (10-min records x 3 heights)")
         ax.set_ylabel(label)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7, loc="upper left")
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)
     for n_rows, g in df.groupby("n_rows"):
         dom = dominant(g)
         axes[0].annotate(
