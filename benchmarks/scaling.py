@@ -42,7 +42,7 @@ the constant of two linear steps, above all in memory:
   projected for a year).
 - ``propagate`` (flidar_uq.correction.propagation.corrected_ti, called once plus once per
   held uncertainty source = 6 times): (1000 draws x n) float64 arrays ``sig``, ``ti`` and the
-  NaN-masked copies for ``np.nanquantile``, which with NaNs runs one Python call per record.
+  NaN-masked copies for ``np.nanquantile``, which runs ``np.apply_along_axis``: one Python call per record.
 - ``infer_batch``: sublinear (the unimodal bin model samples on sufficient statistics; more
   bins pass ``min_count`` as the campaign grows, each costing about the same).
 
@@ -234,9 +234,7 @@ def run_size(
     steps["n_rows"] = n_records * HEIGHTS
     steps["pipeline_wall_s"] = wall
     steps["pipeline_ok"] = proc.returncode == 0
-    steps["campaign_source"] = (
-        "physics" if measured_campaign else f"tiled from {base_records.parent.parent.parent.name}"
-    )
+    steps["campaign_source"] = "physics" if measured_campaign else f"tiled from {base_records}"
     steps["load1_before"] = load_before
     steps["load1_after"] = load_after
     print(
