@@ -58,6 +58,7 @@ if IMU_SERIES:
 
 
 rule validate:
+    localrule: True
     input:
         records="results/campaign/records.csv",
         # the IMU series' statistics replace the table's motion columns (the series wins)
@@ -80,6 +81,7 @@ rule validate:
 
 
 rule qc:
+    localrule: True
     input:
         "results/data/records.csv",
     output:
@@ -101,6 +103,7 @@ rule qc:
 
 
 rule motion_statistics:
+    localrule: True
     input:
         "results/qc/kept.csv",
     output:
@@ -117,6 +120,7 @@ rule motion_statistics:
 
 
 checkpoint bins:
+    localrule: True
     input:
         "results/motion/records.csv",
     output:
@@ -136,6 +140,7 @@ checkpoint bins:
 
 
 rule sigma_z:
+    localrule: True
     input:
         "results/bins/table.csv",
     output:

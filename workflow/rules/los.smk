@@ -35,6 +35,7 @@ if LOS_SERIES:
             "../scripts/los_correction.py"
 
     rule los_agreement:
+        localrule: True
         input:
             los="results/los/corrected.csv",
             ti="results/ti/records.csv",
