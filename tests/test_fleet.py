@@ -232,6 +232,16 @@ def campaign_view(workdir: Path, name: str, where: Path) -> Path:
     return where
 
 
+def fleet_hashes(workdir: Path) -> dict[str, str]:
+    """result_hashes of a fleet's results/, without each campaign's (and the fleet summary's)
+    logs and run-time benchmarks."""
+    return {
+        k: v
+        for k, v in result_hashes(workdir).items()
+        if not re.match(r"results/[^/]+/(logs|benchmarks)/", k)
+    }
+
+
 def tree_hashes(workdir: Path) -> dict[str, str]:
     """result_hashes without the HTML report (its provenance names the results paths)."""
     return {k: v for k, v in result_hashes(workdir).items() if not k.endswith(".html")}
