@@ -3,8 +3,8 @@
 #   campaign -> validate -> qc -> motion statistics -> bins (checkpoint) -> sigma_Z per bin
 #   -> inference per bin (batched fan-out) -> global rho (gather) -> propagation -> report
 #
-# Run: `.venv/bin/snakemake --cores all` (config/config.yaml); see README.md for own data
-# and SLURM (profiles/slurm).
+# Run: `.venv/bin/snakemake --cores all` (config/config.yaml); see README.md for own data,
+# a fleet of campaigns (config key campaigns) and SLURM (profiles/slurm).
 
 from snakemake.utils import min_version
 
@@ -26,35 +26,40 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"
 
 
-include: "workflow/rules/common.smk"
-include: "workflow/rules/data.smk"
-include: "workflow/rules/inference.smk"
-include: "workflow/rules/report.smk"
-include: "workflow/rules/los.smk"
+if "campaigns" in config:
 
+    # A fleet: every campaign of `campaigns:` is this same workflow as a module writing
+    # results/<name>/, plus the fleet summary (results/fleet/); workflow/rules/fleet.smk.
+    include: "workflow/rules/fleet.smk"
 
-# Light steps run on the submitting host under a cluster executor; campaign generation,
-# the per-bin inference batches, the three global models and the propagation go to the
-# cluster (the LOO choice among the global models is light).
-localrules:
-    all,
-    validate,
-    qc,
-    motion_statistics,
-    bins,
-    sigma_z,
-    posterior_bin,
-    fit_global,
-    report,
-    los_agreement,
+    # (here, not in fleet.smk: an included file's default target is not kept)
+    rule all:
+        input:
+            f"{FLEET_SUMMARY}.csv",
+            f"{FLEET_SUMMARY}.html",
+            f"{FLEET_SUMMARY}.png",
+        default_target: True
+        localrule: True
 
+else:
 
-rule all:
-    input:
-        "results/ti/records.csv",
-        "results/ti/bins.csv",
-        "results/posterior/global.nc",
-        posterior_bin_files,
-        "results/report/report.html",
-        LOS_OUTPUTS,
-    default_target: True
+    # One campaign: results/ (the output contract of README.md). Light steps (rules marked
+    # `localrule: True`) run on the submitting host under a cluster executor; campaign
+    # generation, the per-bin inference batches, the global models and the propagation go
+    # to the cluster.
+    include: "workflow/rules/common.smk"
+    include: "workflow/rules/data.smk"
+    include: "workflow/rules/inference.smk"
+    include: "workflow/rules/report.smk"
+    include: "workflow/rules/los.smk"
+
+    rule all:
+        input:
+            "results/ti/records.csv",
+            "results/ti/bins.csv",
+            "results/posterior/global.nc",
+            posterior_bin_files,
+            "results/report/report.html",
+            LOS_OUTPUTS,
+        default_target: True
+        localrule: True

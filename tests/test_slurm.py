@@ -3,17 +3,22 @@
 scripts/slurm-up.sh starts munged, slurmctld and slurmd (root, Debian slurm-wlm + munge;
 scripts/system-deps.sh installs them); scripts/slurm-down.sh stops them by their pid files.
 The SLURM run uses the shipped profile (profiles/slurm: executor slurm, partition
-``flidar``, ``--slurm-status-command squeue``).
+``flidar``, ``--slurm-status-command squeue``). A fleet of two campaigns
+(tests/test_fleet.py) runs there too: the same files as the local run, and jobs of the two
+campaigns overlap in time on the cluster.
 """
 
 from __future__ import annotations
 
 import os
 import subprocess
+import time
+from datetime import datetime
 from pathlib import Path
 
 import pytest
 from conftest import IN_CI, require_tool
+from test_fleet import TINY_FLEET, campaign_view, fleet_config, fleet_hashes
 from test_workflow import REPO, check_outputs, result_hashes, snakemake, tiny_config
 
 
@@ -49,25 +54,46 @@ def slurm_partition(tmp_path_factory):
         assert down.returncode == 0, down.stderr
 
 
+def run_on_slurm(workdir: Path, configfile: Path, partition: str, timeout: float = 900):
+    """The workflow in ``workdir`` with the shipped SLURM profile."""
+    return snakemake(
+        workdir,
+        configfile,
+        "--profile",
+        str(REPO / "profiles" / "slurm"),
+        "--default-resources",
+        f"slurm_partition={partition}",
+        "mem_mb=1000",
+        "runtime=30",
+        "--seconds-between-status-checks",
+        "3",
+        timeout=timeout,
+    )
+
+
+def slurm_jobs() -> dict[str, dict]:
+    """Every job squeue still lists (MinJobAge 600 s): id -> rule (the Snakemake SLURM
+    plugin's comment ``rule_<name>[_wildcards_...]``), state, start and end times."""
+    out = subprocess.run(
+        ["squeue", "-h", "-t", "all", "-o", "%i|%k|%T|%S|%e"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    jobs = {}
+    for line in out.splitlines():
+        job_id, comment, state, start, end = line.strip().split("|")
+        jobs[job_id] = {"comment": comment, "state": state, "start": start, "end": end}
+    return jobs
+
+
 @pytest.mark.slow
 def test_slurm_run_equals_local_run(slurm_partition, tmp_path):
     local, cluster = tmp_path / "local", tmp_path / "cluster"
     local.mkdir()
     cluster.mkdir()
     snakemake(local, tiny_config(local, tmp_path), "--cores", "2")
-    snakemake(
-        cluster,
-        tiny_config(cluster, tmp_path),
-        "--profile",
-        str(REPO / "profiles" / "slurm"),
-        "--default-resources",
-        f"slurm_partition={slurm_partition}",
-        "mem_mb=1000",
-        "runtime=30",
-        "--seconds-between-status-checks",
-        "3",
-        timeout=900,
-    )
+    run_on_slurm(cluster, tiny_config(cluster, tmp_path), slurm_partition)
     check_outputs(cluster, truth=True)
     # the jobs went through SLURM: finished jobs stay listed for MinJobAge (600 s)
     jobs = subprocess.run(
@@ -76,6 +102,37 @@ def test_slurm_run_equals_local_run(slurm_partition, tmp_path):
     completed = [j for j in jobs if j.endswith("COMPLETED")]
     assert len(completed) >= 5, jobs  # campaign, 2 inference batches, global fit, propagate
     assert result_hashes(cluster) == result_hashes(local)
+
+
+@pytest.mark.slow
+def test_slurm_fleet_run_equals_local_fleet_run(slurm_partition, tmp_path):
+    """Two campaigns: the cluster's files equal the local run's, and the campaigns' jobs
+    (independent branches of one DAG) run at the same time on the cluster."""
+    local, cluster = tmp_path / "local", tmp_path / "cluster"
+    local.mkdir()
+    cluster.mkdir()
+    snakemake(local, fleet_config(local, tmp_path), "--cores", "2", timeout=1500)
+    before = set(slurm_jobs())
+    t0 = time.monotonic()
+    run_on_slurm(cluster, fleet_config(cluster, tmp_path), slurm_partition, timeout=1800)
+    print(f"fleet of {len(TINY_FLEET)} on SLURM: {time.monotonic() - t0:.0f} s wall")
+    for name in TINY_FLEET:
+        check_outputs(campaign_view(cluster, name, tmp_path / "view" / name), truth=True)
+    assert (cluster / "results" / "fleet" / "summary.csv").is_file()
+    ran = {k: j for k, j in slurm_jobs().items() if k not in before}
+    spans = {}
+    for name in TINY_FLEET:
+        mine = [j for j in ran.values() if j["comment"].startswith(f"rule_{name}_")]
+        # campaign, 2 inference batches, global fit, propagate
+        assert sum(j["state"] == "COMPLETED" for j in mine) >= 5, (name, ran)
+        spans[name] = [
+            (datetime.fromisoformat(j["start"]), datetime.fromisoformat(j["end"])) for j in mine
+        ]
+    a, b = (spans[name] for name in TINY_FLEET)
+    assert any(s1 < e2 and s2 < e1 for s1, e1 in a for s2, e2 in b), spans
+    hashes = fleet_hashes(cluster)
+    assert sum(k.endswith(".csv") for k in hashes) >= 2 * 15 + 1
+    assert hashes == fleet_hashes(local)
 
 
 def test_slurm_profile_names_the_partition_and_squeue_status():

@@ -10,7 +10,10 @@ from flidar_uq.workflow.inputs import pipeline_preflight
 # pipeline will (main process only, not in cluster jobs). A bad input stops the run here
 # with one line naming the key or the file, row and column, and exit status 2 (config)
 # or 3 (data); warnings are printed and the run goes on.
-_status = pipeline_preflight(config, read_data=workflow.is_main_process)
+# In a fleet (this workflow as a module of workflow/rules/fleet.smk) the fleet checked this
+# campaign's config and data already, its name in the keys: the data are not read again.
+IN_FLEET = getattr(workflow.modifier, "namespace", None) is not None
+_status = pipeline_preflight(config, read_data=workflow.is_main_process and not IN_FLEET)
 if _status:
     sys.exit(_status)
 

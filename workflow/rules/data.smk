@@ -59,6 +59,7 @@ if IMU_SERIES:
 
 
 rule validate:
+    localrule: True
     input:
         records="results/campaign/records.csv",
         # the IMU series' statistics replace the table's motion columns (the series wins)
@@ -81,6 +82,7 @@ rule validate:
 
 
 rule qc:
+    localrule: True
     input:
         "results/data/records.csv",
     output:
@@ -102,6 +104,7 @@ rule qc:
 
 
 rule motion_statistics:
+    localrule: True
     input:
         "results/qc/kept.csv",
     output:
@@ -118,6 +121,7 @@ rule motion_statistics:
 
 
 checkpoint bins:
+    localrule: True
     input:
         "results/motion/records.csv",
     output:
@@ -137,6 +141,7 @@ checkpoint bins:
 
 
 rule sigma_z:
+    localrule: True
     input:
         "results/bins/table.csv",
     output:

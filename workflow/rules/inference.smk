@@ -26,14 +26,15 @@ rule infer_batch:
 
 
 rule posterior_bin:
+    localrule: True
     input:
         batch_of_bin,
     output:
         "results/posterior/bin_{bin}.nc",
     params:
         # relative link target (portable: BSD ln has no -r)
-        target=lambda wildcards, input: os.path.relpath(
-            os.path.join(input[0], f"bin_{wildcards.bin}.nc"), "results/posterior"
+        target=lambda wildcards, input, output: os.path.relpath(
+            os.path.join(input[0], f"bin_{wildcards.bin}.nc"), os.path.dirname(output[0])
         ),
     conda:
         "../envs/flidar_uq.yaml"
@@ -73,6 +74,7 @@ rule fit_global_model:
 
 
 rule fit_global:
+    localrule: True
     input:
         models=expand("results/inference/global_{model}.nc", model=GLOBAL_MODELS),
         batches=expand("results/inference/batch_{batch}", batch=BATCHES),

@@ -36,6 +36,7 @@ if LOS_SERIES:
             "../scripts/los_correction.py"
 
     rule los_agreement:
+        localrule: True
         input:
             los="results/los/corrected.csv",
             ti="results/ti/records.csv",

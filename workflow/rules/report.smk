@@ -3,6 +3,7 @@
 
 
 rule report:
+    localrule: True
     input:
         records="results/ti/records.csv",
         bins="results/ti/bins.csv",
@@ -20,6 +21,9 @@ rule report:
         campaign="results/campaign/records.csv",
         validated="results/data/records.csv",
         batches=expand("results/inference/batch_{batch}", batch=BATCHES),
+        # the per-bin posterior files (links): the report is the last step of a campaign,
+        # so its results tree is complete when the report is (a fleet asks for the reports)
+        posterior_bins=posterior_bin_files,
         # the IMU series and LOS branch sections, when those inputs are given
         **SERIES_REPORT_INPUTS,
     output:

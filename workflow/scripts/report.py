@@ -1,5 +1,7 @@
 """Rule report: the self-contained HTML report (report_step.build_report)."""
 
+from pathlib import Path
+
 from flidar_uq.workflow.files import setup_logging
 from flidar_uq.workflow.report_step import build_report, git_revision
 
@@ -8,17 +10,18 @@ SERIES_KEYS = ("imu_summary", "imu_gaps", "los_records", "los_agreement", "los_f
 
 snakemake = globals()["snakemake"]  # injected by the script directive
 setup_logging(snakemake.log[0])
-inputs = {"results/campaign/records.csv (input records)": snakemake.input.campaign}
+inputs = {f"{snakemake.input.campaign} (input records)": snakemake.input.campaign}
 if snakemake.params.user_records:
     inputs = {snakemake.params.user_records: snakemake.params.user_records} | inputs
-inputs["results/data/records.csv (validated)"] = snakemake.input.validated
+inputs[f"{snakemake.input.validated} (validated)"] = snakemake.input.validated
 for key in ("imu_series", "los_series"):  # the raw series, when given
     if path := snakemake.params.config["campaign"].get(key):
         inputs[path] = path
 inputs["requirements.lock"] = snakemake.params.lock_file
 build_report(
     out_path=snakemake.output[0],
-    results_dir="results",
+    # results/ of this campaign (results/<name>/ in a fleet): above the report's directory
+    results_dir=Path(snakemake.output[0]).parents[1],
     batch_dirs=list(snakemake.input.batches),
     config=dict(snakemake.params.config),
     git_revision=git_revision(snakemake.params.repo),

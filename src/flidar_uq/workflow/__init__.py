@@ -10,7 +10,8 @@ QC, motion statistics, bins, sigma_Z table), :mod:`.imu_step` (motion statistics
 series), :mod:`.inference_steps` (per-bin batches, global models, global fit),
 :mod:`.propagation_step` (corrected TI), :mod:`.los_step` (the LOS branch and its agreement
 with the Bayesian TI), :mod:`.report_step` (HTML report), :mod:`.series_report` (its section
-of the raw series), :mod:`.report` (HTML building blocks), :mod:`.plots` (figures).
+of the raw series), :mod:`.report` (HTML building blocks), :mod:`.plots` (figures),
+:mod:`.fleet` (the summary of a fleet of campaigns, ``results/fleet/``).
 
 Each public step function is what one workflow script (``workflow/scripts/*.py``) calls;
 the scripts only unpack ``snakemake.input/output/params``. No Snakemake import lives here,

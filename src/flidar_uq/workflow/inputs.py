@@ -39,7 +39,9 @@ __all__ = [
     "EXIT_OK",
     "EXIT_USAGE",
     "SCHEMA_PATH",
+    "FLEET_DIR",
     "ConfigError",
+    "campaign_configs",
     "check_config",
     "check_reference",
     "check_series",
@@ -69,6 +71,9 @@ EXIT_CODES = {
 #: The closed config schema of the pipeline (the repository's workflow/schemas/).
 SCHEMA_PATH = Path(__file__).resolve().parents[3] / "workflow" / "schemas" / "config.schema.yaml"
 
+#: The fleet summary's directory under results/ (a name no campaign of ``campaigns:`` may take).
+FLEET_DIR = "fleet"
+
 #: Share of records one QC filter may flag before :func:`inspect_records` warns.
 _QC_WARN_SHARE = 0.5
 #: Fewest records with a reference std for rho to be learnt without a warning.
@@ -87,8 +92,15 @@ class ConfigError(ValueError):
     """
 
     def __init__(self, key: str, problem: str, *, message: str | None = None) -> None:
-        self.key, self.problem = key, problem
+        self.key, self.problem, self.message = key, problem, message
         super().__init__(message or f"config key {key}: {problem}")
+
+    def in_campaign(self, name: str) -> ConfigError:
+        """The same problem in campaign ``name`` of a fleet: the key becomes
+        ``campaigns.<name>.<key>``."""
+        key = f"campaigns.{name}.{self.key}"
+        message = f"campaigns.{name}: {self.message}" if self.message else None
+        return ConfigError(key, self.problem, message=message)
 
 
 # --------------------------------------------------------------------------- config
@@ -140,6 +152,18 @@ def _fill_defaults(config: dict, schema: dict) -> None:
 def _schema_error(err, schema: dict) -> ConfigError:
     """One line for a jsonschema error: the dotted key and the problem."""
     path = [str(p) for p in err.absolute_path]
+    if (
+        err.validator == "additionalProperties"
+        and isinstance(err.instance, dict)
+        and "patternProperties" in err.schema
+    ):  # a name of the campaigns: mapping
+        pattern = next(iter(err.schema["patternProperties"]))
+        bad = sorted(str(k) for k in err.instance if not re.search(pattern, str(k)))
+        name = bad[0] if bad else "?"
+        return ConfigError(
+            ".".join([*path, name]),
+            "not a campaign name (a letter, then letters, digits or '_'; at most 40 characters)",
+        )
     if err.validator == "additionalProperties" and isinstance(err.instance, dict):
         known = sorted(err.schema.get("properties", {}))
         extra = sorted(k for k in err.instance if k not in known)
@@ -166,7 +190,9 @@ def check_config(config: dict, *, schema: dict | None = None) -> dict:
     """Validate a pipeline config: closed schema, defaults, cross-key conditions.
 
     What the schema cannot say is checked too (cross-key conditions, the library's own
-    limits).
+    limits). With ``campaigns:`` (a fleet) those checks run on each campaign's config
+    (:func:`campaign_configs`) and a problem's key names the campaign
+    (``campaigns.buoyB.campaign.records``).
 
     Parameters
     ----------
@@ -198,8 +224,53 @@ def check_config(config: dict, *, schema: dict | None = None) -> dict:
         errors.sort(key=lambda e: (-len(e.absolute_path), [str(p) for p in e.absolute_path]))
         raise _schema_error(errors[0], schema)
     _fill_defaults(config, schema)
-    _check_semantics(config)
+    if "campaigns" not in config:
+        _check_semantics(config)
+        return config
+    # a fleet: each campaign's sections laid over the shared ones, checked as one config
+    for name, merged in campaign_configs(config).items():
+        if name == FLEET_DIR:
+            raise ConfigError(
+                f"campaigns.{name}",
+                f"reserved name (results/{FLEET_DIR}/ holds the fleet summary); choose another",
+            )
+        try:
+            _check_semantics(merged)
+        except ConfigError as exc:
+            raise exc.in_campaign(name) from None
     return config
+
+
+def campaign_configs(config: Mapping) -> dict[str, dict]:
+    """The config of each campaign of a fleet (config key ``campaigns``).
+
+    A campaign's config is the top-level config (the sections the campaigns share) with the
+    campaign's own sections laid over it key by key: ``campaigns: {B: {campaign: {seed:
+    3}}}`` gives campaign B the shared ``campaign`` section with seed 3; a key's value is
+    replaced whole (``campaign.columns`` is not merged). The result is what a single-campaign
+    run of that campaign would read, so a fleet's campaign gives the files of that run.
+
+    Parameters
+    ----------
+    config : mapping
+        The pipeline config, completed with the schema defaults (:func:`check_config`).
+
+    Returns
+    -------
+    dict of str -> dict
+        Campaign name -> its config (without ``campaigns``), in the config's order; empty
+        when ``config`` has no ``campaigns`` key (a single campaign).
+    """
+    import copy
+
+    shared = {k: v for k, v in config.items() if k != "campaigns"}
+    out = {}
+    for name, own in (config.get("campaigns") or {}).items():
+        merged = copy.deepcopy(shared)
+        for section, values in (own or {}).items():
+            merged[section] = {**merged.get(section, {}), **copy.deepcopy(values)}
+        out[str(name)] = merged
+    return out
 
 
 def _check_semantics(config: dict) -> None:
@@ -644,8 +715,11 @@ def pipeline_preflight(config: dict, *, read_data: bool = True, stream=None) -> 
     ``campaign.source: files`` with ``read_data``, reads the record table as the pipeline
     will (:func:`read_campaign_records`), refuses what would make every record
     uncorrectable (:func:`reference_problems`), a reference kind missing for records
-    with a reference (:func:`check_reference`) and bad raw series (:func:`check_series`). The warnings of :func:`inspect_records`
-    come from the ``validate`` rule (they need the inference layer, slow to import).
+    with a reference (:func:`check_reference`) and bad raw series (:func:`check_series`).
+    The warnings of :func:`inspect_records` come from the ``validate`` rule (they need the
+    inference layer, slow to import). A fleet (``campaigns:``) is checked campaign by
+    campaign (:func:`campaign_configs`), a problem's key naming the campaign
+    (``campaigns.buoyB.campaign.records``).
 
     Returns
     -------
@@ -656,16 +730,13 @@ def pipeline_preflight(config: dict, *, read_data: bool = True, stream=None) -> 
     stream = sys.stderr if stream is None else stream
     try:
         check_config(config)
-        camp = config["campaign"]
-        if read_data and camp["source"] == "files":
-            records = read_campaign_records(camp["records"], camp)
-            problems = reference_problems(records, str(camp["records"]))
-            if problems:
-                raise problems[0]
-            check_reference(config, list(records.columns))
-            check_series(camp)
-        elif camp["source"] == "virtual":
-            check_reference(config)
+        if "campaigns" not in config:
+            _preflight_data(config, read_data)
+        for name, merged in campaign_configs(config).items():
+            try:
+                _preflight_data(merged, read_data)
+            except ConfigError as exc:
+                raise exc.in_campaign(name) from None
     except Exception as exc:  # noqa: BLE001 - classified below, re-raised if not bad input
         code = exit_status(exc)
         if code is None:
@@ -673,6 +744,20 @@ def pipeline_preflight(config: dict, *, read_data: bool = True, stream=None) -> 
         print(f"flidar-uq: error: {exc}", file=stream)
         return code
     return EXIT_OK
+
+
+def _preflight_data(config: dict, read_data: bool) -> None:
+    """The data checks of :func:`pipeline_preflight` for one campaign's checked config."""
+    camp = config["campaign"]
+    if read_data and camp["source"] == "files":
+        records = read_campaign_records(camp["records"], camp)
+        problems = reference_problems(records, str(camp["records"]))
+        if problems:
+            raise problems[0]
+        check_reference(config, list(records.columns))
+        check_series(camp)
+    elif camp["source"] == "virtual":
+        check_reference(config)
 
 
 @contextmanager
