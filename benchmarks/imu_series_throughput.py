@@ -12,9 +12,9 @@ process, which reports its peak resident memory (``VmHWM``) and wall time.
 Target (issue 12): a year at 20 Hz processed in memory bounded by the chunk (default
 2.5e5 rows), not by the series; time is reported per month of data; the 365-day case is the
 year itself. Measured (2 cores, shared): the year in 1,021 s (84 s per month) at 800 MB peak,
-against 352 MB for one day and 397 MB for 30 days: the series is never held, but the
-per-record statistics (157,680 record rows at a year) are kept until the end, gathered as
-small tables run by run, and that part grows with the campaign.
+against 352 MB for one day and 397 MB for 30 days: the series is never held; most likely (not
+profiled) the growth is the per-record statistics (157,680 record rows at a year), kept
+until the end and gathered as small tables run by run.
 
 Writes benchmarks/results/imu_series_throughput.csv and .png; prints the table and the
 ratios. Runtime: ~50 min on one core (series files of up to 365 days, ~20 GB on disk in a
