@@ -192,6 +192,34 @@ def lidar_std_ratio(
     return out
 
 
+def _scan_settings(
+    caller,
+    lidar,
+    heights_in_turn,
+    refocus_delay_s,
+    turbulence_dt_s,
+    point_sample_interval_s,
+    record_length_s,
+):
+    """Checked scan settings of the lidar-vs-point simulations: ``(geometry, refocus delay
+    range (s), LOS duration (s), turbulence time step (s))``; messages name ``caller``."""
+    g = _lidar.get_lidar(lidar)
+    lo_d, hi_d = (float(v) for v in refocus_delay_s)
+    dt = g.los_duration_s
+    t_dt = dt if turbulence_dt_s is None else float(turbulence_dt_s)
+    if int(heights_in_turn) < 1 or not 0.0 <= lo_d <= hi_d:
+        raise ValueError(
+            f"{caller}: need heights_in_turn >= 1 and 0 <= refocus_delay_s[0] <= [1], got "
+            f"{heights_in_turn!r}, {refocus_delay_s!r}"
+        )
+    if not (point_sample_interval_s > 0 and t_dt > 0 and record_length_s > 0):
+        raise ValueError(
+            f"{caller}: point_sample_interval_s, turbulence_dt_s and record_length_s must be "
+            f"> 0, got {point_sample_interval_s!r}, {turbulence_dt_s!r}, {record_length_s!r}"
+        )
+    return g, lo_d, hi_d, dt, t_dt
+
+
 def lidar_point_log_sd(
     hws_ms,
     height_m,
@@ -252,21 +280,15 @@ def lidar_point_log_sd(
     ValueError
         For a non-positive interval, delay range, record length, or fewer than 8 records.
     """
-    g = _lidar.get_lidar(lidar)
-    lo_d, hi_d = (float(v) for v in refocus_delay_s)
-    dt = g.los_duration_s
-    t_dt = dt if turbulence_dt_s is None else float(turbulence_dt_s)
-    if int(heights_in_turn) < 1 or not 0.0 <= lo_d <= hi_d:
-        raise ValueError(
-            f"lidar_point_log_sd: need heights_in_turn >= 1 and 0 <= refocus_delay_s[0] <= "
-            f"[1], got {heights_in_turn!r}, {refocus_delay_s!r}"
-        )
-    if not (point_sample_interval_s > 0 and t_dt > 0 and record_length_s > 0):
-        raise ValueError(
-            "lidar_point_log_sd: point_sample_interval_s, turbulence_dt_s and record_length_s "
-            f"must be > 0, got {point_sample_interval_s!r}, {turbulence_dt_s!r}, "
-            f"{record_length_s!r}"
-        )
+    g, lo_d, hi_d, dt, t_dt = _scan_settings(
+        "lidar_point_log_sd",
+        lidar,
+        heights_in_turn,
+        refocus_delay_s,
+        turbulence_dt_s,
+        point_sample_interval_s,
+        record_length_s,
+    )
     if int(n_records) < 8:
         raise ValueError(f"lidar_point_log_sd: n_records={n_records!r} must be >= 8")
     x, ok, out = _time_scale_s(hws_ms, height_m)
@@ -379,21 +401,15 @@ def lidar_pair_correlation(
     ValueError
         For invalid scan settings, a non-positive HWS or height, or fewer than 8 records.
     """
-    g = _lidar.get_lidar(lidar)
-    lo_d, hi_d = (float(v) for v in refocus_delay_s)
-    dt = g.los_duration_s
-    t_dt = dt if turbulence_dt_s is None else float(turbulence_dt_s)
-    if int(heights_in_turn) < 1 or not 0.0 <= lo_d <= hi_d:
-        raise ValueError(
-            f"lidar_pair_correlation: need heights_in_turn >= 1 and 0 <= refocus_delay_s[0] "
-            f"<= [1], got {heights_in_turn!r}, {refocus_delay_s!r}"
-        )
-    if not (point_sample_interval_s > 0 and t_dt > 0 and record_length_s > 0):
-        raise ValueError(
-            "lidar_pair_correlation: point_sample_interval_s, turbulence_dt_s and "
-            f"record_length_s must be > 0, got {point_sample_interval_s!r}, "
-            f"{turbulence_dt_s!r}, {record_length_s!r}"
-        )
+    g, lo_d, hi_d, dt, t_dt = _scan_settings(
+        "lidar_pair_correlation",
+        lidar,
+        heights_in_turn,
+        refocus_delay_s,
+        turbulence_dt_s,
+        point_sample_interval_s,
+        record_length_s,
+    )
     if not (hws_ms > 0 and height_m > 0) or int(n_records) < 8:
         raise ValueError(
             f"lidar_pair_correlation: need hws_ms > 0 m/s, height_m > 0 m and n_records >= 8, "
