@@ -9,6 +9,7 @@ import pytest
 from flidar_uq.campaign import physics_mode
 from flidar_uq.campaign.physics_mode import generate_campaign
 from flidar_uq.campaign.scenarios import CampaignConfig, load_scenario
+from flidar_uq.data.imu import heading_mean_deg
 from flidar_uq.data.io import (
     read_records,
     validate_imu_series,
@@ -380,6 +381,11 @@ def test_weathervane_heading_follows_the_wind(seed):
     np.testing.assert_allclose(
         _wrap(yaw_imu.to_numpy() - r["true_yaw_deg"].to_numpy()), 0.0, atol=0.5
     )
+    # the record column heading_mean_deg is the circular mean of that raw yaw per record
+    by_record = rec.imu.groupby(rec.imu["timestamp"].dt.floor("10min"))["yaw_deg"]
+    circ = by_record.apply(lambda y: float(heading_mean_deg(y.to_numpy())))
+    want = circ.reindex(pd.to_datetime(r["timestamp"], utc=True)).to_numpy()
+    np.testing.assert_allclose(_wrap(r["heading_mean_deg"].to_numpy() - want), 0.0, atol=1e-9)
     g = r["true_wind_sea_gamma"]
     assert g.between(1.0, 7.0).all() and g.std() > 0.5  # broadband 1 .. narrow 7
 

@@ -319,6 +319,23 @@ def test_float_timestamp_jitter_does_not_drift_over_a_day():
 
 
 # --------------------------------------------------------------------------- wind-frame tilt spectrum
+def test_heading_mean_is_circular_and_skips_missing_samples():
+    # a heading swinging through north averages to north, not south
+    yaw = np.array([[350.0, 10.0, 355.0, 5.0], [170.0, -170.0, np.nan, 180.0]])
+    np.testing.assert_allclose(imu.heading_mean_deg(yaw), [0.0, 180.0], atol=1e-9)
+    assert np.isnan(imu.heading_mean_deg([np.nan, np.nan]))
+    # a yawing buoy (sine about 40 deg, +-25 deg) in a series: the mean of the record
+    t = np.arange(0, 600, 1 / FS)
+    frame = imu_frame(t, 0 * t, sine(3.0, 4.0, t=t))
+    frame["yaw_deg"] = 40.0 + 25.0 * np.sin(2 * np.pi * t / 60.0)
+    wd = pd.Series([90.0], index=pd.to_datetime([1.4274e9], unit="s", utc=True))
+    table, _ = imu.tilt_spectrum_statistics(frame, wd)
+    assert table.heading_mean_deg[0] == pytest.approx(40.0, abs=1e-6)
+    # no yaw column: the heading is unknown (the tilt is still projected with heading 0)
+    table, _ = imu.tilt_spectrum_statistics(frame.drop(columns="yaw_deg"), wd)
+    assert np.isnan(table.heading_mean_deg[0])
+
+
 def test_tilt_spectrum_statistics_uses_yaw_column_and_record_wind_direction():
     t = np.arange(0, 1200, 1 / FS)  # two windows
     x = sine(3.0, 4.0, t=t)
@@ -328,8 +345,9 @@ def test_tilt_spectrum_statistics_uses_yaw_column_and_record_wind_direction():
         [90.0, 0.0], index=pd.to_datetime([1.4274e9, 1.4274e9 + 600], unit="s", utc=True)
     )
     table, spec = imu.tilt_spectrum_statistics(frame, wd)
-    assert list(table.columns) == ["timestamp", *imu.TILT_SPECTRUM_COLUMNS]
+    assert list(table.columns) == ["timestamp", *imu.TILT_SPECTRUM_COLUMNS, "heading_mean_deg"]
     assert len(table) == 2 and spec.var_along_deg2.shape == (2, 8)
+    np.testing.assert_allclose(table.heading_mean_deg, 0.0, atol=1e-12)
     # window 1: pitch tilts east, wind along east-west -> all along; window 2: all across
     assert table.tilt_along_wind_std_deg[0] * np.sqrt(2) == pytest.approx(3.0, rel=1e-2)
     assert table.tilt_across_wind_std_deg[0] < 1e-6

@@ -40,6 +40,7 @@ def test_schema_reference_section_is_closed_and_bounded():
         ("separation_m", [0.0, 250.0], [-1.0, "near"]),
         ("lidar", [None, "windcube_v2"], [3]),
         ("lidar_std_ratio_log_sd", [0.0, 0.05], [-0.01, 1.0]),
+        ("sampling_correlation", ["auto", "synchronized", 0.0, -0.2, 1], ["sync", 1.5, -2, None]),
     ):
         for value in good:
             cfg = _yaml(CONFIG)
@@ -415,13 +416,114 @@ def test_two_lidars_sampling_errors_decorrelate_with_azimuth_offset_and_own_sche
         lidar_pair_correlation(0.0, n_records=4)
 
 
+def test_pair_sampling_correlation_per_record_from_the_config_and_the_heading():
+    from flidar_uq.correction.propagation import SYNCHRONIZED, pair_sampling_correlation
+
+    hws, z = np.array([8.0, 9.0, 10.0, 11.0]), np.full(4, 85.0)
+    kw = dict(heights_in_turn=3, refocus_delay_s=(0.3, 0.7), turbulence_dt_s=0.1)
+    # a number: every record's c (a user's fixed lidar on its own schedule: 0)
+    np.testing.assert_array_equal(
+        pair_sampling_correlation(0.0, None, hws, z, "zephir300", seed=1, **kw), 0.0
+    )
+    np.testing.assert_array_equal(
+        pair_sampling_correlation(-0.3, [0.0] * 4, hws, z, "zephir300", seed=1, **kw), -0.3
+    )
+    for bad in (1.5, "sync", None):
+        with pytest.raises(ValueError, match="must be a number in"):
+            pair_sampling_correlation(bad, None, hws, z, "zephir300", seed=1, **kw)
+    # synchronised twin: c follows the buoy heading; an unknown heading: independent (0)
+    heading = np.array([0.0, 90.0, np.nan, 180.0])
+    c = pair_sampling_correlation(SYNCHRONIZED, heading, hws, z, "zephir300", seed=1, **kw)
+    assert c[0] > 0.95 and c[1] < 0.6 and c[3] < 0.2
+    assert c[2] == 0.0
+    np.testing.assert_array_equal(
+        pair_sampling_correlation(SYNCHRONIZED, None, hws, z, "zephir300", seed=1, **kw), 0.0
+    )
+
+
+def test_sampling_correlation_auto_is_synchronized_for_the_virtual_twin_else_zero():
+    user = resolve_reference(
+        {"kind": "fixed_lidar"}, virtual_kind=None, record_columns=["ref_hws_std_ms"],
+        lidar="zephir300",
+    )  # fmt: skip
+    assert user["sampling_correlation"] == 0.0
+    virtual = resolve_reference(
+        {"kind": None, "sampling_correlation": "auto"}, virtual_kind="fixed_lidar",
+        record_columns=None, lidar="zephir300",
+    )  # fmt: skip
+    assert virtual["sampling_correlation"] == "synchronized"
+    # resolved once (common.smk), unchanged when the step resolves it again
+    again = resolve_reference(virtual, virtual_kind=None, record_columns=None, lidar="zephir300")
+    assert again["sampling_correlation"] == "synchronized"
+    given = resolve_reference(
+        {"kind": "fixed_lidar", "sampling_correlation": 0.4}, virtual_kind=None,
+        record_columns=None, lidar="zephir300",
+    )  # fmt: skip
+    assert given["sampling_correlation"] == 0.4
+
+
+@pytest.mark.parametrize(
+    "kind", [pytest.param("fixed_lidar", marks=pytest.mark.slow), "cup"]
+)  # fixed_lidar: ~30 s of scan simulation (point scatter and pair correlation)
+def test_pipeline_record_fit_takes_the_reference_lidars_pair_term(tmp_path, monkeypatch, kind):
+    """fit_global_model (model record) passes the pair term of the same reference_noise the
+    propagation uses: sqrt(2 (1 - c)) sd per record for a fixed lidar, none for a cup."""
+    from flidar_uq import inference
+    from flidar_uq.workflow import inference_steps, propagation_step
+
+    seen, spied = {}, []
+    real_noise = propagation_step.reference_noise
+
+    def spy(*args, **kwargs):
+        spied.append(real_noise(*args, **kwargs))
+        return spied[-1]
+
+    monkeypatch.setattr(propagation_step, "reference_noise", spy)
+
+    class _Fit:
+        converged, failure_reasons, info = True, [], {}
+
+    def fake_fit(records, **kwargs):
+        seen.update(kwargs)
+        return _Fit()
+
+    monkeypatch.setattr(inference, "fit_record_model", fake_fit)
+    monkeypatch.setattr(inference, "save_fit", lambda fit, path: None)
+    rec = pd.DataFrame(
+        {"record_id": [0, 1, 2], "bin_id": [1, 1, 2], "hws_mean_ms": [6.0, 9.0, 12.0],
+         "height_m": [85.0, 85.0, 85.0], "heading_mean_deg": [0.0, 90.0, 180.0]}
+    )  # fmt: skip
+    rec.to_csv(tmp_path / "assign.csv", index=False)
+    cfg = _yaml(CONFIG)
+    ref = resolve_reference(
+        {"kind": kind, "sampling_correlation": "synchronized"}, virtual_kind=None,
+        record_columns=None, lidar="zephir300",
+    )  # fmt: skip
+    scan = {"scan_heights_in_turn": 3, "scan_refocus_delay_s": [0.3, 0.7],
+            "point_sample_interval_s": 1.0, "turbulence_dt_s": 0.1}  # fmt: skip
+    inference_steps.fit_global_model(
+        [], tmp_path / "assign.csv", tmp_path / "global.nc", model="record",
+        inference=cfg["inference"], priors=cfg["priors"], lidar="zephir300",
+        reference=ref, propagation=scan,
+    )  # fmt: skip
+    if kind == "cup":
+        assert seen["pair_log_sd"] is None and not spied
+        return
+    ((g, sd, c, pair),) = spied
+    assert seen["pair_log_sd"] is pair
+    np.testing.assert_allclose(pair, np.sqrt(2.0 * (1.0 - c)) * sd)
+    assert pair[0] < 0.35 * sd[0] and pair[2] > 1.2 * sd[2]  # same azimuths vs opposite
+
+
 def test_record_sbc_replication_with_a_reference_lidar_pair_term():
     from flidar_uq.inference import SamplerSettings
     from flidar_uq.validation.sbc import SBC_RECORD_PARAMS, sbc_record_replication
 
     tiny = SamplerSettings(nwalkers=10, nsteps=20, nburn=10, ndraws=20, global_max_step_factor=1.0)
     seed = np.random.SeedSequence(12)
-    row = sbc_record_replication(seed, n_records=30, settings=tiny, n_rank_draws=19, pair_log_sd=0.04)
+    row = sbc_record_replication(
+        seed, n_records=30, settings=tiny, n_rank_draws=19, pair_log_sd=0.04
+    )
     for name in SBC_RECORD_PARAMS:
         assert 0 <= row[f"rank_{name}"] <= 19
     again = sbc_record_replication(

@@ -60,6 +60,8 @@ rule fit_global_model:
         inference=config["inference"],
         priors=config["priors"],
         lidar=config["campaign"]["lidar"],
+        reference=reference_params(),
+        propagation=propagation_params(),
     conda:
         "../envs/flidar_uq.yaml"
     log:

@@ -13,4 +13,6 @@ fit_global_model(
     inference=dict(snakemake.params.inference),
     priors=dict(snakemake.params.priors),
     lidar=snakemake.params.lidar,
+    reference=dict(snakemake.params.reference),
+    propagation=dict(snakemake.params.propagation),
 )

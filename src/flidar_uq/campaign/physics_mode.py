@@ -645,6 +645,9 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     for key, col in _imu.tilt_spectrum_columns(spec).items():
         for r, v in zip(rows, col, strict=True):
             r[key] = float(v)
+    # the buoy's mean heading over each record, as a compass would report it
+    for r, v in zip(rows, _imu.heading_mean_deg(att_rows[2]), strict=True):
+        r["heading_mean_deg"] = float(v)
     return (
         rows,
         imu_df if want_imu else None,

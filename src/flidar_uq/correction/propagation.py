@@ -50,7 +50,9 @@ __all__ = [
     "corrected_ti",
     "point_target",
     "record_flags",
+    "pair_sampling_correlation",
     "reference_pair_log_sd",
+    "SYNCHRONIZED",
     "reference_target",
     "split_noise",
     "ti_group_statistics",
@@ -334,6 +336,90 @@ def reference_target(
     if kind in ("cup", "sonic"):
         return None, None
     return point_target(hws_ms, height_m, lidar, **sampling)
+
+
+#: ``reference.sampling_correlation`` value of a reference lidar that scans on the floating
+#: lidar's own schedule (the virtual campaign's twin): ``c`` then follows the azimuth
+#: offset between the two, i.e. the buoy's heading (:func:`pair_sampling_correlation`).
+SYNCHRONIZED = "synchronized"
+
+
+def pair_sampling_correlation(
+    correlation,
+    heading_deg,
+    hws_ms,
+    height_m,
+    lidar: str,
+    *,
+    seed: int,
+    **sampling,
+) -> np.ndarray:
+    """Correlation ``c`` of a reference lidar's and the floating lidar's sampling errors, per record.
+
+    The input of :func:`reference_pair_log_sd` (the record fit's known pair term) and of
+    :func:`corrected_ti`'s ``reference_sampling_correlation``.
+
+    Parameters
+    ----------
+    correlation : float or "synchronized"
+        A number in [-1, 1] (-): every record's ``c`` (0, :data:`REFERENCE_SAMPLING_CORRELATION`:
+        two lidars on their own scan schedules, what separate instruments have).
+        :data:`SYNCHRONIZED`: the reference lidar scans on the floating lidar's schedule at
+        the azimuths of a buoy heading of 0 (the virtual campaign), so ``c`` is
+        :func:`flidar_uq.physics.lidar_response.lidar_pair_correlation` at the azimuth
+        offset ``heading_deg`` (simulated at the records' median HWS and height).
+    heading_deg : array_like, shape (n_records,), or None
+        The buoy's mean heading over each record (deg, record column ``heading_mean_deg``);
+        used only when synchronized. NaN or None: unknown, ``c`` =
+        :data:`REFERENCE_SAMPLING_CORRELATION` for those records.
+    hws_ms, height_m : array_like, shape (n_records,)
+        Record mean HWS (m/s) and height (m).
+    lidar : str
+        Geometry name of the two lidars.
+    seed : int
+        Seed of the simulation (numpy SeedSequence entropy).
+    **sampling
+        ``heights_in_turn``, ``refocus_delay_s``, ``point_sample_interval_s``,
+        ``turbulence_dt_s`` of :func:`flidar_uq.physics.lidar_response.lidar_pair_correlation`.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_records,)
+        ``c`` in [-1, 1] (-).
+
+    Raises
+    ------
+    ValueError
+        If ``correlation`` is neither a number in [-1, 1] nor :data:`SYNCHRONIZED`.
+    """
+    hws = np.asarray(hws_ms, dtype=float)
+    if correlation != SYNCHRONIZED:
+        c = float(correlation) if isinstance(correlation, int | float) else np.nan
+        if not -1.0 <= c <= 1.0:
+            raise ValueError(
+                f"pair_sampling_correlation: correlation={correlation!r} must be a number in "
+                f"[-1, 1] or {SYNCHRONIZED!r}"
+            )
+        return np.full(hws.shape, c)
+    heading = np.full(hws.shape, np.nan) if heading_deg is None else np.asarray(heading_deg, float)
+    known = np.isfinite(heading)
+    out = np.full(hws.shape, REFERENCE_SAMPLING_CORRELATION)
+    if known.any():
+        from flidar_uq.physics.lidar_response import lidar_pair_correlation
+
+        out[known] = lidar_pair_correlation(
+            heading[known],
+            lidar,
+            synchronized=True,
+            hws_ms=float(np.median(hws)),
+            height_m=float(np.median(np.asarray(height_m, dtype=float))),
+            heights_in_turn=sampling.get("heights_in_turn", 1),
+            refocus_delay_s=tuple(sampling.get("refocus_delay_s", (0.0, 0.0))),
+            point_sample_interval_s=sampling.get("point_sample_interval_s", 1.0),
+            turbulence_dt_s=sampling.get("turbulence_dt_s"),
+            seed=int(seed),
+        )
+    return out
 
 
 def record_flags(

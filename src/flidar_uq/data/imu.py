@@ -61,6 +61,7 @@ __all__ = [
     "motion_statistics",
     "record_motion",
     "roll_pitch_correlation",
+    "heading_mean_deg",
     "tilt_band_statistics",
     "TILT_SPECTRUM_COLUMNS",
     "tilt_spectrum_columns",
@@ -611,6 +612,31 @@ def roll_pitch_correlation(records: pd.DataFrame) -> dict[str, float]:
 # --------------------------------------------------------------------------- wind-frame tilt spectrum
 
 
+def heading_mean_deg(yaw_deg) -> np.ndarray:
+    """Buoy heading over each record: the circular mean of the yaw samples, deg.
+
+    ``atan2(mean sin(yaw), mean cos(yaw))`` over the last axis, NaN samples left out (record
+    column ``heading_mean_deg``). A heading that turns through north averages correctly
+    (350 and 10 deg give 0, not 180).
+
+    Parameters
+    ----------
+    yaw_deg : array_like, shape (n,) or (nwin, n)
+        Yaw samples (counter-clockwise from above), deg; NaN: missing.
+
+    Returns
+    -------
+    numpy.ndarray, shape () or (nwin,)
+        Mean heading in [-180, 180] deg; NaN for a window without a finite sample.
+    """
+    y = np.deg2rad(np.asarray(yaw_deg, dtype=np.float64))
+    ok = np.isfinite(y)
+    with np.errstate(invalid="ignore"):
+        c = np.where(ok, np.cos(y), 0.0).sum(axis=-1)
+        s = np.where(ok, np.sin(y), 0.0).sum(axis=-1)
+    return np.where(ok.any(axis=-1), np.rad2deg(np.arctan2(s, c)), np.nan)
+
+
 def tilt_band_statistics(
     roll_deg,
     pitch_deg,
@@ -709,9 +735,10 @@ def tilt_spectrum_statistics(
     Returns
     -------
     table : pandas.DataFrame
-        One row per window with a sample: ``timestamp`` (window start) and the columns of
+        One row per window with a sample: ``timestamp`` (window start), the columns of
         :data:`TILT_SPECTRUM_COLUMNS` (NaN for windows below the coverage threshold or
-        without a wind direction).
+        without a wind direction) and ``heading_mean_deg`` (:func:`heading_mean_deg`; NaN
+        without a yaw column or below the coverage threshold).
     spectrum : TiltBandSpectrum
         The band description of the same rows (NaN rows for the NaN windows).
     """
@@ -739,6 +766,13 @@ def tilt_spectrum_statistics(
         segment_s=segment_s,
         n_bands=n_bands,
     ).masked(good)
-    table = pd.DataFrame({"timestamp": stamps} | tilt_spectrum_columns(spec))
+    heading = (
+        np.where(present & (coverage >= min_coverage_pct), heading_mean_deg(yaw), np.nan)
+        if grid.shape[-1] == 3
+        else np.full(len(stamps), np.nan)
+    )
+    table = pd.DataFrame(
+        {"timestamp": stamps} | tilt_spectrum_columns(spec) | {"heading_mean_deg": heading}
+    )
     keep = np.flatnonzero(present)
     return table.iloc[keep].reset_index(drop=True), spec.take(keep)

@@ -55,7 +55,11 @@ __all__ = [
 DEFAULT_CHUNK_ROWS = 250_000
 
 #: Record columns derived from a raw IMU series (they replace those of the record table).
-SERIES_MOTION_COLUMNS: tuple[str, ...] = (*_imu.MOTION_STAT_COLUMNS, *TILT_SPECTRUM_COLUMNS)
+SERIES_MOTION_COLUMNS: tuple[str, ...] = (
+    *_imu.MOTION_STAT_COLUMNS,
+    *TILT_SPECTRUM_COLUMNS,
+    "heading_mean_deg",
+)
 
 #: Relative change of the median sampling interval between chunks that is an error.
 _RATE_TOLERANCE = 0.01
@@ -609,7 +613,7 @@ def series_motion_statistics(
         tl = pd.concat(tilt_rows, ignore_index=True)
         out = out.merge(tl, on=["timestamp", "height_m"], how="left")
     else:
-        out = out.assign(**{c: np.nan for c in TILT_SPECTRUM_COLUMNS})
+        out = out.assign(**{c: np.nan for c in (*TILT_SPECTRUM_COLUMNS, "heading_mean_deg")})
     out["imu_availability_pct"] = out["imu_availability_pct"].fillna(0.0)
     out["timestamp"] = records["timestamp"].to_numpy()  # back to the records' own times
     out = out[["timestamp", "height_m", *SERIES_MOTION_COLUMNS]]

@@ -288,6 +288,20 @@ RECORD_COLUMNS: tuple[Column, ...] = (
         lower_exclusive=True,
     ),
     Column(
+        "heading_mean_deg",
+        "float",
+        "deg",
+        False,
+        -180.0,
+        180.0,
+        True,
+        "Buoy heading over the record: circular mean of the IMU yaw (counter-clockwise "
+        "from above, as yaw_deg). Used only with a fixed reference lidar on the "
+        "floating lidar's scan schedule (reference.sampling_correlation auto on a "
+        "virtual campaign); NaN or absent: unknown, the two lidars' sampling errors are "
+        "then taken as independent.",
+    ),
+    Column(
         "imu_availability_pct",
         "float",
         "%",

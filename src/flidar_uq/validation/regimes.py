@@ -22,14 +22,15 @@ from flidar_uq.campaign.scenarios import load_scenario, reference_sampling
 from flidar_uq.correction.propagation import (
     LIDAR_STD_RATIO_LOG_SD,
     REFERENCE_SAMPLING_CORRELATION,
+    SYNCHRONIZED,
     corrected_ti,
+    pair_sampling_correlation,
     reference_pair_log_sd,
     reference_target,
 )
 from flidar_uq.data.calibration import calibration_by_group, speed_group_label
 from flidar_uq.data.qc import QCConfig, run_qc
 from flidar_uq.inference import SamplerSettings, fit_record_model
-from flidar_uq.physics.lidar_response import lidar_pair_correlation
 from flidar_uq.physics.surrogate import get_surrogate
 from flidar_uq.seeding import as_seedsequence
 
@@ -104,7 +105,9 @@ def scenario_records(
         reference lidar scans on the floating lidar's schedule at the azimuths of a buoy
         heading of 0 (campaign generator, step 4), so each record's correlation is
         :func:`~flidar_uq.physics.lidar_response.lidar_pair_correlation` (synchronised) at
-        the buoy's mean heading over the record, from the raw IMU yaw. False: the fit
+        the buoy's mean heading over the record (record column ``heading_mean_deg``, from
+        the IMU yaw), as the pipeline does
+        (:func:`~flidar_uq.correction.propagation.pair_sampling_correlation`). False: the fit
         without it, and the propagation splits ``kappa`` with ``c = 0``
         (:func:`~flidar_uq.correction.propagation.split_noise`).
 
@@ -129,7 +132,7 @@ def scenario_records(
     sampling = reference_sampling(cfg)
     kind = sampling["reference_kind"]
     pair = kind == "fixed_lidar" and reference_pair
-    generated = generate_campaign(cfg, ss_camp, return_imu=pair)
+    generated = generate_campaign(cfg, ss_camp)
     kept = run_qc(generated.records, QCConfig()).kept
     hws = kept["hws_mean_ms"].to_numpy(dtype=float)
     kept = kept[(hws >= 3.0) & (hws < 20.0)].copy()
@@ -152,18 +155,15 @@ def scenario_records(
     )
     pair_log_sd = None
     if pair:
-        heading = _record_heading_deg(generated.imu, kept, float(cfg.get("record_length_s", 600.0)))
-        corr = lidar_pair_correlation(
-            heading,
+        corr = pair_sampling_correlation(
+            SYNCHRONIZED,
+            kept["heading_mean_deg"].to_numpy(dtype=float),
+            kept["hws_mean_ms"].to_numpy(dtype=float),
+            kept["height_m"].to_numpy(dtype=float),
             lidar,
-            synchronized=True,
-            hws_ms=float(np.median(kept["hws_mean_ms"])),
-            height_m=float(np.median(kept["height_m"])),
-            **scan,
             seed=pair_seed,
+            **scan,
         )
-        # a record without yaw: the lidars taken as independent
-        corr = np.where(np.isfinite(corr), corr, REFERENCE_SAMPLING_CORRELATION)
         pair_log_sd = reference_pair_log_sd(sd, corr)
     calib = kept
     if calibrate_on_sea_state is not None:
@@ -205,17 +205,6 @@ def scenario_records(
     out["has_reference"] = np.isfinite(kept["ref_hws_std_ms"].to_numpy(dtype=float))
     out["in_calibration"] = out["has_reference"] & kept.index.isin(calib.index)
     return pd.concat([out, regime_labels(out)], axis=1), fit
-
-
-def _record_heading_deg(imu: pd.DataFrame, records: pd.DataFrame, record_length_s: float):
-    """Circular mean of the raw IMU yaw (deg) over each record's 10 minutes (NaN: no yaw)."""
-    t0 = imu["timestamp"].dt.floor(f"{int(round(record_length_s))}s")
-    yaw = np.deg2rad(imu["yaw_deg"].to_numpy(dtype=float))
-    ok = np.isfinite(yaw)
-    trig = pd.DataFrame({"t": t0[ok].to_numpy(), "c": np.cos(yaw[ok]), "s": np.sin(yaw[ok])})
-    mean = trig.groupby("t")[["c", "s"]].mean()
-    heading = np.rad2deg(np.arctan2(mean["s"], mean["c"]))
-    return heading.reindex(pd.to_datetime(records["timestamp"], utc=True)).to_numpy()
 
 
 def scenario_calibration(records: pd.DataFrame, *, min_count: int = 1) -> pd.DataFrame:

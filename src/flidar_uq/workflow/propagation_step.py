@@ -36,7 +36,8 @@ def resolve_reference(
     ----------
     reference : dict
         ``config["reference"]``: ``kind`` (None when not set), ``lidar`` (None: the
-        floating lidar's type), ``height_m``, ``separation_m``, ``lidar_std_ratio_log_sd``.
+        floating lidar's type), ``height_m``, ``separation_m``, ``lidar_std_ratio_log_sd``,
+        ``sampling_correlation`` ("auto", "synchronized" or a number in [-1, 1]).
     virtual_kind : str or None
         The virtual campaign's ``reference_instrument`` (source virtual), else None.
     record_columns : sequence of str or None
@@ -47,8 +48,12 @@ def resolve_reference(
     Returns
     -------
     dict
-        ``reference`` with ``kind`` set ("cup" | "sonic" | "fixed_lidar" | "none") and
-        ``lidar`` set (the fixed lidar's geometry, or the floating lidar's).
+        ``reference`` with ``kind`` set ("cup" | "sonic" | "fixed_lidar" | "none"),
+        ``lidar`` set (the fixed lidar's geometry, or the floating lidar's) and
+        ``sampling_correlation`` set: "auto" becomes "synchronized" for the virtual
+        campaign's reference lidar (it scans on the floating lidar's schedule) and
+        :data:`flidar_uq.correction.propagation.REFERENCE_SAMPLING_CORRELATION` (0) for a
+        user's fixed lidar (its own schedule).
 
     Raises
     ------
@@ -79,6 +84,14 @@ def resolve_reference(
         kind = kind or "none"
     out["kind"] = kind or "none"
     out["lidar"] = out.get("lidar") or lidar
+    # the two lidars' sampling correlation: the virtual campaign's reference lidar scans on
+    # the floating lidar's schedule; a user's fixed lidar on its own
+    corr = out.get("sampling_correlation", "auto")
+    if corr == "auto":
+        from flidar_uq.correction.propagation import REFERENCE_SAMPLING_CORRELATION, SYNCHRONIZED
+
+        corr = SYNCHRONIZED if virtual_kind is not None else REFERENCE_SAMPLING_CORRELATION
+    out["sampling_correlation"] = corr
     from flidar_uq.physics.lidar import get_lidar
 
     try:
@@ -88,6 +101,75 @@ def resolve_reference(
             f"config key reference.lidar={out['lidar']!r} is not a known lidar geometry"
         ) from None
     return out
+
+
+def reference_noise(
+    records: pd.DataFrame,
+    reference: dict,
+    *,
+    heights_in_turn: int,
+    refocus_delay_s: Sequence[float],
+    point_sample_interval_s: float,
+    turbulence_dt_s: float | None,
+    seed: int,
+):
+    """The reference's point target and the two lidars' sampling pair term, per record.
+
+    One function for the record fit (``fit_global_model``, model "record") and the
+    propagation, so both see the same numbers for a record.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records with ``hws_mean_ms`` (m/s), ``height_m`` (m) and, for a synchronised
+        reference lidar, ``heading_mean_deg`` (deg).
+    reference : dict
+        :func:`resolve_reference`'s output.
+    heights_in_turn, refocus_delay_s, point_sample_interval_s, turbulence_dt_s
+        The lidar's scan settings (-, s, s, s; :func:`flidar_uq.correction.propagation.point_target`).
+    seed : int
+        Config ``inference.seed``.
+
+    Returns
+    -------
+    lidar_std_ratio, point_log_sd : numpy.ndarray or None
+        :func:`flidar_uq.correction.propagation.reference_target` (None for a cup or sonic).
+    correlation, pair_log_sd : numpy.ndarray or None
+        For a fixed reference lidar: ``c`` of
+        :func:`flidar_uq.correction.propagation.pair_sampling_correlation` (-) and the pair
+        term ``sqrt(2 (1 - c)) sd`` (-) of
+        :func:`flidar_uq.correction.propagation.reference_pair_log_sd`; else None.
+    """
+    from flidar_uq.correction import propagation as prop
+
+    hws = records["hws_mean_ms"].to_numpy(dtype=float)
+    height = records["height_m"].to_numpy(dtype=float)
+    scan = {
+        "heights_in_turn": int(heights_in_turn),
+        "refocus_delay_s": tuple(refocus_delay_s),
+        "point_sample_interval_s": point_sample_interval_s,
+        "turbulence_dt_s": turbulence_dt_s,
+    }
+    g_ratio, log_sd = prop.reference_target(
+        reference["kind"], hws, height, reference["lidar"], **scan, seed=seed
+    )
+    if reference["kind"] != "fixed_lidar":
+        return g_ratio, log_sd, None, None
+    heading = (
+        records["heading_mean_deg"].to_numpy(dtype=float)
+        if "heading_mean_deg" in records
+        else None
+    )
+    corr = prop.pair_sampling_correlation(
+        reference.get("sampling_correlation", prop.REFERENCE_SAMPLING_CORRELATION),
+        heading,
+        hws,
+        height,
+        reference["lidar"],
+        seed=int(child_seed(seed, 3).generate_state(1)[0]),
+        **scan,
+    )
+    return g_ratio, log_sd, corr, prop.reference_pair_log_sd(log_sd, corr)
 
 
 #: Columns of results/ti/records.csv that every run writes, in order (the output contract).
@@ -197,11 +279,9 @@ def propagate(
         reference or {"kind": "fixed_lidar"}, virtual_kind=None, record_columns=None, lidar=lidar
     )
     heights = scan_heights_in_turn or int(rec["height_m"].nunique())
-    g_ratio, log_sd = prop.reference_target(
-        ref["kind"],
-        sub["hws_mean_ms"].to_numpy(dtype=float),
-        sub["height_m"].to_numpy(dtype=float),
-        ref["lidar"],
+    g_ratio, log_sd, pair_corr, _ = reference_noise(
+        sub,
+        ref,
         heights_in_turn=heights,
         refocus_delay_s=scan_refocus_delay_s,
         point_sample_interval_s=point_sample_interval_s,
@@ -217,6 +297,11 @@ def propagate(
             "point target: lidar std ratio %.4f-%.4f, log-sd %.4f-%.4f (%d heights in turn)",
             np.nanmin(g_ratio), np.nanmax(g_ratio), np.nanmin(log_sd), np.nanmax(log_sd), heights,
         )  # fmt: skip
+    if pair_corr is not None:
+        log.info(
+            "reference lidar sampling: correlation with the floating lidar's %s, c = %.3f-%.3f",
+            ref["sampling_correlation"], np.nanmin(pair_corr), np.nanmax(pair_corr),
+        )  # fmt: skip
     baseline = prop.variance_law_baselines(sub, surrogate)
 
     def correct(hold=()):
@@ -230,6 +315,7 @@ def propagate(
             lidar_std_ratio=g_ratio,
             point_log_sd=log_sd,
             lidar_std_ratio_log_sd=g_log_sd,
+            reference_sampling_correlation=pair_corr,
             baseline=baseline,
             hold=hold,
             return_draws=True,
