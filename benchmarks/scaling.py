@@ -39,7 +39,8 @@ the constant of two linear steps, above all in memory:
   exist because sigma_Z and the two stds enter nonlinearly per record), then the pointwise
   log-likelihood of 1000 kept draws x n records is computed at once in float64 with several
   temporaries of that size (~70 kB per record row measured: 0.95 GB at 1 month, ~11 GB
-  projected for a year).
+  projected for a year). Fixed since: computed and PSIS-LOO'd per block of records, 0.55 GB
+  at a year (``benchmarks/record_fit_scaling.py``).
 - ``propagate`` (flidar_uq.correction.propagation.corrected_ti, called once plus once per
   held uncertainty source = 6 times): (1000 draws x n) float64 arrays ``sig``, ``ti`` and the
   NaN-masked copies for ``np.nanquantile``, which runs ``np.apply_along_axis``: one Python call per record.
