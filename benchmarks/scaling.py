@@ -39,7 +39,8 @@ the constant of two linear steps, above all in memory:
   exist because sigma_Z and the two stds enter nonlinearly per record), then the pointwise
   log-likelihood of 1000 kept draws x n records is computed at once in float64 with several
   temporaries of that size (~70 kB per record row measured: 0.95 GB at 1 month, ~11 GB
-  projected for a year).
+  projected for a year). Fixed since: computed and PSIS-LOO'd per block of records, 0.55 GB
+  at a year (``benchmarks/record_fit_scaling.py``).
 - ``propagate`` (flidar_uq.correction.propagation.corrected_ti, called once plus once per
   held uncertainty source = 6 times): (1000 draws x n) float64 arrays ``sig``, ``ti`` and the
   NaN-masked copies for ``np.nanquantile``, which runs ``np.apply_along_axis``: one Python call per record.
@@ -166,23 +167,28 @@ def refresh_from_workdirs(df: pd.DataFrame, workdirs: list[Path]) -> pd.DataFram
 def tile_records(base_csv: Path, out_csv: Path, n_records: int) -> None:
     """Write ``n_records`` 10-min records per height by repeating ``base_csv`` in time.
 
-    Each copy is shifted by the base's whole span (so timestamps stay unique and on the 10-min
-    grid) and ``true_record`` is renumbered; the last copy is cut to length.
+    Each copy is shifted by the base's whole span on the 10-min grid (first to last
+    timestamp plus one slot, so timestamps stay unique and on the grid even when the base
+    has gaps, e.g. a QC-filtered table) and ``true_record`` (one per 10-min slot) and
+    ``record_id`` (one per row) are renumbered; the last copy is cut to length.
     """
     base = pd.read_csv(base_csv)
     ts = pd.to_datetime(base["timestamp"], utc=True)
-    n_base = ts.nunique()
-    span = pd.Timedelta(minutes=10) * n_base
+    slot = pd.Timedelta(minutes=10)
+    span = ts.max() - ts.min() + slot
+    n_base = span // slot
     copies = []
     for k in range(-(-n_records // n_base)):
         c = base.copy()
         c["timestamp"] = (ts + k * span).dt.strftime("%Y-%m-%dT%H:%M:%SZ")
         if "true_record" in c:
             c["true_record"] = c["true_record"] + k * n_base
+        if "record_id" in c:
+            c["record_id"] = c["record_id"] + k * (int(base["record_id"].max()) + 1)
         copies.append(c)
     out = pd.concat(copies, ignore_index=True)
     t_out = pd.to_datetime(out["timestamp"], utc=True)
-    out = out[t_out < ts.min() + pd.Timedelta(minutes=10) * n_records]
+    out = out[t_out < ts.min() + slot * n_records]
     out_csv.parent.mkdir(parents=True, exist_ok=True)
     out.to_csv(out_csv, index=False)
 

@@ -5,6 +5,9 @@ import pandas as pd
 import pytest
 
 from flidar_uq.inference import SamplerSettings, translation_unit_sq
+from flidar_uq.inference import loo as loo_mod
+from flidar_uq.inference import record_fit as rf
+from flidar_uq.inference.loo import _loo
 from flidar_uq.inference.record_fit import (
     RECORD_MODEL_NAMES,
     _record_loglik_pointwise,
@@ -130,3 +133,49 @@ def test_record_loglik_reduces_to_eq15_without_motion_noise():
     expect = -0.5 * ((1.1 - mu) ** 2 / tau**2 + np.log(2 * np.pi * tau**2))
     got = _record_loglik_pointwise(theta, s, r, szr, np.zeros(1))
     assert got[0, 0] == pytest.approx(expect, rel=1e-6)
+
+
+def test_record_loglik_sum_in_blocks_of_walkers_equals_the_whole_row_sums(monkeypatch):
+    rng = np.random.default_rng(1)
+    n = 40
+    s, r = rng.uniform(0.1, 2, n), rng.uniform(0.1, 2, n)
+    szr, u2, pair_sq = rng.uniform(0, 0.5, n), rng.uniform(0, 0.01, n), rng.uniform(0, 1e-3, n)
+    theta = np.array([0.0, np.log(0.05), np.log(0.15), 2.0, 0.0]) + 0.1 * rng.standard_normal(
+        (10, 5)
+    )
+    whole = _record_loglik_pointwise(theta, s, r, szr, u2, pair_sq).sum(axis=1)
+    monkeypatch.setattr(rf, "_SUM_BLOCK_ELEMENTS", 3 * n)  # blocks of 3 walkers, one of 1
+    np.testing.assert_array_equal(rf._record_loglik_sum(theta, s, r, szr, u2, pair_sq), whole)
+
+
+def test_record_fit_loo_in_blocks_equals_loo_of_the_whole_pointwise_matrix(monkeypatch):
+    """The record fit never holds the (draws x records) log-likelihood: its sampler sums in
+    blocks of walkers, its PSIS-LOO runs per block of records. Draws identical whatever the
+    block sizes; LOO equal to the whole matrix's (1e-9 relative: the matrix is rebuilt here
+    from the stored natural-scale draws, whose log/exp round trip rounds)."""
+    truth = {"rho": 0.1, "kappa": 0.03, "kappa_z": 0.15, "lever_arm_m": 2.5, "motion_scale": 1.0}
+    rec = _draw_records(np.random.default_rng(6), 300, truth)
+    pair = np.random.default_rng(7).uniform(0.0, 0.02, len(rec))
+    kw = {"seed": 6, "settings": SamplerSettings(nsteps=150, nburn=60), "pair_log_sd": pair}
+    a = fit_record_model(rec, **kw)
+    monkeypatch.setattr(rf, "_SUM_BLOCK_ELEMENTS", 5 * 300)  # the sampler: 5 walkers a block
+    monkeypatch.setattr(loo_mod, "_LOO_CHUNK_ELEMENTS", 7 * a.flat("rho").size)  # 7 records
+    b = fit_record_model(rec, **kw)
+    assert a.log_lik is None and b.log_lik is None
+    for name in RECORD_MODEL_NAMES:
+        np.testing.assert_array_equal(a.draws[name], b.draws[name])
+    theta = np.column_stack(
+        [
+            np.log(a.flat(n)) if k in (1, 2, 4) else a.flat(n)
+            for k, n in enumerate(RECORD_MODEL_NAMES)
+        ]
+    )
+    s, rr = rec["hws_std_ms"].to_numpy(), rec["ref_hws_std_ms"].to_numpy()
+    mot = record_motion(rec)
+    szr, u2 = mot["sigma_z_rot_ms"].to_numpy(), mot["translation_unit_sq"].to_numpy()
+    whole = _loo(_record_loglik_pointwise(theta, s, rr, szr, u2, pair**2))
+    for fit in (a, b):
+        got = fit.loo()
+        assert got["elpd"] == fit.info["loo"]["record_elpd"]
+        for k in ("elpd", "se", "p_loo", "elpd_i", "pareto_k"):
+            np.testing.assert_allclose(got[k], whole[k], rtol=1e-9, atol=0)

@@ -103,14 +103,51 @@ def _loo(log_lik):
     (e.g. a degenerate, constant log-likelihood) or gives a non-finite elpd.
     """
     n = log_lik.shape[-1]
-    if n == 0:
+    flat = log_lik.reshape(-1, n)
+    return _loo_chunked(lambda sl: flat[:, sl], n, chunk=max(n, 1))
+
+
+#: elements (draws x observations) of one chunk of :func:`_loo_chunked`'s default: 16 MB
+#: per float64 array, so its temporaries stay small whatever the number of observations
+_LOO_CHUNK_ELEMENTS = 2**21
+
+
+def _loo_chunked(pointwise, n_obs, *, n_samples=None, chunk=None):
+    """PSIS-LOO of a pointwise log-likelihood that is computed one block of observations
+    at a time and never held whole; returns :func:`_loo`'s dict or None.
+
+    PSIS smooths each observation's importance ratios on their own, so the pointwise
+    ``elpd_i``, ``pareto_k`` and ``p_loo_i`` of a block are those of the whole matrix
+    (the same operations on the same rows); ``elpd``, ``se`` and ``p_loo`` are their sums
+    over all observations, as in :func:`_loo`.
+
+    Parameters
+    ----------
+    pointwise : callable
+        ``pointwise(sl) -> numpy.ndarray, shape (n_samples, len(sl))``: the log-likelihood
+        of the observations ``sl`` (a slice) under every posterior draw.
+    n_obs : int
+        Number of observations.
+    n_samples : int, optional
+        Number of draws; sets the default ``chunk`` so that a block holds about
+        ``_LOO_CHUNK_ELEMENTS`` values.
+    chunk : int, optional
+        Observations per block (default from ``n_samples``).
+    """
+    if n_obs == 0:
         return None
+    if chunk is None:
+        chunk = max(1, _LOO_CHUNK_ELEMENTS // max(int(n_samples or 1), 1))
+    parts = []
     try:
-        elpd_i, pareto_k, p_loo_i = _psis_loo(log_lik.reshape(-1, n))
+        for c in range(0, n_obs, chunk):
+            parts.append(_psis_loo(pointwise(slice(c, min(c + chunk, n_obs)))))
     except ValueError:
         return None
+    elpd_i, pareto_k, p_loo_i = (np.concatenate(x) for x in zip(*parts, strict=True))
     if not np.all(np.isfinite(elpd_i)):
         return None
+    n = n_obs
     return {
         "elpd": float(elpd_i.sum()),
         "se": float(np.sqrt(n * np.var(elpd_i, ddof=1))) if n > 1 else 0.0,

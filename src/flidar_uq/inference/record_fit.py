@@ -28,7 +28,7 @@ import pandas as pd
 
 from flidar_uq.inference.densities import _LOG2PI, _in, _log_halfnormal_logscale, _norm_logpdf
 from flidar_uq.inference.diagnostics import _diagnostics, _thin
-from flidar_uq.inference.loo import _loo
+from flidar_uq.inference.loo import _loo_chunked
 from flidar_uq.inference.priors import Priors, SamplerSettings
 from flidar_uq.inference.record_motion import record_motion
 from flidar_uq.inference.results import GlobalFit
@@ -68,6 +68,29 @@ def _record_loglik_pointwise(theta, s, r, sz_rot, u2, pair_sq=0.0):
     tau_sq = (kappa_sq + pair_sq) * mu_sq + kz_sq * sz_sq * dmu + 1e-8
     z = s - np.sqrt(mu_sq)
     return -0.5 * (z * z / tau_sq + np.log(tau_sq) + _LOG2PI)
+
+
+#: elements (walkers x records) of one block of the sampler's likelihood sum: the
+#: temporaries of :func:`_record_loglik_pointwise` stay ~8 MB each at any campaign length
+_SUM_BLOCK_ELEMENTS = 2**20
+
+
+def _record_loglik_sum(theta, s, r, sz_rot, u2, pair_sq=0.0):
+    """(n_walkers,) log-likelihood of the record model summed over the records.
+
+    :func:`_record_loglik_pointwise` on blocks of walkers of at most
+    ``_SUM_BLOCK_ELEMENTS`` values, so that its (walkers x records) temporaries are bounded
+    whatever the number of records; each walker's sum is the same row sum as on the whole
+    (n_walkers, n_obs) array, so the result does not depend on the block size.
+    """
+    n_rows = theta.shape[0]
+    step = max(1, _SUM_BLOCK_ELEMENTS // max(np.size(s), 1))
+    out = np.empty(n_rows)
+    for a in range(0, n_rows, step):
+        out[a : a + step] = _record_loglik_pointwise(
+            theta[a : a + step], s, r, sz_rot, u2, pair_sq
+        ).sum(axis=1)
+    return out
 
 
 def _log_prior(theta, priors: Priors, lever_arm_prior):
@@ -121,7 +144,7 @@ def log_prob_record_model(
     if np.any(ok):
         with np.errstate(all="ignore"):
             pair_sq = 0.0 if pair_log_sd is None else np.asarray(pair_log_sd) ** 2
-            ll = _record_loglik_pointwise(theta[ok], s, r, sz_rot, u2, pair_sq).sum(axis=1)
+            ll = _record_loglik_sum(theta[ok], s, r, sz_rot, u2, pair_sq)
         out[ok] = lp[ok] + ll
     return np.where(np.isfinite(out), out, -np.inf)
 
@@ -226,7 +249,11 @@ def fit_record_model(
     -------
     GlobalFit
         Draws of the five parameters; ``info["loo"]`` holds ``model="record"`` and the
-        PSIS-LOO elpd; ``info["motion_scale_warning"]`` is set when the median
+        PSIS-LOO elpd; ``pointwise_loo`` (:meth:`~GlobalFit.loo`) the PSIS-LOO per record,
+        computed in blocks of records from the thinned draws (``log_lik`` is None: the
+        (draws x records) pointwise log-likelihood is never held whole, and
+        :func:`~flidar_uq.inference.save_fit` would store only its LOO anyway);
+        ``info["motion_scale_warning"]`` is set when the median
         ``motion_scale`` leaves [0.8, 1.25] (the per-record motion model does not explain
         the data: check the lidar type, the IMU columns and the lever arm).
     """
@@ -267,10 +294,6 @@ def fit_record_model(
         log_prob_record_model, args, init, ndim, gs, seedseq, check
     )
     thin = _thin(chains, settings.ndraws)
-    ll = _record_loglik_pointwise(
-        thin.reshape(-1, ndim), s, r, szr, u2, 0.0 if pair is None else pair**2
-    )
-    ll = ll.reshape(thin.shape[0], thin.shape[1], -1)
     draws = {
         n: (np.exp(thin[..., k]) if k in _LOGS else thin[..., k])
         for k, n in enumerate(RECORD_MODEL_NAMES)
@@ -279,7 +302,7 @@ def fit_record_model(
     prior_only = s.size == 0
     if prior_only:
         reasons.append("no record with a reference std and a motion description: prior only")
-    loo = None if prior_only else _loo(ll)
+    loo = None if prior_only else _record_loo(thin.reshape(-1, ndim), s, r, szr, u2, pair)
     k_med = float(np.median(draws["motion_scale"]))
     info = {
         "n_records": int(s.size),
@@ -300,4 +323,26 @@ def fit_record_model(
             f"motion_scale {k_med:.2f} outside [0.8, 1.25]: the per-record motion model "
             "does not explain the data (check the lidar type, IMU columns and lever arm)"
         )
-    return GlobalFit(draws=draws, log_lik=ll, diagnostics=diag, failure_reasons=reasons, info=info)
+    return GlobalFit(
+        draws=draws,
+        log_lik=None,
+        diagnostics=diag,
+        failure_reasons=reasons,
+        info=info,
+        pointwise_loo=loo,
+    )
+
+
+def _record_loo(theta, s, r, sz_rot, u2, pair):
+    """PSIS-LOO of the record model over the draws ``theta`` (n_draws, 5), computed in blocks
+    of records (:func:`~flidar_uq.inference.loo._loo_chunked`): the (draws x records)
+    pointwise log-likelihood (1.26 GB in float64 for a year at 3 heights) is never held
+    whole; the result equals PSIS-LOO on the whole matrix."""
+    pair_sq = None if pair is None else pair**2
+
+    def pointwise(sl):
+        return _record_loglik_pointwise(
+            theta, s[sl], r[sl], sz_rot[sl], u2[sl], 0.0 if pair_sq is None else pair_sq[sl]
+        )
+
+    return _loo_chunked(pointwise, s.size, n_samples=theta.shape[0])

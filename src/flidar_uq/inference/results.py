@@ -34,7 +34,9 @@ def _jsonable(x):
 class _FitBase:
     kind = "base"
     draws: dict  # name -> (nensembles, ndraws)
-    log_lik: np.ndarray | None  # (nensembles, ndraws, n_obs); None: read from a file (global)
+    # (nensembles, ndraws, n_obs); None for a global fit read from a file and for a record
+    # fit (its PSIS-LOO computed in blocks of records, in ``pointwise_loo``)
+    log_lik: np.ndarray | None
     diagnostics: dict
     failure_reasons: list
     info: dict = field(default_factory=dict)
