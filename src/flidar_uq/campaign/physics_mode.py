@@ -456,26 +456,32 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     cc = np.arange(n_c)[:, None, None]
     # attitude on each scan's slots plus one slot either side (for the head velocity)
     idx_ext = np.clip(starts[..., None] - 1 + np.arange(n_los + 2), 0, n_slots - 1)
-    r_ext = rotation_matrix(
-        np.deg2rad(roll[cc, idx_ext]), np.deg2rad(pitch[cc, idx_ext]), np.deg2rad(yaw[cc, idx_ext])
-    )  # (C,J,L+2,3,3)
-    r_los = r_ext[:, :, 1:-1]  # (C,J,L,3,3)
     # head velocity: central difference of the head position R(t) r + translation
     # (seed 002 Eq. 4 differentiated), one-sided at the record's first slot
     moving_head = np.any(lever != 0) or any(s["trans"] is not None for s in series)
-    if moving_head:
-        # one matrix-vector product over all rows (C*J*(L+2)*3, 3): the same BLAS kernel,
-        # row by row, as one call per stacked 3x3 matrix (byte-identical, ~10x faster)
-        pos = (r_ext.reshape(-1, 3) @ lever).reshape(r_ext.shape[:-1])  # (C,J,L+2,3)
-        for c, s in enumerate(series):
+    span_s = np.maximum(idx_ext[..., 2:] - idx_ext[..., :-2], 1)[..., None] * dt
+    v_head = np.empty(a_idx.shape + (3,)) if moving_head else 0.0  # (C,J,L,3)
+    # np.take copies the same rows as fancy indexing, ~4x faster for rows of 3
+    m_body = np.take(d_body, a_idx, axis=0)  # (C,J,L,3)
+    d_earth = np.empty(a_idx.shape + (3,))
+    # record by record: a record's rotation matrices (J*(L+2), ~1.7 MB) stay in the
+    # cache, about 3x faster than the chunk's at once; the same elementwise operations
+    for c, s in enumerate(series):
+        ie = idx_ext[c]
+        y_c = yaw[c]
+        # a constant heading (sea-state buoy): one cosine and sine for the record
+        y_c = y_c[0] if (y_c == y_c[0]).all() else y_c[ie]
+        r_ext = rotation_matrix(
+            np.deg2rad(roll[c][ie]), np.deg2rad(pitch[c][ie]), np.deg2rad(y_c)
+        )  # (J,L+2,3,3)
+        if moving_head:
+            # one matrix-vector product over all rows (J*(L+2)*3, 3): the same BLAS kernel,
+            # row by row, as one call per stacked 3x3 matrix (byte-identical, ~10x faster)
+            pos = (r_ext.reshape(-1, 3) @ lever).reshape(r_ext.shape[:-1])  # (J,L+2,3)
             if s["trans"] is not None:
-                pos[c] += s["trans"][idx_ext[c]]
-        span_s = np.maximum(idx_ext[..., 2:] - idx_ext[..., :-2], 1)[..., None] * dt
-        v_head = (pos[:, :, 2:] - pos[:, :, :-2]) / span_s  # (C,J,L,3)
-    else:
-        v_head = 0.0
-    m_body = d_body[a_idx]  # (C,J,L,3)
-    d_earth = (r_los @ m_body[..., None])[..., 0]
+                pos += s["trans"][ie]
+            v_head[c] = (pos[:, 2:] - pos[:, :-2]) / span_s[c]
+        d_earth[c] = (r_ext[:, 1:-1] @ m_body[c][..., None])[..., 0]
     # wind at every LOS: mean (sheared at the tilted focus height) + 1-D turbulence
     fl = np.stack([s["fluct_enu"] for s in series])  # (C,H,N,3)
     hws_h = np.stack([s["hws_h"] for s in series])  # (C,H)
@@ -483,7 +489,9 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     e_wind = np.stack([-np.sin(wd), -np.cos(wd), np.zeros_like(wd)], -1)  # (C,3)
     alpha = par["shear_exponent"]
     step = wind_step_slots(settings, dt)
-    fl_los = fl[cc, h_idx[..., None], idx // step]  # (C,J,L,3)
+    fl_los = np.take(
+        fl.reshape(-1, 3), (cc * n_h + h_idx[..., None]) * fl.shape[2] + idx // step, axis=0
+    )  # (C,J,L,3) = fl[cc, h_idx, idx // step]
     mean_los = hws_h[np.arange(n_c)[:, None], h_idx][..., None]  # (C,J,1)
     # focus range fixed at h / cos(th): the focus height follows the tilted beam (seed 003 Eq. 5)
     # (1 + x)^alpha to second order in x = tilt-induced relative height change (|x| < 0.05
@@ -491,11 +499,19 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     x = d_earth[..., 2] / np.cos(th) - 1.0
     a_ = alpha[:, None, None]
     shear = 1.0 + a_ * x * (1.0 + 0.5 * (a_ - 1.0) * x)
-    wind = (mean_los * shear)[..., None] * e_wind[:, None, None, :] + fl_los
-    v_r = ((wind - v_head)[..., None, :] @ d_earth[..., None])[..., 0, 0]  # conventions.md
-    wind0 = mean_los[..., None] * e_wind[:, None, None, :] + fl_los
-    v_r0 = (wind0[..., None, :] @ m_body[..., None])[..., 0, 0]  # fixed reference lidar
-    pt = pinv_t[a_idx]
+    # v_r = d_earth . (wind - v_head) (conventions.md), and the fixed reference lidar's
+    # d_body . wind0, component by component: the same products and the same sum order
+    # ((x + y) + z) as the stacked 1x3 @ 3x1 products, without a call per line of sight
+    ms = mean_los * shear
+    v_r = v_r0 = 0.0
+    for k in range(3):
+        e_k = e_wind[:, None, None, k]
+        wind_k = ms * e_k + fl_los[..., k]
+        if moving_head:
+            wind_k -= v_head[..., k]
+        v_r = v_r + wind_k * d_earth[..., k]
+        v_r0 = v_r0 + (mean_los * e_k + fl_los[..., k]) * m_body[..., k]
+    pt = np.take(pinv_t, a_idx, axis=0)
     n_iter = 0 if geo.signed else 1
     uvw, resid = _lidar.vad_sign_unfolding(pt, m_body, np.abs(v_r), np.sign(v_r), n_iter)
     # fixed lidar: the body geometry is exact, so the unfolded fit is the linear one
