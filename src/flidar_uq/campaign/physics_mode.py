@@ -364,6 +364,8 @@ def _regime_truth(settings, par, roll_deg, pitch_deg, yaw_deg) -> list[dict]:
     # would cost a fifth of the record's simulation time
     stride = max(int(round(0.1 / (float(settings["record_length_s"]) / roll_deg.shape[-1]))), 1)
     roll_deg, pitch_deg, yaw_deg = (a[:, ::stride] for a in (roll_deg, pitch_deg, yaw_deg))
+    if (yaw_deg == yaw_deg[:, :1]).all():  # constant headings: their trig once per record
+        yaw_deg = yaw_deg[:, :1]
     r, p, y = (np.deg2rad(a) for a in (roll_deg, pitch_deg, yaw_deg))
     cr, cy, sy = np.cos(r), np.cos(y), np.sin(y)
     zx_b, zy_b, zz = np.sin(p) * cr, -np.sin(r), np.cos(p) * cr  # R @ e_z
@@ -372,7 +374,7 @@ def _regime_truth(settings, par, roll_deg, pitch_deg, yaw_deg) -> list[dict]:
     wd = np.deg2rad(par["wd_deg"])[:, None]
     along = np.rad2deg(np.arctan2(-np.sin(wd) * ze - np.cos(wd) * zn, zz))
     across = np.rad2deg(np.arctan2(np.cos(wd) * ze - np.sin(wd) * zn, zz))
-    yaw_mean = _circ_mean_deg(yaw_deg, np.ones(yaw_deg.shape, bool), -1)
+    yaw_mean = _circ_mean_deg(yaw_deg, np.ones(roll_deg.shape, bool), -1)
     yaw_mean = (yaw_mean + 180.0) % 360.0 - 180.0
     along_amp = np.sqrt(2.0) * along.std(axis=-1)
     across_amp = np.sqrt(2.0) * across.std(axis=-1)
