@@ -538,6 +538,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     regimes = _regime_truth(settings, par, roll, pitch, yaw)
     # truth of the motion (noise-free, gap-free series on the LOS clock)
     roll_amp, pitch_amp = (np.sqrt(2.0) * a.std(axis=-1) for a in (roll, pitch))
+    lever_norm = float(np.linalg.norm(lever))
     for c, s in enumerate(series):
         rec = int(rec_idx[c])
         ts = start0 + pd.Timedelta(seconds=rec * t_len)
@@ -577,8 +578,13 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                 + hws_h[c, h] * e_wind[c, :2]
             )
             true_hws = np.hypot(truth[:, 0], truth[:, 1])
+            t_mean, t_std = true_hws.mean(), true_hws.std(ddof=1)
             # the reference: a motionless lidar's scans, or the point series (cup, sonic)
-            h0 = true_hws if point_ref else hws0[c][sel_ref]
+            if point_ref:
+                h0_mean, h0_std = t_mean, t_std
+            else:
+                h0 = hws0[c][sel_ref]
+                h0_mean, h0_std = h0.mean(), h0.std(ddof=1)
             enough = sel.sum() >= 2
             rows.append(
                 {
@@ -589,11 +595,11 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                     "wd_mean_deg": _circ_mean_deg(wd_scan[c], sel, 0) if enough else np.nan,
                     "availability_pct": 100.0 * sel.sum() / n_nom,
                     "sv": float(np.mean(resid[c][sel] / hs)) if enough else np.nan,
-                    "ref_hws_mean_ms": h0.mean() if has_ref else np.nan,
-                    "ref_hws_std_ms": h0.std(ddof=1) if has_ref else np.nan,
-                    "true_hws_mean_ms": true_hws.mean(),
-                    "true_hws_std_ms": true_hws.std(ddof=1),
-                    "true_ti": true_hws.std(ddof=1) / true_hws.mean(),
+                    "ref_hws_mean_ms": h0_mean if has_ref else np.nan,
+                    "ref_hws_std_ms": h0_std if has_ref else np.nan,
+                    "true_hws_mean_ms": t_mean,
+                    "true_hws_std_ms": t_std,
+                    "true_ti": t_std / t_mean,
                     "true_wd_deg": par["wd_deg"][c],
                     "true_sigma_u_ms": par["sigma_u_ms"][c],
                     "true_shear_exponent": par["shear_exponent"][c],
@@ -604,15 +610,15 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                     "true_period1_s": t1,
                     "true_period2_s": t2,
                     "true_weight1": w1_true,
-                    "true_lever_arm_m": float(np.linalg.norm(lever)),
+                    "true_lever_arm_m": lever_norm,
                     "true_sigma_z_ms": zc.std(ddof=1) if enough else np.nan,
                     "true_mean_z_ms": zc.mean() if enough else np.nan,
                     "true_n_scans": float(sel.sum()),
                     "true_record": float(rec),
                     "true_case": par["case"][c] if "case" in par else np.nan,
                     # what the reference would measure, also where it is absent
-                    "true_ref_hws_mean_ms": h0.mean(),
-                    "true_ref_hws_std_ms": h0.std(ddof=1),
+                    "true_ref_hws_mean_ms": h0_mean,
+                    "true_ref_hws_std_ms": h0_std,
                 }
                 | regime
             )
