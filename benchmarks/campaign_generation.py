@@ -1,18 +1,21 @@
 """Benchmark: wall time, CPU time and peak memory of the virtual-campaign generator.
 
 Issue 13 item 7: the shipped ``default`` scenario (8640 10-min records x 3 heights,
-60 days) in <= 25 s on 2 cores, results unchanged. The current generator and the
-reference generator of commit :data:`REFERENCE_COMMIT` (before the issue-13 work, read
-from the git history into a temporary module, so no old code lives in ``src``) run side
-by side in one process, alternating, on the same records: 1 worker on
-``--small`` records (CPU per record, robust to other jobs) and 2 workers on the whole
-default campaign (the wall time of the pipeline's ``campaign`` rule, ``threads: 2``).
-Each pair's outputs are compared column by column (max absolute and relative
-difference, byte identity). Writes ``benchmarks/results/campaign_generation.csv``,
-``campaign_generation_diff.csv`` and ``campaign_generation.png``.
+60 days) in <= 25 s on 2 cores, results unchanged. Three generators run side by side,
+alternating, on the same records, each in a fresh subprocess with its own source tree on
+``PYTHONPATH`` (old trees extracted from the git history into a temporary directory, so
+no old code lives in ``src``): the reference of :data:`REFERENCE_COMMIT` (before the
+issue-13 work), the previous round of :data:`PREVIOUS_COMMIT`, and the current ``src``.
+1 worker on ``--small`` records (CPU per record, robust to other jobs) and 2 workers on
+the whole default campaign (the wall time of the pipeline's ``campaign`` rule,
+``threads: 2``). Each old generator's output is compared with the current one column by
+column (max absolute and relative difference, byte identity). Writes
+``benchmarks/results/campaign_generation.csv``, ``campaign_generation_diff.csv`` and
+``campaign_generation.png``.
 
-Usage: ``python benchmarks/campaign_generation.py [--quick] [--small N]``
-(``--quick``: 144 and 576 records only, for a smoke run).
+Usage: ``python benchmarks/campaign_generation.py [--quick] [--small N] [--full-impls LIST]``
+(``--quick``: 144 and 576 records only, for a smoke run; ``--full-impls``: the
+implementations of the whole-campaign run, default all three).
 
 ``--scenarios [N]``: CPU seconds per record of each shipped scenario of issue 11
 (misaligned swell, weathervane/fixed heading, broadband/narrow seas, short reference,
@@ -29,7 +32,7 @@ for _k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_k, "1")  # one BLAS thread per process (2 processes on 2 cores)
 
 import argparse  # noqa: E402
-import importlib  # noqa: E402
+import pickle  # noqa: E402
 import resource  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -53,31 +56,51 @@ REPO = Path(__file__).resolve().parents[1]
 TARGET_S = 25.0  # issue 13 item 7: the default campaign on 2 cores
 #: The generator before the issue-13 speed work (the reference of "results unchanged").
 REFERENCE_COMMIT = "38465224c0a642f774a011f0cd7d14cf413d6d04"
+#: The generator after the first issue-13 round (the baseline of the second round).
+PREVIOUS_COMMIT = "619c3802564bd6fab2f3bb93377d976e7eb9b686"
+IMPLEMENTATIONS = ("reference", "previous", "current")
 SEED = 20181122  # config/config.yaml campaign.seed
 
 
-def _reference_generator():
-    """``generate_campaign`` of :data:`REFERENCE_COMMIT`, imported from a temporary file.
-
-    The file is a module on ``sys.path`` (spawned worker processes inherit the path and
-    import it by name, as they import the current generator).
-    """
-    src = subprocess.run(
-        [
-            "git",
-            "-C",
-            str(REPO),
-            "show",
-            f"{REFERENCE_COMMIT}:src/flidar_uq/campaign/physics_mode.py",
-        ],
+def _source_tree(commit: str) -> Path:
+    """``src`` of ``commit`` (and the ``config`` its scenarios load from), extracted from the
+    git history into a temporary directory."""
+    tmp = Path(tempfile.mkdtemp(prefix=f"campaign_{commit[:7]}_"))
+    tar = subprocess.run(
+        ["git", "-C", str(REPO), "archive", commit, "src", "config"],
         check=True,
         capture_output=True,
-        text=True,
     ).stdout
-    tmp = Path(tempfile.mkdtemp(prefix="campaign_reference_"))
-    (tmp / "_campaign_reference.py").write_text(src)
-    sys.path.insert(0, str(tmp))
-    return importlib.import_module("_campaign_reference").generate_campaign
+    subprocess.run(["tar", "-x", "-C", str(tmp)], input=tar, check=True)
+    return tmp / "src"
+
+
+def _run_in_subprocess(src: Path, n_records: int, n_workers: int) -> tuple[dict, pd.DataFrame]:
+    """:func:`run` of the generator under ``src`` in a fresh Python process."""
+    with tempfile.TemporaryDirectory(prefix="campaign_bench_") as tmp:
+        out = Path(tmp) / "out.pkl"
+        env = os.environ | {"PYTHONPATH": str(src)}
+        subprocess.run(
+            [sys.executable, __file__, "--child", str(n_records), str(n_workers), str(out)],
+            check=True,
+            env=env,
+        )
+        with out.open("rb") as fh:
+            row, records = pickle.load(fh)
+    if not row["source"].startswith(str(src.resolve())):
+        raise RuntimeError(f"the subprocess imported {row['source']}, not the tree {src}")
+    return row, records
+
+
+def _child(n_records: int, n_workers: int, out: str) -> None:
+    """Subprocess side: warm up, time one run, pickle the timing row and the records."""
+    import flidar_uq
+
+    generate_campaign(load_scenario("default") | {"n_records": 2}, SEED, n_workers=1)
+    row, records = run(generate_campaign, "", n_records, n_workers)
+    row["source"] = str(Path(flidar_uq.__file__).resolve().parents[1])
+    with open(out, "wb") as fh:
+        pickle.dump((row, records), fh)
 
 
 def _peak_mb() -> tuple[float, float]:
@@ -126,7 +149,7 @@ def run(gen, impl: str, n_records: int, n_workers: int) -> tuple[dict, pd.DataFr
     }, out.records
 
 
-def compare(ref: pd.DataFrame, new: pd.DataFrame, n_records: int) -> pd.DataFrame:
+def compare(ref: pd.DataFrame, new: pd.DataFrame, n_records: int, baseline: str) -> pd.DataFrame:
     """Max absolute / relative difference of every column of two campaigns."""
     if list(ref.columns) != list(new.columns) or len(ref) != len(new):
         raise RuntimeError(
@@ -145,6 +168,7 @@ def compare(ref: pd.DataFrame, new: pd.DataFrame, n_records: int) -> pd.DataFram
             rows.append(
                 {
                     "n_records": n_records,
+                    "baseline": baseline,
                     "column": c,
                     "identical": bool(np.array_equal(x, y, equal_nan=True) and a.dtype == b.dtype),
                     "max_abs_diff": float(d.max()) if d.size else 0.0,
@@ -157,6 +181,7 @@ def compare(ref: pd.DataFrame, new: pd.DataFrame, n_records: int) -> pd.DataFram
             rows.append(
                 {
                     "n_records": n_records,
+                    "baseline": baseline,
                     "column": c,
                     "identical": same,
                     "max_abs_diff": np.nan,
@@ -209,11 +234,60 @@ def scenario_speeds(n_records: int = 96, seed: int = 1) -> pd.DataFrame:
     return df
 
 
+def _plot(df: pd.DataFrame, suffix: str) -> None:
+    impls = [i for i in IMPLEMENTATIONS if i in set(df["implementation"])]
+    colors = {"reference": "0.75", "previous": "0.5", "current": "C0"}
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
+    x0 = 0
+    for n, g in df.groupby("n_records", sort=True):
+        g = g.set_index("implementation")
+        g = g.loc[[i for i in impls if i in g.index]]
+        w = int(g["n_workers"].iloc[0])
+        x = np.arange(len(g)) + x0
+        x0 += len(g) + 1
+        ax[0].bar(x, g["wall_s"], color=[colors[i] for i in g.index])
+        ax[0].plot(x, g["cpu_s"] / w, "k_", ms=14, mew=2)
+        for xi, v in zip(x, g["wall_s"], strict=True):
+            ax[0].text(xi, v, f"{v:.0f}", ha="center", va="bottom", fontsize=8)
+        ax[0].text(x.mean(), 0, f"{n} rec.\n{w} worker(s)", ha="center", va="top", fontsize=8)
+        ax[1].bar(x, g["cpu_ms_per_record"], color=[colors[i] for i in g.index])
+        for xi, v in zip(x, g["cpu_ms_per_record"], strict=True):
+            ax[1].text(xi, v, f"{v:.1f}", ha="center", va="bottom", fontsize=8)
+    ax[0].axhline(
+        TARGET_S, color="r", ls="--", lw=0.8, label=f"target {TARGET_S:.0f} s (full, 2 cores)"
+    )
+    ax[0].plot([], [], "k_", ms=10, mew=2, label="CPU s / workers")
+    labels = {
+        "reference": f"reference ({REFERENCE_COMMIT[:7]})",
+        "previous": f"previous ({PREVIOUS_COMMIT[:7]})",
+        "current": "current",
+    }
+    for i in impls:
+        ax[0].bar([0], [0], color=colors[i], label=labels[i])
+    ax[0].set(ylabel="wall time (s)", xticks=[])
+    ax[1].set(ylabel="CPU ms per record", xticks=[])
+    ax[0].legend(fontsize=7)
+    load = df["load_avg_before"].max()
+    fig.suptitle(
+        f"Virtual campaign generation, default scenario (max 1-min load average {load:.1f} "
+        "on 2 cores)",
+        fontsize=9,
+    )
+    fig.tight_layout()
+    fig.savefig(RESULTS / f"campaign_generation{suffix}.png", dpi=110)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="small campaigns only")
     ap.add_argument("--small", type=int, default=576, help="records of the 1-worker runs")
+    ap.add_argument(
+        "--full-impls",
+        default=",".join(IMPLEMENTATIONS),
+        help="implementations timed on the whole campaign (comma-separated)",
+    )
     ap.add_argument("--plot-only", action="store_true", help="redraw the PNG from the CSV")
+    ap.add_argument("--child", nargs=3, metavar=("N", "WORKERS", "OUT"), help=argparse.SUPPRESS)
     ap.add_argument(
         "--scenarios",
         nargs="?",
@@ -224,39 +298,51 @@ def main() -> None:
         help="speed of the issue-11 scenarios from their first N records (default 96)",
     )
     args = ap.parse_args()
+    if args.child:
+        _child(int(args.child[0]), int(args.child[1]), args.child[2])
+        return
     if args.scenarios is not None:
         scenario_speeds(args.scenarios)
         return
     full = int(load_scenario("default")["n_records"])
-    plan = [(144, 1), (576, 2)] if args.quick else [(args.small, 1), (full, 2)]
+    full_impls = [i for i in IMPLEMENTATIONS if i in args.full_impls.split(",")]
+    plan = (
+        [(144, 1, IMPLEMENTATIONS), (576, 2, IMPLEMENTATIONS)]
+        if args.quick
+        else [(args.small, 1, IMPLEMENTATIONS), (full, 2, full_impls)]
+    )
     suffix = "_quick" if args.quick else ""
     csv, diff_csv = (RESULTS / f"campaign_generation{s}{suffix}.csv" for s in ("", "_diff"))
     RESULTS.mkdir(parents=True, exist_ok=True)
     if args.plot_only:
-        df = pd.read_csv(csv)
-    else:
-        gens = {"reference": _reference_generator(), "current": generate_campaign}
-        for g in gens.values():  # warm-up: imports, caches
-            g(load_scenario("default") | {"n_records": 2}, SEED, n_workers=1)
-        rows, diffs = [], []
-        for n, w in plan:
-            outs = {}
-            for impl, g in gens.items():
-                r, outs[impl] = run(g, impl, n, w)
-                rows.append(r)
-                print(
-                    f"{impl:9s} n_records={n:5d} workers={w}: {r['wall_s']:7.1f} s wall, "
-                    f"CPU {r['cpu_s']:.1f} s ({r['cpu_ms_per_record']:.1f} ms/record); "
-                    f"peak parent {r['peak_parent_mb']:.0f} MB, largest worker "
-                    f"{r['peak_worker_mb']:.0f} MB; load average "
-                    f"{r['load_avg_before']:.1f} -> {r['load_avg_after']:.1f}",
-                    flush=True,
-                )
-            d = compare(outs["reference"], outs["current"], n)
+        _plot(pd.read_csv(csv), suffix)
+        return
+    trees = {
+        "reference": _source_tree(REFERENCE_COMMIT),
+        "previous": _source_tree(PREVIOUS_COMMIT),
+        "current": REPO / "src",
+    }
+    rows, diffs = [], []
+    for n, w, impls in plan:
+        outs = {}
+        for impl in impls:
+            r, outs[impl] = _run_in_subprocess(trees[impl], n, w)
+            r["implementation"] = impl
+            rows.append(r)
+            print(
+                f"{impl:9s} n_records={n:5d} workers={w}: {r['wall_s']:7.1f} s wall, "
+                f"CPU {r['cpu_s']:.1f} s ({r['cpu_ms_per_record']:.1f} ms/record); "
+                f"peak largest worker {r['peak_worker_mb']:.0f} MB; load average "
+                f"{r['load_avg_before']:.1f} -> {r['load_avg_after']:.1f}",
+                flush=True,
+            )
+        for base in (i for i in impls if i != "current"):
+            d = compare(outs[base], outs["current"], n, base)
             diffs.append(d)
             worst = d.sort_values("max_rel_diff", ascending=False).iloc[0]
             print(
-                f"  outputs: {int(d['identical'].sum())}/{len(d)} columns byte-identical"
+                f"  {base} vs current: {int(d['identical'].sum())}/{len(d)} columns "
+                "byte-identical"
                 + (
                     ""
                     if d["identical"].all()
@@ -265,50 +351,26 @@ def main() -> None:
                 ),
                 flush=True,
             )
-        df = pd.DataFrame(rows)
-        df.to_csv(csv, index=False)
-        pd.concat(diffs, ignore_index=True).to_csv(diff_csv, index=False)
-
-    fig, ax = plt.subplots(1, 2, figsize=(9, 3.6))
-    impls = ["reference", "current"]
-    for k, (n, g) in enumerate(df.groupby("n_records", sort=True)):
-        g = g.set_index("implementation").loc[impls]
-        w = int(g["n_workers"].iloc[0])
-        x = np.arange(2) + 3 * k
-        ax[0].bar(x, g["wall_s"], color=["0.6", "C0"])
-        ax[0].plot(x, g["cpu_s"] / w, "k_", ms=14, mew=2)
-        for xi, v in zip(x, g["wall_s"], strict=True):
-            ax[0].text(xi, v, f"{v:.1f}", ha="center", va="bottom", fontsize=8)
-        ax[0].text(x.mean(), 0, f"{n} rec.\n{w} worker(s)", ha="center", va="top", fontsize=8)
-        ax[1].bar(x, g["cpu_ms_per_record"], color=["0.6", "C0"])
-    ax[0].axhline(
-        TARGET_S, color="r", ls="--", lw=0.8, label=f"target {TARGET_S:.0f} s (full, 2 cores)"
-    )
-    ax[0].plot([], [], "k_", ms=10, mew=2, label="CPU s / workers")
-    ax[0].bar([0], [0], color="0.6", label=f"reference ({REFERENCE_COMMIT[:7]})")
-    ax[0].bar([0], [0], color="C0", label="current")
-    ax[0].set(ylabel="wall time (s)", xticks=[])
-    ax[1].set(ylabel="CPU ms per record", xticks=[])
-    ax[0].legend(fontsize=7)
-    load = df["load_avg_before"].max()
-    fig.suptitle(
-        f"Virtual campaign generation, default scenario (max 1-min load average {load:.1f} on 2 cores)",
-        fontsize=9,
-    )
-    fig.tight_layout()
-    fig.savefig(RESULTS / f"campaign_generation{suffix}.png", dpi=110)
+    df = pd.DataFrame(rows).drop(columns="source")
+    df.to_csv(csv, index=False)
+    pd.concat(diffs, ignore_index=True).to_csv(diff_csv, index=False)
+    _plot(df, suffix)
 
     # the measured figures side by side
     for n, g in df.groupby("n_records", sort=True):
         g = g.set_index("implementation")
         w = int(g.loc["current", "n_workers"])
+        cur = g.loc["current"]
+        for base in (i for i in IMPLEMENTATIONS if i in g.index and i != "current"):
+            b = g.loc[base]
+            print(
+                f"\n{n} records, {w} worker(s), {base} -> current: wall {b['wall_s']:.1f} s -> "
+                f"{cur['wall_s']:.1f} s (x{b['wall_s'] / cur['wall_s']:.2f}); CPU "
+                f"{b['cpu_ms_per_record']:.1f} -> {cur['cpu_ms_per_record']:.1f} ms/record "
+                f"(x{b['cpu_s'] / cur['cpu_s']:.2f})"
+            )
         print(
-            f"\n{n} records, {w} worker(s): wall {g.loc['reference', 'wall_s']:.1f} s -> "
-            f"{g.loc['current', 'wall_s']:.1f} s (x{g.loc['reference', 'wall_s'] / g.loc['current', 'wall_s']:.2f}); "
-            f"CPU {g.loc['reference', 'cpu_ms_per_record']:.1f} -> "
-            f"{g.loc['current', 'cpu_ms_per_record']:.1f} ms/record "
-            f"(x{g.loc['reference', 'cpu_s'] / g.loc['current', 'cpu_s']:.2f}); "
-            f"CPU / {w} = {g.loc['current', 'cpu_s'] / w:.1f} s vs target {TARGET_S:.0f} s "
+            f"CPU / {w} = {cur['cpu_s'] / w:.1f} s vs target {TARGET_S:.0f} s "
             f"(load average {g['load_avg_before'].max():.1f})"
         )
 

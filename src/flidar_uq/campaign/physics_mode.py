@@ -364,6 +364,8 @@ def _regime_truth(settings, par, roll_deg, pitch_deg, yaw_deg) -> list[dict]:
     # would cost a fifth of the record's simulation time
     stride = max(int(round(0.1 / (float(settings["record_length_s"]) / roll_deg.shape[-1]))), 1)
     roll_deg, pitch_deg, yaw_deg = (a[:, ::stride] for a in (roll_deg, pitch_deg, yaw_deg))
+    if (yaw_deg == yaw_deg[:, :1]).all():  # constant headings: their trig once per record
+        yaw_deg = yaw_deg[:, :1]
     r, p, y = (np.deg2rad(a) for a in (roll_deg, pitch_deg, yaw_deg))
     cr, cy, sy = np.cos(r), np.cos(y), np.sin(y)
     zx_b, zy_b, zz = np.sin(p) * cr, -np.sin(r), np.cos(p) * cr  # R @ e_z
@@ -372,7 +374,7 @@ def _regime_truth(settings, par, roll_deg, pitch_deg, yaw_deg) -> list[dict]:
     wd = np.deg2rad(par["wd_deg"])[:, None]
     along = np.rad2deg(np.arctan2(-np.sin(wd) * ze - np.cos(wd) * zn, zz))
     across = np.rad2deg(np.arctan2(np.cos(wd) * ze - np.sin(wd) * zn, zz))
-    yaw_mean = _circ_mean_deg(yaw_deg, np.ones(yaw_deg.shape, bool), -1)
+    yaw_mean = _circ_mean_deg(yaw_deg, np.ones(roll_deg.shape, bool), -1)
     yaw_mean = (yaw_mean + 180.0) % 360.0 - 180.0
     along_amp = np.sqrt(2.0) * along.std(axis=-1)
     across_amp = np.sqrt(2.0) * across.std(axis=-1)
@@ -456,26 +458,32 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     cc = np.arange(n_c)[:, None, None]
     # attitude on each scan's slots plus one slot either side (for the head velocity)
     idx_ext = np.clip(starts[..., None] - 1 + np.arange(n_los + 2), 0, n_slots - 1)
-    r_ext = rotation_matrix(
-        np.deg2rad(roll[cc, idx_ext]), np.deg2rad(pitch[cc, idx_ext]), np.deg2rad(yaw[cc, idx_ext])
-    )  # (C,J,L+2,3,3)
-    r_los = r_ext[:, :, 1:-1]  # (C,J,L,3,3)
     # head velocity: central difference of the head position R(t) r + translation
     # (seed 002 Eq. 4 differentiated), one-sided at the record's first slot
     moving_head = np.any(lever != 0) or any(s["trans"] is not None for s in series)
-    if moving_head:
-        # one matrix-vector product over all rows (C*J*(L+2)*3, 3): the same BLAS kernel,
-        # row by row, as one call per stacked 3x3 matrix (byte-identical, ~10x faster)
-        pos = (r_ext.reshape(-1, 3) @ lever).reshape(r_ext.shape[:-1])  # (C,J,L+2,3)
-        for c, s in enumerate(series):
+    span_s = np.maximum(idx_ext[..., 2:] - idx_ext[..., :-2], 1)[..., None] * dt
+    v_head = np.empty(a_idx.shape + (3,)) if moving_head else 0.0  # (C,J,L,3)
+    # np.take copies the same rows as fancy indexing, ~4x faster for rows of 3
+    m_body = np.take(d_body, a_idx, axis=0)  # (C,J,L,3)
+    d_earth = np.empty(a_idx.shape + (3,))
+    # record by record: a record's rotation matrices (J*(L+2), ~1.7 MB) stay in the
+    # cache, about 3x faster than the chunk's at once; the same elementwise operations
+    for c, s in enumerate(series):
+        ie = idx_ext[c]
+        y_c = yaw[c]
+        # a constant heading (sea-state buoy): one cosine and sine for the record
+        y_c = y_c[0] if (y_c == y_c[0]).all() else y_c[ie]
+        r_ext = rotation_matrix(
+            np.deg2rad(roll[c][ie]), np.deg2rad(pitch[c][ie]), np.deg2rad(y_c)
+        )  # (J,L+2,3,3)
+        if moving_head:
+            # one matrix-vector product over all rows (J*(L+2)*3, 3): the same BLAS kernel,
+            # row by row, as one call per stacked 3x3 matrix (byte-identical, ~10x faster)
+            pos = (r_ext.reshape(-1, 3) @ lever).reshape(r_ext.shape[:-1])  # (J,L+2,3)
             if s["trans"] is not None:
-                pos[c] += s["trans"][idx_ext[c]]
-        span_s = np.maximum(idx_ext[..., 2:] - idx_ext[..., :-2], 1)[..., None] * dt
-        v_head = (pos[:, :, 2:] - pos[:, :, :-2]) / span_s  # (C,J,L,3)
-    else:
-        v_head = 0.0
-    m_body = d_body[a_idx]  # (C,J,L,3)
-    d_earth = (r_los @ m_body[..., None])[..., 0]
+                pos += s["trans"][ie]
+            v_head[c] = (pos[:, 2:] - pos[:, :-2]) / span_s[c]
+        d_earth[c] = (r_ext[:, 1:-1] @ m_body[c][..., None])[..., 0]
     # wind at every LOS: mean (sheared at the tilted focus height) + 1-D turbulence
     fl = np.stack([s["fluct_enu"] for s in series])  # (C,H,N,3)
     hws_h = np.stack([s["hws_h"] for s in series])  # (C,H)
@@ -483,7 +491,9 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     e_wind = np.stack([-np.sin(wd), -np.cos(wd), np.zeros_like(wd)], -1)  # (C,3)
     alpha = par["shear_exponent"]
     step = wind_step_slots(settings, dt)
-    fl_los = fl[cc, h_idx[..., None], idx // step]  # (C,J,L,3)
+    fl_los = np.take(
+        fl.reshape(-1, 3), (cc * n_h + h_idx[..., None]) * fl.shape[2] + idx // step, axis=0
+    )  # (C,J,L,3) = fl[cc, h_idx, idx // step]
     mean_los = hws_h[np.arange(n_c)[:, None], h_idx][..., None]  # (C,J,1)
     # focus range fixed at h / cos(th): the focus height follows the tilted beam (seed 003 Eq. 5)
     # (1 + x)^alpha to second order in x = tilt-induced relative height change (|x| < 0.05
@@ -491,11 +501,19 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     x = d_earth[..., 2] / np.cos(th) - 1.0
     a_ = alpha[:, None, None]
     shear = 1.0 + a_ * x * (1.0 + 0.5 * (a_ - 1.0) * x)
-    wind = (mean_los * shear)[..., None] * e_wind[:, None, None, :] + fl_los
-    v_r = ((wind - v_head)[..., None, :] @ d_earth[..., None])[..., 0, 0]  # conventions.md
-    wind0 = mean_los[..., None] * e_wind[:, None, None, :] + fl_los
-    v_r0 = (wind0[..., None, :] @ m_body[..., None])[..., 0, 0]  # fixed reference lidar
-    pt = pinv_t[a_idx]
+    # v_r = d_earth . (wind - v_head) (conventions.md), and the fixed reference lidar's
+    # d_body . wind0, component by component: the same products and the same sum order
+    # ((x + y) + z) as the stacked 1x3 @ 3x1 products, without a call per line of sight
+    ms = mean_los * shear
+    v_r = v_r0 = 0.0
+    for k in range(3):
+        e_k = e_wind[:, None, None, k]
+        wind_k = ms * e_k + fl_los[..., k]
+        if moving_head:
+            wind_k -= v_head[..., k]
+        v_r = v_r + wind_k * d_earth[..., k]
+        v_r0 = v_r0 + (mean_los * e_k + fl_los[..., k]) * m_body[..., k]
+    pt = np.take(pinv_t, a_idx, axis=0)
     n_iter = 0 if geo.signed else 1
     uvw, resid = _lidar.vad_sign_unfolding(pt, m_body, np.abs(v_r), np.sign(v_r), n_iter)
     # fixed lidar: the body geometry is exact, so the unfolded fit is the linear one
@@ -520,6 +538,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     regimes = _regime_truth(settings, par, roll, pitch, yaw)
     # truth of the motion (noise-free, gap-free series on the LOS clock)
     roll_amp, pitch_amp = (np.sqrt(2.0) * a.std(axis=-1) for a in (roll, pitch))
+    lever_norm = float(np.linalg.norm(lever))
     for c, s in enumerate(series):
         rec = int(rec_idx[c])
         ts = start0 + pd.Timedelta(seconds=rec * t_len)
@@ -559,8 +578,13 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                 + hws_h[c, h] * e_wind[c, :2]
             )
             true_hws = np.hypot(truth[:, 0], truth[:, 1])
+            t_mean, t_std = true_hws.mean(), true_hws.std(ddof=1)
             # the reference: a motionless lidar's scans, or the point series (cup, sonic)
-            h0 = true_hws if point_ref else hws0[c][sel_ref]
+            if point_ref:
+                h0_mean, h0_std = t_mean, t_std
+            else:
+                h0 = hws0[c][sel_ref]
+                h0_mean, h0_std = h0.mean(), h0.std(ddof=1)
             enough = sel.sum() >= 2
             rows.append(
                 {
@@ -571,11 +595,11 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                     "wd_mean_deg": _circ_mean_deg(wd_scan[c], sel, 0) if enough else np.nan,
                     "availability_pct": 100.0 * sel.sum() / n_nom,
                     "sv": float(np.mean(resid[c][sel] / hs)) if enough else np.nan,
-                    "ref_hws_mean_ms": h0.mean() if has_ref else np.nan,
-                    "ref_hws_std_ms": h0.std(ddof=1) if has_ref else np.nan,
-                    "true_hws_mean_ms": true_hws.mean(),
-                    "true_hws_std_ms": true_hws.std(ddof=1),
-                    "true_ti": true_hws.std(ddof=1) / true_hws.mean(),
+                    "ref_hws_mean_ms": h0_mean if has_ref else np.nan,
+                    "ref_hws_std_ms": h0_std if has_ref else np.nan,
+                    "true_hws_mean_ms": t_mean,
+                    "true_hws_std_ms": t_std,
+                    "true_ti": t_std / t_mean,
                     "true_wd_deg": par["wd_deg"][c],
                     "true_sigma_u_ms": par["sigma_u_ms"][c],
                     "true_shear_exponent": par["shear_exponent"][c],
@@ -586,15 +610,15 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                     "true_period1_s": t1,
                     "true_period2_s": t2,
                     "true_weight1": w1_true,
-                    "true_lever_arm_m": float(np.linalg.norm(lever)),
+                    "true_lever_arm_m": lever_norm,
                     "true_sigma_z_ms": zc.std(ddof=1) if enough else np.nan,
                     "true_mean_z_ms": zc.mean() if enough else np.nan,
                     "true_n_scans": float(sel.sum()),
                     "true_record": float(rec),
                     "true_case": par["case"][c] if "case" in par else np.nan,
                     # what the reference would measure, also where it is absent
-                    "true_ref_hws_mean_ms": h0.mean(),
-                    "true_ref_hws_std_ms": h0.std(ddof=1),
+                    "true_ref_hws_mean_ms": h0_mean,
+                    "true_ref_hws_std_ms": h0_std,
                 }
                 | regime
             )

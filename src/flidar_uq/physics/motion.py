@@ -27,10 +27,13 @@ __all__ = [
 
 
 def _trig(roll_rad, pitch_rad, yaw_rad):
-    """Cosines and sines ``(cr, sr, cp, sp, cy, sy)`` of the broadcast angles (rad)."""
-    r, p, y = np.broadcast_arrays(
-        np.asarray(roll_rad, float), np.asarray(pitch_rad, float), np.asarray(yaw_rad, float)
-    )
+    """Cosines and sines ``(cr, sr, cp, sp, cy, sy)`` of the angles (rad).
+
+    Each angle keeps its own shape (they broadcast in the products that use them): a
+    yaw constant over a series costs one cosine, not one per sample. NumPy's cosine and
+    sine give the same bits for a value whether it stands alone or in an array.
+    """
+    r, p, y = (np.asarray(a, float) for a in (roll_rad, pitch_rad, yaw_rad))
     return np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
 
 
@@ -83,9 +86,13 @@ def _cross(a, b):
 
 
 def _stack_matrix(rows) -> np.ndarray:
-    """3 rows of 3 arrays (shape ``(...)``) -> contiguous array ``(..., 3, 3)``."""
-    flat = np.stack([np.asarray(e, float) for row in rows for e in row], axis=-1)
-    return flat.reshape(flat.shape[:-1] + (3, 3))
+    """3 rows of 3 arrays (broadcast to shape ``(...)``) -> contiguous array ``(..., 3, 3)``."""
+    shape = np.broadcast_shapes(*(np.shape(e) for row in rows for e in row))
+    out = np.empty(shape + (3, 3))
+    for i, row in enumerate(rows):
+        for j, e in enumerate(row):
+            out[..., i, j] = e
+    return out
 
 
 def rotation_matrix(roll_rad, pitch_rad, yaw_rad=0.0) -> np.ndarray:

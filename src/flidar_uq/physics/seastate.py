@@ -184,9 +184,10 @@ def tilt_series(
     )
     roll_c = (coef * np.sin(theta)).sum(axis=1)  # roll = +d(eta)/dy (module docstring)
     pitch_c = (-coef * np.cos(theta)).sum(axis=1)  # pitch = -d(eta)/dx
-    pad = ((0, 0), (0, f_all.size - n_b))
-    roll = np.fft.irfft(np.pad(roll_c, pad), n=n, axis=-1) * n
-    pitch = np.fft.irfft(np.pad(pitch_c, pad), n=n, axis=-1) * n
+    spec = np.zeros((2, n_rec, f_all.size), complex)  # zero above the synthesised bins
+    spec[0, :, :n_b], spec[1, :, :n_b] = roll_c, pitch_c
+    roll = np.fft.irfft(spec[0], n=n, axis=-1) * n
+    pitch = np.fft.irfft(spec[1], n=n, axis=-1) * n
     if single:
         return roll[0], pitch[0]
     return roll, pitch
