@@ -480,6 +480,7 @@ def corrected_ti(
     baseline: tuple[np.ndarray, float] | None = None,
     hold: Collection[str] = (),
     return_draws: bool = False,
+    group_statistics: bool = True,
     seed,
 ):
     """Corrected std and TI as posterior draws, summarised per record and per speed bin.
@@ -539,6 +540,10 @@ def corrected_ti(
         only by the held source).
     return_draws : bool
         Also return the draw matrix of the corrected TI.
+    group_statistics : bool
+        Compute ``per_bin`` (default); False: ``per_bin`` is None (for callers that
+        compute their own group statistics from the draws, e.g. the pipeline's propagate
+        step and the uncertainty budget's passes).
     seed : int or numpy.random.SeedSequence
 
     Returns
@@ -554,7 +559,7 @@ def corrected_ti(
         not given), and the baselines
         ``ti_u``, ``ti_c``, ``ti_pc``, ``rho_seed`` (seed 000's laws, as published: they
         estimate the reference instrument's std).
-    per_bin : pandas.DataFrame
+    per_bin : pandas.DataFrame or None
         One row per height and speed bin (``height_m``, ``hws_bin_ms``; 0 m when the
         records have no height), the statistics of :func:`ti_group_statistics`: mean,
         representative TI (mean + 1.28 std), 90th percentile and std of the corrected TI
@@ -774,8 +779,10 @@ def corrected_ti(
         {"height_m": heights, "hws_bin_ms": speed_bin_ms(m, speed_bin_width_ms)},
         index=records.index,
     )
-    per_bin = ti_group_statistics(
-        ti, per_record, keys, credible_mass=credible_mass, min_count=2
+    per_bin = (
+        ti_group_statistics(ti, per_record, keys, credible_mass=credible_mass, min_count=2)
+        if group_statistics
+        else None
     )
     if return_draws:
         return per_record, per_bin, ti

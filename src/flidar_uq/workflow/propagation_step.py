@@ -185,7 +185,9 @@ def propagate(
     sz_table = read_csv(sigma_z_path).set_index("bin_id")
     bin_fits = read_csv(bin_fits_path)
     gfit = inf.load_fit(global_path)
-    fits = load_bin_fits(batch_dirs, bin_fits)
+    # the record motion model takes each record's sigma_Z from its own motion: the bin
+    # posteriors (hundreds of files at a year, ~0.2 s each to open) are not read then
+    fits = {} if inf.is_record_model(gfit) else load_bin_fits(batch_dirs, bin_fits)
     surrogate = get_surrogate(lidar)
 
     rid = flags["record_id"].to_numpy()
@@ -239,6 +241,7 @@ def propagate(
             baseline=baseline,
             hold=hold,
             return_draws=True,
+            group_statistics=False,
             seed=child_seed(seed, 2),
         )
 
