@@ -20,7 +20,9 @@ rows, old and new), prints the new/old ratios and whether the outputs agree:
 (``speed_bins.csv``, ``groups.csv``: float32 TI draws) and of the uncertainty budget (its
 own 200-draw passes in the new code).
 
-Usage: ``python benchmarks/propagation_scaling.py [--sizes 1m,3m,1y] [--codes new,old]``.
+Usage: ``python benchmarks/propagation_scaling.py [--sizes 1m,3m,1y] [--codes new,old]``
+(every size of the first code, then of the next); ``--append --workdir DIR`` adds a
+separate run of one code to the CSV.
 """
 
 from __future__ import annotations
@@ -174,6 +176,55 @@ def compare(new: Path, old: Path) -> dict:
     return out
 
 
+BUDGET_MC_RUNNER = """
+import json, sys
+import numpy as np
+import flidar_uq.workflow.propagation_step as step
+args, rep = json.loads(sys.argv[1]), int(sys.argv[2])
+# only the propagation's random numbers change with rep (the point target keeps its seed)
+step.child_seed = lambda seed, *key: np.random.SeedSequence(int(seed), spawn_key=(*key, rep))
+step.propagate(**args)
+"""
+
+
+def budget_mc(base: Path, work: Path, size: str, reps: int, draws: list[int]) -> pd.DataFrame:
+    """Monte Carlo spread of the budget's variance shares: ``reps`` independent random
+    streams at each number of budget draws (the main pass at max(draws) so that the
+    largest reuses it, as ``budget_ndraws >= ndraws`` does); one row per draws, grouping
+    row and source with the shares' sd over the streams and the bound
+    ``0.77 / sqrt(draws - 1)``."""
+    inp = work / size / "inputs"
+    if not (inp / "data" / "records.csv").exists():
+        tile_inputs(base, inp, SIZES[size] * ROWS_PER_DAY)
+    tabs = []
+    for nb in draws:
+        for rep in range(reps):
+            res = work / size / f"budget_{nb}_{rep}"
+            args = step_args(base, inp, res, new=True)
+            args.update(ndraws=max(draws), budget_ndraws=nb)
+            env = dict(os.environ, PYTHONPATH=str(REPO / "src"))
+            subprocess.run(
+                ["nice", "-n", "5", sys.executable, "-c", BUDGET_MC_RUNNER, json.dumps(args),
+                 str(rep + 1)],
+                env=env, check=True, capture_output=True,
+            )  # fmt: skip
+            t = pd.read_csv(res / "uncertainty_budget.csv").assign(draws=nb, rep=rep)
+            tabs.append(t.reset_index(names="row"))
+    t = pd.concat(tabs, ignore_index=True)
+    shares = [c for c in t.columns if c.startswith("share_")]
+    long = t.melt(["draws", "rep", "row", "grouping"], shares, "source", "share")
+    out = long.groupby(["draws", "grouping", "row", "source"])["share"].agg(["mean", "std"])
+    out = out.reset_index()
+    out["bound_sd"] = 0.77 / np.sqrt(out["draws"] - 1)
+    out.to_csv(OUT / "budget_draws.csv", index=False)
+    for (nb, grouping), g in out.groupby(["draws", "grouping"]):
+        print(
+            f"budget {nb} draws, {grouping}: share sd over {reps} streams median "
+            f"{g['std'].median():.3f}, max {g['std'].max():.3f} (bound {0.77 / np.sqrt(nb - 1):.3f})"
+        )
+    return out
+
+
 def plot(df: pd.DataFrame) -> None:
     import matplotlib
 
@@ -206,8 +257,25 @@ def main() -> None:
     p.add_argument("--codes", default="new,old")
     p.add_argument("--old-commit", default="619c380")
     p.add_argument("--workdir", type=Path, default=None)
+    p.add_argument(
+        "--append",
+        action="store_true",
+        help="keep the other (size, code) rows of an existing CSV (codes run separately, "
+        "the same --workdir)",
+    )
+    p.add_argument(
+        "--budget-mc",
+        type=int,
+        default=0,
+        metavar="REPS",
+        help="instead: the budget shares' Monte Carlo sd over REPS streams at 1 month, "
+        "200 and 1000 budget draws (benchmarks/results/budget_draws.csv)",
+    )
     a = p.parse_args()
     work = Path(a.workdir or tempfile.mkdtemp(prefix="propagation_scaling_"))
+    if a.budget_mc:
+        budget_mc(a.base, work, "1m", a.budget_mc, [200, 1000])
+        return
     old_src = work / "old"
     if not (old_src / "src").exists():
         old_src.mkdir(parents=True, exist_ok=True)
@@ -219,21 +287,22 @@ def main() -> None:
         subprocess.run(["tar", "-x", "-C", str(old_src)], input=archive, check=True)
     srcs = {"new": REPO / "src", "old": old_src / "src"}
     OUT.mkdir(parents=True, exist_ok=True)
-    rows = []
-    for size in a.sizes.split(","):
-        n_rows = SIZES[size] * ROWS_PER_DAY
-        inp = work / size / "inputs"
-        tile_inputs(a.base, inp, n_rows)
-        for code in a.codes.split(","):
+    csv = OUT / "propagation_scaling.csv"
+    rows = pd.read_csv(csv).to_dict("records") if a.append and csv.exists() else []
+    for code in a.codes.split(","):
+        for size in a.sizes.split(","):
+            n_rows = SIZES[size] * ROWS_PER_DAY
+            inp = work / size / "inputs"
+            if not (inp / "bins" / "assignments.csv").exists():
+                tile_inputs(a.base, inp, n_rows)
             res = work / size / code
             m = run_case(srcs[code], step_args(a.base, inp, res, new=code == "new"))
             m.update(size=size, n_rows=n_rows, code=code)
-            if code == "old" and (work / size / "new" / "records.csv").exists() and m["ok"]:
-                m.update(compare(work / size / "new", res))
-            rows.append(m)
+            if m["ok"] and all((work / size / c / "records.csv").exists() for c in srcs):
+                m.update(compare(work / size / "new", work / size / "old"))
+            rows = [r for r in rows if (r["size"], r["code"]) != (size, code)] + [m]
             print(json.dumps(m), flush=True)
-            df = pd.DataFrame(rows)
-            df.to_csv(OUT / "propagation_scaling.csv", index=False)
+            pd.DataFrame(rows).to_csv(csv, index=False)
     df = pd.DataFrame(rows)
     plot(df)
     for size, g in df.groupby("size", sort=False):

@@ -85,8 +85,12 @@ LIDAR_STD_RATIO_LOG_SD = 0.02
 REFERENCE_SAMPLING_CORRELATION = 0.0
 
 #: Records propagated together by the record motion model (bounds the draws' memory:
-#: ndraws x chunk floats per array).
+#: ndraws x chunk floats per array; it fixes the order of the random numbers).
 _RECORD_CHUNK = 20_000
+
+#: Records of a chunk deployed at once after its random numbers are drawn (bounds the
+#: temporaries; does not change the numbers).
+_DEPLOY_BLOCK = 2_000
 
 
 def _sorted_nanquantile(sorted_draws: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -668,23 +672,29 @@ def corrected_ti(
 
     def deploy(mask, sz, tau):
         """Steps 2-4 of the module docstring for the records of ``mask`` (sZ draws given;
-        ``tau`` the floating lidar's sampling sd about its motionless-lidar std)."""
-        z = rng.standard_normal((ndraws, int(mask.sum())))
-        s_star = np.abs(s[mask][None, :] + tau * (0.0 if "sampling" in hold else z))
-        if "motion" in hold:
-            sz = np.broadcast_to(np.median(sz, axis=0), sz.shape)
-        c, neg = corrected_std(s_star, sz, rho)
-        # point std (g = 1, sd = 0: the reference's own std, a cup's or sonic's point std)
-        e = rng.standard_normal(c.shape)
-        point = g_draw * np.exp(log_sd[mask] * (0.0 if "reference_response" in hold else e))
-        point = point / g_ratio[mask]
-        sig = c * point
-        del c, point, e, s_star, z
-        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            ti[:, mask] = sig / m[mask][None, :]
-        sq[:, mask], tq[:, mask] = _record_quantiles(sig, m[mask], q)
-        neg_frac[mask] = np.mean(neg, axis=0)
-        sz_med[mask] = np.median(sz, axis=0)
+        ``tau`` the floating lidar's sampling sd about its motionless-lidar std). The
+        random numbers are drawn for all of them (z, then e: the stream does not depend on
+        the blocks); the rest runs on blocks of records to bound the temporaries."""
+        cols = np.flatnonzero(mask)
+        z = rng.standard_normal((ndraws, cols.size))
+        e = rng.standard_normal((ndraws, cols.size))
+        tau = np.broadcast_to(tau, z.shape)
+        for j in range(0, cols.size, _DEPLOY_BLOCK):
+            b, cb = slice(j, j + _DEPLOY_BLOCK), cols[j : j + _DEPLOY_BLOCK]
+            s_star = np.abs(s[cb][None, :] + tau[:, b] * (0.0 if "sampling" in hold else z[:, b]))
+            szb = sz[:, b]
+            if "motion" in hold:
+                szb = np.broadcast_to(np.median(szb, axis=0), szb.shape)
+            c, neg = corrected_std(s_star, szb, rho)
+            # point std (g = 1, sd = 0: the reference's own std, a cup's or sonic's point std)
+            ref = 0.0 if "reference_response" in hold else e[:, b]
+            point = g_draw * np.exp(log_sd[cb] * ref)
+            sig = c * (point / g_ratio[cb])
+            with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+                ti[:, cb] = sig / m[cb][None, :]
+            sq[:, cb], tq[:, cb] = _record_quantiles(sig, m[cb], q)
+            neg_frac[cb] = np.mean(neg, axis=0)
+            sz_med[cb] = np.median(szb, axis=0)
 
     if is_record_model(global_fit):
         # record motion model: each record's sigma_Z from its own measured motion, with the
@@ -705,7 +715,10 @@ def corrected_ti(
                 continue
             k = int(mask.sum())
             sz = effective_sigma_z_ms(szr[mask][None, :], u2[mask][None, :], lever, scale)
-            sz = sz * np.exp(kappa_z * rng.standard_normal((ndraws, k)))
+            err = rng.standard_normal((ndraws, k))
+            err *= kappa_z
+            sz *= np.exp(err, out=err)  # sz exp(kappa_z N(0, 1)), in place
+            del err
             deploy(mask, sz, own_noise(mask) * s[mask][None, :])
         conv[described] = global_fit.converged
         reasons[described] = "; ".join(global_reasons)
