@@ -173,6 +173,11 @@ def compare(new: Path, old: Path) -> dict:
         num = [c for c in a.columns if c in b and pd.api.types.is_float_dtype(a[c])]
         diff = (a[num] - b[num]).abs().to_numpy() if len(a) == len(b) else np.array([np.nan])
         out[f"{name}_max_abs_diff"] = float(np.nanmax(diff)) if diff.size else 0.0
+        if name == "uncertainty_budget" and len(a) == len(b):
+            shares = [c for c in num if c.startswith("share_")]
+            d = (a[shares] - b[shares]).abs().to_numpy()
+            out["budget_share_max_abs_diff"] = float(np.nanmax(d))
+            out["budget_share_median_abs_diff"] = float(np.nanmedian(d))
     return out
 
 
@@ -257,6 +262,15 @@ def main() -> None:
     p.add_argument("--codes", default="new,old")
     p.add_argument("--old-commit", default="619c380")
     p.add_argument("--workdir", type=Path, default=None)
+    p.add_argument("--csv", default="propagation_scaling.csv", help="file name of the table")
+    p.add_argument(
+        "--merge",
+        nargs="+",
+        default=None,
+        metavar="CSV",
+        help="only merge these tables of separate runs (benchmarks/results/ names, the same "
+        "--workdir) into propagation_scaling.csv/png",
+    )
     p.add_argument(
         "--append",
         action="store_true",
@@ -287,7 +301,17 @@ def main() -> None:
         subprocess.run(["tar", "-x", "-C", str(old_src)], input=archive, check=True)
     srcs = {"new": REPO / "src", "old": old_src / "src"}
     OUT.mkdir(parents=True, exist_ok=True)
-    csv = OUT / "propagation_scaling.csv"
+    csv = OUT / a.csv
+    if a.merge:  # rows of separate runs (same --workdir): merged, compared, plotted
+        df = pd.concat([pd.read_csv(OUT / f) for f in a.merge], ignore_index=True)
+        df = df.drop_duplicates(["size", "code"], keep="last").reset_index(drop=True)
+        for i, r in df.iterrows():
+            if r["code"] == "old" and r["ok"] and (work / r["size"] / "new").exists():
+                for k, v in compare(work / r["size"] / "new", work / r["size"] / "old").items():
+                    df.loc[i, k] = v
+        df.to_csv(OUT / "propagation_scaling.csv", index=False)
+        report(df)
+        return
     rows = pd.read_csv(csv).to_dict("records") if a.append and csv.exists() else []
     for code in a.codes.split(","):
         for size in a.sizes.split(","):
@@ -303,7 +327,11 @@ def main() -> None:
             rows = [r for r in rows if (r["size"], r["code"]) != (size, code)] + [m]
             print(json.dumps(m), flush=True)
             pd.DataFrame(rows).to_csv(csv, index=False)
-    df = pd.DataFrame(rows)
+    report(pd.DataFrame(rows))
+
+
+def report(df: pd.DataFrame) -> None:
+    """The chart and the new/old ratios per size."""
     plot(df)
     for size, g in df.groupby("size", sort=False):
         g = g.set_index("code")
