@@ -63,6 +63,8 @@ def uncertainty_budget(
     ----------
     draws_for : callable
         ``draws_for(hold)`` returns the corrected TI draws (-), shape (ndraws, n_records),
+        float32 (as ``corrected_ti`` returns them; the group means are summed in float64)
+        or float64,
         with the sources in ``hold`` held at their median and the same random numbers for
         every ``hold`` (e.g. :func:`flidar_uq.correction.propagation.corrected_ti` with
         ``return_draws=True`` and a fixed seed). Called once with ``()`` and once per
