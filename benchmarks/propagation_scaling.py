@@ -20,6 +20,10 @@ rows, old and new), prints the new/old ratios and whether the outputs agree:
 (``speed_bins.csv``, ``groups.csv``: float32 TI draws) and of the uncertainty budget (its
 own 200-draw passes in the new code).
 
+``--budget-mc REPS``: instead, the Monte Carlo spread of the uncertainty budget's variance
+shares over REPS random streams at 200 and 1000 budget draws (1 month;
+``benchmarks/results/budget_draws.csv``), the justification of ``budget_ndraws = 200``.
+
 Usage: ``python benchmarks/propagation_scaling.py [--sizes 1m,3m,1y] [--codes new,old]``
 (every size of the first code, then of the next); ``--append --workdir DIR`` adds a
 separate run of one code to the CSV.
