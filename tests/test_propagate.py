@@ -267,7 +267,8 @@ def test_bin_statistic_interval_is_the_quantile_of_the_statistic_draws(surrogate
         return_draws=True,
         seed=8,
     )
-    assert draws.shape == (2000, 40)
+    assert draws.shape == (2000, 40) and draws.dtype == np.float32
+    draws = draws.astype(float)  # the statistics are computed in float64
     mean_draws = draws.mean(axis=1)
     lo, med, hi = np.quantile(mean_draws, [0.05, 0.5, 0.95])
     row = pb.iloc[0]
@@ -301,3 +302,24 @@ def test_hold_removes_a_source_and_only_that_source(surrogate):
     assert np.ptp(both, axis=0).max() < 1e-9 < np.ptp(full, axis=0).min()
     with pytest.raises(ValueError, match=r"hold=\['wind'\] must be among"):
         corrected_ti(rec, fits, g, surrogate=surrogate, hold={"wind"}, seed=9)
+
+
+def test_per_record_quantiles_are_those_of_the_returned_draws(surrogate):
+    """The per-record median and interval (computed bin by bin from the float64 draws)
+    are the quantiles of the returned float32 TI draws, record by record (float32
+    rounding apart); records of a bin without a fit have NaN in both. Without the group
+    statistics the per-record table is the same."""
+    rec = pd.concat([_records(np.linspace(0.6, 1.0, 9)), _records([0.7, 0.8], bin_id=1)])
+    rec = rec.reset_index(drop=True)
+    kw = dict(surrogate=surrogate, ndraws=300, return_draws=True, seed=4)
+    args = (rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.3, 0.02, 0.05))
+    pr, pb, draws = corrected_ti(*args, **kw)
+    assert draws.dtype == np.float32 and draws.shape == (300, 11)
+    assert np.isnan(draws[:, 9:]).all() and pr.loc[9:, "ti_corrected_median"].isna().all()
+    want = np.quantile(draws[:, :9].astype(float), [0.05, 0.5, 0.95], axis=0)
+    got = pr.loc[:8, ["ti_corrected_lo", "ti_corrected_median", "ti_corrected_hi"]]
+    np.testing.assert_allclose(got.to_numpy().T, want, rtol=1e-6)
+    pr2, pb2, draws2 = corrected_ti(*args, group_statistics=False, **kw)
+    assert pb2 is None and len(pb) == 1
+    pd.testing.assert_frame_equal(pr2, pr)
+    np.testing.assert_array_equal(draws2, draws)

@@ -87,8 +87,75 @@ LIDAR_STD_RATIO_LOG_SD = 0.02
 REFERENCE_SAMPLING_CORRELATION = 0.0
 
 #: Records propagated together by the record motion model (bounds the draws' memory:
-#: ndraws x chunk floats per array).
+#: ndraws x chunk floats per array; it fixes the order of the random numbers).
 _RECORD_CHUNK = 20_000
+
+#: Records of a chunk deployed at once after its random numbers are drawn (bounds the
+#: temporaries; does not change the numbers).
+_DEPLOY_BLOCK = 2_000
+
+
+def _sorted_nanquantile(sorted_draws: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``np.nanquantile(x, q, axis=0)`` (default linear method) from ``x`` sorted along
+    axis 0 with its NaNs last (``np.sort``): the same numbers, without numpy's Python call
+    per column.
+
+    The same arithmetic as numpy's linear method on each column's ``n`` non-NaN values:
+    virtual index ``(n - 1) q``, its floor and the next order statistic (the last one
+    when the index reaches ``n - 1``), and the interpolation ``a + (b - a) t``, or
+    ``b - (b - a) (1 - t)`` for ``t >= 0.5``. Columns without a value give NaN (numpy
+    warns there).
+
+    Parameters
+    ----------
+    sorted_draws : numpy.ndarray, shape (ndraws, ncols)
+        Draws sorted along axis 0, NaNs last (any unit).
+    q : numpy.ndarray, shape (nq,)
+        Probabilities in [0, 1] (-).
+
+    Returns
+    -------
+    numpy.ndarray, shape (nq, ncols)
+        The quantiles (unit of ``sorted_draws``).
+    """
+    x = np.asarray(sorted_draws)
+    q = np.asarray(q, dtype=float)
+    count = x.shape[0] - np.count_nonzero(np.isnan(x), axis=0)  # (ncols,)
+    last = np.maximum(count - 1, 0)
+    virtual = last[None, :] * q[:, None]  # numpy: (n - 1) * q
+    above = virtual >= last[None, :]
+    prev = np.where(above, last[None, :], np.floor(virtual)).astype(np.intp)
+    nxt = np.where(above, prev, prev + 1)
+    gamma = virtual - prev  # with prev = n - 1 both neighbours are the last value
+    a = np.take_along_axis(x, prev, axis=0)
+    b = np.take_along_axis(x, nxt, axis=0)
+    diff = b - a
+    out = np.where(gamma >= 0.5, b - diff * (1 - gamma), a + diff * gamma)
+    out[:, count == 0] = np.nan
+    return out
+
+
+def _record_quantiles(
+    sig_draws: np.ndarray, mean_hws_ms: np.ndarray, q: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per-record quantiles of the corrected std draws and of the TI ``std / mean HWS``:
+    ``np.nanquantile`` of each with non-finite draws left out, from one sort.
+
+    ``x -> x / m`` is monotone (increasing for ``m > 0``) in floating point, so the sorted
+    std draws divided by ``m`` are the sorted TI draws; they are sorted again only when
+    a quotient overflows or an ``m`` is not positive. Shapes: ``sig_draws`` (ndraws, k)
+    in m/s, ``mean_hws_ms`` (k,) in m/s, ``q`` (nq,); returns two (nq, k) arrays (m/s and -).
+    """
+    x = np.where(np.isfinite(sig_draws), sig_draws, np.nan)
+    x.sort(axis=0)
+    sq = _sorted_nanquantile(x, q)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        x /= mean_hws_ms[None, :]
+    inf = np.isinf(x)
+    if inf.any() or np.any(~(mean_hws_ms > 0)):  # overflow, m <= 0 or NaN: sort again
+        x[inf] = np.nan
+        x.sort(axis=0)
+    return sq, _sorted_nanquantile(x, q)
 
 
 def reference_pair_log_sd(point_log_sd, correlation=REFERENCE_SAMPLING_CORRELATION):
@@ -503,6 +570,7 @@ def corrected_ti(
     baseline: tuple[np.ndarray, float] | None = None,
     hold: Collection[str] = (),
     return_draws: bool = False,
+    group_statistics: bool = True,
     seed,
 ):
     """Corrected std and TI as posterior draws, summarised per record and per speed bin.
@@ -562,6 +630,10 @@ def corrected_ti(
         only by the held source).
     return_draws : bool
         Also return the draw matrix of the corrected TI.
+    group_statistics : bool
+        Compute ``per_bin`` (default); False: ``per_bin`` is None (for callers that
+        compute their own group statistics from the draws, e.g. the pipeline's propagate
+        step and the uncertainty budget's passes).
     seed : int or numpy.random.SeedSequence
 
     Returns
@@ -577,15 +649,19 @@ def corrected_ti(
         not given), and the baselines
         ``ti_u``, ``ti_c``, ``ti_pc``, ``rho_seed`` (seed 000's laws, as published: they
         estimate the reference instrument's std).
-    per_bin : pandas.DataFrame
+    per_bin : pandas.DataFrame or None
         One row per height and speed bin (``height_m``, ``hws_bin_ms``; 0 m when the
         records have no height), the statistics of :func:`ti_group_statistics`: mean,
         representative TI (mean + 1.28 std), 90th percentile and std of the corrected TI
         with credible intervals of the statistic, beside the uncorrected and seed 000 values.
-    ti_draws : numpy.ndarray, shape (ndraws, n_records)
+    ti_draws : numpy.ndarray of float32, shape (ndraws, n_records)
         With ``return_draws``: the corrected TI draws (-); draw ``d`` of every record uses
         the same global posterior draw, so a statistic over records per draw is a draw of
-        that statistic's posterior.
+        that statistic's posterior. Stored as float32 (relative rounding 6e-8, far below
+        the Monte Carlo error; half the memory: 0.63 GB for 1000 draws of a year's 157,680
+        records): they serve only statistics over records (:func:`ti_group_statistics`,
+        the uncertainty budget). ``per_record``'s quantiles are computed in float64 record
+        chunk by record chunk, from the draws before rounding.
 
     Raises
     ------
@@ -669,7 +745,11 @@ def corrected_ti(
     if "reference_response" in hold:
         g_draw = 1.0
 
-    sig = np.full((ndraws, n), np.nan)
+    q = np.asarray(q, dtype=float)
+    sq = np.full((q.size, n), np.nan)  # per-record quantiles of the corrected std (m/s)
+    tq = np.full((q.size, n), np.nan)  # and of the corrected TI (-)
+    # TI draws for the group statistics (and the caller): float32, 4 bytes per draw
+    ti = np.full((ndraws, n), np.nan, dtype=np.float32)
     neg_frac = np.full(n, np.nan)
     sz_med = np.full(n, np.nan)
     conv = np.zeros(n, dtype=bool)
@@ -678,19 +758,29 @@ def corrected_ti(
 
     def deploy(mask, sz, tau):
         """Steps 2-4 of the module docstring for the records of ``mask`` (sZ draws given;
-        ``tau`` the floating lidar's sampling sd about its motionless-lidar std)."""
-        z = rng.standard_normal((ndraws, int(mask.sum())))
-        s_star = np.abs(s[mask][None, :] + tau * (0.0 if "sampling" in hold else z))
-        if "motion" in hold:
-            sz = np.broadcast_to(np.median(sz, axis=0), sz.shape)
-        c, neg = corrected_std(s_star, sz, rho)
-        # point std (g = 1, sd = 0: the reference's own std, a cup's or sonic's point std)
-        e = rng.standard_normal(c.shape)
-        point = g_draw * np.exp(log_sd[mask] * (0.0 if "reference_response" in hold else e))
-        point = point / g_ratio[mask]
-        sig[:, mask] = c * point
-        neg_frac[mask] = np.mean(neg, axis=0)
-        sz_med[mask] = np.median(sz, axis=0)
+        ``tau`` the floating lidar's sampling sd about its motionless-lidar std). The
+        random numbers are drawn for all of them (z, then e: the stream does not depend on
+        the blocks); the rest runs on blocks of records to bound the temporaries."""
+        cols = np.flatnonzero(mask)
+        z = rng.standard_normal((ndraws, cols.size))
+        e = rng.standard_normal((ndraws, cols.size))
+        tau = np.broadcast_to(tau, z.shape)
+        for j in range(0, cols.size, _DEPLOY_BLOCK):
+            b, cb = slice(j, j + _DEPLOY_BLOCK), cols[j : j + _DEPLOY_BLOCK]
+            s_star = np.abs(s[cb][None, :] + tau[:, b] * (0.0 if "sampling" in hold else z[:, b]))
+            szb = sz[:, b]
+            if "motion" in hold:
+                szb = np.broadcast_to(np.median(szb, axis=0), szb.shape)
+            c, neg = corrected_std(s_star, szb, rho)
+            # point std (g = 1, sd = 0: the reference's own std, a cup's or sonic's point std)
+            ref = 0.0 if "reference_response" in hold else e[:, b]
+            point = g_draw * np.exp(log_sd[cb] * ref)
+            sig = c * (point / g_ratio[cb])
+            with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+                ti[:, cb] = sig / m[cb][None, :]
+            sq[:, cb], tq[:, cb] = _record_quantiles(sig, m[cb], q)
+            neg_frac[cb] = np.mean(neg, axis=0)
+            sz_med[cb] = np.median(szb, axis=0)
 
     if is_record_model(global_fit):
         # record motion model: each record's sigma_Z from its own measured motion, with the
@@ -711,7 +801,10 @@ def corrected_ti(
                 continue
             k = int(mask.sum())
             sz = effective_sigma_z_ms(szr[mask][None, :], u2[mask][None, :], lever, scale)
-            sz = sz * np.exp(kappa_z * rng.standard_normal((ndraws, k)))
+            err = rng.standard_normal((ndraws, k))
+            err *= kappa_z
+            sz *= np.exp(err, out=err)  # sz exp(kappa_z N(0, 1)), in place
+            del err
             deploy(mask, sz, own_noise(mask) * s[mask][None, :])
         conv[described] = global_fit.converged
         reasons[described] = "; ".join(global_reasons)
@@ -741,18 +834,7 @@ def corrected_ti(
             reasons[mask] = "; ".join([*f.failure_reasons, *global_reasons])
 
     with np.errstate(invalid="ignore", divide="ignore"):
-        ti = sig / m[None, :]
         _, neg_point = corrected_std(s, np.where(np.isfinite(sz_med), sz_med, 0.0), rho_med)
-        sq = (
-            np.nanquantile(np.where(np.isfinite(sig), sig, np.nan), q, axis=0)
-            if n
-            else np.zeros((3, 0))
-        )
-        tq = (
-            np.nanquantile(np.where(np.isfinite(ti), ti, np.nan), q, axis=0)
-            if n
-            else np.zeros((3, 0))
-        )
 
     sz_seed, rho_seed = (
         baseline if baseline is not None else variance_law_baselines(records, surrogate)
@@ -796,8 +878,10 @@ def corrected_ti(
         {"height_m": heights, "hws_bin_ms": speed_bin_ms(m, speed_bin_width_ms)},
         index=records.index,
     )
-    per_bin = ti_group_statistics(
-        ti, per_record, keys, credible_mass=credible_mass, min_count=2
+    per_bin = (
+        ti_group_statistics(ti, per_record, keys, credible_mass=credible_mass, min_count=2)
+        if group_statistics
+        else None
     )
     if return_draws:
         return per_record, per_bin, ti
@@ -827,7 +911,9 @@ def ti_group_statistics(
     Parameters
     ----------
     ti_draws : numpy.ndarray, shape (ndraws, n_records)
-        Corrected TI draws (-), columns in the order of ``per_record``.
+        Corrected TI draws (-), columns in the order of ``per_record``; float32 (as
+        :func:`corrected_ti` returns them) or float64, the statistics are computed in
+        float64.
     per_record : pandas.DataFrame
         :func:`corrected_ti`'s per-record table: ``converged``, ``ti_uncorrected``,
         ``ti_u``, ``ti_c``, ``ti_pc`` (the last three optional).
@@ -855,7 +941,9 @@ def ti_group_statistics(
         raise ValueError(f"ti_group_statistics: credible_mass={credible_mass} must be in (0, 1)")
     if int(min_count) < 2:
         raise ValueError(f"ti_group_statistics: min_count={min_count} must be >= 2")
-    ti_draws = np.asarray(ti_draws, dtype=float)
+    ti_draws = np.asarray(ti_draws)
+    if ti_draws.dtype.kind != "f":
+        ti_draws = ti_draws.astype(float)
     if ti_draws.ndim != 2 or ti_draws.shape[1] != len(per_record) or len(keys) != len(per_record):
         raise ValueError(
             f"ti_group_statistics: ti_draws shape {ti_draws.shape}, {len(per_record)} records "
@@ -879,8 +967,7 @@ def ti_group_statistics(
         row["n_not_converged"] = int((~conv[members]).sum())
         enough = k.size >= min_count
         if enough:
-            d = ti_draws[:, k]
-            draws = _statistics(d, axis=1)
+            draws = _draw_statistics(ti_draws, k)
             for name, x in zip(stats, draws, strict=True):
                 lo, med, hi = np.quantile(x, q)
                 row.update({name: med, f"{name}_lo": lo, f"{name}_hi": hi})
@@ -900,6 +987,22 @@ def ti_group_statistics(
     cols += [f"{n}_uncorrected" for n in stats] + ["n_not_converged"]
     cols += [c for c in ("ti_rep_u", "ti_rep_c", "ti_rep_pc") if rows and c in rows[0]]
     return pd.DataFrame(rows, columns=cols)
+
+
+#: Draw values (float64) held at once by the group statistics (bounds their memory).
+_BLOCK_VALUES = 4_000_000
+
+
+def _draw_statistics(ti_draws: np.ndarray, columns: np.ndarray):
+    """:func:`_statistics` over ``columns`` of every draw (row), computed on blocks of
+    draws converted to float64 (a group of a year's records would otherwise be copied
+    whole, several times); row by row the same numbers as on the whole matrix."""
+    step = max(1, _BLOCK_VALUES // max(columns.size, 1))
+    blocks = [
+        _statistics(ti_draws[j : j + step, columns], axis=1)
+        for j in range(0, max(ti_draws.shape[0], 1), step)
+    ]
+    return tuple(np.concatenate(parts) for parts in zip(*blocks, strict=True))
 
 
 def _statistics(ti, axis: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -39,12 +39,12 @@ __all__ = ["uncertainty_budget"]
 
 
 def _group_mean_draws(ti_draws: np.ndarray, codes: np.ndarray, ngroups: int) -> np.ndarray:
-    """Mean over each group's records per draw: shape (ndraws, ngroups)."""
+    """Mean over each group's records per draw, in float64: shape (ndraws, ngroups)."""
     out = np.full((ti_draws.shape[0], ngroups), np.nan)
     for g in range(ngroups):
         cols = codes == g
         if cols.any():
-            out[:, g] = ti_draws[:, cols].mean(axis=1)
+            out[:, g] = ti_draws[:, cols].mean(axis=1, dtype=np.float64)
     return out
 
 
@@ -63,6 +63,8 @@ def uncertainty_budget(
     ----------
     draws_for : callable
         ``draws_for(hold)`` returns the corrected TI draws (-), shape (ndraws, n_records),
+        float32 (as ``corrected_ti`` returns them; the group means are summed in float64)
+        or float64,
         with the sources in ``hold`` held at their median and the same random numbers for
         every ``hold`` (e.g. :func:`flidar_uq.correction.propagation.corrected_ti` with
         ``return_draws=True`` and a fixed seed). Called once with ``()`` and once per
@@ -116,7 +118,9 @@ def uncertainty_budget(
     q = [(1.0 - credible_mass) / 2.0, (1.0 + credible_mass) / 2.0]
 
     def reduce(hold):
-        d = np.asarray(draws_for(hold), dtype=float)
+        d = np.asarray(draws_for(hold))  # float32 draws stay float32 (summed in float64)
+        if d.dtype.kind != "f":
+            d = d.astype(float)
         if d.ndim != 2 or d.shape[1] != usable.size:
             raise ValueError(
                 f"uncertainty_budget: draws for hold={list(hold)} have shape {d.shape}, "

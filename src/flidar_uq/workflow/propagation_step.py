@@ -213,6 +213,7 @@ def propagate(
     budget_out: str | os.PathLike | None = None,
     sector_width_deg: float = 30.0,
     min_count: int = 10,
+    budget_ndraws: int = 200,
 ) -> pd.DataFrame:
     """Corrected std and TI per record, per bin and per speed bin, beside the baselines.
 
@@ -243,7 +244,12 @@ def propagate(
     the whole campaign, per wind-direction sector (``sector_width_deg`` wide, centred on
     multiples of it from north) and per sea-state class (:func:`record_groups`).
     ``budget_out``: the uncertainty budget of the campaign mean and of each speed bin's
-    mean (:func:`flidar_uq.correction.uncertainty_budget.uncertainty_budget`).
+    mean (:func:`flidar_uq.correction.uncertainty_budget.uncertainty_budget`), from its
+    own ``1 + len(UNCERTAINTY_SOURCES)`` passes at ``min(budget_ndraws, ndraws)`` draws
+    per record (all its columns, ``ti_mean`` and ``width`` included; the passes share
+    the seed, common random numbers). 200 draws: a variance share's Monte Carlo sd is
+    at most ``0.77 / sqrt(budget_ndraws - 1)`` = 0.055 (docs/performance.md); with
+    ``budget_ndraws >= ndraws`` the main pass's draws are reused, as before.
 
     ``metrics_out``: MD and RMSE (seed 000 Eqs. 18-19) of std (m/s) and TI for the
     uncorrected, U, C, PC and Bayesian estimates against the truth (``true_*``, virtual
@@ -261,7 +267,9 @@ def propagate(
     sz_table = read_csv(sigma_z_path).set_index("bin_id")
     bin_fits = read_csv(bin_fits_path)
     gfit = inf.load_fit(global_path)
-    fits = load_bin_fits(batch_dirs, bin_fits)
+    # the record motion model takes each record's sigma_Z from its own motion: the bin
+    # posteriors (hundreds of files at a year, ~0.2 s each to open) are not read then
+    fits = {} if inf.is_record_model(gfit) else load_bin_fits(batch_dirs, bin_fits)
     surrogate = get_surrogate(lidar)
 
     rid = flags["record_id"].to_numpy()
@@ -304,7 +312,7 @@ def propagate(
         )  # fmt: skip
     baseline = prop.variance_law_baselines(sub, surrogate)
 
-    def correct(hold=()):
+    def correct(hold=(), ndraws=ndraws):
         return prop.corrected_ti(
             sub,
             [f for f in fits.values() if f.converged],
@@ -319,6 +327,7 @@ def propagate(
             baseline=baseline,
             hold=hold,
             return_draws=True,
+            group_statistics=False,
             seed=child_seed(seed, 2),
         )
 
@@ -350,11 +359,13 @@ def propagate(
     if budget_out is not None:
         from flidar_uq.correction.uncertainty_budget import uncertainty_budget
 
-        usable = per_record["converged"].to_numpy(dtype=bool) & np.all(
-            np.isfinite(ti_draws), axis=0
-        )
+        # its own passes at budget_ndraws (common random numbers: the same seed and draws
+        # for every hold), the main pass's draws when it has no more
+        nb = min(int(budget_ndraws), int(ndraws))
+        free = ti_draws if nb == ndraws else correct((), nb)[2]
+        usable = per_record["converged"].to_numpy(dtype=bool) & np.all(np.isfinite(free), axis=0)
         budget = uncertainty_budget(
-            lambda hold: ti_draws if not hold else correct(hold)[2],
+            lambda hold: free if not hold else correct(hold, nb)[2],
             {"campaign": speed_keys[["height_m"]], "speed bin": speed_keys},
             usable,
             credible_mass=credible_mass,
