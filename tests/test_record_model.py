@@ -135,6 +135,24 @@ def test_record_loglik_reduces_to_eq15_without_motion_noise():
     assert got[0, 0] == pytest.approx(expect, rel=1e-6)
 
 
+@pytest.mark.parametrize("sz_over_r", [0.0, 1.0, 3.0])
+def test_reference_pair_scatter_enters_through_the_turbulent_part_only(sz_over_r):
+    # the reference lidar's std scatters about the floating lidar's motionless std by
+    # exp(p N(0, 1)): s = sqrt((r e)^2 + sZ^2 + 2 rho r e sZ) scatters by p r dmu/dr, far
+    # less than p mu where the motion dominates (the former (kappa^2 + p^2) mu^2)
+    rho, p, r = 0.3, 0.05, np.array([1.0])
+    szr = np.array([sz_over_r])
+    theta = np.array([[rho, np.log(1e-7), np.log(1e-7), 0.0, 0.0]])
+    mu = np.sqrt(1.0 + sz_over_r**2 + 2 * rho * sz_over_r)
+    ll = _record_loglik_pointwise(theta, np.array([mu]), r, szr, np.zeros(1), np.array([p**2]))
+    tau_model = np.sqrt(np.exp(-2.0 * ll[0, 0]) / (2 * np.pi))
+    e = np.exp(p * np.random.default_rng(3).standard_normal(400_000))
+    s = np.sqrt(e**2 + sz_over_r**2 + 2 * rho * e * sz_over_r)
+    assert tau_model == pytest.approx(np.std(s), rel=0.02)
+    if sz_over_r >= 3.0:
+        assert tau_model < 0.5 * p * mu
+
+
 def test_record_loglik_sum_in_blocks_of_walkers_equals_the_whole_row_sums(monkeypatch):
     rng = np.random.default_rng(1)
     n = 40

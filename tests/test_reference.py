@@ -174,25 +174,28 @@ def _fits():
     return [bf], gf
 
 
-def test_ratio_prior_widens_every_interval_by_one_shared_factor():
-    # g uncertain by log-sd 0.03, nothing else random: each record's interval is
-    # exp(+-1.645 * 0.03) about c / g, and the draws of all records move together
+def test_ratio_prior_is_one_shared_factor_in_the_total_interval_and_the_draws_only():
+    # g uncertain by log-sd 0.03, nothing else random: each record's total interval is
+    # exp(+-1.645 * 0.03) about c / g and the draws of all records move together; the
+    # record's own interval is given g: the same numbers as with g exact
     rec = _records([0.6, 0.8, 1.0])
     bins, glob = _fits()
     g = np.array([1.02, 1.03, 1.05])
     kw = dict(surrogate=get_surrogate("zephir300"), seed=4, ndraws=4000, lidar_std_ratio=g)
-    exact, _ = corrected_ti(rec, bins, glob, **kw)
-    wide, _ = corrected_ti(rec, bins, glob, lidar_std_ratio_log_sd=0.03, **kw)
-    ratio = wide["sigma_corrected_hi_ms"] / wide["sigma_corrected_lo_ms"]
+    exact, _, exact_draws = corrected_ti(rec, bins, glob, return_draws=True, **kw)
+    wide, _, draws = corrected_ti(
+        rec, bins, glob, lidar_std_ratio_log_sd=0.03, return_draws=True, **kw
+    )
+    for col in ("ti_corrected_lo", "ti_corrected_median", "ti_corrected_hi"):
+        np.testing.assert_array_equal(wide[col], exact[col])
+    np.testing.assert_array_equal(exact["ti_corrected_lo_total"], exact["ti_corrected_lo"])
+    ratio = wide["ti_corrected_hi_total"] / wide["ti_corrected_lo_total"]
     np.testing.assert_allclose(np.log(ratio), 2 * 1.645 * 0.03, rtol=0.1)
-    np.testing.assert_allclose(
-        wide["sigma_corrected_median_ms"], exact["sigma_corrected_median_ms"], rtol=0.01
-    )
-    # shared: the relative position of each record's median within its interval is equal
-    pos = (wide["sigma_corrected_median_ms"] - wide["sigma_corrected_lo_ms"]) / (
-        wide["sigma_corrected_hi_ms"] - wide["sigma_corrected_lo_ms"]
-    )
-    np.testing.assert_allclose(pos, pos.iloc[0], atol=1e-4)  # independent draws: ~1e-2
+    assert np.all(np.log(exact["ti_corrected_hi"] / exact["ti_corrected_lo"]) < 1e-3)
+    # shared: every record's draws move by the same factor per draw
+    factor = draws / exact_draws
+    np.testing.assert_allclose(factor, factor[:, :1] * np.ones((1, 3)), rtol=1e-6)
+    assert np.std(np.log(factor[:, 0])) == pytest.approx(0.03, rel=0.05)
     with pytest.raises(ValueError, match="lidar_std_ratio_log_sd needs lidar_std_ratio"):
         corrected_ti(
             rec, bins, glob, surrogate=kw["surrogate"], seed=4, lidar_std_ratio_log_sd=0.03

@@ -63,21 +63,16 @@ def test_every_record_corrected_and_calibrated_in_every_regime(scenario, seed):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", SEEDS)
-def test_sparse_30day_every_record_corrected_unbiased_never_overconfident(seed):
-    # one height, weathervaning above 8 m/s: with the pair term its intervals still cover
-    # 0.93-0.96 per group (seed 2), in the fixed-heading half as much as in the
-    # weathervaning half, so it is not the reference's sampling (docs/inference.md)
+def test_sparse_30day_every_record_corrected_and_calibrated_in_every_regime(seed):
+    # one height, 30 days, weathervaning above 8 m/s, swell in 40 %: the narrowest
+    # intervals of the scenarios (10 % of TI), where the reference's campaign-wide g error
+    # (in the total interval only) weighed most when it was in the record interval
     records, fit = _run("sparse_30day", seed)
     assert fit.converged, fit.failure_reasons
     assert records["ti_corrected_median"].notna().mean() >= 0.99
-    tab = scenario_calibration(records)
-    overall = tab[tab["grouping"] == "all"].iloc[0]
-    groups = _groups(records)
-    shown = groups[["grouping", "group", "n", "coverage", "mean_rel_error"]].to_string()
-    assert len(groups) >= 5, shown
-    assert (groups["coverage"] >= 0.85).all(), shown
-    assert (groups["mean_rel_error"].abs() <= 0.015).all(), shown
-    assert abs(overall["mean_rel_error"]) <= 0.01
+    assert records["ti_corrected_lo"].notna().mean() >= 0.99
+    assert len(_groups(records)) >= 5
+    _check_calibrated(records, f"sparse_30day seed {seed}")
 
 
 @pytest.mark.slow

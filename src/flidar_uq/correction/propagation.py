@@ -21,6 +21,10 @@ For every record ``i`` and posterior draw ``d`` (docs/inference.md, "Propagation
    record-to-record scatter (:func:`flidar_uq.physics.lidar_response.lidar_point_log_sd`)
    and ``b_d ~ N(0, sd_g^2)`` one draw per posterior draw for all records: the prior of the
    ratio's own error (probe-volume averaging, stability; docs/lidar-response.md).
+   ``b`` is a campaign-wide systematic error, the same in every record: the per-record
+   interval is given ``g`` (``b = 0``), the ``*_total`` interval and every statistic over
+   records (per speed bin, per campaign) include it (docs/inference.md, "Record intervals
+   and the reference's calibration").
 
 Baselines beside it: uncorrected TI and seed 000's U / C / PC laws (Eqs. 15-17) with
 sigma_Z from the surrogate at the bin's median IMU amplitude and period and seed 000's
@@ -605,7 +609,10 @@ def corrected_ti(
     lidar_std_ratio_log_sd : float
         Prior sd of ``log g`` (-), with ``lidar_std_ratio``: every posterior draw divides
         by ``g exp(N(0, sd^2))``, one factor per draw shared by all records (the ratio's
-        error is systematic: probe-volume averaging, stability). Default 0: g exact.
+        error is systematic: probe-volume averaging, stability). It is in the draws, the
+        group statistics and ``ti_corrected_lo_total`` / ``ti_corrected_hi_total``; the
+        per-record interval ``ti_corrected_lo`` / ``ti_corrected_hi`` is given ``g``.
+        Default 0: g exact.
     reference_sampling_correlation : float or array_like, shape (n_records,), optional
         With ``point_log_sd`` (a lidar reference) and a global fit that did not take the
         two lidars' sampling scatter as known (no ``info["pair_log_sd_median"]``):
@@ -641,7 +648,10 @@ def corrected_ti(
     per_record : pandas.DataFrame
         Index of ``records``; columns ``bin_id``, ``hws_mean_ms``, ``ti_uncorrected``,
         ``sigma_corrected_median_ms``, ``sigma_corrected_lo_ms``, ``sigma_corrected_hi_ms``,
-        ``ti_corrected_median``, ``ti_corrected_lo``, ``ti_corrected_hi``,
+        ``ti_corrected_median``, ``ti_corrected_lo``, ``ti_corrected_hi`` (given the
+        reference's std ratio ``g``: the record's own uncertainty),
+        ``ti_corrected_lo_total``, ``ti_corrected_hi_total`` (with ``g``'s campaign-wide
+        error, ``lidar_std_ratio_log_sd``; equal to the former when it is 0),
         ``discriminant_negative`` (the formula at the measured std, posterior-median sZ and
         rho has no real root), ``discriminant_negative_frac`` (share of draws),
         ``sigma_z_median_ms``, ``converged`` (bin and global fit both converged),
@@ -736,18 +746,15 @@ def corrected_ti(
         return split_noise(kappa, log_sd[mask][None, :], corr[mask][None, :])
 
     rho_med = float(np.median(global_fit.flat("rho")))
-    # the ratio's systematic error: one factor per draw, shared by every record
-    g_draw = (
-        np.exp(-lidar_std_ratio_log_sd * rng.standard_normal((ndraws, 1)))
-        if lidar_std_ratio_log_sd > 0.0
-        else 1.0
-    )
-    if "reference_response" in hold:
-        g_draw = 1.0
+    # the ratio's systematic error: one factor per draw, shared by every record (drawn
+    # whatever its sd, so that the other random numbers do not depend on it)
+    g_draw = np.exp(-lidar_std_ratio_log_sd * rng.standard_normal((ndraws, 1)))
+    systematic = lidar_std_ratio_log_sd > 0.0 and "reference_response" not in hold
 
     q = np.asarray(q, dtype=float)
     sq = np.full((q.size, n), np.nan)  # per-record quantiles of the corrected std (m/s)
-    tq = np.full((q.size, n), np.nan)  # and of the corrected TI (-)
+    tq = np.full((q.size, n), np.nan)  # and of the corrected TI (-), given g
+    tq_total = tq.copy()  # and with g's systematic error
     # TI draws for the group statistics (and the caller): float32, 4 bytes per draw
     ti = np.full((ndraws, n), np.nan, dtype=np.float32)
     neg_frac = np.full(n, np.nan)
@@ -774,11 +781,15 @@ def corrected_ti(
             c, neg = corrected_std(s_star, szb, rho)
             # point std (g = 1, sd = 0: the reference's own std, a cup's or sonic's point std)
             ref = 0.0 if "reference_response" in hold else e[:, b]
-            point = g_draw * np.exp(log_sd[cb] * ref)
-            sig = c * (point / g_ratio[cb])
+            sig = c * (np.exp(log_sd[cb] * ref) / g_ratio[cb])
+            sq[:, cb], tq[:, cb] = _record_quantiles(sig, m[cb], q)
+            if systematic:  # the campaign-wide error of g: in the draws and the total interval
+                sig = sig * g_draw
+                tq_total[:, cb] = _record_quantiles(sig, m[cb], q)[1]
+            else:
+                tq_total[:, cb] = tq[:, cb]
             with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
                 ti[:, cb] = sig / m[cb][None, :]
-            sq[:, cb], tq[:, cb] = _record_quantiles(sig, m[cb], q)
             neg_frac[cb] = np.mean(neg, axis=0)
             sz_med[cb] = np.median(szb, axis=0)
 
@@ -857,6 +868,8 @@ def corrected_ti(
             "ti_corrected_median": tq[1],
             "ti_corrected_lo": tq[0],
             "ti_corrected_hi": tq[2],
+            "ti_corrected_lo_total": tq_total[0],
+            "ti_corrected_hi_total": tq_total[2],
             "discriminant_negative": neg_point & np.isfinite(sz_med),
             "discriminant_negative_frac": neg_frac,
             "sigma_z_median_ms": sz_med,

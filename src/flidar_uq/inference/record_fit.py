@@ -9,10 +9,14 @@ at unit scale and a head-translation unit ``u^2``. The model (docs/inference.md)
   ``k`` a model-discrepancy check with a prior near 1 (``log k ~ N(0, 0.1)``);
 * ``s_i ~ Normal(mu_i, tau_i)``, ``mu_i^2 = r_i^2 + sZ_i^2 + 2 rho r_i sZ_i`` (Eq. (15)
   of seed 000);
-* ``tau_i^2 = (kappa mu_i)^2 + (kappa_z sZ_i dmu_i/dsZ_i)^2``: ``kappa`` the relative
-  sampling noise of a 10-min std, ``kappa_z`` the relative error of a record's sigma_Z
-  (the realised motion error of 10 minutes scatters about the one its motion spectrum
-  predicts; first-order propagation through Eq. (15)). The propagation draws the same
+* ``tau_i^2 = (kappa mu_i)^2 + (kappa_z sZ_i dmu_i/dsZ_i)^2 + (p_i r_i dmu_i/dr_i)^2``:
+  ``kappa`` the relative sampling noise of a 10-min std, ``kappa_z`` the relative error of
+  a record's sigma_Z (the realised motion error of 10 minutes scatters about the one its
+  motion spectrum predicts), ``p_i`` the known relative scatter of a reference lidar's std
+  against the floating lidar's motionless std (``pair_log_sd``, 0 for a cup or sonic):
+  it is a scatter of the turbulent part ``r_i`` only, so it enters through
+  ``dmu/dr = (r + rho sZ) / mu``, not in proportion to ``mu`` (first-order propagation
+  through Eq. (15) for both errors). The propagation draws the same
   ``exp(kappa_z N(0, 1))`` factor on each record's sigma_Z.
 
 A constant model-error term ``tau0`` is not needed with per-record sigma_Z: on the
@@ -55,7 +59,8 @@ def is_record_model(fit) -> bool:
 
 def _record_loglik_pointwise(theta, s, r, sz_rot, u2, pair_sq=0.0):
     """(n_walkers, n_obs) pointwise log-likelihood of the record model (module docstring);
-    ``pair_sq``: the known relative variance of the two instruments' sampling (-)."""
+    ``pair_sq``: the known relative variance of the two instruments' sampling (-), a
+    scatter of the turbulent part ``r`` (enters through ``(dmu/dr)^2``)."""
     rho = theta[:, 0:1]
     kappa_sq = np.exp(2.0 * theta[:, 1:2])
     kz_sq = np.exp(2.0 * theta[:, 2:3])
@@ -65,7 +70,9 @@ def _record_loglik_pointwise(theta, s, r, sz_rot, u2, pair_sq=0.0):
     sz = np.sqrt(sz_sq)
     mu_sq = np.maximum(r**2 + sz_sq + 2.0 * rho * r * sz, 1e-12)  # Eq. (15) of seed 000
     dmu = (sz + rho * r) ** 2 / mu_sq  # (dmu/dsZ)^2
-    tau_sq = (kappa_sq + pair_sq) * mu_sq + kz_sq * sz_sq * dmu + 1e-8
+    tau_sq = kappa_sq * mu_sq + kz_sq * sz_sq * dmu + 1e-8
+    if np.any(pair_sq):  # the reference's sampling scatter: (p r dmu/dr)^2
+        tau_sq += pair_sq * r**2 * (r + rho * sz) ** 2 / mu_sq
     z = s - np.sqrt(mu_sq)
     return -0.5 * (z * z / tau_sq + np.log(tau_sq) + _LOG2PI)
 
@@ -240,10 +247,10 @@ def fit_record_model(
     pair_log_sd : array_like, shape (n_records,), optional
         With a reference lidar: the std of ``log(s / r)`` that the two lidars' sampling
         against each other gives alone (-), per record
-        (:func:`flidar_uq.correction.propagation.reference_pair_log_sd`). It is added to
-        ``kappa`` in quadrature, so that ``kappa`` is the floating lidar's own noise beyond
-        it. Default None: 0 (a cup or sonic: ``kappa`` is the floating-lidar-vs-point
-        scatter itself).
+        (:func:`flidar_uq.correction.propagation.reference_pair_log_sd`). It scatters the
+        turbulent part ``r`` (``(p r dmu/dr)^2`` in ``tau^2``, module docstring), so that
+        ``kappa`` is the floating lidar's own noise beyond it. Default None: 0 (a cup or
+        sonic: ``kappa`` is the floating-lidar-vs-point scatter itself).
 
     Returns
     -------

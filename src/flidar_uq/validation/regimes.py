@@ -118,7 +118,9 @@ def scenario_records(
     -------
     records : pandas.DataFrame
         The QC-kept records in 3-20 m/s with the truth columns, the corrected TI
-        (``ti_corrected_median``, ``ti_corrected_lo``, ``ti_corrected_hi``), ``ti_true``
+        (``ti_corrected_median``, ``ti_corrected_lo``, ``ti_corrected_hi``; with the
+        reference's campaign-wide ``g`` error ``ti_corrected_lo_total``,
+        ``ti_corrected_hi_total``), ``ti_true``
         and the regime labels of :func:`regime_labels`.
     fit : GlobalFit
         The record model's global posterior.
@@ -199,7 +201,14 @@ def scenario_records(
         seed=ss_prop,
     )
     out = kept.copy()
-    for c in ("ti_corrected_median", "ti_corrected_lo", "ti_corrected_hi", "ti_uncorrected"):
+    for c in (
+        "ti_corrected_median",
+        "ti_corrected_lo",
+        "ti_corrected_hi",
+        "ti_corrected_lo_total",
+        "ti_corrected_hi_total",
+        "ti_uncorrected",
+    ):
         out[c] = per_record[c].to_numpy()
     out["ti_true"] = kept["true_ti"].to_numpy(dtype=float)
     out["has_reference"] = np.isfinite(kept["ref_hws_std_ms"].to_numpy(dtype=float))

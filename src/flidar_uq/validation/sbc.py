@@ -215,7 +215,7 @@ def draw_record_campaign(
     mean period ``U(2.5, 7)`` s. With ``sZ^2 = (k sZ_rot)^2 + L^2 u^2`` (from
     :func:`~flidar_uq.inference.record_motion.record_motion`),
     ``mu^2 = r^2 + sZ^2 + 2 rho r sZ`` (Eq. (15) of seed 000) and
-    ``tau^2 = (kappa^2 + pair_log_sd^2) mu^2 + (kappa_z sZ dmu/dsZ)^2 + 1e-8``, the
+    ``tau^2 = (kappa mu)^2 + (kappa_z sZ dmu/dsZ)^2 + (pair_log_sd r dmu/dr)^2 + 1e-8``, the
     floating-lidar std is
     ``s ~ Normal(mu, tau)`` (the record model's likelihood, not a different generative
     story: SBC ranks are uniform only for the model as written).
@@ -252,8 +252,13 @@ def draw_record_campaign(
     sz = np.sqrt(sz_sq)
     mu_sq = np.maximum(r**2 + sz_sq + 2.0 * truth["rho"] * r * sz, 1e-12)  # Eq. (15) of seed 000
     dmu_sq = (sz + truth["rho"] * r) ** 2 / mu_sq
-    kappa_sq = truth["kappa"] ** 2 + float(pair_log_sd) ** 2
-    tau = np.sqrt(kappa_sq * mu_sq + truth["kappa_z"] ** 2 * sz_sq * dmu_sq + 1e-8)
+    dmu_r_sq = (r + truth["rho"] * sz) ** 2 / mu_sq
+    tau = np.sqrt(
+        truth["kappa"] ** 2 * mu_sq
+        + truth["kappa_z"] ** 2 * sz_sq * dmu_sq
+        + float(pair_log_sd) ** 2 * r**2 * dmu_r_sq
+        + 1e-8
+    )
     rec["hws_std_ms"] = np.sqrt(mu_sq) + tau * rng.standard_normal(n_records)
     rec["ref_hws_std_ms"] = r
     return rec

@@ -494,7 +494,13 @@ def _records_table(
     out["hws_std_ms"] = s
     with np.errstate(invalid="ignore", divide="ignore"):
         out["ti_uncorrected"] = s / m
-    for col in ("ti_corrected_median", "ti_corrected_lo", "ti_corrected_hi"):
+    for col in (
+        "ti_corrected_median",
+        "ti_corrected_lo",
+        "ti_corrected_hi",
+        "ti_corrected_lo_total",
+        "ti_corrected_hi_total",
+    ):
         out[col] = _scatter(per_record[col].to_numpy(), use)
     for col, src in (
         ("std_corrected_median_ms", "sigma_corrected_median_ms"),
