@@ -159,6 +159,14 @@ def test_report_regime_table_scores_qc_kept_records_only():
     assert tab.loc[("all", "all"), "coverage"] == pytest.approx(0.5)
     assert tab.loc[("sea_state", "swell"), "mean_rel_error"] == pytest.approx(0.2)
     assert "heading" not in tab.index.get_level_values("grouping")  # no heading truth
+    assert "coverage_total" not in tab  # no total interval: a cup's
+    # a reference lidar's g error in the total interval: scored beside the record interval
+    wide = rec.assign(ti_corrected_lo_total=[0.085, 0.10, 0.09, 0.09])
+    wide["ti_corrected_hi_total"] = [0.115, 0.125, 0.11, 0.11]
+    tab = regime_calibration_table(wide).set_index(["grouping", "group"])
+    assert tab.loc[("all", "all"), "coverage"] == pytest.approx(0.5)
+    assert tab.loc[("all", "all"), "coverage_total"] == pytest.approx(1.0)
+    assert tab.loc[("sea_state", "swell"), "median_rel_width_total"] == pytest.approx(0.25 / 1.2, abs=1e-4)
 
 
 @pytest.mark.slow

@@ -48,7 +48,9 @@ def regime_calibration_table(records: pd.DataFrame) -> pd.DataFrame:
     The QC-kept records (no QC reason in ``flags``) in 3-20 m/s, grouped as
     :func:`flidar_uq.validation.regimes.scenario_calibration` does (speed group; sea state
     and heading where the truth columns ``true_swell_present`` / ``true_weathervane``
-    exist).
+    exist). With a reference lidar's campaign-wide error of ``g`` in the total interval
+    (``ti_corrected_lo_total`` differs from ``ti_corrected_lo``), also the coverage and
+    median width of the total interval (``coverage_total``, ``median_rel_width_total``).
     """
     from flidar_uq.validation.regimes import regime_labels, scenario_calibration
 
@@ -68,6 +70,18 @@ def regime_calibration_table(records: pd.DataFrame) -> pd.DataFrame:
         tab = tab[~tab["grouping"].isin(["heading", "sea_state_heading"])]
     cols = ["grouping", "group", "n", "answered_share", "coverage", "coverage_lo"]
     cols += ["coverage_hi", "mean_rel_error", "median_rel_width"]
+    total = ("ti_corrected_lo_total", "ti_corrected_hi_total")
+    if all(c in pool for c in total) and not pool[list(total)].equals(
+        pool[["ti_corrected_lo", "ti_corrected_hi"]].set_axis(list(total), axis=1)
+    ):
+        wide = scenario_calibration(
+            pool.assign(ti_corrected_lo=pool[total[0]], ti_corrected_hi=pool[total[1]])
+        )
+        tab = tab.assign(
+            coverage_total=wide.loc[tab.index, "coverage"],
+            median_rel_width_total=wide.loc[tab.index, "median_rel_width"],
+        )
+        cols += ["coverage_total", "median_rel_width_total"]
     return tab[cols].round(4)
 
 
@@ -555,7 +569,9 @@ def build_report(
             caption=f"{mass:.0%} intervals of the corrected TI against the virtual "
             "campaign's truth, QC-kept records in 3-20 m/s, per 3-m/s speed group, "
             "sea state and heading (truth columns); answered_share: records with a "
-            "corrected TI; coverage with its 95 % Wilson interval",
+            "corrected TI; coverage with its 95 % Wilson interval; the record interval is "
+            "given the reference's std ratio g, *_total adds g's campaign-wide error "
+            "(reference lidar only)",
         )
     sections.append(
         rep.Section("Validation against the reference (seed 000 Tables 2-3 style)", body)
