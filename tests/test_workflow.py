@@ -640,6 +640,8 @@ def test_default_campaign_meets_the_corrected_ti_acceptance(tmp_path):
     assert len(groups) >= 4
     assert groups["coverage"].between(0.85, 0.95).all(), groups.to_string()
     assert (groups["mean_rel_error"].abs() <= 0.015).all(), groups.to_string()
+    overall = calibration_by_group(pool.assign(all="all"), "all").iloc[0]
+    assert abs(overall["mean_rel_error"]) <= 0.01, overall.to_string()
     # the calibration is not bought with wider intervals: median width <= 1.2 x the bin
     # model's 20 % of TI
     assert (groups["median_rel_width"] <= 0.24).all(), groups.to_string()
