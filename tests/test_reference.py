@@ -346,13 +346,16 @@ def test_pair_scatter_is_the_uncorrelated_part_of_both_lidars_sampling():
         reference_pair_log_sd(sd, 1.5)
 
 
-def test_record_likelihood_adds_the_pair_scatter_to_kappa_in_quadrature():
+def test_record_likelihood_without_motion_adds_the_pair_scatter_to_kappa_in_quadrature():
+    # no motion (sZ = 0): mu = r, so the pair scatter of the turbulent part, p r dmu/dr,
+    # is p mu and adds to kappa mu in quadrature; with motion it is less
+    # (tests/test_record_model.py::test_reference_pair_scatter_enters_through_the_turbulent_part_only)
     from flidar_uq.inference import log_prob_record_model
 
     rng = np.random.default_rng(3)
     n = 50
     s, r = rng.uniform(0.5, 1.5, n), rng.uniform(0.5, 1.5, n)
-    szr, u2 = rng.uniform(0.05, 0.3, n), rng.uniform(0.0, 0.01, n)
+    szr, u2 = np.zeros(n), np.zeros(n)
     kappa, pair = 0.02, 0.04
     theta = np.array([[0.1, np.log(kappa), np.log(0.1), 2.0, 0.0]])
     both = np.array([[0.1, np.log(np.hypot(kappa, pair)), np.log(0.1), 2.0, 0.0]])
