@@ -124,6 +124,29 @@ def test_record_log_prob_is_finite_or_minus_inf_never_nan():
     assert np.isfinite(lp[0]) and np.all(np.isneginf(lp[1:5]))
 
 
+def test_log_kappa_posterior_is_the_priors_exp_tail_where_the_data_hold_no_kappa():
+    """With a reference lidar the pair term explains the floating lidar's scatter and
+    kappa goes to 0: below what the data resolve the log-kappa posterior is the half-normal
+    prior's ``exp(log kappa)`` tail (slope 1), with no wall at 1e-4 where a year of records
+    puts its peak (a wall there made the sampler four times slower, docs/performance.md)."""
+    truth = {"rho": 0.1, "kappa": 0.0, "kappa_z": 0.15, "lever_arm_m": 2.5, "motion_scale": 1.0}
+    rec = _draw_records(np.random.default_rng(12), 500, truth)
+    mot = record_motion(rec)
+    args = (
+        rec["hws_std_ms"].to_numpy(),
+        rec["ref_hws_std_ms"].to_numpy(),
+        mot["sigma_z_rot_ms"].to_numpy(),
+        mot["translation_unit_sq"].to_numpy(),
+    )
+    log_kappa = np.log([1e-7, 1e-6, 1e-5])
+    theta = np.column_stack(
+        [np.full(3, 0.1), log_kappa, np.full(3, np.log(0.15)), np.full(3, 2.5), np.zeros(3)]
+    )
+    lp = log_prob_record_model(theta, *args)
+    assert np.all(np.isfinite(lp))
+    np.testing.assert_allclose(np.diff(lp), np.diff(log_kappa), rtol=1e-3)
+
+
 def test_record_loglik_reduces_to_eq15_without_motion_noise():
     # kappa_z -> 0, k = 1, L = 0: s ~ N(mu, kappa mu), mu^2 = r^2 + sZ^2 + 2 rho r sZ
     s, r, szr = np.array([1.1]), np.array([1.0]), np.array([0.3])
@@ -153,30 +176,35 @@ def test_reference_pair_scatter_enters_through_the_turbulent_part_only(sz_over_r
         assert tau_model < 0.5 * p * mu
 
 
-def test_record_loglik_sum_in_blocks_of_walkers_equals_the_whole_row_sums(monkeypatch):
+def test_record_loglik_sum_in_blocks_of_records_equals_the_whole_row_sums(monkeypatch):
+    """The sampler's sum runs over cache-sized blocks of records, in place: the row sums of
+    the pointwise log-likelihood to rounding, with and without the pair term."""
     rng = np.random.default_rng(1)
-    n = 40
+    n = 2500
     s, r = rng.uniform(0.1, 2, n), rng.uniform(0.1, 2, n)
     szr, u2, pair_sq = rng.uniform(0, 0.5, n), rng.uniform(0, 0.01, n), rng.uniform(0, 1e-3, n)
     theta = np.array([0.0, np.log(0.05), np.log(0.15), 2.0, 0.0]) + 0.1 * rng.standard_normal(
         (10, 5)
     )
-    whole = _record_loglik_pointwise(theta, s, r, szr, u2, pair_sq).sum(axis=1)
-    monkeypatch.setattr(rf, "_SUM_BLOCK_ELEMENTS", 3 * n)  # blocks of 3 walkers, one of 1
-    np.testing.assert_array_equal(rf._record_loglik_sum(theta, s, r, szr, u2, pair_sq), whole)
+    monkeypatch.setattr(rf, "_SUM_BLOCK_ELEMENTS", 10 * 700)  # 700, 700, 700, 400 records
+    for p in (pair_sq, 0.0):
+        whole = _record_loglik_pointwise(theta, s, r, szr, u2, p).sum(axis=1)
+        got = rf._record_loglik_sum(theta, s, r, szr, u2, p)
+        np.testing.assert_allclose(got, whole, rtol=1e-13, atol=0)
+        assert not np.allclose(got, rf._record_loglik_sum(theta, s, r, szr, u2, 0.5 + p))
 
 
 def test_record_fit_loo_in_blocks_equals_loo_of_the_whole_pointwise_matrix(monkeypatch):
     """The record fit never holds the (draws x records) log-likelihood: its sampler sums in
-    blocks of walkers, its PSIS-LOO runs per block of records. Draws identical whatever the
-    block sizes; LOO equal to the whole matrix's (1e-9 relative: the matrix is rebuilt here
+    blocks of records, its PSIS-LOO runs per block of records. Draws identical whatever the
+    block sizes (the sums differ by rounding, ~1e-15, which no accept/reject meets here); LOO equal to the whole matrix's (1e-9 relative: the matrix is rebuilt here
     from the stored natural-scale draws, whose log/exp round trip rounds)."""
     truth = {"rho": 0.1, "kappa": 0.03, "kappa_z": 0.15, "lever_arm_m": 2.5, "motion_scale": 1.0}
     rec = _draw_records(np.random.default_rng(6), 300, truth)
     pair = np.random.default_rng(7).uniform(0.0, 0.02, len(rec))
     kw = {"seed": 6, "settings": SamplerSettings(nsteps=150, nburn=60), "pair_log_sd": pair}
     a = fit_record_model(rec, **kw)
-    monkeypatch.setattr(rf, "_SUM_BLOCK_ELEMENTS", 5 * 300)  # the sampler: 5 walkers a block
+    monkeypatch.setattr(rf, "_SUM_BLOCK_ELEMENTS", 32 * 40)  # the sampler: 40 records a block
     monkeypatch.setattr(loo_mod, "_LOO_CHUNK_ELEMENTS", 7 * a.flat("rho").size)  # 7 records
     b = fit_record_model(rec, **kw)
     assert a.log_lik is None and b.log_lik is None

@@ -57,47 +57,82 @@ def is_record_model(fit) -> bool:
     return getattr(fit, "info", {}).get("loo", {}).get("model") == "record"
 
 
-def _record_loglik_pointwise(theta, s, r, sz_rot, u2, pair_sq=0.0):
-    """(n_walkers, n_obs) pointwise log-likelihood of the record model (module docstring);
+def _record_neg2_loglik(theta, s, r, sz_rot, u2, pair_sq):
+    """``-2 log p(s_i | theta) - log(2 pi)`` of the record model, shape (n_walkers, n_obs)
+    (module docstring): ``z^2 / tau^2 + log tau^2`` with ``z = s - mu``, computed in place
+    (six temporaries of the output's size).
+
     ``pair_sq``: the known relative variance of the two instruments' sampling (-), a
-    scatter of the turbulent part ``r`` (enters through ``(dmu/dr)^2``)."""
+    scatter of the turbulent part ``r`` (enters through ``(dmu/dr)^2``); a scalar 0 or an
+    array of ``n_obs`` values.
+    """
     rho = theta[:, 0:1]
     kappa_sq = np.exp(2.0 * theta[:, 1:2])
     kz_sq = np.exp(2.0 * theta[:, 2:3])
     lever_sq = theta[:, 3:4] ** 2
     k_sq = np.exp(2.0 * theta[:, 4:5])
-    sz_sq = k_sq * sz_rot**2 + lever_sq * u2
+    sz_sq = k_sq * sz_rot**2
+    sz_sq += lever_sq * u2
     sz = np.sqrt(sz_sq)
-    mu_sq = np.maximum(r**2 + sz_sq + 2.0 * rho * r * sz, 1e-12)  # Eq. (15) of seed 000
-    dmu = (sz + rho * r) ** 2 / mu_sq  # (dmu/dsZ)^2
-    tau_sq = kappa_sq * mu_sq + kz_sq * sz_sq * dmu + 1e-8
-    if np.any(pair_sq):  # the reference's sampling scatter: (p r dmu/dr)^2
-        tau_sq += pair_sq * r**2 * (r + rho * sz) ** 2 / mu_sq
-    z = s - np.sqrt(mu_sq)
-    return -0.5 * (z * z / tau_sq + np.log(tau_sq) + _LOG2PI)
+    rho_r = rho * r
+    mu_sq = rho_r * sz  # Eq. (15) of seed 000: r^2 + sZ^2 + 2 rho r sZ
+    mu_sq *= 2.0
+    mu_sq += sz_sq
+    mu_sq += r**2
+    np.maximum(mu_sq, 1e-12, out=mu_sq)
+    var = sz + rho_r  # (kappa_z sZ dmu/dsZ)^2 mu^2 = kappa_z^2 sZ^2 (sZ + rho r)^2
+    var *= var
+    var *= sz_sq
+    var *= kz_sq
+    if np.any(pair_sq):  # the reference's sampling scatter: (p r dmu/dr)^2 mu^2
+        pair_r = rho * sz
+        pair_r += r
+        pair_r *= pair_r
+        pair_r *= pair_sq * r**2
+        var += pair_r
+    var /= mu_sq
+    tau_sq = kappa_sq * mu_sq
+    tau_sq += var
+    tau_sq += 1e-8
+    z = np.sqrt(mu_sq, out=mu_sq)
+    np.subtract(s, z, out=z)
+    z *= z
+    z /= tau_sq
+    z += np.log(tau_sq, out=tau_sq)
+    return z
 
 
-#: elements (walkers x records) of one block of the sampler's likelihood sum: the
-#: temporaries of :func:`_record_loglik_pointwise` stay ~8 MB each at any campaign length
-_SUM_BLOCK_ELEMENTS = 2**20
+def _record_loglik_pointwise(theta, s, r, sz_rot, u2, pair_sq=0.0):
+    """(n_walkers, n_obs) pointwise log-likelihood of the record model (module docstring);
+    ``pair_sq``: the known relative variance of the two instruments' sampling (-), a
+    scatter of the turbulent part ``r`` (enters through ``(dmu/dr)^2``)."""
+    q = _record_neg2_loglik(theta, s, r, sz_rot, u2, pair_sq)
+    q += _LOG2PI
+    q *= -0.5
+    return q
+
+
+#: elements (walkers x records) of one block of the sampler's likelihood sum: its six
+#: temporaries stay in the CPU cache (0.5 MB each) at any campaign length
+_SUM_BLOCK_ELEMENTS = 2**16
 
 
 def _record_loglik_sum(theta, s, r, sz_rot, u2, pair_sq=0.0):
     """(n_walkers,) log-likelihood of the record model summed over the records.
 
-    :func:`_record_loglik_pointwise` on blocks of walkers of at most
-    ``_SUM_BLOCK_ELEMENTS`` values, so that its (walkers x records) temporaries are bounded
-    whatever the number of records; each walker's sum is the same row sum as on the whole
-    (n_walkers, n_obs) array, so the result does not depend on the block size.
+    :func:`_record_neg2_loglik` on blocks of records (all walkers of the call, at most
+    ``_SUM_BLOCK_ELEMENTS`` values a block), summed block by block: the row sums of :func:`_record_loglik_pointwise` to rounding (~1e-15
+    relative), 1.5-2x faster than on the whole (walkers x records) array.
     """
-    n_rows = theta.shape[0]
-    step = max(1, _SUM_BLOCK_ELEMENTS // max(np.size(s), 1))
-    out = np.empty(n_rows)
-    for a in range(0, n_rows, step):
-        out[a : a + step] = _record_loglik_pointwise(
-            theta[a : a + step], s, r, sz_rot, u2, pair_sq
+    n = np.size(s)
+    out = np.zeros(theta.shape[0])
+    b = max(1, _SUM_BLOCK_ELEMENTS // max(theta.shape[0], 1))
+    for a in range(0, n, b):
+        p = pair_sq[a : a + b] if np.ndim(pair_sq) else pair_sq
+        out += _record_neg2_loglik(
+            theta, s[a : a + b], r[a : a + b], sz_rot[a : a + b], u2[a : a + b], p
         ).sum(axis=1)
-    return out
+    return -0.5 * (out + n * _LOG2PI)
 
 
 def _log_prior(theta, priors: Priors, lever_arm_prior):

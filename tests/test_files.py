@@ -1,0 +1,83 @@
+"""The result-table writer: the bytes of pandas' ``to_csv`` with the same settings."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from flidar_uq.workflow import files
+from flidar_uq.workflow.files import write_csv
+
+
+def _pandas_bytes(df, path, float_format):
+    df.to_csv(
+        path,
+        index=False,
+        float_format=float_format,
+        lineterminator="\n",
+        date_format="%Y-%m-%dT%H:%M:%SZ",
+    )
+    return path.read_bytes()
+
+
+def _tricky_frame():
+    return pd.DataFrame(
+        {
+            "text": ["x,y", 'q"z', "two\nlines", "cr\rx", "", None, "plain", " padded "],
+            "hws_mean_ms": [1.0, np.nan, np.inf, -0.0, 1e-20, 1 / 3, -np.inf, 12345678901.5],
+            "flag": [True, False] * 4,
+            "count": np.arange(8) - 3,
+            "ti": np.float32([0.1, 0.2, np.nan, 1e-7, 3, 4, 5, 6]),
+            "a,b": [0.5] * 8,
+            "timestamp": pd.date_range("2015-04-01", periods=8, freq="10min", tz="UTC"),
+            "naive": pd.to_datetime(["2020-01-01T00:10:00", None] * 4),
+        }
+    )
+
+
+@pytest.mark.parametrize("float_format", ["%.10g", "%.17g", "%.3f"])
+def test_write_csv_writes_the_bytes_pandas_writes(tmp_path, float_format):
+    df = _tricky_frame()
+    assert files._csv_text(df, float_format) is not None  # the fast path is the one tested
+    write_csv(df, tmp_path / "ours.csv", float_format=float_format)
+    expected = _pandas_bytes(df, tmp_path / "pandas.csv", float_format)
+    assert (tmp_path / "ours.csv").read_bytes() == expected
+    assert b'"x,y"' in expected and b'"a,b"' in expected  # quoting was exercised
+
+
+@pytest.mark.parametrize(
+    "df",
+    [
+        pd.DataFrame({"n": pd.array([1, None], dtype="Int64"), "x": [1.5, 2.0]}),
+        pd.DataFrame({"x": [1.5, np.nan]}),
+        pd.DataFrame({"mixed": [1, "a"], "x": [1.5, 2.0]}),
+        pd.DataFrame({"x": [], "y": []}),
+    ],
+    ids=["nullable-int", "one-column", "mixed-object", "empty"],
+)
+def test_write_csv_leaves_other_tables_to_pandas_with_the_same_bytes(tmp_path, df):
+    write_csv(df, tmp_path / "ours.csv")
+    assert (tmp_path / "ours.csv").read_bytes() == _pandas_bytes(df, tmp_path / "p.csv", "%.10g")
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.floats(allow_nan=True, allow_infinity=True),
+            st.text(alphabet=st.sampled_from(list('ab ,"\n\r-0.')), max_size=6),
+            st.integers(-(2**62), 2**62),
+        ),
+        min_size=1,
+        max_size=30,
+    )
+)
+def test_write_csv_matches_pandas_on_any_floats_and_text(tmp_path_factory, rows):
+    tmp = tmp_path_factory.mktemp("csv")
+    x, s, n = zip(*rows, strict=True)
+    df = pd.DataFrame({"x": np.array(x, dtype=float), "s": list(s), "n": np.array(n)})
+    write_csv(df, tmp / "ours.csv", float_format="%.17g")
+    assert (tmp / "ours.csv").read_bytes() == _pandas_bytes(df, tmp / "p.csv", "%.17g")
