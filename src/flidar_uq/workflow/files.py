@@ -3,6 +3,8 @@ and the lookup of a bin's posterior file among the batch directories."""
 
 from __future__ import annotations
 
+import csv
+import io
 import logging
 import os
 import re
@@ -30,12 +32,18 @@ def setup_logging(log_path: str | os.PathLike) -> None:
 #: how every result table writes a time stamp (UTC)
 _DATE_FORMAT = "%Y-%m-%dT%H:%M:%SZ"
 
-#: a field that CSV (QUOTE_MINIMAL, as pandas writes) must quote
-_NEEDS_QUOTES = re.compile('[,"\r\n]')
+#: a field that CSV may quote (QUOTE_MINIMAL; Python 3.13's csv quotes a lone "\r", 3.12's not)
+_MAY_NEED_QUOTES = re.compile('[,"\r\n]')
 
 
 def _quoted(text: str) -> str:
-    return '"' + text.replace('"', '""') + '"' if _NEEDS_QUOTES.search(text) else text
+    """``text`` as a CSV field, as pandas writes it: through Python's csv writer (the one
+    ``to_csv`` uses, its dialect) when it holds a delimiter, quote or line break."""
+    if not _MAY_NEED_QUOTES.search(text):
+        return text
+    buffer = io.StringIO()
+    csv.writer(buffer, lineterminator="\n").writerow([text, ""])
+    return buffer.getvalue()[:-2]  # the row is the field, "," and the terminator
 
 
 def _column_text(col: pd.Series, float_format: str) -> list[str] | None:
