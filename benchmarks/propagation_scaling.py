@@ -123,7 +123,9 @@ def step_args(base: Path, inp: Path, res: Path, new: bool) -> dict:
     )
     batches = sorted(str(p) for p in (base / "inference").glob("batch_*"))
     res.mkdir(parents=True, exist_ok=True)
+    old_only = {} if new else {"bins_out": str(res / "bins.csv")}  # a rule of its own now
     return dict(
+        **old_only,
         records_path=str(inp / "data" / "records.csv"),
         flags_path=str(inp / "qc" / "flags.csv"),
         assignments_path=str(inp / "bins" / "assignments.csv"),
@@ -133,7 +135,6 @@ def step_args(base: Path, inp: Path, res: Path, new: bool) -> dict:
         batch_dirs=batches,
         global_path=str(base / "posterior" / "global.nc"),
         records_out=str(res / "records.csv"),
-        bins_out=str(res / "bins.csv"),
         speed_bins_out=str(res / "speed_bins.csv"),
         metrics_out=str(res / "metrics.csv"),
         groups_out=str(res / "groups.csv"),

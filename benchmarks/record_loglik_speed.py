@@ -1,10 +1,12 @@
-"""Benchmark: one call of the record fit's likelihood sum, before and after session 8,
-side by side in one run (issue 13 item 2; docs/performance.md).
+"""Benchmark: one call of the record fit's likelihood sum, as sessions 7, 8 and 9 computed
+it, side by side in one run (issue 13 item 2; docs/performance.md).
 
-Old: the (walkers x records) pointwise array of the record model on whole blocks of
-walkers (``_record_loglik_pointwise`` as it stood in session 7, ``_OLD`` below, a copy), then
-its row sums. New: :func:`flidar_uq.inference.record_fit._record_loglik_sum`, in place on
-cache-sized blocks of records. Records: the rows of a pipeline run's
+Session 7 ("old"): the (walkers x records) pointwise array of the record model on whole
+blocks of walkers (``_record_loglik_pointwise`` as it stood then, ``_old_pointwise`` below,
+a copy), then its row sums. Session 8: in place on cache-sized blocks of records, one
+logarithm per value (``_s8_sum`` below, on the library's pointwise kernel). Session 9
+("new"): :func:`flidar_uq.inference.record_fit._record_loglik_sum`, the same blocks with one
+logarithm per 8 records' tau^2 (their product). Records: the rows of a pipeline run's
 ``results/bins/assignments.csv`` (``--assignments``; e.g. a year's) with their own motion
 description and the default scenario's reference-lidar pair term, at 1, 32 and 64
 walkers (the Laplace search, a DE half-ensemble, the independence move). Per case: the best
@@ -64,6 +66,18 @@ def _old_sum(theta, s, r, sz_rot, u2, pair_sq):
     return out
 
 
+def _s8_sum(theta, s, r, sz_rot, u2, pair_sq):
+    """Session 8's sum: blocks of records in place, one logarithm per value."""
+    n = s.size
+    out = np.zeros(theta.shape[0])
+    b = max(1, record_fit._SUM_BLOCK_ELEMENTS // theta.shape[0])
+    for a in range(0, n, b):
+        out += record_fit._record_neg2_loglik(
+            theta, s[a : a + b], r[a : a + b], sz_rot[a : a + b], u2[a : a + b], pair_sq[a : a + b]
+        ).sum(axis=1)
+    return -0.5 * (out + n * _LOG2PI)
+
+
 def _best_cpu(fn, args, repeats):
     best = np.inf
     for _ in range(repeats):
@@ -91,30 +105,36 @@ def main() -> None:
         theta = centre + 0.01 * rng.standard_normal((walkers, 5))
         inputs = (theta, s, r, szr, u2, pair_sq)
         t_old, old = _best_cpu(_old_sum, inputs, args.repeats)
+        t_s8, s8 = _best_cpu(_s8_sum, inputs, args.repeats)
         t_new, new = _best_cpu(record_fit._record_loglik_sum, inputs, args.repeats)
         rows.append(
             {
                 "n_records": s.size,
                 "walkers": walkers,
                 "old_cpu_ms": 1e3 * t_old,
+                "s8_cpu_ms": 1e3 * t_s8,
                 "new_cpu_ms": 1e3 * t_new,
                 "ratio_old_over_new": t_old / t_new,
+                "ratio_s8_over_new": t_s8 / t_new,
                 "ns_per_value_new": 1e9 * t_new / (walkers * s.size),
                 "max_rel_diff": float(np.max(np.abs(new - old) / np.abs(old))),
+                "max_rel_diff_s8": float(np.max(np.abs(new - s8) / np.abs(s8))),
             }
         )
         print(
-            f"{walkers:3d} walkers x {s.size:,} records: old {1e3 * t_old:7.1f} ms, new "
-            f"{1e3 * t_new:7.1f} ms, ratio {t_old / t_new:.2f}, max rel diff "
-            f"{rows[-1]['max_rel_diff']:.1e}"
+            f"{walkers:3d} walkers x {s.size:,} records: session 7 {1e3 * t_old:7.1f} ms, "
+            f"session 8 {1e3 * t_s8:7.1f} ms, new {1e3 * t_new:7.1f} ms; ratios "
+            f"{t_old / t_new:.2f} and {t_s8 / t_new:.2f}; max rel diff "
+            f"{rows[-1]['max_rel_diff']:.1e} and {rows[-1]['max_rel_diff_s8']:.1e}"
         )
     table = pd.DataFrame(rows)
     OUT.parent.mkdir(parents=True, exist_ok=True)
     table.to_csv(OUT.with_suffix(".csv"), index=False, float_format="%.6g")
     fig, ax = plt.subplots(figsize=(5.5, 3.6))
     x = np.arange(len(table))
-    ax.bar(x - 0.2, table.old_cpu_ms, 0.4, label="session 7 (whole rows)")
-    ax.bar(x + 0.2, table.new_cpu_ms, 0.4, label="in place, blocks of records")
+    ax.bar(x - 0.27, table.old_cpu_ms, 0.27, label="session 7 (whole rows)")
+    ax.bar(x, table.s8_cpu_ms, 0.27, label="session 8 (in place, blocks of records)")
+    ax.bar(x + 0.27, table.new_cpu_ms, 0.27, label="session 9 (+ one log per 8 records)")
     ax.set_xticks(x, [f"{w} walkers" for w in table.walkers])
     ax.set_yscale("log")
     ax.set_ylabel("CPU per likelihood call (ms)")

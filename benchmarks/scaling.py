@@ -94,6 +94,7 @@ STEP_ORDER = [
     "fit_global_model",
     "fit_global",
     "propagate",
+    "ti_bins",
     "report",
 ]
 

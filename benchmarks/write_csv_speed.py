@@ -1,10 +1,13 @@
-"""Benchmark: the result-table writer, pandas' ``DataFrame.to_csv`` against
-:func:`flidar_uq.workflow.files.write_csv`, side by side in one run (issue 13 item 2).
+"""Benchmark: the result-table writers, pandas' ``DataFrame.to_csv`` against
+:func:`flidar_uq.workflow.files.write_csv` and the record writer of :mod:`flidar_uq.data.io`
+(both on :mod:`flidar_uq.data.csv_text`), side by side in one run (issue 13 item 2).
 
 The tables: the largest CSV files of a pipeline run (``--results``, e.g. a year's
 ``results/``), read back as the steps hold them (``read_records`` for the record tables,
-so the time stamp is a UTC datetime column), written both ways with the pipeline's
-settings (``%.10g`` and ``%.17g``). Per table and format: CPU seconds of each, their ratio,
+so the time stamp is a UTC datetime column; ``bin_label`` categorical, as the bins step
+holds it), written both ways with the pipeline's settings (``%.10g`` and ``%.17g``; no
+float format, the shortest text of each float, for the validated record table that
+``validate`` writes through ``data.io``). Per table and format: CPU seconds of each, their ratio,
 and whether the bytes are identical. Writes ``benchmarks/results/write_csv_speed.csv`` and
 ``.png``.
 
@@ -25,7 +28,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from flidar_uq.data.io import read_records  # noqa: E402
+from flidar_uq.data.io import _ISO_FORMAT_US, _write, read_records  # noqa: E402
 from flidar_uq.workflow.files import read_csv, write_csv  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
@@ -43,19 +46,27 @@ def main() -> None:
         for name in TABLES:
             path = args.results / name
             df = read_records(path) if name == "data/records.csv" else read_csv(path)
-            for fmt in ("%.10g", "%.17g"):
+            if "bin_label" in df:
+                df["bin_label"] = df["bin_label"].astype("category")
+            for fmt in ("%.10g", "%.17g", None):
+                if fmt is None and name != "data/records.csv":
+                    continue
                 t0 = time.process_time()
                 df.to_csv(
                     old_path,
                     index=False,
                     float_format=fmt,
                     lineterminator="\n",
-                    date_format="%Y-%m-%dT%H:%M:%SZ",
+                    date_format="%Y-%m-%dT%H:%M:%SZ" if fmt else _ISO_FORMAT_US,
                 )
                 t_old = time.process_time() - t0
                 t0 = time.process_time()
-                write_csv(df, new_path, float_format=fmt)
+                if fmt is None:
+                    _write(df, new_path, _ISO_FORMAT_US)
+                else:
+                    write_csv(df, new_path, float_format=fmt)
                 t_new = time.process_time() - t0
+                fmt = fmt or "shortest"
                 rows.append(
                     {
                         "table": name,

@@ -8,8 +8,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flidar_uq.workflow import files
+from flidar_uq.data.csv_text import csv_text
+from flidar_uq.data.io import _write
 from flidar_uq.workflow.files import write_csv
+
+_DATES = "%Y-%m-%dT%H:%M:%SZ"
 
 
 def _pandas_bytes(df, path, float_format):
@@ -18,7 +21,7 @@ def _pandas_bytes(df, path, float_format):
         index=False,
         float_format=float_format,
         lineterminator="\n",
-        date_format="%Y-%m-%dT%H:%M:%SZ",
+        date_format=_DATES,
     )
     return path.read_bytes()
 
@@ -34,6 +37,7 @@ def _tricky_frame():
             "a,b": [0.5] * 8,
             "timestamp": pd.date_range("2015-04-01", periods=8, freq="10min", tz="UTC"),
             "naive": pd.to_datetime(["2020-01-01T00:10:00", None] * 4),
+            "bin_label": pd.Categorical(["H05_A01", "a,b", None, "H05_A01"] * 2),
         }
     )
 
@@ -41,7 +45,7 @@ def _tricky_frame():
 @pytest.mark.parametrize("float_format", ["%.10g", "%.17g", "%.3f"])
 def test_write_csv_writes_the_bytes_pandas_writes(tmp_path, float_format):
     df = _tricky_frame()
-    assert files._csv_text(df, float_format) is not None  # the fast path is the one tested
+    assert csv_text(df, float_format=float_format, date_format=_DATES) is not None  # fast path
     write_csv(df, tmp_path / "ours.csv", float_format=float_format)
     expected = _pandas_bytes(df, tmp_path / "pandas.csv", float_format)
     assert (tmp_path / "ours.csv").read_bytes() == expected
@@ -81,3 +85,28 @@ def test_write_csv_matches_pandas_on_any_floats_and_text(tmp_path_factory, rows)
     df = pd.DataFrame({"x": np.array(x, dtype=float), "s": list(s), "n": np.array(n)})
     write_csv(df, tmp / "ours.csv", float_format="%.17g")
     assert (tmp / "ours.csv").read_bytes() == _pandas_bytes(df, tmp / "p.csv", "%.17g")
+
+
+def test_record_writer_writes_the_bytes_of_pandas_shortest_float_text(tmp_path):
+    """``data.io`` writes record tables without a float format (every float64 as its
+    shortest text): the fast path gives pandas' bytes; float32 (numpy's shortest float32
+    text is not repr's) and compressed files are left to pandas, with the same bytes."""
+    df = _tricky_frame()
+    date_format = "%Y-%m-%dT%H:%M:%S.%fZ"
+    fast = df.drop(columns="ti")
+    assert csv_text(fast, float_format=None, date_format=date_format) is not None
+    assert csv_text(df, float_format=None, date_format=date_format) is None  # float32
+    for frame in (fast, df):
+        _write(frame, tmp_path / "ours.csv", date_format)
+        frame.to_csv(tmp_path / "p.csv", index=False, date_format=date_format)
+        assert (tmp_path / "ours.csv").read_bytes() == (tmp_path / "p.csv").read_bytes()
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=1, max_size=40))
+def test_shortest_float_text_matches_numpy_for_any_float64(tmp_path_factory, xs):
+    tmp = tmp_path_factory.mktemp("csv")
+    df = pd.DataFrame({"x": np.array(xs, dtype=float), "y": np.array(xs[::-1], dtype=float)})
+    _write(df, tmp / "ours.csv")
+    df.to_csv(tmp / "p.csv", index=False)
+    assert (tmp / "ours.csv").read_bytes() == (tmp / "p.csv").read_bytes()

@@ -22,6 +22,7 @@ from flidar_uq.inference import (
     log_prob_unimodal,
     select_global_model,
 )
+from flidar_uq.inference.loo import _loo
 from flidar_uq.physics.surrogate import get_surrogate
 
 FAST = SamplerSettings(
@@ -570,20 +571,18 @@ def test_global_init_spreads_a_parameter_whose_mode_is_on_the_boundary():
 
 
 def _assert_same_fit(a, b):
-    """``b`` is ``a`` after save_fit/load_fit: draws exact, log-likelihood as stored."""
+    """``b`` is ``a`` after save_fit/load_fit: draws exact, the PSIS-LOO of the float64
+    log-likelihood kept instead of it (bin and global fits alike)."""
     assert type(a) is type(b)
     assert a.draws.keys() == b.draws.keys()
     for n in a.draws:
         np.testing.assert_array_equal(np.asarray(a.draws[n]), np.asarray(b.draws[n]))
-    if a.kind == "bin":  # float32 on file
-        assert b.log_lik.dtype == np.float32
-        np.testing.assert_array_equal(np.asarray(a.log_lik, np.float32), b.log_lik)
-    else:  # a global fit keeps its PSIS-LOO, computed from the float64 log-likelihood
-        assert b.log_lik is None
-        la, lb = a.loo(), b.loo()
-        assert la.keys() == lb.keys()
-        for k in la:
-            np.testing.assert_array_equal(la[k], lb[k])
+    assert a.log_lik is not None and b.log_lik is None
+    la, lb, fresh = a.loo(), b.loo(), _loo(np.asarray(a.log_lik))
+    assert la.keys() == lb.keys() == fresh.keys()
+    for k in la:
+        np.testing.assert_array_equal(la[k], lb[k])
+        np.testing.assert_array_equal(fresh[k], lb[k])  # the fit's own LOO is its draws' LOO
     assert a.failure_reasons == b.failure_reasons
     assert a.converged == b.converged
     assert a.summary().equals(b.summary())
@@ -716,9 +715,9 @@ def test_extension_target_extends_every_miss_and_stops_at_convergence():
     assert _extension_target(400, {"a": {**ok, "tau": 400 / 52}}, [], s) > 400
 
 
-def test_save_fit_encoding_float32_compressed_no_global_log_lik(tmp_path, surrogate):
-    """Output size (issue 13): compressed variables, float32 bin log-likelihood, and a
-    global file with its pointwise LOO instead of the (chain, draw, record) log-likelihood."""
+def test_save_fit_encoding_compressed_pointwise_loo_instead_of_log_lik(tmp_path, surrogate):
+    """Output size and batch speed (issue 13): compressed variables, and bin and global files
+    with their pointwise LOO instead of the (chain, draw, observation) log-likelihood."""
     import h5py
 
     from flidar_uq.inference import save_fit
@@ -729,8 +728,10 @@ def test_save_fit_encoding_float32_compressed_no_global_log_lik(tmp_path, surrog
     save_fit(fits[0], tmp_path / "bin.nc")
     save_fit(gf, tmp_path / "global.nc")
     with h5py.File(tmp_path / "bin.nc") as f:
-        obs = f["log_likelihood/obs"]
-        assert obs.dtype == np.float32 and obs.compression == "gzip" and obs.shuffle
+        assert "log_likelihood" not in f
+        elpd = f["pointwise_loo/elpd_i"]
+        assert elpd.shape == (np.asarray(fits[0].log_lik).shape[-1],)
+        assert elpd.compression == "gzip" and elpd.shuffle
         for name in fits[0].draws:
             assert f[f"posterior/{name}"].compression == "gzip"
     with h5py.File(tmp_path / "global.nc") as f:

@@ -3,6 +3,8 @@
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from flidar_uq.inference import SamplerSettings, translation_unit_sq
 from flidar_uq.inference import loo as loo_mod
@@ -225,3 +227,22 @@ def test_record_fit_loo_in_blocks_equals_loo_of_the_whole_pointwise_matrix(monke
         assert got["elpd"] == fit.info["loo"]["record_elpd"]
         for k in ("elpd", "se", "p_loo", "elpd_i", "pareto_k"):
             np.testing.assert_allclose(got[k], whole[k], rtol=1e-9, atol=0)
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    st.integers(0, 70),
+    st.integers(1, 4),
+    st.floats(-8.0, 4.0),
+    st.floats(0.0, 8.0),
+    st.integers(0, 2**32 - 1),
+)
+def test_grouped_log_sum_equals_the_sum_of_logs(n_cols, n_rows, log10_lo, span, seed):
+    """The sampler's sum takes one logarithm per 8 records' tau^2 (a product of 8): the same
+    row sums as one logarithm each, to rounding, for any width (remainders included) and any
+    tau^2 in the model's range [1e-8, 1e4] (m/s)^2."""
+    rng = np.random.default_rng(seed)
+    x = 10.0 ** rng.uniform(log10_lo, min(log10_lo + span, 4.0), (n_rows, n_cols))
+    got = rf._sum_log_rows(x)
+    want = np.log(x).sum(axis=1)
+    np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-12)

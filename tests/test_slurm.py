@@ -143,3 +143,28 @@ def test_slurm_profile_names_the_partition_and_squeue_status():
     assert profile["slurm-status-command"] == "squeue"
     assert profile["default-resources"]["slurm_partition"] == "flidar"
     assert Path(REPO / "scripts" / "slurm-up.sh").read_text().count("MinJobAge=600") == 1
+
+
+def test_slurm_down_removes_only_the_config_slurm_up_wrote(tmp_path):
+    """slurm-down.sh removes the slurm.conf that slurm-up.sh wrote (its mark), never another
+    one: left behind, a config naming a controller that no longer runs makes every Snakemake
+    start wait ~9 s (the SLURM executor plugin runs `scontrol show config` at import)."""
+    up = (REPO / "scripts" / "slurm-up.sh").read_text().splitlines()
+    mark = next(line.split('"')[1] for line in up if line.startswith("MARK="))
+    ours, theirs = tmp_path / "ours.conf", tmp_path / "theirs.conf"
+    ours.write_text(f"{mark}\nClusterName=flidar\n")
+    theirs.write_text("ClusterName=site\n")
+    for conf in (ours, theirs):
+        env = os.environ | {
+            "FLIDAR_SLURM_STATE": str(tmp_path / "state"),
+            "FLIDAR_SLURM_CONF": str(conf),
+        }
+        down = subprocess.run(
+            ["bash", str(REPO / "scripts" / "slurm-down.sh")],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        assert down.returncode == 0, down.stderr
+    assert not ours.exists() and theirs.exists()

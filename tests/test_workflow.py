@@ -237,10 +237,33 @@ def test_dry_run_builds_the_dag(tmp_path):
         "fit_global_model",
         "fit_global",
         "propagate",
+        "ti_bins",
         "report",
     ):
         assert rule in out, f"rule {rule} missing from the dry run"
     assert not (tmp_path / "results").exists()
+
+
+@pytest.mark.parametrize("motion_model", ["record", "bin"])
+def test_the_propagation_waits_for_the_per_bin_fits_only_under_the_bin_motion_model(
+    tmp_path, motion_model
+):
+    """The record motion model's propagation reads the record model's posterior alone, so
+    it runs beside the per-bin fits (issue 13: a year in minutes); the bin motion model's
+    needs every bin posterior and the chosen global model."""
+    cfg = tiny_config(tmp_path)
+    data = load_yaml(cfg)
+    data.setdefault("inference", {})["motion_model"] = motion_model
+    cfg.write_text(yaml.safe_dump(data))
+    proc = snakemake(tmp_path, cfg, "-n", "--cores", "2", "results/ti/records.csv", timeout=120)
+    jobs = {
+        line.split()[0]
+        for line in (proc.stdout + proc.stderr).splitlines()
+        if line.strip() and line.split()[-1].isdigit() and len(line.split()) == 2
+    }
+    assert "propagate" in jobs and "fit_global_model" in jobs, jobs
+    assert ("infer_batch" in jobs) == (motion_model == "bin"), jobs
+    assert ("fit_global" in jobs) == (motion_model == "bin"), jobs
 
 
 @pytest.mark.slow

@@ -36,6 +36,21 @@ def global_model_batches(wildcards):
     return expand("results/inference/batch_{batch}", batch=BATCHES)
 
 
+# What the propagation reads of the fits. The record motion model takes each record's
+# sigma_Z from its own motion: it reads the record model's posterior only, and so runs
+# beside the per-bin fits (which then feed results/ti/bins.csv and the report only). The
+# bin motion model needs the chosen global model and every converged bin posterior.
+PROPAGATION_FITS = (
+    {"posterior": "results/inference/global_record.nc"}
+    if MOTION_MODEL == "record"
+    else {
+        "posterior": "results/posterior/global.nc",
+        "bin_fits": "results/inference/bin_fits.csv",
+        "batches": expand("results/inference/batch_{batch}", batch=BATCHES),
+    }
+)
+
+
 def scenario_file(wildcards):
     """Scenario YAML of the virtual campaign (config/scenarios/<name>.yaml)."""
     if config["campaign"]["source"] != "virtual":

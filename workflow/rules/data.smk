@@ -154,5 +154,8 @@ rule sigma_z:
         "results/logs/sigma_z.log",
     benchmark:
         "results/benchmarks/sigma_z.tsv"
+    # one second, and the propagation needs it: run before the per-bin batches take the
+    # cores (the greedy scheduler does not pass propagate's priority on to its inputs)
+    priority: 10
     script:
         "../scripts/sigma_z.py"

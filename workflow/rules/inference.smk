@@ -1,6 +1,6 @@
 # Per-bin inference (fan-out over a fixed number of batch jobs, each fitting several
 # bins), the per-bin posterior files, the three global models (gather, in parallel), the
-# choice among them by PSIS-LOO, and propagation.
+# choice among them by PSIS-LOO, propagation, and the per-bin TI table.
 
 
 rule infer_batch:
@@ -107,15 +107,12 @@ rule propagate:
         assignments="results/bins/assignments.csv",
         table="results/bins/table.csv",
         sigma_z="results/bins/sigma_z.csv",
-        batches=expand("results/inference/batch_{batch}", batch=BATCHES),
-        posterior="results/posterior/global.nc",
-        bin_fits="results/inference/bin_fits.csv",
         flags="results/qc/flags.csv",
+        **PROPAGATION_FITS,
     output:
         records=report(
             "results/ti/records.csv", caption="../report/records.rst", category="Corrected TI"
         ),
-        bins=report("results/ti/bins.csv", caption="../report/bins.rst", category="Corrected TI"),
         speed_bins=report(
             "results/ti/speed_bins.csv", caption="../report/speed_bins.rst", category="Corrected TI"
         ),
@@ -144,5 +141,27 @@ rule propagate:
         "results/logs/propagate.log",
     benchmark:
         "results/benchmarks/propagate.tsv"
+    # with the record motion model, the second link of the longest chain (record fit ->
+    # propagation): started as soon as the record fit ends, the per-bin batches around it
+    priority: 5
     script:
         "../scripts/propagate.py"
+
+
+rule ti_bins:
+    localrule: True
+    input:
+        table="results/bins/table.csv",
+        sigma_z="results/bins/sigma_z.csv",
+        bin_fits="results/inference/bin_fits.csv",
+        records="results/ti/records.csv",
+    output:
+        report("results/ti/bins.csv", caption="../report/bins.rst", category="Corrected TI"),
+    conda:
+        "../envs/flidar_uq.yaml"
+    log:
+        "results/logs/ti_bins.log",
+    benchmark:
+        "results/benchmarks/ti_bins.tsv"
+    script:
+        "../scripts/ti_bins.py"

@@ -222,6 +222,7 @@ def fit_bin(
     else:
         result = _fit_motion_model("unimodal", (log_amp, log_per), settings, ss_uni, priors)
     loo_info = {"n_two_peak": n_two, "two_peak_share": share}
+    lo = None
     if n_imu >= 1:
         lo = _loo(result[1])
         if lo is not None:
@@ -246,4 +247,11 @@ def fit_bin(
         "loo": loo_info,
         "constant": {"record_index": np.asarray(bin_records.index), "hws_mean_ms": hws},
     }
-    return BinFit(draws=draws, log_lik=ll, diagnostics=diag, failure_reasons=reasons, info=info)
+    return BinFit(
+        draws=draws,
+        log_lik=ll,
+        diagnostics=diag,
+        failure_reasons=reasons,
+        info=info,
+        pointwise_loo=lo,  # what save_fit keeps instead of log_lik, computed once
+    )

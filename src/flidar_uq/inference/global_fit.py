@@ -259,7 +259,10 @@ def _fit_global_model(name, data, settings, ss_mc, ss_loo, priors, loo_threshold
         "loo": loo_info,
         "rho_mass_beyond_0p98": float(np.mean(np.abs(rho) > 0.98)),
     }
-    fit = GlobalFit(draws=draws, log_lik=ll, diagnostics=diag, failure_reasons=reasons, info=info)
+    fit = GlobalFit(
+        draws=draws, log_lik=ll, diagnostics=diag, failure_reasons=reasons, info=info,
+        pointwise_loo=lg,
+    )  # fmt: skip
     return fit, lg
 
 

@@ -17,7 +17,7 @@ from flidar_uq.workflow.inference_steps import load_bin_fits
 
 log = logging.getLogger(__name__)
 
-__all__ = ["RECORD_COLUMNS", "propagate", "record_groups", "resolve_reference"]
+__all__ = ["RECORD_COLUMNS", "bin_table", "propagate", "record_groups", "resolve_reference"]
 
 #: The reference columns whose presence makes ``reference.kind`` required.
 _REFERENCE_COLUMNS = ("ref_hws_mean_ms", "ref_hws_std_ms")
@@ -193,11 +193,10 @@ def propagate(
     assignments_path: str | os.PathLike,
     table_path: str | os.PathLike,
     sigma_z_path: str | os.PathLike,
-    bin_fits_path: str | os.PathLike,
+    bin_fits_path: str | os.PathLike | None,
     batch_dirs: Sequence[str | os.PathLike],
     global_path: str | os.PathLike,
     records_out: str | os.PathLike,
-    bins_out: str | os.PathLike,
     speed_bins_out: str | os.PathLike,
     metrics_out: str | os.PathLike,
     credible_mass: float,
@@ -215,11 +214,18 @@ def propagate(
     min_count: int = 10,
     budget_ndraws: int = 200,
 ) -> pd.DataFrame:
-    """Corrected std and TI per record, per bin and per speed bin, beside the baselines.
+    """Corrected std and TI per record and per speed bin, beside the baselines.
 
     Calls :func:`flidar_uq.correction.propagation.corrected_ti` on the kept, binned records with the
     converged bin fits and the global fit (posterior draws through the deployment formula;
     median and equal-tailed ``credible_mass`` interval), and seed 000's U / C / PC laws.
+
+    ``global_path``: the global posterior (NetCDF). The record motion model's needs nothing
+    else: ``bin_fits_path`` (None) and ``batch_dirs`` (empty) are not read, so the
+    propagation runs beside the per-bin fits. The bin motion model's needs the per-bin
+    summaries (``bin_fits_path``, :func:`flidar_uq.workflow.inference_steps.fit_global`)
+    and the batch directories of the bin posteriors. The per-bin table is
+    :func:`bin_table`'s, from the records written here.
 
     The corrected std is always the point (cup-like) std; how it is reached follows the
     reference instrument (``reference``, :func:`resolve_reference`'s output; default: a
@@ -265,18 +271,23 @@ def propagate(
     assigned = read_csv(assignments_path)
     table = read_csv(table_path)
     sz_table = read_csv(sigma_z_path).set_index("bin_id")
-    bin_fits = read_csv(bin_fits_path)
     gfit = inf.load_fit(global_path)
+    record_model = inf.is_record_model(gfit)
     # the record motion model takes each record's sigma_Z from its own motion: the bin
     # posteriors (hundreds of files at a year, ~0.2 s each to open) are not read then
-    fits = {} if inf.is_record_model(gfit) else load_bin_fits(batch_dirs, bin_fits)
+    if record_model:
+        bin_fits, fits = None, {}
+    elif bin_fits_path is None:
+        raise ValueError(f"{global_path} is a bin motion model: the per-bin fits are needed")
+    else:
+        bin_fits = read_csv(bin_fits_path)
+        fits = load_bin_fits(batch_dirs, bin_fits)
     surrogate = get_surrogate(lidar)
 
     rid = flags["record_id"].to_numpy()
     rec = read_csv(records_path).iloc[rid].reset_index(drop=True)  # every input record
     rec["bin_id"] = assigned.set_index("record_id")["bin_id"].reindex(rid).to_numpy()
     binned = rec["bin_id"].notna().to_numpy()
-    record_model = inf.is_record_model(gfit)
     if record_model:  # every QC-kept record, binned or not: its sigma_Z is its own
         use = flags["reasons"].fillna("").eq("").to_numpy()
         sub = rec[use]
@@ -386,7 +397,7 @@ def propagate(
         binned,
         neg,
         fitted=table.set_index("bin_id")["fitted"],
-        status=bin_fits.set_index("bin_id")["status"],
+        status=pd.Series(dtype=object) if record_model else bin_fits.set_index("bin_id")["status"],
         global_converged=gfit.converged,
         motion_described=described,
     )
@@ -404,7 +415,6 @@ def propagate(
     out = out[RECORD_COLUMNS + [c for c in out.columns if c not in RECORD_COLUMNS]]
     write_csv(out, records_out)
     write_csv(speed_bins, speed_bins_out)
-    write_csv(_bins_table(table, sz_table, bin_fits, out), bins_out)
 
     # MD / RMSE of std and TI (Tables 2-3 style) against the truth (virtual campaigns)
     # and against the reference instrument, where present, over the same records.
@@ -520,6 +530,25 @@ def _records_table(
         out[f"std_corrected_{law}_ms"] = out[f"ti_corrected_{law}"] * m
     out["sigma_z_bin_ms"] = sz_table["sigma_z_ms"].reindex(out["bin_id"]).to_numpy(dtype=float)
     return out
+
+
+def bin_table(
+    *,
+    table_path: str | os.PathLike,
+    sigma_z_path: str | os.PathLike,
+    bin_fits_path: str | os.PathLike,
+    records_path: str | os.PathLike,
+    out_path: str | os.PathLike,
+) -> pd.DataFrame:
+    """results/ti/bins.csv: per bin (seed 000 Table 1 style), the bin table, sigma_Z and E(Z)
+    at the bin centre (m/s), the bin fit's status and diagnostics, and the means over its
+    records of the uncorrected and corrected TI (median, interval bounds) and of the true
+    TI where known, from the records :func:`propagate` wrote (``records_path``)."""
+    table = read_csv(table_path)
+    sz_table = read_csv(sigma_z_path).set_index("bin_id")
+    bins = _bins_table(table, sz_table, read_csv(bin_fits_path), read_csv(records_path))
+    write_csv(bins, out_path)
+    return bins
 
 
 def _bins_table(
