@@ -44,14 +44,19 @@ def slurm_partition(tmp_path_factory):
         assert up.returncode == 0, up.stderr
         yield up.stdout.strip().splitlines()[-1]
     finally:
-        down = subprocess.run(
-            ["bash", str(REPO / "scripts" / "slurm-down.sh")],
-            capture_output=True,
-            text=True,
-            env=env,
-            timeout=120,
-        )
+        down = slurm_down(env)
         assert down.returncode == 0, down.stderr
+
+
+def slurm_down(env: dict) -> subprocess.CompletedProcess:
+    """Run scripts/slurm-down.sh with ``env`` (its state dir and config path)."""
+    return subprocess.run(
+        ["bash", str(REPO / "scripts" / "slurm-down.sh")],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
 
 
 def run_on_slurm(workdir: Path, configfile: Path, partition: str, timeout: float = 900):
@@ -159,12 +164,6 @@ def test_slurm_down_removes_only_the_config_slurm_up_wrote(tmp_path):
             "FLIDAR_SLURM_STATE": str(tmp_path / "state"),
             "FLIDAR_SLURM_CONF": str(conf),
         }
-        down = subprocess.run(
-            ["bash", str(REPO / "scripts" / "slurm-down.sh")],
-            env=env,
-            capture_output=True,
-            text=True,
-            timeout=60,
-        )
+        down = slurm_down(env)
         assert down.returncode == 0, down.stderr
     assert not ours.exists() and theirs.exists()
