@@ -24,9 +24,15 @@ runs on the full-size table. Statistical mode (records drawn from the Bayesian m
 is not wired into the pipeline's ``campaign`` rule, so it is not used.
 
 On a shared machine the wall times are inflated by the other jobs (the load average is in the
-CSV); the CPU time of each job's process tree (Snakemake's ``cpu_time``) is the comparable
-cost, and the exponents are fitted on it (over all sizes, and between the two largest sizes,
-where the fixed start-up cost of a job -- imports, ~2-5 s -- no longer dominates).
+CSV); the CPU time of each job (user + system of its process and its finished children,
+from ``getrusage`` at the job's exit, the last line of its log:
+:func:`flidar_uq.workflow.files.job_resources`) is the comparable cost, and the exponents
+are fitted on it (over all sizes, and between the two largest sizes, where the fixed
+start-up cost of a job -- imports, ~2-5 s -- no longer dominates). Snakemake's own
+``cpu_time`` samples a job every 30 s after its first 30 and so misses up to 30 s of a long
+job's CPU (a year's record fit: 44 of 74 s); it is kept only for a job whose log lacks the
+line. Peak memory: the larger of Snakemake's sampled process-tree ``max_rss`` and the job
+process's own peak (``ru_maxrss``).
 ``--plot-only --merge A.csv B.csv --partial SIZE=WORKDIR`` merges separate runs and the steps a
 cut-off run finished.
 
@@ -71,6 +77,8 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 import yaml  # noqa: E402
 
+from flidar_uq.workflow.files import job_resources  # noqa: E402
+
 REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "benchmarks" / "results"
 CSV = RESULTS / "scaling.csv"
@@ -110,22 +118,28 @@ def _step_of(stem: str) -> str:
 
 
 def read_rule_benchmarks(bench_dir: Path) -> pd.DataFrame:
-    """Per step: summed wall s, max peak RSS MB and job count from Snakemake benchmark TSVs."""
+    """Per step: summed wall s (Snakemake benchmark TSVs), summed CPU s and max peak RSS MB
+    (the job's own exit line in ``results/logs/<stem>.log`` where present, see the module
+    docstring) and job count."""
     rows = []
     for f in sorted(bench_dir.glob("*.tsv")):
         t = pd.read_csv(f, sep="\t")
-        rss = pd.to_numeric(t["max_rss"], errors="coerce").fillna(0.0)
-        cpu = pd.to_numeric(t["cpu_time"], errors="coerce").fillna(0.0)
+        rss = float(pd.to_numeric(t["max_rss"], errors="coerce").fillna(0.0).iloc[-1])
+        cpu = float(pd.to_numeric(t["cpu_time"], errors="coerce").fillna(0.0).iloc[-1])
+        own = job_resources(bench_dir.parent / "logs" / f"{f.stem}.log")
         rows.append(
             {
                 "step": _step_of(f.stem),
                 "wall_s": float(t["s"].iloc[-1]),
-                "cpu_s": float(cpu.iloc[-1]),
-                "max_rss_mb": float(rss.iloc[-1]),
+                "cpu_s": own[0] if own else cpu,
+                "max_rss_mb": max(rss, own[1]) if own else rss,
+                "cpu_sampled": own is None,
             }
         )
     if not rows:
-        return pd.DataFrame(columns=["step", "wall_s", "cpu_s", "max_rss_mb", "jobs"])
+        return pd.DataFrame(
+            columns=["step", "wall_s", "cpu_s", "max_rss_mb", "jobs", "cpu_sampled"]
+        )
     df = pd.DataFrame(rows)
     return (
         df.groupby("step")
@@ -134,6 +148,7 @@ def read_rule_benchmarks(bench_dir: Path) -> pd.DataFrame:
             cpu_s=("cpu_s", "sum"),
             max_rss_mb=("max_rss_mb", "max"),
             jobs=("wall_s", "size"),
+            cpu_sampled=("cpu_sampled", "any"),
         )
         .reset_index()
     )
@@ -154,7 +169,17 @@ def refresh_from_workdirs(df: pd.DataFrame, workdirs: list[Path]) -> pd.DataFram
         fresh = read_rule_benchmarks(found[0])
         meta = g.drop(
             columns=[
-                c for c in ("step", "wall_s", "cpu_s", "max_rss_mb", "jobs", "measured") if c in g
+                c
+                for c in (
+                    "step",
+                    "wall_s",
+                    "cpu_s",
+                    "max_rss_mb",
+                    "jobs",
+                    "cpu_sampled",
+                    "measured",
+                )
+                if c in g
             ]
         ).iloc[0]
         fresh["measured"] = True

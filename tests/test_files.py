@@ -1,6 +1,10 @@
-"""The result-table writer: the bytes of pandas' ``to_csv`` with the same settings."""
+"""The result-table writer: the bytes of pandas' ``to_csv`` with the same settings; the
+rule log's resource line."""
 
 from __future__ import annotations
+
+import subprocess
+import sys
 
 import numpy as np
 import pandas as pd
@@ -10,7 +14,7 @@ from hypothesis import strategies as st
 
 from flidar_uq.data.csv_text import csv_text
 from flidar_uq.data.io import _write
-from flidar_uq.workflow.files import write_csv
+from flidar_uq.workflow.files import job_resources, write_csv
 
 _DATES = "%Y-%m-%dT%H:%M:%SZ"
 
@@ -110,3 +114,23 @@ def test_shortest_float_text_matches_numpy_for_any_float64(tmp_path_factory, xs)
     _write(df, tmp / "ours.csv")
     df.to_csv(tmp / "p.csv", index=False)
     assert (tmp / "ours.csv").read_bytes() == (tmp / "p.csv").read_bytes()
+
+
+def test_a_rule_log_ends_with_the_jobs_cpu_time_and_peak_memory(tmp_path):
+    """The exit line of setup_logging counts the CPU of the process and of its finished
+    children (the campaign's workers) and the process's peak memory, once."""
+    log = tmp_path / "rule.log"
+    code = (
+        "import subprocess, sys, numpy as np\n"
+        "from flidar_uq.workflow.files import setup_logging\n"
+        f"setup_logging({str(log)!r}); setup_logging({str(log)!r})\n"
+        "a = np.ones(40_000_000)  # 305 MiB resident\n"
+        "subprocess.run([sys.executable, '-c', 'import time; t = time.process_time()\\n"
+        "while time.process_time() - t < 1.5: pass'], check=True)\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+    assert log.read_text().count("job resources:") == 1
+    cpu_s, rss_mb = job_resources(log)
+    assert cpu_s >= 1.5  # the child's 1.5 s of CPU at least (the parent alone: < 1 s)
+    assert 305 <= rss_mb < 2000
+    assert job_resources(tmp_path / "missing.log") is None

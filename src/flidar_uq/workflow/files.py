@@ -1,10 +1,13 @@
-"""Shared file helpers of the workflow steps: deterministic CSV read/write, rule logging,
-and the lookup of a bin's posterior file among the batch directories."""
+"""Shared file helpers of the workflow steps: deterministic CSV read/write, rule logging
+(with the job's CPU time and peak memory at exit), and the lookup of a bin's posterior file
+among the batch directories."""
 
 from __future__ import annotations
 
+import atexit
 import logging
 import os
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -12,11 +15,32 @@ import pandas as pd
 
 from flidar_uq.data.csv_text import csv_text
 
-__all__ = ["bin_file", "read_csv", "setup_logging", "write_csv"]
+__all__ = ["bin_file", "job_resources", "read_csv", "setup_logging", "write_csv"]
+
+#: the line the exit hook of :func:`setup_logging` writes last in a rule's log
+_RESOURCES = "job resources: cpu_s={cpu:.3f} max_rss_mb={rss:.1f}"
+_RESOURCES_RE = re.compile(r"job resources: cpu_s=([0-9.]+) max_rss_mb=([0-9.]+)")
+
+
+def _log_job_resources() -> None:
+    """Log this process's CPU time (user + system, its finished child processes included,
+    e.g. the campaign's workers) and its own peak resident memory (``getrusage``)."""
+    import resource
+
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+    # Linux reports ru_maxrss in KiB
+    logging.getLogger("flidar_uq.workflow").info(
+        _RESOURCES.format(cpu=cpu, rss=own.ru_maxrss / 1024)
+    )
 
 
 def setup_logging(log_path: str | os.PathLike) -> None:
-    """Send INFO and above of every logger (and warnings) to ``log_path``, a rule's log file."""
+    """Send INFO and above of every logger (and warnings) to ``log_path``, a rule's log file,
+    and, at the process's exit, a last line with its CPU time and peak memory
+    (:func:`job_resources` reads it back; Snakemake's ``benchmark:`` samples a job only
+    every 30 s after its first 30, so it misses up to 30 s of CPU and short memory peaks)."""
     logging.basicConfig(
         filename=str(log_path),
         filemode="w",
@@ -25,6 +49,20 @@ def setup_logging(log_path: str | os.PathLike) -> None:
         force=True,
     )
     logging.captureWarnings(True)
+    if os.name == "posix":  # getrusage; registered once however often this is called
+        atexit.unregister(_log_job_resources)
+        atexit.register(_log_job_resources)
+
+
+def job_resources(log_path: str | os.PathLike) -> tuple[float, float] | None:
+    """CPU time (s) and peak resident memory (MB) a rule's job logged at its exit
+    (:func:`setup_logging`), or None when its log holds no such line."""
+    try:
+        text = Path(log_path).read_text(errors="replace")
+    except FileNotFoundError:
+        return None
+    found = _RESOURCES_RE.findall(text)
+    return (float(found[-1][0]), float(found[-1][1])) if found else None
 
 
 #: how every result table writes a time stamp (UTC)
