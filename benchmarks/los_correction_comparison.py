@@ -160,7 +160,9 @@ def record_rows(lidar, motion, wind, statistical_motion, meta):
         series["uncorrected"] = correct_dbs_motion(geom, t, az, vr, method="none", **kw).hws_ms[
             :, 0
         ]
-        series["seed001 LS"] = correct_least_squares(geom, t, az, vr[:, g100], motion, step=1).hws_ms
+        series["seed001 LS"] = correct_least_squares(
+            geom, t, az, vr[:, g100], motion, step=1
+        ).hws_ms
         for m in ("conventional", "new"):
             series[f"seed002 {m}"] = correct_dbs_motion(
                 geom, t, az, vr, motion, method=m, **kw

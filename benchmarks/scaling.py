@@ -83,6 +83,7 @@ REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "benchmarks" / "results"
 CSV = RESULTS / "scaling.csv"
 PNG = RESULTS / "scaling.png"
+TIMELINE_PNG = RESULTS / "scaling_timeline.png"
 RECORDS_PER_DAY = 144  # 10-min records
 SIZES_DAYS = {"1w": 7, "1m": 30, "3m": 91, "1y": 365, "3y": 1095}
 HEIGHTS = 3  # default scenario's heights (27, 58, 85 m)
@@ -131,8 +132,8 @@ def read_rule_benchmarks(bench_dir: Path) -> pd.DataFrame:
             {
                 "step": _step_of(f.stem),
                 "wall_s": float(t["s"].iloc[-1]),
-                "cpu_s": own[0] if own else cpu,
-                "max_rss_mb": max(rss, own[1]) if own else rss,
+                "cpu_s": own.cpu_s if own else cpu,
+                "max_rss_mb": max(rss, own.max_rss_mb) if own else rss,
                 "cpu_sampled": own is None,
             }
         )
@@ -152,6 +153,68 @@ def read_rule_benchmarks(bench_dir: Path) -> pd.DataFrame:
         )
         .reset_index()
     )
+
+
+def job_timeline(results: Path, t0_unix: float) -> pd.DataFrame:
+    """Each job's start and end (s after ``t0_unix``, the launch of Snakemake) and CPU time:
+    the end from the job's exit line in its log (:func:`flidar_uq.workflow.files.job_resources`),
+    the start that minus the job's wall time in its benchmark TSV. Jobs whose log lacks an
+    end time are left out."""
+    rows = []
+    for f in sorted((results / "benchmarks").glob("*.tsv")):
+        own = job_resources(results / "logs" / f"{f.stem}.log")
+        if own is None or own.end_unix is None:
+            continue
+        wall = float(pd.read_csv(f, sep="\t")["s"].iloc[-1])
+        end = own.end_unix - t0_unix
+        rows.append(
+            {"step": _step_of(f.stem), "job": f.stem, "start_s": end - wall, "end_s": end,
+             "cpu_s": own.cpu_s}
+        )  # fmt: skip
+    return pd.DataFrame(rows, columns=["step", "job", "start_s", "end_s", "cpu_s"])
+
+
+def plot_timeline(tl: pd.DataFrame, path: Path) -> None:
+    """One panel per size: every job as a bar on the core it ran on (jobs packed greedily
+    into as few lanes as overlap needs), coloured by step; the pipeline's end and the
+    issue-13 target (a year: 5 min, three years: 15 min) marked."""
+    sizes = [s for s in SIZES_DAYS if s in set(tl["size"])]
+    fig, axes = plt.subplots(len(sizes), 1, figsize=(12, 1.2 + 1.3 * len(sizes)), squeeze=False)
+    colours = {s: plt.get_cmap("tab20")(i) for i, s in enumerate(STEP_ORDER)}
+    targets = {"1y": 300.0, "3y": 900.0}
+    for ax, size in zip(axes[:, 0], sizes, strict=True):
+        g = tl[tl["size"] == size].sort_values("start_s")
+        lanes: list[float] = []
+        for r in g.itertuples():
+            lane = next((i for i, e in enumerate(lanes) if e <= r.start_s + 0.5), len(lanes))
+            if lane == len(lanes):
+                lanes.append(r.end_s)
+            else:
+                lanes[lane] = r.end_s
+            ax.barh(lane, r.end_s - r.start_s, left=r.start_s, color=colours.get(r.step, "grey"),
+                    edgecolor="white", height=0.8)  # fmt: skip
+            if r.end_s - r.start_s > 0.06 * g["end_s"].max():
+                ax.text((r.start_s + r.end_s) / 2, lane, r.job.replace("infer_batch_", "batch "),
+                        ha="center", va="center", fontsize=7)  # fmt: skip
+        wall = float(g["pipeline_wall_s"].iloc[0])
+        ax.axvline(wall, color="k", lw=1)
+        ax.text(wall, len(lanes) - 0.4, f" pipeline {wall:.0f} s", fontsize=8, va="bottom")
+        if size in targets:
+            ax.axvline(targets[size], color="tab:red", ls="--", lw=1)
+            ax.text(targets[size], -0.6, f" target {targets[size]:.0f} s", fontsize=8,
+                    color="tab:red", va="top")  # fmt: skip
+        ax.set_yticks(range(len(lanes)), [f"core {i + 1}" for i in range(len(lanes))])
+        ax.set_ylim(len(lanes) - 0.4, -0.9)
+        ax.set_xlim(0, max(wall, targets.get(size, 0.0)) * 1.06)
+        ax.set_title(f"{size}: {int(g['n_rows'].iloc[0]):,} rows", fontsize=9, loc="left")
+    axes[-1, 0].set_xlabel("s after Snakemake's launch (2 cores)")
+    handles = [plt.Rectangle((0, 0), 1, 1, color=colours[s]) for s in STEP_ORDER
+               if s in set(tl["step"])]  # fmt: skip
+    fig.legend(handles, [s for s in STEP_ORDER if s in set(tl["step"])], loc="upper center",
+               ncol=6, fontsize=8)  # fmt: skip
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.5 / (1.2 + 1.3 * len(sizes))))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 def refresh_from_workdirs(df: pd.DataFrame, workdirs: list[Path]) -> pd.DataFrame:
@@ -222,8 +285,9 @@ def tile_records(base_csv: Path, out_csv: Path, n_records: int) -> None:
 
 def run_size(
     label: str, days: int, workdir: Path, base_records: Path | None, cores: int
-) -> pd.DataFrame:
-    """Run the pipeline on a ``days``-long campaign in ``workdir/label``; per-step table."""
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Run the pipeline on a ``days``-long campaign in ``workdir/label``; per-step table and
+    per-job timeline (:func:`job_timeline`)."""
     n_records = days * RECORDS_PER_DAY
     wd = workdir / label
     if wd.exists():
@@ -250,6 +314,7 @@ def run_size(
     ]  # fmt: skip
     env = dict(os.environ, PYTHONPATH=str(REPO / "src"))
     load_before = os.getloadavg()[0]
+    t0_unix = time.time()
     t0 = time.perf_counter()
     with open(wd / "snakemake.log", "w") as log:
         proc = subprocess.run(
@@ -275,7 +340,10 @@ def run_size(
         f"load {load_before:.1f} -> {load_after:.1f}",
         flush=True,
     )
-    return steps
+    timeline = job_timeline(wd / "results", t0_unix).assign(
+        size=label, n_rows=n_records * HEIGHTS, pipeline_wall_s=wall
+    )
+    return steps, timeline
 
 
 def extrapolate_campaign(df: pd.DataFrame) -> pd.DataFrame:
@@ -451,6 +519,14 @@ def main() -> None:
         help="with --plot-only: re-read the rule benchmarks there",
     )
     ap.add_argument(
+        "--timeline",
+        type=Path,
+        nargs="*",
+        default=[],
+        help="with --plot-only: per-job timeline CSVs of runs (<out>_timeline.csv), drawn into "
+        "scaling_timeline.png",
+    )
+    ap.add_argument(
         "--partial",
         nargs="*",
         default=[],
@@ -491,15 +567,23 @@ def main() -> None:
         df.to_csv(args.out, index=False)
         if args.out == CSV:
             plot(df)
+        if args.timeline:
+            tl = pd.concat([pd.read_csv(p) for p in args.timeline], ignore_index=True)
+            tl.to_csv(RESULTS / "scaling_timeline.csv", index=False)
+            plot_timeline(tl, TIMELINE_PNG)
         summarise(df)
         return
     labels = sorted(args.sizes.split(","), key=lambda s: SIZES_DAYS[s])
     df = pd.DataFrame()
+    timelines = []
+    timeline_csv = args.out.with_name(f"{args.out.stem}_timeline.csv")
     base = args.base_records
     for label in labels:
         days = SIZES_DAYS[label]
         tiled = days > args.virtual_max_days
-        steps = run_size(label, days, args.workdir, base if tiled else None, args.cores)
+        steps, timeline = run_size(label, days, args.workdir, base if tiled else None, args.cores)
+        timelines.append(timeline)
+        pd.concat(timelines, ignore_index=True).to_csv(timeline_csv, index=False)
         if not tiled:
             base = args.workdir / label / "results" / "campaign" / "records.csv"
         df = extrapolate_campaign(
@@ -509,6 +593,7 @@ def main() -> None:
         df.to_csv(args.out, index=False)
         if args.out == CSV:
             plot(df)
+            plot_timeline(pd.concat(timelines, ignore_index=True), TIMELINE_PNG)
     summarise(df)
 
 

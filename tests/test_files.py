@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pandas as pd
@@ -128,9 +129,11 @@ def test_a_rule_log_ends_with_the_jobs_cpu_time_and_peak_memory(tmp_path):
         "subprocess.run([sys.executable, '-c', 'import time; t = time.process_time()\\n"
         "while time.process_time() - t < 1.5: pass'], check=True)\n"
     )
+    before = time.time()
     subprocess.run([sys.executable, "-c", code], check=True)
     assert log.read_text().count("job resources:") == 1
-    cpu_s, rss_mb = job_resources(log)
+    cpu_s, rss_mb, end_unix = job_resources(log)
+    assert before < end_unix <= time.time()
     assert cpu_s >= 1.5  # the child's 1.5 s of CPU at least (the parent alone: < 1 s)
     assert 305 <= rss_mb < 2000
     assert job_resources(tmp_path / "missing.log") is None

@@ -107,7 +107,9 @@ def test_seed001_eq7_sampled_imu_converges_to_harmonic():
     sampled = M.SampledMotion(t_imu, roll, pitch, yaw)
     rigid = M.PlatformMotion(roll=MOTION_6DOF.roll, pitch=MOTION_6DOF.pitch, yaw=MOTION_6DOF.yaw)
     t, az, vr = _los(L.ZEPHIR300, rigid, WIND, nscan=30)
-    err = np.abs(correct_least_squares("zephir300", t, az, vr, sampled).hws_ms - np.hypot(*WIND[:2]))
+    err = np.abs(
+        correct_least_squares("zephir300", t, az, vr, sampled).hws_ms - np.hypot(*WIND[:2])
+    )
     unc = np.abs(correct_least_squares("zephir300", t, az, vr).hws_ms - np.hypot(*WIND[:2]))
     assert err.max() < 1e-3 < unc.max()
 
@@ -317,9 +319,7 @@ def test_seed003_eqs1_4_printed_matrices():
     p = np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
     r = np.array([[1, 0, 0], [0, np.cos(b), -np.sin(b)], [0, np.sin(b), np.cos(b)]])
     v_body = np.array([3.0, -8.0, 0.5])
-    np.testing.assert_allclose(
-        rotate_to_earth(v_body, 12.0, -7.0, 20.0), y @ p @ r @ v_body
-    )
+    np.testing.assert_allclose(rotate_to_earth(v_body, 12.0, -7.0, 20.0), y @ p @ r @ v_body)
 
 
 def test_seed003_height_correction_exact_for_log_profile():

@@ -166,7 +166,9 @@ def test_report_regime_table_scores_qc_kept_records_only():
     tab = regime_calibration_table(wide).set_index(["grouping", "group"])
     assert tab.loc[("all", "all"), "coverage"] == pytest.approx(0.5)
     assert tab.loc[("all", "all"), "coverage_total"] == pytest.approx(1.0)
-    assert tab.loc[("sea_state", "swell"), "median_rel_width_total"] == pytest.approx(0.25 / 1.2, abs=1e-4)
+    assert tab.loc[("sea_state", "swell"), "median_rel_width_total"] == pytest.approx(
+        0.25 / 1.2, abs=1e-4
+    )
 
 
 @pytest.mark.slow

@@ -884,9 +884,7 @@ def corrected_ti(
         },
         index=records.index,
     )
-    heights = (
-        records["height_m"].to_numpy(dtype=float) if "height_m" in records else np.zeros(n)
-    )
+    heights = records["height_m"].to_numpy(dtype=float) if "height_m" in records else np.zeros(n)
     keys = pd.DataFrame(
         {"height_m": heights, "hws_bin_ms": speed_bin_ms(m, speed_bin_width_ms)},
         index=records.index,
@@ -996,7 +994,9 @@ def ti_group_statistics(
                 row[out] = representative_ti(v) if enough else np.nan
         rows.append(row)
     cols = [*key_cols, "n"]
-    cols += [f"{n}{s}" for n in ("ti_mean", "ti_rep", "ti_p90", "ti_sd") for s in ("", "_lo", "_hi")]
+    cols += [
+        f"{n}{s}" for n in ("ti_mean", "ti_rep", "ti_p90", "ti_sd") for s in ("", "_lo", "_hi")
+    ]
     cols += [f"{n}_uncorrected" for n in stats] + ["n_not_converged"]
     cols += [c for c in ("ti_rep_u", "ti_rep_c", "ti_rep_pc") if rows and c in rows[0]]
     return pd.DataFrame(rows, columns=cols)

@@ -8,23 +8,36 @@ import atexit
 import logging
 import os
 import re
+import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import NamedTuple
 
 import pandas as pd
 
 from flidar_uq.data.csv_text import csv_text
 
-__all__ = ["bin_file", "job_resources", "read_csv", "setup_logging", "write_csv"]
+__all__ = ["JobResources", "bin_file", "job_resources", "read_csv", "setup_logging", "write_csv"]
 
 #: the line the exit hook of :func:`setup_logging` writes last in a rule's log
-_RESOURCES = "job resources: cpu_s={cpu:.3f} max_rss_mb={rss:.1f}"
-_RESOURCES_RE = re.compile(r"job resources: cpu_s=([0-9.]+) max_rss_mb=([0-9.]+)")
+_RESOURCES = "job resources: cpu_s={cpu:.3f} max_rss_mb={rss:.1f} end_unix={end:.3f}"
+_RESOURCES_RE = re.compile(
+    r"job resources: cpu_s=([0-9.]+) max_rss_mb=([0-9.]+)(?: end_unix=([0-9.]+))?"
+)
+
+
+class JobResources(NamedTuple):
+    """What a rule's job logged at its exit (:func:`setup_logging`)."""
+
+    cpu_s: float  #: CPU time, user + system, its finished child processes included, s
+    max_rss_mb: float  #: peak resident memory of the job's own process, MB
+    end_unix: float | None  #: wall-clock time of the exit, s since the Unix epoch
 
 
 def _log_job_resources() -> None:
     """Log this process's CPU time (user + system, its finished child processes included,
-    e.g. the campaign's workers) and its own peak resident memory (``getrusage``)."""
+    e.g. the campaign's workers), its own peak resident memory (``getrusage``) and the
+    wall-clock time of its exit."""
     import resource
 
     own = resource.getrusage(resource.RUSAGE_SELF)
@@ -32,7 +45,7 @@ def _log_job_resources() -> None:
     cpu = own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
     # Linux reports ru_maxrss in KiB
     logging.getLogger("flidar_uq.workflow").info(
-        _RESOURCES.format(cpu=cpu, rss=own.ru_maxrss / 1024)
+        _RESOURCES.format(cpu=cpu, rss=own.ru_maxrss / 1024, end=time.time())
     )
 
 
@@ -54,15 +67,18 @@ def setup_logging(log_path: str | os.PathLike) -> None:
         atexit.register(_log_job_resources)
 
 
-def job_resources(log_path: str | os.PathLike) -> tuple[float, float] | None:
-    """CPU time (s) and peak resident memory (MB) a rule's job logged at its exit
+def job_resources(log_path: str | os.PathLike) -> JobResources | None:
+    """CPU time, peak resident memory and exit time a rule's job logged at its exit
     (:func:`setup_logging`), or None when its log holds no such line."""
     try:
         text = Path(log_path).read_text(errors="replace")
     except FileNotFoundError:
         return None
     found = _RESOURCES_RE.findall(text)
-    return (float(found[-1][0]), float(found[-1][1])) if found else None
+    if not found:
+        return None
+    cpu, rss, end = found[-1]
+    return JobResources(float(cpu), float(rss), float(end) if end else None)
 
 
 #: how every result table writes a time stamp (UTC)

@@ -156,9 +156,7 @@ def reference_noise(
     if reference["kind"] != "fixed_lidar":
         return g_ratio, log_sd, None, None
     heading = (
-        records["heading_mean_deg"].to_numpy(dtype=float)
-        if "heading_mean_deg" in records
-        else None
+        records["heading_mean_deg"].to_numpy(dtype=float) if "heading_mean_deg" in records else None
     )
     corr = prop.pair_sampling_correlation(
         reference.get("sampling_correlation", prop.REFERENCE_SAMPLING_CORRELATION),
