@@ -38,19 +38,19 @@ cut-off run finished.
 
 What grows faster than linearly, and why (docs/performance.md has the numbers): nothing in CPU
 time -- every step is linear or sublinear in the number of records (read from the code, and
-every fitted exponent is <= 1 once start-up costs are past). What misses the 1-year target is
-the constant of two linear steps, above all in memory:
+every fitted exponent is <= 1.02 from a year to three years, session 10). The steps that
+grow, all linear:
 
 - ``fit_global_record`` (flidar_uq.inference.record_fit.fit_record_model): the likelihood
   of every sampler call evaluates all records (vectorised; no finite sufficient statistics
-  exist because sigma_Z and the two stds enter nonlinearly per record), then the pointwise
-  log-likelihood of 1000 kept draws x n records is computed at once in float64 with several
-  temporaries of that size (~70 kB per record row measured: 0.95 GB at 1 month, ~11 GB
-  projected for a year). Fixed since: computed and PSIS-LOO'd per block of records, 0.55 GB
-  at a year (``benchmarks/record_fit_scaling.py``).
+  exist because sigma_Z and the two stds enter nonlinearly per record); its PSIS-LOO is
+  computed per block of records (0.55 GB at a year, ``benchmarks/record_fit_scaling.py``).
 - ``propagate`` (flidar_uq.correction.propagation.corrected_ti, called once plus once per
-  held uncertainty source = 6 times): (1000 draws x n) float64 arrays ``sig``, ``ti`` and the
-  NaN-masked copies for ``np.nanquantile``, which runs ``np.apply_along_axis``: one Python call per record.
+  uncertainty-budget pass): (draws x records) arrays, quantiles per block of records
+  (``benchmarks/propagation_scaling.py``); it holds the peak memory (1.9 GB at a year,
+  4.9 GB at three years).
+- the data steps (``validate``, ``qc``, ``motion_statistics``, ``bins``): read and write
+  the record table once each.
 - ``infer_batch``: sublinear (the unimodal bin model samples on sufficient statistics; more
   bins pass ``min_count`` as the campaign grows, each costing about the same).
 
