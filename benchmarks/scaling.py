@@ -118,32 +118,43 @@ def _step_of(stem: str) -> str:
     return stem
 
 
-def read_rule_benchmarks(bench_dir: Path) -> pd.DataFrame:
-    """Per step: summed wall s (Snakemake benchmark TSVs), summed CPU s and max peak RSS MB
-    (the job's own exit line in ``results/logs/<stem>.log`` where present, see the module
-    docstring) and job count."""
+def read_jobs(results: Path) -> pd.DataFrame:
+    """One row per job of a run's ``results/``: step, job (the benchmark file's stem), wall s
+    (Snakemake's benchmark TSV), CPU s and peak RSS MB (the job's own exit line in
+    ``logs/<stem>.log`` where present, see the module docstring; else Snakemake's sampled
+    figures, ``cpu_sampled``) and the exit time (Unix s; NaN without the line)."""
     rows = []
-    for f in sorted(bench_dir.glob("*.tsv")):
+    for f in sorted((results / "benchmarks").glob("*.tsv")):
         t = pd.read_csv(f, sep="\t")
         rss = float(pd.to_numeric(t["max_rss"], errors="coerce").fillna(0.0).iloc[-1])
         cpu = float(pd.to_numeric(t["cpu_time"], errors="coerce").fillna(0.0).iloc[-1])
-        own = job_resources(bench_dir.parent / "logs" / f"{f.stem}.log")
+        own = job_resources(results / "logs" / f"{f.stem}.log")
+        end = own.end_unix if own and own.end_unix is not None else np.nan
         rows.append(
             {
                 "step": _step_of(f.stem),
+                "job": f.stem,
                 "wall_s": float(t["s"].iloc[-1]),
                 "cpu_s": own.cpu_s if own else cpu,
                 "max_rss_mb": max(rss, own.max_rss_mb) if own else rss,
                 "cpu_sampled": own is None,
+                "end_unix": end,
             }
         )
-    if not rows:
+    columns = ["step", "job", "wall_s", "cpu_s", "max_rss_mb", "cpu_sampled", "end_unix"]
+    return pd.DataFrame(rows, columns=columns)
+
+
+def read_rule_benchmarks(bench_dir: Path) -> pd.DataFrame:
+    """Per step (:func:`read_jobs` of ``bench_dir``'s ``results/``): summed wall s and CPU s,
+    max peak RSS MB and job count."""
+    jobs = read_jobs(bench_dir.parent)
+    if jobs.empty:
         return pd.DataFrame(
             columns=["step", "wall_s", "cpu_s", "max_rss_mb", "jobs", "cpu_sampled"]
         )
-    df = pd.DataFrame(rows)
     return (
-        df.groupby("step")
+        jobs.groupby("step")
         .agg(
             wall_s=("wall_s", "sum"),
             cpu_s=("cpu_s", "sum"),
@@ -157,21 +168,19 @@ def read_rule_benchmarks(bench_dir: Path) -> pd.DataFrame:
 
 def job_timeline(results: Path, t0_unix: float) -> pd.DataFrame:
     """Each job's start and end (s after ``t0_unix``, the launch of Snakemake) and CPU time:
-    the end from the job's exit line in its log (:func:`flidar_uq.workflow.files.job_resources`),
-    the start that minus the job's wall time in its benchmark TSV. Jobs whose log lacks an
-    end time are left out."""
-    rows = []
-    for f in sorted((results / "benchmarks").glob("*.tsv")):
-        own = job_resources(results / "logs" / f"{f.stem}.log")
-        if own is None or own.end_unix is None:
-            continue
-        wall = float(pd.read_csv(f, sep="\t")["s"].iloc[-1])
-        end = own.end_unix - t0_unix
-        rows.append(
-            {"step": _step_of(f.stem), "job": f.stem, "start_s": end - wall, "end_s": end,
-             "cpu_s": own.cpu_s}
-        )  # fmt: skip
-    return pd.DataFrame(rows, columns=["step", "job", "start_s", "end_s", "cpu_s"])
+    the end from the job's exit line in its log (:func:`read_jobs`), the start that minus
+    the job's wall time. Jobs whose log lacks an end time are left out."""
+    jobs = read_jobs(results).dropna(subset=["end_unix"])
+    end = jobs["end_unix"] - t0_unix
+    return pd.DataFrame(
+        {
+            "step": jobs["step"],
+            "job": jobs["job"],
+            "start_s": end - jobs["wall_s"],
+            "end_s": end,
+            "cpu_s": jobs["cpu_s"],
+        }
+    ).reset_index(drop=True)
 
 
 def plot_timeline(tl: pd.DataFrame, path: Path) -> None:
@@ -191,27 +200,34 @@ def plot_timeline(tl: pd.DataFrame, path: Path) -> None:
                 lanes.append(r.end_s)
             else:
                 lanes[lane] = r.end_s
-            ax.barh(lane, r.end_s - r.start_s, left=r.start_s, color=colours.get(r.step, "grey"),
-                    edgecolor="white", height=0.8)  # fmt: skip
+            ax.barh(
+                lane,
+                r.end_s - r.start_s,
+                left=r.start_s,
+                color=colours.get(r.step, "grey"),
+                edgecolor="white",
+                height=0.8,
+            )
             if r.end_s - r.start_s > 0.06 * g["end_s"].max():
-                ax.text((r.start_s + r.end_s) / 2, lane, r.job.replace("infer_batch_", "batch "),
-                        ha="center", va="center", fontsize=7)  # fmt: skip
+                label = r.job.replace("infer_batch_", "batch ")
+                ax.text(
+                    (r.start_s + r.end_s) / 2, lane, label, ha="center", va="center", fontsize=7
+                )
         wall = float(g["pipeline_wall_s"].iloc[0])
         ax.axvline(wall, color="k", lw=1)
         ax.text(wall, len(lanes) - 0.4, f" pipeline {wall:.0f} s", fontsize=8, va="bottom")
         if size in targets:
             ax.axvline(targets[size], color="tab:red", ls="--", lw=1)
-            ax.text(targets[size], -0.6, f" target {targets[size]:.0f} s", fontsize=8,
-                    color="tab:red", va="top")  # fmt: skip
+            label = f" target {targets[size]:.0f} s"
+            ax.text(targets[size], -0.6, label, fontsize=8, color="tab:red", va="top")
         ax.set_yticks(range(len(lanes)), [f"core {i + 1}" for i in range(len(lanes))])
         ax.set_ylim(len(lanes) - 0.4, -0.9)
         ax.set_xlim(0, max(wall, targets.get(size, 0.0)) * 1.06)
         ax.set_title(f"{size}: {int(g['n_rows'].iloc[0]):,} rows", fontsize=9, loc="left")
     axes[-1, 0].set_xlabel("s after Snakemake's launch (2 cores)")
-    handles = [plt.Rectangle((0, 0), 1, 1, color=colours[s]) for s in STEP_ORDER
-               if s in set(tl["step"])]  # fmt: skip
-    fig.legend(handles, [s for s in STEP_ORDER if s in set(tl["step"])], loc="upper center",
-               ncol=6, fontsize=8)  # fmt: skip
+    shown = [s for s in STEP_ORDER if s in set(tl["step"])]
+    handles = [plt.Rectangle((0, 0), 1, 1, color=colours[s]) for s in shown]
+    fig.legend(handles, shown, loc="upper center", ncol=6, fontsize=8)
     fig.tight_layout(rect=(0, 0, 1, 1 - 0.5 / (1.2 + 1.3 * len(sizes))))
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -583,7 +599,8 @@ def main() -> None:
         tiled = days > args.virtual_max_days
         steps, timeline = run_size(label, days, args.workdir, base if tiled else None, args.cores)
         timelines.append(timeline)
-        pd.concat(timelines, ignore_index=True).to_csv(timeline_csv, index=False)
+        all_timelines = pd.concat(timelines, ignore_index=True)
+        all_timelines.to_csv(timeline_csv, index=False)
         if not tiled:
             base = args.workdir / label / "results" / "campaign" / "records.csv"
         df = extrapolate_campaign(
@@ -593,7 +610,7 @@ def main() -> None:
         df.to_csv(args.out, index=False)
         if args.out == CSV:
             plot(df)
-            plot_timeline(pd.concat(timelines, ignore_index=True), TIMELINE_PNG)
+            plot_timeline(all_timelines, TIMELINE_PNG)
     summarise(df)
 
 
