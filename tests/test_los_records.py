@@ -13,7 +13,12 @@ import pytest
 from flidar_uq.campaign.physics_mode import generate_campaign
 from flidar_uq.campaign.scenarios import DEFAULT_SCENARIO
 from flidar_uq.correction.los import earth_beam_vectors, imu_rotation_velocity
-from flidar_uq.correction.los_records import complete_scans, los_methods, los_record_ti
+from flidar_uq.correction.los_records import (
+    LOS_RECORD_REASONS,
+    complete_scans,
+    los_methods,
+    los_record_ti,
+)
 from flidar_uq.physics import lidar as L
 from flidar_uq.physics import motion as M
 
@@ -114,6 +119,8 @@ def test_imu_gaps_remove_scans_and_no_imu_flags_the_record(campaign):
     assert none["ti_los_seed001_ls"].isna().all() and none["ti_los_uncorrected"].isna().all()
     empty = los_record_ti(los.iloc[:0], imu, **kw)
     assert (empty["los_flags"] == "no_los").all() and (empty["n_los"] == 0).all()
+    flags = set(";".join(pd.concat([full, gap, none, empty])["los_flags"]).split(";")) - {""}
+    assert flags <= LOS_RECORD_REASONS.keys()  # the documented vocabulary
 
 
 def test_low_cnr_los_are_not_used(campaign):

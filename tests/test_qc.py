@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from flidar_uq.data.io import read_records
 from flidar_uq.data.qc import (
+    LOS_REASONS,
     MAD_SCALE,
     RECORD_REASONS,
     QCConfig,
@@ -175,6 +176,7 @@ def test_cnr_seed001_minus23db_on_los():
     )
     r = run_los_qc(los)
     assert failed(r, "cnr_low") == [3, 4, 5]
+    assert tuple(r.counts.index) == LOS_REASONS  # the documented vocabulary
     avail = los_availability_pct(los, r.flags["kept"].to_numpy())
     # 10-min periods: rows 1-6 at 0,100,..,500 s -> one period, 3 of 6 valid
     assert avail["availability_pct"].tolist() == [50.0]

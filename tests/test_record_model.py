@@ -16,7 +16,7 @@ from flidar_uq.inference.record_fit import (
     fit_record_model,
     log_prob_record_model,
 )
-from flidar_uq.inference.record_motion import record_motion
+from flidar_uq.inference.record_motion import MOTION_DESCRIPTIONS, record_motion
 from flidar_uq.physics.surrogate import get_surrogate
 
 
@@ -57,7 +57,7 @@ def test_fallbacks_zero_crossing_period_then_roll_pitch_then_none():
         }
     )
     out = record_motion(rec)
-    assert list(out["motion_description"]) == ["along_wind", "roll_pitch", "none"]
+    assert tuple(out["motion_description"]) == MOTION_DESCRIPTIONS
     assert out["motion_period_s"].iloc[0] == pytest.approx(5.0)
     assert out["motion_amplitude_deg"].iloc[1] == pytest.approx(4.0)  # geometric mean
     assert out["motion_period_s"].iloc[1] == pytest.approx(6.0)

@@ -142,7 +142,11 @@ def test_lever_arm_surrogate_vs_direction_averaged_integral(sur, rng):
         ]
     )
     got = sur.sigma_z_lever_ms(hws, amp, per, arm)
-    assert np.max(np.abs(got / ref[:, 0] - 1)) < 1e-3
+    # documented accuracy (docs/simulator.md; benchmarks/lever_surrogate_accuracy.py: max
+    # 1.7e-3 for sigma_Z and 5.5e-4 of sigma_Z for E(Z) in 4,200 such cases)
+    assert np.max(np.abs(got / ref[:, 0] - 1)) < 3e-3
+    got_mean = sur.mean_z_lever_ms(hws, amp, per, arm)
+    assert np.max(np.abs(got_mean - ref[:, 1]) / ref[:, 0]) < 1e-3
     # no lever arm: the direction-averaged table; outside the ratio range: NaN
     assert sur.sigma_z_lever_ms(8.0, 3.0, 4.0, 0.0) == pytest.approx(
         sur.sigma_z_ms(8.0, 3.0, 4.0), rel=1e-3

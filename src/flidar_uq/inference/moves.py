@@ -115,13 +115,6 @@ class BlockDEMove(BlockRedBlueMove):
         q = (coords[sub] + gamma * diffs).reshape(nb * ns, -1)
         return q, np.zeros(nb * ns)
 
-    def get_proposal(self, s, c, random):
-        """One block (emcee's hook): the block-vectorised proposal with a single block."""
-        coords = np.concatenate([s, *c])
-        sub = np.arange(len(s))[None, :]
-        rest = [np.arange(len(s), len(coords))[None, :]]
-        return self.get_block_proposal(coords, sub, rest, random)
-
 
 class BlockDESnookerMove(BlockRedBlueMove):
     """Differential-evolution snooker move (ter Braak & Vrugt 2008) within each stacked

@@ -30,6 +30,7 @@ Cross-wind fluctuations enter the HWS at second order (``v'^2 / 2U``) and are ne
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
 
@@ -192,6 +193,68 @@ def lidar_std_ratio(
     return out
 
 
+class _ScanSimulation(NamedTuple):
+    """Checked settings of the lidar-vs-point simulations and their shared steps.
+
+    One simulated record: IEC Kaimal ``u', v', w'`` held between turbulence samples, the
+    wind turned to a random direction in the lidar's body frame, scans on a schedule of
+    refocus delays with heights taken in turn, each scan's least-squares wind, and the log
+    of the lidar's 10-min HWS std over the point sensor's.
+    """
+
+    geometry: _lidar.LidarGeometry
+    delay_slots: tuple[int, int]  # refocus delay range, LOS durations
+    heights_in_turn: int
+    n: int  # LOS slots per record
+    step: int  # LOS slots per turbulence sample
+    every: int  # LOS slots per point sample
+    lag: np.ndarray  # slot of each line of sight within a scan
+    az0: np.ndarray  # nominal azimuth of each line of sight, rad
+
+    def held_turbulence(self, rng, n_records, hws_ms, height_m):
+        """``(n_records, 3, n)`` Kaimal fluctuations (TI 0.1, m/s), held between samples."""
+        dt = self.geometry.los_duration_s
+        hws = np.full(int(n_records), float(hws_ms))
+        x_t = kaimal_series(
+            -(-self.n // self.step), dt * self.step, hws, 0.1 * hws_ms, float(height_m), rng
+        )
+        return np.repeat(x_t, self.step, axis=-1)[..., : self.n]
+
+    @staticmethod
+    def wind(hws_ms, fluct, beta_rad):
+        """Wind ``(n, 3)`` in the body frame, m/s: mean ``hws_ms`` plus ``fluct`` (3, n),
+        the wind direction at ``beta_rad`` from the body x axis."""
+        c, s = np.cos(beta_rad), np.sin(beta_rad)
+        rot = np.array([[c, s, 0.0], [-s, c, 0.0], [0, 0, 1.0]])
+        return hws_ms * rot[0] + fluct.T @ rot
+
+    def point_std(self, wind):
+        """10-min std of the point HWS sampled every ``every`` slots, m/s."""
+        return np.hypot(wind[:: self.every, 0], wind[:: self.every, 1]).std(ddof=1)
+
+    def schedule(self, rng):
+        """Scan start slots of one height and each scan's random azimuth phase (rad)."""
+        gaps = self.geometry.n_los + rng.integers(
+            self.delay_slots[0], self.delay_slots[1] + 1, size=self.n // self.geometry.n_los + 1
+        )
+        starts = np.cumsum(gaps) - gaps[0]
+        starts = starts[starts + self.geometry.n_los <= self.n]
+        starts = starts[rng.integers(self.heights_in_turn) :: self.heights_in_turn]
+        return starts, rng.uniform(0.0, 2.0 * np.pi, size=(starts.size, 1))
+
+    def log_ratio(self, wind, starts, phase, point_std):
+        """``log(lidar 10-min HWS std / point_std)`` of the scans at ``starts``."""
+        g = self.geometry
+        if g.kind == "dbs":
+            az = np.broadcast_to(self.az0, (starts.size, self.lag.size))
+        else:
+            az = self.az0[None, :] + phase
+        d = _lidar.beam_unit_vectors_body(g, az)  # (J, K, 3)
+        v_r = np.einsum("jkc,jkc->jk", d, wind[starts[:, None] + self.lag[None, :]])
+        uvw = np.einsum("jck,jk->jc", _lidar.vad_pseudo_inverse(d), v_r)
+        return np.log(np.hypot(uvw[:, 0], uvw[:, 1]).std(ddof=1) / point_std)
+
+
 def _scan_settings(
     caller,
     lidar,
@@ -200,9 +263,8 @@ def _scan_settings(
     turbulence_dt_s,
     point_sample_interval_s,
     record_length_s,
-):
-    """Checked scan settings of the lidar-vs-point simulations: ``(geometry, refocus delay
-    range (s), LOS duration (s), turbulence time step (s))``; messages name ``caller``."""
+) -> _ScanSimulation:
+    """Checked scan settings of the lidar-vs-point simulations; messages name ``caller``."""
     g = _lidar.get_lidar(lidar)
     lo_d, hi_d = (float(v) for v in refocus_delay_s)
     dt = g.los_duration_s
@@ -217,7 +279,17 @@ def _scan_settings(
             f"{caller}: point_sample_interval_s, turbulence_dt_s and record_length_s must be "
             f"> 0, got {point_sample_interval_s!r}, {turbulence_dt_s!r}, {record_length_s!r}"
         )
-    return g, lo_d, hi_d, dt, t_dt
+    t_s, az0 = _lidar.scan_times_azimuths(g, 0.0)
+    return _ScanSimulation(
+        geometry=g,
+        delay_slots=(int(round(lo_d / dt)), int(round(hi_d / dt))),
+        heights_in_turn=int(heights_in_turn),
+        n=int(round(record_length_s / dt)),
+        step=max(int(round(t_dt / dt)), 1),
+        every=max(int(round(point_sample_interval_s / dt)), 1),
+        lag=np.rint(t_s / dt).astype(int),
+        az0=az0,
+    )
 
 
 def lidar_point_log_sd(
@@ -280,7 +352,7 @@ def lidar_point_log_sd(
     ValueError
         For a non-positive interval, delay range, record length, or fewer than 8 records.
     """
-    g, lo_d, hi_d, dt, t_dt = _scan_settings(
+    sim = _scan_settings(
         "lidar_point_log_sd",
         lidar,
         heights_in_turn,
@@ -296,39 +368,16 @@ def lidar_point_log_sd(
         return out
     lo, hi = np.log(np.min(x[ok])), np.log(np.max(x[ok]))
     grid = np.linspace(lo, hi, 5) if hi - lo > 1e-6 else np.array([lo])
-    step = max(int(round(t_dt / dt)), 1)
-    n = int(round(record_length_s / dt))
-    every = max(int(round(point_sample_interval_s / dt)), 1)
     sds = []
     for k, child in enumerate(as_seedsequence(seed).spawn(grid.size)):
         rng = np.random.default_rng(child)
         hws = 42.0 / np.exp(grid[k])  # Lambda_1 = 42 m (z > 60 m): Lambda_1 / U = x
-        x_t = kaimal_series(-(-n // step), dt * step, np.full(n_records, hws), 0.1 * hws, 85.0, rng)
-        x_t = np.repeat(x_t, step, axis=-1)[..., :n]  # held between samples
+        x_t = sim.held_turbulence(rng, n_records, hws, 85.0)
         logs = []
         for r in range(n_records):
-            gaps = g.n_los + rng.integers(
-                int(round(lo_d / dt)), int(round(hi_d / dt)) + 1, size=n // g.n_los + 1
-            )
-            starts = np.cumsum(gaps) - gaps[0]
-            starts = starts[starts + g.n_los <= n][rng.integers(heights_in_turn) :: heights_in_turn]
-            t_s, az0 = _lidar.scan_times_azimuths(g, 0.0)
-            idx = starts[:, None] + np.rint(t_s / dt).astype(int)[None, :]
-            az = az0[None, :] + rng.uniform(0.0, 2.0 * np.pi, size=(starts.size, 1))
-            if g.kind == "dbs":
-                az = np.broadcast_to(az0, idx.shape)
-            d = _lidar.beam_unit_vectors_body(g, az)  # (J, K, 3)
-            p = _lidar.vad_pseudo_inverse(d)  # (J, 3, K)
-            beta = rng.uniform(0.0, 2.0 * np.pi)
-            e = np.array(
-                [[np.cos(beta), np.sin(beta), 0.0], [-np.sin(beta), np.cos(beta), 0.0], [0, 0, 1.0]]
-            )
-            wind = hws * e[0] + x_t[r].T @ e  # (n, 3) body frame
-            v_r = np.einsum("jkc,jkc->jk", d, wind[idx])
-            uvw = np.einsum("jck,jk->jc", p, v_r)
-            lidar_std = np.hypot(uvw[:, 0], uvw[:, 1]).std(ddof=1)
-            point_std = np.hypot(wind[::every, 0], wind[::every, 1]).std(ddof=1)
-            logs.append(np.log(lidar_std / point_std))
+            starts, phase = sim.schedule(rng)
+            wind = sim.wind(hws, x_t[r], rng.uniform(0.0, 2.0 * np.pi))
+            logs.append(sim.log_ratio(wind, starts, phase, sim.point_std(wind)))
         sds.append(np.std(logs, ddof=1))
     sds = np.asarray(sds)
     lx = np.clip(np.log(x[ok]), grid[0], grid[-1])
@@ -401,7 +450,7 @@ def lidar_pair_correlation(
     ValueError
         For invalid scan settings, a non-positive HWS or height, or fewer than 8 records.
     """
-    g, lo_d, hi_d, dt, t_dt = _scan_settings(
+    sim = _scan_settings(
         "lidar_pair_correlation",
         lidar,
         heights_in_turn,
@@ -418,51 +467,18 @@ def lidar_pair_correlation(
     offsets = np.asarray(azimuth_offset_deg, dtype=float)
     grid = np.arange(0.0, 181.0, 30.0) if synchronized else np.array([0.0])
     rng = np.random.default_rng(as_seedsequence(seed))
-    step = max(int(round(t_dt / dt)), 1)
-    n = int(round(record_length_s / dt))
-    every = max(int(round(point_sample_interval_s / dt)), 1)
-    t_s, az0 = _lidar.scan_times_azimuths(g, 0.0)
-    lag = np.rint(t_s / dt).astype(int)
-
-    def schedule():
-        gaps = g.n_los + rng.integers(
-            int(round(lo_d / dt)), int(round(hi_d / dt)) + 1, size=n // g.n_los + 1
-        )
-        starts = np.cumsum(gaps) - gaps[0]
-        starts = starts[starts + g.n_los <= n][rng.integers(heights_in_turn) :: heights_in_turn]
-        return starts, rng.uniform(0.0, 2.0 * np.pi, size=(starts.size, 1))
-
-    def log_ratio(wind, starts, phase, point_std):
-        az = (
-            az0[None, :] + phase
-            if g.kind != "dbs"
-            else np.broadcast_to(az0, (starts.size, lag.size))
-        )
-        d = _lidar.beam_unit_vectors_body(g, az)
-        uvw = np.einsum("jck,jk->jc", _lidar.vad_pseudo_inverse(d),
-                        np.einsum("jkc,jkc->jk", d, wind[starts[:, None] + lag[None, :]]))  # fmt: skip
-        return np.log(np.hypot(uvw[:, 0], uvw[:, 1]).std(ddof=1) / point_std)
-
-    x_t = kaimal_series(
-        -(-n // step), dt * step, np.full(int(n_records), float(hws_ms)), 0.1 * hws_ms,
-        float(height_m), rng,
-    )  # fmt: skip
-    x_t = np.repeat(x_t, step, axis=-1)[..., :n]
+    x_t = sim.held_turbulence(rng, n_records, hws_ms, height_m)
     e1 = np.empty(int(n_records))
     e2 = np.empty((grid.size, int(n_records)))
     for r in range(int(n_records)):
-        beta = rng.uniform(0.0, 2.0 * np.pi)
-        rot = np.array(
-            [[np.cos(beta), np.sin(beta), 0.0], [-np.sin(beta), np.cos(beta), 0.0], [0, 0, 1.0]]
-        )
-        wind = hws_ms * rot[0] + x_t[r].T @ rot
-        point_std = np.hypot(wind[::every, 0], wind[::every, 1]).std(ddof=1)
-        starts, phase = schedule()
-        e1[r] = log_ratio(wind, starts, phase, point_std)
+        wind = sim.wind(hws_ms, x_t[r], rng.uniform(0.0, 2.0 * np.pi))
+        point_std = sim.point_std(wind)
+        starts, phase = sim.schedule(rng)
+        e1[r] = sim.log_ratio(wind, starts, phase, point_std)
         if not synchronized:
-            starts, phase = schedule()
+            starts, phase = sim.schedule(rng)
         for k, d in enumerate(grid):
-            e2[k, r] = log_ratio(wind, starts, phase + np.deg2rad(d), point_std)
+            e2[k, r] = sim.log_ratio(wind, starts, phase + np.deg2rad(d), point_std)
     c = np.array([np.corrcoef(e1, e2[k])[0, 1] for k in range(grid.size)])
     if not synchronized:
         return np.full(offsets.shape, float(c[0]))

@@ -30,8 +30,6 @@ __all__ = [
     "dominant_period_s",
 ]
 
-_G_MS2 = 9.81
-
 
 @dataclass(frozen=True)
 class WaveSystem:
@@ -159,7 +157,7 @@ def tilt_series(
     else:
         par = {k: np.atleast_2d(np.asarray(v, float)) for k, v in systems.items()}
     amp = par["amplitude_deg"]  # (R, S)
-    n_rec, n_sys = amp.shape
+    n_rec = amp.shape[0]
     f_all = np.fft.rfftfreq(n, dt_s)  # (nf,)
     df = f_all[1]
     # JONSWAP above 8 f_p holds < 1e-4 of the variance: synthesise only the bins below

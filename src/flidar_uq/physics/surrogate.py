@@ -113,8 +113,6 @@ class SigmaZSurrogate:
             ]
         )  # (nwd, na, nt, 2): sigma, mean at HWS = 1 m/s
         a_rad = np.deg2rad(amp)[:, None]
-        self.amplitude_nodes_deg = amp
-        self.period_nodes_s = per
         # sigma^2(wd) and E(Z)(wd) are even and 180-deg periodic in wd: cos(2 k wd), k = 0..4,
         # interpolated exactly through the 5 nodes 0, 22.5, ..., 90 deg.
         k = np.arange(WD_NODES_DEG.size)
@@ -185,7 +183,7 @@ class SigmaZSurrogate:
             & (ratio >= LEVER_RATIO_RANGE_S[0])
             & (ratio <= LEVER_RATIO_RANGE_S[1])
         )
-        g2d, a_rad, ok = self._eval(np.zeros((1, 1)), a, t)  # domain mask of amplitude and period
+        _, a_rad, ok = self._eval(np.zeros((1, 1)), a, t)  # domain mask of amplitude and period
         ok = ok & ok_r
         xa = _to_unit(np.where(ok, a, 0.0), *AMPLITUDE_RANGE_DEG).ravel()
         xt = _to_unit(np.log(np.where(ok, t, 1.0)), *self._lt).ravel()

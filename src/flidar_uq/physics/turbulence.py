@@ -22,14 +22,11 @@ Frames: the components ``u, v, w`` returned here are *wind-aligned*
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 __all__ = [
     "IEC_SIGMA_RATIOS",
     "KAIMAL_LENGTH_PER_LAMBDA1",
-    "KaimalParams",
     "kaimal_lambda1_m",
     "kaimal_length_scales_m",
     "kaimal_psd",
@@ -46,25 +43,6 @@ IEC_SIGMA_RATIOS = (1.0, 0.8, 0.5)
 
 _KAPPA = 0.4  # von Karman constant
 _G_MS2 = 9.81
-
-
-@dataclass(frozen=True)
-class KaimalParams:
-    """Parameters of the IEC Kaimal model at one point.
-
-    Attributes
-    ----------
-    hws_ms : float
-        Mean horizontal wind speed at the point (m/s).
-    sigma_u_ms : float
-        Longitudinal turbulence standard deviation (m/s).
-    height_m : float
-        Height above the surface (m); sets the length scales.
-    """
-
-    hws_ms: float
-    sigma_u_ms: float
-    height_m: float
 
 
 #: Kaimal integral length scales of u, v, w per unit Lambda_1 (IEC 61400-1 Ed. 3 Table B.1).

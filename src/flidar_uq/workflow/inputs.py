@@ -525,7 +525,7 @@ def inspect_records(
 
     from flidar_uq.data import qc
     from flidar_uq.data.schema import RECORD_COLUMNS, TRUTH_PREFIX
-    from flidar_uq.inference.record_motion import record_motion
+    from flidar_uq.inference.record_motion import MOTION_DESCRIPTIONS, record_motion
 
     n = len(records)
     names = [c.name for c in RECORD_COLUMNS]
@@ -548,7 +548,7 @@ def inspect_records(
     }
     motion = record_motion(records)
     kinds = motion["motion_description"]
-    counts = {k: int((kinds == k).sum()) for k in ("along_wind", "roll_pitch", "none")}
+    counts = {k: int((kinds == k).sum()) for k in MOTION_DESCRIPTIONS}
 
     warnings: list[str] = []
     blocking = [str(e) for e in reference_problems(records, source)]
