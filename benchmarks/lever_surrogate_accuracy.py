@@ -68,7 +68,7 @@ def main(argv=None) -> pd.DataFrame:
     d = pd.concat(frames, ignore_index=True)
     d["lever_ratio_s"] = d["lever_arm_m"] / d["hws_ms"]
     RESULTS.mkdir(exist_ok=True)
-    d.to_csv(RESULTS / "lever_surrogate_accuracy.csv", index=False)
+    d.to_csv(RESULTS / "lever_surrogate_accuracy.csv", index=False, float_format="%.6g")
 
     err = d[["sigma_z_rel_err", "mean_z_err_over_sigma"]].abs()
     print(f"{len(d)} cases; |error| quantiles (median, 99 %, 99.9 %, max):")
@@ -92,6 +92,8 @@ def main(argv=None) -> pd.DataFrame:
         ax.set_xlabel(label)
         ax.grid(alpha=0.3)
     axes[0].set_xscale("log")
+    axes[0].set_xticks([1.5, 2, 3, 5, 10, 20], labels=["1.5", "2", "3", "5", "10", "20"])
+    axes[0].minorticks_off()
     axes[0].set_ylabel("|surrogate - integral|")
     axes[0].legend()
     fig.suptitle(
