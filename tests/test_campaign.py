@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -173,9 +175,13 @@ def test_imu_gaps_and_outages_are_flagged_not_dropped(tiny):
 # --------------------------------------------------------------------------- determinism
 
 
-def test_same_seed_identical_and_independent_of_chunking_and_workers():
+def test_same_seed_identical_and_independent_of_chunking_and_workers(caplog):
     sc = load_scenario("tiny") | {"n_records": 10}
-    a = generate_campaign(sc, 3, chunk_records=3).records
+    with caplog.at_level(logging.INFO, logger="flidar_uq.campaign.physics_mode"):
+        a = generate_campaign(sc, 3, chunk_records=3).records
+    # progress in the log, chunk by chunk (3 + 3 + 3 + 1 records)
+    done = [r.getMessage().split(" (")[0] for r in caplog.records if "records (" in r.getMessage()]
+    assert done == [f"campaign tiny: {k} of 10 records" for k in (3, 6, 9, 10)]
     b = generate_campaign(sc, 3, chunk_records=10).records
     pd.testing.assert_frame_equal(a, b)
     c = generate_campaign(sc, np.random.SeedSequence(3), chunk_records=4, n_workers=2).records

@@ -1,5 +1,7 @@
 """The record motion model: per-record sigma_Z description and the global fit on it."""
 
+import logging
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -96,13 +98,21 @@ def test_record_model_recovers_known_parameters(seed):
     assert "motion_scale_warning" not in fit.info
 
 
-def test_lever_arm_prior_from_geometry_pulls_the_lever_arm():
+def test_lever_arm_prior_from_geometry_pulls_the_lever_arm(caplog):
     truth = {"rho": 0.0, "kappa": 0.03, "kappa_z": 0.15, "lever_arm_m": 2.5, "motion_scale": 1.0}
     rec = _draw_records(np.random.default_rng(5), 300, truth)
-    fit = fit_record_model(
-        rec, seed=5, lever_arm_prior=(2.5, 0.05), settings=SamplerSettings(nsteps=150)
-    )
+    with caplog.at_level(logging.INFO, logger="flidar_uq.inference.sampler"):
+        fit = fit_record_model(
+            rec, seed=5, lever_arm_prior=(2.5, 0.05), settings=SamplerSettings(nsteps=150)
+        )
     assert np.std(fit.flat("lever_arm_m")) < 0.06
+    # the sampler's phases in the log (progress of the long record fit), steps growing
+    phases = [r.getMessage() for r in caplog.records]
+    assert phases[0].startswith("record model: burn-in, first half,")
+    assert phases[1].startswith("record model: burn-in done,")
+    assert phases[2].startswith("record model: main phase,")
+    steps = [int(p.split(" steps per walker")[0].rsplit(" ", 1)[1]) for p in phases]
+    assert steps == sorted(steps) and steps[2] >= 150
     with pytest.raises(ValueError, match="lever_arm_prior"):
         fit_record_model(rec, seed=5, lever_arm_prior=(2.5, 0.0))
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -13,7 +15,7 @@ from flidar_uq.inference import GlobalFit
 from flidar_uq.physics.surrogate import get_surrogate
 
 
-def test_additive_sources_give_their_analytic_shares(rng):
+def test_additive_sources_give_their_analytic_shares(rng, caplog):
     """Y = A (shared by all records) + B_i (independent per record): the group mean has
     Var = var(A) + var(B) / n, and holding either source removes exactly its part."""
     nd, n = 20000, 25
@@ -21,7 +23,11 @@ def test_additive_sources_give_their_analytic_shares(rng):
     b = rng.normal(0.0, 0.01, (nd, n))
     draws = {(): a[:, None] + b, ("rho",): np.median(a) + b, ("sampling",): a[:, None] + 0 * b}
     keys = {"campaign": pd.DataFrame({"height_m": np.full(n, 80.0)})}
-    tab = uncertainty_budget(draws.get, keys, np.ones(n, bool), sources=("rho", "sampling"))
+    with caplog.at_level(logging.INFO, logger="flidar_uq.correction.uncertainty_budget"):
+        tab = uncertainty_budget(draws.get, keys, np.ones(n, bool), sources=("rho", "sampling"))
+    # a progress line per pass: every source drawn, then each held
+    passes = [r.getMessage().split(" (")[0] for r in caplog.records]
+    assert passes == [f"uncertainty budget: {k} of 3 passes" for k in (1, 2, 3)]
     var_a, var_b = 0.004**2, 0.01**2 / n
     row = tab.iloc[0]
     assert row.n == n

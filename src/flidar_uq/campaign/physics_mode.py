@@ -56,6 +56,7 @@ started from the signs of the simulated radial speeds.
 from __future__ import annotations
 
 import contextlib
+import logging
 import multiprocessing as mp
 import os
 from collections.abc import Mapping
@@ -75,6 +76,7 @@ from flidar_uq.physics import lidar as _lidar
 from flidar_uq.physics.motion import rotation_matrix
 from flidar_uq.physics.seastate import tilt_series
 from flidar_uq.physics.turbulence import draw_sigma_u_ms, kaimal_series, wind_enu_ms
+from flidar_uq.progress import ProgressLog
 from flidar_uq.seeding import as_seedsequence
 from flidar_uq.threads import BLAS_THREADS, blas_threads
 
@@ -82,6 +84,8 @@ __all__ = [
     "CampaignOutput",
     "generate_campaign",
 ]
+
+log = logging.getLogger(__name__)
 
 #: CNR written for valid lines of sight of the virtual lidar (dB; above seed 001's -23 dB).
 GOOD_CNR_DB = -10.0
@@ -730,7 +734,9 @@ def generate_campaign(
         ``n_workers``. BLAS runs single-threaded (:mod:`flidar_uq.threads`), in-process and
         in the workers.
     progress : bool
-        Show a tqdm progress bar over chunks.
+        Show a tqdm progress bar over chunks. Whatever its value, the records done, the
+        time taken and the time left are logged at INFO every 10 %
+        (:class:`flidar_uq.progress.ProgressLog`; a rule's log shows them).
     return_imu, return_los : bool
         Also return the raw IMU series / the floating lidar's LOS-level data
         (LOS data are large: ~19,000 rows per record; use for small scenarios).
@@ -774,11 +780,13 @@ def generate_campaign(
         from tqdm.auto import tqdm
 
         bar = tqdm(total=n, desc=f"campaign {s['name']}", unit="rec")
+    done = ProgressLog(log, f"campaign {s['name']}", n, "records")
     results = []
     if workers == 1:
         with blas_threads():
             for job in jobs:
                 results.append(_run_chunk(job))
+                done.update(len(job[2]))
                 if bar is not None:
                     bar.update(len(job[2]))
     else:
@@ -790,6 +798,7 @@ def generate_campaign(
         ):
             for job, res in zip(jobs, pool.map(_run_chunk, jobs), strict=True):
                 results.append(res)
+                done.update(len(job[2]))
                 if bar is not None:
                     bar.update(len(job[2]))
     if bar is not None:

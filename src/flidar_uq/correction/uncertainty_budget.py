@@ -28,14 +28,18 @@ sampling of the measured 10-min std.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
 
 from flidar_uq.correction.propagation import UNCERTAINTY_SOURCES
+from flidar_uq.progress import ProgressLog
 
 __all__ = ["uncertainty_budget"]
+
+log = logging.getLogger(__name__)
 
 
 def _group_mean_draws(ti_draws: np.ndarray, codes: np.ndarray, ngroups: int) -> np.ndarray:
@@ -132,8 +136,14 @@ def uncertainty_budget(
         lo, hi = np.quantile(y, q, axis=0)
         return hi - lo
 
+    # one pass with every source drawn, then one with each source held at its centre
+    passes = ProgressLog(log, "uncertainty budget", 1 + len(sources), "passes", step_pct=1.0)
     y_all = reduce(())
-    y_held = {k: reduce((k,)) for k in sources}
+    passes.update()
+    y_held = {}
+    for k in sources:
+        y_held[k] = reduce((k,))
+        passes.update()
     out = []
     for name, (groups, codes) in tables.items():
         t = groups.copy()

@@ -360,7 +360,7 @@ def fit_record_model(
         return _diagnostics(nat, list(RECORD_MODEL_NAMES), gs)
 
     chains, diag, reasons = _run_ensembles(
-        log_prob_record_model, args, init, ndim, gs, seedseq, check
+        log_prob_record_model, args, init, ndim, gs, seedseq, check, label="record model"
     )
     thin = _thin(chains, settings.ndraws)
     draws = {

@@ -4,12 +4,17 @@ proposal fitting and the adaptive extension of the main phase.
 
 from __future__ import annotations
 
+import logging
+import time
+
 import emcee
 import numpy as np
 from emcee.ensemble import walkers_independent
 from scipy import optimize, stats
 
 from flidar_uq.inference.moves import BlockDEMove, BlockDESnookerMove, StudentTIndependenceProposal
+
+log = logging.getLogger(__name__)
 
 # Sampler tuning, chosen with the speed-accuracy benchmark and the per-bin
 # autocorrelation times of the default campaign (docs/inference.md):
@@ -84,7 +89,7 @@ def _sampler(log_prob, args, ndim, nwalk, moves, random_state):
     return sm
 
 
-def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq, check):
+def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq, check, *, label=None):
     """Run ``settings.nensembles`` independent ensembles as blocks of one emcee sampler.
 
     Each ensemble's initial positions come from its own child of ``seedseq`` (``init_fn``:
@@ -109,6 +114,9 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq, check):
         (nensembles, nsteps', nwalkers, ndim): the final convergence verdict
         (:func:`~flidar_uq.inference.diagnostics._diagnostics` in the reported
         coordinates), with a ``"tau"`` per parameter in ``diagnostics``.
+    label : str, optional
+        If given, each phase's end (steps so far, seconds since the start) is logged at
+        INFO under this name: the progress of a long single fit (the record model).
 
     Returns
     -------
@@ -116,6 +124,14 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq, check):
         The chains, shape (nensembles, nsteps', nwalkers, ndim), and ``check`` of them.
     """
     nens, nw = settings.nensembles, settings.nwalkers
+    t0 = time.monotonic()
+
+    def phase_done(what, steps):
+        if label is not None:
+            log.info(
+                "%s: %s, %d steps per walker, %.1f s", label, what, steps, time.monotonic() - t0
+            )
+
     *children, ss_mcmc, ss_check = seedseq.spawn(nens + 2)
     p0 = np.concatenate([init_fn(np.random.default_rng(c), nw) for c in children])
     random_state = np.random.RandomState(ss_mcmc.generate_state(4, np.uint32)).get_state()
@@ -126,6 +142,7 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq, check):
     burn = _sampler(log_prob, args, ndim, nens * nw, burn_moves, random_state)
     nburn = max(settings.nburn, 4)
     state = burn.run_mcmc(p0, nburn // 2, progress=False)
+    phase_done("burn-in, first half", nburn // 2)
     random_state = burn.random_state
 
     def main_moves(prop, weight):
@@ -141,6 +158,7 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq, check):
     prop = _fit_proposal(burn, nens, _FIT_FRAC) if w_ind > 0 else None
     burn2 = _sampler(log_prob, args, ndim, nens * nw, main_moves(prop, w_ind), random_state)
     state = burn2.run_mcmc(state, nburn - nburn // 2, skip_initial_state_check=True)
+    phase_done("burn-in done", nburn)
     if w_ind > 0:
         prop = _fit_proposal(burn2, nens, 0.0)
         # the independence move's share follows how well the fitted Student-t matches the
@@ -150,6 +168,7 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq, check):
         w_ind *= min(1.0, acc / _INDEPENDENCE_FULL_ACCEPTANCE)
     main = _sampler(log_prob, args, ndim, nens * nw, main_moves(prop, w_ind), burn2.random_state)
     main.run_mcmc(state, settings.nsteps, skip_initial_state_check=True)
+    phase_done("main phase", nburn + settings.nsteps)
 
     def chains():
         return np.moveaxis(main.get_chain().reshape(-1, nens, nw, ndim), 1, 0)
@@ -168,6 +187,7 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq, check):
         extra = min(need, cap) - nsteps
         main.run_mcmc(None, extra, skip_initial_state_check=True)
         nsteps += extra
+        phase_done("main phase extended (convergence not yet shown)", nburn + nsteps)
         ch = chains()
         diag, reasons = check(ch)
     return ch, diag, reasons

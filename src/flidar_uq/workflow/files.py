@@ -62,6 +62,8 @@ def setup_logging(log_path: str | os.PathLike) -> None:
         force=True,
     )
     logging.captureWarnings(True)
+    # arviz announces its backends at INFO on import: not the step's news
+    logging.getLogger("arviz").setLevel(logging.WARNING)
     if os.name == "posix":  # getrusage; registered once however often this is called
         atexit.unregister(_log_job_resources)
         atexit.register(_log_job_resources)

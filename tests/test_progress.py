@@ -1,0 +1,66 @@
+"""ProgressLog: the progress lines of long steps (flidar_uq.progress)."""
+
+from __future__ import annotations
+
+import logging
+
+import pytest
+
+from flidar_uq.progress import ProgressLog
+
+
+class _Clock:
+    def __init__(self):
+        self.t = 100.0
+
+    def __call__(self):
+        return self.t
+
+
+def _lines(caplog):
+    return [r.getMessage() for r in caplog.records if r.name == "test.progress"]
+
+
+def test_a_line_at_every_mark_with_the_time_left(caplog):
+    clock = _Clock()
+    log = logging.getLogger("test.progress")
+    with caplog.at_level(logging.INFO, logger="test.progress"):
+        p = ProgressLog(log, "campaign x", 200, "records", step_pct=25.0, clock=clock)
+        for _ in range(200):
+            clock.t += 0.5  # 0.5 s a record
+            p.update()
+    lines = _lines(caplog)
+    assert lines == [
+        "campaign x: 50 of 200 records (25 %) in 25.0 s, about 75 s left",
+        "campaign x: 100 of 200 records (50 %) in 50.0 s, about 50 s left",
+        "campaign x: 150 of 200 records (75 %) in 75.0 s, about 25 s left",
+        "campaign x: 200 of 200 records (100 %) in 100.0 s",
+    ]
+
+
+def test_a_big_update_passing_several_marks_logs_once(caplog):
+    clock = _Clock()
+    log = logging.getLogger("test.progress")
+    with caplog.at_level(logging.INFO, logger="test.progress"):
+        p = ProgressLog(log, "w", 10, "chunks", clock=clock)
+        p.update(3)  # 30 %: one line, next mark 40 %
+        p.update(0)
+        p.update(1)  # 40 %
+        p.update(6)  # 100 %
+    assert [m.split(" (")[0] for m in _lines(caplog)] == [
+        "w: 3 of 10 chunks",
+        "w: 4 of 10 chunks",
+        "w: 10 of 10 chunks",
+    ]
+
+
+def test_nothing_to_do_logs_nothing_and_bad_settings_raise(caplog):
+    log = logging.getLogger("test.progress")
+    with caplog.at_level(logging.INFO, logger="test.progress"):
+        ProgressLog(log, "w", 0, "records").update(0)
+    assert _lines(caplog) == []
+    for kw in ({"step_pct": 0.0}, {"step_pct": 150.0}):
+        with pytest.raises(ValueError, match="step_pct"):
+            ProgressLog(log, "w", 5, "records", **kw)
+    with pytest.raises(ValueError, match="total"):
+        ProgressLog(log, "w", -1, "records")
