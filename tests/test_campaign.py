@@ -177,14 +177,24 @@ def test_imu_gaps_and_outages_are_flagged_not_dropped(tiny):
 
 def test_same_seed_identical_and_independent_of_chunking_and_workers(caplog):
     sc = load_scenario("tiny") | {"n_records": 10}
-    with caplog.at_level(logging.INFO, logger="flidar_uq.campaign.physics_mode"):
-        a = generate_campaign(sc, 3, chunk_records=3).records
-    # progress in the log, chunk by chunk (3 + 3 + 3 + 1 records)
-    done = [r.getMessage().split(" (")[0] for r in caplog.records if "records (" in r.getMessage()]
-    assert done == [f"campaign tiny: {k} of 10 records" for k in (3, 6, 9, 10)]
+
+    def progress(run):
+        caplog.clear()
+        with caplog.at_level(logging.INFO, logger="flidar_uq.campaign.physics_mode"):
+            out = run()
+        lines = [r.getMessage().split(" (")[0] for r in caplog.records]
+        return out.records, lines
+
+    # progress in the log, chunk by chunk, in-process (3 + 3 + 3 + 1 records) and from
+    # two worker processes (4 + 4 + 2: the pipeline's campaign rule has threads: 2)
+    a, lines = progress(lambda: generate_campaign(sc, 3, chunk_records=3))
+    assert lines == [f"campaign tiny: {k} of 10 records" for k in (3, 6, 9, 10)]
     b = generate_campaign(sc, 3, chunk_records=10).records
     pd.testing.assert_frame_equal(a, b)
-    c = generate_campaign(sc, np.random.SeedSequence(3), chunk_records=4, n_workers=2).records
+    c, lines = progress(
+        lambda: generate_campaign(sc, np.random.SeedSequence(3), chunk_records=4, n_workers=2)
+    )
+    assert lines == [f"campaign tiny: {k} of 10 records" for k in (4, 8, 10)]
     pd.testing.assert_frame_equal(a, c)
     d = generate_campaign(sc, 4).records
     assert not np.allclose(a["hws_std_ms"], d["hws_std_ms"], equal_nan=True)

@@ -54,6 +54,35 @@ def test_a_big_update_passing_several_marks_logs_once(caplog):
     ]
 
 
+def test_a_step_not_dividing_100_still_ends_with_the_completion_line(caplog):
+    clock = _Clock()
+    log = logging.getLogger("test.progress")
+    with caplog.at_level(logging.INFO, logger="test.progress"):
+        p = ProgressLog(log, "w", 10, "chunks", step_pct=30.0, clock=clock)
+        for _ in range(10):
+            clock.t += 0.2
+            p.update()
+    assert _lines(caplog) == [
+        "w: 3 of 10 chunks (30 %) in 0.6 s, about 1.4 s left",
+        "w: 6 of 10 chunks (60 %) in 1.2 s, about 0.8 s left",
+        "w: 9 of 10 chunks (90 %) in 1.8 s, about 0.2 s left",
+        "w: 10 of 10 chunks (100 %) in 2.0 s",
+    ]
+
+
+def test_counting_past_the_total_or_by_fractions_is_an_error():
+    p = ProgressLog(logging.getLogger("test.progress"), "w", 5, "records")
+    p.update(4)
+    with pytest.raises(ValueError, match="cannot count 2 more records"):
+        p.update(2)
+    with pytest.raises(ValueError, match="cannot count -1 more"):
+        p.update(-1)
+    with pytest.raises(TypeError):
+        p.update(1.9)
+    p.update(1)
+    assert p.done == 5
+
+
 def test_nothing_to_do_logs_nothing_and_bad_settings_raise(caplog):
     log = logging.getLogger("test.progress")
     with caplog.at_level(logging.INFO, logger="test.progress"):

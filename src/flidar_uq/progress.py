@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import math
+import operator
 import time
 from collections.abc import Callable
 
@@ -20,7 +21,8 @@ __all__ = ["ProgressLog"]
 
 
 class ProgressLog:
-    """Log ``done of total unit (pct %) in t s, about r s left`` at every ``step_pct`` %.
+    """Log ``done of total unit (pct %) in t s, about r s left`` at every ``step_pct`` %,
+    and always when the work is complete.
 
     Parameters
     ----------
@@ -61,20 +63,38 @@ class ProgressLog:
         self._next_pct = self.step_pct
 
     def update(self, n: int = 1) -> None:
-        """Count ``n`` more units done; log a line when a ``step_pct`` mark is passed."""
-        self.done += int(n)
+        """Count ``n`` (an integer >= 0) more units done; log a line when a ``step_pct``
+        mark is passed or the work is complete.
+
+        Raises
+        ------
+        ValueError
+            If ``n`` is negative or the count would exceed ``total`` (a caller's bug).
+        """
+        n = operator.index(n)  # 1.9 units is a bug, not 1
+        if n < 0 or self.done + n > self.total:
+            raise ValueError(
+                f"ProgressLog {self.what!r}: cannot count {n} more {self.unit} "
+                f"({self.done} of {self.total} done)"
+            )
+        self.done += n
         if self.total == 0:
             return
         pct = 100.0 * self.done / self.total
-        if pct + 1e-9 < self._next_pct:
+        complete = self.done == self.total
+        if pct < self._next_pct and not complete:
             return
-        # the next mark above the current share (several marks passed at once: one line)
-        self._next_pct = (math.floor(pct / self.step_pct + 1e-9) + 1) * self.step_pct
+        # the next mark above the current share (several marks passed at once: one line);
+        # a step that does not divide 100 still ends with the completion line
+        self._next_pct = (math.floor(pct / self.step_pct) + 1) * self.step_pct
+        if complete:
+            self._next_pct = math.inf
         elapsed = self.clock() - self.start_s
-        if self.done >= self.total:
+        if complete:
             tail = ""
         else:
-            tail = f", about {elapsed * (self.total - self.done) / self.done:.0f} s left"
+            left = elapsed * (self.total - self.done) / self.done
+            tail = f", about {left:.0f} s left" if left >= 10 else f", about {left:.1f} s left"
         self.logger.info(
             "%s: %d of %d %s (%.0f %%) in %.1f s%s",
             self.what,

@@ -1,6 +1,7 @@
 """emcee moves of the sampler: block-wise DE and DE-snooker moves that own their parameters
-and proposals (emcee's ``setup`` / ``get_proposal`` hooks, nothing private of emcee read),
-and the Student-t independence proposal.
+and proposals (built on emcee's public ``Move.propose``, with the per-block hook names of
+emcee's ``RedBlueMove``, ``setup`` / ``get_proposal``; nothing private of emcee read), and
+the Student-t independence proposal.
 """
 
 from __future__ import annotations
@@ -18,7 +19,8 @@ class BlockRedBlueMove(emcee.moves.Move):
     :class:`emcee.moves.RedBlueMove` does within one ensemble), so the blocks stay
     independent Markov chains while one vectorised log-probability call serves all.
 
-    Subclasses own their parameters and implement emcee's hooks: ``setup(coords)``
+    Subclasses own their parameters and implement the hooks of emcee's ``RedBlueMove``
+    (called here from :meth:`propose`): ``setup(coords)``
     (called with one block's walkers before each step) and ``get_proposal(s, c, random)``
     (one block: the moving sub-ensemble ``s``, the list ``c`` of complementary
     sub-ensembles), or, vectorised over the blocks, :meth:`get_block_proposal`.
