@@ -21,15 +21,21 @@ def _lines(caplog):
     return [r.getMessage() for r in caplog.records if r.name == "test.progress"]
 
 
-def test_a_line_at_every_mark_with_the_time_left(caplog):
+def _logged(caplog, updates, *, seconds_each=0.0, **kw):
+    """The lines a ProgressLog(**kw) logs for ``updates``, the clock advancing
+    ``seconds_each`` before each update."""
     clock = _Clock()
-    log = logging.getLogger("test.progress")
     with caplog.at_level(logging.INFO, logger="test.progress"):
-        p = ProgressLog(log, "campaign x", 200, "records", step_pct=25.0, clock=clock)
-        for _ in range(200):
-            clock.t += 0.5  # 0.5 s a record
-            p.update()
-    lines = _lines(caplog)
+        p = ProgressLog(logging.getLogger("test.progress"), clock=clock, **kw)
+        for n in updates:
+            clock.t += seconds_each
+            p.update(n)
+    return _lines(caplog)
+
+
+def test_a_line_at_every_mark_with_the_time_left(caplog):
+    kw = dict(what="campaign x", total=200, unit="records", step_pct=25.0)
+    lines = _logged(caplog, [1] * 200, seconds_each=0.5, **kw)  # 0.5 s a record
     assert lines == [
         "campaign x: 50 of 200 records (25 %) in 25.0 s, about 75 s left",
         "campaign x: 100 of 200 records (50 %) in 50.0 s, about 50 s left",
@@ -39,15 +45,9 @@ def test_a_line_at_every_mark_with_the_time_left(caplog):
 
 
 def test_a_big_update_passing_several_marks_logs_once(caplog):
-    clock = _Clock()
-    log = logging.getLogger("test.progress")
-    with caplog.at_level(logging.INFO, logger="test.progress"):
-        p = ProgressLog(log, "w", 10, "chunks", clock=clock)
-        p.update(3)  # 30 %: one line, next mark 40 %
-        p.update(0)
-        p.update(1)  # 40 %
-        p.update(6)  # 100 %
-    assert [m.split(" (")[0] for m in _lines(caplog)] == [
+    # 30 %: one line, next mark 40 %; nothing; 40 %; 100 %
+    lines = _logged(caplog, [3, 0, 1, 6], what="w", total=10, unit="chunks")
+    assert [m.split(" (")[0] for m in lines] == [
         "w: 3 of 10 chunks",
         "w: 4 of 10 chunks",
         "w: 10 of 10 chunks",
@@ -55,14 +55,8 @@ def test_a_big_update_passing_several_marks_logs_once(caplog):
 
 
 def test_a_step_not_dividing_100_still_ends_with_the_completion_line(caplog):
-    clock = _Clock()
-    log = logging.getLogger("test.progress")
-    with caplog.at_level(logging.INFO, logger="test.progress"):
-        p = ProgressLog(log, "w", 10, "chunks", step_pct=30.0, clock=clock)
-        for _ in range(10):
-            clock.t += 0.2
-            p.update()
-    assert _lines(caplog) == [
+    kw = dict(what="w", total=10, unit="chunks", step_pct=30.0)
+    assert _logged(caplog, [1] * 10, seconds_each=0.2, **kw) == [
         "w: 3 of 10 chunks (30 %) in 0.6 s, about 1.4 s left",
         "w: 6 of 10 chunks (60 %) in 1.2 s, about 0.8 s left",
         "w: 9 of 10 chunks (90 %) in 1.8 s, about 0.2 s left",

@@ -782,25 +782,23 @@ def generate_campaign(
         bar = tqdm(total=n, desc=f"campaign {s['name']}", unit="rec")
     done = ProgressLog(log, f"campaign {s['name']}", n, "records")
     results = []
-    if workers == 1:
-        with blas_threads():
-            for job in jobs:
-                results.append(_run_chunk(job))
-                done.update(len(job[2]))
-                if bar is not None:
-                    bar.update(len(job[2]))
-    else:
-        # spawned workers with single-threaded BLAS: threads of several processes would
-        # compete for the same cores (scipy's batched least squares in Welch detrending)
-        with (
-            _spawned_workers_blas_env(),
-            ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool,
-        ):
-            for job, res in zip(jobs, pool.map(_run_chunk, jobs), strict=True):
-                results.append(res)
-                done.update(len(job[2]))
-                if bar is not None:
-                    bar.update(len(job[2]))
+    with contextlib.ExitStack() as stack:
+        if workers == 1:
+            stack.enter_context(blas_threads())
+            chunks = map(_run_chunk, jobs)  # lazy: each chunk runs under the BLAS limit
+        else:
+            # spawned workers with single-threaded BLAS: threads of several processes would
+            # compete for the same cores (scipy's batched least squares in Welch detrending)
+            stack.enter_context(_spawned_workers_blas_env())
+            pool = stack.enter_context(
+                ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
+            )
+            chunks = pool.map(_run_chunk, jobs)
+        for job, res in zip(jobs, chunks, strict=True):
+            results.append(res)
+            done.update(len(job[2]))
+            if bar is not None:
+                bar.update(len(job[2]))
     if bar is not None:
         bar.close()
     rows = [r for res in results for r in res[0]]
