@@ -192,6 +192,42 @@ def test_long_gap_gives_nan_statistics_but_keeps_the_window():
     assert out.iloc[1][["roll_amplitude_deg", "roll_period_s", "pitch_amplitude_deg"]].isna().all()
 
 
+def test_motion_statistics_arrays_are_the_frame_version_and_keep_empty_windows(rng):
+    # three windows, the middle one without any finite sample; the frame version drops it
+    t = np.arange(0, 1800, 1 / FS)
+    roll, pitch = sine(3.0, 4.0, 0, t), sine(2.0, 6.0, 0.3, t) + 0.05 * rng.standard_normal(t.size)
+    roll[(t >= 600) & (t < 1200)] = np.nan
+    pitch[(t >= 600) & (t < 1200)] = np.nan
+    df = imu_frame(t, roll, pitch, t0=1.4274e9)
+    frame = imu.motion_statistics(df, min_coverage_pct=50.0)
+    t_ns = pd.DatetimeIndex(df["timestamp"]).as_unit("ns").asi8
+    start_ns, cols, present = imu.motion_statistics_arrays(
+        t_ns, df[["roll_deg", "pitch_deg"]].to_numpy(), min_coverage_pct=50.0
+    )
+    assert present.tolist() == [True, False, True]
+    assert set(cols) == set(imu.MOTION_STAT_COLUMNS)
+    assert (pd.to_datetime(start_ns[present], utc=True) == frame["timestamp"]).all()
+    for key in imu.MOTION_STAT_COLUMNS:  # bit for bit
+        assert cols[key][present].tobytes() == frame[key].to_numpy().tobytes(), key
+    assert np.isnan(cols["roll_amplitude_deg"][1]) and cols["imu_availability_pct"][1] == 0.0
+    with pytest.raises(ValueError, match="amplitude_method"):
+        imu.motion_statistics_arrays(t_ns, df[["roll_deg", "pitch_deg"]], amplitude_method="x")
+
+
+def test_detrend_without_gaps_is_the_masked_computation_bit_for_bit(rng):
+    # rows without a NaN take the unmasked shortcut; beside a row with a gap they take
+    # the masked computation: the same bits either way (the generator relies on it)
+    x = np.cumsum(rng.standard_normal((5, 3000)), axis=-1)
+    gappy = x[0].copy()
+    gappy[100:200] = np.nan
+    fast = imu._detrend(x)
+    masked = imu._detrend(np.vstack([x, gappy]))[:5]
+    assert fast.tobytes() == masked.tobytes()
+    assert imu._fill(x) is x  # nothing to fill: no copy
+    filled = imu._fill(np.vstack([x, gappy]))
+    assert np.isfinite(filled).all() and filled[:5].tobytes() == x.tobytes()
+
+
 def test_zero_crossing_methods_selectable():
     t = np.arange(0, 600, 1 / FS)
     df = imu_frame(t, sine(3.0, 4.0, 0.1, t), sine(2.0, 6.0, 0.1, t))

@@ -37,6 +37,27 @@ def test_tilt_vector_convention_pitch_east_roll_minus_north_yaw_turns_it():
     assert abs(a) == pytest.approx(2.0) and c == pytest.approx(0.0, abs=1e-12)
 
 
+def test_several_wind_directions_per_series_equal_one_row_each_bit_for_bit(rng):
+    # one attitude series per record, one wind direction per height: the trigonometry
+    # once per record gives the rows of the per-(record, height) computation exactly
+    t = np.arange(0, 600, 1 / FS)
+    roll, pitch = tilt_series(t.size, 1 / FS, [WaveSystem(3.0, 6.0, 3.3, 30.0, 20.0)], rng)
+    att = np.stack([roll, 0.5 * roll]), np.stack([pitch, -pitch])  # 2 records
+    yaw = np.stack([np.full(t.size, 20.0), 20.0 + rng.standard_normal(t.size)])
+    wd = np.array([[10.0, 95.0, 250.0], [300.0, 301.0, 47.0]])  # 3 heights each
+    many = tilt_band_statistics(*att, yaw, wd, FS)
+    rows = np.repeat([0, 1], 3)
+    one = tilt_band_statistics(att[0][rows], att[1][rows], yaw[rows], wd.ravel(), FS)
+    for name in ("var_along_deg2", "var_across_deg2", "var_outside_deg2", "period_s", "m0_deg2"):
+        assert getattr(many, name).tobytes() == getattr(one, name).tobytes(), name
+    e, n = ms.tilt_vector_en(att[0], att[1], yaw)
+    a, c = ms.project_tilt_on_wind_deg(e, n, wd[:, :1])
+    a2, c2 = ms.wind_frame_tilt_deg(att[0], att[1], yaw, wd[:, :1])
+    assert a.tobytes() == a2.tobytes() and c.tobytes() == c2.tobytes()
+    with pytest.raises(ValueError, match="one row per series"):
+        tilt_band_statistics(*att, yaw, wd[:1], FS)
+
+
 @pytest.mark.parametrize("period_s", [2.3, 4.0, 9.1])
 def test_pure_pitch_sinusoid_along_wind_share_one_amplitude_and_period(period_s):
     x = 3.0 * np.sin(2 * np.pi * T10 / period_s + 0.4)

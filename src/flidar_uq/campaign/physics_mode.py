@@ -646,39 +646,50 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                     }
                 )
             )
-    # IMU statistics with the data layer's estimators (issue 3), one window per record
-    # (one frame for the chunk, built from the records' arrays)
-    imu_df = pd.DataFrame(
-        {
-            "timestamp": pd.DatetimeIndex(np.concatenate(imu_ns).view("M8[ns]"), tz="UTC"),
-            "roll_deg": np.concatenate([a[0] for a in imu_att]),
-            "pitch_deg": np.concatenate([a[1] for a in imu_att]),
-            "yaw_deg": np.concatenate([a[2] for a in imu_att]),
-        }
-    )
+    # IMU statistics with the data layer's estimators (issue 3), one window per record,
+    # from the chunk's arrays
+    att = [np.stack([a[k] for a in imu_att]) for k in range(3)]  # roll, pitch, yaw (C, n)
     p_lo, p_hi = settings["imu"]["period_range_s"]
-    stats = _imu.motion_statistics(
-        imu_df, window_s=t_len, period_min_s=float(p_lo), period_max_s=float(p_hi)
-    ).set_index("timestamp")
-    # each row's window (every record has IMU samples, so every window is present)
-    stats = stats.reindex(pd.DatetimeIndex([r["timestamp"] for r in rows]))
-    for key in _imu.MOTION_STAT_COLUMNS:
-        for r, v in zip(rows, stats[key].to_numpy(np.float64).tolist(), strict=True):
+    start_ns, stats, present = _imu.motion_statistics_arrays(
+        np.concatenate(imu_ns),
+        np.stack([att[0].ravel(), att[1].ravel()], axis=-1),
+        window_s=t_len,
+        period_min_s=float(p_lo),
+        period_max_s=float(p_hi),
+    )
+    # each row's window: every record has IMU sample times, so every window exists (a
+    # window without a finite sample has no statistics)
+    row_ns = np.array([r["timestamp"].value for r in rows], np.int64)
+    win = np.searchsorted(start_ns, row_ns)
+    if not np.array_equal(start_ns[np.minimum(win, start_ns.size - 1)], row_ns):
+        raise RuntimeError("campaign: a record without its IMU window")  # a bug, not input
+    for key, col in stats.items():
+        for r, v in zip(rows, np.where(present, col, np.nan)[win].tolist(), strict=True):
             r[key] = v
     # tilt along and across the wind (each row's own measured wind direction), its
-    # spectral moments and periods: the per-record motion description (docs/data-format.md)
-    per_row = np.repeat(np.arange(len(series)), n_h)
-    att_rows = [np.stack([a[k] for a in imu_att])[per_row] for k in range(3)]
-    spec = _imu.tilt_band_statistics(*att_rows, np.array([r["wd_mean_deg"] for r in rows]), rate)
+    # spectral moments and periods: the per-record motion description (docs/data-format.md);
+    # the attitude's trigonometry once per record for all its heights
+    wd_rows = np.array([r["wd_mean_deg"] for r in rows]).reshape(n_c, n_h)
+    spec = _imu.tilt_band_statistics(*att, wd_rows, rate)
     for key, col in _imu.tilt_spectrum_columns(spec).items():
         for r, v in zip(rows, col, strict=True):
             r[key] = float(v)
     # the buoy's mean heading over each record, as a compass would report it
-    for r, v in zip(rows, _imu.heading_mean_deg(att_rows[2]), strict=True):
+    for r, v in zip(rows, np.repeat(_imu.heading_mean_deg(att[2]), n_h), strict=True):
         r["heading_mean_deg"] = float(v)
+    imu_df = None
+    if want_imu:
+        imu_df = pd.DataFrame(
+            {
+                "timestamp": pd.DatetimeIndex(np.concatenate(imu_ns).view("M8[ns]"), tz="UTC"),
+                "roll_deg": att[0].ravel(),
+                "pitch_deg": att[1].ravel(),
+                "yaw_deg": att[2].ravel(),
+            }
+        )
     return (
         rows,
-        imu_df if want_imu else None,
+        imu_df,
         pd.concat(los_frames, ignore_index=True) if los_frames else None,
     )
 

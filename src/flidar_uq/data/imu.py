@@ -43,8 +43,9 @@ from flidar_uq.data.metrics import pearson_r
 from flidar_uq.data.schema import TILT_SPECTRUM_COLUMNS
 from flidar_uq.physics.motion_spectrum import (
     TiltBandSpectrum,
+    project_tilt_on_wind_deg,
     tilt_band_spectrum,
-    wind_frame_tilt_deg,
+    tilt_vector_en,
 )
 
 __all__ = [
@@ -59,6 +60,7 @@ __all__ = [
     "two_peaks",
     "window_series",
     "motion_statistics",
+    "motion_statistics_arrays",
     "record_motion",
     "roll_pitch_correlation",
     "heading_mean_deg",
@@ -98,6 +100,16 @@ def _detrend(x: np.ndarray) -> np.ndarray:
     """Remove a least-squares line from each row, ignoring NaN samples; shape kept."""
     j = np.arange(x.shape[-1], dtype=np.float64)
     ok = np.isfinite(x)
+    if ok.all():  # no gap: the same sums without the masks (the same values)
+        jm = np.broadcast_to(j, x.shape).sum(axis=-1, keepdims=True) / x.shape[-1]
+        xm = x.sum(axis=-1, keepdims=True) / x.shape[-1]
+        dj = j - jm
+        with np.errstate(invalid="ignore", divide="ignore"):
+            slope = (dj * (x - xm)).sum(axis=-1, keepdims=True) / (dj**2).sum(
+                axis=-1, keepdims=True
+            )
+        slope = np.where(np.isfinite(slope), slope, 0.0)
+        return x - xm - slope * (j - jm)
     n = ok.sum(axis=-1, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):
         jm = np.where(ok, j, 0.0).sum(axis=-1, keepdims=True) / n
@@ -111,7 +123,10 @@ def _detrend(x: np.ndarray) -> np.ndarray:
 
 
 def _fill(x: np.ndarray) -> np.ndarray:
-    """Linear interpolation over NaN samples along each row (edge values held)."""
+    """Linear interpolation over NaN samples along each row (edge values held); ``x``
+    itself when it has no NaN (callers do not write into the result)."""
+    if np.isfinite(x).all():
+        return x
     out = x.copy()
     for i in np.flatnonzero(~np.isfinite(x).all(axis=-1)):
         row = out[i]
@@ -505,18 +520,74 @@ def motion_statistics(
         ``pitch_period_s``, ``period1_s``, ``period2_s``, ``weight1``,
         ``imu_availability_pct``.
     """
+    t_ns = pd.DatetimeIndex(imu["timestamp"]).as_unit("ns").asi8
+    vals = imu[["roll_deg", "pitch_deg"]].to_numpy(dtype=np.float64)
+    start_ns, cols, present = motion_statistics_arrays(
+        t_ns,
+        vals,
+        window_s=window_s,
+        amplitude_method=amplitude_method,
+        period_method=period_method,
+        segment_s=segment_s,
+        period_min_s=period_min_s,
+        period_max_s=period_max_s,
+        min_coverage_pct=min_coverage_pct,
+        bimodal=bimodal,
+        fs_hz=fs_hz,
+    )
+    out = pd.DataFrame({"timestamp": pd.to_datetime(start_ns, utc=True)} | cols)
+    return out.loc[present].reset_index(drop=True)
+
+
+def motion_statistics_arrays(
+    time_ns,
+    roll_pitch_deg,
+    *,
+    window_s: float = 600.0,
+    amplitude_method: str = "std",
+    period_method: str = "spectral",
+    segment_s: float = 200.0,
+    period_min_s: float = 1.0,
+    period_max_s: float = 30.0,
+    min_coverage_pct: float = 80.0,
+    bimodal: bool = True,
+    fs_hz: float | None = None,
+) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
+    """:func:`motion_statistics` on arrays (no DataFrame in or out), every window kept.
+
+    Parameters
+    ----------
+    time_ns : array_like of int, shape (n,)
+        Sample times, integer ns since the Unix epoch (UTC), increasing.
+    roll_pitch_deg : array_like, shape (n, 2)
+        Roll and pitch, deg (NaN: missing sample).
+    window_s, amplitude_method, period_method, segment_s, period_min_s, period_max_s
+        As in :func:`motion_statistics` (s, names, s, s, s).
+    min_coverage_pct, bimodal, fs_hz
+        As in :func:`motion_statistics` (%, flag, Hz).
+
+    Returns
+    -------
+    start_ns : numpy.ndarray of int64, shape (nwin,)
+        Window starts, ns since the epoch, from the window holding the first sample on.
+    columns : dict of numpy.ndarray, shape (nwin,)
+        The columns of :data:`MOTION_STAT_COLUMNS` (units in their names).
+    present : numpy.ndarray of bool, shape (nwin,)
+        Windows with at least one sample (:func:`motion_statistics` returns only these).
+    """
     if amplitude_method not in AMPLITUDE_METHODS:
         raise ValueError(
             f"amplitude_method must be one of {AMPLITUDE_METHODS}, got {amplitude_method!r}"
         )
     if period_method not in PERIOD_METHODS:
         raise ValueError(f"period_method must be one of {PERIOD_METHODS}, got {period_method!r}")
-    t_ns = pd.DatetimeIndex(imu["timestamp"]).as_unit("ns").asi8
+    t_ns = np.asarray(time_ns, np.int64)
     # times relative to the window boundary before the first sample keep float precision
     window_ns = int(round(window_s * 1e9))
     t0_ns = (int(t_ns[0]) // window_ns) * window_ns
-    vals = imu[["roll_deg", "pitch_deg"]].to_numpy(dtype=np.float64)
-    start_s, grid, fs = window_series((t_ns - t0_ns) * 1e-9, vals, window_s=window_s, fs_hz=fs_hz)
+    start_s, grid, fs = window_series(
+        (t_ns - t0_ns) * 1e-9, roll_pitch_deg, window_s=window_s, fs_hz=fs_hz
+    )
     coverage = 100.0 * np.isfinite(grid).all(axis=-1).mean(axis=-1)
     present = np.isfinite(grid).any(axis=(1, 2))
     good = present & (coverage >= min_coverage_pct)
@@ -547,12 +618,8 @@ def motion_statistics(
                 f, psd[0] + psd[1], period_min_s=period_min_s, period_max_s=period_max_s
             )
             cols["period1_s"][good], cols["period2_s"][good], cols["weight1"][good] = p1, p2, w1
-    out = pd.DataFrame(
-        {"timestamp": pd.to_datetime(t0_ns + np.rint(start_s * 1e9).astype(np.int64), utc=True)}
-        | cols
-        | {"imu_availability_pct": coverage}
-    )
-    return out.loc[present].reset_index(drop=True)
+    start_ns = t0_ns + np.rint(start_s * 1e9).astype(np.int64)
+    return start_ns, cols | {"imu_availability_pct": coverage}, present
 
 
 def record_motion(records: pd.DataFrame) -> pd.DataFrame:
@@ -653,7 +720,8 @@ def tilt_band_statistics(
 
     Each sample's (roll, pitch) is turned into the earth-frame tilt vector with the
     sample's yaw and projected on the record's wind axis
-    (:func:`flidar_uq.physics.motion_spectrum.wind_frame_tilt_deg`); the Welch PSDs of the
+    (:func:`flidar_uq.physics.motion_spectrum.wind_frame_tilt_deg`, in its two halves
+    ``tilt_vector_en`` and ``project_tilt_on_wind_deg``); the Welch PSDs of the
     two components (:func:`motion_spectrum`, gaps linearly filled) are reduced to
     ``n_bands`` log-spaced bands (:func:`flidar_uq.physics.motion_spectrum.tilt_band_spectrum`).
 
@@ -665,8 +733,11 @@ def tilt_band_statistics(
         Yaw (counter-clockwise from above), deg; 0 if the heading is unknown (then the
         wind direction must be given in the body frame). NaN yaw samples are filled
         linearly (unwrap angles first if they jump by 360 deg).
-    wd_deg : array_like, shape () or (nwin,)
-        Mean wind direction of each record (record column ``wd_mean_deg``), deg.
+    wd_deg : array_like, shape () or (nwin,) or (nwin, k)
+        Mean wind direction of each record (record column ``wd_mean_deg``), deg. Shape
+        ``(nwin, k)``: ``k`` directions per series (e.g. one per measurement height), the
+        attitude's trigonometry done once per series; the result's rows are then
+        ``(series, direction)`` in row-major order (``nwin * k`` rows).
     fs_hz : float
         Sampling rate, Hz.
     segment_s, n_bands, period_min_s, period_max_s
@@ -675,14 +746,26 @@ def tilt_band_statistics(
     Returns
     -------
     TiltBandSpectrum
-        Arrays of shape ``(nwin, ...)`` (``nwin = 1`` for a single series).
+        Arrays of shape ``(nwin, ...)`` (``nwin = 1`` for a single series), or
+        ``(nwin * k, ...)``.
     """
     r, _ = _as_2d(roll_deg)
     p, _ = _as_2d(pitch_deg)
     y = np.broadcast_to(np.asarray(yaw_deg, np.float64), r.shape)
     y = _fill(np.array(y)) if y.ndim == 2 else y
-    wd = np.asarray(wd_deg, np.float64).reshape(-1, 1) if np.ndim(wd_deg) else float(wd_deg)
-    along, across = wind_frame_tilt_deg(r, p, y, wd)
+    east, north = tilt_vector_en(r, p, y)  # (nwin, n)
+    if np.ndim(wd_deg) == 2:  # k directions per series: rows (series, direction)
+        wd = np.asarray(wd_deg, np.float64)
+        if wd.shape[0] != r.shape[0]:
+            raise ValueError(
+                f"tilt_band_statistics: wd_deg of shape {wd.shape} needs one row per series "
+                f"({r.shape[0]})"
+            )
+        along, across = project_tilt_on_wind_deg(east[:, None, :], north[:, None, :], wd[..., None])
+        along, across = (a.reshape(-1, r.shape[-1]) for a in (along, across))
+    else:
+        wd = np.asarray(wd_deg, np.float64).reshape(-1, 1) if np.ndim(wd_deg) else float(wd_deg)
+        along, across = project_tilt_on_wind_deg(east, north, wd)
     f, pa = motion_spectrum(along, fs_hz, segment_s=segment_s)
     _, pc = motion_spectrum(across, fs_hz, segment_s=segment_s)
     return tilt_band_spectrum(

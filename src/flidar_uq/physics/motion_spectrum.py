@@ -57,6 +57,8 @@ __all__ = [
     "TiltBandSpectrum",
     "ReplayResult",
     "wind_frame_tilt_deg",
+    "tilt_vector_en",
+    "project_tilt_on_wind_deg",
     "band_edges_s",
     "tilt_band_spectrum",
     "spectral_sigma_z_ms",
@@ -98,11 +100,42 @@ def wind_frame_tilt_deg(roll_deg, pitch_deg, yaw_deg=0.0, wd_deg=0.0):
         Broadcast shape; ``arcsin`` of the components, deg. A pure pitch tilt with
         yaw 0 is along the wind for ``wd = 90`` or ``270`` deg (wind along east-west).
     """
+    return project_tilt_on_wind_deg(*tilt_vector_en(roll_deg, pitch_deg, yaw_deg), wd_deg)
+
+
+def tilt_vector_en(roll_deg, pitch_deg, yaw_deg=0.0):
+    """Horizontal part (east, north) of the body z axis in the earth frame, per sample.
+
+    ``R @ (0, 0, 1)`` with ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (docs/conventions.md):
+    ``(cy sp cr + sy sr, sy sp cr - cy sr)``, dimensionless (sines of the tilt). The first
+    half of :func:`wind_frame_tilt_deg`, apart so that one attitude series can be projected
+    on several wind directions (one per height) with its trigonometry done once.
+
+    Parameters
+    ----------
+    roll_deg, pitch_deg, yaw_deg : array_like
+        Attitude, deg (conventions of :func:`wind_frame_tilt_deg`); broadcast.
+
+    Returns
+    -------
+    east, north : ndarray
+    """
     r, p, y = (np.deg2rad(np.asarray(a, float)) for a in (roll_deg, pitch_deg, yaw_deg))
-    wd = np.deg2rad(np.asarray(wd_deg, float))
     cr, sr, sp, cy, sy = np.cos(r), np.sin(r), np.sin(p), np.cos(y), np.sin(y)
     east = cy * sp * cr + sy * sr  # (R @ z)_x
     north = sy * sp * cr - cy * sr  # (R @ z)_y
+    return east, north
+
+
+def project_tilt_on_wind_deg(east, north, wd_deg):
+    """Tilt along and across the wind from the tilt vector of :func:`tilt_vector_en`.
+
+    ``along = arcsin(east sin wd + north cos wd)``,
+    ``across = arcsin(east cos wd - north sin wd)`` (deg; wind axis of
+    :func:`wind_frame_tilt_deg`); ``wd_deg`` (meteorological, deg) broadcast with the
+    tilt vector.
+    """
+    wd = np.deg2rad(np.asarray(wd_deg, float))
     along = east * np.sin(wd) + north * np.cos(wd)
     across = east * np.cos(wd) - north * np.sin(wd)
     return np.rad2deg(np.arcsin(np.clip(along, -1, 1))), np.rad2deg(

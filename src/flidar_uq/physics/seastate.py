@@ -169,7 +169,9 @@ def tilt_series(
     area = shape.sum(axis=-1, keepdims=True) * df
     var_bins = amp[..., None] ** 2 * shape * df / np.where(area > 0, area, np.inf)
     # complex coefficient per (record, system, bin); x = n irfft(C): E power 4 s^2
-    coef = rng.standard_normal(var_bins.shape) + 1j * rng.standard_normal(var_bins.shape)
+    coef = np.empty(var_bins.shape, complex)  # a + 1j b, filled in place (the same values)
+    coef.real = rng.standard_normal(var_bins.shape)
+    coef.imag = rng.standard_normal(var_bins.shape)
     coef *= 0.5 * np.sqrt(var_bins)
     coef[..., 0] = 0.0
     if n % 2 == 0 and n_b == f_all.size:

@@ -179,7 +179,9 @@ def kaimal_series(
     # x = n irfft(C): interior bins contribute 2 Re(C_k e^{i 2 pi k t / n}), whose
     # expected power is 4 |s_k|^2 for C_k = s_k (a + i b), a, b ~ N(0, 1);
     # the Nyquist bin (even n) contributes C (-1)^t with C real.
-    coef = rng.standard_normal(shape) + 1j * rng.standard_normal(shape)
+    coef = np.empty(shape, complex)  # a + 1j b, filled in place (the same values)
+    coef.real = rng.standard_normal(shape)
+    coef.imag = rng.standard_normal(shape)
     coef *= 0.5 * np.sqrt(var_bins)
     if n % 2 == 0:
         coef[..., -1] = rng.standard_normal(batch + (3,)) * np.sqrt(var_bins[..., -1])
