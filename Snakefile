@@ -19,8 +19,10 @@ configfile: os.path.join(workflow.basedir, "config", "config.yaml")
 report: "workflow/report/workflow.rst"
 
 
-# Bit-identical results on every executor (local, SLURM): single-threaded BLAS/OpenMP in
-# every job, so floating-point sums do not depend on the cores a job happens to get.
+# Bit-identical results on every executor (local, SLURM) of the same CPU type:
+# single-threaded BLAS/OpenMP in every job, so floating-point sums do not depend on the
+# cores a job happens to get (the CPU's BLAS kernel and SIMD loops do: README,
+# "Reproducibility across machines").
 # Parallelism comes from concurrent jobs and the campaign generator's worker processes.
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"

@@ -203,6 +203,14 @@ def test_render_html_is_self_contained(rng):
     assert "abc123" in html and "numpy" in html
 
 
+def test_provenance_shows_the_numeric_environment_when_given():
+    numerics = {"machine": "x86_64", "numpy_simd": "X86_V4: exp", "blas": "openblas (K kernel)"}
+    html = rep.provenance_html({}, "abc", {"numpy": "2"}, numerics)
+    assert "numeric environment" in html
+    assert all(v in html for v in numerics.values())
+    assert "numeric environment" not in rep.provenance_html({}, "abc", {"numpy": "2"})
+
+
 def test_package_versions_names_numpy_and_missing_packages():
     v = rep.package_versions(["numpy", "surely_not_a_package_xyz"])
     assert v["numpy"] == np.__version__

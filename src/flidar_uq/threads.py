@@ -1,10 +1,20 @@
-"""BLAS thread pinning: results with the same seed must not depend on the thread count.
+"""BLAS thread pinning, and what else the last bits of a result depend on.
 
 Multi-threaded BLAS may sum in a different order on machines with a different number of
 cores, which changes the last bits of a matrix product and, through a Markov chain, the
 whole posterior sample. The library's entry points (bin and global fits, propagation,
-campaign generation) run under :func:`blas_threads` so that a rerun gives identical
-outputs on any machine, whether called from Snakemake, the CLI or a notebook.
+campaign generation) run under :func:`blas_threads` so that the thread count never
+matters, whether called from Snakemake, the CLI or a notebook.
+
+Two more things choose the last bits, both by the CPU: the OpenBLAS kernel (e.g. Haswell
+or SkylakeX, whose 3x3 products fuse multiply-adds differently) and NumPy's SIMD loops
+(AVX-512 and AVX2 versions of ``exp``, ``log``, ``**``, ``arctan2``, ``arcsin`` differ
+in the last bit for some arguments). A rerun is therefore bit-identical on machines whose
+:func:`numeric_environment` is the same (with the same packages, ``requirements.lock``);
+across CPU types the virtual campaign agrees to ~1e-15 relative and every posterior to
+Monte Carlo error (docs/performance.md, session 12). Both can be pinned for a run through
+environment variables read when NumPy is imported (``OPENBLAS_CORETYPE``,
+``NPY_DISABLE_CPU_FEATURES``; README, "Reproducibility across machines").
 
 Dependency-free utility (threadpoolctl only), importable from every layer of the package.
 """
@@ -12,10 +22,15 @@ Dependency-free utility (threadpoolctl only), importable from every layer of the
 from __future__ import annotations
 
 import functools
+import platform
 
-from threadpoolctl import threadpool_limits
+from threadpoolctl import threadpool_info, threadpool_limits
 
-__all__ = ["BLAS_THREADS", "blas_threads", "single_threaded"]
+__all__ = ["BLAS_THREADS", "blas_threads", "single_threaded", "numeric_environment"]
+
+#: NumPy float64 loops whose SIMD version the pipeline's results depend on (the ones whose
+#: AVX-512 and AVX2 versions differ in the last bit, and the trigonometry).
+SIMD_FUNCTIONS = ("exp", "log", "power", "arctan2", "arcsin", "sin", "cos")
 
 #: Number of BLAS threads the library computes with (1: bit-reproducible everywhere).
 BLAS_THREADS = 1
@@ -35,3 +50,38 @@ def single_threaded(func):
             return func(*args, **kwargs)
 
     return wrapper
+
+
+def numeric_environment() -> dict[str, str]:
+    """What the last bits of this process's results depend on besides the code and seeds.
+
+    Returns
+    -------
+    dict of str
+        ``machine`` (``platform.machine()``), ``numpy_simd`` (the SIMD target NumPy
+        dispatches each of :data:`SIMD_FUNCTIONS` to for float64, e.g.
+        ``X86_V4: exp, log, ...``) and ``blas`` (each loaded BLAS library: its name,
+        version and kernel; the library computes with :data:`BLAS_THREADS` thread
+        whatever the pool's size). Two runs with equal dictionaries (and equal package
+        versions) give bit-identical results.
+    """
+    from numpy.lib.introspect import opt_func_info
+
+    targets: dict[str, list[str]] = {}
+    for name in SIMD_FUNCTIONS:
+        info = opt_func_info(func_name=f"^{name}$", signature="float64").get(name, {})
+        # one float64 loop per function here (dd or ddd); its current dispatch target
+        current = sorted({v["current"] for v in info.values()}) or ["unknown"]
+        targets.setdefault("/".join(current), []).append(name)
+    simd = "; ".join(f"{t}: {', '.join(names)}" for t, names in sorted(targets.items()))
+    blas = [
+        f"{lib.get('internal_api', '?')} {lib.get('version', '?')} "
+        f"({lib.get('architecture', '?')} kernel)"
+        for lib in threadpool_info()
+        if lib.get("user_api") == "blas"
+    ]
+    return {
+        "machine": platform.machine(),
+        "numpy_simd": simd,
+        "blas": "; ".join(blas) or "none loaded",
+    }

@@ -125,8 +125,15 @@ def package_versions(packages: Iterable[str] = PROVENANCE_PACKAGES) -> dict[str,
     return out
 
 
-def provenance_html(config: dict, git_revision: str, versions: dict[str, str]) -> str:
-    """Provenance section: git revision, seeds, package versions and the full config."""
+def provenance_html(
+    config: dict,
+    git_revision: str,
+    versions: dict[str, str],
+    numerics: dict[str, str] | None = None,
+) -> str:
+    """Provenance section: git revision, seeds, package versions, the numeric environment
+    (:func:`flidar_uq.threads.numeric_environment`: what the last bits depend on) and the
+    full config."""
     seeds = {
         "campaign.seed": config.get("campaign", {}).get("seed"),
         "inference.seed": config.get("inference", {}).get("seed"),
@@ -143,6 +150,16 @@ def provenance_html(config: dict, git_revision: str, versions: dict[str, str]) -
                 )
             ),
             versions_table=Markup(table_html(ver, caption="package versions")),
+            numerics_table=Markup(
+                table_html(
+                    pd.DataFrame(sorted((numerics or {}).items()), columns=["item", "value"]),
+                    caption="numeric environment: a rerun is bit-identical where this table, "
+                    "the package versions and the seeds are the same (elsewhere the results "
+                    "agree to Monte Carlo error)",
+                )
+            )
+            if numerics
+            else "",
             config_yaml=yaml.safe_dump(config, sort_keys=True),
         )
     )

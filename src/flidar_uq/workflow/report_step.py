@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 from markupsafe import Markup
 
+from flidar_uq.threads import numeric_environment
 from flidar_uq.workflow.files import bin_file, read_csv
 
 __all__ = [
@@ -675,7 +676,9 @@ def build_report(
             rep.templates()
             .get_template("sections/rerun.html.j2")
             .render(files=Markup(rep.table_html(prov, caption="input files")))
-            + rep.provenance_html(config, git_revision, rep.package_versions()),
+            + rep.provenance_html(
+                config, git_revision, rep.package_versions(), numeric_environment()
+            ),
         )
     )
     text = rep.render_html(
@@ -740,7 +743,10 @@ def build_developer_report(
         )
     )
     sections.append(
-        rep.Section("Provenance", rep.provenance_html({}, git_revision, rep.package_versions()))
+        rep.Section(
+            "Provenance",
+            rep.provenance_html({}, git_revision, rep.package_versions(), numeric_environment()),
+        )
     )
     text = rep.render_html("flidar_uq developer report: benchmarks", sections)
     Path(out_path).parent.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,79 @@
+"""What the last bits of a result depend on (flidar_uq.threads): the numeric environment
+the report records, and how far another CPU kernel moves the virtual campaign."""
+
+from __future__ import annotations
+
+import os
+import pickle
+import platform
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from flidar_uq.campaign.physics_mode import generate_campaign
+from flidar_uq.campaign.scenarios import load_scenario
+from flidar_uq.threads import SIMD_FUNCTIONS, numeric_environment
+
+X86 = platform.machine() in ("x86_64", "AMD64")
+SEED = 20181122
+
+
+def _python(code: str, env: dict[str, str]) -> str:
+    """Run ``code`` in a fresh interpreter (the variables are read when NumPy loads)."""
+    return subprocess.run(
+        [sys.executable, "-c", code],
+        env=os.environ | env,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+
+
+def test_numeric_environment_names_every_simd_function_once_and_the_blas_kernels():
+    import scipy.linalg  # noqa: F401  (SciPy's own OpenBLAS is loaded too)
+
+    env = numeric_environment()
+    assert set(env) == {"machine", "numpy_simd", "blas"}
+    assert env["machine"] == platform.machine()
+    listed = [
+        name
+        for part in env["numpy_simd"].split("; ")
+        for name in part.split(": ", 1)[1].split(", ")
+    ]
+    assert sorted(listed) == sorted(SIMD_FUNCTIONS)
+    assert env["blas"].count("kernel)") >= 1
+
+
+@pytest.mark.skipif(not X86, reason="OpenBLAS kernel names of x86-64")
+def test_the_openblas_kernel_a_run_uses_shows_in_its_numeric_environment():
+    code = "from flidar_uq.threads import numeric_environment as n; print(n()['blas'])"
+    assert "(Nehalem kernel)" in _python(code, {"OPENBLAS_CORETYPE": "Nehalem"})
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not X86, reason="OpenBLAS kernel names of x86-64")
+def test_campaign_under_another_openblas_kernel_agrees_to_rounding(tmp_path):
+    # another CPU picks another kernel (the SSE4.2 one here; NumPy 2.5 needs SSE4.2): the campaign's last bits may
+    # change (docs/performance.md, session 12), its values agree to rounding
+    out = tmp_path / "records.pkl"
+    code = (
+        "import pickle\n"
+        "from flidar_uq.campaign.physics_mode import generate_campaign\n"
+        "from flidar_uq.campaign.scenarios import load_scenario\n"
+        "sc = load_scenario('default') | {'n_records': 6}\n"
+        f"recs = generate_campaign(sc, {SEED}, n_workers=1).records\n"
+        f"pickle.dump(recs, open({str(out)!r}, 'wb'))\n"
+    )
+    _python(code, {"OPENBLAS_CORETYPE": "Nehalem"})
+    other = pickle.loads(out.read_bytes())
+    here = generate_campaign(load_scenario("default") | {"n_records": 6}, SEED).records
+    assert list(other.columns) == list(here.columns)
+    for col in here.columns:
+        if here[col].dtype.kind == "f":
+            np.testing.assert_allclose(
+                other[col].to_numpy(), here[col].to_numpy(), rtol=1e-12, atol=1e-12, err_msg=col
+            )
+        else:
+            assert other[col].equals(here[col]), col
