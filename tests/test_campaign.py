@@ -11,6 +11,7 @@ import pytest
 from flidar_uq.campaign import physics_mode
 from flidar_uq.campaign.physics_mode import generate_campaign
 from flidar_uq.campaign.scenarios import CampaignConfig, load_scenario
+from flidar_uq.data import imu as imu_module
 from flidar_uq.data.imu import heading_mean_deg
 from flidar_uq.data.io import (
     read_records,
@@ -198,6 +199,23 @@ def test_same_seed_identical_and_independent_of_chunking_and_workers(caplog):
     pd.testing.assert_frame_equal(a, c)
     d = generate_campaign(sc, 4).records
     assert not np.allclose(a["hws_std_ms"], d["hws_std_ms"], equal_nan=True)
+
+
+def test_motion_columns_are_the_data_layers_statistics_of_the_imu_series_bit_for_bit():
+    # the generator computes them from its arrays (imu.motion_statistics_arrays, each
+    # record's window found by its start); the same bits as the data layer's DataFrame
+    # path on the IMU series it returns, windows with gaps and a window without any
+    # sample (a gap longer than the record) included
+    sc = load_scenario("tiny") | {"n_records": 12}
+    sc["imu"] = sc["imu"] | {"gap_probability": 0.5, "gap_length_range_s": [60.0, 900.0]}
+    out = generate_campaign(sc, 11, return_imu=True, chunk_records=5)
+    p_lo, p_hi = out.config.settings["imu"]["period_range_s"]
+    stats = imu_module.motion_statistics(out.imu, period_min_s=p_lo, period_max_s=p_hi)
+    stats = stats.set_index("timestamp").reindex(pd.DatetimeIndex(out.records["timestamp"]))
+    empty = out.records["imu_availability_pct"].isna()
+    assert empty.any() and not empty.all()  # the case the old reindexing covered
+    for key in imu_module.MOTION_STAT_COLUMNS:
+        assert out.records[key].to_numpy().tobytes() == stats[key].to_numpy().tobytes(), key
 
 
 #: Column sums of the default scenario's first 3 records (seed 20181122, 9 rows) from the

@@ -224,6 +224,15 @@ def test_detrend_without_gaps_is_the_masked_computation_bit_for_bit(rng):
     masked = imu._detrend(np.vstack([x, gappy]))[:5]
     assert fast.tobytes() == masked.tobytes()
     assert imu._fill(x) is x  # nothing to fill: no copy
+    # strided rows longer than NumPy's pairwise-summation block (20 Hz x 600 s), as the
+    # statistics pass them (one axis of a (window, sample, axis) grid)
+    grid = np.cumsum(rng.standard_normal((3, 12000, 2)), axis=1)
+    strided = grid[..., 1]
+    assert imu._detrend(strided).tobytes() == imu._detrend(np.ascontiguousarray(strided)).tobytes()
+    long_gappy = strided[0].copy()
+    long_gappy[5:9] = np.nan
+    masked = imu._detrend(np.vstack([np.ascontiguousarray(strided), long_gappy]))[:3]
+    assert imu._detrend(strided).tobytes() == masked.tobytes()
     filled = imu._fill(np.vstack([x, gappy]))
     assert np.isfinite(filled).all() and filled[:5].tobytes() == x.tobytes()
 

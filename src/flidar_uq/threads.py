@@ -11,12 +11,13 @@ or SkylakeX, whose 3x3 products fuse multiply-adds differently) and NumPy's SIMD
 (AVX-512 and AVX2 versions of ``exp``, ``log``, ``**``, ``arctan2``, ``arcsin`` differ
 in the last bit for some arguments). A rerun is therefore bit-identical on machines whose
 :func:`numeric_environment` is the same (with the same packages, ``requirements.lock``);
-across CPU types the virtual campaign agrees to ~1e-15 relative and every posterior to
-Monte Carlo error (docs/performance.md, session 12). Both can be pinned for a run through
+across CPU types the virtual campaign agrees to a few 1e-15 relative (docs/performance.md,
+session 12) and the posteriors are expected to agree to Monte Carlo noise. Both can be pinned for a run through
 environment variables read when NumPy is imported (``OPENBLAS_CORETYPE``,
 ``NPY_DISABLE_CPU_FEATURES``; README, "Reproducibility across machines").
 
-Dependency-free utility (threadpoolctl only), importable from every layer of the package.
+Dependency-free utility (threadpoolctl; NumPy and SciPy imported only by
+:func:`numeric_environment`), importable from every layer of the package.
 """
 
 from __future__ import annotations
@@ -26,11 +27,30 @@ import platform
 
 from threadpoolctl import threadpool_info, threadpool_limits
 
-__all__ = ["BLAS_THREADS", "blas_threads", "single_threaded", "numeric_environment"]
+__all__ = [
+    "BLAS_THREADS",
+    "SIMD_FUNCTIONS",
+    "blas_threads",
+    "single_threaded",
+    "numeric_environment",
+]
 
-#: NumPy float64 loops whose SIMD version the pipeline's results depend on (the ones whose
-#: AVX-512 and AVX2 versions differ in the last bit, and the trigonometry).
-SIMD_FUNCTIONS = ("exp", "log", "power", "arctan2", "arcsin", "sin", "cos")
+#: NumPy float64 loops the package calls whose implementation NumPy picks by CPU (SIMD
+#: dispatch); some of them differ in the last bit between their AVX-512 and AVX2 versions.
+SIMD_FUNCTIONS = (
+    "exp",
+    "expm1",
+    "log",
+    "log1p",
+    "log10",
+    "power",
+    "sin",
+    "cos",
+    "tan",
+    "arcsin",
+    "arccos",
+    "arctan2",
+)
 
 #: Number of BLAS threads the library computes with (1: bit-reproducible everywhere).
 BLAS_THREADS = 1
@@ -55,6 +75,10 @@ def single_threaded(func):
 def numeric_environment() -> dict[str, str]:
     """What the last bits of this process's results depend on besides the code and seeds.
 
+    Of *this* process, on *this* machine: a pipeline logs it at the start of every job
+    (:func:`flidar_uq.workflow.files.setup_logging`), so a run on a cluster of mixed nodes
+    shows each job's.
+
     Returns
     -------
     dict of str
@@ -65,6 +89,7 @@ def numeric_environment() -> dict[str, str]:
         whatever the pool's size). Two runs with equal dictionaries (and equal package
         versions) give bit-identical results.
     """
+    import scipy.linalg  # noqa: F401  (SciPy's own OpenBLAS, listed whatever was imported)
     from numpy.lib.introspect import opt_func_info
 
     targets: dict[str, list[str]] = {}

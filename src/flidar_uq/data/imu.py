@@ -100,22 +100,23 @@ def _detrend(x: np.ndarray) -> np.ndarray:
     """Remove a least-squares line from each row, ignoring NaN samples; shape kept."""
     j = np.arange(x.shape[-1], dtype=np.float64)
     ok = np.isfinite(x)
-    if ok.all():  # no gap: the same sums without the masks (the same values)
-        jm = np.broadcast_to(j, x.shape).sum(axis=-1, keepdims=True) / x.shape[-1]
-        xm = x.sum(axis=-1, keepdims=True) / x.shape[-1]
-        dj = j - jm
-        with np.errstate(invalid="ignore", divide="ignore"):
-            slope = (dj * (x - xm)).sum(axis=-1, keepdims=True) / (dj**2).sum(
-                axis=-1, keepdims=True
-            )
-        slope = np.where(np.isfinite(slope), slope, 0.0)
-        return x - xm - slope * (j - jm)
-    n = ok.sum(axis=-1, keepdims=True)
+    if ok.all():  # nothing missing: the same sums without the masks (the same values)
+        n = x.shape[-1]
+
+        def keep(a):
+            return a
+
+    else:
+        n = ok.sum(axis=-1, keepdims=True)
+
+        def keep(a):
+            return np.where(ok, a, 0.0)
+
     with np.errstate(invalid="ignore", divide="ignore"):
-        jm = np.where(ok, j, 0.0).sum(axis=-1, keepdims=True) / n
-        xm = np.where(ok, x, 0.0).sum(axis=-1, keepdims=True) / n
-        dj = np.where(ok, j - jm, 0.0)
-        slope = (dj * np.where(ok, x - xm, 0.0)).sum(axis=-1, keepdims=True) / (dj**2).sum(
+        jm = keep(j).sum(axis=-1, keepdims=True) / n
+        xm = keep(x).sum(axis=-1, keepdims=True) / n
+        dj = keep(j - jm)
+        slope = (dj * keep(x - xm)).sum(axis=-1, keepdims=True) / (dj**2).sum(
             axis=-1, keepdims=True
         )
     slope = np.where(np.isfinite(slope), slope, 0.0)
@@ -582,6 +583,12 @@ def motion_statistics_arrays(
     if period_method not in PERIOD_METHODS:
         raise ValueError(f"period_method must be one of {PERIOD_METHODS}, got {period_method!r}")
     t_ns = np.asarray(time_ns, np.int64)
+    roll_pitch_deg = np.asarray(roll_pitch_deg, np.float64)
+    if roll_pitch_deg.shape != (t_ns.size, 2):
+        raise ValueError(
+            f"motion_statistics_arrays: roll_pitch_deg must have shape ({t_ns.size}, 2) "
+            f"(one roll and one pitch per sample time), got {roll_pitch_deg.shape}"
+        )
     # times relative to the window boundary before the first sample keep float precision
     window_ns = int(round(window_s * 1e9))
     t0_ns = (int(t_ns[0]) // window_ns) * window_ns

@@ -32,5 +32,6 @@ Files written (the pipeline's output contract, see README):
 
 Reproducibility: every seed is a ``numpy.random.SeedSequence`` derived from the config
 seeds and the bin id (not the batch layout); NetCDF files are written without wall-clock
-attributes; CSVs with a fixed float format. A clean rerun is byte-identical.
+attributes; CSVs with a fixed float format. A clean rerun is byte-identical in the same
+numeric environment (:func:`flidar_uq.threads.numeric_environment`).
 """

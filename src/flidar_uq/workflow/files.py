@@ -16,6 +16,7 @@ from typing import NamedTuple
 import pandas as pd
 
 from flidar_uq.data.csv_text import csv_text
+from flidar_uq.threads import numeric_environment
 
 __all__ = ["JobResources", "bin_file", "job_resources", "read_csv", "setup_logging", "write_csv"]
 
@@ -51,7 +52,8 @@ def _log_job_resources() -> None:
 
 def setup_logging(log_path: str | os.PathLike) -> None:
     """Send INFO and above of every logger (and warnings) to ``log_path``, a rule's log file,
-    and, at the process's exit, a last line with its CPU time and peak memory
+    starting with the job's numeric environment
+    (:func:`flidar_uq.threads.numeric_environment`), and, at the process's exit, a last line with its CPU time and peak memory
     (:func:`job_resources` reads it back; Snakemake's ``benchmark:`` samples a job only
     every 30 s after its first 30, so it misses up to 30 s of CPU and short memory peaks)."""
     logging.basicConfig(
@@ -64,6 +66,11 @@ def setup_logging(log_path: str | os.PathLike) -> None:
     logging.captureWarnings(True)
     # arviz announces its backends at INFO on import: not the step's news
     logging.getLogger("arviz").setLevel(logging.WARNING)
+    # what the last bits of this job's results depend on besides the code and the seeds
+    env = numeric_environment()
+    logging.getLogger("flidar_uq.workflow").info(
+        "numeric environment: %s", "; ".join(f"{k}: {v}" for k, v in env.items())
+    )
     if os.name == "posix":  # getrusage; registered once however often this is called
         atexit.unregister(_log_job_resources)
         atexit.register(_log_job_resources)

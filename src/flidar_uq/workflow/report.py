@@ -131,9 +131,11 @@ def provenance_html(
     versions: dict[str, str],
     numerics: dict[str, str] | None = None,
 ) -> str:
-    """Provenance section: git revision, seeds, package versions, the numeric environment
-    (:func:`flidar_uq.threads.numeric_environment`: what the last bits depend on) and the
-    full config."""
+    """Provenance section: git revision, seeds, package versions, numeric environment.
+
+    The numeric environment (:func:`flidar_uq.threads.numeric_environment`, what the last
+    bits depend on) is shown when given; the full config closes the section.
+    """
     seeds = {
         "campaign.seed": config.get("campaign", {}).get("seed"),
         "inference.seed": config.get("inference", {}).get("seed"),
@@ -153,9 +155,10 @@ def provenance_html(
             numerics_table=Markup(
                 table_html(
                     pd.DataFrame(sorted((numerics or {}).items()), columns=["item", "value"]),
-                    caption="numeric environment: a rerun is bit-identical where this table, "
+                    caption="numeric environment of the process that wrote this report (each "
+                    "job's is the first line of its log): a rerun is bit-identical where it, "
                     "the package versions and the seeds are the same (elsewhere the results "
-                    "agree to Monte Carlo error)",
+                    "differ in their last bits, and the posteriors by Monte Carlo noise)",
                 )
             )
             if numerics
