@@ -158,7 +158,7 @@ def provenance_html(
                     caption="numeric environment of the process that wrote this report (each "
                     "job's is the first line of its log): a rerun is bit-identical where it, "
                     "the package versions and the seeds are the same (elsewhere the results "
-                    "differ in their last bits, and the posteriors by Monte Carlo noise)",
+                    "agree to rounding: README, 'Reproducibility across machines')",
                 )
             )
             if numerics
