@@ -3,7 +3,7 @@
 A year of attitude at 20 Hz is 6.3e8 samples. ``flidar_uq.data.imu_series.
 series_motion_statistics`` reads the file in chunks (the pipeline's rule imu_statistics); the
 in-memory alternative reads the whole series (``io.read_imu_series``) and computes the same
-statistics at once (``imu.motion_statistics``, ``imu.tilt_spectrum_statistics`` per height).
+statistics at once (``imu.motion_statistics``, ``imu.tilt_spectrum_statistics_by_height``).
 Both run here side by side on synthetic 20-Hz series (roll, pitch and yaw: two swell/wind-sea
 tones, noise, a 2-min gap per day) of growing length, Parquet and CSV, with a record table of
 three heights per 10-min window (the default campaign's). Each measurement runs in a fresh
@@ -122,12 +122,14 @@ def child(path: str, days: int, method: str) -> None:
     else:
         series = io.read_imu_series(path)
         ms = imu.motion_statistics(series)
-        n_ok = 0
-        for h in HEIGHTS_M:
-            sel = records["height_m"] == h
-            wd = pd.Series(240.0, index=pd.DatetimeIndex(records.loc[sel, "timestamp"]))
-            tab, _ = imu.tilt_spectrum_statistics(series, wd)
-            n_ok += int(tab["tilt_along_wind_std_deg"].notna().sum())
+        wd_by_height = {
+            h: pd.Series(240.0, index=pd.DatetimeIndex(records.loc[sel, "timestamp"]))
+            for h, sel in ((h, records["height_m"] == h) for h in HEIGHTS_M)
+        }
+        by_height = imu.tilt_spectrum_statistics_by_height(series, wd_by_height)
+        n_ok = sum(
+            int(tab["tilt_along_wind_std_deg"].notna().sum()) for tab, _ in by_height.values()
+        )
         del ms
     elapsed = time.perf_counter() - t0
     # VmHWM: the peak RSS of this program's own address space (ru_maxrss would carry the

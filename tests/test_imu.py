@@ -410,6 +410,31 @@ def test_tilt_spectrum_statistics_missing_wind_direction_gives_nan_row():
     assert np.isnan(spec.var_along_deg2).all()
 
 
+def test_tilt_statistics_of_several_heights_at_once_equal_one_call_each_bit_for_bit(rng):
+    # the IMU step's streamed path grids and turns the attitude once for all heights; the
+    # same tables and spectra as one call per height (gaps, a yawing buoy, a window
+    # without a wind direction at one height, a callable source)
+    t = np.arange(0, 1800, 1 / FS)  # three windows
+    roll = sine(2.0, 5.0, 0.3, t) + 0.05 * rng.standard_normal(t.size)
+    frame = imu_frame(t, roll, sine(3.0, 7.0, 0.0, t) + 0.05 * rng.standard_normal(t.size))
+    frame["yaw_deg"] = 30.0 + 10.0 * np.sin(2 * np.pi * t / 300.0)
+    frame.loc[(t > 700) & (t < 760), ["roll_deg", "pitch_deg"]] = np.nan
+    starts = pd.to_datetime(1.4274e9 + 600.0 * np.arange(3), unit="s", utc=True)
+    sources = {
+        27.0: pd.Series([10.0, 200.0, 95.0], index=starts),
+        58.0: pd.Series([40.0, np.nan, 300.0], index=starts),
+        85.0: lambda stamps: np.full(len(stamps), 123.0),
+    }
+    many = imu.tilt_spectrum_statistics_by_height(frame, sources)
+    assert list(many) == list(sources)
+    for h, src in sources.items():
+        table, spec = imu.tilt_spectrum_statistics(frame, src)
+        pd.testing.assert_frame_equal(many[h][0], table, check_exact=True)
+        for name in ("var_along_deg2", "var_across_deg2", "period_s", "m0_deg2", "tp_s"):
+            assert getattr(many[h][1], name).tobytes() == getattr(spec, name).tobytes(), name
+    assert many[58.0][0]["tilt_along_wind_std_deg"].isna().tolist() == [False, True, False]
+
+
 def test_optional_tilt_columns_read_and_bounds_checked(tmp_path):
     from flidar_uq.data import io
 

@@ -35,6 +35,8 @@ spectral and zero-crossing estimators see gaps filled by linear interpolation.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 import pandas as pd
 from scipy.signal import find_peaks, welch
@@ -42,6 +44,7 @@ from scipy.signal import find_peaks, welch
 from flidar_uq.data.metrics import pearson_r
 from flidar_uq.data.schema import TILT_SPECTRUM_COLUMNS
 from flidar_uq.physics.motion_spectrum import (
+    PERIOD_RANGE_S,
     TiltBandSpectrum,
     project_tilt_on_wind_deg,
     tilt_band_spectrum,
@@ -68,6 +71,7 @@ __all__ = [
     "TILT_SPECTRUM_COLUMNS",
     "tilt_spectrum_columns",
     "tilt_spectrum_statistics",
+    "tilt_spectrum_statistics_by_height",
 ]
 
 AMPLITUDE_METHODS = ("std", "spectral", "zero_crossing")
@@ -756,28 +760,46 @@ def tilt_band_statistics(
         Arrays of shape ``(nwin, ...)`` (``nwin = 1`` for a single series), or
         ``(nwin * k, ...)``.
     """
+    east, north = _tilt_vector(roll_deg, pitch_deg, yaw_deg)  # (nwin, n)
+    if np.ndim(wd_deg) == 2:  # k directions per series: rows (series, direction)
+        wd = np.asarray(wd_deg, np.float64)
+        if wd.shape[0] != east.shape[0]:
+            raise ValueError(
+                f"tilt_band_statistics: wd_deg of shape {wd.shape} needs one row per series "
+                f"({east.shape[0]})"
+            )
+        k = wd.shape[1]
+        east, north = np.repeat(east, k, axis=0), np.repeat(north, k, axis=0)
+        wd = wd.reshape(-1, 1)
+    else:
+        wd = np.asarray(wd_deg, np.float64).reshape(-1, 1) if np.ndim(wd_deg) else float(wd_deg)
+    return _projected_band_spectrum(
+        east,
+        north,
+        wd,
+        fs_hz,
+        segment_s=segment_s,
+        n_bands=n_bands,
+        period_min_s=period_min_s,
+        period_max_s=period_max_s,
+    )
+
+
+def _tilt_vector(roll_deg, pitch_deg, yaw_deg) -> tuple[np.ndarray, np.ndarray]:
+    """Tilt vector (east, north), shape (nwin, n), of the series; NaN yaw samples filled."""
     r, _ = _as_2d(roll_deg)
     p, _ = _as_2d(pitch_deg)
     y = np.broadcast_to(np.asarray(yaw_deg, np.float64), r.shape)
     y = _fill(np.array(y)) if y.ndim == 2 else y
-    east, north = tilt_vector_en(r, p, y)  # (nwin, n)
-    if np.ndim(wd_deg) == 2:  # k directions per series: rows (series, direction)
-        wd = np.asarray(wd_deg, np.float64)
-        if wd.shape[0] != r.shape[0]:
-            raise ValueError(
-                f"tilt_band_statistics: wd_deg of shape {wd.shape} needs one row per series "
-                f"({r.shape[0]})"
-            )
-        along, across = project_tilt_on_wind_deg(east[:, None, :], north[:, None, :], wd[..., None])
-        along, across = (a.reshape(-1, r.shape[-1]) for a in (along, across))
-    else:
-        wd = np.asarray(wd_deg, np.float64).reshape(-1, 1) if np.ndim(wd_deg) else float(wd_deg)
-        along, across = project_tilt_on_wind_deg(east, north, wd)
-    f, pa = motion_spectrum(along, fs_hz, segment_s=segment_s)
-    _, pc = motion_spectrum(across, fs_hz, segment_s=segment_s)
-    return tilt_band_spectrum(
-        f, pa, pc, n_bands=n_bands, period_min_s=period_min_s, period_max_s=period_max_s
-    )
+    return tilt_vector_en(r, p, y)
+
+
+def _projected_band_spectrum(east, north, wd_deg, fs_hz, **bands) -> TiltBandSpectrum:
+    """Band spectrum of the tilt vector projected on the wind (``wd_deg`` broadcast)."""
+    along, across = project_tilt_on_wind_deg(east, north, wd_deg)
+    f, pa = motion_spectrum(along, fs_hz, segment_s=bands.pop("segment_s"))
+    _, pc = motion_spectrum(across, fs_hz, segment_s=0.0 + (f.size - 1) * 2 / fs_hz)
+    return tilt_band_spectrum(f, pa, pc, **bands)
 
 
 def tilt_spectrum_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
@@ -832,6 +854,68 @@ def tilt_spectrum_statistics(
     spectrum : TiltBandSpectrum
         The band description of the same rows (NaN rows for the NaN windows).
     """
+    return _tilt_spectrum_windows(
+        imu,
+        [wd_deg],
+        window_s=window_s,
+        segment_s=segment_s,
+        n_bands=n_bands,
+        min_coverage_pct=min_coverage_pct,
+        fs_hz=fs_hz,
+    )[0]
+
+
+def tilt_spectrum_statistics_by_height(
+    imu: pd.DataFrame,
+    wd_by_height: Mapping,
+    *,
+    window_s: float = 600.0,
+    segment_s: float = 200.0,
+    n_bands: int = 8,
+    min_coverage_pct: float = 80.0,
+    fs_hz: float | None = None,
+) -> dict:
+    """:func:`tilt_spectrum_statistics` for several measurement heights at once.
+
+    The attitude is gridded, turned into the tilt vector (its trigonometry) and averaged
+    into the heading once, then projected on each height's wind directions: the same
+    values as one call per height, about a third of the work for three heights.
+
+    Parameters
+    ----------
+    imu : pandas.DataFrame
+        As in :func:`tilt_spectrum_statistics`.
+    wd_by_height : mapping
+        Height (m) -> mean wind direction per window (deg; a Series indexed by the window
+        start or a function of the window starts, as ``wd_deg`` of
+        :func:`tilt_spectrum_statistics`).
+    window_s, segment_s, n_bands, min_coverage_pct, fs_hz
+        As in :func:`tilt_spectrum_statistics` (s, s, count, %, Hz).
+
+    Returns
+    -------
+    dict
+        Height -> ``(table, spectrum)`` of :func:`tilt_spectrum_statistics`, in the
+        mapping's order.
+    """
+    heights = list(wd_by_height)
+    out = _tilt_spectrum_windows(
+        imu,
+        [wd_by_height[h] for h in heights],
+        window_s=window_s,
+        segment_s=segment_s,
+        n_bands=n_bands,
+        min_coverage_pct=min_coverage_pct,
+        fs_hz=fs_hz,
+    )
+    return dict(zip(heights, out, strict=True))
+
+
+def _tilt_spectrum_windows(
+    imu, wd_sources, *, window_s, segment_s, n_bands, min_coverage_pct, fs_hz
+) -> list[tuple[pd.DataFrame, TiltBandSpectrum]]:
+    """The windows' grid, coverage, tilt vector and heading once; one ``(table, spectrum)``
+    of :func:`tilt_spectrum_statistics` per source of wind directions."""
     t_ns = pd.DatetimeIndex(imu["timestamp"]).as_unit("ns").asi8
     window_ns = int(round(window_s * 1e9))
     t0_ns = (int(t_ns[0]) // window_ns) * window_ns
@@ -839,30 +923,43 @@ def tilt_spectrum_statistics(
     vals = imu[names].to_numpy(dtype=np.float64)
     start_s, grid, fs = window_series((t_ns - t0_ns) * 1e-9, vals, window_s=window_s, fs_hz=fs_hz)
     stamps = pd.to_datetime(t0_ns + np.rint(start_s * 1e9).astype(np.int64), utc=True)
-    if callable(wd_deg):
-        wd = np.asarray(wd_deg(stamps), np.float64)
-    else:
-        wd = pd.Series(wd_deg).reindex(stamps).to_numpy(dtype=np.float64)
+    wd = np.stack(
+        [
+            np.asarray(src(stamps), np.float64)
+            if callable(src)
+            else pd.Series(src).reindex(stamps).to_numpy(dtype=np.float64)
+            for src in wd_sources
+        ],
+        axis=-1,
+    )  # (nwin, k)
     coverage = 100.0 * np.isfinite(grid[..., :2]).all(axis=-1).mean(axis=-1)
     present = np.isfinite(grid[..., :2]).any(axis=(1, 2))
-    good = present & (coverage >= min_coverage_pct) & np.isfinite(wd)
+    covered = present & (coverage >= min_coverage_pct)
+    good = covered[:, None] & np.isfinite(wd)
     yaw = grid[..., 2] if grid.shape[-1] == 3 else 0.0
-    spec = tilt_band_statistics(
-        grid[..., 0],
-        grid[..., 1],
-        yaw,
-        np.where(good, wd, 0.0),
-        fs,
-        segment_s=segment_s,
-        n_bands=n_bands,
-    ).masked(good)
+    east, north = _tilt_vector(grid[..., 0], grid[..., 1], yaw)  # once for every source
     heading = (
-        np.where(present & (coverage >= min_coverage_pct), heading_mean_deg(yaw), np.nan)
+        np.where(covered, heading_mean_deg(yaw), np.nan)
         if grid.shape[-1] == 3
         else np.full(len(stamps), np.nan)
     )
-    table = pd.DataFrame(
-        {"timestamp": stamps} | tilt_spectrum_columns(spec) | {"heading_mean_deg": heading}
-    )
     keep = np.flatnonzero(present)
-    return table.iloc[keep].reset_index(drop=True), spec.take(keep)
+    out = []
+    for j in range(wd.shape[1]):
+        # one source's windows at a time: the band sums are matrix products whose last bits
+        # depend on the number of rows, so each keeps the rows of a call of its own
+        spec = _projected_band_spectrum(
+            east,
+            north,
+            np.where(good[:, j], wd[:, j], 0.0)[:, None],
+            fs,
+            segment_s=segment_s,
+            n_bands=n_bands,
+            period_min_s=PERIOD_RANGE_S[0],
+            period_max_s=PERIOD_RANGE_S[1],
+        ).masked(good[:, j])
+        table = pd.DataFrame(
+            {"timestamp": stamps} | tilt_spectrum_columns(spec) | {"heading_mean_deg": heading}
+        )
+        out.append((table.iloc[keep].reset_index(drop=True), spec.take(keep)))
+    return out

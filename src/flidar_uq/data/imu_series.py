@@ -514,7 +514,8 @@ def series_motion_statistics(
     must lie on one grid), the roll/pitch amplitude, period and two-peak statistics
     (:func:`flidar_uq.data.imu.motion_statistics`) and the tilt along and across the
     record's own wind direction ``wd_mean_deg``, per height
-    (:func:`flidar_uq.data.imu.tilt_spectrum_statistics`), with their default estimators:
+    (:func:`flidar_uq.data.imu.tilt_spectrum_statistics_by_height`: the attitude gridded and
+    turned once for all heights), with their default estimators:
     the same numbers as on the whole series at once. The sample grid uses the rate of the
     first chunk (median interval rounded to 1 microsecond).
 
@@ -596,11 +597,11 @@ def series_motion_statistics(
                 part, window_s=window_s, min_coverage_pct=min_coverage_pct, fs_hz=fs
             )
             motion_rows.append(ms[ms["timestamp"].isin(rec_keys["timestamp"])])
-            for h, wd in wd_by_height.items():
-                tab, _ = _imu.tilt_spectrum_statistics(
-                    part, wd, window_s=window_s, min_coverage_pct=min_coverage_pct, fs_hz=fs
-                )
-                tab = tab[tab["timestamp"].isin(wd.index)]
+            by_height = _imu.tilt_spectrum_statistics_by_height(
+                part, wd_by_height, window_s=window_s, min_coverage_pct=min_coverage_pct, fs_hz=fs
+            )
+            for h, (tab, _) in by_height.items():
+                tab = tab[tab["timestamp"].isin(wd_by_height[h].index)]
                 tilt_rows.append(tab.assign(height_m=h))
     out = rec_keys.copy()
     stat_cols = list(_imu.MOTION_STAT_COLUMNS)
