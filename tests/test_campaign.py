@@ -218,6 +218,15 @@ def test_motion_columns_are_the_data_layers_statistics_of_the_imu_series_bit_for
         assert out.records[key].to_numpy().tobytes() == stats[key].to_numpy().tobytes(), key
 
 
+def test_single_height_campaign_does_not_depend_on_the_chunk_size():
+    # one height and one record per chunk reduces a single row of tilt spectra: the same
+    # bits as among the chunk's other records (issue 13's scaling runs one height too)
+    sc = load_scenario("default") | {"n_records": 6, "heights_m": [58.0]}
+    a = generate_campaign(sc, 1, chunk_records=1).records
+    b = generate_campaign(sc, 1, chunk_records=6).records
+    pd.testing.assert_frame_equal(a, b, check_exact=True)
+
+
 #: Column sums of the default scenario's first 3 records (seed 20181122, 9 rows) from the
 #: generator of commit 3846522, before the issue-13 speed work (benchmarks/campaign_generation.py
 #: compares the two in full). The speed work left the output byte-identical on the

@@ -58,6 +58,22 @@ def test_several_wind_directions_per_series_equal_one_row_each_bit_for_bit(rng):
         tilt_band_statistics(*att, yaw, wd[:1], FS)
 
 
+def test_band_reduction_of_a_row_does_not_depend_on_the_rows_beside_it(rng):
+    # one record alone or among others: the same bits (a campaign's records must not depend
+    # on its chunk size; a one-hot matrix product took BLAS gemv for one row, gemm for more)
+    f = np.arange(1001) * 0.005
+    pa, pc = rng.random((2, 40, f.size))
+    batch = ms.tilt_band_spectrum(f, pa, pc)
+    for rows in (slice(0, 1), slice(5, 6), slice(3, 5), slice(7, 20)):
+        part = ms.tilt_band_spectrum(f, pa[rows], pc[rows])
+        for name in ("var_along_deg2", "var_across_deg2", "period_s", "m0_deg2", "tp_s"):
+            assert getattr(part, name).tobytes() == getattr(batch, name)[rows].tobytes(), name
+    # the band sums are the bins' sums: every in-band bin counted once
+    np.testing.assert_allclose(
+        batch.var_along_deg2.sum(axis=-1), batch.m0_deg2, rtol=1e-12, atol=0.0
+    )
+
+
 @pytest.mark.parametrize("period_s", [2.3, 4.0, 9.1])
 def test_pure_pitch_sinusoid_along_wind_share_one_amplitude_and_period(period_s):
     x = 3.0 * np.sin(2 * np.pi * T10 / period_s + 0.4)

@@ -280,13 +280,26 @@ def tilt_band_spectrum(
     idx = np.searchsorted(edges, per, side="right") - 1
     idx = np.where(per == edges[-1], n_bands - 1, idx)
     inside = (idx >= 0) & (idx < n_bands)
-    onehot = (idx[:, None] == np.arange(n_bands)[None, :]) & inside[:, None]  # (nf, nb)
-    w = onehot * df
-    var_a = pa @ w
-    var_c = pc @ w
+    # a band's bins are contiguous (the period falls with the frequency): each band's sum
+    # is a sum over a slice, row by row. A matrix product with a one-hot matrix gave other
+    # last bits for one row (BLAS gemv) than for several (gemm), so a record's bands
+    # depended on how many records were reduced with it (a campaign's chunk size).
+    slices = []
+    for b in range(n_bands):
+        k = np.flatnonzero(idx == b)
+        slices.append(slice(int(k[0]), int(k[-1]) + 1) if k.size else slice(0, 0))
+
+    def band_sums(x):
+        out = np.zeros(x.shape[:-1] + (n_bands,))
+        for b, sl in enumerate(slices):
+            out[..., b] = x[..., sl].sum(axis=-1) * df
+        return out
+
+    var_a = band_sums(pa)
+    var_c = band_sums(pc)
     tot = pa + pc
-    v_tot = tot @ w
-    fm = (tot * f) @ w
+    v_tot = band_sums(tot)
+    fm = band_sums(tot * f)
     centre = np.sqrt(edges[:-1] * edges[1:])
     with np.errstate(invalid="ignore", divide="ignore"):
         period = np.where(v_tot > 0, v_tot / fm, centre[None, :])
