@@ -946,8 +946,7 @@ def _tilt_spectrum_windows(
     keep = np.flatnonzero(present)
     out = []
     for j in range(wd.shape[1]):
-        # one source's windows at a time: the band sums are matrix products whose last bits
-        # depend on the number of rows, so each keeps the rows of a call of its own
+        # one source's windows at a time (its spectra, then its table)
         spec = _projected_band_spectrum(
             east,
             north,
