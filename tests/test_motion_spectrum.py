@@ -58,6 +58,20 @@ def test_several_wind_directions_per_series_equal_one_row_each_bit_for_bit(rng):
         tilt_band_statistics(*att, yaw, wd[:1], FS)
 
 
+@pytest.mark.parametrize("segment_s", [200.0, 199.8])  # 1000 and 999 samples at 5 Hz
+def test_across_wind_is_along_wind_turned_90_deg_for_any_welch_segment(rng, segment_s):
+    # across(wd) and along(wd + 90) are the same series: the same band variances, also
+    # for an odd number of samples per Welch segment (each component its own spectrum)
+    fs = 5.0
+    n = int(600 * fs)
+    roll, pitch = tilt_series(n, 1 / fs, [WaveSystem(3.0, 6.0, 3.3, 30.0, 20.0)], rng)
+    yaw = 15.0 + rng.standard_normal(n)
+    a = tilt_band_statistics(roll, pitch, yaw, 40.0, fs, segment_s=segment_s)
+    b = tilt_band_statistics(roll, pitch, yaw, 130.0, fs, segment_s=segment_s)
+    np.testing.assert_allclose(a.var_across_deg2, b.var_along_deg2, rtol=1e-9, atol=1e-15)
+    assert a.var_across_deg2.sum() > 0.1
+
+
 def test_band_reduction_of_a_row_does_not_depend_on_the_rows_beside_it(rng):
     # one record alone or among others: the same bits (a campaign's records must not depend
     # on its chunk size; a one-hot matrix product took BLAS gemv for one row, gemm for more)

@@ -11,9 +11,9 @@ or SkylakeX, whose 3x3 products fuse multiply-adds differently) and NumPy's SIMD
 (AVX-512 and AVX2 versions of ``exp``, ``log``, ``**``, ``arctan2``, ``arcsin`` differ
 in the last bit for some arguments). A rerun is therefore bit-identical on machines whose
 :func:`numeric_environment` is the same (with the same packages, ``requirements.lock``);
-across CPU types the results agree to rounding (the default run under another OpenBLAS
-kernel: corrected TIs within 4e-9, flags and coverage identical; docs/performance.md,
-session 12). Both can be pinned for a run through
+across CPU types they differ in their last digits (the default run measured once under
+another OpenBLAS kernel: corrected TIs within 4e-9, flags and coverage identical, no
+sampler decision flipped; docs/performance.md, session 12). Both can be pinned for a run through
 environment variables read when NumPy is imported (``OPENBLAS_CORETYPE``,
 ``NPY_DISABLE_CPU_FEATURES``; README, "Reproducibility across machines").
 

@@ -254,7 +254,7 @@ def tilt_band_spectrum(
     Parameters
     ----------
     f_hz : array_like, shape (nf,)
-        Uniform frequencies, Hz (e.g. Welch: ``flidar_uq.data.imu.motion_spectrum``).
+        Uniform, sorted frequencies, Hz (e.g. Welch: ``flidar_uq.data.imu.motion_spectrum``).
     psd_along, psd_across : array_like, shape (nf,) or (nrec, nf)
         One-sided PSDs of the along- and across-wind tilt, deg^2/Hz
         (``psd.sum(-1) * df`` is the variance).
@@ -266,8 +266,9 @@ def tilt_band_spectrum(
     TiltBandSpectrum
     """
     f = np.asarray(f_hz, float)
-    pa = np.atleast_2d(np.asarray(psd_along, float))
-    pc = np.atleast_2d(np.asarray(psd_across, float))
+    # C order: each row's band sums run along its own contiguous bins
+    pa = np.ascontiguousarray(np.atleast_2d(np.asarray(psd_along, float)))
+    pc = np.ascontiguousarray(np.atleast_2d(np.asarray(psd_across, float)))
     if pa.shape != pc.shape or pa.shape[-1] != f.size or f.size < 2:
         raise ValueError(
             f"tilt_band_spectrum: psd shapes {pa.shape}, {pc.shape} do not match f_hz {f.shape}"
@@ -287,6 +288,8 @@ def tilt_band_spectrum(
     slices = []
     for b in range(n_bands):
         k = np.flatnonzero(idx == b)
+        if k.size and k[-1] - k[0] + 1 != k.size:
+            raise ValueError("tilt_band_spectrum: f_hz must be sorted (a band's bins apart)")
         slices.append(slice(int(k[0]), int(k[-1]) + 1) if k.size else slice(0, 0))
 
     def band_sums(x):

@@ -157,8 +157,8 @@ def provenance_html(
                     pd.DataFrame(sorted((numerics or {}).items()), columns=["item", "value"]),
                     caption="numeric environment of the process that wrote this report (each "
                     "job's is the first line of its log): a rerun is bit-identical where it, "
-                    "the package versions and the seeds are the same (elsewhere the results "
-                    "agree to rounding: README, 'Reproducibility across machines')",
+                    "the package versions and the seeds are the same (elsewhere they differ in "
+                    "their last digits: README, 'Reproducibility across machines')",
                 )
             )
             if numerics
