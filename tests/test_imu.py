@@ -433,6 +433,7 @@ def test_tilt_statistics_of_several_heights_at_once_equal_one_call_each_bit_for_
         for name in ("var_along_deg2", "var_across_deg2", "period_s", "m0_deg2", "tp_s"):
             assert getattr(many[h][1], name).tobytes() == getattr(spec, name).tobytes(), name
     assert many[58.0][0]["tilt_along_wind_std_deg"].isna().tolist() == [False, True, False]
+    assert imu.tilt_spectrum_statistics_by_height(frame, {}) == {}
 
 
 def test_optional_tilt_columns_read_and_bounds_checked(tmp_path):

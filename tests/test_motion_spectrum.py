@@ -86,6 +86,9 @@ def test_band_reduction_of_a_row_does_not_depend_on_the_rows_beside_it(rng):
     np.testing.assert_allclose(
         batch.var_along_deg2.sum(axis=-1), batch.m0_deg2, rtol=1e-12, atol=0.0
     )
+    shuffled = np.r_[f[:100], f[150:], f[100:150]]  # a band's bins apart (0.745, 0.75 Hz)
+    with pytest.raises(ValueError, match="sorted"):
+        ms.tilt_band_spectrum(shuffled, pa, pc)
 
 
 @pytest.mark.parametrize("period_s", [2.3, 4.0, 9.1])
