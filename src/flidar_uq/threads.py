@@ -109,5 +109,7 @@ def numeric_environment() -> dict[str, str]:
     return {
         "machine": platform.machine(),
         "numpy_simd": simd,
-        "blas": "; ".join(blas) or "none loaded",
+        # sorted: the libraries' load order differs between processes (a SLURM job and a
+        # local one), their kernels do not
+        "blas": "; ".join(sorted(blas)) or "none loaded",
     }
