@@ -453,3 +453,25 @@ def test_optional_tilt_columns_read_and_bounds_checked(tmp_path):
         ValueError, match=r"row 4 .*'tilt_period_zero_crossing_s'.*outside \(0, 60\]"
     ):
         io.read_records(tmp_path / "bad.csv")
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    n=st.integers(min_value=2, max_value=4000),
+    seg=st.integers(min_value=2, max_value=1200),
+    rows=st.integers(min_value=1, max_value=3),
+    seed=st.integers(min_value=0, max_value=2**32 - 1),
+)
+def test_own_welch_is_scipy_welch(n, seg, rows, seed):
+    """The generator's Welch estimate is scipy.signal.welch's (Hann, 50 % overlap, segment
+    means removed, one-sided density) to rounding, for any length and segment (odd ones
+    included: the Nyquist bin is only doubled then)."""
+    from scipy.signal import welch
+
+    nperseg = min(n, seg)
+    x = np.random.default_rng(seed).standard_normal((rows, n)).cumsum(axis=-1)
+    f0, p0 = welch(x, fs=5.0, window="hann", nperseg=nperseg, detrend="constant", axis=-1)
+    f1, p1 = imu._welch_hann(x, 5.0, nperseg)
+    np.testing.assert_array_equal(f1, f0)
+    assert p1.shape == p0.shape
+    np.testing.assert_allclose(p1, p0, rtol=0, atol=1e-12 * np.abs(p0).max())

@@ -73,7 +73,6 @@ from flidar_uq.campaign.scenarios import (
 )
 from flidar_uq.data import imu as _imu
 from flidar_uq.physics import lidar as _lidar
-from flidar_uq.physics.motion import rotation_matrix
 from flidar_uq.physics.seastate import tilt_series
 from flidar_uq.physics.turbulence import draw_sigma_u_ms, kaimal_series, wind_enu_ms
 from flidar_uq.progress import ProgressLog
@@ -431,6 +430,9 @@ def _utc(ts: pd.Timestamp, t_s: np.ndarray) -> pd.DatetimeIndex:
 
 
 def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
+    # imported here: numba's import (~0.2 s) only in processes that simulate a campaign
+    from flidar_uq.campaign.scan_kernel import simulate_scans
+
     geo = _lidar.get_lidar(settings["lidar"]["name"])
     n_los = geo.n_los
     dt = geo.los_duration_s
@@ -454,74 +456,47 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     idx = np.minimum(starts[..., None] + np.arange(n_los), n_slots - 1)  # (C,J,L)
     k0 = np.array([s["k0"] for s in series])
     phase_slots = np.stack([s["phase_slots"] for s in series])  # (C,J)
-    a_idx = (idx + k0[:, None, None] + phase_slots[..., None]) % n_los  # azimuth slot per LOS
     h_idx = np.broadcast_to(np.arange(j_max) % n_h, starts.shape)  # heights in turn
     roll = np.stack([s["roll"] for s in series])  # (C,N) deg
     pitch = np.stack([s["pitch"] for s in series])
     yaw = np.stack([s["yaw"] for s in series])
-    cc = np.arange(n_c)[:, None, None]
-    # attitude on each scan's slots plus one slot either side (for the head velocity)
-    idx_ext = np.clip(starts[..., None] - 1 + np.arange(n_los + 2), 0, n_slots - 1)
-    # head velocity: central difference of the head position R(t) r + translation
-    # (seed 002 Eq. 4 differentiated), one-sided at the record's first slot
-    moving_head = np.any(lever != 0) or any(s["trans"] is not None for s in series)
-    span_s = np.maximum(idx_ext[..., 2:] - idx_ext[..., :-2], 1)[..., None] * dt
-    v_head = np.empty(a_idx.shape + (3,)) if moving_head else 0.0  # (C,J,L,3)
-    # np.take copies the same rows as fancy indexing, ~4x faster for rows of 3
-    m_body = np.take(d_body, a_idx, axis=0)  # (C,J,L,3)
-    d_earth = np.empty(a_idx.shape + (3,))
-    # record by record: a record's rotation matrices (J*(L+2), ~1.7 MB) stay in the
-    # cache, about 3x faster than the chunk's at once; the same elementwise operations
-    for c, s in enumerate(series):
-        ie = idx_ext[c]
-        y_c = yaw[c]
-        # a constant heading (sea-state buoy): one cosine and sine for the record
-        y_c = y_c[0] if (y_c == y_c[0]).all() else y_c[ie]
-        r_ext = rotation_matrix(
-            np.deg2rad(roll[c][ie]), np.deg2rad(pitch[c][ie]), np.deg2rad(y_c)
-        )  # (J,L+2,3,3)
-        if moving_head:
-            # one matrix-vector product over all rows (J*(L+2)*3, 3): the same BLAS kernel,
-            # row by row, as one call per stacked 3x3 matrix (byte-identical, ~10x faster)
-            pos = (r_ext.reshape(-1, 3) @ lever).reshape(r_ext.shape[:-1])  # (J,L+2,3)
-            if s["trans"] is not None:
-                pos += s["trans"][ie]
-            v_head[c] = (pos[:, 2:] - pos[:, :-2]) / span_s[c]
-        d_earth[c] = (r_ext[:, 1:-1] @ m_body[c][..., None])[..., 0]
-    # wind at every LOS: mean (sheared at the tilted focus height) + 1-D turbulence
-    fl = np.stack([s["fluct_enu"] for s in series])  # (C,H,N,3)
+    # the attitude's cosines and sines on the LOS clock (NumPy's SIMD loops); every line
+    # of sight, its head velocity, wind, radial speed and scan fit in one compiled pass
+    trig = np.empty((6, n_c, n_slots))
+    # a constant heading (sea-state buoy): one cosine and sine a record
+    yaw_trig = yaw[:, :1] if (yaw == yaw[:, :1]).all() else yaw
+    for k, a in enumerate((roll, pitch, yaw_trig)):
+        r = np.deg2rad(a)
+        trig[2 * k] = np.cos(r)
+        trig[2 * k + 1] = np.sin(r)
+    trans = (
+        np.stack([s["trans"] for s in series])
+        if series[0]["trans"] is not None
+        else np.empty((n_c, 0, 3))
+    )
+    fl = np.stack([s["fluct_enu"] for s in series])  # (C,H,Nw,3)
     hws_h = np.stack([s["hws_h"] for s in series])  # (C,H)
     wd = np.deg2rad(par["wd_deg"])
     e_wind = np.stack([-np.sin(wd), -np.cos(wd), np.zeros_like(wd)], -1)  # (C,3)
-    alpha = par["shear_exponent"]
     step = wind_step_slots(settings, dt)
-    fl_los = np.take(
-        fl.reshape(-1, 3), (cc * n_h + h_idx[..., None]) * fl.shape[2] + idx // step, axis=0
-    )  # (C,J,L,3) = fl[cc, h_idx, idx // step]
-    mean_los = hws_h[np.arange(n_c)[:, None], h_idx][..., None]  # (C,J,1)
-    # focus range fixed at h / cos(th): the focus height follows the tilted beam (seed 003 Eq. 5)
-    # (1 + x)^alpha to second order in x = tilt-induced relative height change (|x| < 0.05
-    # for tilts < 15 deg: error < 1e-5 relative), much cheaper than a power per LOS
-    x = d_earth[..., 2] / np.cos(th) - 1.0
-    a_ = alpha[:, None, None]
-    shear = 1.0 + a_ * x * (1.0 + 0.5 * (a_ - 1.0) * x)
-    # v_r = d_earth . (wind - v_head) (conventions.md), and the fixed reference lidar's
-    # d_body . wind0, component by component: the same products and the same sum order
-    # ((x + y) + z) as the stacked 1x3 @ 3x1 products, without a call per line of sight
-    ms = mean_los * shear
-    v_r = v_r0 = 0.0
-    for k in range(3):
-        e_k = e_wind[:, None, None, k]
-        wind_k = ms * e_k + fl_los[..., k]
-        if moving_head:
-            wind_k -= v_head[..., k]
-        v_r = v_r + wind_k * d_earth[..., k]
-        v_r0 = v_r0 + (mean_los * e_k + fl_los[..., k]) * m_body[..., k]
-    pt = np.take(pinv_t, a_idx, axis=0)
-    n_iter = 0 if geo.signed else 1
-    uvw, resid = _lidar.vad_sign_unfolding(pt, m_body, np.abs(v_r), np.sign(v_r), n_iter)
-    # fixed lidar: the body geometry is exact, so the unfolded fit is the linear one
-    uvw0 = (v_r0[..., None, :] @ pt)[..., 0, :]
+    v_r, uvw, uvw0, resid = simulate_scans(
+        trig,
+        trans,
+        starts,
+        k0,
+        phase_slots,
+        d_body,
+        pinv_t,
+        fl,
+        hws_h,
+        e_wind,
+        np.asarray(par["shear_exponent"], float),
+        lever,
+        dt,
+        step,
+        np.cos(th),
+        0 if geo.signed else 1,
+    )
     hws_scan = np.hypot(uvw[..., 0], uvw[..., 1])  # (C,J)
     hws0 = np.hypot(uvw0[..., 0], uvw0[..., 1])
     mid = idx[..., n_los // 2]
@@ -630,6 +605,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         imu_ns.append(_utc_ns(ts, t_imu))
         if want_los:
             jj = np.nonzero(valid[c])[0]
+            a_c = (idx[c][jj] + k0[c] + phase_slots[c][jj][:, None]) % n_los  # azimuth slots
             t_los = (idx[c][jj] * dt).ravel()
             vr = np.abs(v_r[c][jj]) if not geo.signed else v_r[c][jj]
             vr = np.where((~ok[c][jj])[:, None], np.nan, vr)
@@ -638,7 +614,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                     {
                         "timestamp": _utc(ts, t_los),
                         "height_m": np.repeat(heights[h_idx[c][jj]], n_los),
-                        "azimuth_deg": np.rad2deg(az_slots[a_idx[c][jj]]).ravel(),
+                        "azimuth_deg": np.rad2deg(az_slots[a_c]).ravel(),
                         "radial_speed_ms": vr.ravel(),
                         # a valid CW measurement reports a good CNR; dropped scans
                         # carry NaN speed and CNR (flagged by qc.run_los_qc)
@@ -695,19 +671,33 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
 
 
 _BLAS_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+#: glibc's malloc in the workers: keep freed memory for reuse (no trimming of the heap, no
+#: mmap below 32 MB). By default a chunk's arrays of a few MB are returned to the kernel
+#: when freed and faulted in again page by page at the next chunk: ~0.8 ms of system time a
+#: record, ~10 % of the generator (docs/performance.md, session 13). No effect on results;
+#: ignored by other C libraries.
+_MALLOC_TUNABLES = (
+    "glibc.malloc.mmap_threshold=33554432:glibc.malloc.trim_threshold=1073741824:"
+    "glibc.malloc.top_pad=67108864"
+)
 
 
 @contextlib.contextmanager
-def _spawned_workers_blas_env():
-    """Environment of spawned worker processes: BLAS pinned to :data:`BLAS_THREADS`.
+def _spawned_workers_env():
+    """Environment of spawned worker processes: BLAS pinned to :data:`BLAS_THREADS`, and
+    :data:`_MALLOC_TUNABLES` (unless ``GLIBC_TUNABLES`` is set already).
 
     :func:`flidar_uq.threads.blas_threads` limits the thread pools of the libraries loaded
     in *this* process; a spawned worker imports NumPy and SciPy afresh, and OpenBLAS reads
-    these variables when it is loaded. The workers start at the first submitted task
-    (not when the pool is made), so the variables must hold for the pool's whole life.
+    these variables when it is loaded (glibc when the process starts). The workers start at
+    the first submitted task (not when the pool is made), so the variables must hold for
+    the pool's whole life.
     """
-    saved = {k: os.environ.get(k) for k in _BLAS_ENV}
-    os.environ.update({k: str(BLAS_THREADS) for k in _BLAS_ENV})
+    env = {k: str(BLAS_THREADS) for k in _BLAS_ENV}
+    if "GLIBC_TUNABLES" not in os.environ:
+        env["GLIBC_TUNABLES"] = _MALLOC_TUNABLES
+    saved = {k: os.environ.get(k) for k in env}
+    os.environ.update(env)
     try:
         yield
     finally:
@@ -800,7 +790,7 @@ def generate_campaign(
         else:
             # spawned workers with single-threaded BLAS: threads of several processes would
             # compete for the same cores (scipy's batched least squares in Welch detrending)
-            stack.enter_context(_spawned_workers_blas_env())
+            stack.enter_context(_spawned_workers_env())
             pool = stack.enter_context(
                 ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
             )

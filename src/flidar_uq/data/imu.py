@@ -39,7 +39,8 @@ from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
-from scipy.signal import find_peaks, welch
+from scipy import fft as _fft
+from scipy.signal import find_peaks, get_window
 
 from flidar_uq.data.metrics import pearson_r
 from flidar_uq.data.schema import TILT_SPECTRUM_COLUMNS
@@ -194,8 +195,35 @@ def motion_spectrum(
     nperseg = int(min(x.shape[-1], round(segment_s * fs_hz)))
     # the window is detrended once as a whole; each Welch segment only loses its mean
     r = _detrend(_fill(x))
-    f, p = welch(r, fs=fs_hz, window="hann", nperseg=nperseg, detrend="constant", axis=-1)
+    f, p = _welch_hann(r, fs_hz, nperseg)
     return f, (p[0] if squeeze else p)
+
+
+def _welch_hann(x: np.ndarray, fs_hz: float, nperseg: int) -> tuple[np.ndarray, np.ndarray]:
+    """Welch PSD of the rows of ``x``: ``scipy.signal.welch(x, fs_hz, "hann", nperseg)``.
+
+    The same estimate (periodic Hann window, 50 % overlap, each segment's mean removed,
+    one-sided density, mean over the segments) without ``welch``'s per-call set-up, which
+    cost ~5x the FFTs for the generator's 3000-sample records; equal to ``welch`` to
+    rounding (``tests/test_imu.py``).
+    """
+    n = x.shape[-1]
+    step = nperseg - nperseg // 2
+    n_seg = (n - nperseg) // step + 1
+    seg = np.array(  # a copy: the segments overlap
+        np.lib.stride_tricks.sliding_window_view(x, nperseg, axis=-1)[..., ::step, :][
+            ..., :n_seg, :
+        ]
+    )
+    win = get_window("hann", nperseg)
+    seg -= seg.mean(axis=-1, keepdims=True)  # in place: ~4x faster than new temporaries
+    seg *= win
+    spec = _fft.rfft(seg, axis=-1)
+    p = spec.real**2
+    p += spec.imag**2
+    p = p.mean(axis=-2) / (fs_hz * (win * win).sum())
+    p[..., 1 : (None if nperseg % 2 else -1)] *= 2.0  # one-sided: all but DC and Nyquist
+    return _fft.rfftfreq(nperseg, 1.0 / fs_hz), p
 
 
 def _band(f: np.ndarray, period_min_s: float, period_max_s: float) -> np.ndarray:
