@@ -354,36 +354,34 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
 # ---------------------------------------------------------------------------
 
 
-def _regime_truth(settings, par, roll_deg, pitch_deg, yaw_deg) -> list[dict]:
+def _regime_truth(settings, par, trig) -> list[dict]:
     """Truth columns of the records' sea-state and heading regime (issue 11), one dict each.
 
     The tilt along / across the wind is the lean of the body z axis toward the direction
     the wind blows to / 90 deg to its left, ``sqrt(2)`` x its std (deg, the amplitude
     convention of docs/conventions.md), from the attitude sampled every 0.1 s. Directions of travel are compass (clockwise
     from north); the swell offset is signed, swell minus downwind, in (-180, 180].
-    ``roll_deg``, ``pitch_deg``, ``yaw_deg``: shape (records of the chunk, LOS slots).
+    ``trig``: cosines and sines of roll, pitch and yaw (``cr, sr, cp, sp, cy, sy``), shape
+    (6, records of the chunk, LOS slots).
     """
     # on a 0.1-s clock: the attitude varies on seconds, and the full LOS clock (0.02 s)
     # would cost a fifth of the record's simulation time
-    stride = max(int(round(0.1 / (float(settings["record_length_s"]) / roll_deg.shape[-1]))), 1)
-    roll_deg, pitch_deg, yaw_deg = (a[:, ::stride] for a in (roll_deg, pitch_deg, yaw_deg))
-    if (yaw_deg == yaw_deg[:, :1]).all():  # constant headings: their trig once per record
-        yaw_deg = yaw_deg[:, :1]
-    r, p, y = (np.deg2rad(a) for a in (roll_deg, pitch_deg, yaw_deg))
-    cr, cy, sy = np.cos(r), np.cos(y), np.sin(y)
-    zx_b, zy_b, zz = np.sin(p) * cr, -np.sin(r), np.cos(p) * cr  # R @ e_z
+    stride = max(int(round(0.1 / (float(settings["record_length_s"]) / trig.shape[-1]))), 1)
+    cr, sr, cp, sp, cy, sy = trig[:, :, ::stride]
+    zx_b, zy_b, zz = sp * cr, -sr, cp * cr  # R @ e_z
     ze = cy * zx_b - sy * zy_b
     zn = sy * zx_b + cy * zy_b
     wd = np.deg2rad(par["wd_deg"])[:, None]
     along = np.rad2deg(np.arctan2(-np.sin(wd) * ze - np.cos(wd) * zn, zz))
     across = np.rad2deg(np.arctan2(np.cos(wd) * ze - np.sin(wd) * zn, zz))
-    yaw_mean = _circ_mean_deg(yaw_deg, np.ones(roll_deg.shape, bool), -1)
+    # mean heading: the circular mean of the yaw samples (their cosines and sines above)
+    yaw_mean = np.rad2deg(np.arctan2(sy.sum(-1), cy.sum(-1))) % 360.0
     yaw_mean = (yaw_mean + 180.0) % 360.0 - 180.0
     along_amp = np.sqrt(2.0) * along.std(axis=-1)
     across_amp = np.sqrt(2.0) * across.std(axis=-1)
     sea_state = settings["motion"]["model"] == "sea_state"
     out = []
-    for c in range(roll_deg.shape[0]):
+    for c in range(trig.shape[1]):
         d = {
             "true_yaw_deg": float(yaw_mean[c]),
             "true_yaw_minus_upwind_deg": float(_wrap180(yaw_mean[c] - (90.0 - par["wd_deg"][c]))),
@@ -409,6 +407,17 @@ def _regime_truth(settings, par, roll_deg, pitch_deg, yaw_deg) -> list[dict]:
             )
         out.append(d)
     return out
+
+
+def _masked_mean_std(x, mask):
+    """Count, mean and std (``ddof=1``) of ``x`` where ``mask`` over the last axis
+    (``x`` broadcast to ``mask``); NaN where too few samples."""
+    n = mask.sum(axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(mask, x, 0.0).sum(axis=-1) / n
+        dev = np.where(mask, x - mean[..., None], 0.0)
+        std = np.sqrt((dev * dev).sum(axis=-1) / (n - 1))
+    return n, mean, std
 
 
 def _circ_mean_deg(deg, mask, axis):
@@ -514,10 +523,35 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     los_frames, imu_att, imu_ns = [], [], []
     start0 = pd.Timestamp(settings["start_utc"])
     rate = float(settings["imu"]["rate_hz"])
-    regimes = _regime_truth(settings, par, roll, pitch, yaw)
+    regimes = _regime_truth(settings, par, trig)
     # truth of the motion (noise-free, gap-free series on the LOS clock)
     roll_amp, pitch_amp = (np.sqrt(2.0) * a.std(axis=-1) for a in (roll, pitch))
     lever_norm = float(np.linalg.norm(lever))
+    # 10-min statistics of every (record, height) at once: its scans are a mask over J
+    at_h = h_idx[:, None, :] == np.arange(n_h)[:, None]  # (C,H,J)
+    sel = ok[:, None, :] & at_h
+    sel_ref = valid[:, None, :] & at_h
+    n_sel, hs_mean, hs_std = _masked_mean_std(hws_scan[:, None, :], sel)
+    _, z_mean, z_std = _masked_mean_std((hws_scan - hws0)[:, None, :], sel)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        _, sv, _ = _masked_mean_std((resid / hws_scan)[:, None, :], sel)
+    wd_mean = _circ_mean_deg(wd_scan[:, None, :], sel, -1)
+    enough = n_sel >= 2
+    hs_mean, hs_std, z_mean, z_std, sv, wd_mean = (
+        np.where(enough, v, np.nan) for v in (hs_mean, hs_std, z_mean, z_std, sv, wd_mean)
+    )
+    availability = 100.0 * n_sel / np.maximum(sel_ref.sum(axis=-1), 1)
+    # the true HWS series (1 Hz) and the reference: a motionless lidar's scans, or the
+    # point series (cup, sonic)
+    k_truth = max(int(round(TRUTH_SAMPLE_INTERVAL_S / (dt * step))), 1)
+    truth = fl[:, :, ::k_truth, :2] + hws_h[..., None, None] * e_wind[:, None, None, :2]
+    true_hws = np.hypot(truth[..., 0], truth[..., 1])  # (C,H,T)
+    t_mean, t_std = true_hws.mean(axis=-1), true_hws.std(axis=-1, ddof=1)
+    if settings["reference_instrument"] != "fixed_lidar":
+        h0_mean, h0_std = t_mean, t_std
+    else:
+        _, h0_mean, h0_std = _masked_mean_std(hws0[:, None, :], sel_ref)
+    ref_days = settings["reference_days"]
     for c, s in enumerate(series):
         rec = int(rec_idx[c])
         ts = start0 + pd.Timedelta(seconds=rec * t_len)
@@ -543,42 +577,22 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
             t1 = par["period_s"][c] if tilted else np.nan
             true_period = t1
         regime = regimes[c]
-        ref_days = settings["reference_days"]
-        point_ref = settings["reference_instrument"] != "fixed_lidar"
         has_ref = ref_days is None or rec * t_len < float(ref_days) * 86400.0
         for h in range(n_h):
-            sel = ok[c] & (h_idx[c] == h)
-            sel_ref = valid[c] & (h_idx[c] == h)
-            n_nom = max(int(sel_ref.sum()), 1)
-            hs = hws_scan[c][sel]
-            zc = (hws_scan[c] - hws0[c])[sel]
-            truth = (
-                fl[c, h, :: max(int(round(TRUTH_SAMPLE_INTERVAL_S / (dt * step))), 1), :2]
-                + hws_h[c, h] * e_wind[c, :2]
-            )
-            true_hws = np.hypot(truth[:, 0], truth[:, 1])
-            t_mean, t_std = true_hws.mean(), true_hws.std(ddof=1)
-            # the reference: a motionless lidar's scans, or the point series (cup, sonic)
-            if point_ref:
-                h0_mean, h0_std = t_mean, t_std
-            else:
-                h0 = hws0[c][sel_ref]
-                h0_mean, h0_std = h0.mean(), h0.std(ddof=1)
-            enough = sel.sum() >= 2
             rows.append(
                 {
                     "timestamp": ts,
                     "height_m": heights[h],
-                    "hws_mean_ms": hs.mean() if enough else np.nan,
-                    "hws_std_ms": hs.std(ddof=1) if enough else np.nan,
-                    "wd_mean_deg": _circ_mean_deg(wd_scan[c], sel, 0) if enough else np.nan,
-                    "availability_pct": 100.0 * sel.sum() / n_nom,
-                    "sv": float(np.mean(resid[c][sel] / hs)) if enough else np.nan,
-                    "ref_hws_mean_ms": h0_mean if has_ref else np.nan,
-                    "ref_hws_std_ms": h0_std if has_ref else np.nan,
-                    "true_hws_mean_ms": t_mean,
-                    "true_hws_std_ms": t_std,
-                    "true_ti": t_std / t_mean,
+                    "hws_mean_ms": hs_mean[c, h],
+                    "hws_std_ms": hs_std[c, h],
+                    "wd_mean_deg": wd_mean[c, h],
+                    "availability_pct": availability[c, h],
+                    "sv": sv[c, h],
+                    "ref_hws_mean_ms": h0_mean[c, h] if has_ref else np.nan,
+                    "ref_hws_std_ms": h0_std[c, h] if has_ref else np.nan,
+                    "true_hws_mean_ms": t_mean[c, h],
+                    "true_hws_std_ms": t_std[c, h],
+                    "true_ti": t_std[c, h] / t_mean[c, h],
                     "true_wd_deg": par["wd_deg"][c],
                     "true_sigma_u_ms": par["sigma_u_ms"][c],
                     "true_shear_exponent": par["shear_exponent"][c],
@@ -590,14 +604,14 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                     "true_period2_s": t2,
                     "true_weight1": w1_true,
                     "true_lever_arm_m": lever_norm,
-                    "true_sigma_z_ms": zc.std(ddof=1) if enough else np.nan,
-                    "true_mean_z_ms": zc.mean() if enough else np.nan,
-                    "true_n_scans": float(sel.sum()),
+                    "true_sigma_z_ms": z_std[c, h],
+                    "true_mean_z_ms": z_mean[c, h],
+                    "true_n_scans": float(n_sel[c, h]),
                     "true_record": float(rec),
                     "true_case": par["case"][c] if "case" in par else np.nan,
                     # what the reference would measure, also where it is absent
-                    "true_ref_hws_mean_ms": h0_mean,
-                    "true_ref_hws_std_ms": h0_std,
+                    "true_ref_hws_mean_ms": h0_mean[c, h],
+                    "true_ref_hws_std_ms": h0_std[c, h],
                 }
                 | regime
             )
