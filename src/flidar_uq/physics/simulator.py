@@ -524,7 +524,8 @@ class SigmaZResult:
         ``rho ** (n_phase / 2)`` of the geometric convergence where ``rho`` is bounded
         (VAD kernel, one period; see :func:`sigma_z` and docs/simulator.md), else times 1.
     converged : bool
-        Whether ``error_estimate_ms <= rtol * max(sigma_z_ms, |mean_z_ms|)`` was reached.
+        Whether ``error_estimate_ms <= rtol * max(sigma_z_ms, |mean_z_ms|)`` was reached,
+        or both moments are round-off (``<= 1e-12 max(hws_ms, 1)`` m/s: no motion).
     method : str
         ``"vad-fourier"`` (fast exact kernel) or ``"direct"``.
     """
@@ -871,7 +872,10 @@ def sigma_z(
     if n < 2 or n % 2 or n != int(n):
         raise ValueError(f"sigma_z: nphase_start must be an even number >= 2, got {nphase_start!r}")
     n = int(n)
-    tiny = 1e-14 * max(hws, 1.0)
+    # moments of round-off size (no motion): the retrieved HWS differs from hws_ms by a few
+    # ulp per grid point, ~1e-14 hws_ms (hypothesis found 4.3e-14 m/s at 2 m/s and 1e-12
+    # deg), which no finer grid resolves; 1e-12 m/s is no physical motion-induced error
+    tiny = 1e-12 * max(hws, 1.0)
     while True:
         if fast:  # the kernel's retrieved HWS itself: Z = HWS_retrieved - hws (Eq. 1 of seed 000)
             z = _hws_vad(g, wind, comps, pcomps, arm3, n, _SCAN_PHASE_FACTOR * n)
