@@ -523,3 +523,19 @@ def test_spawned_workers_env_sets_and_restores_blas_and_malloc(monkeypatch):
     with pm._spawned_workers_env():
         assert os.environ["GLIBC_TUNABLES"] == "glibc.malloc.arena_max=1"
     assert os.environ["GLIBC_TUNABLES"] == "glibc.malloc.arena_max=1"
+
+
+@pytest.mark.parametrize(
+    ("rate_hz", "dt_s"), [(5.0, 0.02), (10.0, 0.02), (50.0, 0.02), (7.0, 0.02), (5.0, 0.03)]
+)
+def test_imu_clock_is_interpolation_of_the_los_clock(rate_hz, dt_s):
+    """Taking every k-th LOS slot (rates dividing) is linear interpolation at the IMU times,
+    to rounding; other rates interpolate."""
+    from flidar_uq.campaign import physics_mode as pm
+
+    x = np.random.default_rng(5).standard_normal(int(round(600.0 / dt_s))).cumsum()
+    n_imu = int(np.floor(600.0 * rate_hz + 1e-9))
+    want = np.interp(np.arange(n_imu) / rate_hz, np.arange(x.size) * dt_s, x)
+    got = pm._on_imu_clock(x, n_imu, rate_hz, dt_s)
+    assert got.shape == (n_imu,)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(x).max())

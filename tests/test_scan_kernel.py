@@ -15,6 +15,7 @@ import pytest
 from flidar_uq.campaign.scan_kernel import simulate_scans
 from flidar_uq.physics import lidar as _lidar
 from flidar_uq.physics.motion import rotation_matrix
+from flidar_uq.physics.turbulence import wind_enu_ms
 
 
 def _inputs(rng, *, lever, translate, n_c=2, n_j=7, n_los=12, n_h=3, step=5):
@@ -43,7 +44,8 @@ def _inputs(rng, *, lever, translate, n_c=2, n_j=7, n_los=12, n_h=3, step=5):
         phase_slots=rng.integers(0, n_los, (n_c, n_j)),
         d_body=d_body,
         pinv_t=_lidar.vad_pseudo_inverse(d_body).T,
-        fluct_enu=rng.normal(0.0, 1.0, (n_c, n_h, -(-n_slots // step), 3)),
+        fluct_uvw=rng.normal(0.0, 1.0, (n_c, n_h, 3, -(-n_slots // step))),
+        wd_deg=np.rad2deg(wd),
         hws_h=rng.uniform(3.0, 15.0, (n_c, n_h)),
         e_wind=np.stack([-np.sin(wd), -np.cos(wd), np.zeros(n_c)], -1),
         alpha=rng.uniform(0.05, 0.2, n_c),
@@ -78,7 +80,8 @@ def _numpy_reference(a, n_sign_iter):
         pos_lo, pos_hi = pos_lo + a["trans"][cc, lo], pos_hi + a["trans"][cc, hi]
     v_head = (pos_hi - pos_lo) / (np.maximum(hi - lo, 1) * a["dt_s"])[..., None]
     h = (np.arange(n_j) % n_h)[None, :, None]
-    fl = a["fluct_enu"][cc, h, idx // a["step"]]
+    fl_enu = wind_enu_ms(0.0, a["wd_deg"][:, None], a["fluct_uvw"])  # (C,H,Nw,3)
+    fl = fl_enu[cc, h, idx // a["step"]]
     mean = a["hws_h"][cc, h][..., None]
     x = d_earth[..., 2:] / a["cos_half_cone"] - 1.0
     al = a["alpha"][:, None, None, None]
@@ -92,7 +95,7 @@ def _numpy_reference(a, n_sign_iter):
 
 
 def _kernel(a, n_sign_iter):
-    keys = ("trig", "trans", "starts", "k0", "phase_slots", "d_body", "pinv_t", "fluct_enu")
+    keys = ("trig", "trans", "starts", "k0", "phase_slots", "d_body", "pinv_t", "fluct_uvw")
     return simulate_scans(
         *(a[k] for k in keys),
         a["hws_h"],
@@ -147,7 +150,7 @@ def test_records_are_independent_of_their_chunk():
                 "starts",
                 "k0",
                 "phase_slots",
-                "fluct_enu",
+                "fluct_uvw",
                 "hws_h",
                 "e_wind",
                 "alpha",

@@ -272,7 +272,6 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
     step = wind_step_slots(settings, dt)
     n_wind = -(-n_slots // step)
     fluct = kaimal_series(n_wind, dt * step, hws_h, par["sigma_u_ms"][i], heights, rng)  # (H,3,Nw)
-    fluct_enu = wind_enu_ms(0.0, par["wd_deg"][i], fluct)  # (H,Nw,3)
     # motion
     t = np.arange(n_slots) * dt
     m = settings["motion"]
@@ -334,7 +333,7 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
         gap = (g0, g0 + g_len)
     return dict(
         hws_h=hws_h,
-        fluct_enu=fluct_enu,
+        fluct_uvw=fluct,
         roll=roll,
         pitch=pitch,
         yaw=yaw,
@@ -354,8 +353,9 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
 # ---------------------------------------------------------------------------
 
 
-def _regime_truth(settings, par, trig) -> list[dict]:
-    """Truth columns of the records' sea-state and heading regime (issue 11), one dict each.
+def _regime_truth(settings, par, trig) -> dict[str, np.ndarray]:
+    """Truth columns of the records' sea-state and heading regime (issue 11), one value a
+    record.
 
     The tilt along / across the wind is the lean of the body z axis toward the direction
     the wind blows to / 90 deg to its left, ``sqrt(2)`` x its std (deg, the amplitude
@@ -406,7 +406,19 @@ def _regime_truth(settings, par, trig) -> list[dict]:
                 true_swell_direction_offset_deg=off if swell else np.nan,
             )
         out.append(d)
-    return out
+    return {k: np.array([d[k] for d in out], float) for k in out[0]}
+
+
+def _on_imu_clock(x, n_imu: int, rate_hz: float, dt_s: float) -> np.ndarray:
+    """Series ``x`` on the LOS clock (step ``dt_s``, s) at the IMU's ``n_imu`` sample times
+    ``k / rate_hz``: every k-th slot when the LOS rate is a whole multiple of the IMU's
+    (5 Hz and 50 Hz by default; the same values as interpolating, to rounding of the
+    times), else linear interpolation."""
+    k = 1.0 / (rate_hz * dt_s)
+    every = round(k)
+    if abs(k - every) < 1e-9 and every >= 1 and (n_imu - 1) * every < x.size:
+        return x[::every][:n_imu].copy()
+    return np.interp(np.arange(n_imu) / rate_hz, np.arange(x.size) * dt_s, x)
 
 
 def _masked_mean_std(x, mask):
@@ -440,7 +452,7 @@ def _utc(ts: pd.Timestamp, t_s: np.ndarray) -> pd.DatetimeIndex:
 
 def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     # imported here: numba's import (~0.2 s) only in processes that simulate a campaign
-    from flidar_uq.campaign.scan_kernel import simulate_scans
+    from flidar_uq.campaign.scan_kernel import attitude_trig, simulate_scans
 
     geo = _lidar.get_lidar(settings["lidar"]["name"])
     n_los = geo.n_los
@@ -469,21 +481,16 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     roll = np.stack([s["roll"] for s in series])  # (C,N) deg
     pitch = np.stack([s["pitch"] for s in series])
     yaw = np.stack([s["yaw"] for s in series])
-    # the attitude's cosines and sines on the LOS clock (NumPy's SIMD loops); every line
-    # of sight, its head velocity, wind, radial speed and scan fit in one compiled pass
-    trig = np.empty((6, n_c, n_slots))
-    # a constant heading (sea-state buoy): one cosine and sine a record
-    yaw_trig = yaw[:, :1] if (yaw == yaw[:, :1]).all() else yaw
-    for k, a in enumerate((roll, pitch, yaw_trig)):
-        r = np.deg2rad(a)
-        trig[2 * k] = np.cos(r)
-        trig[2 * k + 1] = np.sin(r)
+    # the attitude's cosines and sines on the LOS clock (a constant heading, sea-state
+    # buoy: one a record), then every line of sight, its head velocity, wind, radial
+    # speed and scan fit in one compiled pass
+    trig = attitude_trig(roll, pitch, yaw[:, :1] if (yaw == yaw[:, :1]).all() else yaw)
     trans = (
         np.stack([s["trans"] for s in series])
         if series[0]["trans"] is not None
         else np.empty((n_c, 0, 3))
     )
-    fl = np.stack([s["fluct_enu"] for s in series])  # (C,H,Nw,3)
+    fl = np.stack([s["fluct_uvw"] for s in series])  # (C,H,3,Nw), wind frame
     hws_h = np.stack([s["hws_h"] for s in series])  # (C,H)
     wd = np.deg2rad(par["wd_deg"])
     e_wind = np.stack([-np.sin(wd), -np.cos(wd), np.zeros_like(wd)], -1)  # (C,3)
@@ -519,7 +526,6 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     dropped = np.stack([s["dropped"] for s in series])
     outage = np.array([s["outage"] for s in series])
     ok = valid & ~dropped & ~outage[:, None]
-    rows = []
     los_frames, imu_att, imu_ns = [], [], []
     start0 = pd.Timestamp(settings["start_utc"])
     rate = float(settings["imu"]["rate_hz"])
@@ -544,77 +550,89 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     # the true HWS series (1 Hz) and the reference: a motionless lidar's scans, or the
     # point series (cup, sonic)
     k_truth = max(int(round(TRUTH_SAMPLE_INTERVAL_S / (dt * step))), 1)
-    truth = fl[:, :, ::k_truth, :2] + hws_h[..., None, None] * e_wind[:, None, None, :2]
+    truth = wind_enu_ms(0.0, par["wd_deg"][:, None], fl[..., ::k_truth])[..., :2]  # (C,H,T,2)
+    truth += hws_h[..., None, None] * e_wind[:, None, None, :2]
     true_hws = np.hypot(truth[..., 0], truth[..., 1])  # (C,H,T)
     t_mean, t_std = true_hws.mean(axis=-1), true_hws.std(axis=-1, ddof=1)
     if settings["reference_instrument"] != "fixed_lidar":
         h0_mean, h0_std = t_mean, t_std
     else:
         _, h0_mean, h0_std = _masked_mean_std(hws0[:, None, :], sel_ref)
+    # per-record truths, one value a record (repeated over its heights below)
+    true_amp = np.sqrt(0.5 * (roll_amp**2 + pitch_amp**2))
+    if settings["motion"]["model"] == "sea_state":
+        w1_true = np.asarray(par["weight1"], float)
+        t1, t2 = np.asarray(par["tp1_s"], float), np.asarray(par["tp2_s"], float)
+        true_period = np.where(w1_true >= 0.5, t1, t2)
+    else:
+        tilted = (par["roll_amplitude_deg"] > 0) | (par["pitch_amplitude_deg"] > 0)
+        w1_true, t2 = np.ones(n_c), np.full(n_c, np.nan)
+        t1 = np.where(tilted, par["period_s"], np.nan)
+        true_period = t1
     ref_days = settings["reference_days"]
+    rec_start_s = np.asarray(rec_idx) * t_len
+    has_ref = (np.ones(n_c, bool) if ref_days is None else rec_start_s < float(ref_days) * 86400.0)[
+        :, None
+    ]
+    ts_ns = np.array(
+        [(start0 + pd.Timedelta(seconds=int(r) * t_len)).value for r in rec_idx], np.int64
+    )  # record starts, ns since the epoch
+    per_record = {
+        "true_wd_deg": par["wd_deg"],
+        "true_sigma_u_ms": par["sigma_u_ms"],
+        "true_shear_exponent": par["shear_exponent"],
+        "true_amplitude_deg": true_amp,
+        "true_roll_amplitude_deg": roll_amp,
+        "true_pitch_amplitude_deg": pitch_amp,
+        "true_period_s": true_period,
+        "true_period1_s": t1,
+        "true_period2_s": t2,
+        "true_weight1": w1_true,
+        "true_lever_arm_m": np.full(n_c, lever_norm),
+    }
+    # the chunk's rows as columns, record by record, its heights in turn
+    cols = {
+        "timestamp": np.repeat(ts_ns, n_h),
+        "height_m": np.tile(heights, n_c),
+        "hws_mean_ms": hs_mean,
+        "hws_std_ms": hs_std,
+        "wd_mean_deg": wd_mean,
+        "availability_pct": availability,
+        "sv": sv,
+        "ref_hws_mean_ms": np.where(has_ref, h0_mean, np.nan),
+        "ref_hws_std_ms": np.where(has_ref, h0_std, np.nan),
+        "true_hws_mean_ms": t_mean,
+        "true_hws_std_ms": t_std,
+        "true_ti": t_std / t_mean,
+        **per_record,
+        "true_sigma_z_ms": z_std,
+        "true_mean_z_ms": z_mean,
+        "true_n_scans": n_sel.astype(float),
+        "true_record": np.asarray(rec_idx, float),
+        "true_case": par["case"] if "case" in par else np.full(n_c, np.nan),
+        # what the reference would measure, also where it is absent
+        "true_ref_hws_mean_ms": h0_mean,
+        "true_ref_hws_std_ms": h0_std,
+        **regimes,
+    }
+    cols = {
+        k: np.repeat(np.asarray(v), n_h)
+        if np.ndim(v) == 1 and k not in ("timestamp", "height_m")
+        else np.asarray(v).reshape(-1)
+        for k, v in cols.items()
+    }
     for c, s in enumerate(series):
         rec = int(rec_idx[c])
         ts = start0 + pd.Timedelta(seconds=rec * t_len)
         # IMU: true attitude at the IMU clock, noise, gap
         n_imu = s["imu_noise"].shape[1]
         t_imu = np.arange(n_imu) / rate
-        t_grid = np.arange(n_slots) * dt
-        att = [np.interp(t_imu, t_grid, x[c]) for x in (roll, pitch, yaw)]
+        att = [_on_imu_clock(x[c], n_imu, rate, dt) for x in (roll, pitch, yaw)]
         att = [a + nz for a, nz in zip(att, s["imu_noise"], strict=True)]
         if s["imu_gap"] is not None:
             g = (t_imu >= s["imu_gap"][0]) & (t_imu < s["imu_gap"][1])
             for a in att:
                 a[g] = np.nan
-        true_ra, true_pa = roll_amp[c], pitch_amp[c]
-        true_amp = np.sqrt(0.5 * (true_ra**2 + true_pa**2))
-        if settings["motion"]["model"] == "sea_state":
-            w1_true = par["weight1"][c]
-            t1, t2 = par["tp1_s"][c], par["tp2_s"][c]
-            true_period = t1 if w1_true >= 0.5 else t2
-        else:
-            tilted = par["roll_amplitude_deg"][c] > 0 or par["pitch_amplitude_deg"][c] > 0
-            w1_true, t2 = 1.0, np.nan
-            t1 = par["period_s"][c] if tilted else np.nan
-            true_period = t1
-        regime = regimes[c]
-        has_ref = ref_days is None or rec * t_len < float(ref_days) * 86400.0
-        for h in range(n_h):
-            rows.append(
-                {
-                    "timestamp": ts,
-                    "height_m": heights[h],
-                    "hws_mean_ms": hs_mean[c, h],
-                    "hws_std_ms": hs_std[c, h],
-                    "wd_mean_deg": wd_mean[c, h],
-                    "availability_pct": availability[c, h],
-                    "sv": sv[c, h],
-                    "ref_hws_mean_ms": h0_mean[c, h] if has_ref else np.nan,
-                    "ref_hws_std_ms": h0_std[c, h] if has_ref else np.nan,
-                    "true_hws_mean_ms": t_mean[c, h],
-                    "true_hws_std_ms": t_std[c, h],
-                    "true_ti": t_std[c, h] / t_mean[c, h],
-                    "true_wd_deg": par["wd_deg"][c],
-                    "true_sigma_u_ms": par["sigma_u_ms"][c],
-                    "true_shear_exponent": par["shear_exponent"][c],
-                    "true_amplitude_deg": true_amp,
-                    "true_roll_amplitude_deg": true_ra,
-                    "true_pitch_amplitude_deg": true_pa,
-                    "true_period_s": true_period,
-                    "true_period1_s": t1,
-                    "true_period2_s": t2,
-                    "true_weight1": w1_true,
-                    "true_lever_arm_m": lever_norm,
-                    "true_sigma_z_ms": z_std[c, h],
-                    "true_mean_z_ms": z_mean[c, h],
-                    "true_n_scans": float(n_sel[c, h]),
-                    "true_record": float(rec),
-                    "true_case": par["case"][c] if "case" in par else np.nan,
-                    # what the reference would measure, also where it is absent
-                    "true_ref_hws_mean_ms": h0_mean[c, h],
-                    "true_ref_hws_std_ms": h0_std[c, h],
-                }
-                | regime
-            )
         imu_att.append(att)
         imu_ns.append(_utc_ns(ts, t_imu))
         if want_los:
@@ -649,24 +667,20 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     )
     # each row's window: every record has IMU sample times, so every window exists (a
     # window without a finite sample has no statistics)
-    row_ns = np.array([r["timestamp"].value for r in rows], np.int64)
+    row_ns = cols["timestamp"]
     win = np.searchsorted(start_ns, row_ns)
     if not np.array_equal(start_ns[np.minimum(win, start_ns.size - 1)], row_ns):
         raise RuntimeError("campaign: a record without its IMU window")  # a bug, not input
     for key, col in stats.items():
-        for r, v in zip(rows, np.where(present, col, np.nan)[win].tolist(), strict=True):
-            r[key] = v
+        cols[key] = np.where(present, col, np.nan)[win]
     # tilt along and across the wind (each row's own measured wind direction), its
     # spectral moments and periods: the per-record motion description (docs/data-format.md);
     # the attitude's trigonometry once per record for all its heights
-    wd_rows = np.array([r["wd_mean_deg"] for r in rows]).reshape(n_c, n_h)
-    spec = _imu.tilt_band_statistics(*att, wd_rows, rate)
+    spec = _imu.tilt_band_statistics(*att, wd_mean, rate)
     for key, col in _imu.tilt_spectrum_columns(spec).items():
-        for r, v in zip(rows, col, strict=True):
-            r[key] = float(v)
+        cols[key] = np.asarray(col, float)
     # the buoy's mean heading over each record, as a compass would report it
-    for r, v in zip(rows, np.repeat(_imu.heading_mean_deg(att[2]), n_h), strict=True):
-        r["heading_mean_deg"] = float(v)
+    cols["heading_mean_deg"] = np.repeat(_imu.heading_mean_deg(att[2]), n_h).astype(float)
     imu_df = None
     if want_imu:
         imu_df = pd.DataFrame(
@@ -678,7 +692,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
             }
         )
     return (
-        rows,
+        cols,
         imu_df,
         pd.concat(los_frames, ignore_index=True) if los_frames else None,
     )
@@ -816,9 +830,14 @@ def generate_campaign(
                 bar.update(len(job[2]))
     if bar is not None:
         bar.close()
-    rows = [r for res in results for r in res[0]]
-    records = pd.DataFrame(rows)
-    records["timestamp"] = pd.to_datetime(records["timestamp"], utc=True)
+    records = pd.DataFrame(
+        {k: np.concatenate([res[0][k] for res in results]) for k in results[0][0]}
+    )
+    # the resolution pandas gives the records' timestamps (start + a record length)
+    unit = (pd.Timestamp(s["start_utc"]) + pd.Timedelta(seconds=float(s["record_length_s"]))).unit
+    records["timestamp"] = pd.DatetimeIndex(
+        records["timestamp"].to_numpy().view("M8[ns]"), tz="UTC"
+    ).as_unit(unit)
     imu = pd.concat([r[1] for r in results], ignore_index=True) if return_imu else None
     los = pd.concat([r[2] for r in results], ignore_index=True) if return_los else None
     if imu is not None:

@@ -35,6 +35,7 @@ spectral and zero-crossing estimators see gaps filled by linear interpolation.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 
 import numpy as np
@@ -199,6 +200,14 @@ def motion_spectrum(
     return f, (p[0] if squeeze else p)
 
 
+@functools.lru_cache(maxsize=8)
+def _hann(nperseg: int) -> tuple[np.ndarray, float]:
+    """Periodic Hann window of ``nperseg`` samples (read-only) and the sum of its squares."""
+    win = get_window("hann", nperseg)
+    win.flags.writeable = False
+    return win, float((win * win).sum())
+
+
 def _welch_hann(x: np.ndarray, fs_hz: float, nperseg: int) -> tuple[np.ndarray, np.ndarray]:
     """Welch PSD of the rows of ``x``: ``scipy.signal.welch(x, fs_hz, "hann", nperseg)``.
 
@@ -215,13 +224,13 @@ def _welch_hann(x: np.ndarray, fs_hz: float, nperseg: int) -> tuple[np.ndarray, 
             ..., :n_seg, :
         ]
     )
-    win = get_window("hann", nperseg)
+    win, win_power = _hann(nperseg)
     seg -= seg.mean(axis=-1, keepdims=True)  # in place: ~4x faster than new temporaries
     seg *= win
     spec = _fft.rfft(seg, axis=-1)
     p = spec.real**2
     p += spec.imag**2
-    p = p.mean(axis=-2) / (fs_hz * (win * win).sum())
+    p = p.mean(axis=-2) / (fs_hz * win_power)
     p[..., 1 : (None if nperseg % 2 else -1)] *= 2.0  # one-sided: all but DC and Nyquist
     return _fft.rfftfreq(nperseg, 1.0 / fs_hz), p
 
