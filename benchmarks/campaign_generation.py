@@ -56,9 +56,9 @@ REPO = Path(__file__).resolve().parents[1]
 TARGET_S = 25.0  # issue 13 item 7: the default campaign on 2 cores
 #: The generator before the issue-13 speed work (the reference of "results unchanged").
 REFERENCE_COMMIT = "38465224c0a642f774a011f0cd7d14cf413d6d04"
-#: The generator before the latest round (session 12's byte-identical round: main at the
-#: end of session 11; the rounds before it: 619c380, then unchanged until cb8877e).
-PREVIOUS_COMMIT = "cb8877eda41d5aa94939d2b86e0016600124390d"
+#: The generator before the latest round (session 13's compiled line-of-sight loop: main
+#: at the end of session 12; the rounds before it: 619c380, cb8877e).
+PREVIOUS_COMMIT = "e1e35a381e6bfe415c8179017d53389af87cd6f1"
 IMPLEMENTATIONS = ("reference", "previous", "current")
 SEED = 20181122  # config/config.yaml campaign.seed
 

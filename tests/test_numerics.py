@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import pickle
 import platform
+import re
 import subprocess
 import sys
 
@@ -38,8 +39,10 @@ def test_numeric_environment_names_every_simd_function_once_and_the_blas_kernels
     import scipy.linalg  # noqa: F401  (SciPy's own OpenBLAS is loaded too)
 
     env = numeric_environment()
-    assert set(env) == {"machine", "numpy_simd", "blas"}
+    assert set(env) == {"machine", "numpy_simd", "blas", "libm"}
     assert env["machine"] == platform.machine()
+    if platform.libc_ver()[0] == "glibc":  # the C library and its version, e.g. glibc 2.36
+        assert re.fullmatch(r"glibc \d+\.\d+", env["libm"]), env["libm"]
     listed = [
         name
         for part in env["numpy_simd"].split("; ")

@@ -9,7 +9,9 @@ matters, whether called from Snakemake, the CLI or a notebook.
 Two more things choose the last bits, both by the CPU: the OpenBLAS kernel (e.g. Haswell
 or SkylakeX, whose 3x3 products fuse multiply-adds differently) and NumPy's SIMD loops
 (AVX-512 and AVX2 versions of ``exp``, ``log``, ``**``, ``arctan2``, ``arcsin`` differ
-in the last bit for some arguments). A rerun is therefore bit-identical on machines whose
+in the last bit for some arguments). The virtual campaign's compiled kernel (numba, no
+fast-math: no fused multiply-adds, no reordered sums) computes the same bits on every
+CPU, but for the C library's ``cos`` and ``sin`` (``libm`` below). A rerun is therefore bit-identical on machines whose
 :func:`numeric_environment` is the same (with the same packages, ``requirements.lock``);
 across CPU types they differ in their last digits (the default run measured once under
 another OpenBLAS kernel: corrected TIs within 4e-9, flags and coverage identical, no
@@ -87,8 +89,10 @@ def numeric_environment() -> dict[str, str]:
         dispatches each of :data:`SIMD_FUNCTIONS` to for float64, e.g.
         ``X86_V4: exp, log, ...``) and ``blas`` (each loaded BLAS library: its name,
         version and kernel; the library computes with :data:`BLAS_THREADS` thread
-        whatever the pool's size). Two runs with equal dictionaries (and equal package
-        versions) give bit-identical results.
+        whatever the pool's size) and ``libm`` (the C library whose ``cos`` and ``sin`` the
+        compiled campaign kernel calls, :mod:`flidar_uq.campaign.scan_kernel`; its other
+        arithmetic is IEEE-exact on every CPU). Two runs with equal dictionaries (and equal
+        package versions) give bit-identical results.
     """
     import scipy.linalg  # noqa: F401  (SciPy's own OpenBLAS, listed whatever was imported)
     from numpy.lib.introspect import opt_func_info
@@ -112,4 +116,5 @@ def numeric_environment() -> dict[str, str]:
         # sorted: the libraries' load order differs between processes (a SLURM job and a
         # local one), their kernels do not
         "blas": "; ".join(sorted(blas)) or "none loaded",
+        "libm": " ".join(platform.libc_ver()).strip() or "unknown",
     }
