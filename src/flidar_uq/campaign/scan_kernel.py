@@ -88,6 +88,22 @@ def _rotate(cr, sr, cp, sp, cy, sy, v0, v1, v2):
 
 
 @numba.njit(cache=True, nogil=True)
+def _rotate_at(trig, c, t, v0, v1, v2):
+    """``R @ v`` at slot ``t`` of record ``c`` from :func:`attitude_trig`'s array."""
+    return _rotate(
+        trig[0, c, t],
+        trig[1, c, t],
+        trig[2, c, t],
+        trig[3, c, t],
+        trig[4, c, t],
+        trig[5, c, t],
+        v0,
+        v1,
+        v2,
+    )
+
+
+@numba.njit(cache=True, nogil=True)
 def simulate_scans(
     trig,
     trans,
@@ -166,17 +182,7 @@ def simulate_scans(
         a_ = alpha[c]
         # head position R(t) r + translation at every slot (seed 002 Eq. 4), once a record
         for t in range(pos.shape[0]):
-            x0, x1, x2 = _rotate(
-                trig[0, c, t],
-                trig[1, c, t],
-                trig[2, c, t],
-                trig[3, c, t],
-                trig[4, c, t],
-                trig[5, c, t],
-                lever[0],
-                lever[1],
-                lever[2],
-            )
+            x0, x1, x2 = _rotate_at(trig, c, t, lever[0], lever[1], lever[2])
             if trans.shape[1] > 0:
                 x0 += trans[c, t, 0]
                 x1 += trans[c, t, 1]
@@ -197,17 +203,7 @@ def simulate_scans(
                 a = (slot + k0[c] + phase_slots[c, j]) % n_los
                 a_row[k] = a
                 m0, m1, m2 = d_body[a, 0], d_body[a, 1], d_body[a, 2]
-                d0, d1, d2 = _rotate(
-                    trig[0, c, slot],
-                    trig[1, c, slot],
-                    trig[2, c, slot],
-                    trig[3, c, slot],
-                    trig[4, c, slot],
-                    trig[5, c, slot],
-                    m0,
-                    m1,
-                    m2,
-                )
+                d0, d1, d2 = _rotate_at(trig, c, slot, m0, m1, m2)
                 w_i = slot // wind_step
                 fu = fluct_uvw[c, h, 0, w_i]
                 fv = fluct_uvw[c, h, 1, w_i]
