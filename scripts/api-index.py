@@ -72,9 +72,7 @@ def render() -> str:
     import flidar_uq
 
     lines = [HEADER]
-    mods = sorted(
-        m.name for m in pkgutil.walk_packages(flidar_uq.__path__, "flidar_uq.")
-    )
+    mods = sorted(m.name for m in pkgutil.walk_packages(flidar_uq.__path__, "flidar_uq."))
     for name in mods:
         mod = importlib.import_module(name)
         is_pkg = hasattr(mod, "__path__")
@@ -91,9 +89,10 @@ def render() -> str:
                 # a package re-exporting its modules' names: list them where defined
                 rows.append(f"| `{n}` | re-exported from `{obj.__module__}` |")
                 continue
-            if inspect.isclass(obj) or inspect.isfunction(obj):
+            func = getattr(obj, "py_func", obj)  # a numba dispatcher: its Python function
+            if inspect.isclass(obj) or inspect.isfunction(func):
                 kind = "class " if inspect.isclass(obj) else ""
-                rows.append(f"| `{kind}{n}{_params(obj)}` | {_first_line(obj)} |")
+                rows.append(f"| `{kind}{n}{_params(func)}` | {_first_line(func)} |")
             elif not inspect.ismodule(obj):
                 rows.append(f"| `{n}` | constant |")
         if rows:

@@ -539,3 +539,22 @@ def test_imu_clock_is_interpolation_of_the_los_clock(rate_hz, dt_s):
     got = pm._on_imu_clock(x, n_imu, rate_hz, dt_s)
     assert got.shape == (n_imu,)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(x).max())
+
+
+def test_masked_mean_std_is_nan_below_two_samples_and_numpy_above():
+    """Count, mean and std (ddof 1) of the selected samples of each row: NaN std for 0 or 1
+    samples (not -0.0: sqrt(0 / -1)), NaN mean for none; NumPy's values otherwise."""
+    from flidar_uq.campaign import physics_mode as pm
+
+    x = np.random.default_rng(4).normal(5.0, 2.0, (4, 9))
+    mask = np.zeros((4, 9), bool)
+    mask[1, 3] = True
+    mask[2, [0, 5]] = True
+    mask[3, ::2] = True
+    n, mean, std = pm._masked_mean_std(x, mask)
+    assert n.tolist() == [0, 1, 2, 5]
+    assert np.isnan(mean[0]) and np.isnan(std[0]) and np.isnan(std[1])
+    assert mean[1] == x[1, 3]
+    for r in (2, 3):
+        np.testing.assert_allclose(mean[r], x[r, mask[r]].mean(), rtol=1e-15)
+        np.testing.assert_allclose(std[r], x[r, mask[r]].std(ddof=1), rtol=1e-14)

@@ -475,3 +475,8 @@ def test_own_welch_is_scipy_welch(n, seg, rows, seed):
     np.testing.assert_array_equal(f1, f0)
     assert p1.shape == p0.shape
     np.testing.assert_allclose(p1, p0, rtol=0, atol=1e-12 * np.abs(p0).max())
+
+
+def test_motion_spectrum_without_a_sample_per_segment_raises():
+    with pytest.raises(ValueError, match="holds no sample"):
+        imu.motion_spectrum(np.ones(100), 5.0, segment_s=0.05)

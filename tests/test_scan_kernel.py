@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from flidar_uq.campaign.scan_kernel import simulate_scans
+from flidar_uq.campaign import scan_kernel
+from flidar_uq.campaign.scan_kernel import attitude_trig, simulate_chunk_scans
 from flidar_uq.physics import lidar as _lidar
 from flidar_uq.physics.motion import rotation_matrix
 from flidar_uq.physics.turbulence import wind_enu_ms
@@ -26,6 +27,7 @@ def _inputs(rng, *, lever, translate, n_c=2, n_j=7, n_los=12, n_h=3, step=5):
     trig = np.empty((6, n_c, n_slots))
     trig[0::2], trig[1::2] = np.cos(angles), np.sin(angles)
     starts = np.sort(rng.integers(0, n_slots - 2, (n_c, n_j)), axis=1)
+    starts[:, 0] = 0  # the record's first slot: one-sided head velocity
     starts[:, -1] = n_slots - 3  # a scan running past the record's end (slots clipped)
     az = 2.0 * np.pi * np.arange(n_los) / n_los
     th = np.deg2rad(30.0)
@@ -96,7 +98,7 @@ def _numpy_reference(a, n_sign_iter):
 
 def _kernel(a, n_sign_iter):
     keys = ("trig", "trans", "starts", "k0", "phase_slots", "d_body", "pinv_t", "fluct_uvw")
-    return simulate_scans(
+    return simulate_chunk_scans(
         *(a[k] for k in keys),
         a["hws_h"],
         a["e_wind"],
@@ -161,3 +163,37 @@ def test_records_are_independent_of_their_chunk():
         alone = _kernel(one, 1)
         for g, w in zip(alone, together, strict=True):
             np.testing.assert_array_equal(g[0], w[c])
+
+
+@pytest.mark.parametrize("constant_yaw", [True, False])
+def test_attitude_trig_is_numpy_cos_and_sin(constant_yaw):
+    """The attitude's cosines and sines, a constant heading broadcast over the record."""
+    rng = np.random.default_rng(2)
+    roll, pitch = rng.normal(0.0, 8.0, (2, 3, 500))
+    yaw = rng.uniform(-180.0, 180.0, (3, 1 if constant_yaw else 500))
+    got = attitude_trig(roll, pitch, yaw)
+    assert got.shape == (6, 3, 500)
+    for k, a in enumerate((roll, pitch, np.broadcast_to(yaw, roll.shape))):
+        r = np.deg2rad(a)
+        np.testing.assert_allclose(got[2 * k], np.cos(r), rtol=0, atol=2e-16)
+        np.testing.assert_allclose(got[2 * k + 1], np.sin(r), rtol=0, atol=2e-16)
+
+
+def test_without_a_writable_cache_the_kernel_compiles_uncached(monkeypatch):
+    """numba raises at decoration when no cache directory is writable: the decorator
+    falls back to compiling in every process instead of failing the import."""
+    calls = []
+
+    def fake_njit(*, cache, nogil):
+        calls.append(cache)
+        if cache:
+            raise RuntimeError("cannot cache function 'f': no locator available")
+        return lambda f: ("compiled", f)
+
+    monkeypatch.setattr(scan_kernel.numba, "njit", fake_njit)
+
+    def f():
+        return 1
+
+    assert scan_kernel._compiled(f) == ("compiled", f)
+    assert calls == [True, False]

@@ -91,7 +91,8 @@ def numeric_environment() -> dict[str, str]:
         version and kernel; the library computes with :data:`BLAS_THREADS` thread
         whatever the pool's size) and ``libm`` (the C library whose ``cos`` and ``sin`` the
         compiled campaign kernel calls, :mod:`flidar_uq.campaign.scan_kernel`; its other
-        arithmetic is IEEE-exact on every CPU). Two runs with equal dictionaries (and equal
+        arithmetic is IEEE-exact on every CPU; glibc picks an FMA or SSE2 version of them
+        by CPU, and with Intel's SVML installed, not a dependency, numba would use it). Two runs with equal dictionaries (and equal
         package versions) give bit-identical results.
     """
     import scipy.linalg  # noqa: F401  (SciPy's own OpenBLAS, listed whatever was imported)

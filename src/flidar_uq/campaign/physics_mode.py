@@ -53,7 +53,7 @@ least squares), started from the signs of the simulated radial speeds.
 
 Speed: every line of sight of a chunk (attitude, head velocity, wind, radial speed, scan
 fit, reference lidar) is simulated in one compiled pass,
-:func:`flidar_uq.campaign.scan_kernel.simulate_scans` (numba); the rest is NumPy over
+:func:`flidar_uq.campaign.scan_kernel.simulate_chunk_scans` (numba); the rest is NumPy over
 the chunk. The default campaign (8640 records) takes ~34 s on 2 workers
 (``benchmarks/campaign_generation.py``, docs/performance.md).
 """
@@ -422,7 +422,7 @@ def _on_imu_clock(x, n_imu: int, rate_hz: float, dt_s: float) -> np.ndarray:
     k = 1.0 / (rate_hz * dt_s)
     every = round(k)
     if abs(k - every) < 1e-9 and every >= 1 and (n_imu - 1) * every < x.size:
-        return x[::every][:n_imu].copy()
+        return x[::every][:n_imu]
     return np.interp(np.arange(n_imu) / rate_hz, np.arange(x.size) * dt_s, x)
 
 
@@ -431,9 +431,10 @@ def _masked_mean_std(x, mask):
     (``x`` broadcast to ``mask``); NaN where too few samples."""
     n = mask.sum(axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        mean = np.where(mask, x, 0.0).sum(axis=-1) / n
+        mean = np.where(mask, x, 0.0).sum(axis=-1) / n  # NaN for n = 0
         dev = np.where(mask, x - mean[..., None], 0.0)
-        std = np.sqrt((dev * dev).sum(axis=-1) / (n - 1))
+        # NaN for n < 2 (n = 0 would give sqrt(0 / -1) = -0.0)
+        std = np.sqrt((dev * dev).sum(axis=-1) / np.where(n >= 2, n - 1, np.nan))
     return n, mean, std
 
 
@@ -457,7 +458,7 @@ def _utc(ts: pd.Timestamp, t_s: np.ndarray) -> pd.DatetimeIndex:
 
 def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     # imported here: numba's import (~0.2 s) only in processes that simulate a campaign
-    from flidar_uq.campaign.scan_kernel import attitude_trig, simulate_scans
+    from flidar_uq.campaign.scan_kernel import attitude_trig, simulate_chunk_scans
 
     geo = _lidar.get_lidar(settings["lidar"]["name"])
     n_los = geo.n_los
@@ -500,7 +501,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     wd = np.deg2rad(par["wd_deg"])
     e_wind = np.stack([-np.sin(wd), -np.cos(wd), np.zeros_like(wd)], -1)  # (C,3)
     step = wind_step_slots(settings, dt)
-    v_r, uvw, uvw0, resid = simulate_scans(
+    v_r, uvw, uvw0, resid = simulate_chunk_scans(
         trig,
         trans,
         starts,

@@ -10,15 +10,17 @@ least squares of each scan with the CW sign unfolded (seed 001 Eq. 4;
 :func:`flidar_uq.physics.lidar.vad_sign_unfolding`), and the fixed reference lidar's
 radial speeds and fit.
 
-The arithmetic is the NumPy pipeline's, operation for operation, except for sums of three
-products (``R @ m``, ``R @ r``, the 3-component fits), which BLAS computes with fused
-multiply-adds on some CPUs: the kernel adds plain products left to right, on every CPU
-(LLVM contracts no multiply-add without fast-math flags). The attitude's cosines and
+The arithmetic is the NumPy pipeline's, operation for operation, except for the sums:
+BLAS computed the 3-term products (``R @ m``, ``R @ r``) with fused multiply-adds on some
+CPUs and the scans' fits (sums over their lines of sight) and NumPy the residuals' means in
+their own orders; the kernel adds plain products left to right, on every CPU (LLVM
+contracts no multiply-add without fast-math flags). Differences of rounding size only. The attitude's cosines and
 sines are computed once per LOS slot (:func:`attitude_trig`).
 
-Compiled with numba on first use in a process and cached on disk (``cache=True``: in the
-package's ``__pycache__`` or numba's user cache directory); the compilation takes a few
-seconds once per machine.
+Compiled with numba on first use in a process and cached on disk (in the package's
+``__pycache__``, else numba's user cache directory, or ``NUMBA_CACHE_DIR``); the
+compilation takes a few seconds once per machine. Where no cache directory is writable
+the functions compile in every process instead.
 """
 
 from __future__ import annotations
@@ -28,10 +30,19 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["attitude_trig", "simulate_scans"]
+__all__ = ["attitude_trig", "simulate_chunk_scans"]
 
 
-@numba.njit(cache=True, nogil=True)
+def _compiled(func):
+    """``numba.njit`` with the machine code cached on disk; without a writable cache
+    directory (numba raises at decoration), compiled in every process instead."""
+    try:
+        return numba.njit(cache=True, nogil=True)(func)
+    except RuntimeError:  # "cannot cache function ...: no locator available"
+        return numba.njit(cache=False, nogil=True)(func)
+
+
+@_compiled
 def attitude_trig(roll_deg, pitch_deg, yaw_deg):
     """Cosines and sines ``cr, sr, cp, sp, cy, sy`` of the attitude, shape (6, C, N).
 
@@ -65,7 +76,7 @@ def attitude_trig(roll_deg, pitch_deg, yaw_deg):
     return out
 
 
-@numba.njit(cache=True, nogil=True)
+@_compiled
 def _rotate(cr, sr, cp, sp, cy, sy, v0, v1, v2):
     """``R @ v`` with ``R = Rz(yaw) Ry(pitch) Rx(roll)`` from its cosines and sines, the
     entries of :func:`flidar_uq.physics.motion._rotation_entries`."""
@@ -87,7 +98,7 @@ def _rotate(cr, sr, cp, sp, cy, sy, v0, v1, v2):
     )
 
 
-@numba.njit(cache=True, nogil=True)
+@_compiled
 def _rotate_at(trig, c, t, v0, v1, v2):
     """``R @ v`` at slot ``t`` of record ``c`` from :func:`attitude_trig`'s array."""
     return _rotate(
@@ -103,8 +114,8 @@ def _rotate_at(trig, c, t, v0, v1, v2):
     )
 
 
-@numba.njit(cache=True, nogil=True)
-def simulate_scans(
+@_compiled
+def simulate_chunk_scans(
     trig,
     trans,
     starts,

@@ -194,6 +194,11 @@ def motion_spectrum(
             f"motion_spectrum: need fs_hz > 0 and segment_s > 0, got {fs_hz}, {segment_s}"
         )
     nperseg = int(min(x.shape[-1], round(segment_s * fs_hz)))
+    if nperseg < 1:
+        raise ValueError(
+            f"motion_spectrum: a Welch segment of {segment_s} s at {fs_hz} Hz on "
+            f"{x.shape[-1]} samples holds no sample"
+        )
     # the window is detrended once as a whole; each Welch segment only loses its mean
     r = _detrend(_fill(x))
     f, p = _welch_hann(r, fs_hz, nperseg)

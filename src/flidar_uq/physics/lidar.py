@@ -327,8 +327,10 @@ def vad_sign_unfolding(
     VAD fit of the signed speeds ``s |v_r|`` is ``p = pinv (s |v_r|)``; the iteration
     ``s <- sign(M p)``, ``p <- pinv (s |v_r|)`` stops at a stationary point of the
     ``|.|`` least squares ``sum (|M p| - |v_r|)^2``. Used by :func:`retrieve_wind`
-    (``sign_ambiguity=True``, started from the quadratic-form estimate) and by the
-    virtual campaign (started from the signs of the simulated radial speeds, one step).
+    (``sign_ambiguity=True``, started from the quadratic-form estimate); the virtual
+    campaign's compiled loop does the same iteration scan by scan (started from the signs
+    of the simulated radial speeds, one step;
+    :func:`flidar_uq.campaign.scan_kernel.simulate_chunk_scans`, tested against this function).
 
     Parameters
     ----------

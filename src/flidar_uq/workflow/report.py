@@ -46,6 +46,8 @@ PROVENANCE_PACKAGES = (
     "xarray",
     "matplotlib",
     "snakemake",
+    "numba",
+    "llvmlite",
 )
 
 
