@@ -580,56 +580,46 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     has_ref = (np.ones(n_c, bool) if ref_days is None else rec_start_s < float(ref_days) * 86400.0)[
         :, None
     ]
-    ts_ns = np.array(
-        [(start0 + pd.Timedelta(seconds=int(r) * t_len)).value for r in rec_idx], np.int64
-    )  # record starts, ns since the epoch
-    per_record = {
-        "true_wd_deg": par["wd_deg"],
-        "true_sigma_u_ms": par["sigma_u_ms"],
-        "true_shear_exponent": par["shear_exponent"],
-        "true_amplitude_deg": true_amp,
-        "true_roll_amplitude_deg": roll_amp,
-        "true_pitch_amplitude_deg": pitch_amp,
-        "true_period_s": true_period,
-        "true_period1_s": t1,
-        "true_period2_s": t2,
-        "true_weight1": w1_true,
-        "true_lever_arm_m": np.full(n_c, lever_norm),
-    }
-    # the chunk's rows as columns, record by record, its heights in turn
+    starts_utc = [start0 + pd.Timedelta(seconds=int(r) * t_len) for r in rec_idx]
+
+    def per_record(v):  # one value a record -> one a row (a record's heights in turn)
+        return np.repeat(np.asarray(v), n_h)
+
+    # the chunk's rows as columns; (C,H) arrays flatten to the same row order
     cols = {
-        "timestamp": np.repeat(ts_ns, n_h),
+        "timestamp": per_record([ts.value for ts in starts_utc]),  # ns since the epoch
         "height_m": np.tile(heights, n_c),
-        "hws_mean_ms": hs_mean,
-        "hws_std_ms": hs_std,
-        "wd_mean_deg": wd_mean,
-        "availability_pct": availability,
-        "sv": sv,
-        "ref_hws_mean_ms": np.where(has_ref, h0_mean, np.nan),
-        "ref_hws_std_ms": np.where(has_ref, h0_std, np.nan),
-        "true_hws_mean_ms": t_mean,
-        "true_hws_std_ms": t_std,
-        "true_ti": t_std / t_mean,
-        **per_record,
-        "true_sigma_z_ms": z_std,
-        "true_mean_z_ms": z_mean,
-        "true_n_scans": n_sel.astype(float),
-        "true_record": np.asarray(rec_idx, float),
-        "true_case": par["case"] if "case" in par else np.full(n_c, np.nan),
+        "hws_mean_ms": hs_mean.ravel(),
+        "hws_std_ms": hs_std.ravel(),
+        "wd_mean_deg": wd_mean.ravel(),
+        "availability_pct": availability.ravel(),
+        "sv": sv.ravel(),
+        "ref_hws_mean_ms": np.where(has_ref, h0_mean, np.nan).ravel(),
+        "ref_hws_std_ms": np.where(has_ref, h0_std, np.nan).ravel(),
+        "true_hws_mean_ms": t_mean.ravel(),
+        "true_hws_std_ms": t_std.ravel(),
+        "true_ti": (t_std / t_mean).ravel(),
+        "true_wd_deg": per_record(par["wd_deg"]),
+        "true_sigma_u_ms": per_record(par["sigma_u_ms"]),
+        "true_shear_exponent": per_record(par["shear_exponent"]),
+        "true_amplitude_deg": per_record(true_amp),
+        "true_roll_amplitude_deg": per_record(roll_amp),
+        "true_pitch_amplitude_deg": per_record(pitch_amp),
+        "true_period_s": per_record(true_period),
+        "true_period1_s": per_record(t1),
+        "true_period2_s": per_record(t2),
+        "true_weight1": per_record(w1_true),
+        "true_lever_arm_m": per_record(np.full(n_c, lever_norm)),
+        "true_sigma_z_ms": z_std.ravel(),
+        "true_mean_z_ms": z_mean.ravel(),
+        "true_n_scans": n_sel.ravel().astype(float),
+        "true_record": per_record(np.asarray(rec_idx, float)),
+        "true_case": per_record(par["case"] if "case" in par else np.full(n_c, np.nan)),
         # what the reference would measure, also where it is absent
-        "true_ref_hws_mean_ms": h0_mean,
-        "true_ref_hws_std_ms": h0_std,
-        **regimes,
-    }
-    cols = {
-        k: np.repeat(np.asarray(v), n_h)
-        if np.ndim(v) == 1 and k not in ("timestamp", "height_m")
-        else np.asarray(v).reshape(-1)
-        for k, v in cols.items()
-    }
-    for c, s in enumerate(series):
-        rec = int(rec_idx[c])
-        ts = start0 + pd.Timedelta(seconds=rec * t_len)
+        "true_ref_hws_mean_ms": h0_mean.ravel(),
+        "true_ref_hws_std_ms": h0_std.ravel(),
+    } | {k: per_record(v) for k, v in regimes.items()}
+    for c, (s, ts) in enumerate(zip(series, starts_utc, strict=True)):
         # IMU: true attitude at the IMU clock, noise, gap
         n_imu = s["imu_noise"].shape[1]
         t_imu = np.arange(n_imu) / rate
