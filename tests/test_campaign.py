@@ -541,6 +541,29 @@ def test_imu_clock_is_interpolation_of_the_los_clock(rate_hz, dt_s):
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(x).max())
 
 
+@pytest.mark.parametrize("rate_hz", [5.0, 20.0, 50.0, 3.0, 7.3, 1.0 / 0.15])
+def test_imu_grid_rate_is_the_one_window_series_infers(rate_hz):
+    """The generator gives the IMU statistics the rate window_series would infer from its
+    sample times (integer ns after a record start, as the generator makes them), so the
+    grid and the spectra's frequencies are the same."""
+    import pandas as pd
+
+    from flidar_uq.campaign import physics_mode as pm
+    from flidar_uq.data.imu import window_series
+
+    t_len = 600.0
+    n_imu = int(np.floor(t_len * rate_hz + 1e-9))
+    start = pd.Timestamp("2024-01-01T00:00:00Z")
+    t_ns = np.concatenate(
+        [
+            pm._utc_ns(start + pd.Timedelta(seconds=r * t_len), np.arange(n_imu) / rate_hz)
+            for r in range(3)
+        ]
+    )
+    _, _, inferred = window_series((t_ns - t_ns[0]) * 1e-9, np.zeros(t_ns.size), window_s=t_len)
+    assert pm._imu_grid_rate_hz(rate_hz) == inferred
+
+
 def test_masked_mean_std_is_nan_below_two_samples_and_numpy_above():
     """Count, mean and std (ddof 1) of the selected samples of each row: NaN std for 0 or 1
     samples (not -0.0: sqrt(0 / -1)), NaN mean for none; NumPy's values otherwise."""

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from flidar_uq.data import imu
@@ -480,3 +480,41 @@ def test_own_welch_is_scipy_welch(n, seg, rows, seed):
 def test_motion_spectrum_without_a_sample_per_segment_raises():
     with pytest.raises(ValueError, match="holds no sample"):
         imu.motion_spectrum(np.ones(100), 5.0, segment_s=0.05)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    x=st.lists(st.integers(min_value=0, max_value=4), min_size=0, max_size=40).map(
+        lambda v: np.asarray(v, float)
+    )
+)
+@example(x=np.array([0.0, 1.0, 1.0, 0.0]))  # a flat peak of two samples: its first
+@example(x=np.array([0.0, 2.0, 2.0, 2.0, 3.0, 1.0]))  # a plateau that rises again
+@example(x=np.array([1.0, 1.0, 0.0, 2.0, 2.0]))  # flat runs at both ends
+def test_local_maxima_is_find_peaks(x):
+    """two_peaks' local maxima are scipy.signal.find_peaks' (no conditions), plateaus
+    (small integers: many equal neighbours) and ends included."""
+    from scipy.signal import find_peaks
+
+    np.testing.assert_array_equal(imu._local_maxima(x), find_peaks(x)[0])
+
+
+@pytest.mark.parametrize("nperseg", [1, 2, 3, 8, 255, 256, 1000])
+def test_hann_is_scipy_get_window_bit_for_bit(nperseg):
+    from scipy.signal import get_window
+
+    win, power = imu._hann(nperseg)
+    np.testing.assert_array_equal(win, get_window("hann", nperseg))
+    assert power == float((win * win).sum())
+    assert not win.flags.writeable
+
+
+def test_imu_module_does_not_import_scipy_signal():
+    """The campaign's workers import the IMU estimators: without scipy.signal (~0.45 s a
+    process)."""
+    import subprocess
+    import sys
+
+    code = "import sys, flidar_uq.campaign.physics_mode; print('scipy.signal' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"

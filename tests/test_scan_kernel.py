@@ -197,3 +197,37 @@ def test_without_a_writable_cache_the_kernel_compiles_uncached(monkeypatch):
 
     assert scan_kernel._compiled(f) == ("compiled", f)
     assert calls == [True, False]
+
+
+@pytest.mark.parametrize(("stride", "constant_yaw"), [(1, False), (5, True), (7, False)])
+def test_attitude_truth_is_the_numpy_definition(stride, constant_yaw):
+    """Roll/pitch amplitudes (sqrt 2 std), the tilt along / across the wind (the body z axis
+    R e_z leaning toward where the wind blows / 90 deg to its left) and the circular-mean
+    heading, from the rotation matrix itself, on every ``stride``-th slot (a stride that
+    does not divide the record included)."""
+    rng = np.random.default_rng(7)
+    n_c, n = 3, 603
+    roll, pitch = rng.normal(0.0, 6.0, (2, n_c, n))
+    yaw = rng.uniform(-180.0, 180.0, (n_c, 1)) + (
+        0.0 if constant_yaw else rng.normal(0, 20, (n_c, n))
+    )
+    wd = rng.uniform(0.0, 360.0, n_c)
+    got = scan_kernel.attitude_truth(attitude_trig(roll, pitch, yaw), roll, pitch, wd, stride)
+    assert got.shape == (5, n_c)
+    np.testing.assert_allclose(got[0], np.sqrt(2.0) * roll.std(axis=-1), rtol=1e-13)
+    np.testing.assert_allclose(got[1], np.sqrt(2.0) * pitch.std(axis=-1), rtol=1e-13)
+    y = np.broadcast_to(yaw, roll.shape)[:, ::stride]
+    z_axis = rotation_matrix(*np.deg2rad((roll[:, ::stride], pitch[:, ::stride], y)))[..., :, 2]
+    w = np.deg2rad(wd)[:, None]
+    to_e, to_n = -np.sin(w), -np.cos(w)  # where the wind blows to (east, north)
+    along = np.degrees(np.arctan2(z_axis[..., 0] * to_e + z_axis[..., 1] * to_n, z_axis[..., 2]))
+    left_e, left_n = -to_n, to_e
+    across = np.degrees(
+        np.arctan2(z_axis[..., 0] * left_e + z_axis[..., 1] * left_n, z_axis[..., 2])
+    )
+    np.testing.assert_allclose(got[2], np.sqrt(2.0) * along.std(axis=-1), rtol=1e-12)
+    np.testing.assert_allclose(got[3], np.sqrt(2.0) * across.std(axis=-1), rtol=1e-12)
+    r = np.deg2rad(y)
+    heading = np.degrees(np.arctan2(np.sin(r).mean(-1), np.cos(r).mean(-1)))
+    np.testing.assert_allclose(got[4], heading, rtol=0, atol=1e-10)
+    assert ((got[4] >= -180.0) & (got[4] < 180.0)).all()

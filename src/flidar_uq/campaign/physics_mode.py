@@ -126,7 +126,7 @@ class CampaignOutput:
 
 def _record_parameters(cfg: CampaignConfig, rng: np.random.Generator) -> dict:
     """Record-level parameters for all records (arrays of length n_records)."""
-    from scipy.stats import norm
+    from scipy.special import ndtr  # the standard normal CDF (scipy.stats.norm.cdf's values)
 
     s = cfg.settings
     n = int(s["n_records"])
@@ -141,7 +141,7 @@ def _record_parameters(cfg: CampaignConfig, rng: np.random.Generator) -> dict:
     k, lam = float(w["hws_weibull_shape"]), float(w["hws_weibull_scale_ms"])
     cdf = lambda u: 1.0 - np.exp(-((u / lam) ** k))  # noqa: E731
     lo, hi = cdf(float(w["hws_min_ms"])), cdf(float(w["hws_max_ms"]))
-    q = lo + (hi - lo) * norm.cdf(z)
+    q = lo + (hi - lo) * ndtr(z)
     hws_ref = lam * (-np.log1p(-q)) ** (1.0 / k)  # truncated Weibull quantile
     wd = (float(w["wd_mean_deg"]) + float(w["wd_sd_deg"]) * rng.standard_normal(n)) % 360.0
     alpha = float(w["shear_exponent_mean"]) + float(w["shear_exponent_sd"]) * rng.standard_normal(n)
@@ -278,7 +278,6 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
     n_wind = -(-n_slots // step)
     fluct = kaimal_series(n_wind, dt * step, hws_h, par["sigma_u_ms"][i], heights, rng)  # (H,3,Nw)
     # motion
-    t = np.arange(n_slots) * dt
     m = settings["motion"]
     if m["model"] == "sea_state":
         sea = m["sea_state"]
@@ -295,9 +294,10 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
         }
         roll, pitch = tilt_series(n_slots, dt, systems, rng)
         roll, pitch = roll[0], pitch[0]
-        yaw = np.full(n_slots, rel)
+        yaw = np.array([rel])  # a constant heading: one value (broadcast over the slots)
         trans = None
     else:
+        t = np.arange(n_slots) * dt
         ph = rng.uniform(0.0, 2.0 * np.pi, size=6)
         w_ = 2.0 * np.pi / par["period_s"][i]
         roll = par["roll_amplitude_deg"][i] * np.sin(w_ * t + ph[0])
@@ -358,60 +358,43 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
 # ---------------------------------------------------------------------------
 
 
-def _regime_truth(settings, par, trig) -> dict[str, np.ndarray]:
+def _regime_truth(settings, par, truth) -> dict[str, np.ndarray]:
     """Truth columns of the records' sea-state and heading regime (issue 11), one value a
     record.
 
-    The tilt along / across the wind is the lean of the body z axis toward the direction
-    the wind blows to / 90 deg to its left, ``sqrt(2)`` x its std (deg, the amplitude
-    convention of docs/conventions.md), from the attitude sampled every 0.1 s. Directions of travel are compass (clockwise
-    from north); the swell offset is signed, swell minus downwind, in (-180, 180].
-    ``trig``: cosines and sines of roll, pitch and yaw (``cr, sr, cp, sp, cy, sy``), shape
-    (6, records of the chunk, LOS slots).
+    ``truth``: the rows of :func:`flidar_uq.campaign.scan_kernel.attitude_truth` (tilt
+    along / across the wind, ``sqrt(2)`` x its std, deg, the amplitude convention of
+    docs/conventions.md, and the mean heading, deg). Directions of travel are compass
+    (clockwise from north); the swell offset is signed, swell minus downwind, in
+    (-180, 180].
     """
-    # on a 0.1-s clock: the attitude varies on seconds, and the full LOS clock (0.02 s)
-    # would cost a fifth of the record's simulation time
-    stride = max(int(round(0.1 / (float(settings["record_length_s"]) / trig.shape[-1]))), 1)
-    cr, sr, cp, sp, cy, sy = trig[:, :, ::stride]
-    zx_b, zy_b, zz = sp * cr, -sr, cp * cr  # R @ e_z
-    ze = cy * zx_b - sy * zy_b
-    zn = sy * zx_b + cy * zy_b
-    wd = np.deg2rad(par["wd_deg"])[:, None]
-    along = np.rad2deg(np.arctan2(-np.sin(wd) * ze - np.cos(wd) * zn, zz))
-    across = np.rad2deg(np.arctan2(np.cos(wd) * ze - np.sin(wd) * zn, zz))
-    # mean heading: the circular mean of the yaw samples (their cosines and sines above)
-    yaw_mean = np.rad2deg(np.arctan2(sy.sum(-1), cy.sum(-1))) % 360.0
-    yaw_mean = (yaw_mean + 180.0) % 360.0 - 180.0
-    along_amp = np.sqrt(2.0) * along.std(axis=-1)
-    across_amp = np.sqrt(2.0) * across.std(axis=-1)
-    sea_state = settings["motion"]["model"] == "sea_state"
-    out = []
-    for c in range(trig.shape[1]):
-        d = {
-            "true_yaw_deg": float(yaw_mean[c]),
-            "true_yaw_minus_upwind_deg": float(_wrap180(yaw_mean[c] - (90.0 - par["wd_deg"][c]))),
-            "true_weathervane": float(par["weathervane"][c]),
-            "true_tilt_along_wind_amplitude_deg": float(along_amp[c]),
-            "true_tilt_across_wind_amplitude_deg": float(across_amp[c]),
-            "true_swell_present": np.nan,
-            "true_wind_sea_gamma": np.nan,
-            "true_wind_sea_direction_deg": np.nan,
-            "true_swell_direction_deg": np.nan,
-            "true_swell_direction_offset_deg": np.nan,
-        }
-        if sea_state:
-            swell = bool(np.isfinite(par["tp2_s"][c]))
-            d2 = float(par["dir2_deg"][c]) % 360.0
-            off = -float(_wrap180(-(d2 - par["wd_deg"][c] - 180.0)))  # (-180, 180]
-            d.update(
-                true_swell_present=float(swell),
-                true_wind_sea_gamma=float(par["gamma1"][c]),
-                true_wind_sea_direction_deg=float(par["dir1_deg"][c]) % 360.0,
-                true_swell_direction_deg=d2 if swell else np.nan,
-                true_swell_direction_offset_deg=off if swell else np.nan,
-            )
-        out.append(d)
-    return {k: np.array([d[k] for d in out], float) for k in out[0]}
+    _, _, along_amp, across_amp, yaw_mean = truth
+    wd = np.asarray(par["wd_deg"], float)
+    nan = np.full(wd.size, np.nan)
+    out = {
+        "true_yaw_deg": yaw_mean,
+        "true_yaw_minus_upwind_deg": _wrap180(yaw_mean - (90.0 - wd)),
+        "true_weathervane": np.asarray(par["weathervane"], float),
+        "true_tilt_along_wind_amplitude_deg": along_amp,
+        "true_tilt_across_wind_amplitude_deg": across_amp,
+        "true_swell_present": nan,
+        "true_wind_sea_gamma": nan,
+        "true_wind_sea_direction_deg": nan,
+        "true_swell_direction_deg": nan,
+        "true_swell_direction_offset_deg": nan,
+    }
+    if settings["motion"]["model"] == "sea_state":
+        swell = np.isfinite(par["tp2_s"])
+        d2 = np.asarray(par["dir2_deg"], float) % 360.0
+        off = -_wrap180(-(d2 - wd - 180.0))  # (-180, 180]
+        out.update(
+            true_swell_present=swell.astype(float),
+            true_wind_sea_gamma=np.asarray(par["gamma1"], float),
+            true_wind_sea_direction_deg=np.asarray(par["dir1_deg"], float) % 360.0,
+            true_swell_direction_deg=np.where(swell, d2, np.nan),
+            true_swell_direction_offset_deg=np.where(swell, off, np.nan),
+        )
+    return out
 
 
 def _on_imu_clock(x, n_imu: int, rate_hz: float, dt_s: float) -> np.ndarray:
@@ -424,6 +407,13 @@ def _on_imu_clock(x, n_imu: int, rate_hz: float, dt_s: float) -> np.ndarray:
     if abs(k - every) < 1e-9 and every >= 1 and (n_imu - 1) * every < x.size:
         return x[::every][:n_imu]
     return np.interp(np.arange(n_imu) / rate_hz, np.arange(x.size) * dt_s, x)
+
+
+def _imu_grid_rate_hz(rate_hz: float) -> float:
+    """The sampling rate (Hz) :func:`flidar_uq.data.imu.window_series` infers from IMU
+    samples every ``1 / rate_hz`` s (their median interval rounded to 1 us), given
+    instead of inferred: the median of a chunk's intervals cost ~0.5 % of the generator."""
+    return 1.0 / (round(1e6 / rate_hz) * 1e-6)
 
 
 def _masked_mean_std(x, mask):
@@ -458,7 +448,11 @@ def _utc(ts: pd.Timestamp, t_s: np.ndarray) -> pd.DatetimeIndex:
 
 def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     # imported here: numba's import (~0.2 s) only in processes that simulate a campaign
-    from flidar_uq.campaign.scan_kernel import attitude_trig, simulate_chunk_scans
+    from flidar_uq.campaign.scan_kernel import (
+        attitude_trig,
+        attitude_truth,
+        simulate_chunk_scans,
+    )
 
     geo = _lidar.get_lidar(settings["lidar"]["name"])
     n_los = geo.n_los
@@ -480,17 +474,18 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
 
     starts = np.stack([s["starts"] for s in series])  # (C,J)
     valid = starts + n_los <= n_slots
-    idx = np.minimum(starts[..., None] + np.arange(n_los), n_slots - 1)  # (C,J,L)
     k0 = np.array([s["k0"] for s in series])
     phase_slots = np.stack([s["phase_slots"] for s in series])  # (C,J)
     h_idx = np.broadcast_to(np.arange(j_max) % n_h, starts.shape)  # heights in turn
     roll = np.stack([s["roll"] for s in series])  # (C,N) deg
     pitch = np.stack([s["pitch"] for s in series])
-    yaw = np.stack([s["yaw"] for s in series])
+    yaw = np.stack([s["yaw"] for s in series])  # (C,N), or (C,1): a constant heading
+    if yaw.shape[1] > 1 and (yaw == yaw[:, :1]).all():
+        yaw = yaw[:, :1]
     # the attitude's cosines and sines on the LOS clock (a constant heading, sea-state
     # buoy: one a record), then every line of sight, its head velocity, wind, radial
     # speed and scan fit in one compiled pass
-    trig = attitude_trig(roll, pitch, yaw[:, :1] if (yaw == yaw[:, :1]).all() else yaw)
+    trig = attitude_trig(roll, pitch, yaw)
     trans = (
         np.stack([s["trans"] for s in series])
         if series[0]["trans"] is not None
@@ -521,8 +516,8 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     )
     hws_scan = np.hypot(uvw[..., 0], uvw[..., 1])  # (C,J)
     hws0 = np.hypot(uvw0[..., 0], uvw0[..., 1])
-    mid = idx[..., n_los // 2]
-    yaw_mid = yaw[np.arange(n_c)[:, None], mid]
+    mid = np.minimum(starts + n_los // 2, n_slots - 1)  # (C,J): each scan's middle slot
+    yaw_mid = yaw[np.arange(n_c)[:, None], np.minimum(mid, yaw.shape[1] - 1)]
     wd_scan = _lidar.wind_direction_deg(uvw[..., 0], uvw[..., 1]) - yaw_mid  # compass
     # 180-deg branch of the CW lidar: the one closest to the met-station vane (true wd)
     wd_true = par["wd_deg"][:, None]
@@ -535,9 +530,13 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     los_frames, imu_att, imu_ns = [], [], []
     start0 = pd.Timestamp(settings["start_utc"])
     rate = float(settings["imu"]["rate_hz"])
-    regimes = _regime_truth(settings, par, trig)
-    # truth of the motion (noise-free, gap-free series on the LOS clock)
-    roll_amp, pitch_amp = (np.sqrt(2.0) * a.std(axis=-1) for a in (roll, pitch))
+    # truth of the motion (noise-free, gap-free series on the LOS clock); the tilt along
+    # and across the wind and the heading on a 0.1-s clock: the attitude varies on
+    # seconds, and the full LOS clock (0.02 s) would cost a fifth of the record's time
+    stride = max(int(round(0.1 / (t_len / n_slots))), 1)
+    truth = attitude_truth(trig, roll, pitch, np.asarray(par["wd_deg"], float), stride)
+    roll_amp, pitch_amp = truth[0], truth[1]
+    regimes = _regime_truth(settings, par, truth)
     lever_norm = float(np.linalg.norm(lever))
     # 10-min statistics of every (record, height) at once: its scans are a mask over J
     at_h = h_idx[:, None, :] == np.arange(n_h)[:, None]  # (C,H,J)
@@ -623,7 +622,12 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         # IMU: true attitude at the IMU clock, noise, gap
         n_imu = s["imu_noise"].shape[1]
         t_imu = np.arange(n_imu) / rate
-        att = [_on_imu_clock(x[c], n_imu, rate, dt) for x in (roll, pitch, yaw)]
+        att = [_on_imu_clock(x[c], n_imu, rate, dt) for x in (roll, pitch)]
+        att.append(
+            _on_imu_clock(yaw[c], n_imu, rate, dt)
+            if yaw.shape[1] > 1
+            else np.full(n_imu, yaw[c, 0])
+        )
         att = [a + nz for a, nz in zip(att, s["imu_noise"], strict=True)]
         if s["imu_gap"] is not None:
             g = (t_imu >= s["imu_gap"][0]) & (t_imu < s["imu_gap"][1])
@@ -632,9 +636,10 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         imu_att.append(att)
         imu_ns.append(_utc_ns(ts, t_imu))
         if want_los:
+            idx = np.minimum(starts[c][:, None] + np.arange(n_los), n_slots - 1)  # (J,L)
             jj = np.nonzero(valid[c])[0]
-            a_c = (idx[c][jj] + k0[c] + phase_slots[c][jj][:, None]) % n_los  # azimuth slots
-            t_los = (idx[c][jj] * dt).ravel()
+            a_c = (idx[jj] + k0[c] + phase_slots[c][jj][:, None]) % n_los  # azimuth slots
+            t_los = (idx[jj] * dt).ravel()
             vr = np.abs(v_r[c][jj]) if not geo.signed else v_r[c][jj]
             vr = np.where((~ok[c][jj])[:, None], np.nan, vr)
             los_frames.append(
@@ -660,6 +665,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         window_s=t_len,
         period_min_s=float(p_lo),
         period_max_s=float(p_hi),
+        fs_hz=_imu_grid_rate_hz(rate),
     )
     # each row's window: every record has IMU sample times, so every window exists (a
     # window without a finite sample has no statistics)

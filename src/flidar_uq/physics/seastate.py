@@ -157,15 +157,15 @@ def tilt_series(
     else:
         par = {k: np.atleast_2d(np.asarray(v, float)) for k, v in systems.items()}
     amp = par["amplitude_deg"]  # (R, S)
-    n_rec = amp.shape[0]
-    f_all = np.fft.rfftfreq(n, dt_s)  # (nf,)
-    df = f_all[1]
+    n_f = n // 2 + 1  # one-sided bins
+    df = 1.0 / (n * dt_s)  # numpy.fft.rfftfreq's frequencies, k * df
     # JONSWAP above 8 f_p holds < 1e-4 of the variance: synthesise only the bins below
     tp_min = np.nanmin(np.where(amp > 0, par["tp_s"], np.inf))
-    n_b = f_all.size if not np.isfinite(tp_min) else min(f_all.size, int(8.0 / tp_min / df) + 2)
-    f = f_all[:n_b]
+    n_b = n_f if not np.isfinite(tp_min) else min(n_f, int(8.0 / tp_min / df) + 2)
+    f = np.arange(n_b) * df
     shape = jonswap_spectrum(f, 1.0, par["tp_s"][..., None], par["gamma"][..., None])
-    shape = np.nan_to_num(shape)  # (R, S, nb)
+    if not np.isfinite(shape).all():
+        shape = np.nan_to_num(shape)  # (R, S, nb)
     area = shape.sum(axis=-1, keepdims=True) * df
     var_bins = amp[..., None] ** 2 * shape * df / np.where(area > 0, area, np.inf)
     # complex coefficient per (record, system, bin); x = n irfft(C): E power 4 s^2
@@ -174,7 +174,7 @@ def tilt_series(
     coef.imag = rng.standard_normal(var_bins.shape)
     coef *= 0.5 * np.sqrt(var_bins)
     coef[..., 0] = 0.0
-    if n % 2 == 0 and n_b == f_all.size:
+    if n % 2 == 0 and n_b == n_f:
         coef[..., -1] = 0.0
     theta = _wrapped_normal(
         rng,
@@ -184,10 +184,9 @@ def tilt_series(
     )
     roll_c = (coef * np.sin(theta)).sum(axis=1)  # roll = +d(eta)/dy (module docstring)
     pitch_c = (-coef * np.cos(theta)).sum(axis=1)  # pitch = -d(eta)/dx
-    spec = np.zeros((2, n_rec, f_all.size), complex)  # zero above the synthesised bins
-    spec[0, :, :n_b], spec[1, :, :n_b] = roll_c, pitch_c
-    roll = np.fft.irfft(spec[0], n=n, axis=-1) * n
-    pitch = np.fft.irfft(spec[1], n=n, axis=-1) * n
+    # irfft pads the bins above the synthesised ones with zeros
+    roll = np.fft.irfft(roll_c, n=n, axis=-1) * n
+    pitch = np.fft.irfft(pitch_c, n=n, axis=-1) * n
     if single:
         return roll[0], pitch[0]
     return roll, pitch
