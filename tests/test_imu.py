@@ -518,3 +518,34 @@ def test_imu_module_does_not_import_scipy_signal():
     code = "import sys, flidar_uq.campaign.physics_mode; print('scipy.signal' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    n=st.integers(min_value=1, max_value=300),
+    rows=st.integers(min_value=1, max_value=4),
+    nan_share=st.sampled_from([0.0, 0.1, 0.9, 1.0]),
+    seed=st.integers(min_value=0, max_value=2**32 - 1),
+)
+def test_detrend_is_the_least_squares_line_over_finite_samples(n, rows, nan_share, seed):
+    """The compiled detrend is the NaN-ignoring least-squares line removal of the NumPy
+    expressions (to rounding): rows with gaps, with one finite sample (its value removed),
+    without any (NaN)."""
+    rng = np.random.default_rng(seed)
+    x = rng.standard_normal((rows, n)).cumsum(axis=-1) + rng.uniform(-50, 50, (rows, 1))
+    x[rng.random((rows, n)) < nan_share] = np.nan
+    j = np.arange(n, dtype=float)
+    ok = np.isfinite(x)
+    cnt = ok.sum(axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        jm = np.where(ok, j, 0.0).sum(axis=-1, keepdims=True) / cnt
+        xm = np.where(ok, x, 0.0).sum(axis=-1, keepdims=True) / cnt
+        dj = np.where(ok, j - jm, 0.0)
+        slope = (dj * np.where(ok, x - xm, 0.0)).sum(-1, keepdims=True) / (dj**2).sum(
+            -1, keepdims=True
+        )
+    want = x - xm - np.where(np.isfinite(slope), slope, 0.0) * (j - jm)
+    got = imu._detrend(x)
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
+    scale = np.nanmax(np.abs(x), initial=1.0)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * scale)

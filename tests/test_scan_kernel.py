@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from flidar_uq import compiled as compiled_module
 from flidar_uq.campaign import scan_kernel
 from flidar_uq.campaign.scan_kernel import attitude_trig, simulate_chunk_scans
 from flidar_uq.physics import lidar as _lidar
@@ -190,12 +191,12 @@ def test_without_a_writable_cache_the_kernel_compiles_uncached(monkeypatch):
             raise RuntimeError("cannot cache function 'f': no locator available")
         return lambda f: ("compiled", f)
 
-    monkeypatch.setattr(scan_kernel.numba, "njit", fake_njit)
+    monkeypatch.setattr(compiled_module.numba, "njit", fake_njit)
 
     def f():
         return 1
 
-    assert scan_kernel._compiled(f) == ("compiled", f)
+    assert compiled_module.compiled(f) == ("compiled", f)
     assert calls == [True, False]
 
 

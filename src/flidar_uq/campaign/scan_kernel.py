@@ -17,32 +17,22 @@ their own orders; the kernel adds plain products left to right, on every CPU (LL
 contracts no multiply-add without fast-math flags). Differences of rounding size only. The attitude's cosines and
 sines are computed once per LOS slot (:func:`attitude_trig`).
 
-Compiled with numba on first use in a process and cached on disk (in the package's
-``__pycache__``, else numba's user cache directory, or ``NUMBA_CACHE_DIR``); the
-compilation takes a few seconds once per machine. Where no cache directory is writable
-the functions compile in every process instead.
+Compiled with numba on first use in a process and cached on disk
+(:func:`flidar_uq.compiled.compiled`).
 """
 
 from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
+
+from flidar_uq.compiled import compiled
 
 __all__ = ["attitude_trig", "attitude_truth", "simulate_chunk_scans"]
 
 
-def _compiled(func):
-    """``numba.njit`` with the machine code cached on disk; without a writable cache
-    directory (numba raises at decoration), compiled in every process instead."""
-    try:
-        return numba.njit(cache=True, nogil=True)(func)
-    except RuntimeError:  # "cannot cache function ...: no locator available"
-        return numba.njit(cache=False, nogil=True)(func)
-
-
-@_compiled
+@compiled
 def attitude_trig(roll_deg, pitch_deg, yaw_deg):
     """Cosines and sines ``cr, sr, cp, sp, cy, sy`` of the attitude, shape (6, C, N).
 
@@ -76,7 +66,7 @@ def attitude_trig(roll_deg, pitch_deg, yaw_deg):
     return out
 
 
-@_compiled
+@compiled
 def _amplitude(x, n):
     """``sqrt(2)`` x the std (``ddof=0``) of ``x[:n]``, two passes (docs/conventions.md).
 
@@ -106,7 +96,7 @@ def _amplitude(x, n):
     return math.sqrt(2.0) * math.sqrt(((s0 + s1) + (s2 + s3)) / n)
 
 
-@_compiled
+@compiled
 def attitude_truth(trig, roll_deg, pitch_deg, wd_deg, stride):
     """The records' true motion statistics from the noise-free attitude, shape (5, C).
 
@@ -157,7 +147,7 @@ def attitude_truth(trig, roll_deg, pitch_deg, wd_deg, stride):
     return out
 
 
-@_compiled
+@compiled
 def _rotate(cr, sr, cp, sp, cy, sy, v0, v1, v2):
     """``R @ v`` with ``R = Rz(yaw) Ry(pitch) Rx(roll)`` from its cosines and sines, the
     entries of :func:`flidar_uq.physics.motion._rotation_entries`."""
@@ -179,7 +169,7 @@ def _rotate(cr, sr, cp, sp, cy, sy, v0, v1, v2):
     )
 
 
-@_compiled
+@compiled
 def _rotate_at(trig, c, t, v0, v1, v2):
     """``R @ v`` at slot ``t`` of record ``c`` from :func:`attitude_trig`'s array."""
     return _rotate(
@@ -195,7 +185,7 @@ def _rotate_at(trig, c, t, v0, v1, v2):
     )
 
 
-@_compiled
+@compiled
 def simulate_chunk_scans(
     trig,
     trans,

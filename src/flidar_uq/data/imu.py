@@ -102,30 +102,11 @@ def _as_2d(x) -> tuple[np.ndarray, bool]:
 
 
 def _detrend(x: np.ndarray) -> np.ndarray:
-    """Remove a least-squares line from each row, ignoring NaN samples; shape kept."""
-    j = np.arange(x.shape[-1], dtype=np.float64)
-    ok = np.isfinite(x)
-    if ok.all():  # nothing missing: the same sums without the masks (the same values)
-        n = x.shape[-1]
+    """Remove a least-squares line from each row (shape (m, n)), ignoring NaN samples;
+    shape kept (:func:`flidar_uq.data.imu_kernels.detrend_rows`, compiled)."""
+    from flidar_uq.data import imu_kernels  # numba: imported where an estimator runs
 
-        def keep(a):
-            return a
-
-    else:
-        n = ok.sum(axis=-1, keepdims=True)
-
-        def keep(a):
-            return np.where(ok, a, 0.0)
-
-    with np.errstate(invalid="ignore", divide="ignore"):
-        jm = keep(j).sum(axis=-1, keepdims=True) / n
-        xm = keep(x).sum(axis=-1, keepdims=True) / n
-        dj = keep(j - jm)
-        slope = (dj * keep(x - xm)).sum(axis=-1, keepdims=True) / (dj**2).sum(
-            axis=-1, keepdims=True
-        )
-    slope = np.where(np.isfinite(slope), slope, 0.0)
-    return x - xm - slope * (j - jm)
+    return imu_kernels.detrend_rows(np.ascontiguousarray(x, dtype=np.float64))
 
 
 def _fill(x: np.ndarray) -> np.ndarray:
@@ -231,22 +212,17 @@ def _welch_hann(x: np.ndarray, fs_hz: float, nperseg: int) -> tuple[np.ndarray, 
     cost ~5x the FFTs for the generator's 3000-sample records; equal to ``welch`` to
     rounding (``tests/test_imu.py``).
     """
+    from flidar_uq.data import imu_kernels  # numba: imported where an estimator runs
+
     n = x.shape[-1]
     step = nperseg - nperseg // 2
     n_seg = (n - nperseg) // step + 1
-    seg = np.array(  # a copy: the segments overlap
-        np.lib.stride_tricks.sliding_window_view(x, nperseg, axis=-1)[..., ::step, :][
-            ..., :n_seg, :
-        ]
-    )
     win, win_power = _hann(nperseg)
-    seg -= seg.mean(axis=-1, keepdims=True)  # in place: ~4x faster than new temporaries
-    seg *= win
+    # the segments minus their means, windowed; their spectra; the mean power, one-sided
+    seg = imu_kernels.welch_segments(np.ascontiguousarray(x, dtype=np.float64), win, step, n_seg)
     spec = _fft.rfft(seg, axis=-1)
-    p = spec.real**2
-    p += spec.imag**2
-    p = p.mean(axis=-2) / (fs_hz * win_power)
-    p[..., 1 : (None if nperseg % 2 else -1)] *= 2.0  # one-sided: all but DC and Nyquist
+    n_doubled = spec.shape[-1] - 1 - (0 if nperseg % 2 else 1)  # all but DC and Nyquist
+    p = imu_kernels.welch_power(spec, fs_hz * win_power, n_doubled)
     return _fft.rfftfreq(nperseg, 1.0 / fs_hz), p
 
 
