@@ -140,3 +140,32 @@ def test_a_rule_log_ends_with_the_jobs_cpu_time_and_peak_memory(tmp_path):
     assert job_resources(tmp_path / "missing.log") is None
     # arviz's import-time backend notes (INFO) stay out of the rule logs
     assert "arviz" not in log.read_text()
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from([0.0, -0.0, np.nan, np.inf, 1 / 3, 2.5, -1e-300]),
+            st.integers(min_value=1, max_value=4),
+        ),
+        min_size=1,
+        max_size=12,
+    ),
+    st.sampled_from([None, "%.10g"]),
+)
+def test_runs_of_repeated_floats_are_written_as_pandas_writes_them(tmp_path_factory, runs, fmt):
+    """A column repeating each value over a few rows (a record over its heights) is
+    formatted once a run: the same bytes as pandas, -0.0 next to 0.0 and NaN runs
+    included."""
+    tmp = tmp_path_factory.mktemp("csv")
+    x = np.concatenate([np.full(k, v) for v, k in runs])
+    df = pd.DataFrame({"x": x, "y": x[::-1].astype(np.float32)})
+    text = csv_text(df, float_format=fmt or "%.17g", date_format=_DATES)
+    assert text is not None
+    (tmp / "ours.csv").write_text(text)
+    assert (tmp / "ours.csv").read_bytes() == _pandas_bytes(df, tmp / "p.csv", fmt or "%.17g")
+    plain = df[["x"]].assign(z=x)
+    _write(plain, tmp / "plain.csv", _DATES)
+    plain.to_csv(tmp / "pp.csv", index=False, date_format=_DATES)
+    assert (tmp / "plain.csv").read_bytes() == (tmp / "pp.csv").read_bytes()

@@ -821,9 +821,11 @@ def generate_campaign(
             # spawned workers with single-threaded BLAS: threads of several processes would
             # compete for the same cores (scipy's batched least squares in Welch detrending)
             stack.enter_context(_spawned_workers_env())
-            pool = stack.enter_context(
-                ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
-            )
+            pool = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
+            # once every chunk is in (or one failed), without waiting for the workers to
+            # exit (their interpreters take ~0.25 s to finish, in parallel with what follows);
+            # chunks not started yet are cancelled
+            stack.callback(pool.shutdown, wait=False, cancel_futures=True)
             chunks = pool.map(_run_chunk, jobs)
         for job, res in zip(jobs, chunks, strict=True):
             results.append(res)

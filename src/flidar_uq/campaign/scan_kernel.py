@@ -280,13 +280,26 @@ def simulate_chunk_scans(
             q0 = 0.0
             q1 = 0.0
             q2 = 0.0
+            # the slot, its azimuth slot and turbulence sample, stepped along the scan (one
+            # modulo and one division a scan, not a line of sight); past the record's last
+            # slot (a scan that does not fit, not kept) the last slot is repeated
+            slot = min(s0, n_slots - 1)
+            a = (slot + k0[c] + phase_slots[c, j]) % n_los
+            w_i = slot // wind_step
+            w_rem = slot - w_i * wind_step
             for k in range(n_los):
-                slot = min(s0 + k, n_slots - 1)
-                a = (slot + k0[c] + phase_slots[c, j]) % n_los
+                if k > 0 and s0 + k <= n_slots - 1:
+                    slot += 1
+                    a += 1
+                    if a == n_los:
+                        a = 0
+                    w_rem += 1
+                    if w_rem == wind_step:
+                        w_rem = 0
+                        w_i += 1
                 a_row[k] = a
                 m0, m1, m2 = d_body[a, 0], d_body[a, 1], d_body[a, 2]
                 d0, d1, d2 = _rotate_at(trig, c, slot, m0, m1, m2)
-                w_i = slot // wind_step
                 fu = fluct_uvw[c, h, 0, w_i]
                 fv = fluct_uvw[c, h, 1, w_i]
                 f0 = fu * e0 + fv * -e1  # east: u e + v l, l = (-e_north, e_east) to the left

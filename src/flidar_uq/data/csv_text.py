@@ -2,8 +2,9 @@
 
 pandas formats each value through several Python calls (~1.5 us a float with a
 ``float_format``; numpy's float-to-text without one, ~1 us), most of a data step's time at a
-year of records. This builds the same bytes in one call per value (~0.3 us) and leaves to
-pandas whatever it does not reproduce exactly (returns None).
+year of records. This builds the same bytes in one call per value (~0.3 us), once per run
+of equal values (a record table repeats each record's values over its heights), and leaves
+to pandas whatever it does not reproduce exactly (returns None).
 """
 
 from __future__ import annotations
@@ -41,9 +42,24 @@ def _column_text(col: pd.Series, float_format: str | None, date_format: str) -> 
             return None  # numpy's shortest float32 text is not repr's
         values = col.to_numpy()
         if float_format is None:
-            text = list(map(repr, values.tolist()))
+            fmt = repr
         else:
-            text = [float_format % v for v in values.tolist()]
+
+            def fmt(v):
+                return float_format % v
+
+        # a run of equal values (the same bits: -0.0 and 0.0 differ) is formatted once:
+        # a record table repeats each record's value over its heights
+        bits = values.view(f"i{values.dtype.itemsize}")
+        new_run = np.ones(values.size, bool)
+        np.not_equal(bits[1:], bits[:-1], out=new_run[1:])
+        first = np.flatnonzero(new_run)
+        if 2 * first.size < values.size:
+            distinct = np.array(list(map(fmt, values[first].tolist())) + [""], dtype=object)
+            run = np.cumsum(new_run) - 1
+            run[np.isnan(values)] = first.size  # missing: ""
+            return distinct[run].tolist()
+        text = list(map(fmt, values.tolist()))
         for i in np.flatnonzero(np.isnan(values)).tolist():
             text[i] = ""
         return text
