@@ -50,7 +50,7 @@ DEFAULT_SCENARIO: dict = {
     "start_utc": "2015-04-01T00:00:00Z",
     "record_length_s": 600.0,
     "heights_m": [27.0, 58.0, 85.0],
-    "chunk_records": 8,
+    "chunk_records": 16,
     "n_workers": 1,
     # the reference (ref_* columns) exists only in the first reference_days days of the
     # campaign (a short mast or fixed-lidar period before deployment); null: throughout
