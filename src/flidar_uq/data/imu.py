@@ -40,7 +40,7 @@ from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
-from scipy import fft as _fft
+from numpy import fft as _fft
 
 from flidar_uq.data.metrics import pearson_r
 from flidar_uq.data.schema import TILT_SPECTRUM_COLUMNS
@@ -820,9 +820,8 @@ def tilt_band_statistics(
                 f"tilt_band_statistics: wd_deg of shape {wd.shape} needs one row per series "
                 f"({east.shape[0]})"
             )
-        k = wd.shape[1]
-        east, north = np.repeat(east, k, axis=0), np.repeat(north, k, axis=0)
-        wd = wd.reshape(-1, 1)
+        # each series projected on its k directions by broadcasting (rows: series, direction)
+        east, north, wd = east[:, None, :], north[:, None, :], wd[:, :, None]
     else:
         wd = np.asarray(wd_deg, np.float64).reshape(-1, 1) if np.ndim(wd_deg) else float(wd_deg)
     return _projected_band_spectrum(
@@ -851,6 +850,8 @@ def _projected_band_spectrum(
 ) -> TiltBandSpectrum:
     """Band spectrum of the tilt vector projected on the wind (``wd_deg`` broadcast; s, Hz)."""
     along, across = project_tilt_on_wind_deg(east, north, wd_deg)
+    if along.ndim == 3:  # (series, direction, sample): one row a (series, direction)
+        along, across = (a.reshape(-1, a.shape[-1]) for a in (along, across))
     f, pa = motion_spectrum(along, fs_hz, segment_s=segment_s)
     _, pc = motion_spectrum(across, fs_hz, segment_s=segment_s)
     return tilt_band_spectrum(
