@@ -546,20 +546,14 @@ def test_imu_grid_rate_is_the_one_window_series_infers(rate_hz):
     """The generator gives the IMU statistics the rate window_series would infer from its
     sample times (integer ns after a record start, as the generator makes them), so the
     grid and the spectra's frequencies are the same."""
-    import pandas as pd
 
     from flidar_uq.campaign import physics_mode as pm
     from flidar_uq.data.imu import window_series
 
     t_len = 600.0
     n_imu = int(np.floor(t_len * rate_hz + 1e-9))
-    start = pd.Timestamp("2024-01-01T00:00:00Z")
-    t_ns = np.concatenate(
-        [
-            pm._utc_ns(start + pd.Timedelta(seconds=r * t_len), np.arange(n_imu) / rate_hz)
-            for r in range(3)
-        ]
-    )
+    starts = pm._record_starts_ns("2024-01-01T00:00:00Z", t_len, 3)
+    t_ns = np.concatenate([pm._utc_ns(starts[r], np.arange(n_imu) / rate_hz) for r in range(3)])
     _, _, inferred = window_series((t_ns - t_ns[0]) * 1e-9, np.zeros(t_ns.size), window_s=t_len)
     assert pm._imu_grid_rate_hz(rate_hz) == inferred
 

@@ -1,12 +1,13 @@
 """Rule campaign: the virtual campaign, or the user's record table (data_steps.make_campaign)."""
 
-from flidar_uq.workflow.data_steps import make_campaign
-from flidar_uq.workflow.files import setup_logging
-from flidar_uq.workflow.inputs import step_errors_exit
-
-# The guard keeps the generator's worker processes (spawn/forkserver re-import this
-# module as __mp_main__) from re-running the rule body.
+# Everything under the guard: the generator's spawned worker processes re-run this module
+# as __mp_main__ (imports included), so that they neither re-run the rule body nor import
+# the workflow layer (and pandas) they do not need.
 if __name__ == "__main__":
+    from flidar_uq.workflow.data_steps import make_campaign
+    from flidar_uq.workflow.files import setup_logging
+    from flidar_uq.workflow.inputs import step_errors_exit
+
     snakemake = globals()["snakemake"]  # injected by the script directive
     setup_logging(snakemake.log[0])
     with step_errors_exit():

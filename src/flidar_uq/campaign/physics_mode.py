@@ -67,9 +67,9 @@ import os
 from collections.abc import Mapping
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from flidar_uq.campaign.scenarios import (
     TRUTH_SAMPLE_INTERVAL_S,
@@ -83,6 +83,9 @@ from flidar_uq.physics.turbulence import draw_sigma_u_ms, kaimal_series, wind_en
 from flidar_uq.progress import ProgressLog
 from flidar_uq.seeding import as_seedsequence
 from flidar_uq.threads import BLAS_THREADS, blas_threads
+
+if TYPE_CHECKING:  # pandas is imported where frames are built: not in the workers
+    import pandas as pd
 
 __all__ = [
     "CampaignOutput",
@@ -435,15 +438,29 @@ def _circ_mean_deg(deg, mask, axis):
     return np.rad2deg(np.arctan2(s, c)) % 360.0
 
 
-def _utc_ns(ts: pd.Timestamp, t_s: np.ndarray) -> np.ndarray:
-    """Integer nanoseconds since the epoch of ``ts + t_s`` (s)."""
-    return ts.value + np.round(np.asarray(t_s) * 1e9).astype(np.int64)
+def _utc_ns(ts_ns: int, t_s: np.ndarray) -> np.ndarray:
+    """Integer nanoseconds since the epoch of ``ts_ns`` (ns since the epoch) + ``t_s`` (s)."""
+    return ts_ns + np.round(np.asarray(t_s) * 1e9).astype(np.int64)
 
 
-def _utc(ts: pd.Timestamp, t_s: np.ndarray) -> pd.DatetimeIndex:
-    """UTC timestamps ``ts + t_s`` (s), through integer nanoseconds."""
+def _utc(ts_ns: int, t_s: np.ndarray) -> pd.DatetimeIndex:
+    """UTC timestamps ``ts_ns`` (ns since the epoch) + ``t_s`` (s), through integer ns."""
+    import pandas as pd
+
     # a datetime64 view: pd.to_datetime of an int64 array takes an object path (~30x slower)
-    return pd.DatetimeIndex(_utc_ns(ts, t_s).view("M8[ns]"), tz="UTC")
+    return pd.DatetimeIndex(_utc_ns(ts_ns, t_s).view("M8[ns]"), tz="UTC")
+
+
+def _record_starts_ns(start_utc: str, record_length_s: float, n_records: int) -> np.ndarray:
+    """Start of each record, integer ns since the epoch (``start_utc + i record_length_s``,
+    as pandas adds a Timedelta of seconds)."""
+    import pandas as pd
+
+    start = pd.Timestamp(start_utc)
+    return np.array(
+        [(start + pd.Timedelta(seconds=i * record_length_s)).value for i in range(n_records)],
+        dtype=np.int64,
+    )
 
 
 def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
@@ -453,6 +470,9 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         attitude_truth,
         simulate_chunk_scans,
     )
+
+    if want_imu or want_los:  # frames of the series (the records go back as arrays)
+        import pandas as pd
 
     geo = _lidar.get_lidar(settings["lidar"]["name"])
     n_los = geo.n_los
@@ -528,7 +548,6 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     outage = np.array([s["outage"] for s in series])
     ok = valid & ~dropped & ~outage[:, None]
     los_frames, imu_att, imu_ns = [], [], []
-    start0 = pd.Timestamp(settings["start_utc"])
     rate = float(settings["imu"]["rate_hz"])
     # truth of the motion (noise-free, gap-free series on the LOS clock); the tilt along
     # and across the wind and the heading on a 0.1-s clock: the attitude varies on
@@ -579,14 +598,14 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     has_ref = (np.ones(n_c, bool) if ref_days is None else rec_start_s < float(ref_days) * 86400.0)[
         :, None
     ]
-    starts_utc = [start0 + pd.Timedelta(seconds=int(r) * t_len) for r in rec_idx]
+    starts_ns = np.asarray(par["record_start_ns"], np.int64)  # from the parent (pandas)
 
     def per_record(v):  # one value a record -> one a row (a record's heights in turn)
         return np.repeat(np.asarray(v), n_h)
 
     # the chunk's rows as columns; (C,H) arrays flatten to the same row order
     cols = {
-        "timestamp": per_record([ts.value for ts in starts_utc]),  # ns since the epoch
+        "timestamp": per_record(starts_ns),  # ns since the epoch
         "height_m": np.tile(heights, n_c),
         "hws_mean_ms": hs_mean.ravel(),
         "hws_std_ms": hs_std.ravel(),
@@ -618,7 +637,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         "true_ref_hws_mean_ms": h0_mean.ravel(),
         "true_ref_hws_std_ms": h0_std.ravel(),
     } | {k: per_record(v) for k, v in regimes.items()}
-    for c, (s, ts) in enumerate(zip(series, starts_utc, strict=True)):
+    for c, (s, ts) in enumerate(zip(series, starts_ns.tolist(), strict=True)):
         # IMU: true attitude at the IMU clock, noise, gap
         n_imu = s["imu_noise"].shape[1]
         t_imu = np.arange(n_imu) / rate
@@ -782,12 +801,15 @@ def generate_campaign(
     CampaignOutput
         ``records`` (rows sorted by timestamp then height), optional ``imu``, ``los``.
     """
+    import pandas as pd
+
     cfg = scenario if isinstance(scenario, CampaignConfig) else CampaignConfig.from_dict(scenario)
     s = cfg.settings
     root = as_seedsequence(seed)
     ss_params, ss_records = root.spawn(2)
     n = int(s["n_records"])
     par = _record_parameters(cfg, np.random.default_rng(ss_params))
+    par["record_start_ns"] = _record_starts_ns(s["start_utc"], float(s["record_length_s"]), n)
     rec_seeds = ss_records.spawn(n)
     chunk = int(chunk_records or s["chunk_records"])
     workers = int(n_workers or s["n_workers"])

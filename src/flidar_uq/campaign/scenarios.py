@@ -15,7 +15,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from flidar_uq.physics import lidar as _lidar
 
@@ -217,6 +216,8 @@ class CampaignConfig:
             raise ValueError(
                 f"scenario: motion.model must be 'sea_state' or 'harmonic', got {s['motion']['model']!r}"
             )
+        import pandas as pd  # here: the campaign's workers import this module
+
         start = pd.Timestamp(s["start_utc"])
         if start.tzinfo is None or (start.value // 10**9) % int(s["record_length_s"]) != 0:
             raise ValueError(

@@ -37,12 +37,11 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 from numpy import fft as _fft
 
-from flidar_uq.data.metrics import pearson_r
 from flidar_uq.data.schema import TILT_SPECTRUM_COLUMNS
 from flidar_uq.physics.motion_spectrum import (
     PERIOD_RANGE_S,
@@ -51,6 +50,9 @@ from flidar_uq.physics.motion_spectrum import (
     tilt_band_spectrum,
     tilt_vector_en,
 )
+
+if TYPE_CHECKING:  # pandas is imported where a function builds or reads a DataFrame
+    import pandas as pd
 
 __all__ = [
     "AMPLITUDE_METHODS",
@@ -577,6 +579,8 @@ def motion_statistics(
         ``pitch_period_s``, ``period1_s``, ``period2_s``, ``weight1``,
         ``imu_availability_pct``.
     """
+    import pandas as pd
+
     t_ns = pd.DatetimeIndex(imu["timestamp"]).as_unit("ns").asi8
     vals = imu[["roll_deg", "pitch_deg"]].to_numpy(dtype=np.float64)
     start_ns, cols, present = motion_statistics_arrays(
@@ -729,6 +733,8 @@ def roll_pitch_correlation(records: pd.DataFrame) -> dict[str, float]:
         ``r_amplitude``, ``r_period`` (dimensionless) and ``n`` (records with
         all four values finite).
     """
+    from flidar_uq.data.metrics import pearson_r  # with pandas: not in the campaign's workers
+
     cols = ["roll_amplitude_deg", "pitch_amplitude_deg", "roll_period_s", "pitch_period_s"]
     x = records[cols].to_numpy(dtype=np.float64)
     ok = np.isfinite(x).all(axis=1)
@@ -976,6 +982,8 @@ def _tilt_spectrum_windows(
 ) -> list[tuple[pd.DataFrame, TiltBandSpectrum]]:
     """The windows' grid, coverage, tilt vector and heading once; one ``(table, spectrum)``
     of :func:`tilt_spectrum_statistics` per source of wind directions."""
+    import pandas as pd
+
     t_ns = pd.DatetimeIndex(imu["timestamp"]).as_unit("ns").asi8
     window_ns = int(round(window_s * 1e9))
     t0_ns = (int(t_ns[0]) // window_ns) * window_ns
