@@ -24,9 +24,6 @@ def _inputs(rng, *, lever, translate, n_c=2, n_j=7, n_los=12, n_h=3, step=5):
     n_slots = n_j * (n_los + 3)
     roll, pitch = (rng.normal(0.0, 6.0, (n_c, n_slots)) for _ in range(2))
     yaw = rng.normal(30.0, 20.0, (n_c, n_slots))
-    angles = np.deg2rad(np.stack([roll, pitch, yaw]))
-    trig = np.empty((6, n_c, n_slots))
-    trig[0::2], trig[1::2] = np.cos(angles), np.sin(angles)
     starts = np.sort(rng.integers(0, n_slots - 2, (n_c, n_j)), axis=1)
     starts[:, 0] = 0  # the record's first slot: one-sided head velocity
     starts[:, -1] = n_slots - 3  # a scan running past the record's end (slots clipped)
@@ -40,7 +37,6 @@ def _inputs(rng, *, lever, translate, n_c=2, n_j=7, n_los=12, n_h=3, step=5):
         roll=roll,
         pitch=pitch,
         yaw=yaw,
-        trig=trig,
         trans=rng.normal(0.0, 0.5, (n_c, n_slots, 3)) if translate else np.empty((n_c, 0, 3)),
         starts=starts,
         k0=rng.integers(0, n_los, n_c),
@@ -97,10 +93,11 @@ def _numpy_reference(a, n_sign_iter):
     return v_r, uvw, uvw0, resid
 
 
-def _kernel(a, n_sign_iter):
-    keys = ("trig", "trans", "starts", "k0", "phase_slots", "d_body", "pinv_t", "fluct_uvw")
-    return simulate_chunk_scans(
+def _kernel(a, n_sign_iter, *, with_truth=False):
+    keys = ("roll", "pitch", "yaw", "trans", "starts", "k0", "phase_slots", "d_body", "pinv_t")
+    out = simulate_chunk_scans(
         *(a[k] for k in keys),
+        a["fluct_uvw"],
         a["hws_h"],
         a["e_wind"],
         a["alpha"],
@@ -109,7 +106,10 @@ def _kernel(a, n_sign_iter):
         a["step"],
         a["cos_half_cone"],
         n_sign_iter,
+        a["wd_deg"],
+        5,
     )
+    return out if with_truth else out[:4]
 
 
 @pytest.mark.parametrize("n_sign_iter", [0, 1])
@@ -142,28 +142,27 @@ def test_head_motion_changes_the_radial_speeds():
 def test_records_are_independent_of_their_chunk():
     """A record's results are the same bits whether simulated alone or with others."""
     a = _inputs(np.random.default_rng(11), lever=(0.3, -0.2, 2.5), translate=True, n_c=3)
-    together = _kernel(a, 1)
+    together = _kernel(a, 1, with_truth=True)
+    per_record = (
+        "roll", "pitch", "yaw", "trans", "starts", "k0", "phase_slots", "fluct_uvw", "hws_h",
+        "e_wind", "alpha", "wd_deg",
+    )  # fmt: skip
     for c in range(3):
-        one = {
-            k: (v[:, c : c + 1] if k == "trig" else v[c : c + 1])
-            if k
-            in (
-                "trig",
-                "trans",
-                "starts",
-                "k0",
-                "phase_slots",
-                "fluct_uvw",
-                "hws_h",
-                "e_wind",
-                "alpha",
-            )
-            else v
-            for k, v in a.items()
-        }
-        alone = _kernel(one, 1)
-        for g, w in zip(alone, together, strict=True):
+        one = {k: v[c : c + 1] if k in per_record else v for k, v in a.items()}
+        alone = _kernel(one, 1, with_truth=True)
+        for g, w in zip(alone[:4], together[:4], strict=True):
             np.testing.assert_array_equal(g[0], w[c])
+        np.testing.assert_array_equal(alone[4][:, 0], together[4][:, c])
+
+
+def test_kernel_truth_is_attitude_truth():
+    """The truth the kernel computes a record at a time is attitude_truth's of the chunk's
+    cosines and sines, bit for bit."""
+    a = _inputs(np.random.default_rng(5), lever=(0.0, 0.0, 0.0), translate=False, n_c=3)
+    truth = _kernel(a, 1, with_truth=True)[4]
+    trig = attitude_trig(a["roll"], a["pitch"], a["yaw"])
+    want = scan_kernel.attitude_truth(trig, a["roll"], a["pitch"], a["wd_deg"], 5)
+    np.testing.assert_array_equal(truth, want)
 
 
 @pytest.mark.parametrize("constant_yaw", [True, False])

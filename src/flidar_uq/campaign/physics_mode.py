@@ -465,11 +465,7 @@ def _record_starts_ns(start_utc: str, record_length_s: float, n_records: int) ->
 
 def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     # imported here: numba's import (~0.2 s) only in processes that simulate a campaign
-    from flidar_uq.campaign.scan_kernel import (
-        attitude_trig,
-        attitude_truth,
-        simulate_chunk_scans,
-    )
+    from flidar_uq.campaign.scan_kernel import simulate_chunk_scans
 
     if want_imu or want_los:  # frames of the series (the records go back as arrays)
         import pandas as pd
@@ -502,10 +498,9 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     yaw = np.stack([s["yaw"] for s in series])  # (C,N), or (C,1): a constant heading
     if yaw.shape[1] > 1 and (yaw == yaw[:, :1]).all():
         yaw = yaw[:, :1]
-    # the attitude's cosines and sines on the LOS clock (a constant heading, sea-state
-    # buoy: one a record), then every line of sight, its head velocity, wind, radial
-    # speed and scan fit in one compiled pass
-    trig = attitude_trig(roll, pitch, yaw)
+    # every line of sight, its head velocity, wind, radial speed and scan fit, and the
+    # records' true motion statistics, in one compiled pass (the attitude's cosines and
+    # sines a record at a time)
     trans = (
         np.stack([s["trans"] for s in series])
         if series[0]["trans"] is not None
@@ -516,8 +511,14 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     wd = np.deg2rad(par["wd_deg"])
     e_wind = np.stack([-np.sin(wd), -np.cos(wd), np.zeros_like(wd)], -1)  # (C,3)
     step = wind_step_slots(settings, dt)
-    v_r, uvw, uvw0, resid = simulate_chunk_scans(
-        trig,
+    # the tilt along and across the wind and the heading on a 0.1-s clock: the attitude
+    # varies on seconds, and the full LOS clock (0.02 s) would cost a fifth of the
+    # record's time
+    stride = max(int(round(0.1 / (t_len / n_slots))), 1)
+    v_r, uvw, uvw0, resid, truth = simulate_chunk_scans(
+        roll,
+        pitch,
+        yaw,
         trans,
         starts,
         k0,
@@ -533,6 +534,8 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         step,
         np.cos(th),
         0 if geo.signed else 1,
+        np.asarray(par["wd_deg"], float),
+        stride,
     )
     hws_scan = np.hypot(uvw[..., 0], uvw[..., 1])  # (C,J)
     hws0 = np.hypot(uvw0[..., 0], uvw0[..., 1])
@@ -549,11 +552,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     ok = valid & ~dropped & ~outage[:, None]
     los_frames, imu_att, imu_ns = [], [], []
     rate = float(settings["imu"]["rate_hz"])
-    # truth of the motion (noise-free, gap-free series on the LOS clock); the tilt along
-    # and across the wind and the heading on a 0.1-s clock: the attitude varies on
-    # seconds, and the full LOS clock (0.02 s) would cost a fifth of the record's time
-    stride = max(int(round(0.1 / (t_len / n_slots))), 1)
-    truth = attitude_truth(trig, roll, pitch, np.asarray(par["wd_deg"], float), stride)
+    # truth of the motion (noise-free, gap-free series on the LOS clock)
     roll_amp, pitch_amp = truth[0], truth[1]
     regimes = _regime_truth(settings, par, truth)
     lever_norm = float(np.linalg.norm(lever))

@@ -33,6 +33,31 @@ __all__ = ["attitude_trig", "attitude_truth", "simulate_chunk_scans"]
 
 
 @compiled
+def _trig_into(roll_deg, pitch_deg, yaw_deg, c, out, oc):
+    """Record ``c``'s cosines and sines (:func:`attitude_trig`) into ``out[:, oc, :]``."""
+    n = roll_deg.shape[1]
+    to_rad = np.pi / 180.0
+    for t in range(n):
+        r = roll_deg[c, t] * to_rad
+        out[0, oc, t] = math.cos(r)
+        out[1, oc, t] = math.sin(r)
+        p = pitch_deg[c, t] * to_rad
+        out[2, oc, t] = math.cos(p)
+        out[3, oc, t] = math.sin(p)
+    if yaw_deg.shape[1] == 1:
+        y = yaw_deg[c, 0] * to_rad
+        cy, sy = math.cos(y), math.sin(y)
+        for t in range(n):
+            out[4, oc, t] = cy
+            out[5, oc, t] = sy
+    else:
+        for t in range(n):
+            y = yaw_deg[c, t] * to_rad
+            out[4, oc, t] = math.cos(y)
+            out[5, oc, t] = math.sin(y)
+
+
+@compiled
 def attitude_trig(roll_deg, pitch_deg, yaw_deg):
     """Cosines and sines ``cr, sr, cp, sp, cy, sy`` of the attitude, shape (6, C, N).
 
@@ -43,26 +68,8 @@ def attitude_trig(roll_deg, pitch_deg, yaw_deg):
     """
     n_c, n = roll_deg.shape
     out = np.empty((6, n_c, n))
-    to_rad = np.pi / 180.0
     for c in range(n_c):
-        for t in range(n):
-            r = roll_deg[c, t] * to_rad
-            out[0, c, t] = math.cos(r)
-            out[1, c, t] = math.sin(r)
-            p = pitch_deg[c, t] * to_rad
-            out[2, c, t] = math.cos(p)
-            out[3, c, t] = math.sin(p)
-        if yaw_deg.shape[1] == 1:
-            y = yaw_deg[c, 0] * to_rad
-            cy, sy = math.cos(y), math.sin(y)
-            for t in range(n):
-                out[4, c, t] = cy
-                out[5, c, t] = sy
-        else:
-            for t in range(n):
-                y = yaw_deg[c, t] * to_rad
-                out[4, c, t] = math.cos(y)
-                out[5, c, t] = math.sin(y)
+        _trig_into(roll_deg, pitch_deg, yaw_deg, c, out, c)
     return out
 
 
@@ -97,6 +104,44 @@ def _amplitude(x, n):
 
 
 @compiled
+def _truth_into(trig, oc, roll_deg, pitch_deg, c, wd_deg, stride, along, across, out):
+    """Record ``c``'s true motion statistics (:func:`attitude_truth`) into ``out[:, c]``,
+    from its cosines and sines ``trig[:, oc, :]``; ``along``, ``across``: scratch of
+    the strided slots' count."""
+    n = roll_deg.shape[1]
+    m = (n + stride - 1) // stride
+    to_rad = np.pi / 180.0
+    to_deg = 180.0 / np.pi
+    out[0, c] = _amplitude(roll_deg[c], n)
+    out[1, c] = _amplitude(pitch_deg[c], n)
+    wd = wd_deg * to_rad
+    sw, cw = math.sin(wd), math.cos(wd)
+    sum_cy = 0.0
+    sum_sy = 0.0
+    for k in range(m):
+        t = k * stride
+        cr, sr, cp, sp, cy, sy = (
+            trig[0, oc, t],
+            trig[1, oc, t],
+            trig[2, oc, t],
+            trig[3, oc, t],
+            trig[4, oc, t],
+            trig[5, oc, t],
+        )
+        zx, zy, zz = sp * cr, -sr, cp * cr  # R @ e_z, body frame turned by the yaw
+        ze = cy * zx - sy * zy
+        zn = sy * zx + cy * zy
+        along[k] = math.atan2(-sw * ze - cw * zn, zz) * to_deg
+        across[k] = math.atan2(cw * ze - sw * zn, zz) * to_deg
+        sum_cy += cy
+        sum_sy += sy
+    out[2, c] = _amplitude(along, m)
+    out[3, c] = _amplitude(across, m)
+    yaw_mean = (math.atan2(sum_sy, sum_cy) * to_deg) % 360.0
+    out[4, c] = (yaw_mean + 180.0) % 360.0 - 180.0
+
+
+@compiled
 def attitude_truth(trig, roll_deg, pitch_deg, wd_deg, stride):
     """The records' true motion statistics from the noise-free attitude, shape (5, C).
 
@@ -114,36 +159,8 @@ def attitude_truth(trig, roll_deg, pitch_deg, wd_deg, stride):
     along = np.empty(m)
     across = np.empty(m)
     out = np.empty((5, n_c))
-    to_rad = np.pi / 180.0
-    to_deg = 180.0 / np.pi
     for c in range(n_c):
-        out[0, c] = _amplitude(roll_deg[c], n)
-        out[1, c] = _amplitude(pitch_deg[c], n)
-        wd = wd_deg[c] * to_rad
-        sw, cw = math.sin(wd), math.cos(wd)
-        sum_cy = 0.0
-        sum_sy = 0.0
-        for k in range(m):
-            t = k * stride
-            cr, sr, cp, sp, cy, sy = (
-                trig[0, c, t],
-                trig[1, c, t],
-                trig[2, c, t],
-                trig[3, c, t],
-                trig[4, c, t],
-                trig[5, c, t],
-            )
-            zx, zy, zz = sp * cr, -sr, cp * cr  # R @ e_z, body frame turned by the yaw
-            ze = cy * zx - sy * zy
-            zn = sy * zx + cy * zy
-            along[k] = math.atan2(-sw * ze - cw * zn, zz) * to_deg
-            across[k] = math.atan2(cw * ze - sw * zn, zz) * to_deg
-            sum_cy += cy
-            sum_sy += sy
-        out[2, c] = _amplitude(along, m)
-        out[3, c] = _amplitude(across, m)
-        yaw_mean = (math.atan2(sum_sy, sum_cy) * to_deg) % 360.0
-        out[4, c] = (yaw_mean + 180.0) % 360.0 - 180.0
+        _truth_into(trig, c, roll_deg, pitch_deg, c, wd_deg[c], stride, along, across, out)
     return out
 
 
@@ -187,7 +204,9 @@ def _rotate_at(trig, c, t, v0, v1, v2):
 
 @compiled
 def simulate_chunk_scans(
-    trig,
+    roll_deg,
+    pitch_deg,
+    yaw_deg,
     trans,
     starts,
     k0,
@@ -203,14 +222,18 @@ def simulate_chunk_scans(
     wind_step,
     cos_half_cone,
     n_sign_iter,
+    wd_deg,
+    truth_stride,
 ):
     """Radial speeds and VAD fits of every scan of a chunk of records.
 
     Parameters
     ----------
-    trig : ndarray, shape (6, C, N)
-        Cosines and sines ``cr, sr, cp, sp, cy, sy`` of roll, pitch and yaw on the LOS
-        clock of each record (N slots of ``dt_s``).
+    roll_deg, pitch_deg : ndarray, shape (C, N)
+        Attitude on the LOS clock of each record (N slots of ``dt_s``), deg; ``yaw_deg``
+        (C, N), or (C, 1) for a constant heading. Their cosines and sines are computed a
+        record at a time (:func:`attitude_trig`'s), kept in cache for its lines of sight
+        and its truth.
     trans : ndarray, shape (C, N, 3) or (C, 0, 3)
         Translation of the rotation centre, m (earth frame); zero size: none.
     starts, phase_slots : ndarray of int, shape (C, J)
@@ -235,6 +258,9 @@ def simulate_chunk_scans(
         Cosine of the half-cone angle (focus height follows the tilted beam, seed 003 Eq. 5).
     n_sign_iter : int
         CW sign-unfolding iterations (0: a lidar that measures the sign).
+    wd_deg : ndarray, shape (C,)
+        Wind direction (compass, from), deg; ``truth_stride``: slots between the samples of
+        the tilt along / across the wind and the heading (:func:`attitude_truth`).
 
     Returns
     -------
@@ -245,10 +271,12 @@ def simulate_chunk_scans(
         reference lidar, m/s.
     resid : ndarray, shape (C, J)
         RMS fit residual of the moving lidar, m/s.
+    truth : ndarray, shape (5, C)
+        The records' true motion statistics, :func:`attitude_truth`'s.
     """
     n_c, n_j = starts.shape
     n_los = d_body.shape[0]
-    n_slots = trig.shape[2]
+    n_slots = roll_deg.shape[1]
     n_h = hws_h.shape[1]
     moving = trans.shape[1] > 0 or lever[0] != 0.0 or lever[1] != 0.0 or lever[2] != 0.0
     v_r = np.empty((n_c, n_j, n_los))
@@ -259,12 +287,18 @@ def simulate_chunk_scans(
     sgn = np.empty(n_los)
     a_row = np.empty(n_los, np.int64)
     pos = np.empty((n_slots if moving else 0, 3))
+    trig = np.empty((6, 1, n_slots))  # one record's cosines and sines
+    m_truth = (n_slots + truth_stride - 1) // truth_stride
+    along = np.empty(m_truth)
+    across = np.empty(m_truth)
+    truth = np.empty((5, n_c))
     for c in range(n_c):
+        _trig_into(roll_deg, pitch_deg, yaw_deg, c, trig, 0)
         e0, e1, e2 = e_wind[c, 0], e_wind[c, 1], e_wind[c, 2]
         a_ = alpha[c]
         # head position R(t) r + translation at every slot (seed 002 Eq. 4), once a record
         for t in range(pos.shape[0]):
-            x0, x1, x2 = _rotate_at(trig, c, t, lever[0], lever[1], lever[2])
+            x0, x1, x2 = _rotate_at(trig, 0, t, lever[0], lever[1], lever[2])
             if trans.shape[1] > 0:
                 x0 += trans[c, t, 0]
                 x1 += trans[c, t, 1]
@@ -299,7 +333,7 @@ def simulate_chunk_scans(
                         w_i += 1
                 a_row[k] = a
                 m0, m1, m2 = d_body[a, 0], d_body[a, 1], d_body[a, 2]
-                d0, d1, d2 = _rotate_at(trig, c, slot, m0, m1, m2)
+                d0, d1, d2 = _rotate_at(trig, 0, slot, m0, m1, m2)
                 fu = fluct_uvw[c, h, 0, w_i]
                 fv = fluct_uvw[c, h, 1, w_i]
                 f0 = fu * e0 + fv * -e1  # east: u e + v l, l = (-e_north, e_east) to the left
@@ -360,4 +394,5 @@ def simulate_chunk_scans(
             resid[c, j] = np.sqrt(ss / n_los)
             uvw[c, j, 0], uvw[c, j, 1], uvw[c, j, 2] = p0, p1, p2
             uvw0[c, j, 0], uvw0[c, j, 1], uvw0[c, j, 2] = q0, q1, q2
-    return v_r, uvw, uvw0, resid
+        _truth_into(trig, 0, roll_deg, pitch_deg, c, wd_deg[c], truth_stride, along, across, truth)
+    return v_r, uvw, uvw0, resid, truth
