@@ -17,6 +17,12 @@ Usage: ``python benchmarks/campaign_generation.py [--quick] [--small N] [--full-
 (``--quick``: 144 and 576 records only, for a smoke run; ``--full-impls``: the
 implementations of the whole-campaign run, default all three).
 
+``--step N``: the pipeline's ``campaign`` step itself (generation on 2 workers and the
+record table written as CSV, :func:`flidar_uq.workflow.data_steps.make_campaign`, from a
+fresh Python process as the rule runs it), N times for the previous and the current tree,
+alternating; the wall times and whether the two CSV files are the same bytes go to
+``benchmarks/results/campaign_generation_step.csv``.
+
 ``--scenarios [N]``: CPU seconds per record of each shipped scenario of issue 11
 (misaligned swell, weathervane/fixed heading, broadband/narrow seas, short reference,
 sparse 30 days), from its first N records (default 96) in one process, and the
@@ -56,9 +62,10 @@ REPO = Path(__file__).resolve().parents[1]
 TARGET_S = 25.0  # issue 13 item 7: the default campaign on 2 cores
 #: The generator before the issue-13 speed work (the reference of "results unchanged").
 REFERENCE_COMMIT = "38465224c0a642f774a011f0cd7d14cf413d6d04"
-#: The generator before the latest round (session 13's compiled line-of-sight loop: main
-#: at the end of session 12; the rounds before it: 619c380, cb8877e).
-PREVIOUS_COMMIT = "e1e35a381e6bfe415c8179017d53389af87cd6f1"
+#: The generator before the latest round (session 14: compiled IMU estimators and truth,
+#: lighter workers; main at the end of session 13; the rounds before it: e1e35a3,
+#: 619c380, cb8877e).
+PREVIOUS_COMMIT = "997d9acf8c677ed84b9563708fee37e160379362"
 IMPLEMENTATIONS = ("reference", "previous", "current")
 SEED = 20181122  # config/config.yaml campaign.seed
 
@@ -91,6 +98,51 @@ def _run_in_subprocess(src: Path, n_records: int, n_workers: int) -> tuple[dict,
     if not row["source"].startswith(str(src.resolve())):
         raise RuntimeError(f"the subprocess imported {row['source']}, not the tree {src}")
     return row, records
+
+
+_STEP = """
+import sys
+from flidar_uq.workflow.data_steps import make_campaign
+make_campaign(sys.argv[1], source="virtual", seed=int(sys.argv[2]), scenario_path=sys.argv[3],
+              threads=2)
+"""
+
+
+def step_runs(n_runs: int) -> pd.DataFrame:
+    """Wall time of the ``campaign`` step (generation + CSV) from a fresh process, previous
+    and current tree alternating; the two trees' CSV files compared byte for byte."""
+    trees = {"previous": _source_tree(PREVIOUS_COMMIT), "current": REPO / "src"}
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="campaign_step_") as tmp:
+        outs = {impl: Path(tmp) / f"{impl}.csv" for impl in trees}
+        for k in range(n_runs):
+            for impl, src in trees.items():
+                scenario = src.parent / "config" / "scenarios" / "default.yaml"
+                cmd = [sys.executable, "-c", _STEP, str(outs[impl]), str(SEED), str(scenario)]
+                load0 = os.getloadavg()[0]
+                t0 = time.perf_counter()
+                subprocess.run(cmd, check=True, env=os.environ | {"PYTHONPATH": str(src)})
+                wall = time.perf_counter() - t0
+                rows.append(
+                    {
+                        "implementation": impl,
+                        "run": k,
+                        "step_wall_s": wall,
+                        "load_avg_before": load0,
+                        "target_s": TARGET_S,
+                    }  # fmt: skip
+                )
+                print(f"step {impl:8s} run {k}: {wall:5.1f} s (load {load0:.1f})", flush=True)
+        same = outs["previous"].read_bytes() == outs["current"].read_bytes()
+    df = pd.DataFrame(rows).assign(csv_bytes_identical=same)
+    df.to_csv(RESULTS / "campaign_generation_step.csv", index=False)
+    med = df.groupby("implementation")["step_wall_s"].median()
+    print(
+        f"campaign step, median of {n_runs}: previous {med['previous']:.1f} s -> current "
+        f"{med['current']:.1f} s (x{med['previous'] / med['current']:.2f}); target "
+        f"{TARGET_S:.0f} s; records.csv byte-identical: {same}"
+    )
+    return df
 
 
 def _child(n_records: int, n_workers: int, out: str) -> None:
@@ -305,12 +357,23 @@ def main() -> None:
         metavar="N",
         help="speed of the issue-11 scenarios from their first N records (default 96)",
     )
+    ap.add_argument(
+        "--step",
+        type=int,
+        default=None,
+        metavar="N",
+        help="time the whole campaign step (generation + CSV) N times, previous vs current",
+    )
     args = ap.parse_args()
     if args.child:
         _child(int(args.child[0]), int(args.child[1]), args.child[2])
         return
     if args.scenarios is not None:
         scenario_speeds(args.scenarios)
+        return
+    if args.step is not None:
+        RESULTS.mkdir(parents=True, exist_ok=True)
+        step_runs(args.step)
         return
     full = int(load_scenario("default")["n_records"])
     full_impls = [i for i in IMPLEMENTATIONS if i in args.full_impls.split(",")]

@@ -575,3 +575,33 @@ def test_masked_mean_std_is_nan_below_two_samples_and_numpy_above():
     for r in (2, 3):
         np.testing.assert_allclose(mean[r], x[r, mask[r]].mean(), rtol=1e-15)
         np.testing.assert_allclose(std[r], x[r, mask[r]].std(ddof=1), rtol=1e-14)
+
+
+def test_campaign_workers_import_neither_pandas_nor_scipy_subpackages():
+    """A worker of the campaign generator (a fresh process running one chunk, LOS and IMU
+    frames not asked for) imports neither pandas nor scipy.signal, .stats, .fft, .special
+    (~0.9 s a process together)."""
+    import pickle
+    import subprocess
+    import sys
+
+    from flidar_uq.campaign import physics_mode as pm
+    from flidar_uq.campaign.scenarios import CampaignConfig
+
+    cfg = CampaignConfig.from_dict(load_scenario("tiny") | {"n_records": 2})
+    s = cfg.settings
+    par = pm._record_parameters(cfg, np.random.default_rng(1))
+    par["record_start_ns"] = pm._record_starts_ns(s["start_utc"], s["record_length_s"], 2)
+    job = (s, par, np.arange(2), np.random.SeedSequence(1).spawn(2), False, False)
+    code = (
+        "import pickle, sys\n"
+        "job = pickle.loads(sys.stdin.buffer.read())\n"
+        "from flidar_uq.campaign.physics_mode import _run_chunk\n"
+        "cols = _run_chunk(job)[0]\n"
+        "heavy = ('pandas', 'scipy.signal', 'scipy.stats', 'scipy.fft', 'scipy.special')\n"
+        "print(len(cols['timestamp']), sorted(m for m in heavy if m in sys.modules))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], input=pickle.dumps(job), capture_output=True, check=True
+    )
+    assert out.stdout.decode().split(maxsplit=1) == ["6", "[]\n"]

@@ -169,3 +169,14 @@ def test_runs_of_repeated_floats_are_written_as_pandas_writes_them(tmp_path_fact
     _write(plain, tmp / "plain.csv", _DATES)
     plain.to_csv(tmp / "pp.csv", index=False, date_format=_DATES)
     assert (tmp / "plain.csv").read_bytes() == (tmp / "pp.csv").read_bytes()
+
+
+def test_long_double_floats_are_written_as_pandas_writes_them(tmp_path):
+    """A float type without an integer of its width (long double) skips the run
+    comparison: its values formatted one by one, pandas' bytes."""
+    x = np.array([1.5, 1.5, np.nan, 1 / 3, 1 / 3], dtype=np.longdouble)
+    df = pd.DataFrame({"x": x, "n": np.arange(5)})
+    text = csv_text(df, float_format="%.10g", date_format=_DATES)
+    assert text is not None
+    (tmp_path / "ours.csv").write_text(text)
+    assert (tmp_path / "ours.csv").read_bytes() == _pandas_bytes(df, tmp_path / "p.csv", "%.10g")

@@ -20,10 +20,10 @@ from flidar_uq.physics.motion import rotation_matrix
 from flidar_uq.physics.turbulence import wind_enu_ms
 
 
-def _inputs(rng, *, lever, translate, n_c=2, n_j=7, n_los=12, n_h=3, step=5):
+def _inputs(rng, *, lever, translate, n_c=2, n_j=7, n_los=12, n_h=3, step=5, const_yaw=False):
     n_slots = n_j * (n_los + 3)
     roll, pitch = (rng.normal(0.0, 6.0, (n_c, n_slots)) for _ in range(2))
-    yaw = rng.normal(30.0, 20.0, (n_c, n_slots))
+    yaw = rng.normal(30.0, 20.0, (n_c, 1 if const_yaw else n_slots))  # (C,1): a constant heading
     starts = np.sort(rng.integers(0, n_slots - 2, (n_c, n_j)), axis=1)
     starts[:, 0] = 0  # the record's first slot: one-sided head velocity
     starts[:, -1] = n_slots - 3  # a scan running past the record's end (slots clipped)
@@ -69,8 +69,10 @@ def _numpy_reference(a, n_sign_iter):
     hi = np.minimum(slot + 1, n_slots - 1)
     cc = np.arange(n_c)[:, None, None]
 
+    att = {k: np.broadcast_to(a[k], a["roll"].shape) for k in ("roll", "pitch", "yaw")}
+
     def rot(s):
-        return rotation_matrix(*(np.deg2rad(a[k][cc, s]) for k in ("roll", "pitch", "yaw")))
+        return rotation_matrix(*(np.deg2rad(att[k][cc, s]) for k in ("roll", "pitch", "yaw")))
 
     m_body = a["d_body"][a_idx]
     d_earth = (rot(idx) @ m_body[..., None])[..., 0]
@@ -114,13 +116,18 @@ def _kernel(a, n_sign_iter, *, with_truth=False):
 
 @pytest.mark.parametrize("n_sign_iter", [0, 1])
 @pytest.mark.parametrize(
-    ("lever", "translate"),
-    [((0.0, 0.0, 0.0), False), ((0.3, -0.2, 2.5), False), ((0.3, -0.2, 2.5), True)],
+    ("lever", "translate", "const_yaw"),
+    [
+        ((0.0, 0.0, 0.0), False, False),
+        ((0.3, -0.2, 2.5), False, False),
+        ((0.3, -0.2, 2.5), True, False),
+        ((0.3, -0.2, 2.5), False, True),
+    ],
 )
-def test_kernel_is_the_numpy_pipeline(n_sign_iter, lever, translate):
+def test_kernel_is_the_numpy_pipeline(n_sign_iter, lever, translate, const_yaw):
     rng = np.random.default_rng(7)
     for _ in range(3):
-        a = _inputs(rng, lever=lever, translate=translate)
+        a = _inputs(rng, lever=lever, translate=translate, const_yaw=const_yaw)
         got = _kernel(a, n_sign_iter)
         want = _numpy_reference(a, n_sign_iter)
         for g, w, name in zip(got, want, ("v_r", "uvw", "uvw0", "resid"), strict=True):

@@ -13,10 +13,12 @@ __all__ = ["compiled"]
 
 
 def compiled(func):
-    """``numba.njit`` with the machine code cached on disk (in the package's
-    ``__pycache__``, else numba's user cache directory, or ``NUMBA_CACHE_DIR``); the first
-    call compiles, a few seconds once per machine. Without a writable cache directory
-    (numba raises at decoration) the function compiles in every process instead."""
+    """``numba.njit`` with the machine code cached on disk.
+
+    The cache lives in the package's ``__pycache__``, else numba's user cache directory, or
+    ``NUMBA_CACHE_DIR``; the first call compiles, a few seconds once per machine. Without a
+    writable cache directory (numba raises at decoration) the function compiles in every
+    process instead."""
     try:
         return numba.njit(cache=True, nogil=True)(func)
     except RuntimeError:  # "cannot cache function ...: no locator available"

@@ -52,10 +52,12 @@ unfolded by the iteration :func:`flidar_uq.physics.lidar.retrieve_wind` uses wit
 least squares), started from the signs of the simulated radial speeds.
 
 Speed: every line of sight of a chunk (attitude, head velocity, wind, radial speed, scan
-fit, reference lidar) is simulated in one compiled pass,
-:func:`flidar_uq.campaign.scan_kernel.simulate_chunk_scans` (numba); the rest is NumPy over
-the chunk. The default campaign (8640 records) takes ~34 s on 2 workers
-(``benchmarks/campaign_generation.py``, docs/performance.md).
+fit, reference lidar) and the records' true motion statistics are simulated in one
+compiled pass, :func:`flidar_uq.campaign.scan_kernel.simulate_chunk_scans` (numba), the IMU
+estimators' detrend and Welch loops are compiled too
+(:mod:`flidar_uq.data.imu_kernels`); the rest is NumPy over the chunk. The workers import
+neither pandas nor scipy's subpackages. The default campaign (8640 records) takes ~24 s on
+2 workers (``benchmarks/campaign_generation.py``, docs/performance.md).
 """
 
 from __future__ import annotations
@@ -463,12 +465,18 @@ def _record_starts_ns(start_utc: str, record_length_s: float, n_records: int) ->
     )
 
 
+def _concat_frames(frames: list) -> pd.DataFrame | None:
+    """The frames one after another (a new index), or None for none."""
+    if not frames:
+        return None
+    import pandas as pd
+
+    return pd.concat(frames, ignore_index=True)
+
+
 def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     # imported here: numba's import (~0.2 s) only in processes that simulate a campaign
     from flidar_uq.campaign.scan_kernel import simulate_chunk_scans
-
-    if want_imu or want_los:  # frames of the series (the records go back as arrays)
-        import pandas as pd
 
     geo = _lidar.get_lidar(settings["lidar"]["name"])
     n_los = geo.n_los
@@ -497,7 +505,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     pitch = np.stack([s["pitch"] for s in series])
     yaw = np.stack([s["yaw"] for s in series])  # (C,N), or (C,1): a constant heading
     if yaw.shape[1] > 1 and (yaw == yaw[:, :1]).all():
-        yaw = yaw[:, :1]
+        yaw = np.ascontiguousarray(yaw[:, :1])  # contiguous: the kernel's compiled type
     # every line of sight, its head velocity, wind, radial speed and scan fit, and the
     # records' true motion statistics, in one compiled pass (the attitude's cosines and
     # sines a record at a time)
@@ -654,6 +662,8 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         imu_att.append(att)
         imu_ns.append(_utc_ns(ts, t_imu))
         if want_los:
+            import pandas as pd  # the series' frames (the records go back as arrays)
+
             idx = np.minimum(starts[c][:, None] + np.arange(n_los), n_slots - 1)  # (J,L)
             jj = np.nonzero(valid[c])[0]
             a_c = (idx[jj] + k0[c] + phase_slots[c][jj][:, None]) % n_los  # azimuth slots
@@ -703,6 +713,8 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     cols["heading_mean_deg"] = np.repeat(_imu.heading_mean_deg(att[2]), n_h).astype(float)
     imu_df = None
     if want_imu:
+        import pandas as pd
+
         imu_df = pd.DataFrame(
             {
                 "timestamp": pd.DatetimeIndex(np.concatenate(imu_ns).view("M8[ns]"), tz="UTC"),
@@ -714,7 +726,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     return (
         cols,
         imu_df,
-        pd.concat(los_frames, ignore_index=True) if los_frames else None,
+        _concat_frames(los_frames),
     )
 
 
@@ -840,7 +852,7 @@ def generate_campaign(
             chunks = map(_run_chunk, jobs)  # lazy: each chunk runs under the BLAS limit
         else:
             # spawned workers with single-threaded BLAS: threads of several processes would
-            # compete for the same cores (scipy's batched least squares in Welch detrending)
+            # compete for the same cores (the VAD pseudo-inverse, any NumPy linear algebra)
             stack.enter_context(_spawned_workers_env())
             pool = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
             # once every chunk is in (or one failed), without waiting for the workers to

@@ -8,14 +8,17 @@ the sheared mean wind at the tilted focus height plus the turbulence, the radial
 ``v_r = d_earth . (u_wind - v_head)`` (seed 002 Eq. 3, docs/conventions.md) and the VAD
 least squares of each scan with the CW sign unfolded (seed 001 Eq. 4;
 :func:`flidar_uq.physics.lidar.vad_sign_unfolding`), and the fixed reference lidar's
-radial speeds and fit.
+radial speeds and fit; then the record's true motion statistics (:func:`attitude_truth`).
 
 The arithmetic is the NumPy pipeline's, operation for operation, except for the sums:
 BLAS computed the 3-term products (``R @ m``, ``R @ r``) with fused multiply-adds on some
 CPUs and the scans' fits (sums over their lines of sight) and NumPy the residuals' means in
 their own orders; the kernel adds plain products left to right, on every CPU (LLVM
-contracts no multiply-add without fast-math flags). Differences of rounding size only. The attitude's cosines and
-sines are computed once per LOS slot (:func:`attitude_trig`).
+contracts no multiply-add without fast-math flags). Differences of rounding size only.
+The attitude's cosines and sines are computed once per LOS slot, a record at a time into a
+scratch array that stays in cache for its lines of sight and its truth (the chunk-wide
+:func:`attitude_trig` and :func:`attitude_truth` compute the same, the tests' reference for
+the kernel's per-record pass).
 
 Compiled with numba on first use in a process and cached on disk
 (:func:`flidar_uq.compiled.compiled`).

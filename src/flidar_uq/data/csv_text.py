@@ -50,11 +50,13 @@ def _column_text(col: pd.Series, float_format: str | None, date_format: str) -> 
 
         # a run of equal values (the same bits: -0.0 and 0.0 differ) is formatted once:
         # a record table repeats each record's value over its heights
-        bits = values.view(f"i{values.dtype.itemsize}")
-        new_run = np.ones(values.size, bool)
-        np.not_equal(bits[1:], bits[:-1], out=new_run[1:])
-        first = np.flatnonzero(new_run)
-        if 2 * first.size < values.size:
+        first = None
+        if values.dtype.itemsize in (2, 4, 8):  # a matching integer type (not longdouble)
+            bits = values.view(f"i{values.dtype.itemsize}")
+            new_run = np.ones(values.size, bool)
+            np.not_equal(bits[1:], bits[:-1], out=new_run[1:])
+            first = np.flatnonzero(new_run)
+        if first is not None and 2 * first.size < values.size:
             distinct = np.array(list(map(fmt, values[first].tolist())) + [""], dtype=object)
             run = np.cumsum(new_run) - 1
             run[np.isnan(values)] = first.size  # missing: ""

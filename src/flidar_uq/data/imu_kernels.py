@@ -1,10 +1,11 @@
-"""Compiled loops of the IMU estimators (:mod:`flidar_uq.data.imu`): the linear detrend of
-a window and the Welch estimate's segments and averaged power.
+"""Compiled loops of the IMU estimators: the linear detrend and the Welch estimate.
 
-Each replaces a chain of NumPy passes over a window of samples with one or two compiled
-passes (numba, :func:`flidar_uq.compiled.compiled`): the same arithmetic, sums in their
-own fixed order (four interleaved partial sums), so equal to the NumPy expressions to
-rounding (``tests/test_imu.py``) and the same on every CPU. The virtual campaign computes
+Used by :mod:`flidar_uq.data.imu` for a window's linear detrend and the Welch estimate's
+segments and averaged power. Each replaces a chain of NumPy passes over a window of samples
+with one or two compiled passes (numba, :func:`flidar_uq.compiled.compiled`): the same
+arithmetic, sums in their own fixed order (running sums; four interleaved partial sums for
+the segments' means), so equal to the NumPy expressions to rounding (``tests/test_imu.py``)
+and the same on every CPU. The virtual campaign computes
 eight Welch spectra a record (roll, pitch, and the tilt along and across the wind at each
 height), the IMU step those of every 10-min window of a raw series.
 """
@@ -64,9 +65,10 @@ def detrend_rows(x):
 
 @compiled
 def welch_segments(x, win, step, n_seg):
-    """The Welch segments of the rows of ``x`` (m, n): ``n_seg`` segments of
-    ``win.size`` samples every ``step`` samples, each minus its mean and times the window
-    ``win``; shape (m, n_seg, win.size)."""
+    """The Welch segments of the rows of ``x`` (m, n), each minus its mean and windowed.
+
+    ``n_seg`` segments of ``win.size`` samples every ``step`` samples, each minus its mean
+    and times the window ``win``; shape (m, n_seg, win.size)."""
     m = x.shape[0]
     nperseg = win.size
     n4 = nperseg - nperseg % 4
@@ -90,9 +92,10 @@ def welch_segments(x, win, step, n_seg):
 
 @compiled
 def welch_power(spec, scale, n_doubled):
-    """One-sided Welch PSD from the segments' spectra ``spec`` (m, n_seg, nf): the mean
-    over the segments of ``|spec|^2``, divided by ``scale`` (``fs * sum(win^2)``), bins
-    ``1 .. n_doubled`` doubled (all but DC and, for an even segment, Nyquist); (m, nf)."""
+    """One-sided Welch PSD (m, nf) from the segments' spectra ``spec`` (m, n_seg, nf).
+
+    The mean over the segments of ``|spec|^2``, divided by ``scale`` (``fs * sum(win^2)``),
+    bins ``1 .. n_doubled`` doubled (all but DC and, for an even segment, Nyquist)."""
     m, n_seg, nf = spec.shape
     p = np.zeros((m, nf))
     for i in range(m):
