@@ -123,21 +123,11 @@ def _truth_into(trig, oc, roll_deg, pitch_deg, c, wd_deg, stride, along, across,
     sum_sy = 0.0
     for k in range(m):
         t = k * stride
-        cr, sr, cp, sp, cy, sy = (
-            trig[0, oc, t],
-            trig[1, oc, t],
-            trig[2, oc, t],
-            trig[3, oc, t],
-            trig[4, oc, t],
-            trig[5, oc, t],
-        )
-        zx, zy, zz = sp * cr, -sr, cp * cr  # R @ e_z, body frame turned by the yaw
-        ze = cy * zx - sy * zy
-        zn = sy * zx + cy * zy
+        ze, zn, zz = _rotate_at(trig, oc, t, 0.0, 0.0, 1.0)  # the body z axis, R e_z
         along[k] = math.atan2(-sw * ze - cw * zn, zz) * to_deg
         across[k] = math.atan2(cw * ze - sw * zn, zz) * to_deg
-        sum_cy += cy
-        sum_sy += sy
+        sum_cy += trig[4, oc, t]
+        sum_sy += trig[5, oc, t]
     out[2, c] = _amplitude(along, m)
     out[3, c] = _amplitude(across, m)
     yaw_mean = (math.atan2(sum_sy, sum_cy) * to_deg) % 360.0
