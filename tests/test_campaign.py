@@ -548,14 +548,14 @@ def test_imu_grid_rate_is_the_one_window_series_infers(rate_hz):
     grid and the spectra's frequencies are the same."""
 
     from flidar_uq.campaign import physics_mode as pm
-    from flidar_uq.data.imu import window_series
+    from flidar_uq.data.imu import grid_rate_hz, window_series
 
     t_len = 600.0
     n_imu = int(np.floor(t_len * rate_hz + 1e-9))
     starts = pm._record_starts_ns("2024-01-01T00:00:00Z", t_len, 3)
     t_ns = np.concatenate([pm._utc_ns(starts[r], np.arange(n_imu) / rate_hz) for r in range(3)])
     _, _, inferred = window_series((t_ns - t_ns[0]) * 1e-9, np.zeros(t_ns.size), window_s=t_len)
-    assert pm._imu_grid_rate_hz(rate_hz) == inferred
+    assert grid_rate_hz(1.0 / rate_hz) == inferred
 
 
 def test_masked_mean_std_is_nan_below_two_samples_and_numpy_above():

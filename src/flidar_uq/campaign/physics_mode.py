@@ -414,13 +414,6 @@ def _on_imu_clock(x, n_imu: int, rate_hz: float, dt_s: float) -> np.ndarray:
     return np.interp(np.arange(n_imu) / rate_hz, np.arange(x.size) * dt_s, x)
 
 
-def _imu_grid_rate_hz(rate_hz: float) -> float:
-    """The sampling rate (Hz) :func:`flidar_uq.data.imu.window_series` infers from IMU
-    samples every ``1 / rate_hz`` s (their median interval rounded to 1 us), given
-    instead of inferred: the median of a chunk's intervals cost ~0.5 % of the generator."""
-    return 1.0 / (round(1e6 / rate_hz) * 1e-6)
-
-
 def _masked_mean_std(x, mask):
     """Count, mean and std (``ddof=1``) of ``x`` where ``mask`` over the last axis
     (``x`` broadcast to ``mask``); NaN where too few samples."""
@@ -445,12 +438,12 @@ def _utc_ns(ts_ns: int, t_s: np.ndarray) -> np.ndarray:
     return ts_ns + np.round(np.asarray(t_s) * 1e9).astype(np.int64)
 
 
-def _utc(ts_ns: int, t_s: np.ndarray) -> pd.DatetimeIndex:
-    """UTC timestamps ``ts_ns`` (ns since the epoch) + ``t_s`` (s), through integer ns."""
+def _utc_index(ns: np.ndarray) -> pd.DatetimeIndex:
+    """UTC timestamps of integer nanoseconds since the epoch."""
     import pandas as pd
 
     # a datetime64 view: pd.to_datetime of an int64 array takes an object path (~30x slower)
-    return pd.DatetimeIndex(_utc_ns(ts_ns, t_s).view("M8[ns]"), tz="UTC")
+    return pd.DatetimeIndex(np.asarray(ns, np.int64).view("M8[ns]"), tz="UTC")
 
 
 def _record_starts_ns(start_utc: str, record_length_s: float, n_records: int) -> np.ndarray:
@@ -673,7 +666,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
             los_frames.append(
                 pd.DataFrame(
                     {
-                        "timestamp": _utc(ts, t_los),
+                        "timestamp": _utc_index(_utc_ns(ts, t_los)),
                         "height_m": np.repeat(heights[h_idx[c][jj]], n_los),
                         "azimuth_deg": np.rad2deg(az_slots[a_c]).ravel(),
                         "radial_speed_ms": vr.ravel(),
@@ -693,7 +686,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         window_s=t_len,
         period_min_s=float(p_lo),
         period_max_s=float(p_hi),
-        fs_hz=_imu_grid_rate_hz(rate),
+        fs_hz=_imu.grid_rate_hz(1.0 / rate),  # given: no median of the chunk's intervals
     )
     # each row's window: every record has IMU sample times, so every window exists (a
     # window without a finite sample has no statistics)
@@ -717,7 +710,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
 
         imu_df = pd.DataFrame(
             {
-                "timestamp": pd.DatetimeIndex(np.concatenate(imu_ns).view("M8[ns]"), tz="UTC"),
+                "timestamp": _utc_index(np.concatenate(imu_ns)),
                 "roll_deg": att[0].ravel(),
                 "pitch_deg": att[1].ravel(),
                 "yaw_deg": att[2].ravel(),
@@ -872,9 +865,7 @@ def generate_campaign(
     )
     # the resolution pandas gives the records' timestamps (start + a record length)
     unit = (pd.Timestamp(s["start_utc"]) + pd.Timedelta(seconds=float(s["record_length_s"]))).unit
-    records["timestamp"] = pd.DatetimeIndex(
-        records["timestamp"].to_numpy().view("M8[ns]"), tz="UTC"
-    ).as_unit(unit)
+    records["timestamp"] = _utc_index(records["timestamp"].to_numpy()).as_unit(unit)
     imu = pd.concat([r[1] for r in results], ignore_index=True) if return_imu else None
     los = pd.concat([r[2] for r in results], ignore_index=True) if return_los else None
     if imu is not None:

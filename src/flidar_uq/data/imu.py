@@ -56,6 +56,7 @@ if TYPE_CHECKING:  # pandas is imported where a function builds or reads a DataF
 
 __all__ = [
     "AMPLITUDE_METHODS",
+    "grid_rate_hz",
     "PERIOD_METHODS",
     "amplitude_std_deg",
     "amplitude_spectral_deg",
@@ -484,6 +485,16 @@ def _local_maxima(x: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- windows
+def grid_rate_hz(interval_s: float) -> float:
+    """The sampling rate (Hz) of the uniform grid for samples every ``interval_s`` (s): the
+    interval rounded to 1 us (:func:`window_series` infers it from the median interval).
+
+    Float timestamps carry sub-us jitter that would otherwise accumulate over a long series
+    (0.1 us per step is 0.9 samples per day).
+    """
+    return 1.0 / (round(interval_s * 1e6) * 1e-6)
+
+
 def window_series(
     time_s, values, *, window_s: float = 600.0, fs_hz: float | None = None
 ) -> tuple[np.ndarray, np.ndarray, float]:
@@ -518,9 +529,7 @@ def window_series(
             f"window_series: need time_s (n >= 2,) and values (n, ...), got {t.shape}, {v.shape}"
         )
     if fs_hz is None:
-        # median interval rounded to 1 us: float timestamps carry sub-us jitter that would
-        # otherwise accumulate over a long series (0.1 us per step is 0.9 samples per day)
-        fs_hz = 1.0 / (round(float(np.median(np.diff(t))) * 1e6) * 1e-6)
+        fs_hz = grid_rate_hz(float(np.median(np.diff(t))))
     m = int(round(window_s * fs_hz))
     if m < 8:
         raise ValueError(f"window_series: window of {window_s} s at {fs_hz} Hz has < 8 samples")
