@@ -269,6 +269,8 @@ def _scan_schedule(rng, n_los, delay_slots, j_max):
 
 def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence, geo) -> dict:
     """Random series of one record, drawn from its own generator in a fixed order."""
+    from flidar_uq.random_draws import standard_normals  # numba: imported where drawn
+
     rng = np.random.default_rng(ss)
     t_len = float(settings["record_length_s"])
     dt = geo.los_duration_s
@@ -335,7 +337,7 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
     imu = settings["imu"]
     rate = float(imu["rate_hz"])
     n_imu = int(np.floor(t_len * rate + 1e-9))
-    noise = float(imu["noise_deg"]) * rng.standard_normal((3, n_imu))
+    noise = float(imu["noise_deg"]) * standard_normals(rng, (3, n_imu))[0]  # rng.standard_normal's
     gap = None
     if rng.random() < float(imu["gap_probability"]):
         g_len = rng.uniform(*imu["gap_length_range_s"])

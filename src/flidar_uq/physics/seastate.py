@@ -104,10 +104,6 @@ def jonswap_spectrum(f_hz, hs_m, tp_s, gamma=3.3):
     return np.where(f > 0, s, 0.0)
 
 
-def _wrapped_normal(rng, mean_rad, sd_rad, shape):
-    return mean_rad + sd_rad * rng.standard_normal(shape)
-
-
 def tilt_series(
     n_samples: int,
     dt_s: float,
@@ -169,24 +165,29 @@ def tilt_series(
     area = shape.sum(axis=-1, keepdims=True) * df
     var_bins = amp[..., None] ** 2 * shape * df / np.where(area > 0, area, np.inf)
     # complex coefficient per (record, system, bin); x = n irfft(C): E power 4 s^2
-    coef = np.empty(var_bins.shape, complex)  # a + 1j b, filled in place (the same values)
-    coef.real = rng.standard_normal(var_bins.shape)
-    coef.imag = rng.standard_normal(var_bins.shape)
-    coef *= 0.5 * np.sqrt(var_bins)
+    from flidar_uq.random_draws import standard_normals  # numba: imported where drawn
+
+    # the coefficients' real and imaginary parts, then the components' directions
+    re, im, z_dir = standard_normals(rng, var_bins.shape, var_bins.shape, var_bins.shape)
+    scale = 0.5 * np.sqrt(var_bins)
+    coef = np.empty(var_bins.shape, complex)  # (a + 1j b) s, a part at a time (the same values)
+    np.multiply(re, scale, out=coef.real)
+    np.multiply(im, scale, out=coef.imag)
     coef[..., 0] = 0.0
     if n % 2 == 0 and n_b == n_f:
         coef[..., -1] = 0.0
-    theta = _wrapped_normal(
-        rng,
-        np.deg2rad(par["direction_deg"])[..., None],
-        np.deg2rad(par["spread_deg"])[..., None],
-        var_bins.shape,
+    # a normal direction about the mean, taken modulo 2 pi by the sine and cosine
+    theta = (
+        np.deg2rad(par["direction_deg"])[..., None]
+        + np.deg2rad(par["spread_deg"])[..., None] * z_dir
     )
-    roll_c = (coef * np.sin(theta)).sum(axis=1)  # roll = +d(eta)/dy (module docstring)
-    pitch_c = (-coef * np.cos(theta)).sum(axis=1)  # pitch = -d(eta)/dx
-    # irfft pads the bins above the synthesised ones with zeros
-    roll = np.fft.irfft(roll_c, n=n, axis=-1) * n
-    pitch = np.fft.irfft(pitch_c, n=n, axis=-1) * n
+    # the roll and pitch spectra, zero above the synthesised bins: padded here, as irfft
+    # would pad them (the same bits; numpy's irfft pads a batch ~2.5x slower than it
+    # transforms it)
+    spec = np.zeros((2,) + var_bins.shape[:1] + (n_f,), complex)
+    spec[0, :, :n_b] = (coef * np.sin(theta)).sum(axis=1)  # roll = +d(eta)/dy (module docstring)
+    spec[1, :, :n_b] = (-coef * np.cos(theta)).sum(axis=1)  # pitch = -d(eta)/dx
+    roll, pitch = np.fft.irfft(spec, n=n, axis=-1) * n
     if single:
         return roll[0], pitch[0]
     return roll, pitch

@@ -179,12 +179,16 @@ def kaimal_series(
     # x = n irfft(C): interior bins contribute 2 Re(C_k e^{i 2 pi k t / n}), whose
     # expected power is 4 |s_k|^2 for C_k = s_k (a + i b), a, b ~ N(0, 1);
     # the Nyquist bin (even n) contributes C (-1)^t with C real.
-    coef = np.empty(shape, complex)  # a + 1j b, filled in place (the same values)
-    coef.real = rng.standard_normal(shape)
-    coef.imag = rng.standard_normal(shape)
-    coef *= 0.5 * np.sqrt(var_bins)
-    if n % 2 == 0:
-        coef[..., -1] = rng.standard_normal(batch + (3,)) * np.sqrt(var_bins[..., -1])
+    from flidar_uq.random_draws import standard_normals  # numba: imported where drawn
+
+    # the real parts, the imaginary parts, then the real Nyquist bins (even n)
+    re, im, *nyquist = standard_normals(rng, shape, shape, *[batch + (3,)][: 1 - n % 2])
+    scale = 0.5 * np.sqrt(var_bins)
+    coef = np.empty(shape, complex)  # (a + 1j b) s, a part at a time (the same values)
+    np.multiply(re, scale, out=coef.real)
+    np.multiply(im, scale, out=coef.imag)
+    if nyquist:
+        coef[..., -1] = nyquist[0] * np.sqrt(var_bins[..., -1])
     x = np.fft.irfft(coef, n=n, axis=-1) * n
     if exact_variance:
         x *= sig_k[..., None] / np.maximum(x.std(axis=-1, keepdims=True), 1e-300)
