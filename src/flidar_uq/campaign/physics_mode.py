@@ -51,13 +51,15 @@ unfolded by the iteration :func:`flidar_uq.physics.lidar.retrieve_wind` uses wit
 ``sign_ambiguity=True`` (fixed point of the sign pattern = stationary point of the ``|.|``
 least squares), started from the signs of the simulated radial speeds.
 
-Speed: every line of sight of a chunk (attitude, head velocity, wind, radial speed, scan
-fit, reference lidar) and the records' true motion statistics are simulated in one
-compiled pass, :func:`flidar_uq.campaign.scan_kernel.simulate_chunk_scans` (numba), the IMU
-estimators' detrend and Welch loops are compiled too
-(:mod:`flidar_uq.data.imu_kernels`); the rest is NumPy over the chunk. The workers import
-neither pandas nor scipy's subpackages. The default campaign (8640 records) takes ~24 s on
-2 workers (``benchmarks/campaign_generation.py``, docs/performance.md).
+Speed: every line of sight of a record (attitude, head velocity, wind, radial speed, scan
+fit, reference lidar) and its true motion statistics are simulated in one compiled pass,
+:func:`flidar_uq.campaign.scan_kernel.simulate_chunk_scans` (numba), right after the
+record's series are drawn (still in cache; the long series are dropped after it); the
+Gaussian draws go through numba's port of NumPy's ziggurat (:mod:`flidar_uq.random_draws`,
+the same numbers) and the IMU estimators' detrend and Welch loops are compiled too
+(:mod:`flidar_uq.data.imu_kernels`); the 10-min statistics are NumPy over the chunk. The
+workers import neither pandas nor scipy's subpackages. The default campaign (8640 records)
+takes ~21 s on 2 workers (``benchmarks/campaign_generation.py``, docs/performance.md).
 """
 
 from __future__ import annotations
@@ -482,64 +484,87 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     heights = np.asarray(settings["heights_m"], float)
     n_h = heights.size
     lever = np.asarray(settings["lidar"]["lever_arm_m"], float)
-    series = [_record_series(settings, par, i, ss, geo) for i, ss in enumerate(seeds)]
-    n_c = len(series)
-    j_max = series[0]["starts"].size
-
+    rate = float(settings["imu"]["rate_hz"])
     # canonical azimuth slots of the prism and their VAD operator (lidar.py)
     az_slots = 2.0 * np.pi * np.arange(n_los) / n_los
     d_body = _lidar.beam_unit_vectors_body(geo, az_slots)  # (L,3)
     pinv_t = _lidar.vad_pseudo_inverse(d_body).T  # (L,3)
-
-    starts = np.stack([s["starts"] for s in series])  # (C,J)
-    valid = starts + n_los <= n_slots
-    k0 = np.array([s["k0"] for s in series])
-    phase_slots = np.stack([s["phase_slots"] for s in series])  # (C,J)
-    h_idx = np.broadcast_to(np.arange(j_max) % n_h, starts.shape)  # heights in turn
-    roll = np.stack([s["roll"] for s in series])  # (C,N) deg
-    pitch = np.stack([s["pitch"] for s in series])
-    yaw = np.stack([s["yaw"] for s in series])  # (C,N), or (C,1): a constant heading
-    if yaw.shape[1] > 1 and (yaw == yaw[:, :1]).all():
-        yaw = np.ascontiguousarray(yaw[:, :1])  # contiguous: the kernel's compiled type
-    # every line of sight, its head velocity, wind, radial speed and scan fit, and the
-    # records' true motion statistics, in one compiled pass (the attitude's cosines and
-    # sines a record at a time)
-    trans = (
-        np.stack([s["trans"] for s in series])
-        if series[0]["trans"] is not None
-        else np.empty((n_c, 0, 3))
-    )
-    fl = np.stack([s["fluct_uvw"] for s in series])  # (C,H,3,Nw), wind frame
-    hws_h = np.stack([s["hws_h"] for s in series])  # (C,H)
     wd = np.deg2rad(par["wd_deg"])
     e_wind = np.stack([-np.sin(wd), -np.cos(wd), np.zeros_like(wd)], -1)  # (C,3)
+    alpha = np.asarray(par["shear_exponent"], float)
+    wd_deg = np.asarray(par["wd_deg"], float)
     step = wind_step_slots(settings, dt)
     # the tilt along and across the wind and the heading on a 0.1-s clock: the attitude
     # varies on seconds, and the full LOS clock (0.02 s) would cost a fifth of the
     # record's time
     stride = max(int(round(0.1 / (t_len / n_slots))), 1)
-    v_r, uvw, uvw0, resid, truth = simulate_chunk_scans(
-        roll,
-        pitch,
-        yaw,
-        trans,
-        starts,
-        k0,
-        phase_slots,
-        d_body,
-        pinv_t,
-        fl,
-        hws_h,
-        e_wind,
-        np.asarray(par["shear_exponent"], float),
-        lever,
-        dt,
-        step,
-        np.cos(th),
-        0 if geo.signed else 1,
-        np.asarray(par["wd_deg"], float),
-        stride,
-    )
+    k_truth = max(int(round(TRUTH_SAMPLE_INTERVAL_S / (dt * step))), 1)  # 1-Hz truth series
+    starts_ns = np.asarray(par["record_start_ns"], np.int64)  # from the parent (pandas)
+    series, scans, imu_att, imu_ns, fl_truth = [], [], [], [], []
+    for c, (ss, ts) in enumerate(zip(seeds, starts_ns.tolist(), strict=True)):
+        s = _record_series(settings, par, c, ss, geo)
+        yaw_c = s["yaw"][None]  # (1,N), or (1,1): a constant heading
+        if yaw_c.shape[1] > 1 and (yaw_c == yaw_c[:, :1]).all():
+            yaw_c = np.ascontiguousarray(yaw_c[:, :1])  # contiguous: the kernel's compiled type
+        # every line of sight of the record, its head velocity, wind, radial speed and scan
+        # fit, and the record's true motion statistics, in one compiled pass, while the
+        # record's series are in cache (records are independent: one call a record gives
+        # the numbers of one call a chunk)
+        v_r_c, *fits = simulate_chunk_scans(
+            s["roll"][None],
+            s["pitch"][None],
+            yaw_c,
+            s["trans"][None] if s["trans"] is not None else np.empty((1, 0, 3)),
+            s["starts"][None],
+            np.array([s["k0"]]),
+            s["phase_slots"][None],
+            d_body,
+            pinv_t,
+            s["fluct_uvw"][None],  # (1,H,3,Nw), wind frame
+            s["hws_h"][None],
+            e_wind[c : c + 1],
+            alpha[c : c + 1],
+            lever,
+            dt,
+            step,
+            np.cos(th),
+            0 if geo.signed else 1,
+            wd_deg[c : c + 1],
+            stride,
+        )
+        scans.append((v_r_c if want_los else None, *fits))  # the radial speeds: LOS output
+        # IMU: true attitude at the IMU clock, noise, gap
+        n_imu = s["imu_noise"].shape[1]
+        t_imu = np.arange(n_imu) / rate
+        att = [_on_imu_clock(s[k], n_imu, rate, dt) for k in ("roll", "pitch")]
+        att.append(
+            _on_imu_clock(yaw_c[0], n_imu, rate, dt)
+            if yaw_c.shape[1] > 1
+            else np.full(n_imu, yaw_c[0, 0])
+        )
+        att = [a + nz for a, nz in zip(att, s["imu_noise"], strict=True)]
+        if s["imu_gap"] is not None:
+            g = (t_imu >= s["imu_gap"][0]) & (t_imu < s["imu_gap"][1])
+            for a in att:
+                a[g] = np.nan
+        imu_att.append(att)
+        imu_ns.append(_utc_ns(ts, t_imu))
+        fl_truth.append(s["fluct_uvw"][..., ::k_truth].copy())  # the 1-Hz samples
+        for key in ("roll", "pitch", "fluct_uvw", "trans", "imu_noise"):
+            del s[key]  # the record's long series: done with
+        series.append(s)
+    n_c = len(series)
+    j_max = series[0]["starts"].size
+    starts = np.stack([s["starts"] for s in series])  # (C,J)
+    valid = starts + n_los <= n_slots
+    k0 = np.array([s["k0"] for s in series])
+    phase_slots = np.stack([s["phase_slots"] for s in series])  # (C,J)
+    h_idx = np.broadcast_to(np.arange(j_max) % n_h, starts.shape)  # heights in turn
+    yaw = np.stack([s["yaw"] for s in series])  # (C,N), or (C,1): a constant heading
+    hws_h = np.stack([s["hws_h"] for s in series])  # (C,H)
+    v_r = np.concatenate([o[0] for o in scans]) if want_los else None  # (C,J,L)
+    uvw, uvw0, resid = (np.concatenate([o[k] for o in scans]) for k in (1, 2, 3))
+    truth = np.concatenate([o[4] for o in scans], axis=1)  # (5,C)
     hws_scan = np.hypot(uvw[..., 0], uvw[..., 1])  # (C,J)
     hws0 = np.hypot(uvw0[..., 0], uvw0[..., 1])
     mid = np.minimum(starts + n_los // 2, n_slots - 1)  # (C,J): each scan's middle slot
@@ -553,8 +578,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     dropped = np.stack([s["dropped"] for s in series])
     outage = np.array([s["outage"] for s in series])
     ok = valid & ~dropped & ~outage[:, None]
-    los_frames, imu_att, imu_ns = [], [], []
-    rate = float(settings["imu"]["rate_hz"])
+    los_frames = []
     # truth of the motion (noise-free, gap-free series on the LOS clock)
     roll_amp, pitch_amp = truth[0], truth[1]
     regimes = _regime_truth(settings, par, truth)
@@ -575,8 +599,8 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     availability = 100.0 * n_sel / np.maximum(sel_ref.sum(axis=-1), 1)
     # the true HWS series (1 Hz) and the reference: a motionless lidar's scans, or the
     # point series (cup, sonic)
-    k_truth = max(int(round(TRUTH_SAMPLE_INTERVAL_S / (dt * step))), 1)
-    truth = wind_enu_ms(0.0, par["wd_deg"][:, None], fl[..., ::k_truth])[..., :2]  # (C,H,T,2)
+    fl = np.stack(fl_truth)  # (C,H,3,T)
+    truth = wind_enu_ms(0.0, par["wd_deg"][:, None], fl)[..., :2]  # (C,H,T,2)
     truth += hws_h[..., None, None] * e_wind[:, None, None, :2]
     true_hws = np.hypot(truth[..., 0], truth[..., 1])  # (C,H,T)
     t_mean, t_std = true_hws.mean(axis=-1), true_hws.std(axis=-1, ddof=1)
@@ -600,7 +624,6 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     has_ref = (np.ones(n_c, bool) if ref_days is None else rec_start_s < float(ref_days) * 86400.0)[
         :, None
     ]
-    starts_ns = np.asarray(par["record_start_ns"], np.int64)  # from the parent (pandas)
 
     def per_record(v):  # one value a record -> one a row (a record's heights in turn)
         return np.repeat(np.asarray(v), n_h)
@@ -639,23 +662,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         "true_ref_hws_mean_ms": h0_mean.ravel(),
         "true_ref_hws_std_ms": h0_std.ravel(),
     } | {k: per_record(v) for k, v in regimes.items()}
-    for c, (s, ts) in enumerate(zip(series, starts_ns.tolist(), strict=True)):
-        # IMU: true attitude at the IMU clock, noise, gap
-        n_imu = s["imu_noise"].shape[1]
-        t_imu = np.arange(n_imu) / rate
-        att = [_on_imu_clock(x[c], n_imu, rate, dt) for x in (roll, pitch)]
-        att.append(
-            _on_imu_clock(yaw[c], n_imu, rate, dt)
-            if yaw.shape[1] > 1
-            else np.full(n_imu, yaw[c, 0])
-        )
-        att = [a + nz for a, nz in zip(att, s["imu_noise"], strict=True)]
-        if s["imu_gap"] is not None:
-            g = (t_imu >= s["imu_gap"][0]) & (t_imu < s["imu_gap"][1])
-            for a in att:
-                a[g] = np.nan
-        imu_att.append(att)
-        imu_ns.append(_utc_ns(ts, t_imu))
+    for c, ts in enumerate(starts_ns.tolist()):
         if want_los:
             import pandas as pd  # the series' frames (the records go back as arrays)
 
@@ -799,7 +806,7 @@ def generate_campaign(
     n_workers : int, optional
         Worker processes (default: scenario ``n_workers``); 1 runs in-process.
     chunk_records : int, optional
-        Records simulated together (peak memory ~ 13 MB per record of a chunk); default
+        Records simulated together (peak memory ~1 MB per record of a chunk); default
         from the scenario.
 
     Returns

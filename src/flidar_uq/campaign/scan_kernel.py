@@ -9,6 +9,7 @@ the sheared mean wind at the tilted focus height plus the turbulence, the radial
 least squares of each scan with the CW sign unfolded (seed 001 Eq. 4;
 :func:`flidar_uq.physics.lidar.vad_sign_unfolding`), and the fixed reference lidar's
 radial speeds and fit; then the record's true motion statistics (:func:`attitude_truth`).
+The generator calls it a record at a time, right after drawing the record's series.
 
 The arithmetic is the NumPy pipeline's, operation for operation, except for the sums:
 BLAS computed the 3-term products (``R @ m``, ``R @ r``) with fused multiply-adds on some
