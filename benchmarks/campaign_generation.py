@@ -62,10 +62,10 @@ REPO = Path(__file__).resolve().parents[1]
 TARGET_S = 25.0  # issue 13 item 7: the default campaign on 2 cores
 #: The generator before the issue-13 speed work (the reference of "results unchanged").
 REFERENCE_COMMIT = "38465224c0a642f774a011f0cd7d14cf413d6d04"
-#: The generator before the latest round (session 14: compiled IMU estimators and truth,
-#: lighter workers; main at the end of session 13; the rounds before it: e1e35a3,
-#: 619c380, cb8877e).
-PREVIOUS_COMMIT = "997d9acf8c677ed84b9563708fee37e160379362"
+#: The generator before the latest round (session 15: compiled normal draws, a record's
+#: kernel call right after its series; main at the end of session 14; the rounds before
+#: it: 997d9ac, e1e35a3, 619c380, cb8877e).
+PREVIOUS_COMMIT = "b01d024fdc3a82542b2358130bc46b02d05b8f6e"
 IMPLEMENTATIONS = ("reference", "previous", "current")
 SEED = 20181122  # config/config.yaml campaign.seed
 

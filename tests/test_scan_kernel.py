@@ -9,6 +9,8 @@ lidar head, a translating buoy, a signed and a CW (sign-unfolded) lidar.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -184,6 +186,52 @@ def test_attitude_trig_is_numpy_cos_and_sin(constant_yaw):
         r = np.deg2rad(a)
         np.testing.assert_allclose(got[2 * k], np.cos(r), rtol=0, atol=2e-16)
         np.testing.assert_allclose(got[2 * k + 1], np.sin(r), rtol=0, atol=2e-16)
+
+
+def _trig_of_roll(roll_deg):
+    """``cos`` and ``sin`` of a roll series (one record, no pitch or heading) and the
+    angles in rad as the kernel forms them."""
+    roll = np.asarray(roll_deg, float)[None, :]
+    got = attitude_trig(roll, np.zeros_like(roll), np.zeros((1, 1)))
+    return got[0, 0], got[1, 0], roll[0] * (np.pi / 180.0)
+
+
+def test_small_angle_trig_within_an_ulp():
+    """Roll and pitch within 45 deg: the polynomials within 0.75 ulp of the exact sine and
+    cosine (long double reference), at most 1 ulp from libm's and mostly equal to them."""
+    rng = np.random.default_rng(11)
+    edge = scan_kernel.SMALL_ANGLE_DEG
+    deg = np.concatenate(
+        [
+            rng.uniform(-edge, edge, 200_000),
+            rng.uniform(-1e-3, 1e-3, 5_000),
+            [0.0, -0.0, edge, -edge, 1e-300, np.nextafter(edge, 0.0)],
+        ]
+    )
+    cos, sin, x = _trig_of_roll(deg)
+    libm_cos = np.array([math.cos(v) for v in x.tolist()])
+    libm_sin = np.array([math.sin(v) for v in x.tolist()])
+    for got, libm in ((cos, libm_cos), (sin, libm_sin)):
+        ulps = np.abs(got - libm) / np.spacing(np.abs(libm))
+        assert np.nanmax(ulps[libm != 0.0]) <= 1.0
+        assert np.array_equal(got[libm == 0.0], libm[libm == 0.0])
+        assert np.mean(got == libm) > 0.9  # ~97 % identical
+    if np.finfo(np.longdouble).eps >= np.finfo(float).eps:
+        pytest.skip("no extended precision for the exact reference on this platform")
+    xl = x.astype(np.longdouble)
+    for got, exact in ((cos, np.cos(xl)), (sin, np.sin(xl))):
+        nz = got != 0.0
+        err = np.abs((got[nz].astype(np.longdouble) - exact[nz]) / np.spacing(np.abs(got[nz])))
+        assert float(err.max()) < 0.8
+
+
+def test_large_angles_take_libm_trig():
+    """A record whose roll passes 45 deg gets libm's values bit for bit (the polynomials'
+    range ends there), the whole record."""
+    deg = np.linspace(-20.0, 60.0, 1001)
+    cos, sin, x = _trig_of_roll(deg)
+    np.testing.assert_array_equal(cos, [math.cos(v) for v in x.tolist()])
+    np.testing.assert_array_equal(sin, [math.sin(v) for v in x.tolist()])
 
 
 def test_without_a_writable_cache_the_kernel_compiles_uncached(monkeypatch):
