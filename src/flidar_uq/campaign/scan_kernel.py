@@ -81,22 +81,19 @@ def _trig_into(roll_deg, pitch_deg, yaw_deg, c, out, oc):
         if abs(roll_deg[c, t]) > SMALL_ANGLE_DEG or abs(pitch_deg[c, t]) > SMALL_ANGLE_DEG:
             small = False
             break
-    if small:
-        for t in range(n):
-            sr, cr = _sin_cos_small(roll_deg[c, t] * to_rad)
-            sp, cp = _sin_cos_small(pitch_deg[c, t] * to_rad)
-            out[0, oc, t] = cr
-            out[1, oc, t] = sr
-            out[2, oc, t] = cp
-            out[3, oc, t] = sp
-    else:
-        for t in range(n):
-            r = roll_deg[c, t] * to_rad
-            out[0, oc, t] = math.cos(r)
-            out[1, oc, t] = math.sin(r)
-            p = pitch_deg[c, t] * to_rad
-            out[2, oc, t] = math.cos(p)
-            out[3, oc, t] = math.sin(p)
+    for t in range(n):  # the test of `small` is hoisted out of the loop by LLVM
+        r = roll_deg[c, t] * to_rad
+        p = pitch_deg[c, t] * to_rad
+        if small:
+            sr, cr = _sin_cos_small(r)
+            sp, cp = _sin_cos_small(p)
+        else:
+            sr, cr = math.sin(r), math.cos(r)
+            sp, cp = math.sin(p), math.cos(p)
+        out[0, oc, t] = cr
+        out[1, oc, t] = sr
+        out[2, oc, t] = cp
+        out[3, oc, t] = sp
     if yaw_deg.shape[1] == 1:
         y = yaw_deg[c, 0] * to_rad
         cy, sy = math.cos(y), math.sin(y)
