@@ -106,15 +106,30 @@ from flidar_uq.workflow.data_steps import make_campaign
 make_campaign(sys.argv[1], source="virtual", seed=int(sys.argv[2]), scenario_path=sys.argv[3],
               threads=2)
 """
+#: a few records on 2 workers: the tree's compiled kernels into its numba cache, untimed
+_WARM = """
+import sys
+from flidar_uq.campaign.physics_mode import generate_campaign
+from flidar_uq.campaign.scenarios import load_scenario
+if __name__ == "__main__":
+    generate_campaign(load_scenario("default") | {"n_records": 4}, int(sys.argv[1]), n_workers=2)
+"""
 
 
 def step_runs(n_runs: int) -> pd.DataFrame:
     """Wall time of the ``campaign`` step (generation + CSV) from a fresh process, previous
-    and current tree alternating; the two trees' CSV files compared byte for byte."""
+    and current tree alternating, each tree's compiled kernels cached first (an extracted
+    tree would compile them in its first run, ~4 s once a machine); the two trees' CSV
+    files compared byte for byte."""
     trees = {"previous": _source_tree(PREVIOUS_COMMIT), "current": REPO / "src"}
     rows = []
     with tempfile.TemporaryDirectory(prefix="campaign_step_") as tmp:
         outs = {impl: Path(tmp) / f"{impl}.csv" for impl in trees}
+        for src in trees.values():
+            warm = Path(tmp) / "warm.py"  # a file: spawned workers re-import the main module
+            warm.write_text(_WARM)
+            env = os.environ | {"PYTHONPATH": str(src)}
+            subprocess.run([sys.executable, str(warm), str(SEED)], check=True, env=env)
         for k in range(n_runs):
             for impl, src in trees.items():
                 scenario = src.parent / "config" / "scenarios" / "default.yaml"
