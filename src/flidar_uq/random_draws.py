@@ -1,10 +1,10 @@
 """Standard normal draws of a :class:`numpy.random.Generator`, compiled: the same numbers.
 
-``Generator.standard_normal`` costs ~10 ns a value with NumPy 2.5 here (the 256-step
-ziggurat behind two indirect calls a value); numba's port of the same ziggurat, reading the
-same bit generator through its ctypes interface, costs ~3.5 ns. The virtual campaign draws
-~70,000 normals a record (its turbulence, sea state and IMU noise), a fifth of the
-generator's time with NumPy's method (docs/performance.md, session 15).
+``Generator.standard_normal`` costs ~10.5 ns a value with NumPy 2.5 here (NumPy's 2.0
+documentation times the same call at ~4.5 ns); numba's port of the same ziggurat, reading
+the same bit generator through its ctypes interface, costs ~3.6 ns alone and ~7.7 ns in the
+virtual campaign's loop, which draws ~72,000 normals a record (its turbulence, sea state and
+IMU noise): ~0.4 ms a record less (docs/performance.md, session 15).
 
 The numbers are NumPy's, bit for bit, and the generator is left in the state NumPy's method
 leaves it in: numba's ``random_standard_normal`` is NumPy's algorithm and tables line for

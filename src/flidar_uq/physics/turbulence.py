@@ -182,7 +182,8 @@ def kaimal_series(
     from flidar_uq.random_draws import standard_normals  # numba: imported where drawn
 
     # the real parts, the imaginary parts, then the real Nyquist bins (even n)
-    re, im, *nyquist = standard_normals(rng, shape, shape, *[batch + (3,)][: 1 - n % 2])
+    nyquist_shape = [batch + (3,)] if n % 2 == 0 else []
+    re, im, *nyquist = standard_normals(rng, shape, shape, *nyquist_shape)
     scale = 0.5 * np.sqrt(var_bins)
     coef = np.empty(shape, complex)  # (a + 1j b) s, a part at a time (the same values)
     np.multiply(re, scale, out=coef.real)
