@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -83,3 +85,30 @@ def test_another_generator_draws_with_its_own_method():
     ours, theirs = np.random.RandomState(3), np.random.RandomState(3)
     (got,) = standard_normals(ours, 4 * _MIN_COMPILED)
     np.testing.assert_array_equal(got, theirs.standard_normal(4 * _MIN_COMPILED))
+
+
+def test_shapes_as_numpy_takes_them():
+    """An int n is (n,), a list a tuple, () one value; a negative dimension is an error."""
+    ours, numpys = _pair("PCG64", 12)
+    got = standard_normals(ours, [40, 60], 3000, (), (0, 5))
+    want = [numpys.standard_normal(s) for s in ((40, 60), 3000, (), (0, 5))]
+    for g, w in zip(got, want, strict=True):
+        assert g.shape == np.shape(w)
+        np.testing.assert_array_equal(g, w)
+    with pytest.raises(ValueError, match="negative"):
+        standard_normals(ours, 4 * _MIN_COMPILED, (3, -1))
+
+
+def test_the_bit_generators_lock_is_held():
+    """The draws wait for the bit generator's lock, as NumPy's method does (a generator
+    shared between threads)."""
+    rng = np.random.default_rng(5)
+    lock = rng.bit_generator.lock
+    done = []
+    worker = threading.Thread(target=lambda: done.append(standard_normals(rng, 4 * _MIN_COMPILED)))
+    with lock:
+        worker.start()
+        worker.join(0.3)
+        assert worker.is_alive() and not done  # waiting for the lock
+    worker.join(10.0)
+    assert done and not worker.is_alive()

@@ -2,16 +2,19 @@
 
 ``Generator.standard_normal`` costs ~10.5 ns a value with NumPy 2.5 here (NumPy's 2.0
 documentation times the same call at ~4.5 ns); numba's port of the same ziggurat, reading
-the same bit generator through its ctypes interface, costs ~3.6 ns alone and ~7.7 ns in the
-virtual campaign's loop, which draws ~72,000 normals a record (its turbulence, sea state and
-IMU noise): ~0.4 ms a record less (docs/performance.md, session 15).
+the same bit generator through its ctypes interface, ~3.6 ns (both alone, in a loop over a
+reused buffer; ~7.7 ns inside the virtual campaign's loop, whose caches hold other data).
+The campaign draws ~72,000 normals a record (its turbulence, sea state and IMU noise); with
+this and one other change its CPU fell by ~0.44 ms a record (docs/performance.md,
+session 15).
 
 The numbers are NumPy's, bit for bit, and the generator is left in the state NumPy's method
 leaves it in: numba's ``random_standard_normal`` is NumPy's algorithm and tables line for
 line, the tail and wedge tests with the C library's ``log1p`` and ``exp`` as NumPy's C code
 calls them (``tests/test_random_draws.py`` compares both for several bit generators,
 shapes and a million values, tail included). A generator that is not a
-:class:`numpy.random.Generator` draws with its own method.
+:class:`numpy.random.Generator` draws with its own method. The bit generator's lock is held
+during the draws, as NumPy's method holds it.
 
 Compiled with numba (:func:`flidar_uq.compiled.compiled`); callers import this module where
 they draw, so that processes without draws do not import numba (~0.25 s).
@@ -48,19 +51,23 @@ def standard_normals(rng: np.random.Generator, *shapes) -> list[np.ndarray]:
     rng : numpy.random.Generator
         The generator (any bit generator); advanced by the draws.
     *shapes : int or tuple of int
-        Shape of each array (dimensionless values, mean 0, std 1).
+        Shape of each array (dimensionless values, mean 0, std 1); an int n is ``(n,)``.
 
     Returns
     -------
     list of numpy.ndarray
     """
-    sizes = [math.prod(s) if isinstance(s, tuple) else int(s) for s in shapes]
+    shapes = [tuple(s) if isinstance(s, (tuple, list)) else (int(s),) for s in shapes]
+    sizes = [math.prod(s) for s in shapes]
+    if any(d < 0 for s in shapes for d in s):
+        raise ValueError(f"standard_normals: negative dimensions are not allowed: {shapes}")
     total = sum(sizes)
     if total < _MIN_COMPILED or type(rng) is not np.random.Generator:
         flat = rng.standard_normal(total)
     else:
         flat = np.empty(total)
-        _fill_standard_normal(rng, flat)
+        with rng.bit_generator.lock:
+            _fill_standard_normal(rng, flat)
     ends = np.cumsum(sizes).tolist()
     return [
         flat[end - size : end].reshape(shape)

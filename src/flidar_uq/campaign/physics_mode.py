@@ -662,10 +662,10 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         "true_ref_hws_mean_ms": h0_mean.ravel(),
         "true_ref_hws_std_ms": h0_std.ravel(),
     } | {k: per_record(v) for k, v in regimes.items()}
-    for c, ts in enumerate(starts_ns.tolist()):
-        if want_los:
-            import pandas as pd  # the series' frames (the records go back as arrays)
+    if want_los:
+        import pandas as pd  # the series' frames (the records go back as arrays)
 
+        for c, ts in enumerate(starts_ns.tolist()):
             idx = np.minimum(starts[c][:, None] + np.arange(n_los), n_slots - 1)  # (J,L)
             jj = np.nonzero(valid[c])[0]
             a_c = (idx[jj] + k0[c] + phase_slots[c][jj][:, None]) % n_los  # azimuth slots

@@ -38,7 +38,8 @@ __all__ = ["attitude_trig", "attitude_truth", "simulate_chunk_scans"]
 
 
 #: Taylor coefficients of sine, (-1)^k / (2k+1)!, k = 1..8, and of cosine, (-1)^k / (2k)!,
-#: k = 2..9: for |x| <= pi/4 the next terms are below 1e-19 of the result
+#: k = 2..9: for |x| <= pi/4 the first terms left out are ~1.2e-19 (sine) and ~3e-21
+#: (cosine) of the result
 _S1, _S2, _S3, _S4, _S5, _S6, _S7, _S8 = (
     (-1) ** k / math.factorial(2 * k + 1) for k in range(1, 9)
 )
@@ -49,13 +50,15 @@ SMALL_ANGLE_DEG = 45.0
 
 @compiled
 def _sin_cos_small(x):
-    """``sin(x), cos(x)`` for ``|x| <= pi/4`` (rad), within 0.75 ulp of the exact values.
+    """``sin(x), cos(x)`` for ``|x| <= pi/4`` (rad), within 0.75 ulp of the exact values
+    (measured on 205,000 angles against long double; tested < 0.8 ulp).
 
     The Taylor polynomials in the form of fdlibm's ``__kernel_sin`` / ``__kernel_cos``
     (``cos = w + (((1 - w) - z/2) + z^2 Q(z))`` with ``w = 1 - z/2``, ``z = x^2``: the
     rounding of ``1 - z/2`` recovered). No call, so LLVM vectorises a loop of them: ~6x
-    faster than libm's ``sin`` and ``cos`` here; they differ from libm's (correctly
-    rounded, 0.5 ulp) by 1 ulp in ~3 % of the values (``tests/test_scan_kernel.py``).
+    faster than libm's ``sin`` and ``cos`` here; they differ from glibc's (within ~0.5 ulp
+    here) by 1 ulp in ~3 % of the values, and not in the sign of a zero
+    (``tests/test_scan_kernel.py``).
     """
     z = x * x
     s = x + x * z * (
@@ -68,7 +71,8 @@ def _sin_cos_small(x):
         * z
         * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * (_C6 + z * (_C7 + z * (_C8 + z * _C9)))))))
     )
-    return s, w + (((1.0 - w) - hz) + q)
+    # x itself where z is 0 (x = +-0, or below 1e-162): sin(-0) = -0, as libm gives it
+    return (s if z != 0.0 else x), w + (((1.0 - w) - hz) + q)
 
 
 @compiled

@@ -182,8 +182,8 @@ def tilt_series(
         + np.deg2rad(par["spread_deg"])[..., None] * z_dir
     )
     # the roll and pitch spectra, zero above the synthesised bins: padded here, as irfft
-    # would pad them (the same bits; numpy's irfft pads a batch ~2.5x slower than it
-    # transforms it)
+    # would pad them (the same bits; numpy's irfft pads a batch row by row, ~0.1 ms a
+    # record more in the campaign's workers)
     spec = np.zeros((2,) + var_bins.shape[:1] + (n_f,), complex)
     spec[0, :, :n_b] = (coef * np.sin(theta)).sum(axis=1)  # roll = +d(eta)/dy (module docstring)
     spec[1, :, :n_b] = (-coef * np.cos(theta)).sum(axis=1)  # pitch = -d(eta)/dx
