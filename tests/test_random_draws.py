@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flidar_uq.random_draws import _MIN_COMPILED, standard_normals
+from flidar_uq.random_draws import _MIN_COMPILED, complex_normals, standard_normals
 
 BIT_GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
 #: the ziggurat's rightmost layer boundary (NumPy's ziggurat_nor_r): values beyond it come
@@ -112,3 +112,16 @@ def test_the_bit_generators_lock_is_held():
         assert worker.is_alive() and not done  # waiting for the lock
     worker.join(10.0)
     assert done and not worker.is_alive()
+
+
+def test_complex_normals_are_the_scaled_draws_in_order():
+    """Real parts, imaginary parts, then the further arrays: NumPy's draws in that order,
+    each part times the scale."""
+    ours, numpys = _pair("PCG64", 21)
+    scale = np.linspace(0.0, 2.0, 3 * 1001).reshape(3, 1001)
+    coef, extra = complex_normals(ours, scale, (2, 7))
+    re, im, want_extra = (numpys.standard_normal(s) for s in (scale.shape, scale.shape, (2, 7)))
+    np.testing.assert_array_equal(coef.real, re * scale)
+    np.testing.assert_array_equal(coef.imag, im * scale)
+    np.testing.assert_array_equal(extra, want_extra)
+    assert _same_state(ours.bit_generator.state, numpys.bit_generator.state)

@@ -28,7 +28,7 @@ import numpy as np
 
 from flidar_uq.compiled import compiled
 
-__all__ = ["standard_normals"]
+__all__ = ["complex_normals", "standard_normals"]
 
 #: below this many values NumPy's method is faster (numba unboxes a Generator in ~9 us)
 _MIN_COMPILED = 2048
@@ -73,3 +73,33 @@ def standard_normals(rng: np.random.Generator, *shapes) -> list[np.ndarray]:
         flat[end - size : end].reshape(shape)
         for shape, size, end in zip(shapes, sizes, ends, strict=True)
     ]
+
+
+def complex_normals(rng: np.random.Generator, scale, *shapes) -> list[np.ndarray]:
+    """Complex Gaussian coefficients ``scale * (a + 1j b)``, then arrays of ``shapes``.
+
+    ``a`` and ``b`` are standard normal arrays of ``scale``'s shape, all real parts drawn
+    first, then all imaginary parts, then the arrays of ``shapes``
+    (:func:`standard_normals`); each part multiplied by ``scale`` on its own (the values of
+    ``(a + 1j b) * scale``). The spectral synthesis of the turbulence and of the sea state.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator; advanced by the draws.
+    scale : array_like
+        Real factor of each coefficient (in the unit of the coefficients).
+    *shapes : int or tuple of int
+        Shapes of standard normal arrays drawn after the coefficients.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        The complex coefficients, then one array per shape.
+    """
+    scale = np.asarray(scale, float)
+    re, im, *more = standard_normals(rng, scale.shape, scale.shape, *shapes)
+    coef = np.empty(scale.shape, complex)
+    np.multiply(re, scale, out=coef.real)
+    np.multiply(im, scale, out=coef.imag)
+    return [coef, *more]

@@ -165,14 +165,10 @@ def tilt_series(
     area = shape.sum(axis=-1, keepdims=True) * df
     var_bins = amp[..., None] ** 2 * shape * df / np.where(area > 0, area, np.inf)
     # complex coefficient per (record, system, bin); x = n irfft(C): E power 4 s^2
-    from flidar_uq.random_draws import standard_normals  # numba: imported where drawn
+    from flidar_uq.random_draws import complex_normals  # numba: imported where drawn
 
-    # the coefficients' real and imaginary parts, then the components' directions
-    re, im, z_dir = standard_normals(rng, var_bins.shape, var_bins.shape, var_bins.shape)
-    scale = 0.5 * np.sqrt(var_bins)
-    coef = np.empty(var_bins.shape, complex)  # (a + 1j b) s, a part at a time (the same values)
-    np.multiply(re, scale, out=coef.real)
-    np.multiply(im, scale, out=coef.imag)
+    # the complex coefficients, then the components' directions
+    coef, z_dir = complex_normals(rng, 0.5 * np.sqrt(var_bins), var_bins.shape)
     coef[..., 0] = 0.0
     if n % 2 == 0 and n_b == n_f:
         coef[..., -1] = 0.0

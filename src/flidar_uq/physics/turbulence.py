@@ -175,19 +175,14 @@ def kaimal_series(
     # PyConTurb does), i.e. the Kaimal shape between 1/T and the Nyquist frequency
     band = var_bins.sum(axis=-1, keepdims=True)
     var_bins *= sig_k[..., None] ** 2 / np.where(band > 0, band, np.inf)
-    shape = batch + (3, f.size)
     # x = n irfft(C): interior bins contribute 2 Re(C_k e^{i 2 pi k t / n}), whose
     # expected power is 4 |s_k|^2 for C_k = s_k (a + i b), a, b ~ N(0, 1);
     # the Nyquist bin (even n) contributes C (-1)^t with C real.
-    from flidar_uq.random_draws import standard_normals  # numba: imported where drawn
+    from flidar_uq.random_draws import complex_normals  # numba: imported where drawn
 
-    # the real parts, the imaginary parts, then the real Nyquist bins (even n)
+    # the complex coefficients, then the real Nyquist bins (even n)
     nyquist_shape = [batch + (3,)] if n % 2 == 0 else []
-    re, im, *nyquist = standard_normals(rng, shape, shape, *nyquist_shape)
-    scale = 0.5 * np.sqrt(var_bins)
-    coef = np.empty(shape, complex)  # (a + 1j b) s, a part at a time (the same values)
-    np.multiply(re, scale, out=coef.real)
-    np.multiply(im, scale, out=coef.imag)
+    coef, *nyquist = complex_normals(rng, 0.5 * np.sqrt(var_bins), *nyquist_shape)
     if nyquist:
         coef[..., -1] = nyquist[0] * np.sqrt(var_bins[..., -1])
     x = np.fft.irfft(coef, n=n, axis=-1) * n
