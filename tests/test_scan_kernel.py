@@ -207,45 +207,12 @@ def _libm(x):
     return np.array([math.cos(v) for v in x.tolist()]), np.array([math.sin(v) for v in x.tolist()])
 
 
-def test_small_angle_trig_within_an_ulp():
-    """Roll and pitch within 45 deg: the polynomials (not libm: a few % of the values
-    differ by 1 ulp, the sign of zeros kept), within 0.75 ulp of the exact sine and cosine
-    (long double reference; bound 0.8), at most 1 ulp from libm's."""
-    rng = np.random.default_rng(11)
-    edge = scan_kernel.SMALL_ANGLE_DEG
-    deg = np.concatenate(
-        [
-            rng.uniform(-edge, edge, 200_000),
-            rng.uniform(-1e-3, 1e-3, 5_000),
-            [0.0, -0.0, edge, -edge, 1e-300, -1e-300, np.nextafter(edge, 0.0)],
-        ]
-    )
-    cos, sin, x, *_ = _trig_of(deg)
-    # the polynomials' values, bit for bit (their branch was taken)
-    for k in rng.choice(deg.size, 300, replace=False).tolist() + list(range(-7, 0)):
-        s_k, c_k = scan_kernel._sin_cos_small(x[k])
-        assert _bits(sin[k]) == _bits(s_k) and _bits(cos[k]) == _bits(c_k)
-    for got, libm in zip((cos, sin), _libm(x), strict=True):
-        zero = libm == 0.0
-        np.testing.assert_array_equal(_bits(got[zero]), _bits(libm[zero]))  # -0.0 stays -0.0
-        ulps = np.abs(got - libm)[~zero] / np.spacing(np.abs(libm[~zero]))
-        assert ulps.max() <= 1.0
-        assert 0.9 < np.mean(got == libm) < 0.995  # ~97-98 % identical, the rest by 1 ulp
-    if np.finfo(np.longdouble).eps >= np.finfo(float).eps:
-        pytest.skip("no extended precision for the exact reference on this platform")
-    xl = x.astype(np.longdouble)
-    for got, exact in ((cos, np.cos(xl)), (sin, np.sin(xl))):
-        nz = got != 0.0
-        err = np.abs((got[nz].astype(np.longdouble) - exact[nz]) / np.spacing(np.abs(got[nz])))
-        assert float(err.max()) < 0.8
-
-
 @pytest.mark.parametrize("axis", ["roll", "pitch"])
-def test_large_angles_take_libm_trig(axis):
-    """A record whose roll or pitch passes 45 deg gets libm's values bit for bit for both
-    (the polynomials' range ends there), the whole record."""
-    big = np.linspace(-20.0, 60.0, 1001)
-    small = np.linspace(-5.0, 5.0, 1001)
+def test_attitude_trig_is_libm(axis):
+    """The kernel's roll and pitch cosines and sines are libm's, bit for bit, at small and
+    large angles (zeros keep their sign)."""
+    big = np.concatenate([np.linspace(-20.0, 60.0, 1001), [0.0, -0.0]])
+    small = np.concatenate([np.linspace(-5.0, 5.0, 1001), [-0.0, 0.0]])
     roll, pitch = (big, small) if axis == "roll" else (small, big)
     cr, sr, xr, cp, sp, xp = _trig_of(roll, pitch)
     for got, want in zip((cr, sr, cp, sp), (*_libm(xr), *_libm(xp)), strict=True):

@@ -1,7 +1,6 @@
 """The decorator of the package's compiled loops (numba): machine code cached on disk.
 
-Used by :mod:`flidar_uq.campaign.scan_kernel`, :mod:`flidar_uq.data.imu_kernels` and
-:mod:`flidar_uq.random_draws`. The
+Used by :mod:`flidar_uq.campaign.scan_kernel` and :mod:`flidar_uq.data.imu_kernels`. The
 loops add in a fixed order without fast-math flags, so their results are the same on every
 CPU (NumPy's and BLAS's reductions may group sums by the SIMD width they find).
 """

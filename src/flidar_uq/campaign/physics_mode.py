@@ -55,11 +55,10 @@ Speed: every line of sight of a record (attitude, head velocity, wind, radial sp
 fit, reference lidar) and its true motion statistics are simulated in one compiled pass,
 :func:`flidar_uq.campaign.scan_kernel.simulate_chunk_scans` (numba), right after the
 record's series are drawn (still in cache; the long series are dropped after it); the
-Gaussian draws go through numba's port of NumPy's ziggurat (:mod:`flidar_uq.random_draws`,
-the same numbers) and the IMU estimators' detrend and Welch loops are compiled too
-(:mod:`flidar_uq.data.imu_kernels`); the 10-min statistics are NumPy over the chunk. The
-workers import neither pandas nor scipy's subpackages. The default campaign (8640 records)
-takes ~21 s on 2 workers (``benchmarks/campaign_generation.py``, docs/performance.md).
+Gaussian draws are NumPy's ``Generator.standard_normal`` and the IMU estimators' detrend and
+Welch loops are compiled too (:mod:`flidar_uq.data.imu_kernels`); the 10-min statistics are
+NumPy over the chunk. The workers import neither pandas nor scipy's subpackages
+(``benchmarks/campaign_generation.py``, docs/performance.md).
 """
 
 from __future__ import annotations
@@ -271,8 +270,6 @@ def _scan_schedule(rng, n_los, delay_slots, j_max):
 
 def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence, geo) -> dict:
     """Random series of one record, drawn from its own generator in a fixed order."""
-    from flidar_uq.random_draws import standard_normals  # numba: imported where drawn
-
     rng = np.random.default_rng(ss)
     t_len = float(settings["record_length_s"])
     dt = geo.los_duration_s
@@ -339,7 +336,7 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
     imu = settings["imu"]
     rate = float(imu["rate_hz"])
     n_imu = int(np.floor(t_len * rate + 1e-9))
-    noise = float(imu["noise_deg"]) * standard_normals(rng, (3, n_imu))[0]  # rng.standard_normal's
+    noise = float(imu["noise_deg"]) * rng.standard_normal((3, n_imu))
     gap = None
     if rng.random() < float(imu["gap_probability"]):
         g_len = rng.uniform(*imu["gap_length_range_s"])

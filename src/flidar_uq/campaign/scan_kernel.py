@@ -19,8 +19,7 @@ contracts no multiply-add without fast-math flags). Differences of rounding size
 The attitude's cosines and sines are computed once per LOS slot, a record at a time into a
 scratch array that stays in cache for its lines of sight and its truth (the chunk-wide
 :func:`attitude_trig` and :func:`attitude_truth` compute the same, the tests' reference for
-the kernel's per-record pass); roll and pitch within 45 deg by polynomials
-(:func:`_sin_cos_small`, within 1 ulp of libm's values), else and the heading by libm.
+the kernel's per-record pass), by libm.
 
 Compiled with numba on first use in a process and cached on disk
 (:func:`flidar_uq.compiled.compiled`).
@@ -37,67 +36,18 @@ from flidar_uq.compiled import compiled
 __all__ = ["attitude_trig", "attitude_truth", "simulate_chunk_scans"]
 
 
-#: Taylor coefficients of sine, (-1)^k / (2k+1)!, k = 1..8, and of cosine, (-1)^k / (2k)!,
-#: k = 2..9: for |x| <= pi/4 the first terms left out are ~1.2e-19 (sine) and ~3e-21
-#: (cosine) of the result
-_S1, _S2, _S3, _S4, _S5, _S6, _S7, _S8 = (
-    (-1) ** k / math.factorial(2 * k + 1) for k in range(1, 9)
-)
-_C2, _C3, _C4, _C5, _C6, _C7, _C8, _C9 = ((-1) ** k / math.factorial(2 * k) for k in range(2, 10))
-#: largest angle of :func:`_sin_cos_small`, deg
-SMALL_ANGLE_DEG = 45.0
-
-
-@compiled
-def _sin_cos_small(x):
-    """``sin(x), cos(x)`` for ``|x| <= pi/4`` (rad), within 0.75 ulp of the exact values
-    (measured on 205,000 angles against long double; tested < 0.8 ulp).
-
-    The Taylor polynomials in the form of fdlibm's ``__kernel_sin`` / ``__kernel_cos``
-    (``cos = w + (((1 - w) - z/2) + z^2 Q(z))`` with ``w = 1 - z/2``, ``z = x^2``: the
-    rounding of ``1 - z/2`` recovered). No call, so LLVM vectorises a loop of them: ~6x
-    faster than libm's ``sin`` and ``cos`` here; they differ from glibc's (within ~0.5 ulp
-    here) by 1 ulp in ~3 % of the values, and not in the sign of a zero
-    (``tests/test_scan_kernel.py``).
-    """
-    z = x * x
-    s = x + x * z * (
-        _S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * (_S6 + z * (_S7 + z * _S8))))))
-    )
-    hz = 0.5 * z
-    w = 1.0 - hz
-    q = (
-        z
-        * z
-        * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * (_C6 + z * (_C7 + z * (_C8 + z * _C9)))))))
-    )
-    # x itself where z is 0 (x = +-0, or below 1e-162): sin(-0) = -0, as libm gives it
-    return (s if z != 0.0 else x), w + (((1.0 - w) - hz) + q)
-
-
 @compiled
 def _trig_into(roll_deg, pitch_deg, yaw_deg, c, out, oc):
     """Record ``c``'s cosines and sines (:func:`attitude_trig`) into ``out[:, oc, :]``."""
     n = roll_deg.shape[1]
     to_rad = np.pi / 180.0
-    small = True  # a buoy's roll and pitch: within 45 deg, the polynomials' range
     for t in range(n):
-        if abs(roll_deg[c, t]) > SMALL_ANGLE_DEG or abs(pitch_deg[c, t]) > SMALL_ANGLE_DEG:
-            small = False
-            break
-    for t in range(n):  # the test of `small` is hoisted out of the loop by LLVM
         r = roll_deg[c, t] * to_rad
         p = pitch_deg[c, t] * to_rad
-        if small:
-            sr, cr = _sin_cos_small(r)
-            sp, cp = _sin_cos_small(p)
-        else:
-            sr, cr = math.sin(r), math.cos(r)
-            sp, cp = math.sin(p), math.cos(p)
-        out[0, oc, t] = cr
-        out[1, oc, t] = sr
-        out[2, oc, t] = cp
-        out[3, oc, t] = sp
+        out[0, oc, t] = math.cos(r)
+        out[1, oc, t] = math.sin(r)
+        out[2, oc, t] = math.cos(p)
+        out[3, oc, t] = math.sin(p)
     if yaw_deg.shape[1] == 1:
         y = yaw_deg[c, 0] * to_rad
         cy, sy = math.cos(y), math.sin(y)
@@ -117,11 +67,8 @@ def attitude_trig(roll_deg, pitch_deg, yaw_deg):
 
     ``roll_deg``, ``pitch_deg``: shape (C, N), deg; ``yaw_deg``: (C, N), or (C, 1) for a
     constant heading (one cosine and sine a record, broadcast). The angle in rad is
-    ``deg * (pi / 180)`` as ``numpy.deg2rad`` computes it. A record whose roll and pitch
-    stay within :data:`SMALL_ANGLE_DEG` gets theirs from :func:`_sin_cos_small` (within 1
-    ulp of libm's, ~6x faster); other records and the heading get libm's ``cos`` and
-    ``sin`` (~2x faster than NumPy's two passes here, the same bits on the development
-    machine).
+    ``deg * (pi / 180)`` as ``numpy.deg2rad`` computes it; the cosines and sines are
+    libm's.
     """
     n_c, n = roll_deg.shape
     out = np.empty((6, n_c, n))

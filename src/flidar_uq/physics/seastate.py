@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from flidar_uq.physics.turbulence import complex_normal_coefficients
+
 __all__ = [
     "WaveSystem",
     "jonswap_spectrum",
@@ -165,10 +167,9 @@ def tilt_series(
     area = shape.sum(axis=-1, keepdims=True) * df
     var_bins = amp[..., None] ** 2 * shape * df / np.where(area > 0, area, np.inf)
     # complex coefficient per (record, system, bin); x = n irfft(C): E power 4 s^2
-    from flidar_uq.random_draws import complex_normals  # numba: imported where drawn
-
     # the complex coefficients, then the components' directions
-    coef, z_dir = complex_normals(rng, 0.5 * np.sqrt(var_bins), var_bins.shape)
+    coef = complex_normal_coefficients(rng, 0.5 * np.sqrt(var_bins))
+    z_dir = rng.standard_normal(var_bins.shape)
     coef[..., 0] = 0.0
     if n % 2 == 0 and n_b == n_f:
         coef[..., -1] = 0.0

@@ -26,6 +26,7 @@ import numpy as np
 
 __all__ = [
     "IEC_SIGMA_RATIOS",
+    "complex_normal_coefficients",
     "KAIMAL_LENGTH_PER_LAMBDA1",
     "kaimal_lambda1_m",
     "kaimal_length_scales_m",
@@ -178,17 +179,39 @@ def kaimal_series(
     # x = n irfft(C): interior bins contribute 2 Re(C_k e^{i 2 pi k t / n}), whose
     # expected power is 4 |s_k|^2 for C_k = s_k (a + i b), a, b ~ N(0, 1);
     # the Nyquist bin (even n) contributes C (-1)^t with C real.
-    from flidar_uq.random_draws import complex_normals  # numba: imported where drawn
-
-    # the complex coefficients, then the real Nyquist bins (even n)
-    nyquist_shape = [batch + (3,)] if n % 2 == 0 else []
-    coef, *nyquist = complex_normals(rng, 0.5 * np.sqrt(var_bins), *nyquist_shape)
-    if nyquist:
-        coef[..., -1] = nyquist[0] * np.sqrt(var_bins[..., -1])
+    # the complex coefficients (real parts, then imaginary parts), then the real Nyquist
+    # bins (even n)
+    coef = complex_normal_coefficients(rng, 0.5 * np.sqrt(var_bins))
+    if n % 2 == 0:
+        coef[..., -1] = rng.standard_normal(batch + (3,)) * np.sqrt(var_bins[..., -1])
     x = np.fft.irfft(coef, n=n, axis=-1) * n
     if exact_variance:
         x *= sig_k[..., None] / np.maximum(x.std(axis=-1, keepdims=True), 1e-300)
     return x
+
+
+def complex_normal_coefficients(rng: np.random.Generator, scale) -> np.ndarray:
+    """Complex Gaussian coefficients ``scale * (a + 1j b)`` of a spectral synthesis.
+
+    ``a`` and ``b`` are independent standard normal arrays of ``scale``'s shape, all real
+    parts drawn first, then all imaginary parts (``rng.standard_normal``).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator; advanced by ``2 * scale.size`` draws.
+    scale : array_like
+        Real factor of each coefficient (in the unit of the synthesised series).
+
+    Returns
+    -------
+    numpy.ndarray of complex
+    """
+    scale = np.asarray(scale, float)
+    coef = np.empty(scale.shape, complex)
+    np.multiply(rng.standard_normal(scale.shape), scale, out=coef.real)
+    np.multiply(rng.standard_normal(scale.shape), scale, out=coef.imag)
+    return coef
 
 
 def wind_enu_ms(hws_ms, wd_deg, fluct_uvw_ms):
