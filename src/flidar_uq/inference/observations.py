@@ -5,35 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from flidar_uq.physics.six_dof_sigma_z import translation_unit_sq
 from flidar_uq.physics.surrogate import default_surrogate
 from flidar_uq.seeding import as_seedsequence
 from flidar_uq.threads import single_threaded
-
-
-def translation_unit_sq(amplitude_deg, period_s, scan_period_s=1.0):
-    """Squared HWS error per metre of lever arm from the head's translation, (m/s)^2 / m^2.
-
-    Roll and pitch ``A sin(2 pi t / T + phi)`` about a centre ``L`` below the head move it
-    horizontally at ``L A (2 pi / T) cos(...)`` per axis; with independent phases the
-    component along the wind has variance ``(L A 2 pi / T)^2 / 2``. The VAD fit over one
-    scan of ``scan_period_s`` averages it by ``sinc(scan / T)``. Checked against
-    design.md: 3 deg, 4 s, 4 m gives 0.21 m/s (design.md: sqrt(0.28^2 - 0.18^2) = 0.21).
-
-    Parameters
-    ----------
-    amplitude_deg, period_s : array_like
-        Motion amplitude (deg) and period (s), broadcastable.
-    scan_period_s : float
-        Duration of one VAD scan (s).
-
-    Returns
-    -------
-    numpy.ndarray
-        ``u^2`` such that ``sigma_Z,trans = L u``.
-    """
-    a = np.deg2rad(np.asarray(amplitude_deg, dtype=float))
-    t = np.asarray(period_s, dtype=float)
-    return 0.5 * (a * 2.0 * np.pi / t * np.sinc(scan_period_s / t)) ** 2
 
 
 def effective_sigma_z_ms(sz_rot_ms, unit_sq, lever_arm_m, motion_scale=1.0):

@@ -636,6 +636,7 @@ def replay_sigma_z(
     lidar: str | LidarGeometry = "zephir300",
     scan_interval_s: float | None = None,
     sign_ambiguity: bool = False,
+    translation_m=None,
 ) -> ReplayResult:
     """Realised sigma_Z of a record: its attitude series replayed through the scan simulator.
 
@@ -665,6 +666,9 @@ def replay_sigma_z(
         Time between scan starts, s; default the scan period.
     sign_ambiguity : bool
         Default False: signed linear retrieval, as :func:`~flidar_uq.physics.simulator.sigma_z`.
+    translation_m : array_like, shape (m, 3), optional
+        Earth-frame (east, north, up) displacement of the rotation centre (surge, sway,
+        heave), m: the six-degree-of-freedom replay (head velocity by central differences).
 
     Returns
     -------
@@ -679,7 +683,14 @@ def replay_sigma_z(
     )
     if yaw_deg is not None:  # a heading that wraps (359 -> 1 deg) must not swing through 180
         yaw_deg = np.rad2deg(np.unwrap(np.deg2rad(np.asarray(yaw_deg, float))))
-    motion = SampledMotion(t, roll_deg, pitch_deg, yaw_deg, lever_arm_m=arm)
+    trans = (
+        {}
+        if translation_m is None
+        else dict(
+            zip(("surge_m", "sway_m", "heave_m"), np.asarray(translation_m, float).T, strict=True)
+        )
+    )
+    motion = SampledMotion(t, roll_deg, pitch_deg, yaw_deg, lever_arm_m=arm, **trans)
     dt_scan = g.scan_period_s if scan_interval_s is None else float(scan_interval_s)
     t_los, az0 = scan_times_azimuths(g, 0.0)
     starts = np.arange(t[0], t[-1] - g.scan_period_s, dt_scan)
@@ -690,7 +701,8 @@ def replay_sigma_z(
     phase = (golden * np.arange(starts.size)) % (2.0 * np.pi)
     az = az0[None, :] + (phase[:, None] if g.kind == "vad" else 0.0)
     roll, pitch, yaw = motion.attitude_rad(tt)
-    head = motion.head_velocity_ms(tt) if any(a != 0 for a in arm) else None
+    moving = any(a != 0 for a in arm) or translation_m is not None
+    head = motion.head_velocity_ms(tt) if moving else None
     _, ret = simulate_scans(
         g,
         wind_vector_ms(hws_ms, wd_deg),

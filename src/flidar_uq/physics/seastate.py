@@ -23,12 +23,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from flidar_uq.physics.hull import G_MS2, get_hull
 from flidar_uq.physics.turbulence import complex_normal_coefficients
 
 __all__ = [
     "WaveSystem",
     "jonswap_spectrum",
     "tilt_series",
+    "hull_motion_series",
     "dominant_period_s",
 ]
 
@@ -141,6 +143,27 @@ def tilt_series(
         Tilt series (deg), shape ``(n_samples,)`` for a sequence of systems or
         ``(n_records, n_samples)`` for a batch dict.
     """
+    comp = _sea_components(n_samples, dt_s, systems, rng)
+    roll, pitch = _tilt_from_components(comp)
+    if comp.single:
+        return roll[0], pitch[0]
+    return roll, pitch
+
+
+@dataclass(frozen=True)
+class _SeaComponents:
+    """The Fourier components of a batch of records' seas (:func:`_sea_components`)."""
+
+    n: int  # samples per series
+    n_f: int  # one-sided bins of the series
+    f_hz: np.ndarray  # (nb,) frequencies of the synthesised bins
+    coef: np.ndarray  # (R, S, nb) complex slope coefficients, deg (x = n irfft)
+    theta: np.ndarray  # (R, S, nb) directions of travel, rad, from the body x axis
+    single: bool
+
+
+def _sea_components(n_samples, dt_s, systems, rng) -> _SeaComponents:
+    """Draw the complex slope coefficient and the direction of every Fourier component."""
     n = int(n_samples)
     if n < 8:
         raise ValueError(f"tilt_series: n_samples must be >= 8, got {n_samples!r}")
@@ -178,16 +201,87 @@ def tilt_series(
         np.deg2rad(par["direction_deg"])[..., None]
         + np.deg2rad(par["spread_deg"])[..., None] * z_dir
     )
-    # the roll and pitch spectra, zero above the synthesised bins: padded here, as irfft
-    # would pad them (the same bits; numpy's irfft pads a batch row by row, ~0.1 ms a
-    # record more in the campaign's workers)
-    spec = np.zeros((2,) + var_bins.shape[:1] + (n_f,), complex)
-    spec[0, :, :n_b] = (coef * np.sin(theta)).sum(axis=1)  # roll = +d(eta)/dy (module docstring)
-    spec[1, :, :n_b] = (-coef * np.cos(theta)).sum(axis=1)  # pitch = -d(eta)/dx
-    roll, pitch = np.fft.irfft(spec, n=n, axis=-1) * n
-    if single:
-        return roll[0], pitch[0]
-    return roll, pitch
+    return _SeaComponents(n, n_f, f, coef, theta, single)
+
+
+def _series(comp: _SeaComponents, spectra: list[np.ndarray]) -> np.ndarray:
+    """Series ``n irfft`` of one-sided spectra over the synthesised bins, shape
+    ``(len(spectra), R, n)``; the bins above are zero (padded here, as irfft would pad
+    them: numpy's irfft pads a batch row by row)."""
+    spec = np.zeros((len(spectra), comp.coef.shape[0], comp.n_f), complex)
+    for k, s in enumerate(spectra):
+        spec[k, :, : comp.f_hz.size] = s
+    return np.fft.irfft(spec, n=comp.n, axis=-1) * comp.n
+
+
+def _tilt_from_components(comp: _SeaComponents):
+    coef, theta = comp.coef, comp.theta
+    roll = (coef * np.sin(theta)).sum(axis=1)  # roll = +d(eta)/dy (module docstring)
+    pitch = (-coef * np.cos(theta)).sum(axis=1)  # pitch = -d(eta)/dx
+    return _series(comp, [roll, pitch])
+
+
+def hull_motion_series(
+    n_samples: int,
+    dt_s: float,
+    systems,
+    rng: np.random.Generator,
+    hull,
+    *,
+    return_components: bool = False,
+):
+    """Roll, pitch, and the translation of a hull in a directional sea (six degrees of freedom).
+
+    The tilt is :func:`tilt_series`'s (the same draws, the same numbers); each Fourier
+    component of slope ``S`` (the hull's tilt response applied) moves the hull horizontally
+    by ``R_x S / k`` along its direction of travel and vertically by ``R_z i S / k``
+    (linear deep-water waves, ``k = (2 pi f)^2 / g``; ``R_x, R_z`` the hull's responses
+    relative to its tilt, :meth:`flidar_uq.physics.hull.HullResponse.relative_responses`;
+    :mod:`flidar_uq.physics.hull`). Tilt and translation of one component are coherent.
+
+    Parameters
+    ----------
+    n_samples, dt_s, systems, rng
+        As :func:`tilt_series`.
+    hull : str or HullResponse
+        The hull (:data:`flidar_uq.physics.hull.HULLS`).
+    return_components : bool
+        Also return ``components``: the realised Fourier components, ``amplitude_deg``
+        (lean amplitude along the direction of travel, ``2 |C|``, deg), ``period_s`` (s) and
+        ``direction_deg`` (of travel, from the body x axis, counter-clockwise, deg), each of
+        shape ``(n_records, n_systems, n_bins)`` (the spectral description of the record).
+
+    Returns
+    -------
+    dict
+        ``roll_deg``, ``pitch_deg`` (deg), ``surge_m``, ``sway_m`` (horizontal displacement
+        along the body x and y axes of a constant heading, m) and ``heave_m`` (up, m), each
+        of shape ``(n_samples,)`` for a sequence of systems or ``(n_records, n_samples)``.
+    """
+    comp = _sea_components(n_samples, dt_s, systems, rng)
+    roll, pitch = _tilt_from_components(comp)
+    h = get_hull(hull)
+    f = comp.f_hz
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv_k = np.where(f > 0, G_MS2 / (2.0 * np.pi * np.where(f > 0, f, 1.0)) ** 2, 0.0)
+        period = np.where(f > 0, 1.0 / np.where(f > 0, f, 1.0), np.inf)
+    r_x, r_z = h.relative_responses(period)
+    slope_m = np.deg2rad(1.0) * comp.coef * inv_k  # S / k, m, per component
+    along = r_x * slope_m
+    surge = (along * np.cos(comp.theta)).sum(axis=1)
+    sway = (along * np.sin(comp.theta)).sum(axis=1)
+    heave = (1j * r_z * slope_m).sum(axis=1)
+    surge, sway, heave = _series(comp, [surge, sway, heave])
+    out = dict(roll_deg=roll, pitch_deg=pitch, surge_m=surge, sway_m=sway, heave_m=heave)
+    if comp.single:
+        out = {k: v[0] for k, v in out.items()}
+    if return_components:
+        out["components"] = dict(
+            amplitude_deg=2.0 * np.abs(comp.coef),
+            period_s=np.broadcast_to(period, comp.coef.shape),
+            direction_deg=np.rad2deg(comp.theta),
+        )
+    return out
 
 
 def dominant_period_s(series, dt_s, *, min_period_s=1.0, max_period_s=30.0):

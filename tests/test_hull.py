@@ -1,0 +1,167 @@
+"""The hull in six degrees of freedom: responses, wave kinematics, the band sum of sigma_Z."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from flidar_uq.physics import motion_spectrum as ms
+from flidar_uq.physics.hull import (
+    G_MS2,
+    HULLS,
+    DofResponse,
+    get_hull,
+    orbital_lever_arm_m,
+    phase_speed_ms,
+)
+from flidar_uq.physics.seastate import WaveSystem, hull_motion_series, tilt_series
+from flidar_uq.physics.six_dof_sigma_z import six_dof_band_sigma_z_ms, translation_unit_sq
+
+
+def test_orbital_lever_arm_and_phase_speed_of_deep_water_waves():
+    """g / omega^2: ~2 m at 3 s, ~9 m at 6 s, ~25 m at 10 s; c = g T / (2 pi)."""
+    np.testing.assert_allclose(
+        orbital_lever_arm_m([3.0, 6.0, 10.0]), [2.236, 8.943, 24.84], rtol=1e-3
+    )
+    np.testing.assert_allclose(phase_speed_ms(8.0), G_MS2 * 8.0 / (2 * np.pi))
+
+
+def test_named_hull_responses():
+    t = np.array([1.5, 3.0, 6.0, 12.0, 60.0])
+    rx, rz = HULLS["wave_follower"].relative_responses(t)
+    np.testing.assert_array_equal(rx, 1.0)
+    np.testing.assert_array_equal(rz, 1.0)
+    rx, rz = HULLS["rotation_only"].relative_responses(t)
+    np.testing.assert_array_equal(rx, 0.0)
+    np.testing.assert_array_equal(rz, 0.0)
+    # an oscillator follows waves much longer than its natural period, not much shorter ones
+    h = DofResponse(natural_period_s=3.0, damping_ratio=0.3)
+    assert abs(h.rao(300.0)) == pytest.approx(1.0, abs=1e-3)
+    assert abs(h.rao(0.3)) < 0.011
+    heave = np.abs(HULLS["discus_buoy"].heave.rao([1.0, 60.0]))
+    assert heave[1] > 0.99 and heave[0] < 0.5
+    spar = HULLS["spar"]
+    assert np.all(np.abs(spar.heave.rao([3.0, 6.0, 10.0])) < 0.2)
+
+
+def test_unknown_hull_names_the_known_ones():
+    with pytest.raises(
+        ValueError, match="known hulls: discus_buoy, rotation_only, spar, wave_follower"
+    ):
+        get_hull("barge")
+    with pytest.raises(ValueError, match="natural_period_s and damping_ratio"):
+        DofResponse(natural_period_s=-1.0)
+
+
+def _unidirectional(direction_deg, hull="wave_follower", seed=3):
+    sea = [WaveSystem(3.0, 7.0, gamma=10.0, direction_deg=direction_deg, spread_deg=0.0)]
+    rng = np.random.default_rng(seed)
+    return hull_motion_series(12000, 0.1, sea, rng, hull)
+
+
+@pytest.mark.parametrize("direction_deg", [0.0, 60.0, -150.0])
+def test_wave_follower_kinematics_of_linear_waves(direction_deg):
+    """Linear deep-water waves, Fourier component by component: the heave velocity in phase
+    with the lean along the direction of travel and ``c = g / omega`` times it (the water
+    rises on the front face, where the hull leans forward); the horizontal orbital velocity
+    in phase with the elevation and ``omega`` times it (forward at a crest); nothing across
+    the direction of travel without spreading."""
+    dt = 0.1
+    m = _unidirectional(direction_deg)
+    e = np.array([np.cos(np.deg2rad(direction_deg)), np.sin(np.deg2rad(direction_deg))])
+    lean = (
+        np.deg2rad(m["pitch_deg"]) * e[0] - np.deg2rad(m["roll_deg"]) * e[1]
+    )  # body z (pitch, -roll)
+    horiz = m["surge_m"] * e[0] + m["sway_m"] * e[1]
+    f = np.fft.rfftfreq(lean.size, dt)
+    lean_f, heave_f, horiz_f = (np.fft.rfft(x) for x in (lean, m["heave_m"], horiz))
+    w = 2 * np.pi * f
+    band = np.abs(lean_f) > 1e-3 * np.abs(lean_f).max()
+    assert band.sum() > 50
+    heave_velocity_per_lean = (1j * w * heave_f)[band] / lean_f[band]
+    np.testing.assert_allclose(heave_velocity_per_lean, G_MS2 / w[band], rtol=1e-9)
+    horiz_velocity_per_elevation = (1j * w * horiz_f)[band] / heave_f[band]
+    np.testing.assert_allclose(horiz_velocity_per_elevation, w[band], rtol=1e-9)
+    across = -m["surge_m"] * e[1] + m["sway_m"] * e[0]
+    assert np.std(across) < 1e-9 * np.std(horiz)
+
+
+def test_hull_motion_keeps_the_tilt_series_draws_and_rotation_only_stays():
+    sea = [WaveSystem(3.0, 5.0), WaveSystem(1.5, 10.0, 6.0, 90.0, 10.0)]
+    r0, p0 = tilt_series(4096, 0.05, sea, np.random.default_rng(8))
+    m = hull_motion_series(4096, 0.05, sea, np.random.default_rng(8), "wave_follower")
+    np.testing.assert_array_equal(m["roll_deg"], r0)
+    np.testing.assert_array_equal(m["pitch_deg"], p0)
+    still = hull_motion_series(4096, 0.05, sea, np.random.default_rng(8), "rotation_only")
+    for k in ("surge_m", "sway_m", "heave_m"):
+        np.testing.assert_array_equal(still[k], 0.0)
+    assert np.std(m["heave_m"]) > 0.1
+
+
+def _harmonic_six_dof(psi_deg, period_s, amplitude_deg, lever_arm_m, hull_gain, n=36000, dt=0.05):
+    """A single wave by hand: lean A sin(w t) along the direction psi from downwind (the body
+    x axis, east), horizontal displacement -g/w^2 phi, heave velocity c phi (times the gain)."""
+    t = np.arange(n) * dt
+    w = 2 * np.pi / period_s
+    phi = np.deg2rad(amplitude_deg) * np.sin(w * t)
+    e = np.array([np.cos(np.deg2rad(psi_deg)), np.sin(np.deg2rad(psi_deg))])
+    pitch, roll = np.rad2deg(phi * e[0]), -np.rad2deg(phi * e[1])
+    x_h = -hull_gain * G_MS2 / w**2 * phi
+    heave = -hull_gain * (G_MS2 / w) * np.deg2rad(amplitude_deg) * np.cos(w * t) / w
+    trans = np.column_stack([x_h * e[0], x_h * e[1], heave])
+    return t, roll, pitch, trans
+
+
+@pytest.mark.parametrize(
+    ("psi_deg", "hws_ms", "lever_arm_m", "hull"),
+    [
+        (0.0, 8.0, 0.0, "wave_follower"),  # wind sea: (U - c) leak, orbital lever arm
+        (0.0, 12.0, 3.0, "wave_follower"),
+        (90.0, 8.0, 0.0, "wave_follower"),  # across the wind: heave only
+        (180.0, 8.0, 0.0, "wave_follower"),  # against the wind: (U + c)
+        (0.0, 8.0, 3.0, "rotation_only"),
+    ],
+)
+def test_band_sum_matches_the_six_dof_replay_of_one_wave(psi_deg, hws_ms, lever_arm_m, hull):
+    """The band sum of one harmonic against the scan simulator's replay of hand-built
+    kinematics (independent of hull_motion_series): within 4 % (the replay's phase sampling
+    and second-order terms)."""
+    gain = 0.0 if hull == "rotation_only" else 1.0
+    t, roll, pitch, trans = _harmonic_six_dof(psi_deg, 6.3, 3.0, lever_arm_m, gain)
+    rep = ms.replay_sigma_z(
+        t, roll, pitch, hws_ms=hws_ms, wd_deg=270.0, lever_arm_m=lever_arm_m, translation_m=trans
+    ).sigma_z_ms
+    got = six_dof_band_sigma_z_ms(
+        hws_ms,
+        [3.0],
+        [6.3],
+        band_cos_psi=[np.cos(np.deg2rad(psi_deg))],
+        lever_arm_m=lever_arm_m,
+        hull=hull,
+    )
+    assert got == pytest.approx(rep, rel=0.04)
+    if psi_deg == 90.0:  # the tilt-only model calls this sea harmless
+        tilt_only = six_dof_band_sigma_z_ms(
+            hws_ms, [3.0], [6.3], band_cos_psi=[0.0], hull="rotation_only"
+        )
+        assert tilt_only < 1e-12 and rep > 0.05
+
+
+def test_band_sum_reduces_to_the_lever_arm_model_without_translation():
+    """rotation_only: sqrt(sZ_rot^2 + L^2 u^2) of the record model, term for term."""
+    from flidar_uq.physics.surrogate import get_surrogate
+
+    sur = get_surrogate("zephir300")
+    got = six_dof_band_sigma_z_ms(
+        [6.0, 11.0],
+        [[2.0, 1.0]],
+        [[4.0, 9.0]],
+        band_cos_psi=[[1.0, 1.0]],
+        lever_arm_m=2.5,
+        hull="rotation_only",
+    )
+    hws = np.array([6.0, 11.0])[:, None]
+    rot = sur.sigma_z_ms(hws, np.array([[2.0, 1.0]]), np.array([[4.0, 9.0]]))
+    u2 = translation_unit_sq(np.array([2.0, 1.0]), np.array([4.0, 9.0]))
+    want = np.sqrt(np.sum(rot**2 + 2.5**2 * u2, axis=-1))
+    np.testing.assert_allclose(got, want, rtol=1e-12)
