@@ -605,3 +605,42 @@ def test_campaign_workers_import_neither_pandas_nor_scipy_subpackages():
         [sys.executable, "-c", code], input=pickle.dumps(job), capture_output=True, check=True
     )
     assert out.stdout.decode().split(maxsplit=1) == ["6", "[]\n"]
+
+
+# --------------------------------------------------------------------------- six degrees of freedom
+
+
+def test_body_to_enu_turns_the_hull_axes_with_the_heading():
+    from flidar_uq.campaign.physics_mode import _body_to_enu
+
+    got = _body_to_enu(np.array([1.0]), np.array([0.0]), np.array([0.5]), 90.0)
+    np.testing.assert_allclose(got, [[0.0, 1.0, 0.5]], atol=1e-15)  # surge north at yaw 90
+    got = _body_to_enu(np.array([0.0]), np.array([2.0]), np.array([0.0]), 30.0)
+    np.testing.assert_allclose(got, [[-1.0, np.sqrt(3.0), 0.0]], atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["wave_follower", "discus_buoy"])
+def test_translating_hull_moves_with_the_same_tilt(name):
+    """A translating hull and the rotation-only buoy of the same seed tilt identically
+    (the same draws: the IMU series are equal) but the hull's translation changes the
+    lidar's error (by ~30 % on average in these four records); the translation truth is recorded (NaN for the rotation-only buoy)."""
+    sc = load_scenario(name) | {"n_records": 4}
+    still = load_scenario(name) | {"n_records": 4}
+    still["motion"]["sea_state"]["hull"] = "rotation_only"
+    a = generate_campaign(sc, 11, n_workers=1, return_imu=True)
+    b = generate_campaign(still, 11, n_workers=1, return_imu=True)
+    pd.testing.assert_frame_equal(a.imu, b.imu, check_exact=True)
+    ra, rb = a.records, b.records
+    assert (ra["true_heave_std_m"] > 0.02).all() and (ra["true_heave_velocity_std_ms"] > 0.05).all()
+    assert rb["true_heave_std_m"].isna().all()
+    rel = (ra["true_sigma_z_ms"] / rb["true_sigma_z_ms"]).to_numpy()
+    # the translation is not negligible (a record may cancel: lever arm against orbital motion)
+    assert np.mean(np.abs(rel - 1.0)) > 0.1
+
+
+def test_unknown_hull_is_refused_with_the_known_names():
+    sc = load_scenario("tiny") | {"motion": {"model": "sea_state", "sea_state": {"hull": "raft"}}}
+    with pytest.raises(
+        ValueError, match=r"motion.sea_state.hull: unknown hull 'raft'; known hulls"
+    ):
+        CampaignConfig.from_dict(sc)

@@ -81,7 +81,7 @@ from flidar_uq.campaign.scenarios import (
 )
 from flidar_uq.data import imu as _imu
 from flidar_uq.physics import lidar as _lidar
-from flidar_uq.physics.seastate import tilt_series
+from flidar_uq.physics.seastate import hull_motion_series, tilt_series
 from flidar_uq.physics.turbulence import draw_sigma_u_ms, kaimal_series, wind_enu_ms
 from flidar_uq.progress import ProgressLog
 from flidar_uq.seeding import as_seedsequence
@@ -251,6 +251,28 @@ def _record_parameters(cfg: CampaignConfig, rng: np.random.Generator) -> dict:
     return out
 
 
+def _body_to_enu(surge_m, sway_m, heave_m, yaw_deg):
+    """Displacements along the body x and y axes of a constant heading ``yaw_deg`` (deg,
+    counter-clockwise from east) and up, as (east, north, up), shape (N, 3), m."""
+    y = np.deg2rad(yaw_deg)
+    east = surge_m * np.cos(y) - sway_m * np.sin(y)
+    north = surge_m * np.sin(y) + sway_m * np.cos(y)
+    return np.stack([east, north, heave_m], axis=-1)
+
+
+def _translation_truth(trans, dt_s, e_wind):
+    """Std of the heave (m), of the heave velocity and of the horizontal velocity along the
+    wind (m/s) of a record's translation (N, 3) on the LOS clock; NaN without translation."""
+    if trans is None:
+        return (np.nan, np.nan, np.nan)
+    vel = np.diff(trans, axis=0) / dt_s
+    return (
+        float(np.std(trans[:, 2])),
+        float(np.std(vel[:, 2])),
+        float(np.std(vel[:, :2] @ e_wind)),
+    )
+
+
 def _wrap180(deg):
     """Angle wrapped into [-180, 180) deg."""
     return (np.asarray(deg, float) + 180.0) % 360.0 - 180.0
@@ -298,10 +320,15 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
             "direction_deg": [[90.0 - par["dir1_deg"][i] - rel, 90.0 - par["dir2_deg"][i] - rel]],
             "spread_deg": [[float(sea["spread_deg"]), float(sea["swell_spread_deg"])]],
         }
-        roll, pitch = tilt_series(n_slots, dt, systems, rng)
-        roll, pitch = roll[0], pitch[0]
         yaw = np.array([rel])  # a constant heading: one value (broadcast over the slots)
-        trans = None
+        if sea["hull"] == "rotation_only":
+            roll, pitch = tilt_series(n_slots, dt, systems, rng)
+            roll, pitch = roll[0], pitch[0]
+            trans = None
+        else:  # six degrees of freedom: the same draws, the tilt unchanged
+            hull = hull_motion_series(n_slots, dt, systems, rng, sea["hull"])
+            roll, pitch = hull["roll_deg"][0], hull["pitch_deg"][0]
+            trans = _body_to_enu(hull["surge_m"][0], hull["sway_m"][0], hull["heave_m"][0], rel)
     else:
         t = np.arange(n_slots) * dt
         ph = rng.uniform(0.0, 2.0 * np.pi, size=6)
@@ -497,7 +524,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     stride = max(int(round(0.1 / (t_len / n_slots))), 1)
     k_truth = max(int(round(TRUTH_SAMPLE_INTERVAL_S / (dt * step))), 1)  # 1-Hz truth series
     starts_ns = np.asarray(par["record_start_ns"], np.int64)  # from the parent (pandas)
-    series, scans, imu_att, imu_ns, fl_truth = [], [], [], [], []
+    series, scans, imu_att, imu_ns, fl_truth, trans_truth = [], [], [], [], [], []
     for c, (ss, ts) in enumerate(zip(seeds, starts_ns.tolist(), strict=True)):
         s = _record_series(settings, par, c, ss, geo)
         yaw_c = s["yaw"][None]  # (1,N), or (1,1): a constant heading
@@ -547,6 +574,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         imu_att.append(att)
         imu_ns.append(_utc_ns(ts, t_imu))
         fl_truth.append(s["fluct_uvw"][..., ::k_truth].copy())  # the 1-Hz samples
+        trans_truth.append(_translation_truth(s["trans"], dt, e_wind[c, :2]))
         for key in ("roll", "pitch", "fluct_uvw", "trans", "imu_noise"):
             del s[key]  # the record's long series: done with
         series.append(s)
@@ -650,6 +678,9 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         "true_period2_s": per_record(t2),
         "true_weight1": per_record(w1_true),
         "true_lever_arm_m": per_record(np.full(n_c, lever_norm)),
+        "true_heave_std_m": per_record(np.array([t[0] for t in trans_truth])),
+        "true_heave_velocity_std_ms": per_record(np.array([t[1] for t in trans_truth])),
+        "true_velocity_along_wind_std_ms": per_record(np.array([t[2] for t in trans_truth])),
         "true_sigma_z_ms": z_std.ravel(),
         "true_mean_z_ms": z_mean.ravel(),
         "true_n_scans": n_sel.ravel().astype(float),

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from flidar_uq.physics import lidar as _lidar
+from flidar_uq.physics.hull import get_hull
 
 __all__ = [
     "DEFAULT_SCENARIO",
@@ -123,6 +124,9 @@ DEFAULT_SCENARIO: dict = {
             "yaw_drift_deg_per_day": 0.0,  # slow drift of the fixed heading, deg/day
             "weathervane_min_hws_ms": 0.0,
             "heading_sd_deg": 0.0,  # buoy heading scatter (yaw) per record, deg
+            # the hull's response to the waves (flidar_uq.physics.hull.HULLS):
+            # rotation_only (tilts about a fixed centre), wave_follower, discus_buoy, spar
+            "hull": "rotation_only",
         },
         "harmonic": {
             # ranges drawn per record when no cases are given; roll and pitch share
@@ -313,6 +317,10 @@ def _check_sea_state(s):
             f"scenario: motion.sea_state.heading_mode must be one of {HEADING_MODES}, "
             f"got {ss['heading_mode']!r}"
         )
+    try:
+        get_hull(ss["hull"])
+    except ValueError as err:
+        raise ValueError(f"scenario: motion.sea_state.hull: {err}") from None
     for key in ("wind_sea_direction_sd_deg", "heading_sd_deg", "weathervane_min_hws_ms"):
         if not float(ss[key]) >= 0:
             raise ValueError(f"scenario: motion.sea_state.{key} must be >= 0, got {ss[key]!r}")

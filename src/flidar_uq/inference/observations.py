@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from flidar_uq.physics.six_dof_sigma_z import translation_unit_sq
 from flidar_uq.physics.surrogate import default_surrogate
 from flidar_uq.seeding import as_seedsequence
 from flidar_uq.threads import single_threaded
