@@ -54,7 +54,6 @@ from flidar_uq.inference.observations import (
     effective_sigma_z_ms,
     imu_observations,
     record_sigma_z_moments,
-    translation_unit_sq,
     two_peak_observations,
 )
 from flidar_uq.inference.predictive import prior_predictive
@@ -69,6 +68,7 @@ from flidar_uq.inference.results import (
     save_fit,
     write_failed_fit,
 )
+from flidar_uq.physics.six_dof_sigma_z import translation_unit_sq
 
 __all__ = [
     "fit_record_model",

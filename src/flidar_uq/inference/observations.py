@@ -15,7 +15,8 @@ def effective_sigma_z_ms(sz_rot_ms, unit_sq, lever_arm_m, motion_scale=1.0):
 
     ``sZ = sqrt((k sZ_rot)^2 + L^2 u^2)``: the surrogate's rotational sigma_Z scaled by the
     motion-model scale ``k``, and the translation of a head ``L`` above the centre of
-    rotation, ``u^2`` from :func:`translation_unit_sq` (design.md).
+    rotation, ``u^2`` from
+    :func:`flidar_uq.physics.six_dof_sigma_z.translation_unit_sq` (design.md).
 
     Parameters
     ----------
@@ -138,7 +139,7 @@ def record_sigma_z_moments(
     -------
     sz_med, sz_var, u2_med : numpy.ndarray, shape (n_records,)
         Rotational sigma_Z median (m/s) and variance, and the median translation unit
-        ``u^2`` (:func:`translation_unit_sq`); NaN for records whose bin has no fit.
+        ``u^2`` (:func:`flidar_uq.physics.six_dof_sigma_z.translation_unit_sq`); NaN for records whose bin has no fit.
     """
     surrogate = _default_surrogate(surrogate)
     fits = {f.bin_id: f for f in bin_fits}

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from flidar_uq.inference.observations import translation_unit_sq
+from flidar_uq.physics.six_dof_sigma_z import translation_unit_sq
 from flidar_uq.physics.surrogate import default_surrogate
 
 __all__ = ["ALONG_WIND_COLUMNS", "MOTION_DESCRIPTIONS", "record_motion"]

@@ -12,11 +12,8 @@ import pandas as pd
 import xarray as xr
 
 from flidar_uq.inference.loo import _loo
-from flidar_uq.inference.observations import (
-    _default_surrogate,
-    effective_sigma_z_ms,
-    translation_unit_sq,
-)
+from flidar_uq.inference.observations import _default_surrogate, effective_sigma_z_ms
+from flidar_uq.physics.six_dof_sigma_z import translation_unit_sq
 
 
 def _jsonable(x):
