@@ -165,3 +165,58 @@ def test_band_sum_reduces_to_the_lever_arm_model_without_translation():
     u2 = translation_unit_sq(np.array([2.0, 1.0]), np.array([4.0, 9.0]))
     want = np.sqrt(np.sum(rot**2 + 2.5**2 * u2, axis=-1))
     np.testing.assert_allclose(got, want, rtol=1e-12)
+
+
+def _one_band_records(std_along_deg, period_s, hws_ms):
+    """Records of one harmonic band along the wind with a wave follower's translation."""
+    import pandas as pd
+
+    c = phase_speed_ms(period_s)
+    sig = np.deg2rad(std_along_deg)
+    return pd.DataFrame(
+        {
+            "hws_mean_ms": hws_ms,
+            "tilt_along_wind_std_deg": std_along_deg,
+            "tilt_across_wind_std_deg": 0.0,
+            "tilt_period_mean_s": period_s,
+            "follower_heave_velocity_std_ms": c * sig,
+            "follower_heave_period_s": period_s,
+            "follower_velocity_along_wind_std_ms": c * sig,
+            "follower_heave_tilt_correlation": 1.0,
+        }
+    )
+
+
+def test_record_terms_equal_the_band_sum_for_one_band():
+    """The moments description of the record model is the band sum when the record's sea is
+    one band: (U - c)^2 leak and (L - g / omega^2)^2 translation, for any lever arm."""
+    from flidar_uq.inference.record_motion import hull_sigma_z_ms, record_motion, six_dof_terms
+
+    hws = np.array([5.0, 9.0, 14.0])
+    rec = _one_band_records(np.array([1.2, 2.0, 3.1]), np.array([3.5, 6.0, 8.0]), hws)
+    mot = record_motion(rec)
+    terms = six_dof_terms(rec, mot)
+    for lever in (0.0, 2.5):
+        got = hull_sigma_z_ms(mot, terms, lever_arm_m=lever, hull_response=1.0)
+        want = [
+            six_dof_band_sigma_z_ms(u, [np.sqrt(2) * a], [t], band_cos_psi=[1.0], lever_arm_m=lever)
+            for u, a, t in zip(
+                hws, rec.tilt_along_wind_std_deg, rec.tilt_period_mean_s, strict=True
+            )
+        ]
+        np.testing.assert_allclose(got, want, rtol=1e-9)
+        # h = 0: the rotation-only record model, sqrt(sZ_rot^2 + L^2 u^2)
+        from flidar_uq.inference import effective_sigma_z_ms
+
+        rot = hull_sigma_z_ms(mot, terms, lever_arm_m=lever, hull_response=0.0)
+        want0 = effective_sigma_z_ms(mot["sigma_z_rot_ms"], mot["translation_unit_sq"], lever)
+        np.testing.assert_allclose(rot, want0, rtol=1e-12)
+
+
+def test_record_terms_are_zero_without_the_follower_columns():
+    from flidar_uq.inference.record_motion import record_motion, six_dof_terms
+
+    rec = _one_band_records(np.array([1.5]), np.array([5.0]), np.array([8.0]))
+    rec = rec.drop(columns=["follower_heave_velocity_std_ms"])
+    terms = six_dof_terms(rec, record_motion(rec))
+    assert (terms.to_numpy() == 0.0).all()

@@ -444,6 +444,10 @@ def test_optional_tilt_columns_read_and_bounds_checked(tmp_path):
     df["tilt_across_wind_std_deg"] = np.nan
     df["tilt_period_zero_crossing_s"] = 4.0
     df["tilt_period_mean_s"] = 4.2
+    df["follower_heave_velocity_std_ms"] = 0.3
+    df["follower_heave_period_s"] = 5.0
+    df["follower_velocity_along_wind_std_ms"] = 0.25
+    df["follower_heave_tilt_correlation"] = 0.9
     df.to_csv(tmp_path / "ok.csv", index=False)
     rec = io.read_records(tmp_path / "ok.csv")
     assert set(imu.TILT_SPECTRUM_COLUMNS) <= set(rec.columns)
@@ -539,3 +543,43 @@ def test_detrend_is_the_least_squares_line_over_finite_samples(n, rows, nan_shar
     np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
     scale = np.nanmax(np.abs(x), initial=1.0)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * scale)
+
+
+def test_follower_translation_columns_of_known_bands():
+    """One band along the wind (6 s, 1 deg^2): heave and along-wind orbital velocity
+    ``c sigma`` with ``c = g T / (2 pi)``, fully correlated; a band across the wind adds
+    heave, not along-wind velocity, and no correlation; the heave period is the heave
+    spectrum's mean period."""
+    from flidar_uq.physics.hull import phase_speed_ms
+    from flidar_uq.physics.motion_spectrum import TiltBandSpectrum
+
+    def spec(var_along, var_across, period):
+        z = np.zeros(1)
+        return TiltBandSpectrum(
+            np.array([1.0, 5.0, 20.0]),
+            np.array([period]),
+            np.array([var_along]),
+            np.array([var_across]),
+            z,
+            z,
+            z,
+            z,
+            z,
+        )
+
+    sig = np.deg2rad(1.0)
+    got = imu.follower_translation_columns(spec([0.0, 1.0], [0.0, 0.0], [3.0, 6.0]))
+    c6 = phase_speed_ms(6.0)
+    assert got["follower_heave_velocity_std_ms"][0] == pytest.approx(c6 * sig, rel=1e-12)
+    assert got["follower_velocity_along_wind_std_ms"][0] == pytest.approx(c6 * sig, rel=1e-12)
+    assert got["follower_heave_tilt_correlation"][0] == pytest.approx(1.0)
+    assert got["follower_heave_period_s"][0] == pytest.approx(6.0)
+    across = imu.follower_translation_columns(spec([1.0, 0.0], [0.0, 3.0], [6.0, 8.0]))
+    c8 = phase_speed_ms(8.0)
+    heave = np.hypot(c6 * sig, c8 * sig * np.sqrt(3.0))
+    assert across["follower_heave_velocity_std_ms"][0] == pytest.approx(heave)
+    assert across["follower_velocity_along_wind_std_ms"][0] == pytest.approx(c6 * sig)
+    # only the along band's heave correlates with the along-wind tilt
+    rho = c6 * sig**2 / (heave * sig)
+    assert across["follower_heave_tilt_correlation"][0] == pytest.approx(rho)
+    assert 6.0 < across["follower_heave_period_s"][0] < 8.0

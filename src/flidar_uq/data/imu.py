@@ -43,6 +43,7 @@ import numpy as np
 from numpy import fft as _fft
 
 from flidar_uq.data.schema import TILT_SPECTRUM_COLUMNS
+from flidar_uq.physics.hull import G_MS2
 from flidar_uq.physics.motion_spectrum import (
     PERIOD_RANGE_S,
     TiltBandSpectrum,
@@ -73,6 +74,7 @@ __all__ = [
     "heading_mean_deg",
     "tilt_band_statistics",
     "TILT_SPECTRUM_COLUMNS",
+    "follower_translation_columns",
     "tilt_spectrum_columns",
     "tilt_spectrum_statistics",
     "tilt_spectrum_statistics_by_height",
@@ -886,6 +888,46 @@ def tilt_spectrum_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
         "tilt_across_wind_std_deg": spec.across_std_deg,
         "tilt_period_zero_crossing_s": spec.tz_s,
         "tilt_period_mean_s": spec.tm01_s,
+    } | follower_translation_columns(spec)
+
+
+def follower_translation_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
+    """What a hull that follows the waves with a record's tilt spectrum would translate.
+
+    Per band ``b`` of tilt variance ``var_b`` (rad^2) at period ``T_b``, a wave follower's
+    heave velocity and horizontal orbital velocity have variance ``var_b (g / omega_b)^2``
+    (linear deep-water waves: ``c = g / omega`` per radian of lean,
+    :mod:`flidar_uq.physics.hull`); heave from the along + across tilt, the horizontal
+    velocity along the wind from the along-wind tilt. The heave is correlated with the
+    along-wind tilt through ``<cos psi>`` of the band's directions of travel, taken from
+    its along-wind share ``<cos^2 psi>`` as for waves running downwind with a
+    wrapped-normal spread: ``<cos psi> = (2 <cos^2 psi> - 1)^(1/4)``, 0 where the band is
+    mostly across the wind (a swell whose side the tilt cannot tell).
+
+    Returns
+    -------
+    dict
+        ``follower_heave_velocity_std_ms``, ``follower_heave_period_s`` (mean period m0/m1
+        of the heave velocity's band variances), ``follower_velocity_along_wind_std_ms``
+        (m/s, s) and ``follower_heave_tilt_correlation`` (-); NaN where the tilt is.
+    """
+    to_rad2 = np.deg2rad(1.0) ** 2
+    va = np.asarray(spec.var_along_deg2, float) * to_rad2
+    vt = va + np.asarray(spec.var_across_deg2, float) * to_rad2
+    c = G_MS2 * np.asarray(spec.period_s, float) / (2.0 * np.pi)  # phase speed, m/s
+    heave_var = np.sum(vt * c**2, axis=-1)
+    along_var = np.sum(va * c**2, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = np.where(vt > 0, va / np.where(vt > 0, vt, 1.0), 0.0)
+        cos_mean = np.where(2.0 * share - 1.0 > 0, np.abs(2.0 * share - 1.0) ** 0.25, 0.0)
+        cov = np.sum(c * cos_mean * vt, axis=-1)  # cov(heave velocity, along-wind lean)
+        corr = cov / np.sqrt(heave_var * np.sum(va, axis=-1))
+        inv_per = np.sum(vt * c**2 / np.asarray(spec.period_s, float), axis=-1) / heave_var
+    return {
+        "follower_heave_velocity_std_ms": np.sqrt(heave_var),
+        "follower_heave_period_s": 1.0 / inv_per,
+        "follower_velocity_along_wind_std_ms": np.sqrt(along_var),
+        "follower_heave_tilt_correlation": np.clip(corr, -1.0, 1.0),
     }
 
 

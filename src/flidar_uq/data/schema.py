@@ -288,6 +288,52 @@ RECORD_COLUMNS: tuple[Column, ...] = (
         lower_exclusive=True,
     ),
     Column(
+        "follower_heave_velocity_std_ms",
+        "float",
+        "m/s",
+        False,
+        0.0,
+        20.0,
+        True,
+        "Heave velocity std of a hull that follows the waves with the record's tilt "
+        "spectrum, g sqrt(sum_b var_b / omega_b^2) over the along + across tilt bands "
+        "(1-20 s, var in rad^2): the heave of a wave follower (flidar_uq.physics.hull).",
+    ),
+    Column(
+        "follower_heave_period_s",
+        "float",
+        "s",
+        False,
+        0.0,
+        60.0,
+        True,
+        "Mean period m0/m1 of that heave velocity's spectrum (band sums), s.",
+        lower_exclusive=True,
+    ),
+    Column(
+        "follower_velocity_along_wind_std_ms",
+        "float",
+        "m/s",
+        False,
+        0.0,
+        20.0,
+        True,
+        "Horizontal orbital velocity std along the wind of a wave follower with the "
+        "record's along-wind tilt spectrum, g sqrt(sum_b var_along_b / omega_b^2).",
+    ),
+    Column(
+        "follower_heave_tilt_correlation",
+        "float",
+        "-",
+        False,
+        -1.0,
+        1.0,
+        True,
+        "Correlation of a wave follower's heave velocity with its along-wind tilt, band by "
+        "band, each band's waves taken to run downwind with a wrapped-normal spread "
+        "(<cos psi> = (2 <cos^2 psi> - 1)^(1/4), 0 for a band mostly across the wind).",
+    ),
+    Column(
         "heading_mean_deg",
         "float",
         "deg",
@@ -358,6 +404,10 @@ TILT_SPECTRUM_COLUMNS = (
     "tilt_across_wind_std_deg",
     "tilt_period_zero_crossing_s",
     "tilt_period_mean_s",
+    "follower_heave_velocity_std_ms",
+    "follower_heave_period_s",
+    "follower_velocity_along_wind_std_ms",
+    "follower_heave_tilt_correlation",
 )
 
 IMU_COLUMNS: tuple[Column, ...] = (

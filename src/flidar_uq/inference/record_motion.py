@@ -19,10 +19,17 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from flidar_uq.physics.hull import G_MS2
 from flidar_uq.physics.six_dof_sigma_z import translation_unit_sq
 from flidar_uq.physics.surrogate import default_surrogate
 
-__all__ = ["ALONG_WIND_COLUMNS", "MOTION_DESCRIPTIONS", "record_motion"]
+__all__ = [
+    "ALONG_WIND_COLUMNS",
+    "MOTION_DESCRIPTIONS",
+    "hull_sigma_z_ms",
+    "record_motion",
+    "six_dof_terms",
+]
 
 #: Record-table columns of the along-wind description (tilt std along the wind, deg; its
 #: spectral mean period m0/m1, s; the zero-crossing period stands in when the mean period
@@ -108,3 +115,91 @@ def record_motion(
         },
         index=records.index,
     )
+
+
+#: Record columns of a wave follower's translation implied by the tilt spectrum
+#: (:func:`flidar_uq.data.imu.follower_translation_columns`).
+FOLLOWER_COLUMNS = (
+    "follower_heave_velocity_std_ms",
+    "follower_heave_period_s",
+    "follower_velocity_along_wind_std_ms",
+    "follower_heave_tilt_correlation",
+)
+
+
+def six_dof_terms(
+    records: pd.DataFrame, motion: pd.DataFrame, *, surrogate=None, scan_period_s: float = 1.0
+) -> pd.DataFrame:
+    """Per-record terms of the hull's translation in sigma_Z (moments description).
+
+    The six-degree-of-freedom band sum (:mod:`flidar_uq.physics.six_dof_sigma_z`) with the
+    record's moments instead of its bands: the tilt's vertical-wind leak ``sZ_rot``
+    (:func:`record_motion`), the heave's ``hl = Lambda(A, T_h) sqrt(2) sigma_h`` with
+    ``Lambda = sZ(1 m/s, A, T) / A`` of the surrogate at the total tilt amplitude and the
+    heave's mean period, correlated by ``rho_h``; the orbital velocity along the wind
+    ``sigma_u`` against the lever arm's ``L dphi/dt`` (covariance ``-g sigma_along^2`` per
+    metre, exact for linear waves). For a hull response ``h`` (0 rotation only, 1 wave
+    follower; :func:`hull_sigma_z_ms`):
+
+    ``sZ^2 = k^2 (sZ_rot^2 - 2 h heave_cross_sq + h^2 heave_leak_sq)
+    + L^2 u^2 - 2 L h orbital_cross_sq + h^2 orbital_sq``.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records with the along-wind and :data:`FOLLOWER_COLUMNS` columns.
+    motion : pandas.DataFrame
+        :func:`record_motion` of the same records.
+    surrogate, scan_period_s
+        As :func:`record_motion`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``heave_cross_sq``, ``heave_leak_sq`` ((m/s)^2), ``orbital_cross_sq`` ((m/s)^2 per
+        m of lever arm), ``orbital_sq`` ((m/s)^2); 0 where the follower columns are absent
+        (the rotation-only model).
+    """
+    surrogate = default_surrogate(surrogate)
+    sig_h, per_h, sig_u, rho_h = (_col(records, c) for c in FOLLOWER_COLUMNS)
+    std_a = _col(records, ALONG_WIND_COLUMNS[0])
+    std_c = _col(records, "tilt_across_wind_std_deg")
+    per_m = motion["motion_period_s"].to_numpy(dtype=float)
+    sz_rot = motion["sigma_z_rot_ms"].to_numpy(dtype=float)
+    amp_tot = np.sqrt(2.0 * (std_a**2 + np.nan_to_num(std_c) ** 2))
+    ok = (
+        np.isfinite(sig_h) & np.isfinite(per_h) & np.isfinite(sig_u) & np.isfinite(rho_h)
+        & np.isfinite(amp_tot) & (amp_tot > 0) & np.isfinite(sz_rot) & np.isfinite(per_m)
+    )  # fmt: skip
+    out = {k: np.zeros(len(records)) for k in ("heave_cross_sq", "heave_leak_sq")}
+    out |= {k: np.zeros(len(records)) for k in ("orbital_cross_sq", "orbital_sq")}
+    if np.any(ok):
+        a, th = amp_tot[ok], np.clip(per_h[ok], 1.0, 20.0)
+        lam = surrogate.sigma_z_ms(1.0, a, th) / np.deg2rad(a)  # per m/s of vertical wind, per rad
+        hl = lam * np.sqrt(2.0) * sig_h[ok]
+        out["heave_cross_sq"][ok] = rho_h[ok] * sz_rot[ok] * hl
+        out["heave_leak_sq"][ok] = hl**2
+        sinc_m = np.sinc(scan_period_s / per_m[ok])
+        sinc_h = np.sinc(scan_period_s / th)
+        out["orbital_cross_sq"][ok] = G_MS2 * np.deg2rad(std_a[ok]) ** 2 * sinc_m**2
+        out["orbital_sq"][ok] = (sig_u[ok] * sinc_h) ** 2
+    return pd.DataFrame(out, index=records.index)
+
+
+def hull_sigma_z_ms(motion, terms, *, lever_arm_m, hull_response, motion_scale=1.0):
+    """sigma_Z (m/s) of records for a lever arm ``L`` (m), a hull response ``h`` (-: 0
+    rotates about a fixed centre, 1 follows the waves) and a motion scale ``k`` (-), from
+    :func:`record_motion` and :func:`six_dof_terms` (broadcasting over draws of ``L, h, k``
+    given as arrays of shape (n_draws, 1))."""
+    sz = np.asarray(motion["sigma_z_rot_ms"], float)
+    u2 = np.asarray(motion["translation_unit_sq"], float)
+    h = np.asarray(hull_response, float)
+    lev = np.asarray(lever_arm_m, float)
+    leak = (
+        sz**2
+        - 2.0 * h * np.asarray(terms["heave_cross_sq"])
+        + h**2 * np.asarray(terms["heave_leak_sq"])
+    )
+    trans = lev**2 * u2 - 2.0 * lev * h * np.asarray(terms["orbital_cross_sq"])
+    trans = trans + h**2 * np.asarray(terms["orbital_sq"])
+    return np.sqrt(np.maximum(np.asarray(motion_scale, float) ** 2 * leak + trans, 0.0))
