@@ -10,7 +10,9 @@ from flidar_uq.inference.sampler import laplace_approximation
 from flidar_uq.validation.sbc import draw_record_campaign
 
 _SETTINGS = SamplerSettings(nsteps=300, nburn=150, ndraws=200)
-_TRUTH = dict(rho=0.3, kappa=0.05, kappa_z=0.15, lever_arm_m=2.0, motion_scale=1.0)
+_TRUTH = dict(
+    rho=0.3, kappa=0.05, kappa_z=0.15, lever_arm_m=2.0, motion_scale=1.0, hull_response=0.7
+)
 
 
 def _gauss_logp(theta, mean, prec):

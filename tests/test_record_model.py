@@ -67,28 +67,23 @@ def test_fallbacks_zero_crossing_period_then_roll_pitch_then_none():
 
 
 def _draw_records(rng, n, truth):
-    """Records drawn from the record model itself (known parameters)."""
-    hws = rng.uniform(4.0, 18.0, n)
-    ti = np.exp(rng.normal(np.log(0.08), 0.3, n))
-    r = ti * hws
-    std_along = np.exp(rng.normal(np.log(1.6), 0.4, n))
-    per = rng.uniform(2.5, 7.0, n)
-    rec = pd.DataFrame(
-        {"hws_mean_ms": hws, "tilt_along_wind_std_deg": std_along, "tilt_period_mean_s": per}
-    )
-    mot = record_motion(rec)
-    szr, u2 = mot["sigma_z_rot_ms"].to_numpy(), mot["translation_unit_sq"].to_numpy()
-    sz = np.sqrt((truth["motion_scale"] * szr) ** 2 + truth["lever_arm_m"] ** 2 * u2)
-    sz_real = sz * np.exp(truth["kappa_z"] * rng.standard_normal(n))
-    mu = np.sqrt(r**2 + sz_real**2 + 2 * truth["rho"] * r * sz_real)
-    rec["hws_std_ms"] = mu * (1.0 + truth["kappa"] * rng.standard_normal(n))
-    rec["ref_hws_std_ms"] = r
-    return rec
+    """Records drawn from the record model itself (known parameters; the wave follower's
+    translation columns of one band along and one across the wind)."""
+    from flidar_uq.validation.sbc import draw_record_campaign
+
+    return draw_record_campaign(rng, n, truth)
 
 
 @pytest.mark.parametrize("seed", [3, 4])
 def test_record_model_recovers_known_parameters(seed):
-    truth = {"rho": 0.1, "kappa": 0.03, "kappa_z": 0.15, "lever_arm_m": 2.5, "motion_scale": 1.0}
+    truth = {
+        "rho": 0.1,
+        "kappa": 0.03,
+        "kappa_z": 0.15,
+        "lever_arm_m": 2.5,
+        "motion_scale": 1.0,
+        "hull_response": 0.6,
+    }
     rec = _draw_records(np.random.default_rng(seed), 1500, truth)
     fit = fit_record_model(rec, seed=seed, settings=SamplerSettings(nsteps=200, nburn=100))
     assert fit.converged, fit.failure_reasons
@@ -99,7 +94,14 @@ def test_record_model_recovers_known_parameters(seed):
 
 
 def test_lever_arm_prior_from_geometry_pulls_the_lever_arm(caplog):
-    truth = {"rho": 0.0, "kappa": 0.03, "kappa_z": 0.15, "lever_arm_m": 2.5, "motion_scale": 1.0}
+    truth = {
+        "rho": 0.0,
+        "kappa": 0.03,
+        "kappa_z": 0.15,
+        "lever_arm_m": 2.5,
+        "motion_scale": 1.0,
+        "hull_response": 0.6,
+    }
     rec = _draw_records(np.random.default_rng(5), 300, truth)
     with caplog.at_level(logging.INFO, logger="flidar_uq.inference.sampler"):
         fit = fit_record_model(
@@ -124,17 +126,18 @@ def test_record_log_prob_is_finite_or_minus_inf_never_nan():
     szr, u2 = rng.uniform(0, 0.5, 50), rng.uniform(0, 0.01, 50)
     theta = np.array(
         [
-            [0.0, np.log(0.05), np.log(0.1), 2.0, 0.0],
-            [1.5, np.log(0.05), np.log(0.1), 2.0, 0.0],  # |rho| > 1
-            [0.0, np.nan, np.log(0.1), 2.0, 0.0],
-            [0.0, np.log(0.05), np.inf, 2.0, 0.0],
-            [0.0, np.log(0.05), np.log(0.1), -1.0, 0.0],  # negative lever arm
-            [0.99, -30.0, -30.0, 19.9, 1.6],
+            [0.0, np.log(0.05), np.log(0.1), 2.0, 0.0, 0.5],
+            [1.5, np.log(0.05), np.log(0.1), 2.0, 0.0, 0.5],  # |rho| > 1
+            [0.0, np.nan, np.log(0.1), 2.0, 0.0, 0.5],
+            [0.0, np.log(0.05), np.inf, 2.0, 0.0, 0.5],
+            [0.0, np.log(0.05), np.log(0.1), -1.0, 0.0, 0.5],  # negative lever arm
+            [0.0, np.log(0.05), np.log(0.1), 2.0, 0.0, -0.1],  # negative hull response
+            [0.99, -30.0, -30.0, 19.9, 1.6, 1.49],
         ]
     )
     lp = log_prob_record_model(theta, s, r, szr, u2)
     assert not np.any(np.isnan(lp))
-    assert np.isfinite(lp[0]) and np.all(np.isneginf(lp[1:5]))
+    assert np.isfinite(lp[0]) and np.all(np.isneginf(lp[1:6]))
 
 
 def test_log_kappa_posterior_is_the_priors_exp_tail_where_the_data_hold_no_kappa():
@@ -142,7 +145,14 @@ def test_log_kappa_posterior_is_the_priors_exp_tail_where_the_data_hold_no_kappa
     kappa goes to 0: below what the data resolve the log-kappa posterior is the half-normal
     prior's ``exp(log kappa)`` tail (slope 1), with no wall at 1e-4 where a year of records
     puts its peak (a wall there made the sampler four times slower, docs/performance.md)."""
-    truth = {"rho": 0.1, "kappa": 0.0, "kappa_z": 0.15, "lever_arm_m": 2.5, "motion_scale": 1.0}
+    truth = {
+        "rho": 0.1,
+        "kappa": 0.0,
+        "kappa_z": 0.15,
+        "lever_arm_m": 2.5,
+        "motion_scale": 1.0,
+        "hull_response": 0.0,
+    }
     rec = _draw_records(np.random.default_rng(12), 500, truth)
     mot = record_motion(rec)
     args = (
@@ -153,7 +163,14 @@ def test_log_kappa_posterior_is_the_priors_exp_tail_where_the_data_hold_no_kappa
     )
     log_kappa = np.log([1e-7, 1e-6, 1e-5])
     theta = np.column_stack(
-        [np.full(3, 0.1), log_kappa, np.full(3, np.log(0.15)), np.full(3, 2.5), np.zeros(3)]
+        [
+            np.full(3, 0.1),
+            log_kappa,
+            np.full(3, np.log(0.15)),
+            np.full(3, 2.5),
+            np.zeros(3),
+            np.zeros(3),
+        ]
     )
     lp = log_prob_record_model(theta, *args)
     assert np.all(np.isfinite(lp))
@@ -163,7 +180,7 @@ def test_log_kappa_posterior_is_the_priors_exp_tail_where_the_data_hold_no_kappa
 def test_record_loglik_reduces_to_eq15_without_motion_noise():
     # kappa_z -> 0, k = 1, L = 0: s ~ N(mu, kappa mu), mu^2 = r^2 + sZ^2 + 2 rho r sZ
     s, r, szr = np.array([1.1]), np.array([1.0]), np.array([0.3])
-    theta = np.array([[0.2, np.log(0.05), np.log(1e-9), 0.0, 0.0]])
+    theta = np.array([[0.2, np.log(0.05), np.log(1e-9), 0.0, 0.0, 0.0]])
     mu = np.sqrt(1.0 + 0.09 + 2 * 0.2 * 0.3)
     tau = 0.05 * mu
     expect = -0.5 * ((1.1 - mu) ** 2 / tau**2 + np.log(2 * np.pi * tau**2))
@@ -178,7 +195,7 @@ def test_reference_pair_scatter_enters_through_the_turbulent_part_only(sz_over_r
     # less than p mu where the motion dominates (the former (kappa^2 + p^2) mu^2)
     rho, p, r = 0.3, 0.05, np.array([1.0])
     szr = np.array([sz_over_r])
-    theta = np.array([[rho, np.log(1e-7), np.log(1e-7), 0.0, 0.0]])
+    theta = np.array([[rho, np.log(1e-7), np.log(1e-7), 0.0, 0.0, 0.0]])
     mu = np.sqrt(1.0 + sz_over_r**2 + 2 * rho * sz_over_r)
     ll = _record_loglik_pointwise(theta, np.array([mu]), r, szr, np.zeros(1), np.array([p**2]))
     tau_model = np.sqrt(np.exp(-2.0 * ll[0, 0]) / (2 * np.pi))
@@ -196,8 +213,8 @@ def test_record_loglik_sum_in_blocks_of_records_equals_the_whole_row_sums(monkey
     n = 2500
     s, r = rng.uniform(0.1, 2, n), rng.uniform(0.1, 2, n)
     szr, u2, pair_sq = rng.uniform(0, 0.5, n), rng.uniform(0, 0.01, n), rng.uniform(0, 1e-3, n)
-    theta = np.array([0.0, np.log(0.05), np.log(0.15), 2.0, 0.0]) + 0.1 * rng.standard_normal(
-        (10, 5)
+    theta = np.array([0.0, np.log(0.05), np.log(0.15), 2.0, 0.0, 0.5]) + 0.1 * rng.standard_normal(
+        (10, 6)
     )
     monkeypatch.setattr(rf, "_SUM_BLOCK_ELEMENTS", 10 * 700)  # 700, 700, 700, 400 records
     for p in (pair_sq, 0.0):
@@ -212,7 +229,14 @@ def test_record_fit_loo_in_blocks_equals_loo_of_the_whole_pointwise_matrix(monke
     blocks of records, its PSIS-LOO runs per block of records. Draws identical whatever the
     block sizes (the sums differ by rounding, ~1e-15, which no accept/reject meets here); LOO equal to the whole matrix's (1e-9 relative: the matrix is rebuilt here
     from the stored natural-scale draws, whose log/exp round trip rounds)."""
-    truth = {"rho": 0.1, "kappa": 0.03, "kappa_z": 0.15, "lever_arm_m": 2.5, "motion_scale": 1.0}
+    truth = {
+        "rho": 0.1,
+        "kappa": 0.03,
+        "kappa_z": 0.15,
+        "lever_arm_m": 2.5,
+        "motion_scale": 1.0,
+        "hull_response": 0.6,
+    }
     rec = _draw_records(np.random.default_rng(6), 300, truth)
     pair = np.random.default_rng(7).uniform(0.0, 0.02, len(rec))
     kw = {"seed": 6, "settings": SamplerSettings(nsteps=150, nburn=60), "pair_log_sd": pair}
@@ -229,10 +253,9 @@ def test_record_fit_loo_in_blocks_equals_loo_of_the_whole_pointwise_matrix(monke
             for k, n in enumerate(RECORD_MODEL_NAMES)
         ]
     )
-    s, rr = rec["hws_std_ms"].to_numpy(), rec["ref_hws_std_ms"].to_numpy()
-    mot = record_motion(rec)
-    szr, u2 = mot["sigma_z_rot_ms"].to_numpy(), mot["translation_unit_sq"].to_numpy()
-    whole = _loo(_record_loglik_pointwise(theta, s, rr, szr, u2, pair**2))
+    (s, rr, szr, u2, six), use, _ = rf._record_observations(rec, None, 1.0)
+    assert use.all()
+    whole = _loo(_record_loglik_pointwise(theta, s, rr, szr, u2, pair**2, six))
     for fit in (a, b):
         got = fit.loo()
         assert got["elpd"] == fit.info["loo"]["record_elpd"]

@@ -357,8 +357,8 @@ def test_record_likelihood_without_motion_adds_the_pair_scatter_to_kappa_in_quad
     s, r = rng.uniform(0.5, 1.5, n), rng.uniform(0.5, 1.5, n)
     szr, u2 = np.zeros(n), np.zeros(n)
     kappa, pair = 0.02, 0.04
-    theta = np.array([[0.1, np.log(kappa), np.log(0.1), 2.0, 0.0]])
-    both = np.array([[0.1, np.log(np.hypot(kappa, pair)), np.log(0.1), 2.0, 0.0]])
+    theta = np.array([[0.1, np.log(kappa), np.log(0.1), 2.0, 0.0, 0.0]])
+    both = np.array([[0.1, np.log(np.hypot(kappa, pair)), np.log(0.1), 2.0, 0.0, 0.0]])
     with_pair = log_prob_record_model(theta, s, r, szr, u2, pair_log_sd=np.full(n, pair))
     merged = log_prob_record_model(both, s, r, szr, u2)
     # equal likelihood; the priors differ only by the half-normal of log kappa
@@ -525,7 +525,7 @@ def test_record_sbc_replication_with_a_reference_lidar_pair_term():
     from flidar_uq.inference import SamplerSettings
     from flidar_uq.validation.sbc import SBC_RECORD_PARAMS, sbc_record_replication
 
-    tiny = SamplerSettings(nwalkers=10, nsteps=20, nburn=10, ndraws=20, global_max_step_factor=1.0)
+    tiny = SamplerSettings(nwalkers=12, nsteps=20, nburn=10, ndraws=20, global_max_step_factor=1.0)
     seed = np.random.SeedSequence(12)
     row = sbc_record_replication(
         seed, n_records=30, settings=tiny, n_rank_draws=19, pair_log_sd=0.04

@@ -41,7 +41,7 @@ import pandas as pd
 from flidar_uq.data.binning import speed_bin_ms
 from flidar_uq.data.metrics import REPRESENTATIVE_TI_FACTOR, representative_ti
 from flidar_uq.inference import effective_sigma_z_ms, imu_observations, is_record_model
-from flidar_uq.inference.record_motion import record_motion
+from flidar_uq.inference.record_motion import hull_sigma_z_ms, record_motion, six_dof_terms
 from flidar_uq.physics.surrogate import default_surrogate
 from flidar_uq.physics.variance_laws import corrected_std, rho_bin_correlation
 from flidar_uq.seeding import as_seedsequence
@@ -338,6 +338,7 @@ _GLOBAL_SOURCES = {
     "lever_arm_m": "motion",
     "motion_scale": "motion",
     "kappa_z": "motion",
+    "hull_response": "motion",
 }
 
 
@@ -799,7 +800,9 @@ def corrected_ti(
         lever = global_draws("lever_arm_m", "motion")
         scale = global_draws("motion_scale", "motion")
         kappa_z = global_draws("kappa_z", "motion")
+        hull = global_draws("hull_response", "motion")
         mot = record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
+        terms = six_dof_terms(records, mot, surrogate=surrogate, scan_period_s=scan_period_s)
         szr = mot["sigma_z_rot_ms"].to_numpy()
         u2 = mot["translation_unit_sq"].to_numpy()
         described = np.isfinite(szr) & np.isfinite(u2)
@@ -811,7 +814,13 @@ def corrected_ti(
             if not mask.any():
                 continue
             k = int(mask.sum())
-            sz = effective_sigma_z_ms(szr[mask][None, :], u2[mask][None, :], lever, scale)
+            sz = hull_sigma_z_ms(
+                {"sigma_z_rot_ms": szr[mask][None, :], "translation_unit_sq": u2[mask][None, :]},
+                {c: terms[c].to_numpy()[mask][None, :] for c in terms},
+                lever_arm_m=lever,
+                hull_response=hull,
+                motion_scale=scale,
+            )
             err = rng.standard_normal((ndraws, k))
             err *= kappa_z
             sz *= np.exp(err, out=err)  # sz exp(kappa_z N(0, 1)), in place

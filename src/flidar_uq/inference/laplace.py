@@ -144,7 +144,8 @@ def laplace_record_model(
         raise ValueError(
             "laplace_record_model: no record with a reference std and a motion description"
         )
-    args = (*obs, priors, lever_arm_prior)
+    *obs5, six = obs
+    args = (*obs5, priors, lever_arm_prior, None, six)
     x0 = _start(lever_arm_prior)
     mode, hess = laplace_approximation(log_prob_record_model, args, x0)
     reasons = []

@@ -34,7 +34,7 @@ from flidar_uq.inference.densities import _LOG2PI, _in, _log_halfnormal_logscale
 from flidar_uq.inference.diagnostics import _diagnostics, _thin
 from flidar_uq.inference.loo import _loo_chunked
 from flidar_uq.inference.priors import Priors, SamplerSettings
-from flidar_uq.inference.record_motion import record_motion
+from flidar_uq.inference.record_motion import record_motion, six_dof_terms
 from flidar_uq.inference.results import GlobalFit
 from flidar_uq.inference.sampler import _run_ensembles, laplace_init
 from flidar_uq.seeding import as_seedsequence
@@ -48,7 +48,7 @@ __all__ = [
 ]
 
 #: Parameters of the record model, in the order of its theta columns (natural scale names).
-RECORD_MODEL_NAMES = ("rho", "kappa", "kappa_z", "lever_arm_m", "motion_scale")
+RECORD_MODEL_NAMES = ("rho", "kappa", "kappa_z", "lever_arm_m", "motion_scale", "hull_response")
 _LOGS = (1, 2, 4)  # sampled as logs, reported natural
 
 
@@ -57,22 +57,31 @@ def is_record_model(fit) -> bool:
     return getattr(fit, "info", {}).get("loo", {}).get("model") == "record"
 
 
-def _record_z2_tau2(theta, s, r, sz_rot, u2, pair_sq):
+def _record_z2_tau2(theta, s, r, sz_rot, u2, pair_sq, six=None):
     """``(z^2 / tau^2, tau^2)`` of the record model (module docstring), each of shape
     (n_walkers, n_obs), with ``z = s - mu``: ``-2 log p(s_i | theta) - log(2 pi)`` is
     ``z^2 / tau^2 + log tau^2``. Computed in place (seven temporaries of the output's size).
 
     ``pair_sq``: the known relative variance of the two instruments' sampling (-), a
     scatter of the turbulent part ``r`` (enters through ``(dmu/dr)^2``); a scalar 0 or an
-    array of ``n_obs`` values.
+    array of ``n_obs`` values. ``six``: the hull-translation terms ``(X, H, Y, O)`` of
+    :func:`flidar_uq.inference.record_motion.six_dof_terms`, shape (4, n_obs), or None
+    (none: the hull response ``h`` then has no effect).
     """
     rho = theta[:, 0:1]
     kappa_sq = np.exp(2.0 * theta[:, 1:2])
     kz_sq = np.exp(2.0 * theta[:, 2:3])
-    lever_sq = theta[:, 3:4] ** 2
+    lever = theta[:, 3:4]
     k_sq = np.exp(2.0 * theta[:, 4:5])
-    sz_sq = k_sq * sz_rot**2
-    sz_sq += lever_sq * u2
+    sz_sq = sz_rot**2
+    if six is not None:  # the hull's translation (module docstring)
+        h = theta[:, 5:6]
+        sz_sq = sz_sq - 2.0 * h * six[0] + h**2 * six[1]
+    sz_sq = k_sq * sz_sq
+    sz_sq += lever**2 * u2
+    if six is not None:
+        sz_sq += h * (h * six[3] - 2.0 * lever * six[2])
+        np.maximum(sz_sq, 0.0, out=sz_sq)
     sz = np.sqrt(sz_sq)
     rho_r = rho * r
     mu_sq = rho_r * sz  # Eq. (15) of seed 000: r^2 + sZ^2 + 2 rho r sZ
@@ -101,10 +110,10 @@ def _record_z2_tau2(theta, s, r, sz_rot, u2, pair_sq):
     return z, tau_sq
 
 
-def _record_neg2_loglik(theta, s, r, sz_rot, u2, pair_sq):
+def _record_neg2_loglik(theta, s, r, sz_rot, u2, pair_sq, six=None):
     """``-2 log p(s_i | theta) - log(2 pi)`` of the record model, shape (n_walkers, n_obs)
     (:func:`_record_z2_tau2`)."""
-    z, tau_sq = _record_z2_tau2(theta, s, r, sz_rot, u2, pair_sq)
+    z, tau_sq = _record_z2_tau2(theta, s, r, sz_rot, u2, pair_sq, six)
     z += np.log(tau_sq, out=tau_sq)
     return z
 
@@ -125,11 +134,12 @@ def _sum_log_rows(x):
     return np.log(y).sum(axis=1) + np.log(x[:, k:]).sum(axis=1)
 
 
-def _record_loglik_pointwise(theta, s, r, sz_rot, u2, pair_sq=0.0):
+def _record_loglik_pointwise(theta, s, r, sz_rot, u2, pair_sq=0.0, six=None):
     """(n_walkers, n_obs) pointwise log-likelihood of the record model (module docstring);
     ``pair_sq``: the known relative variance of the two instruments' sampling (-), a
-    scatter of the turbulent part ``r`` (enters through ``(dmu/dr)^2``)."""
-    q = _record_neg2_loglik(theta, s, r, sz_rot, u2, pair_sq)
+    scatter of the turbulent part ``r`` (enters through ``(dmu/dr)^2``); ``six``: the
+    hull-translation terms (:func:`_record_z2_tau2`)."""
+    q = _record_neg2_loglik(theta, s, r, sz_rot, u2, pair_sq, six)
     q += _LOG2PI
     q *= -0.5
     return q
@@ -140,7 +150,7 @@ def _record_loglik_pointwise(theta, s, r, sz_rot, u2, pair_sq=0.0):
 _SUM_BLOCK_ELEMENTS = 2**16
 
 
-def _record_loglik_sum(theta, s, r, sz_rot, u2, pair_sq=0.0):
+def _record_loglik_sum(theta, s, r, sz_rot, u2, pair_sq=0.0, six=None):
     """(n_walkers,) log-likelihood of the record model summed over the records.
 
     :func:`_record_z2_tau2` on blocks of records (all walkers of the call, at most
@@ -155,7 +165,13 @@ def _record_loglik_sum(theta, s, r, sz_rot, u2, pair_sq=0.0):
     for a in range(0, n, b):
         p = pair_sq[a : a + b] if np.ndim(pair_sq) else pair_sq
         z, tau_sq = _record_z2_tau2(
-            theta, s[a : a + b], r[a : a + b], sz_rot[a : a + b], u2[a : a + b], p
+            theta,
+            s[a : a + b],
+            r[a : a + b],
+            sz_rot[a : a + b],
+            u2[a : a + b],
+            p,
+            None if six is None else six[:, a : a + b],
         )
         out += z.sum(axis=1)
         out += _sum_log_rows(tau_sq)
@@ -170,6 +186,7 @@ def _log_prior(theta, priors: Priors, lever_arm_prior):
         ok &= _in(theta[:, 2], np.log(priors.kappa_min), np.log(5.0))
         ok &= (theta[:, 3] >= 0.0) & (theta[:, 3] < priors.lever_arm_max_m)
         ok &= np.abs(theta[:, 4]) < np.log(5.0)
+        ok &= (theta[:, 5] >= 0.0) & (theta[:, 5] <= priors.hull_response_max)  # uniform
         lp = _log_halfnormal_logscale(theta[:, 1], priors.kappa_scale)
         lp = lp + _log_halfnormal_logscale(theta[:, 2], priors.kappa_z_scale)
         if lever_arm_prior is None:
@@ -181,14 +198,14 @@ def _log_prior(theta, priors: Priors, lever_arm_prior):
 
 
 def log_prob_record_model(
-    theta, s, r, sz_rot, u2, priors=Priors(), lever_arm_prior=None, pair_log_sd=None
+    theta, s, r, sz_rot, u2, priors=Priors(), lever_arm_prior=None, pair_log_sd=None, six=None
 ):
     """Log posterior of the record model, vectorised over walkers.
 
     Parameters
     ----------
-    theta : array_like, shape (n_walkers, 5)
-        ``(rho, log kappa, log kappa_z, lever_arm_m, log motion_scale)``.
+    theta : array_like, shape (n_walkers, 6)
+        ``(rho, log kappa, log kappa_z, lever_arm_m, log motion_scale, hull_response)``.
     s, r : numpy.ndarray, shape (n_obs,)
         Floating-lidar and reference 10-min HWS std (m/s).
     sz_rot, u2 : numpy.ndarray, shape (n_obs,)
@@ -201,6 +218,10 @@ def log_prob_record_model(
     pair_log_sd : numpy.ndarray, shape (n_obs,), optional
         Known std of ``log(s / r)`` from the two instruments' sampling alone (-): added to
         ``kappa`` in quadrature (module docstring); default None: 0.
+    six : numpy.ndarray, shape (4, n_obs), optional
+        The hull-translation terms of :func:`flidar_uq.inference.record_motion.six_dof_terms`
+        (``heave_cross_sq``, ``heave_leak_sq``, ``orbital_cross_sq``, ``orbital_sq``);
+        default None: the buoy only rotates.
 
     Returns
     -------
@@ -213,7 +234,7 @@ def log_prob_record_model(
     if np.any(ok):
         with np.errstate(all="ignore"):
             pair_sq = 0.0 if pair_log_sd is None else np.asarray(pair_log_sd) ** 2
-            ll = _record_loglik_sum(theta[ok], s, r, sz_rot, u2, pair_sq)
+            ll = _record_loglik_sum(theta[ok], s, r, sz_rot, u2, pair_sq, six)
         out[ok] = lp[ok] + ll
     return np.where(np.isfinite(out), out, -np.inf)
 
@@ -232,6 +253,7 @@ def _broad(lever_arm_prior):
                 np.log(rng.uniform(0.02, 0.5, n)),
                 lev,
                 rng.uniform(-0.2, 0.2, n),
+                rng.uniform(0.0, 1.0, n),
             ]
         )
 
@@ -242,12 +264,14 @@ def _broad(lever_arm_prior):
 def _record_observations(records, surrogate, scan_period_s):
     """The records the record model can use and their observations.
 
-    Returns ``((s, r, sz_rot, u2), use, kinds)``: measured std ``s`` (m/s), reference std
-    ``r`` (m/s), rotational sigma_Z (m/s) and translation term ``u2`` ((m/s)^2 / m^2) of
-    the usable records (all finite and ``s, r > 0``), the mask ``use`` over ``records``
-    and every record's motion description kind.
+    Returns ``((s, r, sz_rot, u2, six), use, kinds)``: measured std ``s`` (m/s), reference
+    std ``r`` (m/s), rotational sigma_Z (m/s), translation term ``u2`` ((m/s)^2 / m^2) and
+    the hull-translation terms ``six`` (4, n) (:func:`six_dof_terms`) of the usable
+    records (all finite and ``s, r > 0``), the mask ``use`` over ``records`` and every
+    record's motion description kind.
     """
     mot = record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
+    six = six_dof_terms(records, mot, surrogate=surrogate, scan_period_s=scan_period_s)
     s = records["hws_std_ms"].to_numpy(dtype=float)
     r = (
         records["ref_hws_std_ms"].to_numpy(dtype=float)
@@ -258,12 +282,13 @@ def _record_observations(records, surrogate, scan_period_s):
     szr = mot["sigma_z_rot_ms"].to_numpy()
     u2 = mot["translation_unit_sq"].to_numpy()
     use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.isfinite(szr) & np.isfinite(u2)
-    return (s[use], r[use], szr[use], u2[use]), use, kinds
+    six = six.to_numpy(dtype=float).T  # (4, n): X, H, Y, O
+    return (s[use], r[use], szr[use], u2[use], np.ascontiguousarray(six[:, use])), use, kinds
 
 
 def _start(lever_arm_prior):
     """Starting point of the mode search (sampler coordinates: rho, log kappa, log kappa_z,
-    L, log k)."""
+    L, log k, h)."""
     return np.array(
         [
             0.0,
@@ -271,6 +296,7 @@ def _start(lever_arm_prior):
             np.log(0.15),
             2.0 if lever_arm_prior is None else lever_arm_prior[0],
             0.0,
+            0.5,
         ]
     )
 
@@ -337,7 +363,7 @@ def fit_record_model(
             )
         lever_arm_prior = (mean, sd)
     seedseq = as_seedsequence(seed)
-    (s, r, szr, u2), use, kinds = _record_observations(records, surrogate, scan_period_s)
+    (s, r, szr, u2, six), use, kinds = _record_observations(records, surrogate, scan_period_s)
     pair = None
     if pair_log_sd is not None:
         pair_all = np.asarray(pair_log_sd, dtype=float)
@@ -347,7 +373,7 @@ def fit_record_model(
                 f"where the record has a reference), got shape {pair_all.shape}"
             )
         pair = pair_all[use]
-    args = (s, r, szr, u2, priors, lever_arm_prior, pair)
+    args = (s, r, szr, u2, priors, lever_arm_prior, pair, six)
     gs = settings.for_global_fit()
     x0 = _start(lever_arm_prior)
     init = laplace_init(log_prob_record_model, args, x0, _broad(lever_arm_prior))
@@ -371,7 +397,7 @@ def fit_record_model(
     prior_only = s.size == 0
     if prior_only:
         reasons.append("no record with a reference std and a motion description: prior only")
-    loo = None if prior_only else _record_loo(thin.reshape(-1, ndim), s, r, szr, u2, pair)
+    loo = None if prior_only else _record_loo(thin.reshape(-1, ndim), s, r, szr, u2, pair, six)
     k_med = float(np.median(draws["motion_scale"]))
     info = {
         "n_records": int(s.size),
@@ -402,7 +428,7 @@ def fit_record_model(
     )
 
 
-def _record_loo(theta, s, r, sz_rot, u2, pair):
+def _record_loo(theta, s, r, sz_rot, u2, pair, six=None):
     """PSIS-LOO of the record model over the draws ``theta`` (n_draws, 5), computed in blocks
     of records (:func:`~flidar_uq.inference.loo._loo_chunked`): the (draws x records)
     pointwise log-likelihood (1.26 GB in float64 for a year at 3 heights) is never held
@@ -411,7 +437,13 @@ def _record_loo(theta, s, r, sz_rot, u2, pair):
 
     def pointwise(sl):
         return _record_loglik_pointwise(
-            theta, s[sl], r[sl], sz_rot[sl], u2[sl], 0.0 if pair_sq is None else pair_sq[sl]
+            theta,
+            s[sl],
+            r[sl],
+            sz_rot[sl],
+            u2[sl],
+            0.0 if pair_sq is None else pair_sq[sl],
+            None if six is None else six[:, sl],
         )
 
     return _loo_chunked(pointwise, s.size, n_samples=theta.shape[0])

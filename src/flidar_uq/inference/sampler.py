@@ -214,11 +214,16 @@ def _extension_target(nsteps, diag, reasons, settings):
     return max(need, int(np.ceil(1.5 * nsteps)))
 
 
+#: restarts of the Nelder-Mead mode search from its own result (at most)
+_MODE_RESTARTS = 8
+
+
 def laplace_approximation(log_prob, args, x0) -> tuple[np.ndarray, np.ndarray]:
     """Posterior mode and the Hessian of the negative log posterior there (Laplace).
 
     The mode comes from Nelder-Mead on ``-log_prob(theta[None], *args)`` started at
-    ``x0`` (non-finite values count as 1e300); the Hessian from central differences
+    ``x0`` and restarted from its result while that improves (non-finite values count as
+    1e300); the Hessian from central differences
     with step ``_HESSIAN_STEP`` (1e-4) in the sampler's coordinates. ``N(mode, inv(hessian))`` is the normal
     (Laplace) approximation of the posterior; it is exact for a Gaussian posterior and
     breaks where the posterior is skewed or its mode sits on (or near) the edge of the
@@ -246,9 +251,17 @@ def laplace_approximation(log_prob, args, x0) -> tuple[np.ndarray, np.ndarray]:
         v = -log_prob(th[None, :], *args)[0]
         return v if np.isfinite(v) else 1e300
 
-    mode = optimize.minimize(
-        neg_lp, x0, method="Nelder-Mead", options={"xatol": 1e-5, "fatol": 1e-6, "maxiter": 4000}
-    ).x
+    opts = {"xatol": 1e-5, "fatol": 1e-6, "maxiter": 4000}
+    res = optimize.minimize(neg_lp, x0, method="Nelder-Mead", options=opts)
+    # restarted from its own result until it stops improving: a simplex that collapsed in
+    # a valley of several parameters (lever arm, motion scale, hull response) stalls short
+    # of the mode
+    for _ in range(_MODE_RESTARTS):
+        again = optimize.minimize(neg_lp, res.x, method="Nelder-Mead", options=opts)
+        if not again.fun < res.fun - 1e-6:
+            break
+        res = again
+    mode = res.x
     h = _HESSIAN_STEP
     hess = np.empty((ndim, ndim))
     eye = np.eye(ndim) * h

@@ -14,15 +14,16 @@ import pandas as pd
 from scipy import stats
 
 from flidar_uq.campaign.statistical_mode import draw_true_params, generate_statistical_campaign
+from flidar_uq.data.imu import follower_translation_columns
 from flidar_uq.inference import (
     Priors,
     SamplerSettings,
-    effective_sigma_z_ms,
     fit_bin,
     fit_global,
     fit_record_model,
 )
-from flidar_uq.inference.record_motion import record_motion
+from flidar_uq.inference.record_motion import hull_sigma_z_ms, record_motion, six_dof_terms
+from flidar_uq.physics.motion_spectrum import TiltBandSpectrum
 from flidar_uq.physics.surrogate import default_surrogate
 from flidar_uq.seeding import as_seedsequence
 
@@ -151,7 +152,7 @@ def sbc_replication(
 # --- the record motion model (flidar_uq.inference.record_fit) -------------------------
 
 #: Parameters of the record motion model whose ranks :func:`sbc_record_replication` returns.
-SBC_RECORD_PARAMS = ("rho", "kappa", "kappa_z", "lever_arm_m", "motion_scale")
+SBC_RECORD_PARAMS = ("rho", "kappa", "kappa_z", "lever_arm_m", "motion_scale", "hull_response")
 
 
 def _trunc_halfnormal(rng, scale, lo, hi):
@@ -169,7 +170,8 @@ def draw_record_prior(rng, *, priors: Priors = _PRIORS, lever_arm_prior=None) ->
     ``kappa_z ~ HalfNormal(kappa_z_scale)`` on (``kappa_min``, 5); lever arm (m)
     ``~ HalfNormal(lever_arm_scale_m)`` on [0, ``lever_arm_max_m``) or, with
     ``lever_arm_prior = (mean, sd)``, ``Normal(mean, sd)`` on the same interval;
-    ``log motion_scale ~ N(0, record_motion_scale_log_sd)`` on ``|log k| < log 5``.
+    ``log motion_scale ~ N(0, record_motion_scale_log_sd)`` on ``|log k| < log 5``;
+    ``hull_response ~ U(0, hull_response_max)``.
 
     Parameters
     ----------
@@ -180,7 +182,7 @@ def draw_record_prior(rng, *, priors: Priors = _PRIORS, lever_arm_prior=None) ->
     Returns
     -------
     dict
-        The five parameters of :data:`SBC_RECORD_PARAMS` on their natural scale.
+        The six parameters of :data:`SBC_RECORD_PARAMS` on their natural scale.
     """
     rho = float(rng.uniform(-1.0, 1.0))
     kappa = _trunc_halfnormal(rng, priors.kappa_scale, priors.kappa_min, 2.0)
@@ -202,6 +204,7 @@ def draw_record_prior(rng, *, priors: Priors = _PRIORS, lever_arm_prior=None) ->
         "kappa_z": kappa_z,
         "lever_arm_m": float(lever),
         "motion_scale": float(np.exp(log_k)),
+        "hull_response": float(rng.uniform(0.0, priors.hull_response_max)),
     }
 
 
@@ -212,8 +215,11 @@ def draw_record_campaign(
 
     Covariates: ``hws ~ U(4, 18)`` m/s, TI log-normal (median 0.08, log-sd 0.3), reference
     std ``r = TI hws``; tilt std along the wind log-normal (median 1.6 deg, log-sd 0.4),
-    mean period ``U(2.5, 7)`` s. With ``sZ^2 = (k sZ_rot)^2 + L^2 u^2`` (from
-    :func:`~flidar_uq.inference.record_motion.record_motion`),
+    mean period ``U(2.5, 7)`` s; across the wind log-normal (median 1.0 deg, log-sd 0.5);
+    the wave follower's translation of :func:`flidar_uq.data.imu.follower_translation_columns`
+    for one band along and one across the wind at periods ``T`` and ``T U(1, 1.6)``. With
+    ``sZ`` of :func:`~flidar_uq.inference.record_motion.hull_sigma_z_ms` (lever arm, hull
+    response, motion scale),
     ``mu^2 = r^2 + sZ^2 + 2 rho r sZ`` (Eq. (15) of seed 000) and
     ``tau^2 = (kappa mu)^2 + (kappa_z sZ dmu/dsZ)^2 + (pair_log_sd r dmu/dr)^2 + 1e-8``, the
     floating-lidar std is
@@ -225,7 +231,7 @@ def draw_record_campaign(
     rng : numpy.random.Generator
     n_records : int
     truth : dict
-        The five parameters of :data:`SBC_RECORD_PARAMS`.
+        The six parameters of :data:`SBC_RECORD_PARAMS`.
     surrogate : SigmaZSurrogate, optional
     pair_log_sd : float
         The known relative sampling scatter of a reference lidar pair (-), every record
@@ -239,17 +245,37 @@ def draw_record_campaign(
     """
     hws = rng.uniform(4.0, 18.0, n_records)
     r = np.exp(rng.normal(np.log(0.08), 0.3, n_records)) * hws
+    along = np.exp(rng.normal(np.log(1.6), 0.4, n_records))
+    across = np.exp(rng.normal(np.log(1.0), 0.5, n_records))
+    per = rng.uniform(2.5, 7.0, n_records)
+    per_across = per * rng.uniform(1.0, 1.6, n_records)
     rec = pd.DataFrame(
         {
             "hws_mean_ms": hws,
-            "tilt_along_wind_std_deg": np.exp(rng.normal(np.log(1.6), 0.4, n_records)),
-            "tilt_period_mean_s": rng.uniform(2.5, 7.0, n_records),
+            "tilt_along_wind_std_deg": along,
+            "tilt_across_wind_std_deg": across,
+            "tilt_period_mean_s": per,
         }
     )
+    bands = TiltBandSpectrum(
+        np.array([1.0, 5.0, 20.0]),
+        np.column_stack([per, per_across]),
+        np.column_stack([along**2, np.zeros(n_records)]),
+        np.column_stack([np.zeros(n_records), across**2]),
+        *(np.zeros(n_records) for _ in range(5)),
+    )
+    for col, val in follower_translation_columns(bands).items():
+        rec[col] = val
     mot = record_motion(rec, surrogate=surrogate)
-    szr, u2 = mot["sigma_z_rot_ms"].to_numpy(), mot["translation_unit_sq"].to_numpy()
-    sz_sq = effective_sigma_z_ms(szr, u2, truth["lever_arm_m"], truth["motion_scale"]) ** 2
-    sz = np.sqrt(sz_sq)
+    terms = six_dof_terms(rec, mot, surrogate=surrogate)
+    sz = hull_sigma_z_ms(
+        mot,
+        terms,
+        lever_arm_m=truth["lever_arm_m"],
+        hull_response=truth["hull_response"],
+        motion_scale=truth["motion_scale"],
+    )
+    sz_sq = sz**2
     mu_sq = np.maximum(r**2 + sz_sq + 2.0 * truth["rho"] * r * sz, 1e-12)  # Eq. (15) of seed 000
     dmu_sq = (sz + truth["rho"] * r) ** 2 / mu_sq
     dmu_r_sq = (r + truth["rho"] * sz) ** 2 / mu_sq
