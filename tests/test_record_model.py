@@ -131,8 +131,8 @@ def test_record_log_prob_is_finite_or_minus_inf_never_nan():
             [0.0, np.nan, np.log(0.1), 2.0, 0.0, 0.5],
             [0.0, np.log(0.05), np.inf, 2.0, 0.0, 0.5],
             [0.0, np.log(0.05), np.log(0.1), -1.0, 0.0, 0.5],  # negative lever arm
-            [0.0, np.log(0.05), np.log(0.1), 2.0, 0.0, -0.1],  # negative hull response
-            [0.99, -30.0, -30.0, 19.9, 1.6, 1.49],
+            [0.0, np.log(0.05), np.log(0.1), 2.0, 0.0, 1.3],  # hull response 1.69 > 1.5
+            [0.99, -30.0, -30.0, 19.9, 1.6, -1.2],
         ]
     )
     lp = log_prob_record_model(theta, s, r, szr, u2)
@@ -249,7 +249,7 @@ def test_record_fit_loo_in_blocks_equals_loo_of_the_whole_pointwise_matrix(monke
         np.testing.assert_array_equal(a.draws[name], b.draws[name])
     theta = np.column_stack(
         [
-            np.log(a.flat(n)) if k in (1, 2, 4) else a.flat(n)
+            np.log(a.flat(n)) if k in (1, 2, 4) else (np.sqrt(a.flat(n)) if k == 5 else a.flat(n))
             for k, n in enumerate(RECORD_MODEL_NAMES)
         ]
     )

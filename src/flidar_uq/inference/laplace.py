@@ -25,11 +25,11 @@ import pandas as pd
 
 from flidar_uq.inference.priors import Priors
 from flidar_uq.inference.record_fit import (
-    _LOGS,
     RECORD_MODEL_NAMES,
     _record_observations,
     _start,
     log_prob_record_model,
+    natural_draws,
 )
 from flidar_uq.inference.results import GlobalFit
 from flidar_uq.inference.sampler import _HESSIAN_STEP, laplace_approximation
@@ -175,10 +175,7 @@ def laplace_record_model(
             f"laplace: {outside:.1%} of the normal draws outside the support (mode near a "
             "bound): the approximation is truncated there, use emcee"
         )
-    draws = {
-        n: (np.exp(theta[:, k]) if k in _LOGS else theta[:, k])[None, :]
-        for k, n in enumerate(RECORD_MODEL_NAMES)
-    }
+    draws = {n: v[None, :] for n, v in natural_draws(theta).items()}
     info = {
         "n_records": int(use.sum()),
         "prior_only": False,

@@ -30,8 +30,10 @@ class Priors:
     motion-model scale of the surrogate's rotational sigma_Z
     ``log k ~ Normal(0, motion_scale_log_sd)`` on ``|log k| < log 5``. Record motion model
     (:mod:`flidar_uq.inference.record_fit`): ``kappa_z ~ HalfNormal(kappa_z_scale)``,
-    ``log k ~ Normal(0, record_motion_scale_log_sd)``, the hull response
-    ``h ~ Uniform(0, hull_response_max)``.
+    ``log k ~ Normal(0, record_motion_scale_log_sd)``, the hull response ``h = q^2`` with
+    ``q ~ Uniform(-sqrt(hull_response_max), sqrt(hull_response_max))`` (the density
+    ``1 / (2 sqrt(h hull_response_max))`` of ``h``: proper, more of it near the rotation-only
+    buoy, no wall at ``h = 0`` for the sampler).
 
     ``kappa`` and ``kappa_z`` are sampled as logs on [``kappa_min``, ...): the bound only
     keeps the log finite. With a fixed reference lidar the pair term explains the
@@ -67,7 +69,7 @@ class Priors:
     motion_scale_log_sd: float = 0.3
     kappa_z_scale: float = 0.3
     record_motion_scale_log_sd: float = 0.1
-    #: upper end of the uniform prior of the record model's hull response ``h`` (-): 0
+    #: upper end of the prior of the record model's hull response ``h`` (-): 0
     #: rotates about a fixed centre, 1 follows the waves; a hull near resonance responds
     #: more than the waves (docs/inference.md)
     hull_response_max: float = 1.5

@@ -50,6 +50,17 @@ __all__ = [
 #: Parameters of the record model, in the order of its theta columns (natural scale names).
 RECORD_MODEL_NAMES = ("rho", "kappa", "kappa_z", "lever_arm_m", "motion_scale", "hull_response")
 _LOGS = (1, 2, 4)  # sampled as logs, reported natural
+_SQUARED = 5  # the hull response is sampled as q, h = q^2: no wall at h = 0 (module docstring)
+
+
+def natural_draws(theta: np.ndarray) -> dict[str, np.ndarray]:
+    """The record model's parameters on their natural scale from sampler coordinates
+    ``(..., 6)``: ``exp`` of the logs, the hull response ``h = q^2``."""
+    out = {}
+    for k, n in enumerate(RECORD_MODEL_NAMES):
+        x = theta[..., k]
+        out[n] = np.exp(x) if k in _LOGS else (x**2 if k == _SQUARED else x)
+    return out
 
 
 def is_record_model(fit) -> bool:
@@ -75,7 +86,7 @@ def _record_z2_tau2(theta, s, r, sz_rot, u2, pair_sq, six=None):
     k_sq = np.exp(2.0 * theta[:, 4:5])
     sz_sq = sz_rot**2
     if six is not None:  # the hull's translation (module docstring)
-        h = theta[:, 5:6]
+        h = theta[:, 5:6] ** 2
         sz_sq = sz_sq - 2.0 * h * six[0] + h**2 * six[1]
     sz_sq = k_sq * sz_sq
     sz_sq += lever**2 * u2
@@ -186,7 +197,7 @@ def _log_prior(theta, priors: Priors, lever_arm_prior):
         ok &= _in(theta[:, 2], np.log(priors.kappa_min), np.log(5.0))
         ok &= (theta[:, 3] >= 0.0) & (theta[:, 3] < priors.lever_arm_max_m)
         ok &= np.abs(theta[:, 4]) < np.log(5.0)
-        ok &= (theta[:, 5] >= 0.0) & (theta[:, 5] <= priors.hull_response_max)  # uniform
+        ok &= np.abs(theta[:, 5]) <= np.sqrt(priors.hull_response_max)  # q uniform
         lp = _log_halfnormal_logscale(theta[:, 1], priors.kappa_scale)
         lp = lp + _log_halfnormal_logscale(theta[:, 2], priors.kappa_z_scale)
         if lever_arm_prior is None:
@@ -205,7 +216,8 @@ def log_prob_record_model(
     Parameters
     ----------
     theta : array_like, shape (n_walkers, 6)
-        ``(rho, log kappa, log kappa_z, lever_arm_m, log motion_scale, hull_response)``.
+        ``(rho, log kappa, log kappa_z, lever_arm_m, log motion_scale, q)``, the hull
+        response ``h = q^2``.
     s, r : numpy.ndarray, shape (n_obs,)
         Floating-lidar and reference 10-min HWS std (m/s).
     sz_rot, u2 : numpy.ndarray, shape (n_obs,)
@@ -253,7 +265,7 @@ def _broad(lever_arm_prior):
                 np.log(rng.uniform(0.02, 0.5, n)),
                 lev,
                 rng.uniform(-0.2, 0.2, n),
-                rng.uniform(0.0, 1.0, n),
+                rng.uniform(-1.0, 1.0, n),
             ]
         )
 
@@ -378,21 +390,18 @@ def fit_record_model(
     x0 = _start(lever_arm_prior)
     init = laplace_init(log_prob_record_model, args, x0, _broad(lever_arm_prior))
     ndim = len(RECORD_MODEL_NAMES)
-    logs = list(_LOGS)
 
     def check(ch):
-        nat = ch.copy()
-        nat[..., logs] = np.exp(ch[..., logs])
-        return _diagnostics(nat, list(RECORD_MODEL_NAMES), gs)
+        nat = natural_draws(ch)
+        return _diagnostics(
+            np.stack([nat[n] for n in RECORD_MODEL_NAMES], -1), list(RECORD_MODEL_NAMES), gs
+        )
 
     chains, diag, reasons = _run_ensembles(
         log_prob_record_model, args, init, ndim, gs, seedseq, check, label="record model"
     )
     thin = _thin(chains, settings.ndraws)
-    draws = {
-        n: (np.exp(thin[..., k]) if k in _LOGS else thin[..., k])
-        for k, n in enumerate(RECORD_MODEL_NAMES)
-    }
+    draws = natural_draws(thin)
     reasons = list(reasons)
     prior_only = s.size == 0
     if prior_only:

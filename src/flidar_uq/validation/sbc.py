@@ -171,7 +171,7 @@ def draw_record_prior(rng, *, priors: Priors = _PRIORS, lever_arm_prior=None) ->
     ``~ HalfNormal(lever_arm_scale_m)`` on [0, ``lever_arm_max_m``) or, with
     ``lever_arm_prior = (mean, sd)``, ``Normal(mean, sd)`` on the same interval;
     ``log motion_scale ~ N(0, record_motion_scale_log_sd)`` on ``|log k| < log 5``;
-    ``hull_response ~ U(0, hull_response_max)``.
+    ``hull_response = q^2``, ``q ~ U(-sqrt(hull_response_max), sqrt(hull_response_max))``.
 
     Parameters
     ----------
@@ -204,7 +204,7 @@ def draw_record_prior(rng, *, priors: Priors = _PRIORS, lever_arm_prior=None) ->
         "kappa_z": kappa_z,
         "lever_arm_m": float(lever),
         "motion_scale": float(np.exp(log_k)),
-        "hull_response": float(rng.uniform(0.0, priors.hull_response_max)),
+        "hull_response": float(rng.uniform(-1.0, 1.0) ** 2 * priors.hull_response_max),
     }
 
 
