@@ -126,7 +126,10 @@ class SamplerSettings:
     global_max_step_factor : float
         ``max_step_factor`` of the global fit (relative to its ``nsteps``): with few
         records the ``tau0``/``kappa`` posterior is banana-shaped (autocorrelation time
-        ~20-40 steps) and needs the longer extension; a near-Gaussian one never uses it.
+        ~20-40 steps) and needs the longer extension, and so does the record model of a
+        hull that translates (the lever arm, motion scale and hull response trade off along
+        a curved valley: ~60-80 steps on a wave follower); a near-Gaussian one never uses
+        it.
     rhat_max, ess_min, n_autocorr : float
         Convergence thresholds of design.md (rank R-hat, bulk and tail ESS, chain length
         in integrated autocorrelation times).
@@ -142,7 +145,7 @@ class SamplerSettings:
     two_period_step_factor: float = 2.0
     max_step_factor: float = 6.0
     global_step_factor: float = 1.0
-    global_max_step_factor: float = 12.0
+    global_max_step_factor: float = 24.0
     mixture: str = "auto"
     two_period_min_share: float = 0.5
     loo_threshold_se: float = 2.0
