@@ -15,4 +15,5 @@ fit_global_model(
     lidar=snakemake.params.lidar,
     reference=dict(snakemake.params.reference),
     propagation=dict(snakemake.params.propagation),
+    holdout=dict(snakemake.params.holdout) | {"records": snakemake.input.records},
 )
