@@ -8,6 +8,7 @@ rerun and a run killed mid-way give byte-identical result files, and the user-da
 
 from __future__ import annotations
 
+import base64
 import hashlib
 import os
 import re
@@ -340,22 +341,44 @@ def test_tiny_end_to_end_rerun_nothing_clean_rerun_identical(tmp_path):
     cfg_a, cfg_b = tiny_config(a, tmp_path), tiny_config(b, tmp_path)
     snakemake(a, cfg_a, "--cores", "2")
     check_outputs(a, truth=True)
-    from test_report import assert_report_layout, assert_report_renders
+    from test_report import (
+        assert_first_screen,
+        assert_no_absolute_path,
+        assert_prints_without_cut_tables,
+        assert_report_layout,
+        assert_report_renders,
+    )
 
-    assert_report_renders(a / "results" / "report" / "report.html", tmp_path)
+    report_html = a / "results" / "report" / "report.html"
+    assert_report_renders(report_html, tmp_path)
     sections = (
-        "Turbulence intensity per height and speed bin",
+        "Turbulence intensity per height and wind-speed bin",
+        "Validation against the reference",
         "Direction sectors and sea states",
-        "Uncertainty budget",
+        "Motion of the buoy",
+        "Appendix A. Bayesian diagnostics",
+        "Appendix C. Uncertainty budget",
         "How to cite",
         "Provenance and how to rerun",
     )
-    assert_report_layout(a / "results" / "report" / "report.html", tmp_path, sections)
-    html = (a / "results" / "report" / "report.html").read_text()
-    # issue 14: no development benchmark in the user's report; they are in the developer one
-    for png in (tmp_path / "benchmark_charts").glob("*.png"):
+    assert_report_layout(report_html, tmp_path, sections)
+    # the first screen (1400 x 900) answers; the print cuts no table; files by name only
+    assert_first_screen(report_html, tmp_path, "tiny")
+    assert_prints_without_cut_tables(report_html, tmp_path, "tiny")
+    html = report_html.read_text()
+    assert_no_absolute_path(html, tmp_path, REPO)
+    assert "seed 000" not in html and "Full table" not in html and 'href="../' not in html
+    assert "category <b" in html and "In sample: the model was fitted on these same" in html
+    # no development benchmark in the user's report; they are in the developer one
+    charts = sorted((tmp_path / "benchmark_charts").glob("*.png"))
+    chart_uris = {
+        base64.b64encode(p.read_bytes()).decode("ascii")[:2000] for p in (*charts,
+        REPO / "benchmarks" / "results" / "method_frontier.png") if p.is_file()
+    }  # fmt: skip
+    for png in charts:
         assert png.name not in html
-    assert "Speed-accuracy" not in html
+    assert not any(uri in html for uri in chart_uris)
+    assert "Speed-accuracy" not in html and "Method frontier" not in html
     assert "sha256" in html and "requirements.lock" in html
     sb = pd.read_csv(a / "results" / "ti" / "speed_bins.csv")
     assert set(sb["height_m"]) == set(TINY_SCENARIO["heights_m"])

@@ -46,7 +46,7 @@ def series_context(
         gaps = read_csv(imu_gaps) if imu_gaps else pd.DataFrame()
         longest = float(s["longest_gap_inside_s"])
         imu = {
-            "path": s["imu_series"],
+            "path": os.path.basename(str(s["imu_series"])),  # its name: no directory
             "rows": s["rows"],
             "rate_hz": f"{float(s['rate_hz']):.4g}",
             "first": s["first_sample"],
