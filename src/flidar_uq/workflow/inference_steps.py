@@ -148,7 +148,7 @@ def load_bin_fits(batch_dirs: Sequence[str | os.PathLike], bin_fits: pd.DataFram
 
 def fit_global_model(
     batch_dirs: Sequence[str | os.PathLike],
-    assignments_path: str | os.PathLike,
+    assignments_path: str | os.PathLike | pd.DataFrame,
     out_path: str | os.PathLike,
     *,
     model: str,
@@ -157,7 +157,6 @@ def fit_global_model(
     lidar: str,
     reference: dict | None = None,
     propagation: dict | None = None,
-    holdout: dict | None = None,
 ) -> None:
     """Fit one global model (rho only / lever arm / lever arm + motion scale) on the gathered
     per-bin fits and write its posterior (NetCDF) to ``out_path``.
@@ -177,16 +176,19 @@ def fit_global_model(
     Each model's draws depend only on the seed (``inference.fit_global`` seeds each model
     with its own child), so the result equals ``fit_global(..., lever_arm="auto")``.
 
-    ``holdout`` (config ``validation.holdout``, ``mode`` and ``days``, plus ``records``:
-    the path of the campaign's validated record table, whose last time ends the campaign):
-    the reference of the held-out records is removed from the fit input
-    (:func:`fit_input`), so the fit never sees it. None: every reference record is used.
+    ``assignments_path``: results/bins/assignments.csv, or the fit input as a table
+    (:func:`fit_input`: the binned records without the held-out records' reference, so
+    that the fit never sees it).
     """
     from flidar_uq import inference as inf
     from flidar_uq.physics.surrogate import get_surrogate
 
     seed = child_seed(inference["seed"], 0)
-    assigned = fit_input(assignments_path, holdout)
+    assigned = (
+        assignments_path
+        if isinstance(assignments_path, pd.DataFrame)
+        else read_csv(assignments_path)
+    )
     if model == "record":
         lever = inference.get("lever_arm_m")
         pair_log_sd = None
