@@ -55,7 +55,7 @@ def sigma_scatter_figure(
     *,
     ref_label: str = "reference",
 ) -> Figure:
-    """sigma_moving against sigma_ref and the corrected stds (seed 000 Figs. 4-5 style).
+    """sigma_moving against sigma_ref and the corrected stds (Gutiérrez-Antuñano et al. 2018, Figs. 4-5 style).
 
     Parameters
     ----------
@@ -64,7 +64,7 @@ def sigma_scatter_figure(
     sigma_ref_ms : numpy.ndarray, shape (n,)
         Reference (or true) HWS std (m/s): left panel, blue crosses.
     sigma_corr : dict of str -> numpy.ndarray, shape (n,)
-        Motion-corrected reference std per law (seed 000 Eqs. 15-17), m/s: right panel.
+        Motion-corrected reference std per law (Gutiérrez-Antuñano et al. 2018, Eqs. 15-17), m/s: right panel.
     ref_label : str
         Name of the reference in the axis labels.
 

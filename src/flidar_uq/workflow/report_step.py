@@ -825,14 +825,14 @@ def build_report(
     str
         The HTML text written.
     """
-    from flidar_uq.workflow.report_summary import _held_out, validate
+    from flidar_uq.workflow.report_summary import held_out_records, validate
     from flidar_uq.workflow.series_report import series_sections
 
     ctx = _load(Path(results_dir), batch_dirs, config)
     records = ctx["records"]
     ctx["validation"] = validate(records, config, ctx["reference_kind_code"])
     ctx["held_out"] = (
-        _held_out(records, config)[0] if ctx["validation"] else np.zeros(len(records), bool)
+        held_out_records(records, config)[0] if ctx["validation"] else np.zeros(len(records), bool)
     )
     coverage = np.nan
     if ctx["validation"] is not None:
@@ -842,6 +842,14 @@ def build_report(
     ctx["warnings"] = _plain_warnings(
         ctx["gfit"], ctx["bins"], records, ctx["global_summary"], ctx["motion_model"], coverage
     )
+    v = ctx["validation"]
+    if v is not None and not (config.get("validation") or {}).get("trial_posterior"):
+        if not (v.tables["summary"]["sample"] == "in sample").any():
+            ctx["warnings"].append(
+                "The hold-out removed every reference record from the fit: the model ran on "
+                "its priors and the correction is not calibrated. Hold out less "
+                "(validation.holdout.days) or use alternate_weeks on a longer campaign."
+            )
     ctx["input_file"] = next(iter((input_files or {}).values()), None)
     sections = [
         _ti_section(ctx),

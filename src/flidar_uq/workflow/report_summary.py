@@ -27,6 +27,7 @@ __all__ = [
     "Validation",
     "campaign_name",
     "first_screen_html",
+    "held_out_records",
     "motion_scale_words",
     "reference_speed_bins",
     "representative_at_15",
@@ -72,8 +73,13 @@ class Validation:
     lidar_reference: bool
 
 
-def _held_out(records: pd.DataFrame, config: dict) -> tuple[np.ndarray, str, bool]:
-    """Which reference records the fit never saw, and a sentence saying so."""
+def held_out_records(records: pd.DataFrame, config: dict) -> tuple[np.ndarray, str, bool]:
+    """Which records' reference the fit never saw, a sentence saying so, and whether all.
+
+    From the config's ``validation`` section (the same :func:`flidar_uq.validation.
+    reference.holdout_mask` as the fit's input, the campaign ending at the latest record
+    of ``records``: results/ti/records.csv holds every validated record).
+    """
     val = config.get("validation") or {}
     ts = records["timestamp"]
     has_ref = np.isfinite(records["ti_ref"].to_numpy(dtype=float))
@@ -119,7 +125,7 @@ def validate(records: pd.DataFrame, config: dict, reference_kind: str) -> Valida
     """
     if "ti_ref" not in records or not np.isfinite(records["ti_ref"].to_numpy(float)).any():
         return None
-    held, statement, all_held = _held_out(records, config)
+    held, statement, all_held = held_out_records(records, config)
     lidar = reference_kind in ("fixed_lidar", "none")
     scale = records["lidar_std_ratio"].to_numpy(dtype=float) if lidar else None
     min_count = int((config.get("report") or {}).get("group_min_count", 10))
