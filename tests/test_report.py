@@ -516,3 +516,9 @@ def test_public_config_names_files_without_their_directories():
     cfg = {"campaign": {"records": "/data/site/buoy.csv", "scenario": "default"}, "x": ["/a/b.nc"]}
     assert public_config(cfg) == {"campaign": {"records": "buoy.csv", "scenario": "default"},
                                   "x": ["b.nc"]}  # fmt: skip
+
+
+def test_table_html_shows_booleans_in_words():
+    html = rep.table_html(pd.DataFrame({"on": [True, False], "np": np.array([True, False])}))
+    assert "True" not in html and "False" not in html
+    assert html.count(">yes<") == 2 and html.count(">no<") == 2

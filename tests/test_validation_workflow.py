@@ -117,7 +117,7 @@ def test_holdout_run_validates_on_records_the_fit_never_saw(tmp_path):
 
 @pytest.mark.slow
 def test_fit_on_trial_campaign_corrects_the_deployment(tmp_path):
-    from test_report import assert_no_absolute_path
+    from test_report import assert_first_screen, assert_no_absolute_path
 
     trial, deploy = tmp_path / "trial", tmp_path / "deploy"
     trial.mkdir()
@@ -141,6 +141,7 @@ def test_fit_on_trial_campaign_corrects_the_deployment(tmp_path):
     assert "Held out: the model was fitted on a trial campaign (posterior global.nc)" in html
     assert ">in sample<" not in html.split('id="validation-headline"')[1].split("</div>")[0]
     assert "global.nc (trial campaign&#39;s posterior)" in html
+    assert_first_screen(res / "report" / "report.html", tmp_path, "trial_deployment")
     assert_no_absolute_path(html, tmp_path)
     v = records[records["ti_ref"].notna() & records["ti_corrected_median"].notna()]
     inside = (v["ti_ref"] >= v["ti_corrected_lo"]) & (v["ti_ref"] <= v["ti_corrected_hi"])

@@ -98,9 +98,12 @@ def img_html(data_uri: str, alt: str) -> str:
 
 
 def table_html(df: pd.DataFrame, *, float_format: str = "{:.4g}", caption: str = "") -> str:
-    """An HTML table of a DataFrame (floats formatted, NaN shown as an en dash)."""
+    """An HTML table of a DataFrame (floats formatted, NaN shown as an en dash, booleans
+    as yes / no)."""
 
     def fmt(v):
+        if isinstance(v, bool) or type(v).__name__ == "bool_":  # no Python repr: yes / no
+            return "yes" if v else "no"
         if isinstance(v, float):
             return None if v != v else float_format.format(v)  # None: shown as &ndash;
         return str(v)

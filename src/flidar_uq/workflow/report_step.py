@@ -778,7 +778,12 @@ def _load(res: Path, batch_dirs, config: dict) -> dict:
     m = ctx["metrics"]
     kind = str(m["reference_kind"].iloc[0]) if "reference_kind" in m and len(m) else None
     ctx["reference_kind_code"] = kind or (config.get("reference") or {}).get("kind") or "none"
-    ctx["reference_kind"] = reference_kind(config, m).split(" (")[0]
+    ctx["reference_kind"] = {
+        "cup": "cup anemometer",
+        "sonic": "sonic anemometer",
+        "fixed_lidar": "fixed (motionless) lidar",
+        "none": "none",
+    }.get(ctx["reference_kind_code"], ctx["reference_kind_code"])
     return ctx
 
 
