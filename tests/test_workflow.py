@@ -492,6 +492,12 @@ def test_user_data_run_on_hand_written_campaign(tmp_path):
     metrics = pd.read_csv(tmp_path / "results" / "ti" / "metrics.csv").set_index("method")
     assert metrics.loc["Bayesian", "reference"] == "reference cup"  # reference.kind: cup
     assert abs(metrics.loc["Bayesian", "md_std_ms"]) < abs(metrics.loc["uncorrected", "md_std_ms"])
+    # the report names the input file and its hash, never the directory it came from
+    from test_report import assert_no_absolute_path
+
+    html = (tmp_path / "results" / "report" / "report.html").read_text()
+    assert "hand_written_campaign.csv (SHA-256" in html
+    assert_no_absolute_path(html, tmp_path, REPO)
 
 
 def _fake_bin_fit(bin_id: int, rng: np.random.Generator):
