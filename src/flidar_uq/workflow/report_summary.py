@@ -111,8 +111,9 @@ def held_out_records(records: pd.DataFrame, config: dict) -> tuple[np.ndarray, s
     return (
         held,
         f"Held out: the reference of {what} was removed from the fit ({int((held & has_ref).sum())} "
-        f"records); the validation is computed on them, the in-sample figures (the "
-        f"{int((~held & has_ref).sum())} reference records the model was fitted on) beside.",
+        f"records with a reference); the validation is computed on those of them with a "
+        f"corrected TI, the in-sample figures (of the {int((~held & has_ref).sum())} "
+        "reference records the model could be fitted on) beside.",
         False,
     )
 
