@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import base64
 import io
+import os
 import re
 import subprocess
 import tempfile
@@ -14,7 +15,6 @@ import numpy as np
 import pandas as pd
 import pytest
 from conftest import require_tool
-from markupsafe import Markup
 
 from flidar_uq.workflow import plots
 from flidar_uq.workflow import report as rep
@@ -85,13 +85,133 @@ def chromium_layout(html_path: Path, work_dir: Path, width: int = 1280, height: 
 
 
 def assert_report_layout(html_path: Path, tmp_path: Path, sections=()) -> None:
-    """At 1280 x 1000 px: no horizontal overflow, the summary is on the first screen
-    (its headline table above the fold), and the named sections are there."""
+    """At 1280 x 1000 px: no horizontal overflow, the summary starts on the first screen
+    (what must be above the fold at 1400 x 900: :func:`assert_first_screen`), and the named
+    sections are there."""
     lay = chromium_layout(html_path, tmp_path)
     assert lay["scroll_width"] <= lay["view_width"], lay
-    assert 0 <= lay["summary_top"] and lay["summary_bottom"] <= lay["view_height"], lay
+    assert 0 <= lay["summary_top"] < lay["view_height"], lay
     for title in ("Summary", *sections):
         assert title in lay["h2"], (title, lay["h2"])
+
+
+#: Where the browser tests keep the screenshots and PDF prints they check (a test
+#: artefact: FLIDAR_TEST_ARTEFACTS, default results/test-artefacts/ of the repository).
+ARTEFACTS = Path(
+    os.environ.get(
+        "FLIDAR_TEST_ARTEFACTS", Path(__file__).resolve().parents[1] / "results" / "test-artefacts"
+    )
+)
+
+#: The first screen the analyst sees (px) and the printable width of an A4 page with the
+#: report's 12-mm margins (186 mm at 96 px per inch, px).
+FIRST_VIEWPORT = (1400, 900)
+PRINT_WIDTH_PX = 703
+
+#: The first screen's parts that must be above the fold (element ids; ^ = id prefix).
+FIRST_SCREEN_IDS = ("rep15", "validation-headline", "^bins-")
+
+_VIEWPORT_PROBE = (
+    "<script>window.addEventListener('load',()=>{const out=[];"
+    "for(const e of document.querySelectorAll('[id]')){const r=e.getBoundingClientRect();"
+    "out.push([e.id,Math.round(r.top),Math.round(r.bottom),Math.round(r.right)].join(':'));}"
+    "document.body.setAttribute('data-ids',out.join('|'));"
+    "document.body.setAttribute('data-view',[window.innerWidth,window.innerHeight].join(','));"
+    "});</script>"
+)
+
+
+def first_viewport(html_path: Path, work_dir: Path) -> tuple[dict, tuple[int, int]]:
+    """Each element id -> (top, bottom, right) in px at the first viewport, and the viewport."""
+    probe = work_dir / (html_path.stem + "_viewport.html")
+    probe.write_text(html_path.read_text().replace("</body>", _VIEWPORT_PROBE + "</body>"))
+    w, h = FIRST_VIEWPORT
+    proc = _chromium([f"--window-size={w},{h}", "--hide-scrollbars", "--virtual-time-budget=10000",
+                      "--dump-dom", probe.as_uri()])  # fmt: skip
+    m = re.search(r'data-ids="([^"]*)"', proc.stdout)
+    assert m, f"viewport probe not found; chromium stderr: {proc.stderr[-2000:]}"
+    ids = {}
+    for item in m.group(1).split("|"):
+        name, top, bottom, right = item.rsplit(":", 3)
+        ids[name] = (int(top), int(bottom), int(right))
+    view = tuple(int(v) for v in re.search(r'data-view="([^"]*)"', proc.stdout).group(1).split(","))
+    return ids, view
+
+
+def assert_first_screen(html_path: Path, work_dir: Path, name: str) -> Path:
+    """The per-bin TI tables, the representative TI at 15 m/s with its IEC category and the
+    validation headline lie inside the first 1400 x 900 viewport; the screenshot of that
+    viewport is kept under ARTEFACTS (its path returned and printed)."""
+    ids, (vw, _) = first_viewport(html_path, work_dir)
+    # the layout depends on the width only; the fold is 900 px down the page (in --dump-dom
+    # mode the window's height includes the browser's frame, the screenshot's does not)
+    vh = FIRST_VIEWPORT[1]
+    assert vw == FIRST_VIEWPORT[0], vw
+    for want in FIRST_SCREEN_IDS:
+        hits = [k for k in ids if (k.startswith(want[1:]) if want[0] == "^" else k == want)]
+        assert hits, (want, sorted(ids))
+        for k in hits:
+            top, bottom, right = ids[k]
+            assert 0 <= top and bottom <= vh and right <= vw, (k, ids[k], (vw, vh))
+    ARTEFACTS.mkdir(parents=True, exist_ok=True)
+    shot = ARTEFACTS / f"{name}_first_screen.png"
+    _chromium([f"--screenshot={shot}", f"--window-size={vw},{vh}", "--hide-scrollbars",
+               html_path.as_uri()])  # fmt: skip
+    assert shot.is_file()
+    print(f"first-screen screenshot: {shot}")
+    return shot
+
+
+_PRINT_PROBE = (
+    "<script>window.addEventListener('load',()=>{const W=document.documentElement.clientWidth;"
+    "const bad=[];for(const t of document.querySelectorAll('table')){const r=t.getBoundingClientRect();"
+    "if(r.right>W+1||t.scrollWidth>t.parentElement.clientWidth+1)"
+    "bad.push((t.caption?t.caption.textContent:'table').slice(0,60)+' '+Math.round(r.right));}"
+    "document.body.setAttribute('data-wide',bad.join('|'));"
+    "document.body.setAttribute('data-width',[W,document.documentElement.scrollWidth,"
+    "document.querySelectorAll('table').length].join(','));});</script>"
+)
+
+
+def assert_prints_without_cut_tables(html_path: Path, work_dir: Path, name: str) -> Path:
+    """Under the report's print style at the printable width of an A4 page, no table is
+    wider than the page (nothing would be cut off); the PDF print is kept under ARTEFACTS."""
+    text = html_path.read_text()
+    assert "@media print{" in text
+    probe = work_dir / (html_path.stem + "_print.html")
+    probe.write_text(
+        text.replace("@media print{", "@media all{").replace("</body>", _PRINT_PROBE + "</body>")
+    )
+    proc = _chromium([f"--window-size={PRINT_WIDTH_PX},1200", "--hide-scrollbars",
+                      "--virtual-time-budget=10000", "--dump-dom", probe.as_uri()])  # fmt: skip
+    m = re.search(r'data-wide="([^"]*)"', proc.stdout)
+    assert m, f"print probe not found; chromium stderr: {proc.stderr[-2000:]}"
+    width, scroll, n_tables = (
+        int(v) for v in re.search(r'data-width="([^"]*)"', proc.stdout).group(1).split(",")
+    )
+    assert n_tables > 0 and width <= PRINT_WIDTH_PX
+    assert m.group(1) == "", f"tables wider than the page ({width} px): {m.group(1)}"
+    assert scroll <= width + 1, (scroll, width)
+    ARTEFACTS.mkdir(parents=True, exist_ok=True)
+    pdf = ARTEFACTS / f"{name}.pdf"
+    _chromium([f"--print-to-pdf={pdf}", "--no-pdf-header-footer", html_path.as_uri()], timeout=180)
+    assert pdf.is_file() and pdf.read_bytes()[:5] == b"%PDF-"
+    print(f"PDF print: {pdf}")
+    return pdf
+
+
+#: Absolute paths of a machine (POSIX home, temporary and system directories; Windows drives).
+_ABSOLUTE_PATH = re.compile(
+    r"(?<![\w.:/+=])(/(home|tmp|work|root|Users|var|opt|usr|mnt|srv)/|(?<![\w+/])[A-Z]:\\(?=\w))"
+)
+
+
+def assert_no_absolute_path(html: str, *dirs: Path) -> None:
+    """No absolute path of the machine in the report (the files are named, not located)."""
+    for d in dirs:
+        assert str(d) not in html, d
+    m = _ABSOLUTE_PATH.search(html)
+    assert m is None, html[max(0, m.start() - 80) : m.end() + 80]
 
 
 def chromium_screenshot(html_path: Path, png_path: Path) -> np.ndarray:
@@ -148,21 +268,48 @@ def synthetic_speed_bins(recs: pd.DataFrame) -> pd.DataFrame:
     return b
 
 
+def synthetic_first_screen(rng: np.random.Generator, heights=(27.0, 58.0, 85.0)) -> str:
+    """The first screen of a 3-height campaign with a reference, every bin 3-20 m/s filled."""
+    from flidar_uq.validation.reference import validation_tables
+    from flidar_uq.workflow.report_summary import (
+        FirstScreen,
+        Validation,
+        bin_tables,
+        first_screen_html,
+        reference_speed_bins,
+        representative_at_15,
+    )
+
+    recs = []
+    for h in heights:
+        r = synthetic_records(rng, 600).assign(height_m=h)
+        r["hws_mean_ms"] = np.tile(np.arange(3.0, 21.0), 34)[:600] + rng.uniform(-0.4, 0.4, 600)
+        r["ti_ref"] = r["ti_true"] * rng.normal(1, 0.03, 600)
+        recs.append(r)
+    recs = pd.concat(recs, ignore_index=True)
+    recs["timestamp"] = pd.date_range("2026-01-05", periods=len(recs), freq="10min", tz="UTC")
+    bins = pd.concat(
+        [synthetic_speed_bins(recs[recs["height_m"] == h]).assign(height_m=h) for h in heights]
+    )
+    bins["n"] = 33
+    held = np.arange(len(recs)) % 2 == 1
+    tables = validation_tables(recs, held)
+    screen = FirstScreen(
+        title="test campaign",
+        facts=[("campaign", "test campaign"), ("input", "records.csv (SHA-256 0123456789ab…)")],
+        rep15=representative_at_15(bins),
+        bin_tables=bin_tables(bins, reference_speed_bins(recs), 10),
+        validation=Validation(tables, "Held out: every other record.", "held out", False),
+        warnings=["The buoy's measured motion explains the extra variance only when scaled."],
+        mass=0.9,
+    )
+    return first_screen_html(screen)
+
+
 def small_report(rng: np.random.Generator) -> str:
     recs = synthetic_records(rng)
     fig = plots.ti_speed_bins_figure(synthetic_speed_bins(recs), recs, credible_mass=0.9)
     table = pd.DataFrame({"method": ["uncorrected", "Bayesian"], "md_ti": [0.02, np.nan]})
-    summary = (
-        rep.templates()
-        .get_template("sections/summary.html.j2")
-        .render(
-            facts=Markup(rep.table_html(pd.DataFrame({"": ["heights (m)"], " ": ["85"]}))),
-            headline=Markup(rep.table_html(table, caption="headline")),
-            warnings=["Model discrepancy: motion_scale 1.40 outside [0.8, 1.25]."],
-            top_flags=[("(none: corrected)", 190), ("sv", 10)],
-            loo="",
-        )
-    )
     wide = pd.DataFrame(rng.normal(size=(3, 40)), columns=[f"column_{k}" for k in range(40)])
     sections = [
         rep.Section("figure", rep.img_html(rep.figure_to_data_uri(fig), "TI against HWS")),
@@ -173,7 +320,7 @@ def small_report(rng: np.random.Generator) -> str:
             rep.provenance_html({"campaign": {"seed": 1}}, "abc123", rep.package_versions()),
         ),
     ]
-    return rep.render_html("test report", sections, intro_html=summary)
+    return rep.render_html("test report", sections, intro_html=synthetic_first_screen(rng))
 
 
 def test_figure_png_is_deterministic_and_decodes(rng):
@@ -223,6 +370,41 @@ def test_report_rendered_by_headless_chromium(rng, tmp_path):
     path.write_text(small_report(rng))
     assert_report_renders(path, tmp_path)
     assert_report_layout(path, tmp_path, sections=("figure", "wide table", "provenance"))
+
+
+def test_first_screen_fits_the_first_viewport_and_prints_without_cut_tables(rng, tmp_path):
+    """Three heights of 18 bins each, the representative TI at 15 m/s with its category and
+    the validation headline inside 1400 x 900 px; a 40-column table fits an A4 page in print."""
+    path = tmp_path / "report.html"
+    html = small_report(rng)
+    path.write_text(html)
+    for h in ("27", "58", "85"):
+        assert f'id="bins-{h}"' in html
+    assert "category <b" in html and 'id="validation-headline"' in html
+    shot = assert_first_screen(path, tmp_path, "synthetic")
+    img = matplotlib.image.imread(shot)
+    assert img.shape[:2] == (900, 1400)
+    assert_prints_without_cut_tables(path, tmp_path, "synthetic")
+    assert_no_absolute_path(html, tmp_path)
+
+
+def test_viewport_and_print_probes_can_fail(tmp_path):
+    """The checks fail: a headline below 900 px, and a table wider than the page in print."""
+    path = tmp_path / "bad.html"
+    path.write_text(
+        "<!DOCTYPE html><html><head><style>@media print{td{padding:1px}}</style></head><body>"
+        '<div style="height:1200px">x</div><div id="rep15">r</div><div id="validation-headline">'
+        'v</div><table id="bins-85"><tr><td style="white-space:nowrap">'
+        + "wide " * 300
+        + "</td></tr></table></body></html>"
+    )
+    with pytest.raises(AssertionError, match="rep15"):
+        assert_first_screen(path, tmp_path, "bad")
+    with pytest.raises(AssertionError, match="wider than the page"):
+        assert_prints_without_cut_tables(path, tmp_path, "bad")
+    with pytest.raises(AssertionError):
+        assert_no_absolute_path("<p>/home/user/data/records.csv</p>")
+    assert_no_absolute_path('<img src="data:image/png;base64,ab+/tmp/cd">')  # base64, not a path
 
 
 def test_layout_probe_detects_overflow_and_a_summary_below_the_fold(tmp_path):
@@ -312,10 +494,31 @@ def test_templates_and_captions_ship_with_the_package():
     captions = [p.name.removesuffix(".txt.j2") for p in (root / "captions").iterdir()]
     assert "metrics" in captions and "bin_table" in captions
     values = {"mass": 0.9, "n_hidden": 3, "label": "truth", "rho_pc": 0.78, "rho_src": "seed 000"}
-    values |= {"height": "85", "min_count": 10, "names": "rho, kappa"}
+    values |= {"height": "85", "min_count": 10, "names": "rho, kappa", "sample": "held out"}
     for name in captions:
         text = rep.caption(name, bin_id=7, **values)
         assert text and "{" not in text and "\n" not in text, name
     assert "90%" in rep.caption("ti_speed_bins", mass=0.9, height="85")
     assert "(rho, kappa, kappa_z)" in rep.caption("global_posterior", names="rho, kappa, kappa_z")
     assert "rho = 0.78 (seed 000)" in rep.caption("sigma_scatter", **values)
+
+
+def test_provenance_config_reads_units_from_the_key_names():
+    """tau0_scale_ms is metres per second, not milliseconds: the shown config says so."""
+    html = rep.provenance_html({"priors": {"tau0_scale_ms": 0.1, "period_min_s": 1.0}}, "abc", {})
+    assert "tau0_scale_ms: 0.1  # m/s" in html and "period_min_s: 1.0  # s" in html
+    assert "never milliseconds" in html
+
+
+def test_public_config_names_files_without_their_directories():
+    from flidar_uq.workflow.report_step import public_config
+
+    cfg = {"campaign": {"records": "/data/site/buoy.csv", "scenario": "default"}, "x": ["/a/b.nc"]}
+    assert public_config(cfg) == {"campaign": {"records": "buoy.csv", "scenario": "default"},
+                                  "x": ["b.nc"]}  # fmt: skip
+
+
+def test_table_html_shows_booleans_in_words():
+    html = rep.table_html(pd.DataFrame({"on": [True, False], "np": np.array([True, False])}))
+    assert "True" not in html and "False" not in html
+    assert html.count(">yes<") == 2 and html.count(">no<") == 2

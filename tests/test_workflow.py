@@ -8,6 +8,7 @@ rerun and a run killed mid-way give byte-identical result files, and the user-da
 
 from __future__ import annotations
 
+import base64
 import hashlib
 import os
 import re
@@ -180,8 +181,11 @@ def test_schema_defaults_equal_the_shipped_config():
     """The commented config and the schema defaults say the same thing."""
     cfg = load_yaml(CONFIG)
     for name, sub in _leaves(load_yaml(SCHEMA)):
-        section, key = name.split(".")
-        assert cfg[section][key] == sub["default"], name
+        *sections, key = name.split(".")
+        node = cfg
+        for section in sections:  # nested sections (validation.holdout.mode)
+            node = node[section]
+        assert node[key] == sub["default"], name
 
 
 def test_config_keys_match_library_dataclasses():
@@ -340,22 +344,47 @@ def test_tiny_end_to_end_rerun_nothing_clean_rerun_identical(tmp_path):
     cfg_a, cfg_b = tiny_config(a, tmp_path), tiny_config(b, tmp_path)
     snakemake(a, cfg_a, "--cores", "2")
     check_outputs(a, truth=True)
-    from test_report import assert_report_layout, assert_report_renders
+    from test_report import (
+        assert_first_screen,
+        assert_no_absolute_path,
+        assert_prints_without_cut_tables,
+        assert_report_layout,
+        assert_report_renders,
+    )
 
-    assert_report_renders(a / "results" / "report" / "report.html", tmp_path)
+    report_html = a / "results" / "report" / "report.html"
+    assert_report_renders(report_html, tmp_path)
     sections = (
-        "Turbulence intensity per height and speed bin",
+        "Turbulence intensity per height and wind-speed bin",
+        "Validation against the reference",
         "Direction sectors and sea states",
-        "Uncertainty budget",
+        "Motion of the buoy",
+        "Appendix A. Bayesian diagnostics",
+        "Appendix C. Uncertainty budget",
         "How to cite",
         "Provenance and how to rerun",
     )
-    assert_report_layout(a / "results" / "report" / "report.html", tmp_path, sections)
-    html = (a / "results" / "report" / "report.html").read_text()
-    # issue 14: no development benchmark in the user's report; they are in the developer one
-    for png in (tmp_path / "benchmark_charts").glob("*.png"):
+    assert_report_layout(report_html, tmp_path, sections)
+    # the first screen (1400 x 900) answers; the print cuts no table; files by name only
+    assert_first_screen(report_html, tmp_path, "tiny")
+    assert_prints_without_cut_tables(report_html, tmp_path, "tiny")
+    html = report_html.read_text()
+    assert_no_absolute_path(html, tmp_path, REPO)
+    assert "seed 000" not in html and "Full table" not in html and 'href="../' not in html
+    # a day of records: the 15-m/s bin says why it has no value; the validation is in sample
+    assert "Representative TI at 15 m/s" in html
+    assert "category <b" in html or "too few records in the 15-m/s bin" in html
+    assert "In sample: the model was fitted on these same" in html
+    # no development benchmark in the user's report; they are in the developer one
+    charts = sorted((tmp_path / "benchmark_charts").glob("*.png"))
+    chart_uris = {
+        base64.b64encode(p.read_bytes()).decode("ascii")[:2000] for p in (*charts,
+        REPO / "benchmarks" / "results" / "method_frontier.png") if p.is_file()
+    }  # fmt: skip
+    for png in charts:
         assert png.name not in html
-    assert "Speed-accuracy" not in html
+    assert not any(uri in html for uri in chart_uris)
+    assert "Speed-accuracy" not in html and "Method frontier" not in html
     assert "sha256" in html and "requirements.lock" in html
     sb = pd.read_csv(a / "results" / "ti" / "speed_bins.csv")
     assert set(sb["height_m"]) == set(TINY_SCENARIO["heights_m"])
@@ -463,6 +492,12 @@ def test_user_data_run_on_hand_written_campaign(tmp_path):
     metrics = pd.read_csv(tmp_path / "results" / "ti" / "metrics.csv").set_index("method")
     assert metrics.loc["Bayesian", "reference"] == "reference cup"  # reference.kind: cup
     assert abs(metrics.loc["Bayesian", "md_std_ms"]) < abs(metrics.loc["uncorrected", "md_std_ms"])
+    # the report names the input file and its hash, never the directory it came from
+    from test_report import assert_no_absolute_path
+
+    html = (tmp_path / "results" / "report" / "report.html").read_text()
+    assert "hand_written_campaign.csv (SHA-256" in html
+    assert_no_absolute_path(html, tmp_path, REPO)
 
 
 def _fake_bin_fit(bin_id: int, rng: np.random.Generator):

@@ -40,8 +40,16 @@ def global_model_batches(wildcards):
 # sigma_Z from its own motion: it reads the record model's posterior only, and so runs
 # beside the per-bin fits (which then feed results/ti/bins.csv and the report only). The
 # bin motion model needs the chosen global model and every converged bin posterior.
+# validation.trial_posterior: the record-model posterior of a trial campaign (a run
+# beside a reference) corrects this campaign; no global model is fitted here.
+TRIAL_POSTERIOR = config["validation"]["trial_posterior"]
+GLOBAL_MODEL_FILES = (
+    [TRIAL_POSTERIOR]
+    if TRIAL_POSTERIOR
+    else expand("results/inference/global_{model}.nc", model=GLOBAL_MODELS)
+)
 PROPAGATION_FITS = (
-    {"posterior": "results/inference/global_record.nc"}
+    {"posterior": GLOBAL_MODEL_FILES[0]}
     if MOTION_MODEL == "record"
     else {
         "posterior": "results/posterior/global.nc",

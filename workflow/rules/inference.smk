@@ -52,6 +52,7 @@ rule fit_global_model:
     input:
         batches=global_model_batches,
         assignments="results/bins/assignments.csv",
+        records="results/data/records.csv",
     output:
         "results/inference/global_{model}.nc",
     wildcard_constraints:
@@ -62,6 +63,8 @@ rule fit_global_model:
         lidar=config["campaign"]["lidar"],
         reference=reference_params(),
         propagation=propagation_params(),
+        # validation.holdout: the reference of the held-out records is not fitted
+        holdout=config["validation"]["holdout"],
     conda:
         "../envs/flidar_uq.yaml"
     log:
@@ -81,7 +84,7 @@ rule fit_global_model:
 rule fit_global:
     localrule: True
     input:
-        models=expand("results/inference/global_{model}.nc", model=GLOBAL_MODELS),
+        models=GLOBAL_MODEL_FILES,
         batches=expand("results/inference/batch_{batch}", batch=BATCHES),
     output:
         posterior="results/posterior/global.nc",

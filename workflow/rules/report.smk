@@ -1,5 +1,6 @@
 # The self-contained HTML report of the user's campaign, and (on demand) the developer
 # report of the project's own benchmarks: `snakemake results/report/developer.html`.
+import glob
 
 
 rule report:
@@ -35,7 +36,6 @@ rule report:
         repo=REPO,
         user_records=config["campaign"]["records"] if config["campaign"]["source"] == "files" else "",
         lock_file=os.path.join(REPO, "requirements.lock"),
-        frontier_png=os.path.join(REPO, config["report"]["benchmarks_dir"], "method_frontier.png"),
     conda:
         "../envs/flidar_uq.yaml"
     log:
@@ -47,6 +47,9 @@ rule report:
 
 
 rule developer_report:
+    input:
+        # the charts themselves, so that a new benchmark chart reruns the developer report
+        charts=sorted(glob.glob(os.path.join(REPO, config["report"]["benchmarks_dir"], "*.png"))),
     output:
         "results/report/developer.html",
     params:

@@ -1,13 +1,17 @@
 """Rule fit_global_model: one global model on the gathered per-bin fits (inference_steps.fit_global_model)."""
 
 from flidar_uq.workflow.files import setup_logging
-from flidar_uq.workflow.inference_steps import fit_global_model
+from flidar_uq.workflow.inference_steps import fit_global_model, fit_input
 
 snakemake = globals()["snakemake"]  # injected by the script directive
 setup_logging(snakemake.log[0])
 fit_global_model(
     list(snakemake.input.batches),
-    snakemake.input.assignments,
+    # validation.holdout: the held-out records' reference removed from the fit input
+    fit_input(
+        snakemake.input.assignments,
+        dict(snakemake.params.holdout) | {"records": snakemake.input.records},
+    ),
     snakemake.output[0],
     model=snakemake.wildcards.model,
     inference=dict(snakemake.params.inference),

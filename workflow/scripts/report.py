@@ -10,13 +10,22 @@ SERIES_KEYS = ("imu_summary", "imu_gaps", "los_records", "los_agreement", "los_f
 
 snakemake = globals()["snakemake"]  # injected by the script directive
 setup_logging(snakemake.log[0])
-inputs = {f"{snakemake.input.campaign} (input records)": snakemake.input.campaign}
+# files by name only (the report names no directory of the machine); the first is the
+# input record table named on the report's first screen
+campaign = snakemake.input.campaign
+inputs = {f"{Path(campaign).name} (input records)": campaign}
 if snakemake.params.user_records:
-    inputs = {snakemake.params.user_records: snakemake.params.user_records} | inputs
-inputs[f"{snakemake.input.validated} (validated)"] = snakemake.input.validated
+    user = snakemake.params.user_records
+    inputs = {
+        f"{Path(user).name} (input records)": user,
+        f"{Path(campaign).name} (as read)": campaign,
+    }
+inputs[f"{Path(snakemake.input.validated).name} (validated)"] = snakemake.input.validated
 for key in ("imu_series", "los_series"):  # the raw series, when given
     if path := snakemake.params.config["campaign"].get(key):
-        inputs[path] = path
+        inputs[f"{Path(path).name} ({key.replace('_', ' ')})"] = path
+if trial := snakemake.params.config["validation"]["trial_posterior"]:
+    inputs[f"{Path(trial).name} (trial campaign's posterior)"] = trial
 inputs["requirements.lock"] = snakemake.params.lock_file
 build_report(
     out_path=snakemake.output[0],
@@ -26,6 +35,5 @@ build_report(
     config=dict(snakemake.params.config),
     git_revision=git_revision(snakemake.params.repo),
     input_files=inputs,
-    frontier_png=snakemake.params.frontier_png,
     series_paths={k: snakemake.input[k] for k in SERIES_KEYS if k in snakemake.input.keys()},
 )

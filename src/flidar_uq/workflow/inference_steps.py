@@ -20,6 +20,7 @@ __all__ = [
     "bin_seed",
     "fit_global",
     "fit_global_model",
+    "fit_input",
     "gather_bin_summaries",
     "infer_batch",
     "load_bin_fits",
@@ -147,7 +148,7 @@ def load_bin_fits(batch_dirs: Sequence[str | os.PathLike], bin_fits: pd.DataFram
 
 def fit_global_model(
     batch_dirs: Sequence[str | os.PathLike],
-    assignments_path: str | os.PathLike,
+    assignments_path: str | os.PathLike | pd.DataFrame,
     out_path: str | os.PathLike,
     *,
     model: str,
@@ -174,12 +175,20 @@ def fit_global_model(
     The three models run as parallel jobs; :func:`fit_global` then picks one by PSIS-LOO.
     Each model's draws depend only on the seed (``inference.fit_global`` seeds each model
     with its own child), so the result equals ``fit_global(..., lever_arm="auto")``.
+
+    ``assignments_path``: results/bins/assignments.csv, or the fit input as a table
+    (:func:`fit_input`: the binned records without the held-out records' reference, so
+    that the fit never sees it).
     """
     from flidar_uq import inference as inf
     from flidar_uq.physics.surrogate import get_surrogate
 
     seed = child_seed(inference["seed"], 0)
-    assigned = read_csv(assignments_path)
+    assigned = (
+        assignments_path
+        if isinstance(assignments_path, pd.DataFrame)
+        else read_csv(assignments_path)
+    )
     if model == "record":
         lever = inference.get("lever_arm_m")
         pair_log_sd = None
@@ -236,6 +245,39 @@ def fit_global_model(
     log.info(
         "global model %s: converged=%s %s", model, fit.converged, "; ".join(fit.failure_reasons)
     )
+
+
+def fit_input(assignments_path: str | os.PathLike, holdout: dict | None = None) -> pd.DataFrame:
+    """The records a global model is fitted on: the binned records, with the reference of
+    the held-out ones removed (:func:`flidar_uq.validation.reference.withhold_reference`).
+
+    Parameters
+    ----------
+    assignments_path : path
+        results/bins/assignments.csv (``timestamp`` and the ``ref_*`` columns).
+    holdout : dict, optional
+        ``mode`` and ``days`` (config ``validation.holdout``: day) and ``records``, the
+        validated record table (its latest ``timestamp`` ends the campaign, for
+        ``last_days``). None or mode "none": the records as they are.
+
+    Returns
+    -------
+    pandas.DataFrame
+    """
+    from flidar_uq.validation.reference import holdout_mask, withhold_reference
+
+    assigned = read_csv(assignments_path)
+    if not holdout or holdout.get("mode", "none") == "none":
+        return assigned
+    end = None
+    if holdout.get("records"):
+        end = pd.to_datetime(read_csv(holdout["records"])["timestamp"], utc=True).max()
+    held = holdout_mask(
+        assigned["timestamp"], mode=holdout["mode"], days=float(holdout["days"]), end=end
+    )
+    log.info("hold-out %s: reference of %d of %d records removed from the fit",
+             holdout["mode"], int(held.sum()), len(held))  # fmt: skip
+    return withhold_reference(assigned, held)
 
 
 def gather_bin_summaries(batch_dirs: Sequence[str | os.PathLike]) -> pd.DataFrame:

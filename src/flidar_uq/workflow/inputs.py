@@ -287,6 +287,7 @@ def _check_semantics(config: dict) -> None:
     if camp["source"] == "virtual":
         _check_scenario(camp["scenario"])
     _check_series_keys(config)
+    _check_trial_posterior(config)
     try:
         check_column_map(camp["columns"])
     except ValueError as exc:
@@ -305,6 +306,26 @@ def _check_semantics(config: dict) -> None:
     ):
         if not pri[lo] < pri[hi]:
             raise ConfigError(f"priors.{lo}", f"{pri[lo]} must be below priors.{hi} = {pri[hi]}")
+
+
+def _check_trial_posterior(config: dict) -> None:
+    """``validation.trial_posterior``: an existing file, with the record motion model (its
+    global parameters are campaign-independent; a bin model's posteriors are per bin)."""
+    trial = (config.get("validation") or {}).get("trial_posterior")
+    if not trial:
+        return
+    if config["inference"]["motion_model"] != "record":
+        raise ConfigError(
+            "validation.trial_posterior",
+            "needs inference.motion_model 'record' (the bin model's posteriors belong to "
+            "the trial campaign's bins)",
+        )
+    if not Path(trial).is_file():
+        raise ConfigError(
+            "validation.trial_posterior",
+            f"no such file {trial!r}: run the trial campaign first (its "
+            "results/posterior/global.nc)",
+        )
 
 
 def _check_series_keys(config: dict) -> None:

@@ -1,7 +1,9 @@
 """Figures of the report (matplotlib, Agg backend); each function returns a Figure.
 
 Inputs are plain arrays / DataFrames (the pipeline's result tables); nothing is read from
-disk here. Styles follow the seed 000 figures they reproduce (cited per function).
+disk here. Styles follow the Gutiérrez-Antuñano et al. (2018) figures they reproduce (cited per
+function) or the floating-lidar validation plots of the field (TI against the reference
+with a regression line, bias per speed bin).
 """
 
 from __future__ import annotations
@@ -16,6 +18,10 @@ import pandas as pd  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from flidar_uq.data.binning import speed_bin_ms  # noqa: E402
+from flidar_uq.validation.reference import (  # noqa: E402
+    IEC_TURBULENCE_CATEGORIES,
+    iec_representative_ti,
+)
 
 __all__ = [
     "IEC_TURBULENCE_CATEGORIES",
@@ -25,34 +31,12 @@ __all__ = [
     "iec_representative_ti",
     "posterior_figure",
     "sigma_scatter_figure",
+    "bias_bars_figure",
+    "motion_context_figure",
+    "ti_rose_figure",
+    "ti_scatter_figure",
     "ti_speed_bins_figure",
 ]
-
-#: Reference turbulence intensity I_ref of the IEC 61400-1 ed. 4 (2019) turbulence
-#: categories (Table 1), -.
-IEC_TURBULENCE_CATEGORIES = {"A+": 0.18, "A": 0.16, "B": 0.14, "C": 0.12}
-
-
-def iec_representative_ti(hws_ms, i_ref: float) -> np.ndarray:
-    """Representative TI of an IEC turbulence category: ``I_ref (0.75 + 5.6 / V)``.
-
-    The normal turbulence model of IEC 61400-1 ed. 4 (2019), Eq. (10):
-    ``sigma_1 = I_ref (0.75 V_hub + b)``, ``b = 5.6 m/s``, divided by ``V_hub``.
-
-    Parameters
-    ----------
-    hws_ms : array_like
-        Hub-height wind speed V (m/s), > 0.
-    i_ref : float
-        Reference turbulence intensity of the category (-).
-
-    Returns
-    -------
-    numpy.ndarray
-        Representative (90 % quantile) TI (-).
-    """
-    v = np.asarray(hws_ms, dtype=float)
-    return i_ref * (0.75 + 5.6 / v)  # Eq. (10) of IEC 61400-1 ed. 4 divided by V
 
 
 def _one_to_one(ax, x, y) -> None:
@@ -71,7 +55,7 @@ def sigma_scatter_figure(
     *,
     ref_label: str = "reference",
 ) -> Figure:
-    """sigma_moving against sigma_ref and the corrected stds (seed 000 Figs. 4-5 style).
+    """sigma_moving against sigma_ref and the corrected stds (Gutiérrez-Antuñano et al. 2018, Figs. 4-5 style).
 
     Parameters
     ----------
@@ -80,7 +64,7 @@ def sigma_scatter_figure(
     sigma_ref_ms : numpy.ndarray, shape (n,)
         Reference (or true) HWS std (m/s): left panel, blue crosses.
     sigma_corr : dict of str -> numpy.ndarray, shape (n,)
-        Motion-corrected reference std per law (seed 000 Eqs. 15-17), m/s: right panel.
+        Motion-corrected reference std per law (Gutiérrez-Antuñano et al. 2018, Eqs. 15-17), m/s: right panel.
     ref_label : str
         Name of the reference in the axis labels.
 
@@ -119,8 +103,10 @@ def ti_speed_bins_figure(
     credible_mass: float,
     title: str = "",
     truth: pd.DataFrame | None = None,
+    reference: pd.DataFrame | None = None,
 ) -> Figure:
-    """Corrected TI per speed bin with the IEC 61400-1 categories (seed 000 Fig. 8b style).
+    """Corrected TI per speed bin with the IEC 61400-1 categories (Gutiérrez-Antuñano et al.
+    2018, Fig. 8b style): corrected, uncorrected and reference, mean and representative.
 
     Parameters
     ----------
@@ -136,6 +122,8 @@ def ti_speed_bins_figure(
     title : str
     truth : pandas.DataFrame, optional
         ``hws_bin_ms``, ``ti_mean``, ``ti_rep`` of the true TI per bin (virtual campaigns).
+    reference : pandas.DataFrame, optional
+        ``hws_bin_ms``, ``ti_mean``, ``ti_rep`` of the reference instrument's TI per bin.
 
     Returns
     -------
@@ -170,6 +158,12 @@ def ti_speed_bins_figure(
         t = truth[truth["hws_bin_ms"].isin(b["hws_bin_ms"])].sort_values("hws_bin_ms")
         ax.plot(t["hws_bin_ms"], t["ti_mean"], "x", color="tab:red", ms=5, label="true bin mean")
         ax.plot(t["hws_bin_ms"], t["ti_rep"], "+", color="tab:red", ms=6, label="true repr. TI")
+    if reference is not None and len(reference):
+        r = reference.sort_values("hws_bin_ms")
+        ax.plot(r["hws_bin_ms"], r["ti_mean"], "D", color="tab:purple", ms=4, mfc="none",
+                label="reference bin mean")  # fmt: skip
+        ax.plot(r["hws_bin_ms"], r["ti_rep"], "v", color="tab:purple", ms=5, mfc="none",
+                label="reference repr. TI")  # fmt: skip
     vv = np.linspace(
         max(2.0, v.min() - 0.5) if v.size else 3.0, (v.max() + 0.5) if v.size else 20.0
     )
@@ -181,7 +175,8 @@ def ti_speed_bins_figure(
                     color="tab:green", xytext=(2, 0), textcoords="offset points", va="center")  # fmt: skip
     ax.set_xlim(vv[0], vv[-1] + 1.3)
     top = np.nanmax(np.r_[b["ti_rep_hi"].to_numpy(dtype=float), 0.1]) if len(b) else 0.3
-    ax.set_ylim(0, max(0.12, min(1.2 * top, 0.6)))
+    iec_top = float(iec_representative_ti(vv[0], max(IEC_TURBULENCE_CATEGORIES.values())))
+    ax.set_ylim(0, 1.05 * max(min(1.2 * top, 0.6), iec_top))  # every IEC curve in full
     ax.set_xlabel("HWS bin [m/s]")
     ax.set_ylabel("TI [-]")
     ax.set_title(title + " (green: IEC 61400-1 ed. 4 categories, representative TI)", fontsize=10)
@@ -358,5 +353,166 @@ def calibration_figure(
     ax_e.legend(fontsize=8)
     ax_e.grid(alpha=0.3)
     fig.suptitle("calibration of the corrected TI by wind speed")
+    fig.tight_layout()
+    return fig
+
+
+def _regression_panel(ax, reference, estimate, stats, *, label: str, colour: str) -> None:
+    ok = np.isfinite(reference) & np.isfinite(estimate)
+    ax.plot(reference[ok], estimate[ok], ".", color=colour, ms=2, alpha=0.35)
+    top = float(np.nanmax(np.r_[reference[ok], estimate[ok], 0.05])) * 1.05
+    ax.plot([0, top], [0, top], "k--", lw=1, label="1:1")
+    if np.isfinite(stats.slope):
+        xx = np.array([0.0, top])
+        ax.plot(xx, stats.slope * xx + stats.offset, "-", color="k", lw=1.5,
+                label=f"y = {stats.slope:.3f} x {stats.offset:+.4f}")  # fmt: skip
+    ax.text(0.98, 0.03, f"n = {stats.n}\nbias = {stats.bias:+.4f} ({100 * stats.bias_rel:+.1f} %)"
+            f"\nRMSE = {stats.rmse:.4f}\nR² = {stats.r2:.3f}", transform=ax.transAxes,
+            ha="right", va="bottom", fontsize=8,
+            bbox={"facecolor": "white", "alpha": 0.8, "lw": 0})  # fmt: skip
+    ax.set_xlim(0, top)
+    ax.set_ylim(0, top)
+    ax.set_aspect("equal")
+    ax.set_xlabel("reference TI [-]")
+    ax.set_ylabel(f"{label} TI [-]")
+    ax.set_title(label, fontsize=10)
+    ax.legend(loc="upper left", fontsize=8)
+    ax.grid(alpha=0.3)
+
+
+def ti_scatter_figure(reference, corrected, uncorrected, *, title: str = "") -> Figure:
+    """Corrected and uncorrected TI against the reference TI, each with its regression line.
+
+    Parameters
+    ----------
+    reference, corrected, uncorrected : array_like, shape (n,)
+        TI per record (-): the reference's, the corrected TI in the reference's terms and
+        the floating lidar's uncorrected TI.
+    title : str
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two panels; each line is the least-squares fit ``TI = slope * TI_ref + offset``
+        (:func:`flidar_uq.validation.reference.agreement`), its statistics in the corner.
+    """
+    from flidar_uq.validation.reference import agreement
+
+    ref = np.asarray(reference, float)
+    fig, axes = plt.subplots(1, 2, figsize=(9, 4.4))
+    for ax, est, label, colour in (
+        (axes[0], np.asarray(corrected, float), "corrected", "tab:blue"),
+        (axes[1], np.asarray(uncorrected, float), "uncorrected", "0.3"),
+    ):
+        _regression_panel(ax, ref, est, agreement(est, ref), label=label, colour=colour)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def bias_bars_figure(
+    corrected: pd.DataFrame, uncorrected: pd.DataFrame, *, title: str = ""
+) -> Figure:
+    """Mean TI bias against the reference per speed bin: corrected and uncorrected bars.
+
+    Parameters
+    ----------
+    corrected, uncorrected : pandas.DataFrame
+        :func:`flidar_uq.validation.reference.agreement_by_speed_bin` tables (``hws_bin_ms``,
+        ``bias``, -; ``ti_rep_error``, -).
+    title : str
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Left: mean bias; right: representative-TI error, per bin (m/s).
+    """
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), sharex=True)
+    w = 0.38
+    for ax, col, label in ((axes[0], "bias", "mean TI bias [-]"),
+                           (axes[1], "ti_rep_error", "representative-TI error [-]")):  # fmt: skip
+        for k, (tab, name, colour) in enumerate(
+            ((corrected, "corrected", "tab:blue"), (uncorrected, "uncorrected", "0.55"))
+        ):
+            ax.bar(tab["hws_bin_ms"] + (k - 0.5) * w, tab[col], width=w, color=colour, label=name)
+        ax.axhline(0, color="k", lw=0.8)
+        ax.set_xlabel("HWS bin [m/s]")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3, axis="y")
+    axes[0].legend(fontsize=8)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def ti_rose_figure(sectors: pd.DataFrame) -> Figure:
+    """Mean corrected TI per wind-direction sector, one line per height (a TI rose).
+
+    Parameters
+    ----------
+    sectors : pandas.DataFrame
+        ``grouping == "direction sector"`` rows of results/ti/groups.csv: ``height_m``,
+        ``group`` (sector centre, deg from north, clockwise), ``ti_mean`` (-), ``n``.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig = plt.figure(figsize=(5, 4.6))
+    ax = fig.add_subplot(projection="polar")
+    ax.set_theta_zero_location("N")
+    ax.set_theta_direction(-1)
+    for h, sub in sectors.groupby("height_m", sort=True):
+        sub = sub.assign(deg=sub["group"].astype(float)).sort_values("deg")
+        sub = sub[np.isfinite(sub["ti_mean"].to_numpy(dtype=float))]
+        if not len(sub):
+            continue
+        th = np.deg2rad(np.r_[sub["deg"], sub["deg"].iloc[0]])
+        ax.plot(th, np.r_[sub["ti_mean"], sub["ti_mean"].iloc[0]], "o-", ms=3, label=f"{h:g} m")
+    ax.set_title("mean corrected TI per direction sector [-]", fontsize=10)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.05, 1.0))
+    fig.tight_layout()
+    return fig
+
+
+def motion_context_figure(
+    tilt_deg, period_s, sea_state_error: pd.DataFrame | None = None
+) -> Figure:
+    """The buoy's motion: tilt amplitude and period distributions, error by sea state.
+
+    Parameters
+    ----------
+    tilt_deg, period_s : array_like, shape (n,)
+        Per record: the larger of the roll and pitch amplitudes (deg) and the motion
+        period (s).
+    sea_state_error : pandas.DataFrame, optional
+        ``sea_state``, ``corrected`` and ``uncorrected`` (mean TI bias against the
+        reference per sea-state class, -): a third panel.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    n = 3 if sea_state_error is not None and len(sea_state_error) else 2
+    fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 3.4))
+    for ax, x, label in ((axes[0], tilt_deg, "tilt amplitude (max of roll, pitch) [deg]"),
+                         (axes[1], period_s, "motion period [s]")):  # fmt: skip
+        x = np.asarray(x, float)
+        ax.hist(x[np.isfinite(x)], bins=40, color="tab:cyan")
+        ax.set_xlabel(label)
+        ax.set_ylabel("records")
+        ax.grid(alpha=0.3)
+    if n == 3:
+        e = sea_state_error
+        y = np.arange(len(e))
+        axes[2].barh(y - 0.2, e["corrected"], height=0.4, color="tab:blue", label="corrected")
+        axes[2].barh(y + 0.2, e["uncorrected"], height=0.4, color="0.55", label="uncorrected")
+        axes[2].set_yticks(y, e["sea_state"], fontsize=7)
+        axes[2].axvline(0, color="k", lw=0.8)
+        axes[2].set_xlabel("mean TI bias against the reference [-]")
+        axes[2].legend(fontsize=7)
+        axes[2].grid(alpha=0.3, axis="x")
     fig.tight_layout()
     return fig

@@ -98,9 +98,12 @@ def img_html(data_uri: str, alt: str) -> str:
 
 
 def table_html(df: pd.DataFrame, *, float_format: str = "{:.4g}", caption: str = "") -> str:
-    """An HTML table of a DataFrame (floats formatted, NaN shown as an en dash)."""
+    """An HTML table of a DataFrame (floats formatted, NaN shown as an en dash, booleans
+    as yes / no)."""
 
     def fmt(v):
+        if isinstance(v, bool) or type(v).__name__ == "bool_":  # no Python repr: yes / no
+            return "yes" if v else "no"
         if isinstance(v, float):
             return None if v != v else float_format.format(v)  # None: shown as &ndash;
         return str(v)
@@ -165,9 +168,26 @@ def provenance_html(
             )
             if numerics
             else "",
-            config_yaml=yaml.safe_dump(config, sort_keys=True),
+            config_yaml=_with_units(yaml.safe_dump(config, sort_keys=True)),
         )
     )
+
+
+#: Units of the config keys by suffix, written beside the shown config's values.
+KEY_UNITS = {"_ms": "m/s", "_s": "s", "_m": "m", "_deg": "deg", "_pct": "%", "_h": "h"}
+
+
+def _with_units(config_yaml: str) -> str:
+    """The config's YAML with each unit-suffixed scalar key's unit as a comment
+    (``tau0_scale_ms: 0.1  # m/s``: the suffix _ms is metres per second, not milliseconds)."""
+    import re
+
+    out = []
+    for line in config_yaml.splitlines():
+        m = re.match(r"^\s*([A-Za-z0-9_]+): (\S.*)$", line)
+        unit = next((u for k, u in KEY_UNITS.items() if m and m.group(1).endswith(k)), None)
+        out.append(f"{line}  # {unit}" if unit and not m.group(2).startswith(("{", "[")) else line)
+    return "\n".join(out) + "\n"
 
 
 def render_html(title: str, sections: Sequence[Section], *, intro_html: str = "") -> str:

@@ -11,6 +11,7 @@ import pandas as pd
 from markupsafe import Markup
 
 from flidar_uq.threads import numeric_environment
+from flidar_uq.workflow import report as rep
 from flidar_uq.workflow.files import bin_file, read_csv
 
 __all__ = [
@@ -19,6 +20,7 @@ __all__ = [
     "file_provenance",
     "git_revision",
     "loo_statement",
+    "public_config",
     "reference_kind",
 ]
 
@@ -182,23 +184,6 @@ def _fmt_interval(med, lo, hi, digits: int = 3) -> str | None:
     return f"{med:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"
 
 
-def _link_note(n_shown: int, n_total: int, csv: str) -> str:
-    """'n of N rows shown; full table: <link>' below a summarised table."""
-    from markupsafe import escape
-
-    shown = f"all {n_total} rows" if n_shown >= n_total else f"{n_shown} of {n_total} rows shown"
-    return (
-        f'<p class="more">{shown}; full table: <a href="../{escape(csv)}">'
-        f"results/{escape(csv)}</a></p>"
-    )
-
-
-def _summarised(rep, df: pd.DataFrame, caption: str, csv: str, max_rows: int = 15) -> str:
-    return rep.table_html(df.head(max_rows), caption=caption) + _link_note(
-        min(max_rows, len(df)), len(df), csv
-    )
-
-
 def _truth_speed_bins(records: pd.DataFrame) -> pd.DataFrame:
     """True TI per height and speed bin over the records with a corrected TI (virtual campaigns)."""
     from flidar_uq.data.binning import speed_bin_ms
@@ -237,7 +222,7 @@ def _speed_bin_table(b: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(
         {
             "HWS bin (m/s)": b["hws_bin_ms"].map(lambda v: f"{v:g}"),
-            "n": b["n"],
+            "records": b["n"],
             "mean TI [interval]": [
                 _fmt_interval(*x) for x in b[["ti_mean", "ti_mean_lo", "ti_mean_hi"]].to_numpy()
             ],
@@ -247,10 +232,14 @@ def _speed_bin_table(b: pd.DataFrame) -> pd.DataFrame:
             "P90 TI [interval]": [
                 _fmt_interval(*x) for x in b[["ti_p90", "ti_p90_lo", "ti_p90_hi"]].to_numpy()
             ],
-            "uncorrected mean": b["ti_mean_uncorrected"],
-            "uncorrected repr.": b["ti_rep_uncorrected"],
+            "uncorrected mean": b["ti_mean_uncorrected"].map(_f3),
+            "uncorrected repr.": b["ti_rep_uncorrected"].map(_f3),
         }
     )
+
+
+def _f3(v) -> str:
+    return f"{v:.3f}" if np.isfinite(v) else "–"
 
 
 def _group_pivot(groups: pd.DataFrame, grouping: str, label: str) -> pd.DataFrame:
@@ -268,173 +257,100 @@ def _group_pivot(groups: pd.DataFrame, grouping: str, label: str) -> pd.DataFram
     return tab.reset_index()
 
 
-def build_report(
-    *,
-    out_path: str | os.PathLike,
-    results_dir: str | os.PathLike,
-    batch_dirs: Sequence[str | os.PathLike],
-    config: dict,
-    git_revision: str = "",
-    input_files: dict[str, str | os.PathLike] | None = None,
-    frontier_png: str | os.PathLike | None = None,
-    series_paths: dict | None = None,
-) -> str:
-    """Write the self-contained HTML report of the user's campaign from the result files.
+def _plain_warnings(gfit, bins, records, global_summary, motion_model, coverage) -> list[str]:
+    """The fit's and the data's warnings in plain words: what they mean, what to do."""
+    from flidar_uq.workflow.report_summary import motion_scale_words
 
-    Parameters
-    ----------
-    out_path : path
-        The HTML file (normally results/report/report.html: the links to the full CSV
-        tables are relative to it, ``../ti/...``).
-    results_dir : path
-        The pipeline's ``results/`` directory (ti/, bins/, qc/, motion/, inference/,
-        posterior/, data/).
-    batch_dirs : sequence of path
-        The per-bin inference batch directories.
-    config : dict
-        The run's configuration (provenance, thresholds, reference kind).
-    git_revision : str
-        Revision of the workflow's repository.
-    input_files : dict of str -> path, optional
-        Files whose SHA-256 and row count go into the provenance (label -> path): the
-        input record table, the validated table, requirements.lock.
-    frontier_png : path, optional
-        The method-frontier chart (benchmarks), shown when the file exists.
-    series_paths : dict, optional
-        Result files of the raw IMU series and the LOS branch, when given
-        (:func:`flidar_uq.workflow.series_report.series_sections`).
-
-    Returns
-    -------
-    str
-        The HTML text written.
-    """
-    from flidar_uq import inference as inf
-    from flidar_uq.correction.propagation import UNCERTAINTY_SOURCES
-    from flidar_uq.physics import variance_laws as correction
-    from flidar_uq.workflow import plots
-    from flidar_uq.workflow import report as rep
-
-    res = Path(results_dir)
-    records = read_csv(res / "ti" / "records.csv")
-    bins = read_csv(res / "ti" / "bins.csv")
-    speed_bins = read_csv(res / "ti" / "speed_bins.csv")
-    groups = read_csv(res / "ti" / "groups.csv")
-    budget = read_csv(res / "ti" / "uncertainty_budget.csv")
-    metrics = read_csv(res / "ti" / "metrics.csv")
-    qc_counts = read_csv(res / "qc" / "summary.csv")
-    roll_pitch = read_csv(res / "motion" / "roll_pitch.csv")
-    bin_fits = read_csv(res / "inference" / "bin_fits.csv")
-    global_summary = read_csv(res / "inference" / "global.csv")
-    gfit = inf.load_fit(res / "posterior" / "global.nc")
-    mass = float(config["propagation"]["credible_mass"])
-    min_count = int(config.get("report", {}).get("group_min_count", 10))
-    sections = []
-
-    # ------------------------------------------------------------------ summary
-    heights = sorted(records["height_m"].dropna().unique())
-    ts = pd.to_datetime(records["timestamp"], utc=True, errors="coerce")
-    status_counts = bins["status"].value_counts()
-    n_failed = int(status_counts.get("failed", 0) + status_counts.get("error", 0))
-    flags = records["flags"].fillna("")
-    model_flag = flags.str.split(";").map(lambda fl: all(f in MODEL_FLAGS for f in fl if f))
-    n_qc = int(((flags != "") & ~model_flag).sum())
-    warnings = []
+    out = []
     if gfit.info.get("motion_scale_warning"):
-        warnings.append("Model discrepancy: " + gfit.info["motion_scale_warning"] + ".")
+        k = float(np.median(gfit.flat("motion_scale"))) if "motion_scale" in gfit.draws else np.nan
+        out.append(motion_scale_words(k, coverage))
     loo_words = loo_statement(global_summary)
     if "per bin to the single global rho" in loo_words:
-        warnings.append(loo_words.split("Global model chosen: ")[-1].split(". ", 1)[-1])
+        out.append(
+            "The correlation between the motion error and the turbulence (rho) differs "
+            "between wind-speed bins: the single global rho is a compromise, so the "
+            "intervals of bins far from the average may be too narrow or too wide. Check the "
+            "per-bin validation below before relying on a single bin."
+        )
     if not gfit.converged:
-        warnings.append(
-            "The global fit missed the convergence criteria: every record is flagged "
-            "global_fit_failed (" + "; ".join(gfit.failure_reasons) + ")."
+        out.append(
+            "The fit did not converge (" + "; ".join(gfit.failure_reasons) + "): no record "
+            "has a corrected TI. Rerun with more sampler steps (inference.nsteps, nburn)."
         )
-    motion_model = "record" if inf.is_record_model(gfit) else "bin"
+    st = bins["status"].value_counts()
+    n_failed = int(st.get("failed", 0) + st.get("error", 0))
     if n_failed and motion_model == "bin":
-        warnings.append(f"{n_failed} bin fits failed; their records have no corrected TI.")
-    elif n_failed:
-        warnings.append(
-            f"{n_failed} per-bin motion fits (reported for seed 000's bin table) missed the "
-            "convergence criteria; the corrected TI does not use them (record motion model)."
+        out.append(
+            f"{n_failed} wind-speed/motion bins could not be fitted: their records have no "
+            "corrected TI (flagged bin_failed or bin_error). More records per bin "
+            "(binning.min_count) or the record motion model (inference.motion_model) helps."
         )
-    n_neg = int(flags.str.contains("discriminant_negative").sum())
+    n_neg = int(records["flags"].fillna("").str.contains("discriminant_negative").sum())
     if n_neg:
-        warnings.append(
-            f"{n_neg} records have a measured std below the motion-induced std "
-            "(discriminant_negative): corrected TI 0 at the posterior median."
+        out.append(
+            f"{n_neg} records measured less variance than their motion alone would add "
+            "(discriminant_negative): their corrected TI is 0 at the median and their "
+            "interval is one-sided. Usually calm wind and large motion; few of them do not "
+            "move the bin statistics."
         )
-    camp = groups[groups["grouping"] == "campaign"].set_index("height_m")
-    headline = pd.DataFrame(
-        {
-            "height (m)": [f"{h:g}" for h in camp.index],
-            "records": camp["n"].to_numpy(),
-            f"corrected mean TI [{mass:.0%} interval]": [
-                _fmt_interval(*x, digits=4)
-                for x in camp[["ti_mean", "ti_mean_lo", "ti_mean_hi"]].to_numpy()
-            ],
-            "uncorrected mean TI": camp["ti_mean_uncorrected"].map(lambda v: f"{v:.4f}"),
-        }
-    )
-    flag_counts = flags.replace("", "(none: corrected)").value_counts()
-    campaign_cfg = config.get("campaign", {})
-    what = (
-        f"virtual campaign, scenario {campaign_cfg.get('scenario')}, seed {campaign_cfg.get('seed')}"
-        if campaign_cfg.get("source") == "virtual"
-        else f"records file {campaign_cfg.get('records')}"
-    )
-    facts = pd.DataFrame(
-        [
-            ("campaign", what),
-            ("lidar", campaign_cfg.get("lidar", "")),
-            ("heights (m)", ", ".join(f"{h:g}" for h in heights)),
-            (
-                "period (UTC)",
-                f"{ts.min():%Y-%m-%d %H:%M} to {ts.max():%Y-%m-%d %H:%M}"
-                if ts.notna().any()
-                else "",
-            ),
-            (
-                "records",
-                f"{len(records)} input, {int(records['ti_corrected_median'].notna().sum())} "
-                f"with a corrected TI, {n_qc} removed by QC",
-            ),
-            ("reference", reference_kind(config, metrics)),
-            (
-                "model",
-                f"{motion_model} motion model"
-                + (
-                    f", global model {gfit.info['loo'].get('model')}"
-                    if gfit.info.get("loo")
-                    else ""
-                )
-                + f"; global fit {'converged' if gfit.converged else 'NOT converged'}",
-            ),
-        ],
-        columns=["item", "value"],
-    )
-    summary_html = (
-        rep.templates()
-        .get_template("sections/summary.html.j2")
-        .render(
-            facts=Markup(rep.table_html(facts, caption="")),
-            headline=Markup(
-                rep.table_html(
-                    headline,
-                    caption=f"headline: corrected TI per height, campaign mean over the records "
-                    f"with a corrected TI ({mass:.0%} credible interval of the mean)",
-                )
-            ),
-            warnings=warnings,
-            top_flags=[(str(k), int(v)) for k, v in flag_counts.head(4).items()],
-            loo=loo_words,
-        )
+    return out
+
+
+def _first_screen(ctx: dict) -> str:
+    """The first screen (report_summary.first_screen_html) from the loaded results."""
+    from flidar_uq.workflow.report_summary import (
+        FirstScreen,
+        bin_tables,
+        campaign_name,
+        file_identity,
+        first_screen_html,
+        reference_speed_bins,
+        representative_at_15,
     )
 
-    # ------------------------------------------------------------------ speed bins per height
+    records, config, mass = ctx["records"], ctx["config"], ctx["mass"]
+    min_count = ctx["min_count"]
+    ts = pd.to_datetime(records["timestamp"], utc=True, errors="coerce")
+    name, sha = file_identity(ctx["input_file"]) if ctx["input_file"] else ("", "")
+    n_corr = int(records["ti_corrected_median"].notna().sum())
+    facts = [
+        ("campaign", campaign_name(config)),
+        ("input", f"{name} (SHA-256 {sha[:12]}…)" if sha else name or "–"),
+        (
+            "period (UTC)",
+            f"{ts.min():%Y-%m-%d %H:%M} to {ts.max():%Y-%m-%d %H:%M}" if ts.notna().any() else "",
+        ),
+        ("heights", ", ".join(f"{h:g} m" for h in ctx["heights"])),
+        ("records", f"{len(records)} input, {n_corr} with a corrected TI"),
+        ("reference", ctx["reference_kind"]),
+        ("lidar", str((config.get("campaign") or {}).get("lidar", ""))),
+    ]
+    screen = FirstScreen(
+        title=campaign_name(config),
+        facts=facts,
+        rep15=representative_at_15(ctx["speed_bins"], min_count),
+        bin_tables=bin_tables(
+            ctx["speed_bins"], reference_speed_bins(records, min_count), min_count
+        ),
+        validation=ctx["validation"],
+        warnings=ctx["warnings"],
+        mass=mass,
+    )
+    return first_screen_html(screen)
+
+
+def _ti_section(ctx: dict) -> rep.Section:
+    """TI per height and 1-m/s bin: the figure (corrected, uncorrected, reference, IEC
+    curves) and the full per-bin table of each height."""
+    from flidar_uq.workflow import plots
+    from flidar_uq.workflow.report_summary import reference_speed_bins
+
+    records, speed_bins, mass = ctx["records"], ctx["speed_bins"], ctx["mass"]
     truth_bins = _truth_speed_bins(records)
-    body = f"<p>{rep.caption('speed_bins', mass=mass, min_count=min_count)}</p>"
-    for h in heights:
+    ref_bins = reference_speed_bins(records, ctx["min_count"])
+    body = f"<p>{rep.caption('speed_bins', mass=mass, min_count=ctx['min_count'])}</p>"
+    for h in ctx["heights"]:
         b = speed_bins[speed_bins["height_m"] == h].sort_values("hws_bin_ms")
         rec_h = records[(records["height_m"] == h) & records["ti_corrected_median"].notna()]
         fig = plots.ti_speed_bins_figure(
@@ -443,6 +359,7 @@ def build_report(
             credible_mass=mass,
             title=f"{h:g} m",
             truth=truth_bins[truth_bins["height_m"] == h] if len(truth_bins) else None,
+            reference=ref_bins[ref_bins["height_m"] == h].dropna() if len(ref_bins) else None,
         )
         body += f"<h3>{h:g} m</h3>" + rep.img_html(
             rep.figure_to_data_uri(fig), rep.caption("ti_speed_bins", mass=mass, height=f"{h:g}")
@@ -451,23 +368,275 @@ def build_report(
             _speed_bin_table(b[b["n"] > 0]),
             caption=f"{h:g} m: TI per 1-m/s bin ({mass:.0%} intervals of the bin statistic)",
         )
-    body += _link_note(len(speed_bins), len(speed_bins), "ti/speed_bins.csv")
     if len(truth_bins):
         body += f"<p>{_truth_check(speed_bins, truth_bins)}</p>"
-    sections.append(rep.Section("Turbulence intensity per height and speed bin", body))
+    return rep.Section("Turbulence intensity per height and wind-speed bin", body)
 
-    # ------------------------------------------------------------------ sectors and sea states
-    body = f"<p>{rep.caption('groups', mass=mass, min_count=min_count)}</p>"
-    sec = _group_pivot(groups, "direction sector", "sector centre (deg)")
-    body += rep.table_html(sec, caption="corrected mean TI per wind-direction sector")
+
+#: Readable names of the per-bin validation columns.
+_PER_BIN_LABELS = {
+    "hws_bin_ms": "HWS bin (m/s)",
+    "n": "records",
+    "bias": "bias",
+    "bias_rel": "bias (%)",
+    "rmse": "RMSE",
+    "ti_rep_estimate": "repr. TI",
+    "ti_rep_reference": "reference repr. TI",
+    "ti_rep_error": "repr. TI error",
+    "ti_rep_error_rel": "repr. TI error (%)",
+}
+
+
+def _per_bin_table(per_bin: pd.DataFrame) -> pd.DataFrame:
+    """Corrected and uncorrected side by side per bin, readable names, fixed precision."""
+    c = per_bin[per_bin["estimate"] == "corrected"].set_index("hws_bin_ms")
+    u = per_bin[per_bin["estimate"] == "uncorrected"].set_index("hws_bin_ms")
+    out = pd.DataFrame({"HWS bin (m/s)": [f"{v:g}" for v in c.index], "records": c["n"].to_numpy()})
+    for tab, who in ((c, "corrected"), (u, "uncorrected")):
+        for col in ("bias", "rmse", "ti_rep_error"):
+            out[f"{who} {_PER_BIN_LABELS[col]}"] = [
+                f"{x:+.4f}"
+                if col != "rmse" and np.isfinite(x)
+                else (f"{x:.4f}" if np.isfinite(x) else "–")
+                for x in tab[col].reindex(c.index)
+            ]
+        out[f"{who} {_PER_BIN_LABELS['ti_rep_error_rel']}"] = [
+            f"{100 * x:+.1f}" if np.isfinite(x) else "–"
+            for x in tab["ti_rep_error_rel"].reindex(c.index)
+        ]
+    out["reference repr. TI"] = [_f3(x) for x in c["ti_rep_reference"]]
+    return out
+
+
+def _validation_section(ctx: dict) -> rep.Section:
+    """Validation against the reference: statement, per-height statistics in and out of
+    sample, scatter with regression lines, bias per bin, coverage per bin."""
+    from flidar_uq.workflow import plots
+    from flidar_uq.workflow.report_summary import VALIDATION_LABELS
+
+    v, records, mass = ctx["validation"], ctx["records"], ctx["mass"]
+    if v is None:
+        return rep.Section(
+            "Validation against the reference",
+            "<p>The input has no reference TI (ref_* columns): no validation.</p>",
+        )
+    body = f"<p>{v.statement}</p>"
+    bh = v.tables["by_height"]
+    tab = pd.DataFrame({"height (m)": bh["height_m"].map(lambda x: f"{x:g}")})
+    for c in ("sample", "estimate", "n"):
+        tab[VALIDATION_LABELS[c]] = bh[c].to_numpy()
+    for c, f in (("bias", "{:+.4f}"), ("rmse", "{:.4f}"), ("slope", "{:.3f}"),
+                 ("offset", "{:+.4f}"), ("r2", "{:.3f}")):  # fmt: skip
+        tab[VALIDATION_LABELS[c]] = [f.format(x) if np.isfinite(x) else "–" for x in bh[c]]
+    tab["bias (%)"] = [f"{100 * x:+.1f}" if np.isfinite(x) else "–" for x in bh["bias_rel"]]
+    tab["coverage"] = [f"{100 * x:.1f} %" if np.isfinite(x) else "–" for x in bh["coverage"]]
+    body += rep.table_html(tab, caption=rep.caption("validation_by_height", mass=mass))
+    g = records["lidar_std_ratio"].to_numpy(dtype=float) if v.lidar_reference else 1.0
+    ref = records["ti_ref"].to_numpy(dtype=float)
+    use = np.isfinite(ref) & np.isfinite(records["ti_corrected_median"].to_numpy(dtype=float))
+    if v.sample == "held out":
+        use &= ctx["held_out"]
+    for h in ctx["heights"]:
+        at = use & (records["height_m"].to_numpy(dtype=float) == h)
+        if not at.any():
+            continue
+        corr = records["ti_corrected_median"].to_numpy(dtype=float) * g
+        fig = plots.ti_scatter_figure(
+            np.where(at, ref, np.nan), np.where(at, corr, np.nan),
+            np.where(at, records["ti_uncorrected"].to_numpy(dtype=float), np.nan),
+            title=f"{h:g} m, {v.sample} records",
+        )  # fmt: skip
+        body += f"<h3>{h:g} m</h3>" + rep.img_html(
+            rep.figure_to_data_uri(fig), rep.caption("ti_scatter", sample=v.sample, height=f"{h:g}")
+        )
+        pb = v.tables["per_bin"]
+        pb = pb[pb["height_m"] == h]
+        bars = plots.bias_bars_figure(
+            pb[pb["estimate"] == "corrected"], pb[pb["estimate"] == "uncorrected"],
+            title=f"{h:g} m, {v.sample} records",
+        )  # fmt: skip
+        body += rep.img_html(
+            rep.figure_to_data_uri(bars), rep.caption("bias_bars", sample=v.sample)
+        )
+        body += rep.table_html(
+            _per_bin_table(pb),
+            caption=f"{h:g} m, {v.sample} records: bias, RMSE and representative-TI error per "
+            f"1-m/s bin (bins with fewer than {ctx['min_count']} pairs: count only)",
+        )
+    hws = records["hws_mean_ms"].to_numpy(dtype=float)
+    body += rep.img_html(
+        rep.figure_to_data_uri(
+            plots.calibration_figure(
+                np.where(use, hws, np.nan),
+                records["ti_corrected_median"].to_numpy(dtype=float),
+                records["ti_corrected_lo"].to_numpy(dtype=float),
+                records["ti_corrected_hi"].to_numpy(dtype=float),
+                {f"reference ({v.sample})": (ref, g) if v.lidar_reference else ref},
+                credible_mass=mass,
+                speed_bin_width_ms=1.0,
+            )
+        ),
+        rep.caption("calibration", mass=mass),
+    )
+    return rep.Section("Validation against the reference", body)
+
+
+def _direction_section(ctx: dict) -> rep.Section:
+    """TI rose, and the corrected mean TI per direction sector and sea-state class."""
+    from flidar_uq.workflow import plots
+
+    groups, mass = ctx["groups"], ctx["mass"]
+    body = f"<p>{rep.caption('groups', mass=mass, min_count=ctx['min_count'])}</p>"
+    sectors = groups[groups["grouping"] == "direction sector"]
+    if len(sectors):
+        body += rep.img_html(
+            rep.figure_to_data_uri(plots.ti_rose_figure(sectors)),
+            "TI rose: mean corrected TI per wind-direction sector and height (sectors with "
+            f"fewer than {ctx['min_count']} records left out)",
+        )
+    body += rep.table_html(
+        _group_pivot(groups, "direction sector", "sector centre (deg)"),
+        caption="corrected mean TI per wind-direction sector",
+    )
     body += rep.table_html(
         _group_pivot(groups, "sea state", "sea-state class"),
         caption="corrected mean TI per sea-state class (from the record's motion)",
     )
-    body += _link_note(len(groups), len(groups), "ti/groups.csv")
-    sections.append(rep.Section("Direction sectors and sea states", body))
+    return rep.Section("Direction sectors and sea states", body)
 
-    # ------------------------------------------------------------------ budget
+
+def _motion_section(ctx: dict) -> rep.Section:
+    """The buoy's motion: tilt and period distributions; the correction's error by sea state."""
+    from flidar_uq.workflow import plots
+    from flidar_uq.workflow.propagation_step import record_groups
+
+    data, records, v = ctx["data"], ctx["records"], ctx["validation"]
+    amp = [c for c in ("roll_amplitude_deg", "pitch_amplitude_deg") if c in data]
+    tilt = data[amp].max(axis=1).to_numpy(dtype=float) if amp else np.full(len(data), np.nan)
+    per = next((c for c in ("period1_s", "roll_period_s", "pitch_period_s") if c in data), None)
+    period = data[per].to_numpy(dtype=float) if per else np.full(len(data), np.nan)
+    err = None
+    if v is not None:
+        g = records["lidar_std_ratio"].to_numpy(dtype=float) if v.lidar_reference else 1.0
+        ref = records["ti_ref"].to_numpy(dtype=float)
+        corr = records["ti_corrected_median"].to_numpy(dtype=float) * g
+        use = np.isfinite(ref) & np.isfinite(corr)
+        if v.sample == "held out":
+            use &= ctx["held_out"]
+        state = record_groups(data)["sea_state"].to_numpy()
+        d = pd.DataFrame({"sea_state": state, "corrected": corr - ref,
+                          "uncorrected": records["ti_uncorrected"].to_numpy(float) - ref})[use]  # fmt: skip
+        counts = d.groupby("sea_state").size()
+        err = d.groupby("sea_state")[["corrected", "uncorrected"]].mean()
+        err = err[counts >= ctx["min_count"]].reset_index()
+    waves = [c for c in data.columns if c.startswith(("wave_", "hs_", "tp_"))]
+    body = rep.img_html(
+        rep.figure_to_data_uri(plots.motion_context_figure(tilt, period, err)),
+        rep.caption("motion_context", sample=v.sample if v else "", min_count=ctx["min_count"]),
+    )
+    if not waves:
+        body += "<p>The input has no wave height or wave period columns: the sea state is " \
+            "described by the buoy's own motion (one or two spectral peaks of roll and pitch, " \
+            "tilt along or across the wind).</p>"  # fmt: skip
+    return rep.Section("Motion of the buoy", body)
+
+
+def _diagnostics_section(ctx: dict) -> rep.Section:
+    """Appendix: the global posterior, its convergence, and (bin model) the per-bin fits."""
+    from flidar_uq import inference as inf
+    from flidar_uq.workflow import plots
+
+    gfit, gs, bin_fits, config = ctx["gfit"], ctx["global_summary"], ctx["bin_fits"], ctx["config"]
+    loo_words = loo_statement(gs)
+    body = (f"<p>{loo_words}</p>" if loo_words else "") + rep.img_html(
+        rep.figure_to_data_uri(
+            plots.posterior_figure(
+                {k: np.asarray(v) for k, v in gfit.draws.items()},
+                title="global posterior, one line per ensemble",
+            )
+        ),
+        rep.caption("global_posterior", names=", ".join(gfit.draws)),
+    )
+    cols = [c for c in ("param", "mean", "sd", "q05", "median", "q95", "rhat", "ess_bulk",
+                        "ess_tail", "nsteps_over_tau") if c in gs]  # fmt: skip
+    names = {"param": "parameter", "q05": "5 %", "q95": "95 %", "rhat": "rank R-hat",
+             "ess_bulk": "bulk ESS", "ess_tail": "tail ESS",
+             "nsteps_over_tau": "steps / autocorr. time"}  # fmt: skip
+    status = "converged" if gfit.converged else "NOT converged: " + "; ".join(gfit.failure_reasons)
+    n_fit = int(gs["n_records"].iloc[0]) if "n_records" in gs and len(gs) else 0
+    body += rep.table_html(
+        gs[cols].rename(columns=names),
+        caption=f"{rep.caption('global_summary')}: {n_fit} records fitted, {status}",
+    )
+    if ctx["motion_model"] == "bin":
+        ok = bin_fits.loc[bin_fits["status"] == "ok", "bin_id"].astype(int).head(1).tolist()
+        for bid in ok:
+            bfit = inf.load_fit(bin_file(ctx["batch_dirs"], bid))
+            body += rep.img_html(
+                rep.figure_to_data_uri(
+                    plots.posterior_figure(
+                        {k: np.asarray(v) for k, v in bfit.draws.items()},
+                        title=f"case no. {bid}: motion posterior",
+                    )
+                ),
+                rep.caption("bin_posterior", bin_id=bid),
+            )
+        body += rep.img_html(
+            rep.figure_to_data_uri(
+                plots.convergence_figure(
+                    bin_fits,
+                    rhat_max=config["inference"]["rhat_max"],
+                    ess_min=config["inference"]["ess_min"],
+                )
+            ),
+            rep.caption("convergence"),
+        )
+    return rep.Section("Appendix A. Bayesian diagnostics", body)
+
+
+def _bin_table_section(ctx: dict) -> rep.Section:
+    """Appendix: the bin table, as what feeds the answer (bin model) or as the
+    Gutiérrez-Antuñano et al. (2018) Table 1 reproduction (record model)."""
+    bins, bin_fits, mass = ctx["bins"], ctx["bin_fits"], ctx["mass"]
+    cols = [c for c in ("bin_id", "hws_ms", "amplitude_deg", "period_s", "count", "sigma_z_ms",
+                        "mean_z_ms", "status", "model", "ti_uncorrected_mean",
+                        "ti_corrected_median_mean", "ti_true_mean") if c in bins]  # fmt: skip
+    shown = bins["status"] != "not_fitted"
+    table1 = bins.loc[shown, cols].head(15).rename(
+        columns={"bin_id": "case no.", "hws_ms": "HWS (m/s)", "amplitude_deg": "AA (deg)",
+                 "period_s": "T (s)", "count": "records", "sigma_z_ms": "sigma_Z (m/s)",
+                 "mean_z_ms": "mean_Z (m/s)", "ti_uncorrected_mean": "uncorrected TI",
+                 "ti_corrected_median_mean": "corrected TI", "ti_true_mean": "true TI"}
+    )  # fmt: skip
+    if ctx["motion_model"] == "bin":
+        title = "Appendix B. Per-bin motion fits (they feed the corrected TI: bin model)"
+        intro = "With the bin motion model each record's sigma_Z comes from its bin's fit."
+    else:
+        title = "Appendix B. Bin table: Gutiérrez-Antuñano et al. (2018) Table 1 reproduction"
+        intro = (
+            "With the record motion model (the default) the corrected TI does not use these "
+            "per-bin fits; they reproduce Table 1 of Gutiérrez-Antuñano et al. (2018)."
+        )
+    st = bin_fits["status"].value_counts()
+    intro += (
+        f" Fits: {int(st.get('ok', 0))} ok, {int(st.get('failed', 0))} missed the convergence "
+        f"criteria, {int(st.get('error', 0))} raised. The 15 bins with the most records are shown."
+    )
+    return rep.Section(
+        title,
+        f"<p>{intro}</p>"
+        + rep.table_html(
+            table1, caption=rep.caption("bin_table", mass=mass, n_hidden=int((~shown).sum()))
+        ),
+    )
+
+
+def _budget_section(ctx: dict) -> rep.Section:
+    """Appendix: the uncertainty budget."""
+    from flidar_uq.correction.propagation import UNCERTAINTY_SOURCES
+    from flidar_uq.workflow import plots
+
+    budget, mass = ctx["budget"], ctx["mass"]
     sources = [k for k in UNCERTAINTY_SOURCES if f"share_{k}" in budget]
     cb = budget[budget["grouping"] == "campaign"]
     btab = pd.DataFrame({"height (m)": cb["height_m"].map(lambda v: f"{v:g}")})
@@ -482,51 +651,70 @@ def build_report(
     if len(sb):
         body += rep.img_html(
             rep.figure_to_data_uri(plots.budget_figure(sb, sources)),
-            "share of the variance of each speed bin's mean corrected TI per source",
+            "share of the variance of each 1-m/s speed bin's mean corrected TI per source",
         )
-    body += _link_note(len(budget), len(budget), "ti/uncertainty_budget.csv")
-    sections.append(rep.Section("Uncertainty budget", body))
+    return rep.Section("Appendix C. Uncertainty budget", body)
 
-    # ------------------------------------------------------------------ flags and QC
-    sections.append(
-        rep.Section(
-            "What was flagged and why",
-            rep.table_html(
-                flag_counts.rename_axis("flags").rename("records").reset_index(),
-                caption="records of results/ti/records.csv per flag string (QC reasons, "
-                "no_motion_description, discriminant_negative, bin_* with the bin model)",
-            )
-            + _link_note(0, len(records), "ti/records.csv").replace("0 of", "per record, 0 of"),
-        )
-    )
-    sections.append(
-        rep.Section(
-            "Quality control",
-            rep.table_html(qc_counts, caption=rep.caption("qc_filters"))
-            + rep.table_html(roll_pitch, caption=rep.caption("roll_pitch")),
-        )
-    )
 
-    # ------------------------------------------------------------------ validation
-    body = rep.table_html(metrics, caption=rep.caption("metrics"))
+def _qc_section(ctx: dict) -> rep.Section:
+    """Appendix: what was flagged and why, the QC filters, the roll-pitch correlation."""
+    flags = ctx["records"]["flags"].fillna("").replace("", "(none: corrected)")
+    counts = flags.value_counts().rename_axis("flags").rename("records").reset_index()
+    qc = ctx["qc_counts"].rename(
+        columns={"reason": "filter", "enabled": "on", "threshold": "threshold",
+                 "n_failed": "records failing", "n_failed_only": "failing only this"}
+    )  # fmt: skip
+    rp = ctx["roll_pitch"].rename(
+        columns={"r_amplitude": "r (amplitude)", "r_period": "r (period)", "n": "records"}
+    )
+    body = (
+        rep.table_html(counts, caption=rep.caption("flags"))
+        + rep.table_html(qc, caption=rep.caption("qc_filters"))
+        + rep.table_html(rp, caption=rep.caption("roll_pitch"))
+    )
+    return rep.Section("Appendix D. Quality control and flags", body)
+
+
+#: Readable names of the method-comparison table (results/ti/metrics.csv).
+_METRIC_LABELS = {
+    "reference": "against", "method": "method", "n": "records",
+    "md_std_ms": "MD std (m/s)", "rmse_std_ms": "RMSE std (m/s)", "md_ti": "MD TI",
+    "rmse_ti": "RMSE TI", "mean_rel_ti_error": "mean rel. TI error",
+    "mean_abs_rel_ti_error": "mean abs. rel. TI error", "coverage": "coverage",
+}  # fmt: skip
+
+
+def _methods_section(ctx: dict) -> rep.Section:
+    """Appendix: the Gutiérrez-Antuñano et al. (2018) U / C / PC laws beside the Bayesian
+    correction (their Tables 2-3 and Fig. 5), and (virtual campaigns) the truth check."""
+    from flidar_uq.physics import variance_laws as correction
+    from flidar_uq.workflow import plots
+
+    records, metrics, gfit, mass = ctx["records"], ctx["metrics"], ctx["gfit"], ctx["mass"]
+    m = metrics[[c for c in _METRIC_LABELS if c in metrics]]
+    body = rep.table_html(m.rename(columns=_METRIC_LABELS), caption=rep.caption("metrics"))
     rho_med = float(np.median(gfit.flat("rho")))
-    rho_seed = float(metrics["rho_seed000"].iloc[0]) if len(metrics) else float("nan")
+    rho_seed = (
+        float(metrics["rho_seed000"].iloc[0])
+        if "rho_seed000" in metrics and len(metrics)
+        else np.nan
+    )
     ref_col = next((c for c in ("ref_hws_std_ms", "true_hws_std_ms") if c in records), None)
     if ref_col is not None:
         r = records[records["ti_corrected_median"].notna()]
         ref = r[ref_col].to_numpy(dtype=float)
         rho_pc, rho_src = (
-            (rho_seed, "seed 000") if np.isfinite(rho_seed) else (rho_med, "posterior median")
+            (rho_seed, "Gutiérrez-Antuñano et al. 2018")
+            if np.isfinite(rho_seed)
+            else (rho_med, "posterior median")
         )
         szb = r["sigma_z_seed000_ms"].to_numpy(dtype=float)
         corr = {
             "U": correction.sigma_moving_u(ref, szb),
             "C": correction.sigma_moving_c(ref, szb),
             "PC": correction.sigma_moving_pc(ref, szb, rho_pc),
-            "Bayesian": correction.sigma_moving_pc(
-                ref, r["sigma_z_median_ms"].to_numpy(dtype=float), rho_med
-            ),
-        }
+            "Bayesian": correction.sigma_moving_pc(ref, r["sigma_z_median_ms"].to_numpy(dtype=float), rho_med),
+        }  # fmt: skip
         label = "reference" if ref_col == "ref_hws_std_ms" else "truth"
         body += rep.img_html(
             rep.figure_to_data_uri(
@@ -534,142 +722,157 @@ def build_report(
             ),
             rep.caption("sigma_scatter", label=label, rho_pc=rho_pc, rho_src=rho_src),
         )
-    refs = {}
-    if "ti_true" in records:
-        refs["truth"] = records["ti_true"].to_numpy(dtype=float)
-    if "ti_ref" in records:
-        from flidar_uq.data.metrics import LIDAR_REFERENCE_LABELS, REFERENCE_LABELS
-
-        label = next(
-            (r for r in metrics.get("reference", []) if r != "truth"), REFERENCE_LABELS[None]
-        )
-        if label in (*LIDAR_REFERENCE_LABELS, REFERENCE_LABELS[None]):
-            refs[f"{label} (interval x lidar_std_ratio)"] = (
-                records["ti_ref"].to_numpy(dtype=float),
-                records["lidar_std_ratio"].to_numpy(dtype=float),
-            )
-        else:  # a cup or sonic: the point value itself
-            refs[label] = records["ti_ref"].to_numpy(dtype=float)
-    if refs:
-        body += rep.img_html(
-            rep.figure_to_data_uri(
-                plots.calibration_figure(
-                    records["hws_mean_ms"].to_numpy(dtype=float),
-                    records["ti_corrected_median"].to_numpy(dtype=float),
-                    records["ti_corrected_lo"].to_numpy(dtype=float),
-                    records["ti_corrected_hi"].to_numpy(dtype=float),
-                    refs,
-                    credible_mass=mass,
-                )
-            ),
-            rep.caption("calibration", mass=mass),
-        )
     if "ti_true" in records:
         body += rep.table_html(
-            regime_calibration_table(records),
-            caption=f"{mass:.0%} intervals of the corrected TI against the virtual "
-            "campaign's truth, QC-kept records in 3-20 m/s, per 3-m/s speed group, "
-            "sea state and heading (truth columns); answered_share: records with a "
-            "corrected TI; coverage with its 95 % Wilson interval; the record interval is "
-            "given the reference's std ratio g, *_total adds g's campaign-wide error "
-            "(reference lidar only)",
+            regime_calibration_table(records).rename(columns=_REGIME_LABELS),
+            caption=rep.caption("regimes", mass=mass),
         )
-    sections.append(
-        rep.Section("Validation against the reference (seed 000 Tables 2-3 style)", body)
+    return rep.Section(
+        "Appendix E. Correction methods compared (Gutiérrez-Antuñano et al. 2018, Tables 2-3)", body
     )
 
-    # ------------------------------------------------------------------ bin table
-    cols = [
-        c
-        for c in (
-            "bin_id", "hws_ms", "amplitude_deg", "period_s", "count", "sigma_z_ms", "mean_z_ms",
-            "status", "model", "ti_uncorrected_mean", "ti_corrected_median_mean",
-            "ti_true_mean",
-        )
-        if c in bins
-    ]  # fmt: skip
-    shown = bins["status"] != "not_fitted"
-    table1 = bins.loc[shown, cols].rename(
-        columns={
-            "bin_id": "case no.",
-            "hws_ms": "HWS (m/s)",
-            "amplitude_deg": "AA (deg)",
-            "period_s": "T (s)",
-            "count": "count no.",
-            "sigma_z_ms": "sigma_Z (m/s)",
-        }
-    )
-    sections.append(
-        rep.Section(
-            "Bin table (seed 000 Table 1 style)",
-            _summarised(
-                rep,
-                table1,
-                rep.caption("bin_table", mass=mass, n_hidden=int((~shown).sum())),
-                "ti/bins.csv",
-            ),
-        )
-    )
 
-    # ------------------------------------------------------------------ posteriors
-    names = list(gfit.draws)
-    post = (f"<p>{loo_words}</p>" if loo_words else "") + rep.img_html(
-        rep.figure_to_data_uri(
-            plots.posterior_figure(
-                {k: np.asarray(v) for k, v in gfit.draws.items()},
-                title="global posterior, one line per ensemble",
-            )
-        ),
-        rep.caption("global_posterior", names=", ".join(names)),
-    )
-    post += rep.table_html(global_summary, caption=rep.caption("global_summary"))
-    ok_bins = bin_fits.loc[bin_fits["status"] == "ok", "bin_id"].astype(int).head(1).tolist()
-    for bid in ok_bins:
-        bfit = inf.load_fit(bin_file(batch_dirs, bid))
-        post += rep.img_html(
-            rep.figure_to_data_uri(
-                plots.posterior_figure(
-                    {k: np.asarray(v) for k, v in bfit.draws.items()},
-                    title=f"case no. {bid}: motion posterior",
-                )
-            ),
-            rep.caption("bin_posterior", bin_id=bid),
-        )
-    post += rep.img_html(
-        rep.figure_to_data_uri(
-            plots.convergence_figure(
-                bin_fits,
-                rhat_max=config["inference"]["rhat_max"],
-                ess_min=config["inference"]["ess_min"],
-            )
-        ),
-        rep.caption("convergence"),
-    )
-    worst = bin_fits.sort_values("status", key=lambda s: s.eq("ok"))
-    post += _summarised(rep, worst, rep.caption("bin_fits"), "inference/bin_fits.csv")
-    sections.append(rep.Section("Posteriors and convergence", post))
+_REGIME_LABELS = {
+    "grouping": "grouping", "group": "group", "n": "records", "answered_share": "answered",
+    "coverage": "coverage", "coverage_lo": "coverage low", "coverage_hi": "coverage high",
+    "mean_rel_error": "mean rel. error", "median_rel_width": "median rel. width",
+    "coverage_total": "coverage (total)", "median_rel_width_total": "median rel. width (total)",
+}  # fmt: skip
 
-    if frontier_png is not None and Path(frontier_png).is_file():
-        sections.append(
-            rep.Section(
-                "Method frontier",
-                rep.img_html(
-                    rep.png_bytes_to_data_uri(Path(frontier_png).read_bytes()),
-                    "wall time against accuracy of the correction methods on a campaign "
-                    "with truth (benchmarks/results/method_frontier.png)",
-                ),
-            )
-        )
 
+def public_config(config: dict) -> dict:
+    """The config as the report shows it: an absolute path becomes its file name."""
+    if isinstance(config, dict):
+        return {k: public_config(v) for k, v in config.items()}
+    if isinstance(config, list):
+        return [public_config(v) for v in config]
+    if isinstance(config, str) and os.path.isabs(config):
+        return Path(config).name
+    return config
+
+
+def _load(res: Path, batch_dirs, config: dict) -> dict:
+    """The result tables the report reads, and what is derived from them once."""
+    from flidar_uq import inference as inf
+
+    ctx = {
+        "records": read_csv(res / "ti" / "records.csv"),
+        "data": read_csv(res / "data" / "records.csv"),
+        "bins": read_csv(res / "ti" / "bins.csv"),
+        "speed_bins": read_csv(res / "ti" / "speed_bins.csv"),
+        "groups": read_csv(res / "ti" / "groups.csv"),
+        "budget": read_csv(res / "ti" / "uncertainty_budget.csv"),
+        "metrics": read_csv(res / "ti" / "metrics.csv"),
+        "qc_counts": read_csv(res / "qc" / "summary.csv"),
+        "roll_pitch": read_csv(res / "motion" / "roll_pitch.csv"),
+        "bin_fits": read_csv(res / "inference" / "bin_fits.csv"),
+        "global_summary": read_csv(res / "inference" / "global.csv"),
+        "gfit": inf.load_fit(res / "posterior" / "global.nc"),
+        "config": config,
+        "batch_dirs": list(batch_dirs),
+        "mass": float(config["propagation"]["credible_mass"]),
+        "min_count": int(config.get("report", {}).get("group_min_count", 10)),
+    }
+    ctx["heights"] = sorted(ctx["records"]["height_m"].dropna().unique())
+    ctx["motion_model"] = "record" if inf.is_record_model(ctx["gfit"]) else "bin"
+    m = ctx["metrics"]
+    kind = str(m["reference_kind"].iloc[0]) if "reference_kind" in m and len(m) else None
+    ctx["reference_kind_code"] = kind or (config.get("reference") or {}).get("kind") or "none"
+    ctx["reference_kind"] = {
+        "cup": "cup anemometer",
+        "sonic": "sonic anemometer",
+        "fixed_lidar": "fixed (motionless) lidar",
+        "none": "none",
+    }.get(ctx["reference_kind_code"], ctx["reference_kind_code"])
+    return ctx
+
+
+def build_report(
+    *,
+    out_path: str | os.PathLike,
+    results_dir: str | os.PathLike,
+    batch_dirs: Sequence[str | os.PathLike],
+    config: dict,
+    git_revision: str = "",
+    input_files: dict[str, str | os.PathLike] | None = None,
+    series_paths: dict | None = None,
+) -> str:
+    """Write the self-contained HTML report of the user's campaign from the result files.
+
+    The first screen answers (TI per height and 1-m/s bin, the representative TI at
+    15 m/s with its IEC category, the validation headline, the campaign and its input
+    file, warnings in plain words); the sections after it hold the figures analysts
+    expect, the appendix the rest. The developer's benchmark charts are not in it
+    (:func:`build_developer_report`). No absolute path is written: files by name.
+
+    Parameters
+    ----------
+    out_path : path
+        The HTML file (normally results/report/report.html).
+    results_dir : path
+        The pipeline's ``results/`` directory (ti/, bins/, qc/, motion/, inference/,
+        posterior/, data/).
+    batch_dirs : sequence of path
+        The per-bin inference batch directories.
+    config : dict
+        The run's configuration (provenance, thresholds, reference kind, hold-out).
+    git_revision : str
+        Revision of the workflow's repository.
+    input_files : dict of str -> path, optional
+        Files whose SHA-256 and row count go into the provenance (label -> path); the
+        first is the input record table named on the first screen.
+    series_paths : dict, optional
+        Result files of the raw IMU series and the LOS branch, when given
+        (:func:`flidar_uq.workflow.series_report.series_sections`).
+
+    Returns
+    -------
+    str
+        The HTML text written.
+    """
+    from flidar_uq.workflow.report_summary import held_out_records, validate
     from flidar_uq.workflow.series_report import series_sections
 
-    sections += series_sections(**(series_paths or {}))  # raw IMU series, LOS branch
-    sections.append(
+    ctx = _load(Path(results_dir), batch_dirs, config)
+    records = ctx["records"]
+    ctx["validation"] = validate(records, config, ctx["reference_kind_code"])
+    ctx["held_out"] = (
+        held_out_records(records, config)[0] if ctx["validation"] else np.zeros(len(records), bool)
+    )
+    coverage = np.nan
+    if ctx["validation"] is not None:
+        s = ctx["validation"].tables["summary"]
+        row = s[(s["sample"] == ctx["validation"].sample) & (s["estimate"] == "corrected")]
+        coverage = float(row["coverage"].iloc[0]) if len(row) else np.nan
+    ctx["warnings"] = _plain_warnings(
+        ctx["gfit"], ctx["bins"], records, ctx["global_summary"], ctx["motion_model"], coverage
+    )
+    v = ctx["validation"]
+    if v is not None and not (config.get("validation") or {}).get("trial_posterior"):
+        if not (v.tables["summary"]["sample"] == "in sample").any():
+            ctx["warnings"].append(
+                "The hold-out removed every reference record from the fit: the model ran on "
+                "its priors and the correction is not calibrated. Hold out less "
+                "(validation.holdout.days) or use alternate_weeks on a longer campaign."
+            )
+    ctx["input_file"] = next(iter((input_files or {}).values()), None)
+    sections = [
+        _ti_section(ctx),
+        _validation_section(ctx),
+        _direction_section(ctx),
+        _motion_section(ctx),
+        _diagnostics_section(ctx),
+        _bin_table_section(ctx),
+        _budget_section(ctx),
+        _qc_section(ctx),
+        _methods_section(ctx),
+        *series_sections(**(series_paths or {})),  # raw IMU series, LOS branch
         rep.Section(
             "How to cite", rep.templates().get_template("sections/references.html.j2").render()
-        )
-    )
+        ),
+    ]
     prov = file_provenance(input_files or {})
+    shown = public_config(config)
     sections.append(
         rep.Section(
             "Provenance and how to rerun",
@@ -677,14 +880,16 @@ def build_report(
             .get_template("sections/rerun.html.j2")
             .render(files=Markup(rep.table_html(prov, caption="input files")))
             + rep.provenance_html(
-                config, git_revision, rep.package_versions(), numeric_environment()
+                shown, git_revision, rep.package_versions(), numeric_environment()
             ),
         )
     )
+    from flidar_uq.workflow.report_summary import campaign_name
+
     text = rep.render_html(
-        "flidar_uq report: motion-corrected turbulence intensity",
+        f"{campaign_name(config)}: motion-corrected turbulence intensity",
         sections,
-        intro_html=summary_html,
+        intro_html=_first_screen(ctx),
     )
     Path(out_path).parent.mkdir(parents=True, exist_ok=True)
     Path(out_path).write_text(text, encoding="utf-8")

@@ -46,7 +46,8 @@ def series_context(
         gaps = read_csv(imu_gaps) if imu_gaps else pd.DataFrame()
         longest = float(s["longest_gap_inside_s"])
         imu = {
-            "path": s["imu_series"],
+            # an absolute path as its file name: the report names no directory of the machine
+            "path": os.path.basename(p) if os.path.isabs(p := str(s["imu_series"])) else p,
             "rows": s["rows"],
             "rate_hz": f"{float(s['rate_hz']):.4g}",
             "first": s["first_sample"],
