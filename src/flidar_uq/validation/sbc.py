@@ -219,7 +219,7 @@ def draw_record_campaign(
     the wave follower's translation of :func:`flidar_uq.data.imu.follower_translation_columns`
     for one band along and one across the wind at periods ``T`` and ``T U(1, 1.6)``. With
     ``sZ`` of :func:`~flidar_uq.inference.record_motion.hull_sigma_z_ms` (lever arm, hull
-    response, motion scale),
+    response, motion scale) times ``exp(kappa_z^2 / 2)`` (the realised error's mean),
     ``mu^2 = r^2 + sZ^2 + 2 rho r sZ`` (Eq. (15) of seed 000) and
     ``tau^2 = (kappa mu)^2 + (kappa_z sZ dmu/dsZ)^2 + (pair_log_sd r dmu/dr)^2 + 1e-8``, the
     floating-lidar std is
@@ -275,6 +275,7 @@ def draw_record_campaign(
         hull_response=truth["hull_response"],
         motion_scale=truth["motion_scale"],
     )
+    sz = sz * np.exp(0.5 * truth["kappa_z"] ** 2)  # the realised error's mean (record_fit)
     sz_sq = sz**2
     mu_sq = np.maximum(r**2 + sz_sq + 2.0 * truth["rho"] * r * sz, 1e-12)  # Eq. (15) of seed 000
     dmu_sq = (sz + truth["rho"] * r) ** 2 / mu_sq
