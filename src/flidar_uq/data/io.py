@@ -57,6 +57,7 @@ __all__ = [
     "write_records",
     "validate_records",
     "read_imu_series",
+    "imu_heading_to_ccw",
     "validate_imu_series",
     "write_imu_series",
     "read_los_series",
@@ -1007,10 +1008,11 @@ def read_records(
     extra_columns : {"error", "keep", "ignore"}
         See :func:`validate_records`.
     conventions : mapping, optional
-        Config ``campaign`` keys ``format``, ``utc_offset_h`` (h), ``timestamp_at`` and
-        ``heading_convention`` (:func:`flidar_uq.data.formats.read_any`); given, the
-        stamps are turned into UTC at the interval start, checked on the 10-min grid,
-        and absent motion columns are derived
+        Config ``campaign`` keys ``format``, ``utc_offset_h`` (h), ``timestamp_at``,
+        ``heading_convention`` and the sections ``motion_file`` and ``reference_file``
+        (:func:`flidar_uq.data.formats.join.read_campaign`); given, the stamps are turned
+        into UTC at the interval start, checked on the 10-min grid, the other files
+        joined on the interval and absent motion columns derived
         (:func:`flidar_uq.data.formats.complete_motion`).
 
     Returns
@@ -1024,23 +1026,14 @@ def read_records(
         Naming file, row and column of the first problem.
     """
     if conventions is not None:
-        from flidar_uq.data.formats import complete_motion, read_any
+        from flidar_uq.data.formats.join import read_campaign
 
-        got = read_any(
+        return read_campaign(
             path,
-            conventions,
-            columns=columns,
-            extra_columns=extra_columns,
-            allow_small_angles=allow_small_angles,
-        )
-        records, _ = complete_motion(got.records)
-        return validate_records(
-            records,
-            str(path),
+            {**conventions, "columns": columns, "extra_columns": extra_columns},
             require_motion=require_motion,
             allow_small_angles=allow_small_angles,
-            extra_columns="keep",
-        )
+        )[0]
     df, source, csv = _read_table(path)
     return validate_records(
         df,
@@ -1154,10 +1147,34 @@ def validate_imu_series(
     return out[order]
 
 
-def read_imu_series(path: str | Path, *, allow_small_angles: bool = False) -> pd.DataFrame:
-    """Read and validate a raw IMU series (CSV or Parquet); see :func:`validate_imu_series`."""
+def read_imu_series(
+    path: str | Path, *, allow_small_angles: bool = False, heading_convention: str = "ccw"
+) -> pd.DataFrame:
+    """Read and validate a raw IMU series (CSV or Parquet); see :func:`validate_imu_series`.
+
+    ``heading_convention="compass"``: the file's ``yaw_deg`` is a compass heading
+    (clockwise from north, deg), turned into the project's counter-clockwise yaw
+    (:func:`flidar_uq.data.formats.heading_ccw_deg`, config ``campaign.heading_convention``).
+    """
     df, source, csv = _read_table(path)
-    return validate_imu_series(df, source, allow_small_angles=allow_small_angles, csv=csv)
+    out = validate_imu_series(df, source, allow_small_angles=allow_small_angles, csv=csv)
+    return imu_heading_to_ccw(out, heading_convention)
+
+
+def imu_heading_to_ccw(imu: pd.DataFrame, heading_convention: str) -> pd.DataFrame:
+    """The validated IMU series with ``yaw_deg`` in the project's convention (``ccw``:
+    unchanged; ``compass``: clockwise from north turned counter-clockwise, deg)."""
+    if heading_convention not in ("ccw", "compass"):
+        raise ValueError(
+            f"heading_convention must be 'ccw' or 'compass', got {heading_convention!r}"
+        )
+    if heading_convention == "ccw" or "yaw_deg" not in imu.columns:
+        return imu
+    from flidar_uq.data.formats.common import heading_ccw_deg
+
+    out = imu.copy()
+    out["yaw_deg"] = heading_ccw_deg(out["yaw_deg"].to_numpy())
+    return out
 
 
 def write_imu_series(df: pd.DataFrame, path: str | Path) -> Path:
