@@ -303,6 +303,13 @@ def _run_validate(args: argparse.Namespace) -> dict:
     if out["format"] != "table":
         facts = ", ".join(f"{k}={v}" for k, v in out["header_facts"].items())
         print(f"flidar-uq validate: {out['format']}: {facts}", file=sys.stderr)
+    for j in out["join"]:
+        print(
+            f"flidar-uq validate: join {j['role']} {j['path']}: {j['intervals']} intervals, "
+            f"{j['matched']} matched, {j['unmatched_lidar']} lidar intervals unmatched, "
+            f"{j['unmatched_file']} of the file unmatched",
+            file=sys.stderr,
+        )
     for line in report["blocking"]:
         print(f"flidar-uq validate: warning: {line} (the pipeline stops on this)", file=sys.stderr)
     for line in report["warnings"]:
@@ -310,29 +317,26 @@ def _run_validate(args: argparse.Namespace) -> dict:
     return out
 
 
-def _conventions(campaign) -> dict:
-    keys = ("format", "utc_offset_h", "timestamp_at", "heading_convention")
-    return {k: campaign[k] for k in keys if campaign.get(k) is not None}
-
-
 def _source_facts(path, campaign) -> dict:
-    """The detected format of a file and what its header states (``format``, ``header_facts``,
-    ``mapping``, ``notes``)."""
-    from flidar_uq.data.formats import complete_motion, detect_format, read_any
+    """The detected format of a file, what its header states and the join of a campaign in
+    several files (``format``, ``header_facts``, ``notes``, ``join``)."""
+    from flidar_uq.data.formats import detect_format
+    from flidar_uq.data.formats.join import read_campaign
 
-    conv = _conventions(campaign)
-    fmt = conv.get("format", "auto")
+    fmt = campaign.get("format") or "auto"
     if fmt == "auto":
         fmt = "table" if campaign.get("columns") else detect_format(path)
-    if fmt == "table":
-        return {"format": "table", "header_facts": {}, "mapping": {}, "notes": []}
-    got = read_any(path, {**conv, "format": fmt}, allow_small_angles=True)
-    _, notes = complete_motion(got.records)
+    parts = any((campaign.get(f"{r}_file") or {}).get("path") for r in ("motion", "reference"))
+    if fmt == "table" and not parts:
+        return {"format": "table", "header_facts": {}, "notes": [], "join": []}
+    _, join, facts, notes = read_campaign(
+        path, {**campaign, "format": fmt}, require_motion=False, allow_small_angles=True
+    )
     return {
         "format": fmt,
-        "header_facts": got.facts,
-        "mapping": got.mapping,
-        "notes": got.notes + notes,
+        "header_facts": facts,
+        "notes": notes,
+        "join": join.to_dict("records"),
     }
 
 

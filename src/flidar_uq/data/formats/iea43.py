@@ -184,7 +184,7 @@ def read(
     header = [h.strip() for h in lines[0].split(",")] if lines else []
     for i, ln in enumerate(lines[1:]):
         if ln.strip() and ln.count(",") != len(header) - 1:
-            k = min(ln.count(","), len(header) - 1)
+            k = min(ln.count(",") + 1, len(header) - 1)
             hint = " (';' or tabs here? the file uses ',')" if (";" in ln or "\t" in ln) else ""
             raise DataValidationError(
                 source, i + 1, header[k],
