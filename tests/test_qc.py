@@ -343,3 +343,17 @@ def test_verdicts_do_not_depend_on_row_order_hypothesis(case):
     b = run_qc(df.iloc[perm], config).flags.loc[df.index]
     fail = [f"fail_{r}" for r in RECORD_REASONS]
     pd.testing.assert_frame_equal(a[fail], b[fail])
+
+
+def test_speed_bin_summary_says_what_each_filter_removed_per_bin():
+    from flidar_uq.data.qc import speed_bin_summary
+
+    rec = records(
+        hws_mean_ms=[8.2, 7.9, 8.1, 45.0, 21.6, 22.4], availability_pct=[90.0] * 5 + [10.0]
+    )
+    r = run_qc(rec, QCConfig(mad=False))
+    table = speed_bin_summary(rec, r.flags, hws_width_ms=1.0).set_index("hws_bin_ms")
+    assert table.loc[8.0, "n_in"] == 3 and table.loc[8.0, "n_kept"] == 3
+    assert table.loc[45.0, "hws_nonphysical"] == 1 and table.loc[45.0, "n_kept"] == 0
+    assert table.loc[22.0, ["n_in", "n_kept", "low_availability"]].tolist() == [2, 1, 1]
+    assert table["n_in"].sum() == len(rec) and table["n_kept"].sum() == r.n_kept

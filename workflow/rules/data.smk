@@ -105,8 +105,10 @@ rule qc:
         flags="results/qc/flags.csv",
         kept="results/qc/kept.csv",
         summary="results/qc/summary.csv",
+        speed_bins="results/qc/speed_bins.csv",
     params:
         qc=config["qc"],
+        hws_width_ms=config["binning"]["hws_width_ms"],
         heights=config["campaign"]["heights"],
         allow_small_angles=config["campaign"]["allow_small_angles"],
     conda:

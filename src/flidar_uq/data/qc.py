@@ -49,6 +49,7 @@ __all__ = [
     "los_availability_pct",
     "apply_filters",
     "summarise",
+    "speed_bin_summary",
 ]
 
 RECORD_REASONS = (
@@ -566,3 +567,41 @@ def summarise(flags: pd.DataFrame) -> pd.DataFrame:
     rows.append({"reason": "all", "n_failed": int((n_failed > 0).sum()), "n_failed_only": 0})
     rows.append({"reason": "kept", "n_failed": int((n_failed == 0).sum()), "n_failed_only": 0})
     return pd.DataFrame(rows)
+
+
+def speed_bin_summary(
+    records: pd.DataFrame, flags: pd.DataFrame, *, hws_width_ms: float = 1.0
+) -> pd.DataFrame:
+    """What each filter removed per height and mean-speed bin.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        The QC input (``height_m``, ``hws_mean_ms`` in m/s), in the order of ``flags``.
+    flags : pandas.DataFrame
+        ``QCResult.flags`` (one ``fail_<reason>`` column per filter and ``kept``).
+    hws_width_ms : float
+        Bin width, m/s; bins centred on integer multiples of it (``hws_bin_ms``, NaN for
+        records without a mean speed).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per height and bin: ``height_m``, ``hws_bin_ms``, ``n_in``, ``n_kept``
+        and, per filter, ``<reason>`` = the records of the bin failing it (a record can
+        fail several).
+    """
+    hws = records["hws_mean_ms"].to_numpy(dtype=float)
+    table = pd.DataFrame(
+        {
+            "height_m": records["height_m"].to_numpy(dtype=float),
+            "hws_bin_ms": np.round(hws / hws_width_ms) * hws_width_ms,
+            "n_in": 1,
+            "n_kept": flags["kept"].to_numpy(dtype=int),
+        }
+    )
+    fail = [c for c in flags.columns if c.startswith("fail_")]
+    for c in fail:
+        table[c.removeprefix("fail_")] = flags[c].to_numpy(dtype=int)
+    out = table.groupby(["height_m", "hws_bin_ms"], dropna=False, sort=True).sum()
+    return out.reset_index()

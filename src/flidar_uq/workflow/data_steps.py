@@ -279,6 +279,8 @@ def run_qc(
     *,
     heights_m: Sequence[float] | None = None,
     allow_small_angles: bool = False,
+    speed_bins_path: str | os.PathLike | None = None,
+    hws_width_ms: float = 1.0,
 ) -> pd.DataFrame:
     """Apply the QC filters; write every record with its reasons, the kept records, and counts.
 
@@ -297,6 +299,9 @@ def run_qc(
         flagged ``height_not_selected``.
     allow_small_angles : bool
         Config ``campaign.allow_small_angles``.
+    speed_bins_path : path, optional
+        Output: what each filter removed per height and mean-speed bin
+        (:func:`flidar_uq.data.qc.speed_bin_summary`, bins ``hws_width_ms`` m/s wide).
 
     Returns
     -------
@@ -316,6 +321,9 @@ def run_qc(
     write_csv(flags, flags_path)
     write_csv(kept, kept_path)
     write_csv(counts, summary_path)
+    if speed_bins_path is not None:
+        write_csv(qc.speed_bin_summary(records, result.flags, hws_width_ms=hws_width_ms),
+                  speed_bins_path)  # fmt: skip
     log.info("%s", result.summary())
     return flags
 
