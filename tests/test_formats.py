@@ -420,3 +420,54 @@ def test_validate_prints_the_format_header_facts_and_join(tmp_path, capsys):
     assert [r["role"] for r in out["join"]] == ["lidar", "motion", "reference"]
     assert "windcube_sta: " in captured.err and "scan_angle_deg=28.0" in captured.err
     assert "join motion" in captured.err
+
+
+def test_imu_velocity_columns_validated():
+    from flidar_uq.data.io import validate_imu_series
+
+    t = pd.Timestamp("2021-03-01", tz="UTC") + pd.to_timedelta(np.arange(50) / 10.0, unit="s")
+    imu = pd.DataFrame({"timestamp": t, "roll_deg": 2.0, "pitch_deg": 1.0})
+    imu["velocity_east_ms"] = 0.3
+    imu["velocity_north_ms"] = np.nan  # allowed: a missing sample
+    imu["velocity_up_ms"] = -0.5
+    out = validate_imu_series(imu)
+    assert list(out.columns[-3:]) == ["velocity_east_ms", "velocity_north_ms", "velocity_up_ms"]
+    imu.loc[7, "velocity_up_ms"] = 25.0
+    with pytest.raises(DataValidationError, match=r"row 8, column 'velocity_up_ms': value 25"):
+        validate_imu_series(imu)
+
+
+@pytest.mark.parametrize(
+    ("path", "fmt", "fact"),
+    [
+        (WINDCUBE, "windcube_sta", "scan_angle_deg=28.0"),
+        (ZEPHIR, "zephir_csv", "serial_number=555"),
+        (IEA43, "iea43", "averaging_period_min=10"),
+    ],
+)
+def test_each_sample_validates_without_a_column_map(path, fmt, fact, tmp_path, capsys):
+    stamps = read_instrument(path).records["timestamp"].unique()
+    logger = pd.DataFrame(
+        {
+            "timestamp": pd.DatetimeIndex(stamps).strftime("%Y-%m-%dT%H:%M:%SZ"),
+            "roll_std_deg": 2.0,
+            "pitch_std_deg": 1.5,
+            "wave_tp_s": 7.5,
+        }
+    )
+    logger.to_csv(tmp_path / "logger.csv", index=False)
+    cfg = {
+        "campaign": {
+            "source": "files",
+            "records": str(path),
+            "motion_file": {"path": str(tmp_path / "logger.csv")},
+        }
+    }
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
+    assert main(["validate", "--config", str(tmp_path / "c.yaml")]) == 0
+    captured = capsys.readouterr()
+    out = json.loads(captured.out)
+    assert out["format"] == fmt and out["n_records"] == 6
+    assert f"flidar-uq validate: {fmt}: " in captured.err and fact in captured.err
+    assert out["join"][1]["matched"] == 3
+    assert any("sqrt(2)" in n for n in out["notes"])

@@ -90,7 +90,7 @@ def detect_format(path: str | Path) -> str:
     return "table"
 
 
-def _long(parsed) -> tuple[pd.DataFrame, np.ndarray, list[dict]]:
+def _long(parsed, source: str) -> tuple[pd.DataFrame, np.ndarray, list[dict]]:
     """One row per interval and height (file order, heights ascending), the file row of
     each and, per row, record column -> file column (for messages)."""
     t = parsed.table
@@ -99,9 +99,8 @@ def _long(parsed) -> tuple[pd.DataFrame, np.ndarray, list[dict]]:
     heights = sorted(parsed.per_height)
     if not heights:
         raise DataValidationError(
-            str(parsed.source) if hasattr(parsed, "source") else "<file>", None, None,
-            "no height columns found", header=True,
-        )  # fmt: skip
+            source, None, None, "no measurement-height columns found", header=True
+        )
     for h in heights:
         cols = parsed.per_height[h]
         part = pd.DataFrame({"timestamp": t["timestamp"].to_numpy(), "height_m": h})
@@ -168,7 +167,7 @@ def read_instrument(
         parsed.table["timestamp"], source=str(path), column="timestamp",
         first_line=parsed.first_line,
     )  # fmt: skip
-    long, file_row, names = _long(parsed)
+    long, file_row, names = _long(parsed, str(path))
     try:
         records = io.validate_records(
             long,
@@ -238,7 +237,9 @@ def read_any(
     conventions : mapping, optional
         Config ``campaign`` keys ``format`` (:data:`FORMATS`, default ``auto``),
         ``utc_offset_h`` (h), ``timestamp_at`` (``start``/``end``) and
-        ``heading_convention`` (``ccw``/``compass``).
+        ``heading_convention`` (``ccw``/``compass``; of a table's ``heading_mean_deg``:
+        the instrument formats state their own, a ZephIR's bearing and an IEA 43
+        ``compass_direction`` are compass headings).
     columns : mapping, optional
         Column map of a ``table`` (:func:`flidar_uq.data.io.validate_records`).
     extra_columns, allow_small_angles

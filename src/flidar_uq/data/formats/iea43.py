@@ -180,7 +180,7 @@ def read(
     facts["metadata"] = where
     at = facts["timestamp_at"] or timestamp_at or "start"
     facts["timestamp_at"] = at
-    lines = [ln for ln in csv_text.split("\n")]
+    lines = csv_text.split("\n")
     header = [h.strip() for h in lines[0].split(",")] if lines else []
     for i, ln in enumerate(lines[1:]):
         if ln.strip() and ln.count(",") != len(header) - 1:
