@@ -87,13 +87,14 @@ _NUMBER = r"\s*[-+]?(\d+(\.\d*)?|\.\d+)([eE][-+]?\d+)?\s*"
 
 
 def numeric_columns(
-    table: pd.DataFrame, *, decimal_comma: bool, missing: tuple[str, ...] = ()
+    table: pd.DataFrame, *, decimal_comma: bool, missing: tuple[float, ...] = ()
 ) -> pd.DataFrame:
     """Columns whose every non-empty cell is a number (``NaN`` accepted) as float64.
 
-    ``decimal_comma``: ``3,14`` is 3.14. ``missing``: cell texts meaning no value (e.g. a
-    ZephIR's ``9999``). Other columns stay text: the validation reports text in a mapped
-    column by row, and text in an extra column is carried as it is.
+    ``decimal_comma``: ``3,14`` is 3.14. ``missing``: values meaning no value (e.g. a
+    ZephIR's ``9999``, written ``9999,000``), NaN after reading. Other columns stay text:
+    the validation reports text in a mapped column by row, and text in an extra column is
+    carried as it is.
     """
     out = {}
     for name in table.columns:
@@ -102,12 +103,13 @@ def numeric_columns(
             out[name] = s
             continue
         txt = s.astype(str).str.strip()
-        empty = s.isna() | txt.isin(("", "NaN", "nan", *missing))
+        empty = s.isna() | txt.isin(("", "NaN", "nan"))
         if decimal_comma:
             txt = txt.str.replace(",", ".", regex=False)
         ok = empty | txt.str.fullmatch(_NUMBER).fillna(False)
         if bool(ok.all()):
-            out[name] = pd.to_numeric(txt.where(~empty), errors="coerce").astype(np.float64)
+            x = pd.to_numeric(txt.where(~empty), errors="coerce").astype(np.float64)
+            out[name] = x.where(~x.isin(missing)) if missing else x
         else:
             out[name] = s.where(~empty) if decimal_comma else s
     return pd.DataFrame(out, index=table.index)

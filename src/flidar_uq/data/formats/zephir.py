@@ -44,7 +44,7 @@ QUANTITIES = {
 }
 _REQUIRED = ("Horizontal Wind Speed (m/s)", "Horizontal Wind Speed Std. Dev. (m/s)")
 _HEIGHT_COL = re.compile(r"(.+) at (\d+(?:\.\d+)?)m")
-_MISSING = ("9999", "9998", "9999.0", "9998.0", "9999,0", "9998,0")
+_MISSING = (9999.0, 9998.0)
 
 
 def looks_like(head: str) -> bool:
