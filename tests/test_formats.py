@@ -471,3 +471,25 @@ def test_each_sample_validates_without_a_column_map(path, fmt, fact, tmp_path, c
     assert f"flidar-uq validate: {fmt}: " in captured.err and fact in captured.err
     assert out["join"][1]["matched"] == 3
     assert any("sqrt(2)" in n for n in out["notes"])
+
+
+def test_iea43_metadata_in_a_json_file_of_the_same_name(tmp_path):
+    text = IEA43.read_text()
+    meta, end = json.JSONDecoder().raw_decode(text)
+    (tmp_path / "fls.json").write_text(json.dumps(meta))
+    (tmp_path / "fls.csv").write_text(text[end:].lstrip("\n"))
+    assert detect_format(tmp_path / "fls.csv") == "iea43"
+    got = read_instrument(tmp_path / "fls.csv")
+    assert got.facts["metadata"] == "fls.json"
+    pd.testing.assert_frame_equal(got.records, read_instrument(IEA43).records)
+    (tmp_path / "fls.json").unlink()
+    with pytest.raises(DataValidationError, match="no IEA Task 43 metadata"):
+        read_instrument(tmp_path / "fls.csv", "iea43")
+
+
+def test_windcube_v1_layout_is_named(tmp_path):
+    p = tmp_path / "v1.sta"
+    p.write_bytes(b"HeaderLength=55\nVersion=3.1.66\n")
+    with pytest.raises(DataValidationError, match=r"v1\.sta: line 1, column 'HeaderLength': "
+                       r"not a WindCube v2 header"):  # fmt: skip
+        read_instrument(p)
