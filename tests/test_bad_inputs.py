@@ -326,10 +326,12 @@ CASES = {
         EXIT_DATA,
         rf"{FILE}: header, column 'wd_mean_deg': required column missing",
     ),
-    "extra_unknown_column": (
-        _text(lambda df: _csv(df.assign(Battery_V=12.1))),
+    "extra_unknown_column": (  # the default campaign.extra_columns: keep carries it
+        _with_config(
+            {"campaign": {"extra_columns": "error"}}, records=lambda df: df.assign(Battery_V=12.1)
+        ),
         EXIT_DATA,
-        rf"{FILE}: header, column 'Battery_V': unknown column",
+        r"campaign\.csv: header, column 'Battery_V': unknown column",
     ),
     "duplicated_column": (
         _text(_duplicated_column),

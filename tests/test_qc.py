@@ -52,12 +52,26 @@ def failed(result, reason: str) -> list[int]:
 
 # --------------------------------------------------------------------------- one filter each
 def test_hws_nonphysical_seed001_20ms():
-    r = run_qc(records(hws_mean_ms=[8.0, 20.0, 20.01, 25.0, 8.0, 8.0]))
+    r = run_qc(records(hws_mean_ms=[8.0, 20.0, 20.01, 25.0, 8.0, 8.0]), QCConfig(hws_max_ms=20.0))
     assert failed(r, "hws_nonphysical") == [3, 4]  # 20 m/s itself is physical
 
 
+def test_default_qc_keeps_20_to_25_ms_records_at_offshore_heights():
+    speeds = [20.5, 21.0, 22.0, 23.5, 24.0, 25.0]
+    for h in (80.0, 150.0):
+        r = run_qc(records(hws_mean_ms=speeds).assign(height_m=h), QCConfig(mad=False))
+        assert failed(r, "hws_nonphysical") == []
+        assert failed(r, "hws_out_of_ti_range") == []
+        assert r.n_kept == len(speeds)
+    r = run_qc(records(hws_mean_ms=[8.0, 40.0, 40.5, 8.0, 8.0, 8.0]), QCConfig(mad=False))
+    assert failed(r, "hws_nonphysical") == [3]
+
+
 def test_hws_range_for_ti_seed000_3_to_20():
-    r = run_qc(records(hws_mean_ms=[2.99, 3.0, 12.0, 20.0, 20.5, 8.0]), QCConfig(mad=False))
+    r = run_qc(
+        records(hws_mean_ms=[2.99, 3.0, 12.0, 20.0, 20.5, 8.0]),
+        QCConfig(mad=False, ti_hws_max_ms=20.0),
+    )
     assert failed(r, "hws_out_of_ti_range") == [1, 5]
 
 
@@ -186,7 +200,8 @@ def test_cnr_seed001_minus23db_on_los():
 # --------------------------------------------------------------------------- table and switches
 def test_hand_written_campaign_reasons():
     rec = read_records(DATA / "hand_written_campaign.csv")
-    r = run_qc(rec)
+    r = run_qc(rec, QCConfig(hws_max_ms=20.0, ti_hws_max_ms=20.0))  # the hexapod study's
+    assert run_qc(rec).flags.loc[21, "reasons"] == "mad_outlier"  # default: 40 m/s
     reasons = dict(zip(r.flags["row"], r.flags["reasons"], strict=True))
     assert reasons[9] == "mad_outlier"  # 17.9 m/s among ~8 m/s at 58 m
     assert reasons[11] == reasons[12] == "low_availability"
@@ -200,7 +215,7 @@ def test_hand_written_campaign_reasons():
 
 
 def test_a_record_can_fail_several_filters():
-    r = run_qc(records(hws_mean_ms=[25.0] + [8.0] * 5, availability_pct=[10.0] + [90.0] * 5))
+    r = run_qc(records(hws_mean_ms=[45.0] + [8.0] * 5, availability_pct=[10.0] + [90.0] * 5))
     assert r.flags["n_failed"].iloc[0] == 4
     assert (
         r.flags["reasons"].iloc[0]
@@ -211,7 +226,7 @@ def test_a_record_can_fail_several_filters():
 
 @pytest.mark.parametrize("switch", ["hws_nonphysical", "ti_range", "availability"])
 def test_every_filter_can_be_switched_off(switch):
-    df = records(hws_mean_ms=[25.0] + [8.0] * 5, availability_pct=[10.0] + [90.0] * 5)
+    df = records(hws_mean_ms=[45.0] + [8.0] * 5, availability_pct=[10.0] + [90.0] * 5)
     on = run_qc(df, QCConfig(mad=False))
     off = run_qc(df, QCConfig(mad=False, **{switch: False}))
     reason = {"ti_range": "hws_out_of_ti_range", "availability": "low_availability"}.get(
@@ -231,7 +246,7 @@ def test_thresholds_are_configurable():
     ("kwargs", "match"),
     [
         ({"sv_max": -0.1}, "QCConfig.sv_max must be a positive number"),
-        ({"ti_hws_min_ms": 25.0}, "ti_hws_min_ms < ti_hws_max_ms"),
+        ({"ti_hws_min_ms": 45.0}, "ti_hws_min_ms < ti_hws_max_ms"),
         ({"availability_min_pct": 120.0}, r"availability_min_pct must lie in \[0, 100\]"),
         ({"mad_min_records": 0}, "mad_min_records must be >= 1"),
     ],
@@ -328,3 +343,17 @@ def test_verdicts_do_not_depend_on_row_order_hypothesis(case):
     b = run_qc(df.iloc[perm], config).flags.loc[df.index]
     fail = [f"fail_{r}" for r in RECORD_REASONS]
     pd.testing.assert_frame_equal(a[fail], b[fail])
+
+
+def test_speed_bin_summary_says_what_each_filter_removed_per_bin():
+    from flidar_uq.data.qc import speed_bin_summary
+
+    rec = records(
+        hws_mean_ms=[8.2, 7.9, 8.1, 45.0, 21.6, 22.4], availability_pct=[90.0] * 5 + [10.0]
+    )
+    r = run_qc(rec, QCConfig(mad=False))
+    table = speed_bin_summary(rec, r.flags, hws_width_ms=1.0).set_index("hws_bin_ms")
+    assert table.loc[8.0, "n_in"] == 3 and table.loc[8.0, "n_kept"] == 3
+    assert table.loc[45.0, "hws_nonphysical"] == 1 and table.loc[45.0, "n_kept"] == 0
+    assert table.loc[22.0, ["n_in", "n_kept", "low_availability"]].tolist() == [2, 1, 1]
+    assert table["n_in"].sum() == len(rec) and table["n_kept"].sum() == r.n_kept

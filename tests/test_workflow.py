@@ -181,11 +181,10 @@ def test_schema_defaults_equal_the_shipped_config():
     """The commented config and the schema defaults say the same thing."""
     cfg = load_yaml(CONFIG)
     for name, sub in _leaves(load_yaml(SCHEMA)):
-        *sections, key = name.split(".")
         node = cfg
-        for section in sections:  # nested sections (validation.holdout.mode)
-            node = node[section]
-        assert node[key] == sub["default"], name
+        for key in name.split("."):  # campaign.motion_file.path: three levels
+            node = node[key]
+        assert node == sub["default"], name
 
 
 def test_config_keys_match_library_dataclasses():
@@ -683,7 +682,8 @@ def test_default_campaign_meets_the_corrected_ti_acceptance(tmp_path):
     assert truth.loc["uncorrected", "mean_rel_ti_error"] > 0.05
     rec = pd.read_csv(tmp_path / "results" / "ti" / "records.csv")
     kept = rec["ti_corrected_median"].notna()
-    assert rec.loc[kept, "hws_mean_ms"].between(3.0, 20.0).all()
+    # corrected records lie in the QC range for TI (3-40 m/s: offshore winter wind included)
+    assert rec.loc[kept, "hws_mean_ms"].between(3.0, 40.0).all()
     # issue 11: every QC-kept record in 3-20 m/s has a corrected TI with an interval, and
     # the calibration holds in every 3-m/s speed group (not only in aggregate)
     qc_flags = pd.read_csv(tmp_path / "results" / "qc" / "flags.csv").set_index("record_id")

@@ -299,11 +299,93 @@ def _run_validate(args: argparse.Namespace) -> dict:
                 "n_measurements": len(los),
                 "share_with_imu": round(float(ok.mean()), 4) if len(ok) else 0.0,
             }
+    out.update(_source_facts(path, campaign))
+    if out["format"] != "table":
+        facts = ", ".join(f"{k}={v}" for k, v in out["header_facts"].items())
+        print(f"flidar-uq validate: {out['format']}: {facts}", file=sys.stderr)
+    for j in out["join"]:
+        print(
+            f"flidar-uq validate: join {j['role']} {j['path']}: {j['intervals']} intervals, "
+            f"{j['matched']} matched, {j['unmatched_lidar']} lidar intervals unmatched, "
+            f"{j['unmatched_file']} of the file unmatched",
+            file=sys.stderr,
+        )
     for line in report["blocking"]:
         print(f"flidar-uq validate: warning: {line} (the pipeline stops on this)", file=sys.stderr)
     for line in report["warnings"]:
         print(f"flidar-uq validate: warning: {line}", file=sys.stderr)
     return out
+
+
+def _source_facts(path, campaign) -> dict:
+    """The detected format of a file, what its header states and the join of a campaign in
+    several files (``format``, ``header_facts``, ``notes``, ``join``)."""
+    from flidar_uq.data.formats import detect_format
+    from flidar_uq.data.formats.join import read_campaign
+
+    fmt = campaign.get("format") or "auto"
+    if fmt == "auto":
+        fmt = "table" if campaign.get("columns") else detect_format(path)
+    parts = any((campaign.get(f"{r}_file") or {}).get("path") for r in ("motion", "reference"))
+    if fmt == "table" and not parts:
+        return {"format": "table", "header_facts": {}, "notes": [], "join": []}
+    _, join, facts, notes = read_campaign(
+        path, {**campaign, "format": fmt}, require_motion=False, allow_small_angles=True
+    )
+    return {
+        "format": fmt,
+        "header_facts": facts,
+        "notes": notes,
+        "join": join.to_dict("records"),
+    }
+
+
+# ---- convert -------------------------------------------------------------------------------
+
+
+def _add_convert(p: argparse.ArgumentParser) -> None:
+    p.add_argument("path", help="a record table or an instrument file (.sta, ZephIR CSV, IEA 43)")
+    p.add_argument("--output", required=True, help="the record table to write (.csv, .parquet)")
+    p.add_argument(
+        "--format",
+        default="auto",
+        choices=["auto", "table", "windcube_sta", "zephir_csv", "iea43"],
+        help="the input's format; default auto (from its first line)",
+    )
+    p.add_argument("--utc-offset-h", type=_number, default=None, help="stamps' offset from UTC, h")
+    p.add_argument("--timestamp-at", choices=["start", "end"], default=None, help="stamp position")
+    p.add_argument(
+        "--heading-convention", choices=["ccw", "compass"], default="ccw", help="heading column"
+    )
+    p.add_argument(
+        "--extra-columns", choices=["keep", "ignore", "error"], default="keep", help="other columns"
+    )
+
+
+def _run_convert(args: argparse.Namespace) -> dict:
+    from flidar_uq.data.formats import complete_motion, read_any
+    from flidar_uq.data.io import write_records
+
+    conv = {
+        "format": args.format,
+        "utc_offset_h": args.utc_offset_h,
+        "timestamp_at": args.timestamp_at,
+        "heading_convention": args.heading_convention,
+    }
+    got = read_any(args.path, conv, extra_columns=args.extra_columns)
+    records, notes = complete_motion(got.records)
+    path = write_records(records, args.output, require_motion=False)
+    for name, target in got.mapping.items():
+        print(f"flidar-uq convert: {name!r} -> {target!r}", file=sys.stderr)
+    return {
+        "input": str(args.path),
+        "output": str(path),
+        "format": got.facts.get("format", "table"),
+        "n_records": len(records),
+        "header_facts": got.facts,
+        "mapping": got.mapping,
+        "notes": got.notes + notes,
+    }
 
 
 # ---- generate-campaign ---------------------------------------------------------------------
@@ -355,6 +437,11 @@ def _run_generate_campaign(args: argparse.Namespace) -> dict:
 SUBCOMMANDS: dict[str, tuple[Callable, Callable, str]] = {
     "sigma-z": (_add_sigma_z, _run_sigma_z, "motion-induced HWS error std sigma_Z (seed 000)"),
     "validate": (_add_validate, _run_validate, "validate a record table (docs/data-format.md)"),
+    "convert": (
+        _add_convert,
+        _run_convert,
+        "write an instrument file (or a record table) as the documented record table",
+    ),
     "generate-campaign": (
         _add_generate_campaign,
         _run_generate_campaign,

@@ -76,6 +76,14 @@ def user_records(wildcards):
     return config["campaign"]["records"]  # non-empty: checked by pipeline_preflight
 
 
+def user_part_files(wildcards):
+    """The logger and reference files of a campaign in several files (source 'files')."""
+    if config["campaign"]["source"] != "files":
+        return []
+    parts = (config["campaign"]["motion_file"], config["campaign"]["reference_file"])
+    return [p["path"] for p in parts if p["path"]]
+
+
 def reference_params():
     """config["reference"] with its kind decided (flidar_uq.workflow.propagation_step.
     resolve_reference): from the virtual campaign's scenario; for the user's files the

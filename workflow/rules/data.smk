@@ -5,8 +5,11 @@ rule campaign:
     input:
         scenario=scenario_file,
         records=user_records,
+        parts=user_part_files,
     output:
         records="results/campaign/records.csv",
+        join="results/campaign/join.csv",
+        source="results/campaign/source.json",
         **VIRTUAL_SERIES_OUTPUTS,
     params:
         source=config["campaign"]["source"],
@@ -16,6 +19,18 @@ rule campaign:
         allow_small_angles=config["campaign"]["allow_small_angles"],
         # motion columns may be absent from the user's table when an IMU series gives them
         require_motion=not IMU_SERIES,
+        conventions={
+            k: config["campaign"][k]
+            for k in (
+                "format",
+                "utc_offset_h",
+                "timestamp_at",
+                "heading_convention",
+                "extra_columns",
+                "motion_file",
+                "reference_file",
+            )
+        },
     conda:
         "../envs/flidar_uq.yaml"
     log:
@@ -46,6 +61,7 @@ if IMU_SERIES:
             chunk_rows=config["campaign"]["series_chunk_rows"],
             min_coverage_pct=config["qc"]["imu_availability_min_pct"],
             allow_small_angles=config["campaign"]["allow_small_angles"],
+            heading_convention=config["campaign"]["heading_convention"],
         conda:
             "../envs/flidar_uq.yaml"
         log:
@@ -89,8 +105,10 @@ rule qc:
         flags="results/qc/flags.csv",
         kept="results/qc/kept.csv",
         summary="results/qc/summary.csv",
+        speed_bins="results/qc/speed_bins.csv",
     params:
         qc=config["qc"],
+        hws_width_ms=config["binning"]["hws_width_ms"],
         heights=config["campaign"]["heights"],
         allow_small_angles=config["campaign"]["allow_small_angles"],
     conda:

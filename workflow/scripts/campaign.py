@@ -21,6 +21,9 @@ if __name__ == "__main__":
             columns=snakemake.params.columns,
             allow_small_angles=snakemake.params.allow_small_angles,
             require_motion=snakemake.params.require_motion,
+            conventions=dict(snakemake.params.conventions),
+            join_out=snakemake.output.join,
+            source_out=snakemake.output.source,
             imu_out=snakemake.output.get("imu"),
             los_out=snakemake.output.get("los"),
         )

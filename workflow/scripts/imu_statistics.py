@@ -16,4 +16,5 @@ with step_errors_exit():
         chunk_rows=snakemake.params.chunk_rows,
         min_coverage_pct=snakemake.params.min_coverage_pct,
         allow_small_angles=snakemake.params.allow_small_angles,
+        heading_convention=snakemake.params.heading_convention,
     )

@@ -13,4 +13,6 @@ run_qc(
     dict(snakemake.params.qc),
     heights_m=snakemake.params.heights,
     allow_small_angles=snakemake.params.allow_small_angles,
+    speed_bins_path=snakemake.output.speed_bins,
+    hws_width_ms=snakemake.params.hws_width_ms,
 )

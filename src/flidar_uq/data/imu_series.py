@@ -181,6 +181,7 @@ def iter_imu_series(
     *,
     chunk_rows: int = DEFAULT_CHUNK_ROWS,
     allow_small_angles: bool = False,
+    heading_convention: str = "ccw",
 ) -> Iterator[pd.DataFrame]:
     """Read a raw IMU series (CSV or Parquet) chunk by chunk, validated.
 
@@ -199,6 +200,9 @@ def iter_imu_series(
         Rows per chunk (>= 2).
     allow_small_angles : bool
         Skip the radians check.
+    heading_convention : {"ccw", "compass"}
+        ``compass``: the file's ``yaw_deg`` is clockwise from north and is turned into the
+        project's counter-clockwise yaw (:func:`flidar_uq.data.io.imu_heading_to_ccw`).
 
     Yields
     ------
@@ -225,7 +229,7 @@ def iter_imu_series(
             count += int(use.sum())
             if use.any():
                 largest = max(largest, float(vals[use].max()))
-        yield df
+        yield io.imu_heading_to_ccw(df, heading_convention)
     if not allow_small_angles and count >= RADIAN_SUSPECT_MIN_COUNT:
         if largest < RADIAN_SUSPECT_MAX_DEG:
             raise io.DataValidationError(
@@ -507,6 +511,7 @@ def series_motion_statistics(
     min_coverage_pct: float = 80.0,
     allow_small_angles: bool = False,
     gap_min_s: float = 1.0,
+    heading_convention: str = "ccw",
 ) -> SeriesMotion:
     """Per-record motion statistics of a raw IMU series file, streamed in chunks.
 
@@ -535,6 +540,8 @@ def series_motion_statistics(
         Skip the "angles look like radians" check.
     gap_min_s : float
         Shortest gap listed in :attr:`SeriesMotion.gaps`, s (all gaps are counted).
+    heading_convention : {"ccw", "compass"}
+        The series' ``yaw_deg`` convention (:func:`iter_imu_series`).
 
     Returns
     -------
@@ -561,7 +568,12 @@ def series_motion_statistics(
     first_valid = last_valid = None
     shifted = (
         c.assign(timestamp=c["timestamp"] - pd.Timedelta(offset_ns, "ns")) if offset_ns else c
-        for c in iter_imu_series(path, chunk_rows=chunk_rows, allow_small_angles=allow_small_angles)
+        for c in iter_imu_series(
+            path,
+            chunk_rows=chunk_rows,
+            allow_small_angles=allow_small_angles,
+            heading_convention=heading_convention,
+        )
     )
     for batch in window_batches(shifted, window_s=window_s):
         t = _ns(batch["timestamp"])

@@ -45,7 +45,11 @@ from flidar_uq.data.schema import (
     record_column,
 )
 
+#: Values of ``extra_columns`` (config ``campaign.extra_columns``).
+EXTRA_COLUMNS = ("keep", "ignore", "error")
+
 __all__ = [
+    "EXTRA_COLUMNS",
     "DataValidationError",
     "HEIGHT_FIELD",
     "check_column_map",
@@ -53,6 +57,7 @@ __all__ = [
     "write_records",
     "validate_records",
     "read_imu_series",
+    "imu_heading_to_ccw",
     "validate_imu_series",
     "write_imu_series",
     "read_los_series",
@@ -83,6 +88,9 @@ class DataValidationError(ValueError):
     problem, csv, n_more, header
         The constructor's arguments of the same names (what is wrong, whether the source
         is a CSV file, further offending rows, a problem of the header).
+
+    ``line`` (constructor) gives the file line of an instrument file whose table does not
+    start at line 2 (a header block); the message then says ``row k (line n)``.
     """
 
     def __init__(
@@ -97,12 +105,15 @@ class DataValidationError(ValueError):
         header: bool = False,
         whole_file: bool = False,
         mapped_from: str | None = None,
+        line: int | None = None,
     ) -> None:
         self.source, self.row, self.column = source, row, column
         # kept so that a chunked reader can re-raise with the row counted from the file start
         self.problem, self.csv, self.n_more, self.header = problem, csv, n_more, header
-        self._kw = dict(csv=csv, n_more=n_more, header=header, whole_file=whole_file)
-        if whole_file:
+        self._kw = dict(csv=csv, n_more=n_more, header=header, whole_file=whole_file, line=line)
+        if line is not None:  # an instrument file: its own line number
+            where = f"line {line}" if row is None else f"row {row} (line {line})"
+        elif whole_file:
             where = ""
         elif row is None:
             where = "header" if header or column is None else "all rows"
@@ -479,7 +490,7 @@ def _bounds_problem(col: Column, value: float) -> str:
         return f"negative standard deviation {value:g} m/s"
     if n.endswith("hws_mean_ms") and col.upper is not None and value > col.upper:
         return f"wind speed {value:g} m/s above {col.upper:g} m/s (impossible)"
-    if n.startswith("wd_") or n.startswith("azimuth"):
+    if n in ("wd_mean_deg", "wave_dir_deg") or n.startswith("azimuth"):
         return f"direction {value:g} deg outside 0-360 deg"
     if n.endswith("_pct"):
         return f"percentage {value:g} outside 0-100 %"
@@ -814,6 +825,7 @@ def validate_records(
     allow_small_angles: bool = False,
     csv: bool = False,
     columns: Mapping[str, str | None] | None = None,
+    extra_columns: str = "error",
 ) -> pd.DataFrame:
     """Validate a record table and return it normalised.
 
@@ -839,11 +851,15 @@ def validate_records(
         Skip the "angles look like radians" check (documented rule).
     csv : bool
         If True, messages also give the file line (header is line 1).
+    extra_columns : {"error", "keep", "ignore"}
+        A column that is neither a record column nor a truth column: an error, carried
+        unchanged after the record columns (config ``campaign.extra_columns``, default
+        ``keep`` there) or dropped.
 
     Returns
     -------
     pandas.DataFrame
-        Columns in schema order then truth columns; ``timestamp`` as
+        Columns in schema order then truth columns (then kept extra columns, as read); ``timestamp`` as
         ``datetime64[ns, UTC]``, all other columns float64; RangeIndex.
 
     Raises
@@ -853,7 +869,14 @@ def validate_records(
     ValueError
         On a column map whose targets are not record columns or repeat.
     """
-    kw = dict(require_motion=require_motion, allow_small_angles=allow_small_angles, csv=csv)
+    if extra_columns not in EXTRA_COLUMNS:
+        raise ValueError(f"extra_columns must be one of {EXTRA_COLUMNS}, got {extra_columns!r}")
+    kw = dict(
+        require_motion=require_motion,
+        allow_small_angles=allow_small_angles,
+        csv=csv,
+        extra_columns=extra_columns,
+    )
     if not columns:
         return _validate_records(df, source, **kw)
     parts = []
@@ -869,11 +892,18 @@ def validate_records(
     order = np.lexsort((np.repeat(np.arange(len(parts)), n), np.tile(np.arange(n), len(parts))))
     out = out.iloc[order].reset_index(drop=True)
     names = [c.name for c in RECORD_COLUMNS if c.name in out.columns]
-    return out[names + [c for c in out.columns if c not in names]]
+    truth = [c for c in out.columns if c not in names and c.startswith(TRUTH_PREFIX)]
+    return out[names + truth + [c for c in out.columns if c not in names and c not in truth]]
 
 
 def _validate_records(
-    df: pd.DataFrame, source: str, *, require_motion: bool, allow_small_angles: bool, csv: bool
+    df: pd.DataFrame,
+    source: str,
+    *,
+    require_motion: bool,
+    allow_small_angles: bool,
+    csv: bool,
+    extra_columns: str = "error",
 ) -> pd.DataFrame:
     known = {c.name: c for c in RECORD_COLUMNS}
     required = [
@@ -881,6 +911,15 @@ def _validate_records(
         for c in RECORD_COLUMNS
         if c.required and (require_motion or c.name not in MOTION_COLUMNS)
     ]
+    extras = pd.DataFrame(index=pd.RangeIndex(len(df)))
+    if extra_columns != "error":
+        unknown = [
+            n for n in df.columns
+            if isinstance(n, str) and n not in known and not n.startswith(TRUTH_PREFIX)
+        ]  # fmt: skip
+        if extra_columns == "keep":
+            extras = df[unknown].reset_index(drop=True)
+        df = df.drop(columns=unknown)
     _check_columns(df, required, known, source, allow_truth=True)
     columns = {n: record_column(n) for n in df.columns}
     out = _coerce(df, columns, source, csv)
@@ -939,7 +978,10 @@ def _validate_records(
     _check_time_order(out, source, csv, by="height_m", strict=True)
     order = [c.name for c in RECORD_COLUMNS if c.name in out.columns]
     order += [c for c in out.columns if c not in order]
-    return out[order]
+    out = out[order]
+    if len(extras.columns):
+        out = pd.concat([out, extras.set_axis(out.index)], axis=1)
+    return out
 
 
 def read_records(
@@ -948,17 +990,30 @@ def read_records(
     require_motion: bool = True,
     allow_small_angles: bool = False,
     columns: Mapping[str, str | None] | None = None,
+    extra_columns: str = "error",
+    conventions: Mapping | None = None,
 ) -> pd.DataFrame:
-    """Read and validate a record table (CSV or Parquet).
+    """Read and validate a record table (CSV or Parquet) or an instrument file.
 
     Parameters
     ----------
     path : str or pathlib.Path
-        ``.csv``, ``.csv.gz``, ``.parquet`` or ``.pq`` file.
+        ``.csv``, ``.csv.gz``, ``.parquet`` or ``.pq`` file; with ``conventions`` also a
+        WindCube ``.sta``, a ZephIR CSV or an IEA Task 43 file
+        (:mod:`flidar_uq.data.formats`).
     require_motion, allow_small_angles : bool
         See :func:`validate_records`.
     columns : mapping, optional
         Column map of a file whose names differ, see :func:`validate_records`.
+    extra_columns : {"error", "keep", "ignore"}
+        See :func:`validate_records`.
+    conventions : mapping, optional
+        Config ``campaign`` keys ``format``, ``utc_offset_h`` (h), ``timestamp_at``,
+        ``heading_convention`` and the sections ``motion_file`` and ``reference_file``
+        (:func:`flidar_uq.data.formats.join.read_campaign`); given, the stamps are turned
+        into UTC at the interval start, checked on the 10-min grid, the other files
+        joined on the interval and absent motion columns derived
+        (:func:`flidar_uq.data.formats.complete_motion`).
 
     Returns
     -------
@@ -970,6 +1025,15 @@ def read_records(
     DataValidationError
         Naming file, row and column of the first problem.
     """
+    if conventions is not None:
+        from flidar_uq.data.formats.join import read_campaign
+
+        return read_campaign(
+            path,
+            {**conventions, "columns": columns, "extra_columns": extra_columns},
+            require_motion=require_motion,
+            allow_small_angles=allow_small_angles,
+        )[0]
     df, source, csv = _read_table(path)
     return validate_records(
         df,
@@ -978,6 +1042,7 @@ def read_records(
         allow_small_angles=allow_small_angles,
         csv=csv,
         columns=columns,
+        extra_columns=extra_columns,
     )
 
 
@@ -1005,6 +1070,7 @@ def write_records(
     *,
     require_motion: bool = True,
     allow_small_angles: bool = False,
+    extra_columns: str = "keep",
 ) -> Path:
     """Validate and write a record table; the format follows the file suffix.
 
@@ -1016,6 +1082,8 @@ def write_records(
         Destination (``.csv``, ``.csv.gz``, ``.parquet``, ``.pq``); parents are created.
     require_motion, allow_small_angles : bool
         See :func:`validate_records`.
+    extra_columns : {"keep", "ignore", "error"}
+        See :func:`validate_records` (default: written unchanged after the record columns).
 
     Returns
     -------
@@ -1027,6 +1095,7 @@ def write_records(
         f"<DataFrame for {path}>",
         require_motion=require_motion,
         allow_small_angles=allow_small_angles,
+        extra_columns=extra_columns,
     )
     t = valid["timestamp"]
     whole_s = bool((t.dt.microsecond == 0).all() and (t.dt.nanosecond == 0).all())
@@ -1078,10 +1147,34 @@ def validate_imu_series(
     return out[order]
 
 
-def read_imu_series(path: str | Path, *, allow_small_angles: bool = False) -> pd.DataFrame:
-    """Read and validate a raw IMU series (CSV or Parquet); see :func:`validate_imu_series`."""
+def read_imu_series(
+    path: str | Path, *, allow_small_angles: bool = False, heading_convention: str = "ccw"
+) -> pd.DataFrame:
+    """Read and validate a raw IMU series (CSV or Parquet); see :func:`validate_imu_series`.
+
+    ``heading_convention="compass"``: the file's ``yaw_deg`` is a compass heading
+    (clockwise from north, deg), turned into the project's counter-clockwise yaw
+    (:func:`flidar_uq.data.formats.heading_ccw_deg`, config ``campaign.heading_convention``).
+    """
     df, source, csv = _read_table(path)
-    return validate_imu_series(df, source, allow_small_angles=allow_small_angles, csv=csv)
+    out = validate_imu_series(df, source, allow_small_angles=allow_small_angles, csv=csv)
+    return imu_heading_to_ccw(out, heading_convention)
+
+
+def imu_heading_to_ccw(imu: pd.DataFrame, heading_convention: str) -> pd.DataFrame:
+    """The validated IMU series with ``yaw_deg`` in the project's convention (``ccw``:
+    unchanged; ``compass``: clockwise from north turned counter-clockwise, deg)."""
+    if heading_convention not in ("ccw", "compass"):
+        raise ValueError(
+            f"heading_convention must be 'ccw' or 'compass', got {heading_convention!r}"
+        )
+    if heading_convention == "ccw" or "yaw_deg" not in imu.columns:
+        return imu
+    from flidar_uq.data.formats.common import heading_ccw_deg
+
+    out = imu.copy()
+    out["yaw_deg"] = heading_ccw_deg(out["yaw_deg"].to_numpy())
+    return out
 
 
 def write_imu_series(df: pd.DataFrame, path: str | Path) -> Path:

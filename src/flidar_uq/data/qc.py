@@ -12,8 +12,8 @@ Record-level filters (reason codes):
 reason                    rule (flagged if ...)                                  source
 ========================  ====================================================  ============
 ``missing_wind``          ``hws_mean_ms`` or ``hws_std_ms`` is NaN               data contract
-``hws_nonphysical``       ``hws_mean_ms > hws_max_ms`` (20 m/s)                  seed 001 Sec. 4.2
-``hws_out_of_ti_range``   ``hws_mean_ms`` outside [3, 20] m/s                    seed 000 Sec. 3.5
+``hws_nonphysical``       ``hws_mean_ms > hws_max_ms`` (40 m/s)                  offshore range
+``hws_out_of_ti_range``   ``hws_mean_ms`` outside [3, 40] m/s                    seed 000 Sec. 3.5
 ``sv_high``               ``sv > sv_max`` (0.06)                                 seed 000 Sec. 3.4
 ``mad_outlier``           ``|X - M| > 3 MAD / 0.6745`` on a rolling median       seed 001 Eq. (8)
 ``relative_sigma``        ``ref_std / moving_std - 1 > 0.70``                    seed 001 Eq. (9)
@@ -49,6 +49,7 @@ __all__ = [
     "los_availability_pct",
     "apply_filters",
     "summarise",
+    "speed_bin_summary",
 ]
 
 RECORD_REASONS = (
@@ -82,11 +83,13 @@ class QCConfig:
     hws_nonphysical : bool
         Flag ``hws_mean_ms > hws_max_ms`` (seed 001 Sec. 4.2).
     hws_max_ms : float
-        Nonphysical wind speed threshold, m/s (20).
+        Nonphysical wind speed threshold, m/s (40: 20-25 m/s is ordinary winter wind at
+        80-150 m offshore; seed 001 used 20 on a hexapod).
     ti_range : bool
         Flag records outside the HWS range used for TI (seed 000 Sec. 3.5).
     ti_hws_min_ms, ti_hws_max_ms : float
-        Inclusive HWS range for TI, m/s (3, 20).
+        Inclusive HWS range for TI, m/s (3, 40; the bins' minimum record count then ends
+        the statistics at the highest bin with enough records).
     sv : bool
         Flag records with spatial variation above ``sv_max`` (seed 000 Sec. 3.4).
     sv_max : float
@@ -127,10 +130,10 @@ class QCConfig:
 
     missing_wind: bool = True
     hws_nonphysical: bool = True
-    hws_max_ms: float = 20.0
+    hws_max_ms: float = 40.0
     ti_range: bool = True
     ti_hws_min_ms: float = 3.0
-    ti_hws_max_ms: float = 20.0
+    ti_hws_max_ms: float = 40.0
     sv: bool = True
     sv_max: float = 0.06
     mad: bool = True
@@ -564,3 +567,41 @@ def summarise(flags: pd.DataFrame) -> pd.DataFrame:
     rows.append({"reason": "all", "n_failed": int((n_failed > 0).sum()), "n_failed_only": 0})
     rows.append({"reason": "kept", "n_failed": int((n_failed == 0).sum()), "n_failed_only": 0})
     return pd.DataFrame(rows)
+
+
+def speed_bin_summary(
+    records: pd.DataFrame, flags: pd.DataFrame, *, hws_width_ms: float = 1.0
+) -> pd.DataFrame:
+    """What each filter removed per height and mean-speed bin.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        The QC input (``height_m``, ``hws_mean_ms`` in m/s), in the order of ``flags``.
+    flags : pandas.DataFrame
+        ``QCResult.flags`` (one ``fail_<reason>`` column per filter and ``kept``).
+    hws_width_ms : float
+        Bin width, m/s; bins centred on integer multiples of it (``hws_bin_ms``, NaN for
+        records without a mean speed).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per height and bin: ``height_m``, ``hws_bin_ms``, ``n_in``, ``n_kept``
+        and, per filter, ``<reason>`` = the records of the bin failing it (a record can
+        fail several).
+    """
+    hws = records["hws_mean_ms"].to_numpy(dtype=float)
+    table = pd.DataFrame(
+        {
+            "height_m": records["height_m"].to_numpy(dtype=float),
+            "hws_bin_ms": np.round(hws / hws_width_ms) * hws_width_ms,
+            "n_in": 1,
+            "n_kept": flags["kept"].to_numpy(dtype=int),
+        }
+    )
+    fail = [c for c in flags.columns if c.startswith("fail_")]
+    for c in fail:
+        table[c.removeprefix("fail_")] = flags[c].to_numpy(dtype=int)
+    out = table.groupby(["height_m", "hws_bin_ms"], dropna=False, sort=True).sum()
+    return out.reset_index()

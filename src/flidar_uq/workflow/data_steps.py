@@ -46,6 +46,9 @@ def make_campaign(
     require_motion: bool = True,
     imu_out: str | os.PathLike | None = None,
     los_out: str | os.PathLike | None = None,
+    conventions: dict | None = None,
+    join_out: str | os.PathLike | None = None,
+    source_out: str | os.PathLike | None = None,
 ) -> pd.DataFrame:
     """Write the campaign's 10-min record table: the virtual campaign or the user's file.
 
@@ -76,6 +79,16 @@ def make_campaign(
         ``source="virtual"``: also write the campaign's raw IMU series / LOS series there
         (config ``campaign.virtual_series``; LOS data are ~19,000 rows per record, so at
         most :data:`MAX_VIRTUAL_LOS_RECORDS` records).
+    conventions : dict, optional
+        ``source="files"``: config ``campaign`` keys ``format``, ``utc_offset_h`` (h),
+        ``timestamp_at``, ``heading_convention`` and ``extra_columns``
+        (:func:`flidar_uq.data.formats.read_any`) and the sections ``motion_file`` and
+        ``reference_file`` of a campaign in several files
+        (:func:`flidar_uq.data.formats.join.read_campaign`).
+    join_out, source_out : path, optional
+        The join report (CSV, one row per file: intervals, matched, unmatched each side)
+        and what the lidar file's header states with the derivations made (JSON, the
+        report's provenance).
 
     Returns
     -------
@@ -124,20 +137,49 @@ def make_campaign(
             raise ValueError(
                 "make_campaign: source='files' needs records_path (config campaign.records)"
             )
-        records = io.read_records(
+        from flidar_uq.data.formats.join import read_campaign
+
+        records, join, facts, notes = read_campaign(
             records_path,
-            columns=columns or None,
-            allow_small_angles=allow_small_angles,
+            {**(conventions or {}), "columns": columns or None},
             require_motion=require_motion,
+            allow_small_angles=allow_small_angles,
         )
+        _write_source(join, {"header_facts": facts, "notes": notes}, join_out, source_out)
     else:
         raise ValueError(f"make_campaign: source must be 'virtual' or 'files', got {source!r}")
+    if source == "virtual":
+        n = int(records["timestamp"].nunique())
+        join = pd.DataFrame([dict(role="lidar", path="", intervals=n, matched=n,
+                                  unmatched_lidar=0, unmatched_file=0)])  # fmt: skip
+        _write_source(
+            join, {"header_facts": {"format": "virtual"}, "notes": []}, join_out, source_out
+        )
     Path(out_path).parent.mkdir(parents=True, exist_ok=True)
     io.write_records(
         records, out_path, allow_small_angles=allow_small_angles, require_motion=require_motion
     )
     log.info("campaign: %d records (%s) -> %s", len(records), source, out_path)
     return records
+
+
+def _write_source(join: pd.DataFrame, source: dict, join_out, source_out) -> None:
+    """Write the join report (CSV) and the source's facts (JSON) where asked."""
+    import json
+
+    for row in join.itertuples():
+        log.info(
+            "campaign: join %s %s: %d intervals, %d matched, %d lidar unmatched, %d file "
+            "unmatched", row.role, row.path, row.intervals, row.matched, row.unmatched_lidar,
+            row.unmatched_file,
+        )  # fmt: skip
+    if join_out is not None:
+        Path(join_out).parent.mkdir(parents=True, exist_ok=True)
+        join.to_csv(join_out, index=False, lineterminator="\n")
+    if source_out is not None:
+        Path(source_out).parent.mkdir(parents=True, exist_ok=True)
+        text = json.dumps(source, indent=1, sort_keys=True, default=str)
+        Path(source_out).write_text(text + "\n")
 
 
 def validate_records(
@@ -187,14 +229,24 @@ def validate_records(
         from flidar_uq.workflow.imu_step import merge_series_motion
 
         records, _ = merge_series_motion(
-            io.read_records(in_path, require_motion=False, allow_small_angles=allow_small_angles),
+            io.read_records(
+                in_path,
+                require_motion=False,
+                allow_small_angles=allow_small_angles,
+                extra_columns="keep",
+            ),
             imu_statistics_path,
         )
         records = io.validate_records(
-            records, f"{in_path} + {imu_statistics_path}", allow_small_angles=allow_small_angles
+            records,
+            f"{in_path} + {imu_statistics_path}",
+            allow_small_angles=allow_small_angles,
+            extra_columns="keep",
         )
     else:
-        records = io.read_records(in_path, allow_small_angles=allow_small_angles)
+        records = io.read_records(
+            in_path, allow_small_angles=allow_small_angles, extra_columns="keep"
+        )
     problems = reference_problems(records, str(in_path))
     if problems:
         raise problems[0]
@@ -227,6 +279,8 @@ def run_qc(
     *,
     heights_m: Sequence[float] | None = None,
     allow_small_angles: bool = False,
+    speed_bins_path: str | os.PathLike | None = None,
+    hws_width_ms: float = 1.0,
 ) -> pd.DataFrame:
     """Apply the QC filters; write every record with its reasons, the kept records, and counts.
 
@@ -245,6 +299,9 @@ def run_qc(
         flagged ``height_not_selected``.
     allow_small_angles : bool
         Config ``campaign.allow_small_angles``.
+    speed_bins_path : path, optional
+        Output: what each filter removed per height and mean-speed bin
+        (:func:`flidar_uq.data.qc.speed_bin_summary`, bins ``hws_width_ms`` m/s wide).
 
     Returns
     -------
@@ -253,7 +310,7 @@ def run_qc(
     """
     from flidar_uq.data import io, qc
 
-    records = io.read_records(in_path, allow_small_angles=allow_small_angles)
+    records = io.read_records(in_path, allow_small_angles=allow_small_angles, extra_columns="keep")
     heights = tuple(heights_m) if heights_m else None
     result = qc.run_qc(records, qc.QCConfig(**qc_params, heights_m=heights))
     flags = result.flags.copy()
@@ -264,6 +321,9 @@ def run_qc(
     write_csv(flags, flags_path)
     write_csv(kept, kept_path)
     write_csv(counts, summary_path)
+    if speed_bins_path is not None:
+        write_csv(qc.speed_bin_summary(records, result.flags, hws_width_ms=hws_width_ms),
+                  speed_bins_path)  # fmt: skip
     log.info("%s", result.summary())
     return flags
 

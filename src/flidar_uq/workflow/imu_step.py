@@ -25,6 +25,7 @@ def imu_statistics(
     chunk_rows: int,
     min_coverage_pct: float,
     allow_small_angles: bool = False,
+    heading_convention: str = "ccw",
 ) -> pd.DataFrame:
     """Derive every record's motion statistics from the raw IMU series, streamed in chunks.
 
@@ -48,6 +49,8 @@ def imu_statistics(
         imu_availability_min_pct``), %.
     allow_small_angles : bool
         Skip the "angles look like radians" check.
+    heading_convention : {"ccw", "compass"}
+        The series' ``yaw_deg`` convention (config ``campaign.heading_convention``).
 
     Returns
     -------
@@ -58,7 +61,10 @@ def imu_statistics(
     from flidar_uq.data.imu_series import series_motion_statistics
 
     records = io.read_records(
-        records_path, require_motion=False, allow_small_angles=allow_small_angles
+        records_path,
+        require_motion=False,
+        allow_small_angles=allow_small_angles,
+        extra_columns="keep",
     )
     result = series_motion_statistics(
         imu_path,
@@ -66,6 +72,7 @@ def imu_statistics(
         chunk_rows=chunk_rows,
         min_coverage_pct=min_coverage_pct,
         allow_small_angles=allow_small_angles,
+        heading_convention=heading_convention,
     )
     own = _table_motion_columns(records)
     info = result.summary | {

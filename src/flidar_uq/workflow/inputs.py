@@ -273,11 +273,29 @@ def campaign_configs(config: Mapping) -> dict[str, dict]:
     return out
 
 
+def _lidar_file_as_records(camp: dict) -> None:
+    """``campaign.lidar_file`` (a campaign in several files) in place of ``records``: its
+    path and its format, column map and time keys become the campaign's (in place)."""
+    lidar = camp.get("lidar_file") or {}
+    if not lidar.get("path"):
+        return
+    if camp.get("records") and camp["records"] != lidar["path"]:
+        raise ConfigError(
+            "campaign.lidar_file.path",
+            f"{lidar['path']!r} and campaign.records {camp['records']!r}: give one of them",
+        )
+    camp["records"] = lidar["path"]
+    for key in ("format", "columns", "utc_offset_h", "timestamp_at", "heading_convention"):
+        if lidar.get(key) not in (None, {}, "auto", "ccw") or key not in camp:
+            camp[key] = lidar.get(key, camp.get(key))
+
+
 def _check_semantics(config: dict) -> None:
     from flidar_uq.data.io import check_column_map
     from flidar_uq.data.qc import QCConfig
 
     camp = config["campaign"]
+    _lidar_file_as_records(camp)
     if camp["source"] == "files" and not camp["records"]:
         raise ConfigError(
             "campaign.records",
@@ -424,6 +442,19 @@ def read_campaign_records(
         allow_small_angles=allow_small_angles,
         # the motion columns may be absent when a raw IMU series gives them
         require_motion=not campaign.get("imu_series"),
+        extra_columns=campaign.get("extra_columns", "keep"),
+        conventions={
+            k: campaign[k]
+            for k in (
+                "format",
+                "utc_offset_h",
+                "timestamp_at",
+                "heading_convention",
+                "motion_file",
+                "reference_file",
+            )
+            if k in campaign
+        },
     )
     heights = campaign.get("heights")
     if heights:

@@ -92,7 +92,7 @@ def los_correction(
     from flidar_uq.data.qc import QCConfig
     from flidar_uq.physics.lidar import get_lidar
 
-    records = io.read_records(records_path, require_motion=False)
+    records = io.read_records(records_path, require_motion=False, extra_columns="keep")
     qc = QCConfig(**(qc_params or {}))
     offset_s = record_window_offset_s(records, window_s)
     window = pd.Timedelta(window_s, "s")

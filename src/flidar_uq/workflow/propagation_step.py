@@ -184,6 +184,44 @@ RECORD_COLUMNS = [
 ]
 
 
+#: Optional record columns of the input carried into results/ti/records.csv as they are
+#: (the buoy logger's and the lidar's statistics; docs/data-format.md).
+CARRIED_RECORD_COLUMNS = (
+    "wd_std_deg",
+    "cnr_mean_db",
+    "packets_count",
+    "roll_std_deg",
+    "pitch_std_deg",
+    "surge_std_m",
+    "sway_std_m",
+    "heave_std_m",
+    "surge_velocity_std_ms",
+    "sway_velocity_std_ms",
+    "heave_velocity_std_ms",
+    "gnss_speed_mean_ms",
+    "wave_hs_m",
+    "wave_tp_s",
+    "wave_tm02_s",
+    "wave_dir_deg",
+    "wave_spread_deg",
+)
+
+
+def carried_columns(columns) -> list[str]:
+    """The input columns that results/ti/records.csv carries unchanged: the optional
+    columns of :data:`CARRIED_RECORD_COLUMNS` and every column that is no record column
+    (config ``campaign.extra_columns: keep``); truth columns have their own rule."""
+    from flidar_uq.data.schema import TRUTH_PREFIX, record_columns_by_name
+
+    known = record_columns_by_name()
+    return [
+        c
+        for c in columns
+        if c in CARRIED_RECORD_COLUMNS
+        or (c not in known and not str(c).startswith(TRUTH_PREFIX) and c not in ("row",))
+    ]
+
+
 def propagate(
     *,
     records_path: str | os.PathLike,
@@ -410,6 +448,9 @@ def propagate(
     for col in ("true_swell_present", "true_weathervane"):  # regime truth, for the report
         if col in rec:
             out[col] = rec[col].to_numpy(dtype=float)
+    for col in carried_columns(rec.columns):  # buoy-logger and extra columns, unchanged
+        if col not in out.columns:
+            out[col] = rec[col].to_numpy()
     out = out[RECORD_COLUMNS + [c for c in out.columns if c not in RECORD_COLUMNS]]
     write_csv(out, records_out)
     write_csv(speed_bins, speed_bins_out)
