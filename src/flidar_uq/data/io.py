@@ -26,7 +26,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from flidar_uq.data.csv_text import csv_text
 from flidar_uq.data.schema import (
     IMU_COLUMNS,
     IMU_RATE_RANGE_HZ,
@@ -1051,14 +1050,7 @@ def _write(df: pd.DataFrame, path: str | Path, date_format: str = _ISO_FORMAT_US
     kind = _kind(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     if kind == "csv":
-        # the bytes of to_csv (shortest float text), ~4x faster at a year of records
-        plain = path.name.lower().endswith(".csv")  # compressed: left to pandas
-        text = csv_text(df, float_format=None, date_format=date_format) if plain else None
-        if text is None:
-            df.to_csv(path, index=False, date_format=date_format, lineterminator="\n")
-        else:
-            with open(path, "w", encoding="utf-8", newline="") as f:
-                f.write(text)
+        df.to_csv(path, index=False, date_format=date_format, lineterminator="\n")
     else:
         df.to_parquet(path, index=False)
     return path
