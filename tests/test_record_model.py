@@ -126,12 +126,12 @@ def test_record_log_prob_is_finite_or_minus_inf_never_nan():
     szr, u2 = rng.uniform(0, 0.5, 50), rng.uniform(0, 0.01, 50)
     theta = np.array(
         [
-            [0.0, np.log(0.05), np.log(0.1), 2.0, 0.0, 0.5],
-            [1.5, np.log(0.05), np.log(0.1), 2.0, 0.0, 0.5],  # |rho| > 1
-            [0.0, np.nan, np.log(0.1), 2.0, 0.0, 0.5],
-            [0.0, np.log(0.05), np.inf, 2.0, 0.0, 0.5],
+            [0.0, np.log(0.05), np.log(0.1), 2.0, 0.0, -0.7],
+            [1.5, np.log(0.05), np.log(0.1), 2.0, 0.0, -0.7],  # |rho| > 1
+            [0.0, np.nan, np.log(0.1), 2.0, 0.0, -0.7],
+            [0.0, np.log(0.05), np.inf, 2.0, 0.0, -0.7],
             [0.0, np.log(0.05), np.log(0.1), -1.0, 0.0, 0.5],  # negative lever arm
-            [0.0, np.log(0.05), np.log(0.1), 2.0, 0.0, 1.3],  # hull response 1.69 > 1.5
+            [0.0, np.log(0.05), np.log(0.1), 2.0, 0.0, 0.5],  # hull response 1.65 > 1.5
             [0.99, -30.0, -30.0, 19.9, 1.6, -1.2],
         ]
     )
@@ -213,7 +213,7 @@ def test_record_loglik_sum_in_blocks_of_records_equals_the_whole_row_sums(monkey
     n = 2500
     s, r = rng.uniform(0.1, 2, n), rng.uniform(0.1, 2, n)
     szr, u2, pair_sq = rng.uniform(0, 0.5, n), rng.uniform(0, 0.01, n), rng.uniform(0, 1e-3, n)
-    theta = np.array([0.0, np.log(0.05), np.log(0.15), 2.0, 0.0, 0.5]) + 0.1 * rng.standard_normal(
+    theta = np.array([0.0, np.log(0.05), np.log(0.15), 2.0, 0.0, -0.7]) + 0.1 * rng.standard_normal(
         (10, 6)
     )
     monkeypatch.setattr(rf, "_SUM_BLOCK_ELEMENTS", 10 * 700)  # 700, 700, 700, 400 records
@@ -249,7 +249,7 @@ def test_record_fit_loo_in_blocks_equals_loo_of_the_whole_pointwise_matrix(monke
         np.testing.assert_array_equal(a.draws[name], b.draws[name])
     theta = np.column_stack(
         [
-            np.log(a.flat(n)) if k in (1, 2, 4) else (np.sqrt(a.flat(n)) if k == 5 else a.flat(n))
+            np.log(a.flat(n)) if k in (1, 2, 4, 5) else a.flat(n)
             for k, n in enumerate(RECORD_MODEL_NAMES)
         ]
     )

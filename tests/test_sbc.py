@@ -93,7 +93,7 @@ def test_record_prior_draws_lie_in_the_record_model_prior_support():
                 np.log(d["kappa_z"]),
                 d["lever_arm_m"],
                 np.log(d["motion_scale"]),
-                np.sqrt(d["hull_response"]),  # sampled as q, h = q^2
+                np.log(d["hull_response"]),
             ]
             for d in draws
         ]

@@ -30,10 +30,10 @@ class Priors:
     motion-model scale of the surrogate's rotational sigma_Z
     ``log k ~ Normal(0, motion_scale_log_sd)`` on ``|log k| < log 5``. Record motion model
     (:mod:`flidar_uq.inference.record_fit`): ``kappa_z ~ HalfNormal(kappa_z_scale)``,
-    ``log k ~ Normal(0, record_motion_scale_log_sd)``, the hull response ``h = q^2`` with
-    ``q ~ Uniform(-sqrt(hull_response_max), sqrt(hull_response_max))`` (the density
-    ``1 / (2 sqrt(h hull_response_max))`` of ``h``: proper, more of it near the rotation-only
-    buoy, no wall at ``h = 0`` for the sampler).
+    ``log k ~ Normal(0, record_motion_scale_log_sd)``, the hull response
+    ``h ~ HalfNormal(hull_response_scale)`` on (0, ``hull_response_max``], sampled as
+    ``log h`` (as ``kappa``: for a buoy that only rotates its posterior is the prior's
+    ``exp(log h)`` tail, with no wall for the sampler).
 
     ``kappa`` and ``kappa_z`` are sampled as logs on [``kappa_min``, ...): the bound only
     keeps the log finite. With a fixed reference lidar the pair term explains the
@@ -73,6 +73,8 @@ class Priors:
     #: rotates about a fixed centre, 1 follows the waves; a hull near resonance responds
     #: more than the waves (docs/inference.md)
     hull_response_max: float = 1.5
+    #: half-normal scale of the hull response (-): a wave follower (1) at one scale
+    hull_response_scale: float = 1.0
 
 
 @dataclass(frozen=True)

@@ -53,18 +53,19 @@ __all__ = [
 
 #: Parameters of the record model, in the order of its theta columns (natural scale names).
 RECORD_MODEL_NAMES = ("rho", "kappa", "kappa_z", "lever_arm_m", "motion_scale", "hull_response")
-_LOGS = (1, 2, 4)  # sampled as logs, reported natural
-_SQUARED = 5  # the hull response is sampled as q, h = q^2: no wall at h = 0 (module docstring)
+_LOGS = (1, 2, 4, 5)  # sampled as logs, reported natural
+#: lower end of the sampled log hull response: below what the data resolve its posterior
+#: is the half-normal prior's exp(log h) tail (as for kappa), proper without a wall
+_HULL_MIN = 1e-8
 
 
 def natural_draws(theta: np.ndarray) -> dict[str, np.ndarray]:
     """The record model's parameters on their natural scale from sampler coordinates
-    ``(..., 6)``: ``exp`` of the logs, the hull response ``h = q^2``."""
-    out = {}
-    for k, n in enumerate(RECORD_MODEL_NAMES):
-        x = theta[..., k]
-        out[n] = np.exp(x) if k in _LOGS else (x**2 if k == _SQUARED else x)
-    return out
+    ``(..., 6)`` (``exp`` of the logs)."""
+    return {
+        n: (np.exp(theta[..., k]) if k in _LOGS else theta[..., k])
+        for k, n in enumerate(RECORD_MODEL_NAMES)
+    }
 
 
 def is_record_model(fit) -> bool:
@@ -90,7 +91,7 @@ def _record_z2_tau2(theta, s, r, sz_rot, u2, pair_sq, six=None):
     k_sq = np.exp(2.0 * theta[:, 4:5])
     sz_sq = sz_rot**2
     if six is not None:  # the hull's translation (module docstring)
-        h = theta[:, 5:6] ** 2
+        h = np.exp(theta[:, 5:6])
         sz_sq = sz_sq - 2.0 * h * six[0] + h**2 * six[1]
     sz_sq = k_sq * sz_sq
     sz_sq += lever**2 * u2
@@ -204,7 +205,7 @@ def _log_prior(theta, priors: Priors, lever_arm_prior):
         ok &= _in(theta[:, 2], np.log(priors.kappa_min), np.log(5.0))
         ok &= (theta[:, 3] >= 0.0) & (theta[:, 3] < priors.lever_arm_max_m)
         ok &= np.abs(theta[:, 4]) < np.log(5.0)
-        ok &= np.abs(theta[:, 5]) <= np.sqrt(priors.hull_response_max)  # q uniform
+        ok &= _in(theta[:, 5], np.log(_HULL_MIN), np.log(priors.hull_response_max))
         lp = _log_halfnormal_logscale(theta[:, 1], priors.kappa_scale)
         lp = lp + _log_halfnormal_logscale(theta[:, 2], priors.kappa_z_scale)
         if lever_arm_prior is None:
@@ -212,6 +213,7 @@ def _log_prior(theta, priors: Priors, lever_arm_prior):
         else:
             lp = lp + _norm_logpdf(theta[:, 3], lever_arm_prior[0], lever_arm_prior[1])
         lp = lp + _norm_logpdf(theta[:, 4], 0.0, priors.record_motion_scale_log_sd)
+        lp = lp + _log_halfnormal_logscale(theta[:, 5], priors.hull_response_scale)
     return lp, ok
 
 
@@ -223,8 +225,7 @@ def log_prob_record_model(
     Parameters
     ----------
     theta : array_like, shape (n_walkers, 6)
-        ``(rho, log kappa, log kappa_z, lever_arm_m, log motion_scale, q)``, the hull
-        response ``h = q^2``.
+        ``(rho, log kappa, log kappa_z, lever_arm_m, log motion_scale, log hull_response)``.
     s, r : numpy.ndarray, shape (n_obs,)
         Floating-lidar and reference 10-min HWS std (m/s).
     sz_rot, u2 : numpy.ndarray, shape (n_obs,)
@@ -272,7 +273,7 @@ def _broad(lever_arm_prior):
                 np.log(rng.uniform(0.02, 0.5, n)),
                 lev,
                 rng.uniform(-0.2, 0.2, n),
-                rng.uniform(-1.0, 1.0, n),
+                np.log(rng.uniform(0.01, 1.0, n)),
             ]
         )
 
@@ -307,7 +308,7 @@ def _record_observations(records, surrogate, scan_period_s):
 
 def _start(lever_arm_prior):
     """Starting point of the mode search (sampler coordinates: rho, log kappa, log kappa_z,
-    L, log k, h)."""
+    L, log k, log h)."""
     return np.array(
         [
             0.0,
@@ -315,7 +316,7 @@ def _start(lever_arm_prior):
             np.log(0.15),
             2.0 if lever_arm_prior is None else lever_arm_prior[0],
             0.0,
-            0.5,
+            np.log(0.3),
         ]
     )
 

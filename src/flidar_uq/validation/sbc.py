@@ -171,7 +171,7 @@ def draw_record_prior(rng, *, priors: Priors = _PRIORS, lever_arm_prior=None) ->
     ``~ HalfNormal(lever_arm_scale_m)`` on [0, ``lever_arm_max_m``) or, with
     ``lever_arm_prior = (mean, sd)``, ``Normal(mean, sd)`` on the same interval;
     ``log motion_scale ~ N(0, record_motion_scale_log_sd)`` on ``|log k| < log 5``;
-    ``hull_response = q^2``, ``q ~ U(-sqrt(hull_response_max), sqrt(hull_response_max))``.
+    ``hull_response ~ HalfNormal(hull_response_scale)`` on (1e-8, ``hull_response_max``).
 
     Parameters
     ----------
@@ -204,7 +204,9 @@ def draw_record_prior(rng, *, priors: Priors = _PRIORS, lever_arm_prior=None) ->
         "kappa_z": kappa_z,
         "lever_arm_m": float(lever),
         "motion_scale": float(np.exp(log_k)),
-        "hull_response": float(rng.uniform(-1.0, 1.0) ** 2 * priors.hull_response_max),
+        "hull_response": _trunc_halfnormal(
+            rng, priors.hull_response_scale, 1e-8, priors.hull_response_max
+        ),
     }
 
 
@@ -359,7 +361,8 @@ def sbc_record_replication(
     nens = fit.draws["rho"].shape[0]
     # walker-major pooling: consecutive rank draws of one walker are this many steps apart
     spacing = nens * settings.nwalkers * nsteps_run / n_rank_draws
-    tau_max = float(np.nanmax(taus))
+    finite = [t for t in taus if np.isfinite(t)]
+    tau_max = float(max(finite)) if finite else float("nan")  # too short a chain: unknown
     out = {
         "converged": bool(fit.converged),
         "n_records": int(fit.info["n_records"]),
