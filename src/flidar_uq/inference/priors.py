@@ -147,7 +147,7 @@ class SamplerSettings:
     two_period_step_factor: float = 2.0
     max_step_factor: float = 6.0
     global_step_factor: float = 1.0
-    global_max_step_factor: float = 24.0
+    global_max_step_factor: float = 48.0
     mixture: str = "auto"
     two_period_min_share: float = 0.5
     loo_threshold_se: float = 2.0
