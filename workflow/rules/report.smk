@@ -53,8 +53,9 @@ rule developer_report:
     output:
         "results/report/developer.html",
     params:
-        benchmarks_dir=os.path.join(REPO, config["report"]["benchmarks_dir"]),
-        repo=REPO,
+        # functions: directories of the repository, not prefixes of the rule's files
+        benchmarks_dir=lambda w: os.path.join(REPO, config["report"]["benchmarks_dir"]),
+        repo=lambda w: REPO,
     conda:
         "../envs/flidar_uq.yaml"
     log:
