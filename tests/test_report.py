@@ -522,3 +522,27 @@ def test_table_html_shows_booleans_in_words():
     html = rep.table_html(pd.DataFrame({"on": [True, False], "np": np.array([True, False])}))
     assert "True" not in html and "False" not in html
     assert html.count(">yes<") == 2 and html.count(">no<") == 2
+
+
+def test_first_screen_says_which_motion_description_each_record_got():
+    from flidar_uq.workflow.report_summary import motion_description_summary
+
+    rec = pd.DataFrame(
+        {
+            "motion_description": ["along_wind"] * 3 + ["roll_pitch", ""],
+            "translation_description": ["tilt_spectrum"] * 2 + ["none", "none", ""],
+        }
+    )
+    txt = motion_description_summary(rec)
+    parts = txt.split(" · ")
+    assert parts[0].startswith("2 records: tilt along the wind")
+    assert "surge and heave from the tilt spectrum" in parts[0]
+    assert sorted(parts[1:]) == sorted(
+        [
+            "1 records: tilt along the wind from the IMU spectrum; no translation (rotation "
+            "about a fixed centre)",
+            "1 records: roll and pitch amplitude and period only; no translation (rotation "
+            "about a fixed centre)",
+        ]
+    )
+    assert motion_description_summary(rec.drop(columns="translation_description")) == ""

@@ -47,7 +47,9 @@ from flidar_uq.threads import single_threaded
 __all__ = [
     "RECORD_MODEL_NAMES",
     "fit_record_model",
+    "LEVER_ARM_PLAUSIBLE_MAX_M",
     "is_record_model",
+    "lever_arm_check",
     "log_prob_record_model",
 ]
 
@@ -370,7 +372,9 @@ def fit_record_model(
         :func:`~flidar_uq.inference.save_fit` would store only its LOO anyway);
         ``info["motion_scale_warning"]`` is set when the median
         ``motion_scale`` leaves [0.8, 1.25] (the per-record motion model does not explain
-        the data: check the lidar type, the IMU columns and the lever arm).
+        the data: check the lidar type, the IMU columns and the lever arm);
+        ``info["lever_arm_warning"]`` when the lever arm is implausible
+        (:func:`lever_arm_check`).
     """
     for c in ("hws_mean_ms", "hws_std_ms"):
         if c not in records:
@@ -435,6 +439,9 @@ def fit_record_model(
             f"motion_scale {k_med:.2f} outside [0.8, 1.25]: the per-record motion model "
             "does not explain the data (check the lidar type, IMU columns and lever arm)"
         )
+    lever_warning = lever_arm_check(draws["lever_arm_m"], lever_arm_prior)
+    if lever_warning:
+        info["lever_arm_warning"] = lever_warning
     return GlobalFit(
         draws=draws,
         log_lik=None,
@@ -443,6 +450,51 @@ def fit_record_model(
         info=info,
         pointwise_loo=loo,
     )
+
+
+#: Largest plausible height (m) of a floating lidar's head above its buoy's rotation centre:
+#: the heads of floating-lidar buoys sit 1-4 m above the waterline and the centres of
+#: rotation of their hulls near or below it, so a fitted lever arm beyond this length is
+#: the fit absorbing motion the model lacks, not geometry.
+LEVER_ARM_PLAUSIBLE_MAX_M = 8.0
+#: Distance (m) from the configured lever arm beyond which the fit contradicts the geometry
+#: (at least this much and 3 prior standard deviations): the tolerance within which the
+#: physics-mode fits recover the true lever arm.
+LEVER_ARM_TOLERANCE_M = 0.5
+
+
+def lever_arm_check(lever_arm_draws_m, lever_arm_prior=None) -> str:
+    """The lever arm's plausibility check: "" when plausible, else the reason (one line).
+
+    Parameters
+    ----------
+    lever_arm_draws_m : array_like
+        Posterior draws of the lever arm (m).
+    lever_arm_prior : (float, float), optional
+        Mean and sd (m) of the configured lever arm (the buoy's geometry). With it, a
+        posterior median farther from the mean than ``max(LEVER_ARM_TOLERANCE_M, 3 sd)``
+        is implausible; without it, a median beyond :data:`LEVER_ARM_PLAUSIBLE_MAX_M`.
+    """
+    med = float(np.median(np.asarray(lever_arm_draws_m, dtype=float)))
+    if not np.isfinite(med):
+        return ""
+    if lever_arm_prior is not None:
+        mean, sd = (float(x) for x in lever_arm_prior)
+        tol = max(LEVER_ARM_TOLERANCE_M, 3.0 * sd)
+        if abs(med - mean) > tol:
+            return (
+                f"lever_arm_m {med:.2f} m is {abs(med - mean):.2f} m from the configured "
+                f"{mean:.2f} m (tolerance {tol:.2f} m): the motion model does not match the "
+                "buoy (check inference.lever_arm_m, the hull and the IMU's frame)"
+            )
+        return ""
+    if med > LEVER_ARM_PLAUSIBLE_MAX_M:
+        return (
+            f"lever_arm_m {med:.2f} m exceeds the {LEVER_ARM_PLAUSIBLE_MAX_M:g} m a floating "
+            "lidar's head can sit above its buoy's rotation centre: the fit absorbs motion "
+            "the model lacks (check the hull's translation columns and the lidar type)"
+        )
+    return ""
 
 
 def _record_loo(theta, s, r, sz_rot, u2, pair, six=None):

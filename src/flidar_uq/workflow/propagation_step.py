@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 
 from flidar_uq.data.binning import bin_centre, speed_bin_ms
+from flidar_uq.inference.record_motion import describe_motion
 from flidar_uq.seeding import child_seed
 from flidar_uq.workflow.files import read_csv, write_csv
 from flidar_uq.workflow.inference_steps import load_bin_fits
@@ -421,6 +422,10 @@ def propagate(
         write_csv(budget, budget_out)
 
     out = _records_table(rec, rid, flags["timestamp"], use, per_record, sz_seed, sz_table)
+    if record_model:  # which motion description gave each record's sigma_Z
+        desc = describe_motion(rec)
+        for col in desc:
+            out[col] = np.where(use, desc[col].to_numpy(), "")
     neg = _scatter(per_record["discriminant_negative"].to_numpy(dtype=bool), use, bool, False)
     described = (
         _scatter(np.isfinite(per_record["sigma_z_median_ms"].to_numpy()), use, bool, False)
