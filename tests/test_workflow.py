@@ -28,11 +28,12 @@ import yaml
 from flidar_uq.data.calibration import calibration_by_group, speed_group_label
 from flidar_uq.workflow.data_steps import assign_batches
 from flidar_uq.workflow.inference_steps import bin_seed
+from flidar_uq.workflow.inputs import SCHEMA_PATH
 from flidar_uq.workflow.propagation_step import RECORD_COLUMNS
 
 REPO = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
-SCHEMA = REPO / "workflow" / "schemas" / "config.schema.yaml"
+SCHEMA = SCHEMA_PATH
 CONFIG = REPO / "config" / "config.yaml"
 
 #: Small settings shared by the end-to-end configs (seconds, not minutes).

@@ -405,7 +405,8 @@ def _add_generate_campaign(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--scenario",
         default="default",
-        help="scenario name under config/scenarios/ or a YAML path; default 'default'",
+        help="shipped scenario name (flidar_uq/resources/scenarios/) or a YAML path; "
+        "default 'default'",
     )
     p.add_argument("--seed", type=_nonnegative_int, default=0, help="root seed (SeedSequence)")
     p.add_argument("--output", required=True, help="output record table (.csv or .parquet)")

@@ -18,7 +18,8 @@ Per 10-min record (``record_length_s``) and for every measurement height:
    The wind sea travels downwind (JONSWAP gamma fixed or drawn per record); the swell
    from anywhere or at a set angle to downwind; the buoy keeps a fixed (slowly
    drifting) heading or weathervanes, its bow into the wind (``motion.sea_state``
-   keys, ``config/scenarios/README.md``); ``true_*`` regime columns record which.
+   keys, ``flidar_uq/resources/scenarios/README.md``); ``true_*`` regime columns record
+   which.
    The lidar head sits at ``lever_arm_m`` from the rotation centre (body frame), so
    it translates with ``v = d(R r)/dt`` (design.md).
 3. ZephIR-like lidar: the prism turns continuously (one revolution per

@@ -1,9 +1,9 @@
 """Virtual-campaign scenarios: the keys a scenario may set, their defaults and validation.
 
-A scenario is a nested mapping (``config/scenarios/<name>.yaml``) merged over
-:data:`DEFAULT_SCENARIO`; :class:`CampaignConfig` validates it, :func:`load_scenario`
-reads a shipped or user file, :func:`reference_sampling` tells the lidar-response model
-how the virtual campaign samples the wind. The generator is
+A scenario is a nested mapping (``flidar_uq/resources/scenarios/<name>.yaml``, shipped as
+package data) merged over :data:`DEFAULT_SCENARIO`; :class:`CampaignConfig` validates it,
+:func:`load_scenario` reads a shipped or user file, :func:`reference_sampling` tells the
+lidar-response model how the virtual campaign samples the wind. The generator is
 :mod:`flidar_uq.campaign.physics_mode`.
 """
 
@@ -18,6 +18,7 @@ import numpy as np
 
 from flidar_uq.physics import lidar as _lidar
 from flidar_uq.physics.hull import get_hull
+from flidar_uq.resources import resource_path
 
 __all__ = [
     "DEFAULT_SCENARIO",
@@ -163,8 +164,8 @@ HARMONIC_CASE_KEYS = (
 
 
 def scenario_dir() -> Path:
-    """Directory of the shipped scenario files (``config/scenarios`` of the repository)."""
-    return Path(__file__).resolve().parents[3] / "config" / "scenarios"
+    """Directory of the shipped scenario files (package data, ``flidar_uq/resources/scenarios``)."""
+    return resource_path("scenarios")
 
 
 def _merge_checked(defaults: Mapping, given: Mapping, where: str) -> dict:
@@ -334,7 +335,7 @@ def _check_positive(s, key, val, integer=False):
 
 
 def load_scenario(name_or_path: str | Path) -> dict:
-    """Read a scenario YAML file (``config/scenarios/<name>.yaml`` or a path).
+    """Read a scenario YAML file (``flidar_uq/resources/scenarios/<name>.yaml`` or a path).
 
     Parameters
     ----------

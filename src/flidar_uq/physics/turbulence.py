@@ -244,6 +244,8 @@ def wind_enu_ms(hws_ms, wd_deg, fluct_uvw_ms):
 def pyconturb_field(y_m, z_m, hws_ms, sigma_u_ms, *, duration_s=600.0, dt_s=1.0, seed=0):
     """3-D turbulence on a y-z plane (IEC Kaimal spectra + IEC coherence) via PyConTurb.
 
+    PyConTurb is an optional dependency: ``pip install 'flidar_uq[simulate]'``.
+
     Parameters
     ----------
     y_m, z_m : array_like
@@ -267,9 +269,15 @@ def pyconturb_field(y_m, z_m, hws_ms, sigma_u_ms, *, duration_s=600.0, dt_s=1.0,
         ``u(x, y, z, t) = u(y, z, t - x / U)`` (Eq. (2) of seed 002).
     """
     import pandas as pd
-    from pyconturb import gen_turb
-    from pyconturb.sig_models import constant_sig
-    from pyconturb.spectral_models import kaimal_spectrum
+
+    try:
+        from pyconturb import gen_turb
+        from pyconturb.sig_models import constant_sig
+        from pyconturb.spectral_models import kaimal_spectrum
+    except ImportError as exc:
+        raise ImportError(
+            "pyconturb_field needs PyConTurb: pip install 'flidar_uq[simulate]'"
+        ) from exc
 
     y = np.atleast_1d(np.asarray(y_m, float))
     z = np.atleast_1d(np.asarray(z_m, float))

@@ -61,7 +61,8 @@ def make_campaign(
     seed : int
         SeedSequence entropy of the virtual campaign (-).
     scenario_path : path, optional
-        Scenario YAML (config/scenarios/<name>.yaml), required for ``source="virtual"``.
+        Scenario YAML (a shipped ``flidar_uq/resources/scenarios/<name>.yaml`` or the
+        user's), required for ``source="virtual"``.
     records_path : path, optional
         The user's record table (CSV or Parquet), required for ``source="files"``.
     threads : int

@@ -30,6 +30,8 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # numpy and pandas are imported where used: `flidar-uq --help` stays fast
     import pandas as pd
 
+from flidar_uq.resources import resource_path
+
 log = logging.getLogger(__name__)
 
 __all__ = [
@@ -68,8 +70,8 @@ EXIT_CODES = {
     "inconsistent",
 }
 
-#: The closed config schema of the pipeline (the repository's workflow/schemas/).
-SCHEMA_PATH = Path(__file__).resolve().parents[3] / "workflow" / "schemas" / "config.schema.yaml"
+#: The closed config schema of the pipeline (package data: ``flidar_uq/resources/``).
+SCHEMA_PATH = resource_path("config.schema.yaml")
 
 #: The fleet summary's directory under results/ (a name no campaign of ``campaigns:`` may take).
 FLEET_DIR = "fleet"
@@ -387,7 +389,7 @@ def _check_scenario(scenario: str) -> None:
             raise ConfigError("campaign.scenario", f"no such scenario file {scenario!r}")
         return
     shipped = sorted(p.stem for p in scenario_dir().glob("*.yaml"))
-    if shipped and scenario not in shipped:
+    if scenario not in shipped:
         raise ConfigError(
             "campaign.scenario",
             f"no shipped scenario {scenario!r}; shipped: {', '.join(shipped)} "
