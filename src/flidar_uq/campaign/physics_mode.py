@@ -5,7 +5,7 @@ Size: the generator is one vectorised pipeline over a chunk of records (turbulen
 Per 10-min record (``record_length_s``) and for every measurement height:
 
 1. Reference wind: mean HWS drawn from a truncated Weibull with lag-1 persistence
-   (Gaussian copula), direction, power-law shear (seed 002: 0.1), a TI(HWS) draw
+   (Gaussian copula), direction, power-law shear (Yamaguchi and Ishihara, 2016: 0.1), a TI(HWS) draw
    (:func:`flidar_uq.physics.turbulence.draw_sigma_u_ms`, IEC NTM or offshore-like) and 1-D
    Kaimal (u, v, w) turbulence (:func:`flidar_uq.physics.turbulence.kaimal_series`) sampled
    every ``wind.wind_dt_s`` (0.1 s) and held in between, independent between heights.
@@ -25,11 +25,11 @@ Per 10-min record (``record_length_s``) and for every measurement height:
    ``scan_period_s``); the lidar scans the heights in turn, one full revolution per
    scan, then refocuses for a random delay. With ``lidar.scan_phase: prism`` (default)
    a scan starts at the azimuth the prism has at that moment, so the scan phase is
-   locked to time and random relative to the motion (seed 000 Sec. 2.3).
+   locked to time and random relative to the motion (Gutiérrez-Antuñano et al., 2018, Sec. 2.3).
    ``scan_phase: random`` draws an independent uniform phase per scan (the seed's
    assumption). Every line of sight is simulated with the attitude
    and head velocity at its own time: ``v_r = d_earth . (u_wind - v_head)``
-   (docs/conventions.md; seed 002 Eq. 3), measured as ``|v_r|`` (CW lidar, seed 001
+   (docs/conventions.md; Yamaguchi and Ishihara (2016), Eq. 3), measured as ``|v_r|`` (CW lidar, Malekmohammadi et al. (2024)
    Eq. 4) and retrieved with the nominal body geometry (VAD least squares with the
    sign unfolding of the ``|.|`` fit); spatial variation ``sv`` is the RMS fit
    residual over HWS. Occasional scans drop out.
@@ -97,7 +97,7 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-#: CNR written for valid lines of sight of the virtual lidar (dB; above seed 001's -23 dB).
+#: CNR written for valid lines of sight of the virtual lidar (dB; above Malekmohammadi et al.'s (2024) -23 dB).
 GOOD_CNR_DB = -10.0
 
 

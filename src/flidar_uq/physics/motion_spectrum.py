@@ -2,7 +2,7 @@
 
 Size: the band reduction, the band/moments sigma_Z, two-period detection and attitude replay are one method (design.md, "What real seas add") and test against each other (~650 lines, half of it docstrings).
 
-Seed 000's sigma_Z assumes harmonic roll and pitch of one amplitude and period. A real
+Gutiérrez-Antuñano et al.'s (2018) sigma_Z assumes harmonic roll and pitch of one amplitude and period. A real
 record is broadband and directional; this module computes its sigma_Z from the tilt
 spectrum resolved along and across the wind (design.md "What real seas add"):
 
@@ -386,7 +386,7 @@ def spectral_sigma_z_ms(
 def harmonic_sigma_z_ms(
     hws_ms, amplitude_deg, period_s, *, lever_arm_m=0.0, lidar="zephir300", surrogate=None
 ) -> np.ndarray:
-    """Seed-000 sigma_Z of one roll-and-pitch harmonic (surrogate), m/s; broadcasting.
+    """Gutiérrez-Antuñano et al. (2018) sigma_Z of one roll-and-pitch harmonic (surrogate), m/s; broadcasting.
 
     ``amplitude_deg`` (deg) is the amplitude of roll and of pitch, ``period_s`` in [1, 20]
     s (clipped), ``lever_arm_m`` as in :func:`spectral_sigma_z_ms`.
@@ -464,8 +464,8 @@ def record_sigma_z_ms(
     Per record, in this order: the band sum (:func:`spectral_sigma_z_ms`) where ``spectrum``
     has finite bands; else the moments-only value (:func:`moments_sigma_z_ms`) where the
     optional record columns ``tilt_along_wind_std_deg`` and ``tilt_period_zero_crossing_s``
-    are finite; else the seed-000 harmonic (:func:`harmonic_sigma_z_ms`) at the record's
-    ``amplitude_deg`` / ``period_s`` (e.g. ``flidar_uq.data.imu.record_motion``), which
+    are finite; else the Gutiérrez-Antuñano et al. (2018) harmonic (:func:`harmonic_sigma_z_ms`) at the record's
+    ``amplitude_deg`` / ``period_s`` (e.g. ``flidar_uq.data.imu.add_harmonic_motion``), which
     ignores the wind direction (0.43-1.88 of the realised value in
     ``benchmarks/spectral_sigma_z.py``: give it wider intervals); else NaN.
 
@@ -478,7 +478,7 @@ def record_sigma_z_ms(
     tilt_along_wind_std_deg, tilt_period_zero_crossing_s : array_like, shape (nrec,), optional
         Record columns, deg and s.
     amplitude_deg, period_s : array_like, shape (nrec,), optional
-        Seed-000 single harmonic (roll and pitch amplitude, deg; period, s).
+        Gutiérrez-Antuñano et al. (2018) single harmonic (roll and pitch amplitude, deg; period, s).
     lever_arm_m, lidar, surrogate
         As in :func:`spectral_sigma_z_ms`.
 
@@ -645,9 +645,9 @@ def replay_sigma_z(
     (:class:`~flidar_uq.physics.motion.SampledMotion`, rates by central differences) and a
     constant wind; the lidar retrieves with its level geometry, compass-corrected by the
     scan's mean yaw (:func:`~flidar_uq.physics.simulator.simulate_scans`), and
-    ``Z = retrieved HWS - HWS`` (seed 000 Eq. 1). The scan phase (azimuth of the first
+    ``Z = retrieved HWS - HWS`` (Gutiérrez-Antuñano et al., 2018, Eq. 1). The scan phase (azimuth of the first
     line of sight) advances by the golden angle from scan to scan, so that it is spread
-    uniformly and deterministically (seed 000 Sec. 2.2: the scan phase is random).
+    uniformly and deterministically (Gutiérrez-Antuñano et al., 2018, Sec. 2.2: the scan phase is random).
 
     Parameters
     ----------
@@ -713,5 +713,5 @@ def replay_sigma_z(
         azimuth_rad=az,
         sign_ambiguity=sign_ambiguity,
     )
-    z = np.asarray(ret.hws_ms) - float(hws_ms)  # Eq. (1) of seed 000
+    z = np.asarray(ret.hws_ms) - float(hws_ms)  # Eq. (1) of Gutiérrez-Antuñano et al. (2018)
     return ReplayResult(float(np.std(z)), float(np.mean(z)), z)
