@@ -1,4 +1,4 @@
-"""Virtual floating-lidar campaign, physics mode (issue 4).
+"""Virtual floating-lidar campaign, physics mode.
 
 Size: the generator is one vectorised pipeline over a chunk of records (turbulence, sea state, scanning lidar, IMU, 10-min statistics) whose arrays are shared between its stages (~760 lines).
 
@@ -20,13 +20,13 @@ Per 10-min record (``record_length_s``) and for every measurement height:
    drifting) heading or weathervanes, its bow into the wind (``motion.sea_state``
    keys, ``config/scenarios/README.md``); ``true_*`` regime columns record which.
    The lidar head sits at ``lever_arm_m`` from the rotation centre (body frame), so
-   it translates with ``v = d(R r)/dt`` (design.md).
+   it translates with ``v = d(R r)/dt`` (docs/motion_spectrum.md).
 3. ZephIR-like lidar: the prism turns continuously (one revolution per
    ``scan_period_s``); the lidar scans the heights in turn, one full revolution per
    scan, then refocuses for a random delay. With ``lidar.scan_phase: prism`` (default)
    a scan starts at the azimuth the prism has at that moment, so the scan phase is
    locked to time and random relative to the motion (Gutiérrez-Antuñano et al., 2018, Sec. 2.3).
-   ``scan_phase: random`` draws an independent uniform phase per scan (the seed's
+   ``scan_phase: random`` draws an independent uniform phase per scan (the paper's
    assumption). Every line of sight is simulated with the attitude
    and head velocity at its own time: ``v_r = d_earth . (u_wind - v_head)``
    (docs/conventions.md; Yamaguchi and Ishihara (2016), Eq. 3), measured as ``|v_r|`` (CW lidar, Malekmohammadi et al. (2024)
@@ -177,7 +177,7 @@ def _record_parameters(cfg: CampaignConfig, rng: np.random.Generator) -> dict:
             dir2_deg=rng.uniform(0.0, 360.0, n),
             heading_deg=float(ss["heading_sd_deg"]) * rng.standard_normal(n),
         )
-        # options of issue 11, drawn after the draws above so that scenarios without them
+        # options, drawn after the draws above so that scenarios without them
         # keep their numbers
         g_range = ss["wind_sea_gamma_range"]
         if g_range is None:
@@ -392,7 +392,7 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
 
 
 def _regime_truth(settings, par, truth) -> dict[str, np.ndarray]:
-    """Truth columns of the records' sea-state and heading regime (issue 11), one value a
+    """Truth columns of the records' sea-state and heading regime, one value a
     record.
 
     ``truth``: the rows of :func:`flidar_uq.campaign.scan_kernel.attitude_truth` (tilt
@@ -713,7 +713,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                     }
                 )
             )
-    # IMU statistics with the data layer's estimators (issue 3), one window per record,
+    # IMU statistics with the data layer's estimators, one window per record,
     # from the chunk's arrays
     att = [np.stack([a[k] for a in imu_att]) for k in range(3)]  # roll, pitch, yaw (C, n)
     p_lo, p_hi = settings["imu"]["period_range_s"]

@@ -1,4 +1,4 @@
-"""Compiled line-of-sight loop of the virtual campaign (issue 13 item 7).
+"""Compiled line-of-sight loop of the virtual campaign.
 
 One pass over every line of sight of a chunk of records, fusing what
 :func:`flidar_uq.campaign.physics_mode._simulate_chunk` did before in ~40 NumPy passes

@@ -56,7 +56,7 @@ __all__ = [
     "height_correct_profile",
 ]
 
-# Malekmohammadi et al. (2024) frame (x south, y west, z down) -> ENU: columns are the seed's axes in ENU.
+# Malekmohammadi et al. (2024) frame (x south, y west, z down) -> ENU: columns are the paper's axes in ENU.
 _C_SWD_TO_ENU = np.array([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 
 

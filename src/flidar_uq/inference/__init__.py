@@ -11,7 +11,7 @@ Two stages, matching the Snakemake fan-out/gather (docs/inference.md):
    into the motion parameters). PSIS-LOO compares the global rho with a per-bin rho,
    and (:func:`select_global_model`) the rho-only model with the lever-arm model.
 
-Observation model (design.md): ``s_i ~ Normal(mu_i, tau_i)``,
+Observation model (docs/inference.md): ``s_i ~ Normal(mu_i, tau_i)``,
 ``mu_i = sqrt(r_i^2 + sZ_i^2 + 2 rho r_i sZ_i)`` (Eq. 15 of Gutiérrez-Antuñano et al. (2018)),
 ``tau_i^2 = (kappa mu_i)^2 + tau0^2 + (dmu/dsZ)^2 Var(sZ_i)``; ``kappa`` is the relative
 sampling std of a 10-min std (inferred), ``tau0`` the model error (m/s).

@@ -2,7 +2,7 @@
 
 Gutiérrez-Antuñano et al. (2018) computes sigma_Z for harmonic roll and pitch at one period; a real sea is
 broadband and directional, and only the tilt along the wind matters to first order
-(design.md, "What real seas add"). With the record's tilt variance along the wind and its
+(docs/motion_spectrum.md). With the record's tilt variance along the wind and its
 mean period (record-table columns derived by :mod:`flidar_uq.data.imu` from the raw IMU
 series), a single-axis tilt of amplitude ``A = sqrt(2) std_along`` along the wind gives
 the same sigma_Z as Gutiérrez-Antuñano et al.'s (2018) roll-and-pitch case at amplitude ``A``; evaluated at the

@@ -1,10 +1,10 @@
 """Per-record sigma_Z from the buoy's tilt spectrum (broadband, directional seas).
 
-Size: the band reduction, the band/moments sigma_Z, two-period detection and attitude replay are one method (design.md, "What real seas add") and test against each other (~650 lines, half of it docstrings).
+Size: the band reduction, the band/moments sigma_Z, two-period detection and attitude replay are one method (docs/motion_spectrum.md) and test against each other (~650 lines, half of it docstrings).
 
 Gutiérrez-Antuñano et al.'s (2018) sigma_Z assumes harmonic roll and pitch of one amplitude and period. A real
 record is broadband and directional; this module computes its sigma_Z from the tilt
-spectrum resolved along and across the wind (design.md "What real seas add"):
+spectrum resolved along and across the wind (docs/motion_spectrum.md):
 
 1. **Wind-frame tilt** (:func:`wind_frame_tilt_deg`). The body z axis in the earth frame
    is ``R @ (0, 0, 1)`` with ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (docs/conventions.md); its
@@ -20,7 +20,7 @@ spectrum resolved along and across the wind (design.md "What real seas add"):
    ``sigma_Z^2 = sum_b sigma_Z(A_b, T_b)^2``, ``A_b = sqrt(2 var_along_b)``, each band a
    single-axis tilt along the wind. Measured with the direct kernel
    (:func:`flidar_uq.physics.simulator.sigma_z`, roll-only motion): a single-axis tilt of
-   amplitude A along the wind gives the seed's roll-and-pitch sigma_Z at amplitude A
+   amplitude A along the wind gives the paper's roll-and-pitch sigma_Z at amplitude A
    (within 0.05 % without lever arm), at angle psi to the wind ``|cos psi|`` times it
    (within 0.4 % up to 10 deg), and **exactly zero across the wind without lever arm**
    (rolling about the wind axis leaves the VAD retrieval exact). With a lever arm the
@@ -30,7 +30,7 @@ spectrum resolved along and across the wind (design.md "What real seas add"):
    The translation of the head (``v = omega x r``, ``r = (0, 0, h)``) is along the tilt
    rate, i.e. along the wind for the along-wind band, and coherent with its rotation
    error; it enters through the surrogate's ``sigma_z_lever_ms`` for the same band.
-   The quadrature sum itself is exact to first order in the tilt (design.md: 0.08 % at
+   The quadrature sum itself is exact to first order in the tilt (0.08 % at
    2 deg, 1.8 % at 10 deg against the direct multi-phase integral).
 4. **Moments-only fallback** (:func:`moments_sigma_z_ms`): one harmonic of amplitude
    ``sqrt(2) * std_along`` at the zero-crossing period ``Tz = sqrt(m0/m2)``;
@@ -415,7 +415,7 @@ def moments_sigma_z_ms(
 
     ``sigma_Z = sigma_Z(HWS, sqrt(2) std_along, T)`` with ``T`` the zero-crossing period
     ``Tz = sqrt(m0/m2)`` of the along-wind tilt (record column
-    ``tilt_period_zero_crossing_s``; design.md: within 1-3 % for JONSWAP seas).
+    ``tilt_period_zero_crossing_s``; within 1-3 % for JONSWAP seas).
 
     Parameters
     ----------

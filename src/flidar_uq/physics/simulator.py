@@ -913,7 +913,7 @@ def sigma_z(
     return SigmaZResult(s, m, n, float(err), converged, "vad-fourier" if fast else "direct")
 
 
-# A-priori bound of the per-point geometric rate of the phase quadrature (issue 13): the
+# A-priori bound of the per-point geometric rate of the phase quadrature: the
 # trapezoid error of this smooth periodic integrand falls like rho^N, rho set by the size of
 # the perturbation of the retrieved wind (tilt amplitude A and lever-arm head speed over the
 # wind speed). Measured envelope of (err(N) / err(N/2))^(2/N), N = 8, 12, 16, against a

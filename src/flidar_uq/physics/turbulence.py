@@ -1,6 +1,6 @@
 """Wind turbulence for the virtual campaign: 1-D Kaimal series and 3-D fields.
 
-Two models, chosen by what a scene needs (issue 4, "model no more than a scene needs"):
+Two models, chosen by what a scene needs ("model no more than a scene needs"):
 
 - :func:`kaimal_series` -- fast spectral synthesis of point time series of the
   (u, v, w) components with the IEC 61400-1 Kaimal spectra (Ed. 3, Annex B), one
