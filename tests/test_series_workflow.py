@@ -1,7 +1,7 @@
 """The raw IMU series and the LOS branch in the pipeline: DAG, config errors, the merge of the
 series' statistics, the agreement table, the report section, and (slow) end-to-end runs: the
 virtual campaign given as raw series gives the same corrected TI as given as record statistics;
-the LOS branch runs and appears in the report; the README example runs."""
+the LOS branch runs and appears in the report; the user guide's example runs."""
 
 from __future__ import annotations
 
@@ -331,8 +331,8 @@ def test_virtual_campaign_as_raw_series_gives_the_same_corrected_ti_and_runs_the
 
 @pytest.mark.slow
 def test_readme_series_example_runs(tmp_path):
-    """README, "Run on your own data": the example files and tests/data/user_series_config.yaml."""
-    readme = (REPO / "README.md").read_text()
+    """docs/user-guide.md, "Run on your own data": the example files and tests/data/user_series_config.yaml."""
+    readme = (REPO / "docs" / "user-guide.md").read_text()
     assert "scripts/series-example.py example" in readme
     assert "tests/data/user_series_config.yaml" in readme
     subprocess.run(
