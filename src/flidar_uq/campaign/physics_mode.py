@@ -764,7 +764,7 @@ _BLAS_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 #: glibc's malloc in the workers: keep freed memory for reuse (no trimming of the heap, no
 #: mmap below 32 MB). By default a chunk's arrays of a few MB are returned to the kernel
 #: when freed and faulted in again page by page at the next chunk: ~0.8 ms of system time a
-#: record, ~10 % of the generator (docs/performance.md, session 13). No effect on results;
+#: record, ~10 % of the generator (measured with benchmarks/campaign_generation.py). No effect on results;
 #: ignored by other C libraries.
 _MALLOC_TUNABLES = (
     "glibc.malloc.mmap_threshold=33554432:glibc.malloc.trim_threshold=1073741824:"
