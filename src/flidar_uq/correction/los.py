@@ -1,6 +1,6 @@
-"""LOS-level motion correction of floating-lidar wind retrievals (Malekmohammadi et al. (2024), Yamaguchi and Ishihara (2016), Nassif et al. (2020)).
+"""LOS-level motion correction of floating-lidar wind retrievals (Malekmohammadi et al., 2024; Yamaguchi and Ishihara, 2016; Nassif et al., 2020).
 
-Size: Malekmohammadi et al. (2024), Yamaguchi and Ishihara (2016) and Nassif et al. (2020)'s LOS-level corrections share the frame conversions and beam geometry helpers; one module keeps the three methods comparable (~730 lines, half of it docstrings).
+Size: the three papers' LOS-level corrections share the frame conversions and beam geometry helpers; one module keeps the three methods comparable (~730 lines, half of it docstrings).
 
 When the line-of-sight (LOS) speeds and the IMU series are available, the motion can be
 removed scan by scan instead of statistically (``correction.py``). Three published
