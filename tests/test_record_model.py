@@ -18,7 +18,7 @@ from flidar_uq.inference.record_fit import (
     fit_record_model,
     log_prob_record_model,
 )
-from flidar_uq.inference.record_motion import MOTION_DESCRIPTIONS, record_motion
+from flidar_uq.inference.record_motion import MOTION_DESCRIPTIONS, per_record_motion
 from flidar_uq.physics.surrogate import get_surrogate
 
 
@@ -34,7 +34,7 @@ def test_along_wind_description_is_a_single_axis_tilt_of_sqrt2_std():
             "pitch_period_s": [9.0, 9.0],
         }
     )
-    out = record_motion(rec)
+    out = per_record_motion(rec)
     assert list(out["motion_description"]) == ["along_wind", "along_wind"]
     assert out["motion_amplitude_deg"].iloc[0] == pytest.approx(2.0 * np.sqrt(2.0))
     expect = get_surrogate().sigma_z_ms(8.0, 2.0 * np.sqrt(2.0), 4.0)
@@ -58,7 +58,7 @@ def test_fallbacks_zero_crossing_period_then_roll_pitch_then_none():
             "pitch_period_s": [np.nan, 9.0, np.nan],
         }
     )
-    out = record_motion(rec)
+    out = per_record_motion(rec)
     assert tuple(out["motion_description"]) == MOTION_DESCRIPTIONS
     assert out["motion_period_s"].iloc[0] == pytest.approx(5.0)
     assert out["motion_amplitude_deg"].iloc[1] == pytest.approx(4.0)  # geometric mean
@@ -204,7 +204,7 @@ def test_log_kappa_posterior_is_the_priors_exp_tail_where_the_data_hold_no_kappa
         "hull_response": 0.0,
     }
     rec = _draw_records(np.random.default_rng(12), 500, truth)
-    mot = record_motion(rec)
+    mot = per_record_motion(rec)
     args = (
         rec["hws_std_ms"].to_numpy(),
         rec["ref_hws_std_ms"].to_numpy(),

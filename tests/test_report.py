@@ -493,14 +493,20 @@ def test_templates_and_captions_ship_with_the_package():
     assert {"report.html.j2", "table.html.j2", "figure.html.j2", "provenance.html.j2"} <= names
     captions = [p.name.removesuffix(".txt.j2") for p in (root / "captions").iterdir()]
     assert "metrics" in captions and "bin_table" in captions
-    values = {"mass": 0.9, "n_hidden": 3, "label": "truth", "rho_pc": 0.78, "rho_src": "seed 000"}
+    values = {
+        "mass": 0.9,
+        "n_hidden": 3,
+        "label": "truth",
+        "rho_pc": 0.78,
+        "rho_src": "Gutiérrez-Antuñano et al. 2018",
+    }
     values |= {"height": "85", "min_count": 10, "names": "rho, kappa", "sample": "held out"}
     for name in captions:
         text = rep.caption(name, bin_id=7, **values)
         assert text and "{" not in text and "\n" not in text, name
     assert "90%" in rep.caption("ti_speed_bins", mass=0.9, height="85")
     assert "(rho, kappa, kappa_z)" in rep.caption("global_posterior", names="rho, kappa, kappa_z")
-    assert "rho = 0.78 (seed 000)" in rep.caption("sigma_scatter", **values)
+    assert "rho = 0.78 (Gutiérrez-Antuñano et al. 2018)" in rep.caption("sigma_scatter", **values)
 
 
 def test_provenance_config_reads_units_from_the_key_names():

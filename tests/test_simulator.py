@@ -1,4 +1,4 @@
-"""Tests of the moving-lidar simulator and the sigma_Z phase integral (seed 000 Eqs. 1-14)."""
+"""Tests of the moving-lidar simulator and the sigma_Z phase integral (Gutiérrez-Antuñano et al., 2018, Eqs. 1-14)."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ def _static(roll_deg=0.0, pitch_deg=0.0):
 
 
 def _seed_loop(hws, amp, period, wd, n, arm=0.0, lidar=ZEPHIR300):
-    """Seed 000's procedure written out: one scan simulation per (roll, pitch, scan) phase."""
+    """Gutiérrez-Antuñano et al.'s (2018) procedure written out: one scan simulation per (roll, pitch, scan) phase."""
     phases = 2 * np.pi * np.arange(n) / n
     wind = wind_vector_ms(hws, wd)
     z = [
@@ -117,12 +117,12 @@ def test_sigma_z_scales_exactly_with_hws_without_lever_arm(hws, factor, amp, per
 
 
 @pytest.mark.parametrize("period_s", [1.0, 2.0, 4.0, 10.0])
-def test_seed000_fig3_equal_roll_pitch_sigma_z_independent_of_wd(period_s):
+def test_gutierrez2018_fig3_equal_roll_pitch_sigma_z_independent_of_wd(period_s):
     vals = [sigma_z(10.0, 3.5, period_s, wd).sigma_z_ms for wd in range(0, 360, 30)]
     assert max(vals) / min(vals) - 1 < 0.01
 
 
-def test_seed000_sec25_roll_only_depends_on_wd():
+def test_gutierrez2018_sec25_roll_only_depends_on_wd():
     vals = [
         sigma_z(10.0, 3.5, 4.0, wd, pitch_amplitude_deg=0.0).sigma_z_ms for wd in range(0, 181, 30)
     ]

@@ -436,7 +436,11 @@ def _run_generate_campaign(args: argparse.Namespace) -> dict:
 
 
 SUBCOMMANDS: dict[str, tuple[Callable, Callable, str]] = {
-    "sigma-z": (_add_sigma_z, _run_sigma_z, "motion-induced HWS error std sigma_Z (seed 000)"),
+    "sigma-z": (
+        _add_sigma_z,
+        _run_sigma_z,
+        "motion-induced HWS error std sigma_Z (Gutiérrez-Antuñano et al., 2018)",
+    ),
     "validate": (_add_validate, _run_validate, "validate a record table (docs/data-format.md)"),
     "convert": (
         _add_convert,

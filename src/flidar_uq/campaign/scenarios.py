@@ -66,7 +66,7 @@ DEFAULT_SCENARIO: dict = {
         "refocus_delay_s": [0.3, 0.7],  # uniform range of the delay between scans
         # "prism": the scanner turns continuously, a scan starts at the azimuth the prism
         # has at that time (phase locked to time); "random": independent uniform scan
-        # phase per scan (seed 000 Sec. 2.3's assumption)
+        # phase per scan (Gutiérrez-Antuñano et al., 2018, Sec. 2.3's assumption)
         "scan_phase": "prism",
         "scan_dropout_probability": 0.02,
         "record_outage_probability": 0.003,
@@ -131,7 +131,7 @@ DEFAULT_SCENARIO: dict = {
         },
         "harmonic": {
             # ranges drawn per record when no cases are given; roll and pitch share
-            # amplitude and period (seed 000 Sec. 2.4), phases independent uniform
+            # amplitude and period (Gutiérrez-Antuñano et al., 2018, Sec. 2.4), phases independent uniform
             "amplitude_range_deg": [1.0, 5.0],
             "period_range_s": [2.0, 5.0],
             "cases": [],

@@ -10,7 +10,7 @@ For every record ``i`` and posterior draw ``d`` (docs/inference.md, "Propagation
    ``tau_id^2 = (kappa_d s_i)^2 + tau0_d^2`` and ``z ~ N(0, 1)`` (the observation model
    read backwards: given the measured ``s_i`` the noise-free std is uncertain by ``tau``);
 3. the deployment formula ``c = -rho sZ + sqrt(s*^2 - (1 - rho^2) sZ^2)``
-   (:func:`flidar_uq.physics.variance_laws.corrected_std`, Eq. 15 of seed 000 inverted) and
+   (:func:`flidar_uq.physics.variance_laws.corrected_std`, Eq. 15 of Gutiérrez-Antuñano et al. (2018) inverted) and
    ``TI = c / m_i``. Draws with a negative discriminant give ``c = 0`` and are counted.
 4. the point (cup-like) std, according to the reference the model is calibrated against
    (:func:`reference_target`): a cup or sonic -> ``c`` is the point std already (the noise
@@ -26,8 +26,8 @@ For every record ``i`` and posterior draw ``d`` (docs/inference.md, "Propagation
    records (per speed bin, per campaign) include it (docs/inference.md, "Record intervals
    and the reference's calibration").
 
-Baselines beside it: uncorrected TI and seed 000's U / C / PC laws (Eqs. 15-17) with
-sigma_Z from the surrogate at the bin's median IMU amplitude and period and seed 000's
+Baselines beside it: uncorrected TI and Gutiérrez-Antuñano et al.'s (2018) U / C / PC laws (Eqs. 15-17) with
+sigma_Z from the surrogate at the bin's median IMU amplitude and period and Gutiérrez-Antuñano et al.'s (2018)
 rho (correlation over bins of reference HWS and E(Z), Sec. 3.2).
 """
 
@@ -41,7 +41,7 @@ import pandas as pd
 from flidar_uq.data.binning import speed_bin_ms
 from flidar_uq.data.metrics import REPRESENTATIVE_TI_FACTOR, representative_ti
 from flidar_uq.inference import effective_sigma_z_ms, imu_observations, is_record_model
-from flidar_uq.inference.record_motion import hull_sigma_z_ms, record_motion, six_dof_terms
+from flidar_uq.inference.record_motion import hull_sigma_z_ms, per_record_motion, six_dof_terms
 from flidar_uq.physics.surrogate import default_surrogate
 from flidar_uq.physics.variance_laws import corrected_std, rho_bin_correlation
 from flidar_uq.seeding import as_seedsequence
@@ -231,7 +231,7 @@ def split_noise(kappa, point_log_sd, correlation=REFERENCE_SAMPLING_CORRELATION)
 
 
 def variance_law_baselines(records: pd.DataFrame, surrogate) -> tuple[np.ndarray, float]:
-    """Seed 000's deterministic sigma_Z per record and its single rho.
+    """Gutiérrez-Antuñano et al.'s (2018) deterministic sigma_Z per record and its single rho.
 
     Parameters
     ----------
@@ -245,7 +245,7 @@ def variance_law_baselines(records: pd.DataFrame, surrogate) -> tuple[np.ndarray
     sigma_z_ms : numpy.ndarray, shape (n_records,)
         Surrogate sigma_Z at the record's HWS and its bin's median IMU amplitude and period.
     rho : float
-        Pearson correlation over bins of (mean reference HWS, E(Z)) (Sec. 3.2 of seed 000).
+        Pearson correlation over bins of (mean reference HWS, E(Z)) (Sec. 3.2 of Gutiérrez-Antuñano et al. (2018)).
     """
     log_amp, log_per = imu_observations(records)
     bins = records["bin_id"].to_numpy()
@@ -658,13 +658,13 @@ def corrected_ti(
         ``sigma_z_median_ms``, ``converged`` (bin and global fit both converged),
         ``failure_reasons``, ``lidar_std_ratio`` (1 when not given), ``point_log_sd`` (0 when
         not given), and the baselines
-        ``ti_u``, ``ti_c``, ``ti_pc``, ``rho_seed`` (seed 000's laws, as published: they
+        ``ti_u``, ``ti_c``, ``ti_pc``, ``rho_seed`` (Gutiérrez-Antuñano et al.'s (2018) laws, as published: they
         estimate the reference instrument's std).
     per_bin : pandas.DataFrame or None
         One row per height and speed bin (``height_m``, ``hws_bin_ms``; 0 m when the
         records have no height), the statistics of :func:`ti_group_statistics`: mean,
         representative TI (mean + 1.28 std), 90th percentile and std of the corrected TI
-        with credible intervals of the statistic, beside the uncorrected and seed 000 values.
+        with credible intervals of the statistic, beside the uncorrected and Gutiérrez-Antuñano et al. (2018) values.
     ti_draws : numpy.ndarray of float32, shape (ndraws, n_records)
         With ``return_draws``: the corrected TI draws (-); draw ``d`` of every record uses
         the same global posterior draw, so a statistic over records per draw is a draw of
@@ -801,7 +801,7 @@ def corrected_ti(
         scale = global_draws("motion_scale", "motion")
         kappa_z = global_draws("kappa_z", "motion")
         hull = global_draws("hull_response", "motion")
-        mot = record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
+        mot = per_record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
         terms = six_dof_terms(records, mot, surrogate=surrogate, scan_period_s=scan_period_s)
         szr = mot["sigma_z_rot_ms"].to_numpy()
         u2 = mot["translation_unit_sq"].to_numpy()
@@ -860,10 +860,16 @@ def corrected_ti(
         baseline if baseline is not None else variance_law_baselines(records, surrogate)
     )
     with np.errstate(invalid="ignore", divide="ignore"):
-        ti_u = corrected_std(s, sz_seed, 0.0)[0] / m  # Eq. (16) of seed 000 inverted
-        ti_c = corrected_std(s, sz_seed, 1.0)[0] / m  # Eq. (17) of seed 000 inverted
+        ti_u = (
+            corrected_std(s, sz_seed, 0.0)[0] / m
+        )  # Eq. (16) of Gutiérrez-Antuñano et al. (2018) inverted
+        ti_c = (
+            corrected_std(s, sz_seed, 1.0)[0] / m
+        )  # Eq. (17) of Gutiérrez-Antuñano et al. (2018) inverted
         rho_pc = rho_seed if np.isfinite(rho_seed) else np.nan
-        ti_pc = corrected_std(s, sz_seed, np.clip(rho_pc, -1, 1))[0] / m  # Eq. (15) of seed 000
+        ti_pc = (
+            corrected_std(s, sz_seed, np.clip(rho_pc, -1, 1))[0] / m
+        )  # Eq. (15) of Gutiérrez-Antuñano et al. (2018)
         ti_unc = s / m
 
     per_record = pd.DataFrame(
@@ -954,7 +960,7 @@ def ti_group_statistics(
         the same statistics of the uncorrected TI of the same records
         (``ti_mean_uncorrected``, ``ti_sd_uncorrected``, ``ti_rep_uncorrected``,
         ``ti_p90_uncorrected``), ``n_not_converged`` (left out: their fit did not converge)
-        and seed 000's representative TI ``ti_rep_u``, ``ti_rep_c``, ``ti_rep_pc`` where
+        and Gutiérrez-Antuñano et al.'s (2018) representative TI ``ti_rep_u``, ``ti_rep_c``, ``ti_rep_pc`` where
         ``per_record`` has them.
     """
     if not 0.0 < credible_mass < 1.0:

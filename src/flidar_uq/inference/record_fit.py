@@ -1,14 +1,14 @@
 """The global observation model on per-record sigma_Z (the record motion model).
 
 Each record's sigma_Z comes from its own measured motion
-(:func:`flidar_uq.inference.record_motion.record_motion`): a rotational part ``sZ_rot``
+(:func:`flidar_uq.inference.record_motion.per_record_motion`): a rotational part ``sZ_rot``
 at unit scale and a head-translation unit ``u^2``. The model (docs/inference.md):
 
 * ``sZ_i = sqrt((k sZ_rot,i)^2 + L^2 u_i^2)``: ``L`` the lever arm (m) of the head above
   the buoy's rotation centre (prior from the buoy geometry when the config gives it),
   ``k`` a model-discrepancy check with a prior near 1 (``log k ~ N(0, 0.1)``);
 * ``s_i ~ Normal(mu_i, tau_i)``, ``mu_i^2 = r_i^2 + sZ_i^2 + 2 rho r_i sZ_i`` (Eq. (15)
-  of seed 000);
+  of Gutiérrez-Antuñano et al. (2018));
 * ``tau_i^2 = (kappa mu_i)^2 + (kappa_z sZ_i dmu_i/dsZ_i)^2 + (p_i r_i dmu_i/dr_i)^2``:
   ``kappa`` the relative sampling noise of a 10-min std, ``kappa_z`` the relative error of
   a record's sigma_Z (the realised motion error of 10 minutes scatters about the one its
@@ -38,7 +38,7 @@ from flidar_uq.inference.densities import _LOG2PI, _in, _log_halfnormal_logscale
 from flidar_uq.inference.diagnostics import _diagnostics, _thin
 from flidar_uq.inference.loo import _loo_chunked
 from flidar_uq.inference.priors import Priors, SamplerSettings
-from flidar_uq.inference.record_motion import record_motion, six_dof_terms
+from flidar_uq.inference.record_motion import per_record_motion, six_dof_terms
 from flidar_uq.inference.results import GlobalFit
 from flidar_uq.inference.sampler import _run_ensembles, laplace_init
 from flidar_uq.seeding import as_seedsequence
@@ -105,7 +105,7 @@ def _record_z2_tau2(theta, s, r, sz_rot, u2, pair_sq, six=None):
     sz_sq *= np.exp(kz_sq)
     sz = np.sqrt(sz_sq)
     rho_r = rho * r
-    mu_sq = rho_r * sz  # Eq. (15) of seed 000: r^2 + sZ^2 + 2 rho r sZ
+    mu_sq = rho_r * sz  # Eq. (15) of Gutiérrez-Antuñano et al. (2018): r^2 + sZ^2 + 2 rho r sZ
     mu_sq *= 2.0
     mu_sq += sz_sq
     mu_sq += r**2
@@ -292,7 +292,7 @@ def _record_observations(records, surrogate, scan_period_s):
     records (all finite and ``s, r > 0``), the mask ``use`` over ``records`` and every
     record's motion description kind.
     """
-    mot = record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
+    mot = per_record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
     six = six_dof_terms(records, mot, surrogate=surrogate, scan_period_s=scan_period_s)
     s = records["hws_std_ms"].to_numpy(dtype=float)
     r = (

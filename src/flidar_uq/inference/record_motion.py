@@ -1,11 +1,11 @@
 """sigma_Z of each record from its own measured motion (the per-record motion model).
 
-Seed 000 computes sigma_Z for harmonic roll and pitch at one period; a real sea is
+Gutiérrez-Antuñano et al. (2018) computes sigma_Z for harmonic roll and pitch at one period; a real sea is
 broadband and directional, and only the tilt along the wind matters to first order
-(design.md, "What real seas add"). With the record's tilt variance along the wind and its
+(docs/motion_spectrum.md). With the record's tilt variance along the wind and its
 mean period (record-table columns derived by :mod:`flidar_uq.data.imu` from the raw IMU
 series), a single-axis tilt of amplitude ``A = sqrt(2) std_along`` along the wind gives
-the same sigma_Z as seed 000's roll-and-pitch case at amplitude ``A``; evaluated at the
+the same sigma_Z as Gutiérrez-Antuñano et al.'s (2018) roll-and-pitch case at amplitude ``A``; evaluated at the
 spectral mean period it reproduces the realised sigma_Z of a broadband sea within a few
 percent, against 0.6-0.95 for the harmonic value at the spectral-peak period.
 
@@ -29,7 +29,7 @@ __all__ = [
     "TRANSLATION_DESCRIPTIONS",
     "describe_motion",
     "hull_sigma_z_ms",
-    "record_motion",
+    "per_record_motion",
     "six_dof_terms",
 ]
 
@@ -84,7 +84,7 @@ def _tilt_description(records: pd.DataFrame):
     return amp, per, along, rp
 
 
-def record_motion(
+def per_record_motion(
     records: pd.DataFrame, *, surrogate=None, scan_period_s: float = 1.0
 ) -> pd.DataFrame:
     """Per-record motion amplitude, period, rotational sigma_Z and translation unit.

@@ -23,7 +23,7 @@ from flidar_uq.inference import (
     fit_global,
     fit_record_model,
 )
-from flidar_uq.inference.record_motion import hull_sigma_z_ms, record_motion, six_dof_terms
+from flidar_uq.inference.record_motion import hull_sigma_z_ms, per_record_motion, six_dof_terms
 from flidar_uq.physics.motion_spectrum import TiltBandSpectrum
 from flidar_uq.physics.surrogate import default_surrogate
 from flidar_uq.seeding import as_seedsequence
@@ -224,7 +224,7 @@ def draw_record_campaign(
     for one band along and one across the wind at periods ``T`` and ``T U(1, 1.6)``. With
     ``sZ`` of :func:`~flidar_uq.inference.record_motion.hull_sigma_z_ms` (lever arm, hull
     response, motion scale) times ``exp(kappa_z^2 / 2)`` (the realised error's mean),
-    ``mu^2 = r^2 + sZ^2 + 2 rho r sZ`` (Eq. (15) of seed 000) and
+    ``mu^2 = r^2 + sZ^2 + 2 rho r sZ`` (Eq. (15) of Gutiérrez-Antuñano et al. (2018)) and
     ``tau^2 = (kappa mu)^2 + (kappa_z sZ dmu/dsZ)^2 + (pair_log_sd r dmu/dr)^2 + 1e-8``, the
     floating-lidar std is
     ``s ~ Normal(mu, tau)`` (the record model's likelihood, not a different generative
@@ -270,7 +270,7 @@ def draw_record_campaign(
     )
     for col, val in follower_translation_columns(bands).items():
         rec[col] = val
-    mot = record_motion(rec, surrogate=surrogate)
+    mot = per_record_motion(rec, surrogate=surrogate)
     terms = six_dof_terms(rec, mot, surrogate=surrogate)
     sz = hull_sigma_z_ms(
         mot,
@@ -281,7 +281,9 @@ def draw_record_campaign(
     )
     sz = sz * np.exp(0.5 * truth["kappa_z"] ** 2)  # the realised error's mean (record_fit)
     sz_sq = sz**2
-    mu_sq = np.maximum(r**2 + sz_sq + 2.0 * truth["rho"] * r * sz, 1e-12)  # Eq. (15) of seed 000
+    mu_sq = np.maximum(
+        r**2 + sz_sq + 2.0 * truth["rho"] * r * sz, 1e-12
+    )  # Eq. (15) of Gutiérrez-Antuñano et al. (2018)
     dmu_sq = (sz + truth["rho"] * r) ** 2 / mu_sq
     dmu_r_sq = (r + truth["rho"] * sz) ** 2 / mu_sq
     tau = np.sqrt(

@@ -570,7 +570,7 @@ def inspect_records(
         ``sampling`` (``interval_s``, per height ``n_records``, ``n_gaps``,
         ``missing_records``, ``largest_gap_h``); ``reference`` (shares of records with a
         reference mean and std); ``motion_description`` (records per description of
-        :func:`flidar_uq.inference.record_motion.record_motion`); ``qc_preview``
+        :func:`flidar_uq.inference.record_motion.per_record_motion`); ``qc_preview``
         (``n_kept``, ``n_flagged`` and per filter the records it flags); ``warnings``
         (one line each) and ``blocking`` (what the pipeline refuses, one line each).
     """
@@ -579,7 +579,7 @@ def inspect_records(
 
     from flidar_uq.data import qc
     from flidar_uq.data.schema import RECORD_COLUMNS, TRUTH_PREFIX
-    from flidar_uq.inference.record_motion import MOTION_DESCRIPTIONS, record_motion
+    from flidar_uq.inference.record_motion import MOTION_DESCRIPTIONS, per_record_motion
 
     n = len(records)
     names = [c.name for c in RECORD_COLUMNS]
@@ -600,7 +600,7 @@ def inspect_records(
         for r, row in res.counts.iterrows()
         if row["enabled"] and row["applicable"]
     }
-    motion = record_motion(records)
+    motion = per_record_motion(records)
     kinds = motion["motion_description"]
     counts = {k: int((kinds == k).sum()) for k in MOTION_DESCRIPTIONS}
 

@@ -703,8 +703,8 @@ def _methods_section(ctx: dict) -> rep.Section:
     body = rep.table_html(m.rename(columns=_METRIC_LABELS), caption=rep.caption("metrics"))
     rho_med = float(np.median(gfit.flat("rho")))
     rho_seed = (
-        float(metrics["rho_seed000"].iloc[0])
-        if "rho_seed000" in metrics and len(metrics)
+        float(metrics["rho_bin_correlation"].iloc[0])
+        if "rho_bin_correlation" in metrics and len(metrics)
         else np.nan
     )
     ref_col = next((c for c in ("ref_hws_std_ms", "true_hws_std_ms") if c in records), None)
@@ -716,7 +716,7 @@ def _methods_section(ctx: dict) -> rep.Section:
             if np.isfinite(rho_seed)
             else (rho_med, "posterior median")
         )
-        szb = r["sigma_z_seed000_ms"].to_numpy(dtype=float)
+        szb = r["sigma_z_baseline_ms"].to_numpy(dtype=float)
         corr = {
             "U": correction.sigma_moving_u(ref, szb),
             "C": correction.sigma_moving_c(ref, szb),
