@@ -83,9 +83,9 @@ def test_describe_motion_agrees_with_the_terms_the_model_uses():
     for c in FOLLOWER_COLUMNS:  # complete on the first and the roll/pitch record only
         rec[c] = [0.5, np.nan, 0.5, 0.5]
     d = describe_motion(rec)
-    assert list(d["motion_description"]) == list(record_motion(rec)["motion_description"])
+    assert list(d["motion_description"]) == list(per_record_motion(rec)["motion_description"])
     assert list(d["translation_description"]) == ["tilt_spectrum", "none", "none", "none"]
-    terms = six_dof_terms(rec, record_motion(rec))
+    terms = six_dof_terms(rec, per_record_motion(rec))
     assert list(terms["heave_leak_sq"].to_numpy() > 0) == [True, False, False, False]
 
 

@@ -382,6 +382,29 @@ def test_sigma_z_default_within_rtol_of_converged_reference(hws, amp, per, wd, a
     assert err <= max(res.error_estimate_ms, 1e-12 * hws)  # floor: round-off
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason="known limit: with the head's speed near the wind speed (19 deg at 2.69 s, 2 m "
+    "lever arm, 2 m/s) the a-priori 16-point grid is 1.1e-6 off, above its 1e-6 target and "
+    "its own error estimate (6.4e-7); 1e-5 holds (next test)",
+)
+def test_sigma_z_default_bound_near_the_head_speed_cusp():
+    kw = dict(lever_arm_m=2.0, pitch_amplitude_deg=9.5)
+    res = sigma_z(2.0, 19.0, 2.69, 45.0, **kw)
+    ref = sigma_z_grid(2.0, 19.0, 2.69, 45.0, nphase=48, **kw)
+    err = max(abs(res.sigma_z_ms - ref[0]), abs(res.mean_z_ms - ref[1]))
+    assert err <= 1e-6 * max(ref[0], abs(ref[1]))
+    assert err <= res.error_estimate_ms
+
+
+def test_sigma_z_default_near_the_head_speed_cusp_within_1e5():
+    kw = dict(lever_arm_m=2.0, pitch_amplitude_deg=9.5)
+    res = sigma_z(2.0, 19.0, 2.69, 45.0, **kw)
+    ref = sigma_z_grid(2.0, 19.0, 2.69, 45.0, nphase=48, **kw)
+    err = max(abs(res.sigma_z_ms - ref[0]), abs(res.mean_z_ms - ref[1]))
+    assert err <= 1e-5 * max(ref[0], abs(ref[1]))
+
+
 def test_sigma_z_default_grid_is_chosen_a_priori():
     # inside the bounded domain one grid is evaluated: 8 points where rho < 0.2, 12 where
     # rho < 0.35, 16 above, and the result is the converged value
