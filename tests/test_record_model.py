@@ -330,3 +330,50 @@ def test_grouped_log_sum_equals_the_sum_of_logs(n_cols, n_rows, log10_lo, span, 
     got = rf._sum_log_rows(x)
     want = np.log(x).sum(axis=1)
     np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-12)
+
+
+@pytest.mark.parametrize(("hull_response", "kept"), [(1e-3, "rotation_only"), (1.0, "translating")])
+def test_hull_model_selection_keeps_the_simplest_description_the_data_support(hull_response, kept):
+    from flidar_uq.inference import fit_record_model_selecting_hull
+
+    truth = {
+        "rho": 0.0,
+        "kappa": 0.03,
+        "kappa_z": 0.1,
+        "lever_arm_m": 2.0,
+        "motion_scale": 1.0,
+        "hull_response": hull_response,
+    }
+    rec = _draw_records(np.random.default_rng(21), 600, truth)
+    fit = fit_record_model_selecting_hull(
+        rec, seed=21, settings=SamplerSettings(nsteps=200, nburn=100)
+    )
+    cmp = fit.info["hull_model_comparison"]
+    assert fit.info["hull_model"] == cmp["kept"] == kept, cmp
+    if kept == "translating":  # decisively better, not at the margin
+        assert cmp["elpd_difference"] > 5 * max(4.0, 2 * cmp["elpd_difference_se"]), cmp
+    else:  # a hull that only rotates: the extra parameter buys nothing
+        assert abs(cmp["elpd_difference"]) < 4.0, cmp
+    # without the translation columns there is nothing to compare
+    from flidar_uq.inference.record_motion import FOLLOWER_COLUMNS
+
+    plain = fit_record_model_selecting_hull(
+        rec.drop(columns=list(FOLLOWER_COLUMNS)), seed=21,
+        settings=SamplerSettings(nsteps=50, nburn=20),
+    )  # fmt: skip
+    assert plain.info["hull_model"] == "rotation_only"
+    assert "hull_model_comparison" not in plain.info
+    with pytest.raises(ValueError, match="rotation_only, translating"):
+        fit_record_model_selecting_hull(rec, hull_model="follower", seed=1)
+
+
+def test_hull_model_words_state_the_comparison():
+    from flidar_uq.workflow.report_summary import hull_model_words
+
+    info = {
+        "hull_model": "rotation_only",
+        "hull_model_comparison": {"elpd_difference": 1.25, "elpd_difference_se": 2.0},
+    }
+    txt = hull_model_words(info)
+    assert txt.startswith("rotation about a fixed centre") and "+1.2 ± 2.0" in txt
+    assert hull_model_words({}) == ""

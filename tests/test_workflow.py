@@ -196,7 +196,14 @@ def test_config_keys_match_library_dataclasses():
     cfg = load_yaml(CONFIG)
     assert set(cfg["qc"]) <= set(QCConfig.__dataclass_fields__)
     assert set(cfg["priors"]) <= set(Priors.__dataclass_fields__)
-    pipeline_keys = {"seed", "nbatches", "motion_model", "lever_arm_m", "lever_arm_sd_m"}
+    pipeline_keys = {
+        "seed",
+        "nbatches",
+        "motion_model",
+        "hull_model",
+        "lever_arm_m",
+        "lever_arm_sd_m",
+    }
     assert set(cfg["inference"]) - pipeline_keys <= set(SamplerSettings.__dataclass_fields__)
     QCConfig(**cfg["qc"])
     Priors(**cfg["priors"])

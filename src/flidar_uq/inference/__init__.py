@@ -58,7 +58,12 @@ from flidar_uq.inference.observations import (
 )
 from flidar_uq.inference.predictive import prior_predictive
 from flidar_uq.inference.priors import Priors, SamplerSettings, sample_motion_prior
-from flidar_uq.inference.record_fit import fit_record_model, is_record_model, log_prob_record_model
+from flidar_uq.inference.record_fit import (
+    fit_record_model,
+    fit_record_model_selecting_hull,
+    is_record_model,
+    log_prob_record_model,
+)
 from flidar_uq.inference.record_motion import per_record_motion
 from flidar_uq.inference.results import (
     BinFit,
@@ -72,6 +77,7 @@ from flidar_uq.physics.six_dof_sigma_z import translation_unit_sq
 
 __all__ = [
     "fit_record_model",
+    "fit_record_model_selecting_hull",
     "is_record_model",
     "log_prob_record_model",
     "per_record_motion",

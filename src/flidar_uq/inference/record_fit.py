@@ -36,9 +36,14 @@ import pandas as pd
 
 from flidar_uq.inference.densities import _LOG2PI, _in, _log_halfnormal_logscale, _norm_logpdf
 from flidar_uq.inference.diagnostics import _diagnostics, _thin
-from flidar_uq.inference.loo import _loo_chunked
+from flidar_uq.inference.loo import _loo_chunked, _loo_compare
 from flidar_uq.inference.priors import Priors, SamplerSettings
-from flidar_uq.inference.record_motion import per_record_motion, six_dof_terms
+from flidar_uq.inference.record_motion import (
+    FOLLOWER_COLUMNS,
+    describe_motion,
+    per_record_motion,
+    six_dof_terms,
+)
 from flidar_uq.inference.results import GlobalFit
 from flidar_uq.inference.sampler import _run_ensembles, laplace_init
 from flidar_uq.seeding import as_seedsequence
@@ -47,6 +52,7 @@ from flidar_uq.threads import single_threaded
 __all__ = [
     "RECORD_MODEL_NAMES",
     "fit_record_model",
+    "HULL_MODELS",
     "LEVER_ARM_PLAUSIBLE_MAX_M",
     "is_record_model",
     "lever_arm_check",
@@ -516,3 +522,76 @@ def _record_loo(theta, s, r, sz_rot, u2, pair, six=None):
         )
 
     return _loo_chunked(pointwise, s.size, n_samples=theta.shape[0])
+
+
+#: Hull models of the record model's selection (:func:`fit_record_model_selecting_hull`).
+HULL_MODELS = ("auto", "rotation_only", "translating")
+
+#: LOO margin: the translating hull model is kept only when its elpd exceeds the
+#: rotation-only model's by more than this many standard errors of the difference (and by
+#: more than :data:`HULL_ELPD_MIN`), the usual reading of a PSIS-LOO comparison (Vehtari et
+#: al. 2017; Sivula et al. 2022: differences below ~4 are not distinguishable from noise).
+HULL_SE_MARGIN = 2.0
+HULL_ELPD_MIN = 4.0
+
+
+def fit_record_model_selecting_hull(records: pd.DataFrame, *, hull_model: str = "auto", **kw):
+    """The record model with the simplest hull description the data support.
+
+    Two nested descriptions of the buoy (docs/inference.md, "The hull"):
+
+    * ``"rotation_only"``: the buoy rotates about a fixed centre (the hull-translation
+      terms of :func:`~flidar_uq.inference.record_motion.six_dof_terms` are 0, so the
+      hull response ``h`` keeps its prior and has no effect);
+    * ``"translating"``: surge, sway and heave from the record's tilt spectrum through the
+      fitted hull response ``h`` (0 rotation only, 1 wave follower).
+
+    ``"auto"`` fits both on the same records and keeps the translating one only when its
+    PSIS-LOO elpd is better by more than ``max(HULL_ELPD_MIN, HULL_SE_MARGIN se)``; without
+    the translation columns it is the rotation-only model, unfitted twice.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        As :func:`fit_record_model`.
+    hull_model : {"auto", "rotation_only", "translating"}
+    **kw
+        Passed to :func:`fit_record_model`.
+
+    Returns
+    -------
+    GlobalFit
+        The kept model's fit; ``info["hull_model"]`` the kept description and
+        ``info["hull_model_comparison"]`` (with ``"auto"`` and both fitted) the elpd of
+        each, their difference and its standard error.
+    """
+    if hull_model not in HULL_MODELS:
+        raise ValueError(
+            f"fit_record_model_selecting_hull: hull_model={hull_model!r}, expected one of "
+            f"{', '.join(HULL_MODELS)}"
+        )
+    rotation = records.drop(columns=[c for c in FOLLOWER_COLUMNS if c in records])
+    has_translation = bool((describe_motion(records)["translation_description"] != "none").any())
+    if hull_model == "rotation_only" or not has_translation:
+        fit = fit_record_model(rotation, **kw)
+        fit.info["hull_model"] = "rotation_only"
+        return fit
+    full = fit_record_model(records, **kw)
+    full.info["hull_model"] = "translating"
+    if hull_model == "translating":
+        return full
+    rot = fit_record_model(rotation, **kw)
+    rot.info["hull_model"] = "rotation_only"
+    a, b = full.pointwise_loo, rot.pointwise_loo
+    if a is None or b is None or a["elpd_i"].shape != b["elpd_i"].shape:
+        return full  # no comparison possible: the fuller description
+    diff, se = _loo_compare(a, b)
+    keep = full if diff > max(HULL_ELPD_MIN, HULL_SE_MARGIN * se) else rot
+    keep.info["hull_model_comparison"] = {
+        "translating_elpd": a["elpd"],
+        "rotation_only_elpd": b["elpd"],
+        "elpd_difference": diff,
+        "elpd_difference_se": se,
+        "kept": keep.info["hull_model"],
+    }
+    return keep

@@ -212,8 +212,9 @@ def fit_global_model(
                 reference["sampling_correlation"], np.nanmin(corr), np.nanmax(corr),
                 np.nanmin(pair_log_sd), np.nanmax(pair_log_sd),
             )  # fmt: skip
-        fit = inf.fit_record_model(
+        fit = inf.fit_record_model_selecting_hull(
             assigned,
+            hull_model=inference.get("hull_model", "auto"),
             surrogate=get_surrogate(lidar),
             settings=_settings(inference),
             seed=seed,
@@ -226,6 +227,12 @@ def fit_global_model(
         Path(out_path).parent.mkdir(parents=True, exist_ok=True)
         inf.save_fit(fit, out_path)
         log.info("record model: converged=%s %s", fit.converged, "; ".join(fit.failure_reasons))
+        cmp = fit.info.get("hull_model_comparison")
+        log.info(
+            "record model: hull %s%s", fit.info["hull_model"],
+            "" if not cmp else f" (PSIS-LOO elpd translating - rotation only "
+            f"{cmp['elpd_difference']:+.1f} +- {cmp['elpd_difference_se']:.1f})",
+        )  # fmt: skip
         for key in ("motion_scale_warning", "lever_arm_warning"):
             if key in fit.info:
                 log.warning(fit.info[key])

@@ -309,6 +309,7 @@ def _first_screen(ctx: dict) -> str:
         campaign_name,
         file_identity,
         first_screen_html,
+        hull_model_words,
         motion_description_summary,
         reference_speed_bins,
         representative_at_15,
@@ -334,6 +335,9 @@ def _first_screen(ctx: dict) -> str:
     described = motion_description_summary(records)
     if described:
         facts.append(("motion description", described))
+    hull = hull_model_words(ctx["gfit"].info if ctx.get("gfit") is not None else {})
+    if hull:
+        facts.append(("hull model", hull))
     screen = FirstScreen(
         title=campaign_name(config),
         facts=facts,

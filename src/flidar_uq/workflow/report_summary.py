@@ -28,6 +28,7 @@ __all__ = [
     "campaign_name",
     "first_screen_html",
     "held_out_records",
+    "hull_model_words",
     "lever_arm_words",
     "motion_description_summary",
     "motion_scale_words",
@@ -379,3 +380,22 @@ def motion_description_summary(records: pd.DataFrame) -> str:
         for (t, tr), n in counts.sort_values(ascending=False).items()
     ]
     return " · ".join(parts)
+
+
+def hull_model_words(info: dict) -> str:
+    """The record model's hull description and why, from the global fit's ``info``."""
+    kept = info.get("hull_model")
+    if not kept:
+        return ""
+    name = {
+        "rotation_only": "rotation about a fixed centre",
+        "translating": "surge, sway and heave from the tilt spectrum (fitted hull response)",
+    }[kept]
+    cmp = info.get("hull_model_comparison")
+    if not cmp:
+        return f"{name} (configured, or no translation description in the records)"
+    return (
+        f"{name}: the PSIS-LOO elpd of the translating model minus the rotation-only one is "
+        f"{cmp['elpd_difference']:+.1f} ± {cmp['elpd_difference_se']:.1f}; the translating "
+        "model is kept only when it is better by more than max(4, 2 se)"
+    )
