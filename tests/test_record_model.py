@@ -377,3 +377,80 @@ def test_hull_model_words_state_the_comparison():
     txt = hull_model_words(info)
     assert txt.startswith("rotation about a fixed centre") and "+1.2 ± 2.0" in txt
     assert hull_model_words({}) == ""
+
+
+def _with_measured_translation(rec, ratio):
+    """The records' translation 'measured' at ``ratio`` times the wave follower's."""
+    out = rec.copy()
+    out["heave_velocity_std_ms"] = ratio * rec["follower_heave_velocity_std_ms"]
+    # deep-water orbits are circular: the follower's horizontal std equals its heave std
+    out["surge_velocity_std_ms"] = ratio * rec["follower_heave_velocity_std_ms"] * 0.8
+    out["sway_velocity_std_ms"] = ratio * rec["follower_heave_velocity_std_ms"] * 0.6
+    return out
+
+
+def test_measured_translation_fixes_the_hull_response_of_its_records():
+    from flidar_uq.inference.record_motion import (
+        describe_motion,
+        hull_sigma_z_ms,
+        measured_response,
+        six_dof_terms,
+    )
+
+    truth = {"rho": 0.0, "kappa": 0.03, "kappa_z": 0.1, "lever_arm_m": 2.0,
+             "motion_scale": 1.0, "hull_response": 0.6}  # fmt: skip
+    rec = _draw_records(np.random.default_rng(8), 50, truth)
+    meas = _with_measured_translation(rec, 0.6)
+    r_z, r_x = measured_response(meas)
+    np.testing.assert_allclose(r_z, 0.6, rtol=1e-12)
+    np.testing.assert_allclose(r_x, 0.6, rtol=1e-12)
+    assert np.all(np.isnan(measured_response(rec)[0]))
+    mot = per_record_motion(meas)
+    t_meas, t_foll = six_dof_terms(meas, mot), six_dof_terms(rec, mot)
+    assert t_meas["translation_measured"].eq(1.0).all()
+    assert t_foll["translation_measured"].eq(0.0).all()
+    expect = hull_sigma_z_ms(mot, t_foll, lever_arm_m=2.0, hull_response=0.6)
+    for h in (0.0, 0.3, 1.4):  # the fitted response no longer matters where measured
+        got = hull_sigma_z_ms(mot, t_meas, lever_arm_m=2.0, hull_response=h)
+        np.testing.assert_allclose(got, expect, rtol=1e-12)
+    assert describe_motion(meas)["translation_description"].eq("measured").all()
+    # a displacement std stands in for a missing velocity std at the heave's mean period
+    disp = rec.assign(
+        heave_std_m=0.6 * rec["follower_heave_velocity_std_ms"]
+        * rec["follower_heave_period_s"] / (2 * np.pi)
+    )  # fmt: skip
+    np.testing.assert_allclose(measured_response(disp)[0], 0.6, rtol=1e-9)
+    np.testing.assert_allclose(measured_response(disp)[1], 0.6, rtol=1e-9)  # taken equal
+
+
+def test_record_model_with_measured_translation_recovers_lever_arm_and_scale():
+    truth = {"rho": 0.1, "kappa": 0.03, "kappa_z": 0.15, "lever_arm_m": 2.5,
+             "motion_scale": 1.0, "hull_response": 0.6}  # fmt: skip
+    rec = _with_measured_translation(_draw_records(np.random.default_rng(9), 1500, truth), 0.6)
+    fit = fit_record_model(rec, seed=9, settings=SamplerSettings(nsteps=200, nburn=100))
+    assert fit.converged, fit.failure_reasons
+    for name in ("rho", "kappa", "kappa_z", "lever_arm_m", "motion_scale"):
+        lo, hi = np.quantile(fit.flat(name), [0.001, 0.999])
+        assert lo <= truth[name] <= hi, (name, lo, hi)
+    # the hull response is not identified by records whose translation is measured: its
+    # posterior is its half-normal(1) prior (median 0.67)
+    assert 0.3 < np.median(fit.flat("hull_response")) < 1.1
+
+
+def test_propagation_of_a_rotation_only_hull_model_ignores_the_translation_columns():
+    from flidar_uq.correction.propagation import corrected_ti
+    from flidar_uq.inference.record_motion import FOLLOWER_COLUMNS
+
+    truth = {"rho": 0.0, "kappa": 0.03, "kappa_z": 0.1, "lever_arm_m": 2.0,
+             "motion_scale": 1.0, "hull_response": 0.8}  # fmt: skip
+    rec = _draw_records(np.random.default_rng(12), 200, truth).assign(bin_id=0)
+    fit = fit_record_model(rec, seed=12, settings=SamplerSettings(nsteps=60, nburn=30))
+    plain = rec.drop(columns=list(FOLLOWER_COLUMNS))
+
+    def sz(records, hull_model):
+        fit.info["hull_model"] = hull_model
+        out = corrected_ti(records, [], fit, ndraws=50, group_statistics=False, seed=3)[0]
+        return out["sigma_z_median_ms"].to_numpy()
+
+    np.testing.assert_array_equal(sz(rec, "rotation_only"), sz(plain, "translating"))
+    assert np.mean(np.abs(sz(rec, "translating") / sz(plain, "translating") - 1)) > 0.05

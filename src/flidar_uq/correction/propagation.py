@@ -818,6 +818,8 @@ def corrected_ti(
         hull = global_draws("hull_response", "motion")
         mot = per_record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
         terms = six_dof_terms(records, mot, surrogate=surrogate, scan_period_s=scan_period_s)
+        if global_fit.info.get("hull_model") == "rotation_only":  # the kept hull model
+            terms = terms * 0.0
         szr = mot["sigma_z_rot_ms"].to_numpy()
         u2 = mot["translation_unit_sq"].to_numpy()
         described = np.isfinite(szr) & np.isfinite(u2)

@@ -89,7 +89,7 @@ def _record_z2_tau2(theta, s, r, sz_rot, u2, pair_sq, six=None):
     ``pair_sq``: the known relative variance of the two instruments' sampling (-), a
     scatter of the turbulent part ``r`` (enters through ``(dmu/dr)^2``); a scalar 0 or an
     array of ``n_obs`` values. ``six``: the hull-translation terms ``(X, H, Y, O)`` of
-    :func:`flidar_uq.inference.record_motion.six_dof_terms`, shape (4, n_obs), or None
+    :func:`flidar_uq.inference.record_motion.six_dof_terms`, shape (5, n_obs) (the fifth row the measured-translation flag; 4 rows: none measured), or None
     (none: the hull response ``h`` then has no effect).
     """
     rho = theta[:, 0:1]
@@ -100,6 +100,8 @@ def _record_z2_tau2(theta, s, r, sz_rot, u2, pair_sq, six=None):
     sz_sq = sz_rot**2
     if six is not None:  # the hull's translation (module docstring)
         h = np.exp(theta[:, 5:6])
+        if six.shape[0] > 4 and np.any(six[4]):  # measured translation: response known
+            h = h + six[4] * (1.0 - h)
         sz_sq = sz_sq - 2.0 * h * six[0] + h**2 * six[1]
     sz_sq = k_sq * sz_sq
     sz_sq += lever**2 * u2
@@ -246,7 +248,7 @@ def log_prob_record_model(
     pair_log_sd : numpy.ndarray, shape (n_obs,), optional
         Known std of ``log(s / r)`` from the two instruments' sampling alone (-): added to
         ``kappa`` in quadrature (module docstring); default None: 0.
-    six : numpy.ndarray, shape (4, n_obs), optional
+    six : numpy.ndarray, shape (4 or 5, n_obs), optional
         The hull-translation terms of :func:`flidar_uq.inference.record_motion.six_dof_terms`
         (``heave_cross_sq``, ``heave_leak_sq``, ``orbital_cross_sq``, ``orbital_sq``);
         default None: the buoy only rotates.
@@ -294,7 +296,7 @@ def _record_observations(records, surrogate, scan_period_s):
 
     Returns ``((s, r, sz_rot, u2, six), use, kinds)``: measured std ``s`` (m/s), reference
     std ``r`` (m/s), rotational sigma_Z (m/s), translation term ``u2`` ((m/s)^2 / m^2) and
-    the hull-translation terms ``six`` (4, n) (:func:`six_dof_terms`) of the usable
+    the hull-translation terms ``six`` (5, n) (:func:`six_dof_terms`) of the usable
     records (all finite and ``s, r > 0``), the mask ``use`` over ``records`` and every
     record's motion description kind.
     """
@@ -310,7 +312,7 @@ def _record_observations(records, surrogate, scan_period_s):
     szr = mot["sigma_z_rot_ms"].to_numpy()
     u2 = mot["translation_unit_sq"].to_numpy()
     use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.isfinite(szr) & np.isfinite(u2)
-    six = six.to_numpy(dtype=float).T  # (4, n): X, H, Y, O
+    six = six.to_numpy(dtype=float).T  # (5, n): X, H, Y, O, measured
     return (s[use], r[use], szr[use], u2[use], np.ascontiguousarray(six[:, use])), use, kinds
 
 

@@ -25,10 +25,12 @@ from flidar_uq.physics.surrogate import default_surrogate
 
 __all__ = [
     "ALONG_WIND_COLUMNS",
+    "MEASURED_TRANSLATION_COLUMNS",
     "MOTION_DESCRIPTIONS",
     "TRANSLATION_DESCRIPTIONS",
     "describe_motion",
     "hull_sigma_z_ms",
+    "measured_response",
     "per_record_motion",
     "six_dof_terms",
 ]
@@ -44,10 +46,12 @@ ALONG_WIND_COLUMNS = ("tilt_along_wind_std_deg", "tilt_period_mean_s")
 MOTION_DESCRIPTIONS = ("along_wind", "roll_pitch", "none")
 
 #: Values of ``translation_description``: where a record's hull translation comes from.
-#: ``"tilt_spectrum"``: the translation a wave follower has with the record's tilt spectrum
+#: ``"measured"``: the record's MRU or GNSS translation stds
+#: (:data:`MEASURED_TRANSLATION_COLUMNS`, :func:`measured_response`) with the wave
+#: follower's phases, the hull response known; ``"tilt_spectrum"``: the translation a wave follower has with the record's tilt spectrum
 #: (:data:`FOLLOWER_COLUMNS`), scaled by the fitted hull response; ``"none"``: the buoy is
 #: taken to rotate about a fixed centre (the rotation-only model).
-TRANSLATION_DESCRIPTIONS = ("tilt_spectrum", "none")
+TRANSLATION_DESCRIPTIONS = ("measured", "tilt_spectrum", "none")
 
 
 def _col(records: pd.DataFrame, name: str) -> np.ndarray:
@@ -142,6 +146,60 @@ FOLLOWER_COLUMNS = (
 )
 
 
+#: Record columns of a measured translation (MRU or GNSS, m/s and m): the velocity stds,
+#: else the displacement stds (turned into velocities at the wave follower's heave mean
+#: period). Heave positive up, surge and sway along the body x and y axes.
+MEASURED_TRANSLATION_COLUMNS = (
+    "heave_velocity_std_ms",
+    "surge_velocity_std_ms",
+    "sway_velocity_std_ms",
+    "heave_std_m",
+    "surge_std_m",
+    "sway_std_m",
+)
+
+
+def measured_response(records: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """The hull's measured vertical and horizontal responses relative to a wave follower.
+
+    A wave follower with the record's tilt spectrum heaves with the velocity std
+    ``sigma_h`` (``follower_heave_velocity_std_ms``) and, deep-water orbital motion being
+    circular, moves horizontally with the same total std. A measured translation gives the
+    ratios ``R_z = sigma_heave / sigma_h`` and ``R_x = sqrt(sigma_surge^2 + sigma_sway^2) /
+    sigma_h`` (velocity stds; a displacement std times ``2 pi / T_h``, ``T_h`` the
+    follower's heave mean period). With only the heave, or only the horizontal motion,
+    measured the other ratio is taken equal to it. The phases stay the wave follower's (a
+    hull's response in phase with the waves, right well above its natural periods).
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records with :data:`FOLLOWER_COLUMNS` and any of
+        :data:`MEASURED_TRANSLATION_COLUMNS`.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        ``R_z``, ``R_x`` (-), NaN where the translation is not measured.
+    """
+    sig_h = _col(records, FOLLOWER_COLUMNS[0])
+    omega_h = 2.0 * np.pi / np.clip(_col(records, FOLLOWER_COLUMNS[1]), 1.0, 20.0)
+
+    def velocity(v_col, x_col):
+        v = _col(records, v_col)
+        return np.where(np.isfinite(v), v, _col(records, x_col) * omega_h)
+
+    heave = velocity("heave_velocity_std_ms", "heave_std_m")
+    surge = velocity("surge_velocity_std_ms", "surge_std_m")
+    sway = velocity("sway_velocity_std_ms", "sway_std_m")
+    horiz = np.sqrt(surge**2 + sway**2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r_z = np.where(sig_h > 0, heave / sig_h, np.nan)
+        r_x = np.where(sig_h > 0, horiz / sig_h, np.nan)
+    r_z, r_x = np.where(np.isfinite(r_z), r_z, r_x), np.where(np.isfinite(r_x), r_x, r_z)
+    return r_z, r_x
+
+
 def six_dof_terms(
     records: pd.DataFrame, motion: pd.DataFrame, *, surrogate=None, scan_period_s: float = 1.0
 ) -> pd.DataFrame:
@@ -159,6 +217,11 @@ def six_dof_terms(
     ``sZ^2 = k^2 (sZ_rot^2 - 2 h heave_cross_sq + h^2 heave_leak_sq)
     + L^2 u^2 - 2 L h orbital_cross_sq + h^2 orbital_sq``.
 
+    Where the record's translation is measured (:func:`measured_response`), the heave
+    terms are scaled by ``R_z`` (the cross term) and ``R_z^2``, the orbital ones by ``R_x``
+    and ``R_x^2``, and ``translation_measured`` is 1: the hull response is known there,
+    ``h = 1`` in :func:`hull_sigma_z_ms` and the likelihood.
+
     Parameters
     ----------
     records : pandas.DataFrame
@@ -173,7 +236,7 @@ def six_dof_terms(
     pandas.DataFrame
         ``heave_cross_sq``, ``heave_leak_sq`` ((m/s)^2), ``orbital_cross_sq`` ((m/s)^2 per
         m of lever arm), ``orbital_sq`` ((m/s)^2); 0 where the follower columns are absent
-        (the rotation-only model).
+        (the rotation-only model); ``translation_measured`` (1 or 0, -).
     """
     surrogate = default_surrogate(surrogate)
     sig_h, per_h, sig_u, rho_h = (_col(records, c) for c in FOLLOWER_COLUMNS)
@@ -196,6 +259,13 @@ def six_dof_terms(
         sinc_h = np.sinc(scan_period_s / th)
         out["orbital_cross_sq"][ok] = G_MS2 * np.deg2rad(std_a[ok]) ** 2 * sinc_m**2
         out["orbital_sq"][ok] = (sig_u[ok] * sinc_h) ** 2
+    r_z, r_x = measured_response(records)
+    meas = ok & np.isfinite(r_z) & np.isfinite(r_x)
+    out["heave_cross_sq"][meas] *= r_z[meas]
+    out["heave_leak_sq"][meas] *= r_z[meas] ** 2
+    out["orbital_cross_sq"][meas] *= r_x[meas]
+    out["orbital_sq"][meas] *= r_x[meas] ** 2
+    out["translation_measured"] = meas.astype(float)
     return pd.DataFrame(out, index=records.index)
 
 
@@ -226,7 +296,10 @@ def describe_motion(records: pd.DataFrame) -> pd.DataFrame:
     amp, per, along, rp = _tilt_description(records)
     ok = np.isfinite(amp) & np.isfinite(per) & np.isfinite(_col(records, "hws_mean_ms"))
     tilt = np.where(along & ok, "along_wind", np.where(rp & ok, "roll_pitch", "none"))
-    trans = np.where(along & ok & _follower_complete(records), "tilt_spectrum", "none")
+    follower = along & ok & _follower_complete(records)
+    r_z, r_x = measured_response(records)
+    measured = follower & np.isfinite(r_z) & np.isfinite(r_x)
+    trans = np.where(measured, "measured", np.where(follower, "tilt_spectrum", "none"))
     return pd.DataFrame(
         {"motion_description": tilt, "translation_description": trans}, index=records.index
     )
@@ -240,6 +313,9 @@ def hull_sigma_z_ms(motion, terms, *, lever_arm_m, hull_response, motion_scale=1
     sz = np.asarray(motion["sigma_z_rot_ms"], float)
     u2 = np.asarray(motion["translation_unit_sq"], float)
     h = np.asarray(hull_response, float)
+    if "translation_measured" in terms:  # measured translation: the response is known
+        meas = np.asarray(terms["translation_measured"], float)
+        h = h + meas * (1.0 - h)
     lev = np.asarray(lever_arm_m, float)
     leak = (
         sz**2

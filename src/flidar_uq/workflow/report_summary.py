@@ -362,6 +362,7 @@ _TILT_WORDS = {
     "roll_pitch": "roll and pitch amplitude and period only",
 }
 _TRANSLATION_WORDS = {
+    "measured": "surge, sway and heave measured (MRU or GNSS stds), the hull response known",
     "tilt_spectrum": "surge and heave from the tilt spectrum through the fitted hull response",
     "none": "no translation (rotation about a fixed centre)",
 }
