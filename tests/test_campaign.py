@@ -644,3 +644,19 @@ def test_unknown_hull_is_refused_with_the_known_names():
         ValueError, match=r"motion.sea_state.hull: unknown hull 'raft'; known hulls"
     ):
         CampaignConfig.from_dict(sc)
+
+
+def test_mru_translation_columns_are_the_hulls_velocity_stds():
+    """With imu.mru_translation the records carry the hull's surge, sway and heave velocity
+    stds: the heave one is the truth column, the horizontal ones together match the
+    follower's circular orbits (surge^2 + sway^2 = the horizontal variance, whatever the
+    heading)."""
+    sc = load_scenario("wave_follower_mru") | {"n_records": 4}
+    recs = generate_campaign(sc, 5, n_workers=1).records
+    np.testing.assert_array_equal(recs["heave_velocity_std_ms"], recs["true_heave_velocity_std_ms"])
+    horiz = np.hypot(recs["surge_velocity_std_ms"], recs["sway_velocity_std_ms"])
+    # deep-water orbits: horizontal and vertical velocity stds of a wave follower agree
+    np.testing.assert_allclose(horiz, recs["heave_velocity_std_ms"], rtol=0.15)
+    assert (recs["surge_velocity_std_ms"] != recs["sway_velocity_std_ms"]).all()
+    plain = generate_campaign(load_scenario("wave_follower") | {"n_records": 4}, 5, n_workers=1)
+    assert "heave_velocity_std_ms" not in plain.records

@@ -261,16 +261,24 @@ def _body_to_enu(surge_m, sway_m, heave_m, yaw_deg):
     return np.stack([east, north, heave_m], axis=-1)
 
 
-def _translation_truth(trans, dt_s, e_wind):
-    """Std of the heave (m), of the heave velocity and of the horizontal velocity along the
-    wind (m/s) of a record's translation (N, 3) on the LOS clock; NaN without translation."""
+def _translation_truth(trans, dt_s, e_wind, yaw_deg):
+    """Std of the heave (m), of the heave velocity, of the horizontal velocity along the
+    wind, along the body x axis (surge) and along the body y axis (sway) (m/s) of a record's
+    translation (N, 3, east-north-up) on the LOS clock, the heading ``yaw_deg`` (deg,
+    counter-clockwise from east; (N,) or (1,)); NaN without translation."""
     if trans is None:
-        return (np.nan, np.nan, np.nan)
+        return (np.nan,) * 5
     vel = np.diff(trans, axis=0) / dt_s
+    y = np.deg2rad(np.asarray(yaw_deg, float))
+    y = y[:-1] if y.size == trans.shape[0] else y
+    surge = vel[:, 0] * np.cos(y) + vel[:, 1] * np.sin(y)
+    sway = -vel[:, 0] * np.sin(y) + vel[:, 1] * np.cos(y)
     return (
         float(np.std(trans[:, 2])),
         float(np.std(vel[:, 2])),
         float(np.std(vel[:, :2] @ e_wind)),
+        float(np.std(surge)),
+        float(np.std(sway)),
     )
 
 
@@ -575,7 +583,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         imu_att.append(att)
         imu_ns.append(_utc_ns(ts, t_imu))
         fl_truth.append(s["fluct_uvw"][..., ::k_truth].copy())  # the 1-Hz samples
-        trans_truth.append(_translation_truth(s["trans"], dt, e_wind[c, :2]))
+        trans_truth.append(_translation_truth(s["trans"], dt, e_wind[c, :2], yaw_c[0]))
         for key in ("roll", "pitch", "fluct_uvw", "trans", "imu_noise"):
             del s[key]  # the record's long series: done with
         series.append(s)
@@ -691,6 +699,10 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         "true_ref_hws_mean_ms": h0_mean.ravel(),
         "true_ref_hws_std_ms": h0_std.ravel(),
     } | {k: per_record(v) for k, v in regimes.items()}
+    if settings["imu"].get("mru_translation"):  # the buoy's motion reference unit
+        for j, col in ((1, "heave_velocity_std_ms"), (3, "surge_velocity_std_ms"),
+                       (4, "sway_velocity_std_ms")):  # fmt: skip
+            cols[col] = per_record(np.array([t[j] for t in trans_truth]))
     if want_los:
         import pandas as pd  # the series' frames (the records go back as arrays)
 

@@ -143,6 +143,9 @@ DEFAULT_SCENARIO: dict = {
         "gap_probability": 0.02,
         "gap_length_range_s": [10.0, 120.0],
         "period_range_s": [1.0, 30.0],  # band searched for spectral peaks (imu.py)
+        # a motion reference unit: the hull's surge, sway and heave velocity stds in the
+        # records (heave_velocity_std_ms, surge_velocity_std_ms, sway_velocity_std_ms)
+        "mru_translation": False,
     },
 }
 
