@@ -1,0 +1,354 @@
+"""sigma_Z of a pulsed DBS lidar on a moving hull: a harmonic sum over the beams' times.
+
+A DBS lidar (WindCube-like, :data:`flidar_uq.physics.lidar.KNOWN_LIDARS`) takes its beams one
+after another, about 1 s each, and retrieves ``u`` and ``v`` from opposite beam pairs
+(Yamaguchi & Ishihara 2016, Eq. 3): ``u = (V_E - V_W) / (2 sin th)``. To first order in the
+motion, the radial speed of beam ``k`` at time ``t_k`` is perturbed by ``d_k . e(t_k)``
+(``d_k`` its body-frame unit vector) with the apparent wind perturbation
+
+``e = U x Omega - v_head``,
+
+``Omega`` the small rotation vector of the tilt and ``v_head`` the head's velocity (tilt
+about a lever arm, surge, sway and heave: Yamaguchi & Ishihara 2016, Eqs. 3-4). For a wave
+component leaning the hull by ``phi = A exp(i omega t)`` along its direction of travel
+``xi`` (the kinematics of :mod:`flidar_uq.physics.hull`):
+
+- ``(U x Omega)_z = U cos(psi) phi``: the mean wind rotated into the body's vertical
+  (``psi`` between the wave's and the wind's directions of travel);
+- the heave velocity ``R_z c phi`` (``c = g / omega``) and the horizontal head velocity
+  ``i omega (L - R_x g / omega^2) phi`` along ``xi``.
+
+The retrieval is linear in the radial speeds (:func:`flidar_uq.physics.lidar.dbs_retrieval_operator`
+``P``), so a component's retrieved-wind error is the phasor
+``delta = sum_k P_k (d_k . E) exp(i omega t_k)``. For an opposite pair taken ``dt`` apart
+the vertical part enters as ``cot(th) / 2 * E_z (exp(i omega t_E) - exp(i omega t_W))``: the
+leak of vertical motion that changes between the beams, ``cos(th) / (2 sin(th))`` (0.87 at
+30 deg) times the change; zero for a motion that does not change between them. The pairs
+are taken at different times, so the along-wind error depends on the wind direction
+relative to the beams (the buoy's heading): for the leak,
+``|cos(beta) exp(i omega tau) + sin(beta)|^2 = 1 + sin(2 beta) cos(omega tau)`` for N, E,
+S, W at ``tau`` a beam.
+
+sigma_Z (std of ``Z = retrieved HWS - HWS`` over the cycles of a record) is then, with
+``delta_par`` and ``delta_perp`` the phasors along and across the wind and the components
+independent (random phases),
+
+``sigma_Z^2 = sum_j |delta_par,j|^2 / 2 + sigma_perp^4 / (2 U^2)``,
+``sigma_perp^2 = sum_j |delta_perp,j|^2 / 2``
+
+(the second term: the cross-wind error's ``delta_perp^2 / (2 U)``). Checked against the LOS
+replay of the scan simulator (:func:`dbs_replay_sigma_z_ms`; ``benchmarks/dbs_sigma_z.py``).
+Where it does not hold: second-order tilt terms (``U phi^2``) are left out, which matters
+only where the first-order leak cancels (a period equal to the opposite-beam lag, or a wave
+follower whose heave cancels the tilt's vertical wind, ``U cos(psi) = c``); yaw within a
+cycle is not modelled (compass correction per cycle). There, use the replay.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from flidar_uq.physics.hull import get_hull, orbital_lever_arm_m, phase_speed_ms
+from flidar_uq.physics.lidar import (
+    LidarGeometry,
+    beam_unit_vectors_body,
+    dbs_retrieval_operator,
+    get_lidar,
+    scan_times_azimuths,
+)
+
+__all__ = [
+    "DBS_MECHANISMS",
+    "dbs_component_errors",
+    "dbs_harmonic_sigma_z_ms",
+    "dbs_heading_average_sigma_z_ms",
+    "dbs_record_sigma_z_ms",
+    "dbs_replay_sigma_z_ms",
+    "wind_to_body_deg",
+]
+
+#: Mechanisms that :func:`dbs_harmonic_sigma_z_ms` can switch off one at a time
+#: (``benchmarks/dbs_mechanisms.py``): ``tilt`` (the mean wind rotated into the beams'
+#: vertical), ``heave`` (the hull's vertical velocity), ``translation`` (the head's
+#: horizontal velocity: lever arm and orbital surge/sway), ``beam_timing`` (beams at
+#: different times; off: every beam of a cycle at the cycle's mid time).
+DBS_MECHANISMS = ("tilt", "heave", "translation", "beam_timing")
+
+
+def wind_to_body_deg(wd_deg, yaw_deg=0.0):
+    """Direction the wind blows towards in the body frame, deg counter-clockwise from the
+    body x axis, from the meteorological direction ``wd_deg`` (from, clockwise from north)
+    and the yaw (body x axis, counter-clockwise from east; docs/conventions.md)."""
+    return (270.0 - np.asarray(wd_deg, float) - np.asarray(yaw_deg, float)) % 360.0
+
+
+def _beam_weights(g: LidarGeometry):
+    """Times (s, from the cycle start), body unit vectors and the retrieval operator of one
+    cycle: ``W[k, m, i] = P[k, m] d_k[i]`` so that ``delta_m = sum_k W[k, m, :] . e(t_k)``."""
+    t, az = scan_times_azimuths(g)
+    d = beam_unit_vectors_body(g, az)  # (K, 3)
+    if g.kind == "dbs":
+        p = dbs_retrieval_operator(g)  # (K, 3)
+    else:  # a signed VAD: the least-squares operator
+        from flidar_uq.physics.lidar import vad_pseudo_inverse
+
+        p = vad_pseudo_inverse(d).T
+    return t, p[:, :, None] * d[:, None, :]  # (K,), (K, 3, 3)
+
+
+def dbs_component_errors(
+    amplitude_deg,
+    period_s,
+    direction_deg,
+    *,
+    hws_ms,
+    wind_body_deg,
+    lever_arm_m: float = 0.0,
+    hull="wave_follower",
+    lidar: str | LidarGeometry | Mapping = "windcube_v2",
+    mechanisms=DBS_MECHANISMS,
+):
+    """Phasors of the retrieved horizontal wind's error along and across the wind, per component.
+
+    Parameters
+    ----------
+    amplitude_deg, period_s, direction_deg : array_like, shape (..., nc)
+        Lean amplitude of each wave component along its direction of travel (deg), its
+        period (s) and direction of travel (deg, counter-clockwise from the body x axis).
+    hws_ms : array_like, shape (...)
+        Mean horizontal wind speed, m/s.
+    wind_body_deg : array_like, shape (...)
+        Direction the wind blows towards, deg counter-clockwise from the body x axis
+        (:func:`wind_to_body_deg`).
+    lever_arm_m : float
+        Height of the lidar head above the hull's rotation centre, m.
+    hull : str or HullResponse
+        The hull's response (:data:`flidar_uq.physics.hull.HULLS`).
+    lidar : str, LidarGeometry or mapping
+    mechanisms : sequence of str
+        The mechanisms kept (:data:`DBS_MECHANISMS`).
+
+    Returns
+    -------
+    d_par, d_perp : ndarray, complex, shape (..., nc)
+        Complex amplitude (m/s) of the error along and across the wind; a component's
+        variance is ``|d|^2 / 2``.
+    """
+    g = get_lidar(lidar)
+    bad = set(mechanisms) - set(DBS_MECHANISMS)
+    if bad:
+        raise ValueError(f"unknown mechanism {sorted(bad)[0]!r}; known: {', '.join(DBS_MECHANISMS)}")
+    t_k, w = _beam_weights(g)
+    if "beam_timing" not in mechanisms:
+        t_k = np.full_like(t_k, 0.5 * (t_k[0] + t_k[-1]))
+    amp = np.deg2rad(np.asarray(amplitude_deg, float))
+    per = np.asarray(period_s, float)
+    th = np.deg2rad(np.asarray(direction_deg, float))
+    hws = np.asarray(hws_ms, float)[..., None]
+    beta = np.deg2rad(np.asarray(wind_body_deg, float))[..., None]
+    omega = 2.0 * np.pi / per
+    r_x, r_z = get_hull(hull).relative_responses(per)
+    cos_psi = np.cos(th - beta)
+    e_z = np.zeros(np.broadcast_shapes(amp.shape, hws.shape), complex)
+    if "tilt" in mechanisms:
+        e_z = e_z + hws * cos_psi * amp
+    if "heave" in mechanisms:
+        e_z = e_z - r_z * phase_speed_ms(per) * amp
+    if "translation" in mechanisms:
+        lever = float(lever_arm_m) - r_x * orbital_lever_arm_m(per)
+        e_h = -1j * omega * lever * amp  # along xi, minus the head velocity
+    else:
+        e_h = np.zeros_like(e_z)
+    e = np.stack(
+        np.broadcast_arrays(e_h * np.cos(th), e_h * np.sin(th), e_z), axis=-1
+    )  # (..., nc, 3)
+    z = np.exp(1j * omega[..., None] * t_k)  # (..., nc, K)
+    # delta_m = sum_k z_k sum_i W[k, m, i] e_i
+    delta = np.einsum("...k,kmi,...i->...m", z, w, e)
+    du, dv = delta[..., 0], delta[..., 1]
+    cb, sb = np.cos(beta), np.sin(beta)
+    return cb * du + sb * dv, -sb * du + cb * dv
+
+
+def dbs_harmonic_sigma_z_ms(
+    amplitude_deg,
+    period_s,
+    direction_deg,
+    *,
+    hws_ms,
+    wind_body_deg,
+    lever_arm_m: float = 0.0,
+    hull="wave_follower",
+    lidar: str | LidarGeometry | Mapping = "windcube_v2",
+    mechanisms=DBS_MECHANISMS,
+    cross_wind: bool = True,
+) -> np.ndarray:
+    """sigma_Z (m/s) of a DBS lidar on a hull in a sea of harmonic components (module docstring).
+
+    Parameters are those of :func:`dbs_component_errors`; ``cross_wind`` adds the
+    cross-wind error's second-order term ``sigma_perp^4 / (2 U^2)``.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        sigma_Z, m/s (components with amplitude 0 contribute nothing).
+    """
+    d_par, d_perp = dbs_component_errors(
+        amplitude_deg,
+        period_s,
+        direction_deg,
+        hws_ms=hws_ms,
+        wind_body_deg=wind_body_deg,
+        lever_arm_m=lever_arm_m,
+        hull=hull,
+        lidar=lidar,
+        mechanisms=mechanisms,
+    )
+    var = 0.5 * np.sum(np.abs(d_par) ** 2, axis=-1)
+    if cross_wind:
+        s_perp2 = 0.5 * np.sum(np.abs(d_perp) ** 2, axis=-1)
+        hws = np.asarray(hws_ms, float)
+        var = var + np.where(hws > 0, s_perp2**2 / (2.0 * np.maximum(hws, 1e-9) ** 2), 0.0)
+    return np.sqrt(var)
+
+
+def dbs_heading_average_sigma_z_ms(
+    amplitude_deg,
+    period_s,
+    direction_to_wind_deg,
+    *,
+    hws_ms,
+    n_headings: int = 24,
+    **kwargs,
+):
+    """sigma_Z of a DBS lidar whose heading (the wind direction relative to the beams) is unknown.
+
+    The sea is given relative to the wind (``direction_to_wind_deg``: each component's
+    direction of travel minus the wind's, deg); the wind's direction in the body frame is
+    taken uniform over ``n_headings`` values. Returns the root-mean-square sigma_Z over
+    the headings and the std of sigma_Z over them (the uncertainty that an unknown heading
+    leaves).
+
+    Returns
+    -------
+    rms, spread : ndarray, shape (...)
+        m/s.
+    """
+    beta = (np.arange(int(n_headings)) + 0.5) * 360.0 / int(n_headings)
+    d = np.asarray(direction_to_wind_deg, float)
+    hws = np.asarray(hws_ms, float)
+    s = np.stack(
+        [
+            dbs_harmonic_sigma_z_ms(
+                amplitude_deg, period_s, d + b, hws_ms=hws, wind_body_deg=b, **kwargs
+            )
+            for b in beta
+        ],
+        axis=-1,
+    )
+    return np.sqrt(np.mean(s**2, axis=-1)), np.std(s, axis=-1)
+
+
+def dbs_record_sigma_z_ms(
+    hws_ms,
+    roll_amplitude_deg,
+    pitch_amplitude_deg,
+    period_s,
+    *,
+    heading_deg=None,
+    wd_deg=None,
+    lever_arm_m: float = 0.0,
+    hull="wave_follower",
+    lidar: str | LidarGeometry | Mapping = "windcube_v2",
+    roll_period_s=None,
+    n_headings: int = 24,
+):
+    """sigma_Z (m/s) of a DBS lidar per record from the record table's motion columns.
+
+    Each record's motion is taken as a roll harmonic (about the body x axis: the hull
+    leans along the body y axis) and a pitch harmonic (leans along the body x axis),
+    independent, with their amplitudes (``sqrt(2)`` x std, deg) and periods; the hull's
+    translation follows from the tilt through its response (:mod:`flidar_uq.physics.hull`).
+    With the heading (``heading_deg``, yaw: body x axis, deg counter-clockwise from east,
+    docs/conventions.md) and the wind direction ``wd_deg`` the wind's direction relative to
+    the beams is known; without either it is averaged over ``n_headings``
+    (:func:`dbs_heading_average_sigma_z_ms`), and ``spread`` says how much it can differ.
+
+    Parameters
+    ----------
+    hws_ms, roll_amplitude_deg, pitch_amplitude_deg, period_s : array_like, shape (n,)
+        HWS (m/s), amplitudes (deg) and the pitch period (s; also the roll's unless
+        ``roll_period_s`` is given).
+    heading_deg, wd_deg : array_like, shape (n,), optional
+    lever_arm_m, hull, lidar
+        As :func:`dbs_harmonic_sigma_z_ms`.
+
+    Returns
+    -------
+    sigma_z, spread : ndarray, shape (n,)
+        sigma_Z (m/s; rms over headings when unknown) and its std over headings (0 when the
+        heading is known).
+    """
+    hws = np.asarray(hws_ms, float)
+    p_pitch = np.asarray(period_s, float)
+    p_roll = p_pitch if roll_period_s is None else np.asarray(roll_period_s, float)
+    amp = np.stack(np.broadcast_arrays(roll_amplitude_deg, pitch_amplitude_deg), -1)
+    per = np.stack(np.broadcast_arrays(p_roll, p_pitch), -1)
+    kw = dict(lever_arm_m=lever_arm_m, hull=hull, lidar=lidar)
+    # roll leans the hull along -y or +y, pitch along +x (the sign does not change sigma_Z)
+    body_dir = np.array([90.0, 0.0])
+    amp, per = np.broadcast_arrays(amp, per)
+    if heading_deg is not None and wd_deg is not None:
+        beta = wind_to_body_deg(wd_deg, heading_deg)
+        s = dbs_harmonic_sigma_z_ms(
+            amp, per, np.broadcast_to(body_dir, amp.shape), hws_ms=hws, wind_body_deg=beta, **kw
+        )
+        return s, np.zeros_like(s)
+    beta = (np.arange(int(n_headings)) + 0.5) * 360.0 / int(n_headings)
+    s = np.stack(
+        [
+            dbs_harmonic_sigma_z_ms(
+                amp, per, np.broadcast_to(body_dir, amp.shape), hws_ms=hws, wind_body_deg=b, **kw
+            )
+            for b in beta
+        ],
+        axis=-1,
+    )
+    return np.sqrt(np.mean(s**2, axis=-1)), np.std(s, axis=-1)
+
+
+def dbs_replay_sigma_z_ms(
+    time_s,
+    roll_deg,
+    pitch_deg,
+    *,
+    hws_ms: float,
+    wd_deg: float,
+    yaw_deg=None,
+    lever_arm_m: float = 0.0,
+    translation_m=None,
+    lidar: str | LidarGeometry | Mapping = "windcube_v2",
+) -> float:
+    """sigma_Z (m/s) of a record by LOS-level replay of its motion through a DBS lidar.
+
+    Back-to-back cycles over the series, every line of sight at its own time
+    (:func:`flidar_uq.physics.motion_spectrum.replay_sigma_z` with the DBS geometry): the
+    reference for :func:`dbs_harmonic_sigma_z_ms`, and the method where the harmonic sum
+    does not hold (module docstring).
+    """
+    from flidar_uq.physics.motion_spectrum import replay_sigma_z
+
+    return replay_sigma_z(
+        time_s,
+        roll_deg,
+        pitch_deg,
+        yaw_deg,
+        hws_ms=hws_ms,
+        wd_deg=wd_deg,
+        lever_arm_m=lever_arm_m,
+        lidar=get_lidar(lidar),
+        translation_m=translation_m,
+    ).sigma_z_ms
+
