@@ -61,7 +61,9 @@ from flidar_uq.physics.lidar import (
 
 __all__ = [
     "DBS_MECHANISMS",
-    "dbs_component_errors",
+    "dbs_error_coefficients",
+    "direction_moments",
+    "rotate_moments",
     "dbs_harmonic_sigma_z_ms",
     "dbs_heading_average_sigma_z_ms",
     "dbs_record_sigma_z_ms",
@@ -98,10 +100,37 @@ def _beam_weights(g: LidarGeometry):
     return t, p[:, :, None] * d[:, None, :]  # (K,), (K, 3, 3)
 
 
-def dbs_component_errors(
+def direction_moments(direction_deg, weight=None, axis=-1):
+    """Direction moments ``(<cos>, <sin>, <cos^2>, <sin cos>, <sin^2>)`` of wave components.
+
+    Parameters
+    ----------
+    direction_deg : array_like
+        Directions of travel, deg counter-clockwise from the body x axis.
+    weight : array_like, optional
+        Weights (a band's components' tilt variances); None: a single direction each
+        (the moments of ``direction_deg`` itself, no reduction).
+    axis : int
+        Axis reduced when ``weight`` is given.
+
+    Returns
+    -------
+    ndarray, shape (..., 5)
+    """
+    th = np.deg2rad(np.asarray(direction_deg, float))
+    c, s = np.cos(th), np.sin(th)
+    f = np.stack([c, s, c * c, s * c, s * s], axis=-1)
+    if weight is None:
+        return f
+    w = np.asarray(weight, float)
+    w = np.moveaxis(w, axis, -1)
+    f = np.moveaxis(f, axis if axis >= 0 else axis - 1, -2)
+    return np.sum(f * w[..., None], axis=-2) / np.sum(w, axis=-1)[..., None]
+
+
+def dbs_error_coefficients(
     amplitude_deg,
     period_s,
-    direction_deg,
     *,
     hws_ms,
     wind_body_deg,
@@ -110,75 +139,87 @@ def dbs_component_errors(
     lidar: str | LidarGeometry | Mapping = "windcube_v2",
     mechanisms=DBS_MECHANISMS,
 ):
-    """Phasors of the retrieved horizontal wind's error along and across the wind, per component.
+    """The along- and across-wind error phasors per component, as linear forms in its direction.
+
+    A component travelling along ``theta`` has the error phasor
+    ``delta = a . (1, cos theta, sin theta)`` (module docstring: ``e`` is linear in the
+    direction's cosine and sine), so a band of components with a spread of directions has
+    ``<|delta|^2> = sum_ij Re(a_i conj(a_j)) <f_i f_j>``, ``f = (1, cos, sin)``: the band's
+    first and second direction moments (:func:`direction_moments`) suffice.
 
     Parameters
     ----------
-    amplitude_deg, period_s, direction_deg : array_like, shape (..., nc)
-        Lean amplitude of each wave component along its direction of travel (deg), its
-        period (s) and direction of travel (deg, counter-clockwise from the body x axis).
-    hws_ms : array_like, shape (...)
-        Mean horizontal wind speed, m/s.
-    wind_body_deg : array_like, shape (...)
-        Direction the wind blows towards, deg counter-clockwise from the body x axis
-        (:func:`wind_to_body_deg`).
-    lever_arm_m : float
-        Height of the lidar head above the hull's rotation centre, m.
-    hull : str or HullResponse
-        The hull's response (:data:`flidar_uq.physics.hull.HULLS`).
-    lidar : str, LidarGeometry or mapping
-    mechanisms : sequence of str
-        The mechanisms kept (:data:`DBS_MECHANISMS`).
+    amplitude_deg, period_s : array_like, shape (..., nc)
+        Lean amplitude (deg) and period (s) of each component (or band).
+    hws_ms, wind_body_deg : array_like, shape (...)
+        Mean HWS (m/s) and the direction the wind blows towards, deg counter-clockwise from
+        the body x axis (:func:`wind_to_body_deg`).
+    lever_arm_m, hull, lidar, mechanisms
+        As :func:`dbs_harmonic_sigma_z_ms`.
 
     Returns
     -------
-    d_par, d_perp : ndarray, complex, shape (..., nc)
-        Complex amplitude (m/s) of the error along and across the wind; a component's
-        variance is ``|d|^2 / 2``.
+    a_par, a_perp : ndarray, complex, shape (..., nc, 3)
+        Coefficients (m/s) of ``(1, cos theta, sin theta)``.
     """
     g = get_lidar(lidar)
     bad = set(mechanisms) - set(DBS_MECHANISMS)
     if bad:
-        raise ValueError(f"unknown mechanism {sorted(bad)[0]!r}; known: {', '.join(DBS_MECHANISMS)}")
+        raise ValueError(
+            f"unknown mechanism {sorted(bad)[0]!r}; known: {', '.join(DBS_MECHANISMS)}"
+        )
     t_k, w = _beam_weights(g)
     if "beam_timing" not in mechanisms:
         t_k = np.full_like(t_k, 0.5 * (t_k[0] + t_k[-1]))
     amp = np.deg2rad(np.asarray(amplitude_deg, float))
     per = np.asarray(period_s, float)
-    th = np.deg2rad(np.asarray(direction_deg, float))
     hws = np.asarray(hws_ms, float)[..., None]
     beta = np.deg2rad(np.asarray(wind_body_deg, float))[..., None]
+    amp, per, hws, beta = np.broadcast_arrays(amp, per, hws, beta)
     omega = 2.0 * np.pi / per
     r_x, r_z = get_hull(hull).relative_responses(per)
-    cos_psi = np.cos(th - beta)
-    e_z = np.zeros(np.broadcast_shapes(amp.shape, hws.shape), complex)
-    if "tilt" in mechanisms:
-        e_z = e_z + hws * cos_psi * amp
-    if "heave" in mechanisms:
-        e_z = e_z - r_z * phase_speed_ms(per) * amp
+    zero = np.zeros(amp.shape, complex)
+    tilt_z = hws * amp if "tilt" in mechanisms else zero
+    heave_z = -r_z * phase_speed_ms(per) * amp if "heave" in mechanisms else zero
     if "translation" in mechanisms:
         lever = float(lever_arm_m) - r_x * orbital_lever_arm_m(per)
-        e_h = -1j * omega * lever * amp  # along xi, minus the head velocity
+        e_h = -1j * omega * lever * amp  # minus the head velocity, along the direction
     else:
-        e_h = np.zeros_like(e_z)
-    e = np.stack(
-        np.broadcast_arrays(e_h * np.cos(th), e_h * np.sin(th), e_z), axis=-1
-    )  # (..., nc, 3)
+        e_h = zero
+    # e = sum_i f_i B_i, f = (1, cos theta, sin theta)
+    b = np.stack(
+        [
+            np.stack([zero, zero, heave_z + zero], -1),
+            np.stack([e_h, zero, tilt_z * np.cos(beta)], -1),
+            np.stack([zero, e_h, tilt_z * np.sin(beta)], -1),
+        ],
+        axis=-2,
+    )  # (..., nc, 3 (f), 3 (xyz))
     z = np.exp(1j * omega[..., None] * t_k)  # (..., nc, K)
-    # delta_m = sum_k z_k sum_i W[k, m, i] e_i
-    delta = np.einsum("...k,kmi,...i->...m", z, w, e)
-    du, dv = delta[..., 0], delta[..., 1]
-    cb, sb = np.cos(beta), np.sin(beta)
-    return cb * du + sb * dv, -sb * du + cb * dv
+    gmat = np.einsum("...k,kmi->...mi", z, w)  # (..., nc, 3 (uvw), 3 (xyz))
+    a = np.einsum("...mi,...fi->...mf", gmat, b)  # (..., nc, 3 (uvw), 3 (f))
+    cb, sb = np.cos(beta)[..., None], np.sin(beta)[..., None]
+    return cb * a[..., 0, :] + sb * a[..., 1, :], -sb * a[..., 0, :] + cb * a[..., 1, :]
+
+
+def _mean_sq(a, mom):
+    """``<|a . f|^2>`` for direction moments ``mom`` (..., 5) (:func:`direction_moments`)."""
+    c, s, cc, sc, ss = (mom[..., i] for i in range(5))
+    one = np.ones_like(c)
+    m = np.stack(
+        [np.stack([one, c, s], -1), np.stack([c, cc, sc], -1), np.stack([s, sc, ss], -1)], -2
+    )
+    return np.einsum("...i,...ij,...j->...", a, m, np.conj(a)).real
 
 
 def dbs_harmonic_sigma_z_ms(
     amplitude_deg,
     period_s,
-    direction_deg,
+    direction_deg=None,
     *,
     hws_ms,
     wind_body_deg,
+    direction_moments_=None,
     lever_arm_m: float = 0.0,
     hull="wave_follower",
     lidar: str | LidarGeometry | Mapping = "windcube_v2",
@@ -187,18 +228,47 @@ def dbs_harmonic_sigma_z_ms(
 ) -> np.ndarray:
     """sigma_Z (m/s) of a DBS lidar on a hull in a sea of harmonic components (module docstring).
 
-    Parameters are those of :func:`dbs_component_errors`; ``cross_wind`` adds the
-    cross-wind error's second-order term ``sigma_perp^4 / (2 U^2)``.
+    Parameters
+    ----------
+    amplitude_deg, period_s : array_like, shape (..., nc)
+        Lean amplitude along the direction of travel (deg; ``sqrt(2)`` x the std of the
+        component's or band's tilt) and period (s) of each component or band.
+    direction_deg : array_like, shape (..., nc), optional
+        Direction of travel of each component, deg counter-clockwise from the body x axis.
+    hws_ms : array_like, shape (...)
+        Mean horizontal wind speed, m/s.
+    wind_body_deg : array_like, shape (...)
+        Direction the wind blows towards, deg counter-clockwise from the body x axis
+        (:func:`wind_to_body_deg` of the wind direction and the heading).
+    direction_moments_ : array_like, shape (..., nc, 5), optional
+        Instead of ``direction_deg``: each band's direction moments
+        (:func:`direction_moments` weighted by its components' tilt variances), for bands
+        with a spread of directions.
+    lever_arm_m : float
+        Height of the lidar head above the hull's rotation centre, m.
+    hull : str or HullResponse
+        The hull's response (:data:`flidar_uq.physics.hull.HULLS`).
+    lidar : str, LidarGeometry or mapping
+    mechanisms : sequence of str
+        The mechanisms kept (:data:`DBS_MECHANISMS`; default all).
+    cross_wind : bool
+        Add the cross-wind error's second-order term ``sigma_perp^4 / (2 U^2)``.
 
     Returns
     -------
     ndarray, shape (...)
-        sigma_Z, m/s (components with amplitude 0 contribute nothing).
+        sigma_Z, m/s.
     """
-    d_par, d_perp = dbs_component_errors(
+    if (direction_deg is None) == (direction_moments_ is None):
+        raise ValueError("dbs_harmonic_sigma_z_ms: give direction_deg or direction_moments_")
+    mom = (
+        direction_moments(direction_deg)
+        if direction_moments_ is None
+        else np.asarray(direction_moments_, float)
+    )
+    a_par, a_perp = dbs_error_coefficients(
         amplitude_deg,
         period_s,
-        direction_deg,
         hws_ms=hws_ms,
         wind_body_deg=wind_body_deg,
         lever_arm_m=lever_arm_m,
@@ -206,43 +276,66 @@ def dbs_harmonic_sigma_z_ms(
         lidar=lidar,
         mechanisms=mechanisms,
     )
-    var = 0.5 * np.sum(np.abs(d_par) ** 2, axis=-1)
+    var = 0.5 * np.sum(_mean_sq(a_par, mom), axis=-1)
     if cross_wind:
-        s_perp2 = 0.5 * np.sum(np.abs(d_perp) ** 2, axis=-1)
+        s_perp2 = 0.5 * np.sum(_mean_sq(a_perp, mom), axis=-1)
         hws = np.asarray(hws_ms, float)
         var = var + np.where(hws > 0, s_perp2**2 / (2.0 * np.maximum(hws, 1e-9) ** 2), 0.0)
     return np.sqrt(var)
 
 
+def rotate_moments(mom, deg):
+    """Direction moments ``mom`` (..., 5) of directions rotated by ``deg`` (deg)."""
+    r = np.deg2rad(np.asarray(deg, float))
+    c2, sr = np.cos(r), np.sin(r)
+    c, s, cc, sc, ss = (np.asarray(mom)[..., i] for i in range(5))
+    nc_ = c * c2 - s * sr
+    ns_ = s * c2 + c * sr
+    ncc = c2**2 * cc - 2 * c2 * sr * sc + sr**2 * ss
+    nss = sr**2 * cc + 2 * c2 * sr * sc + c2**2 * ss
+    nsc = c2 * sr * (cc - ss) + (c2**2 - sr**2) * sc
+    return np.stack([nc_, ns_, ncc, nsc, nss], -1)
+
+
 def dbs_heading_average_sigma_z_ms(
     amplitude_deg,
     period_s,
-    direction_to_wind_deg,
+    direction_to_wind_deg=None,
     *,
     hws_ms,
+    moments_to_wind=None,
     n_headings: int = 24,
     **kwargs,
 ):
     """sigma_Z of a DBS lidar whose heading (the wind direction relative to the beams) is unknown.
 
-    The sea is given relative to the wind (``direction_to_wind_deg``: each component's
-    direction of travel minus the wind's, deg); the wind's direction in the body frame is
-    taken uniform over ``n_headings`` values. Returns the root-mean-square sigma_Z over
-    the headings and the std of sigma_Z over them (the uncertainty that an unknown heading
-    leaves).
+    The sea is given relative to the wind: each component's direction of travel minus the
+    wind's (``direction_to_wind_deg``, deg) or each band's direction moments in that frame
+    (``moments_to_wind``, :func:`direction_moments`). The wind's direction in the body frame
+    is taken uniform over ``n_headings`` values (the sea turning with it). Other keywords:
+    :func:`dbs_harmonic_sigma_z_ms`.
 
     Returns
     -------
     rms, spread : ndarray, shape (...)
-        m/s.
+        The root-mean-square sigma_Z over the headings and the std of sigma_Z over them
+        (the uncertainty an unknown heading leaves), m/s.
     """
-    beta = (np.arange(int(n_headings)) + 0.5) * 360.0 / int(n_headings)
-    d = np.asarray(direction_to_wind_deg, float)
+    beta = np.arange(int(n_headings)) * 360.0 / int(n_headings)
     hws = np.asarray(hws_ms, float)
+    if moments_to_wind is None:
+        mom = direction_moments(np.asarray(direction_to_wind_deg, float))
+    else:
+        mom = np.asarray(moments_to_wind, float)
     s = np.stack(
         [
             dbs_harmonic_sigma_z_ms(
-                amplitude_deg, period_s, d + b, hws_ms=hws, wind_body_deg=b, **kwargs
+                amplitude_deg,
+                period_s,
+                hws_ms=hws,
+                wind_body_deg=b,
+                direction_moments_=rotate_moments(mom, b),
+                **kwargs,
             )
             for b in beta
         ],
@@ -306,7 +399,7 @@ def dbs_record_sigma_z_ms(
             amp, per, np.broadcast_to(body_dir, amp.shape), hws_ms=hws, wind_body_deg=beta, **kw
         )
         return s, np.zeros_like(s)
-    beta = (np.arange(int(n_headings)) + 0.5) * 360.0 / int(n_headings)
+    beta = np.arange(int(n_headings)) * 360.0 / int(n_headings)
     s = np.stack(
         [
             dbs_harmonic_sigma_z_ms(
@@ -351,4 +444,3 @@ def dbs_replay_sigma_z_ms(
         lidar=get_lidar(lidar),
         translation_m=translation_m,
     ).sigma_z_ms
-
