@@ -289,3 +289,39 @@ def test_virtual_dbs_campaign_matches_the_harmonic_sum(period, wd):
     np.testing.assert_allclose(out["true_sigma_z_ms"].to_numpy() / s, 1.0, atol=0.03)
     point = dbs.dbs_harmonic_sigma_z_ms(*args, **kw)
     np.testing.assert_allclose(s / point, np.sinc(1.0 / period), rtol=1e-3)  # + cross-wind term
+
+
+@pytest.mark.parametrize("known", [True, False])
+def test_record_terms_quadratic_form_equals_the_sum(known):
+    hws = np.array([6.0, 11.0, 16.0])
+    ra, pa, per = np.array([2.0, 3.0, 1.0]), np.array([2.5, 1.0, 3.0]), np.array([4.0, 6.0, 8.0])
+    beta = np.array([0.0, 70.0, 200.0]) if known else None
+    gram = dbs.dbs_record_terms(hws, ra, pa, per, wind_body_deg=beta)
+    for hull, h in (("rotation_only", 0.0), ("wave_follower", 1.0)):
+        for lever in (0.0, 2.5):
+            q = dbs.dbs_sigma_z_from_terms(gram, lever_arm_m=lever, hull_response=h)
+            amp = np.stack([ra, pa], -1)
+            pp = np.stack([per, per], -1)
+            d = np.broadcast_to([90.0, 0.0], amp.shape)
+            kw = dict(lever_arm_m=lever, hull=hull, dwell_average=True, cross_wind=False)
+            if known:
+                s = dbs.dbs_harmonic_sigma_z_ms(amp, pp, d, hws_ms=hws, wind_body_deg=beta, **kw)
+            else:
+                s = np.sqrt(
+                    np.mean(
+                        [
+                            dbs.dbs_harmonic_sigma_z_ms(
+                                amp, pp, d, hws_ms=hws, wind_body_deg=b, **kw
+                            )
+                            ** 2
+                            for b in np.arange(24) * 15.0
+                        ],
+                        axis=0,
+                    )
+                )
+            np.testing.assert_allclose(q, s, rtol=1e-9)
+    # draws broadcast: (n_draws, 1) against (n,)
+    q = dbs.dbs_sigma_z_from_terms(
+        gram, lever_arm_m=np.array([[0.0], [2.0]]), hull_response=np.array([[0.0], [1.0]])
+    )
+    assert q.shape == (2, 3)
