@@ -1,8 +1,8 @@
-"""Head-to-head: LOS-level motion corrections (seeds 001, 002) vs the statistical one (seed 000).
+"""Head-to-head: LOS-level motion corrections (Malekmohammadi et al. (2024), Yamaguchi and Ishihara (2016)) vs the statistical one (Gutiérrez-Antuñano et al., 2018).
 
 Virtual 10-min records with LOS-level data: Kaimal turbulence (``turbulence.kaimal_series``,
-IEC spectra, frozen with Taylor's hypothesis, seed 002 Eq. 2), power-law shear 0.1 on the
-mean (seed 002 Eq. 1), harmonic 6-DOF motion of a buoy whose lidar head sits 2.5 m above
+IEC spectra, frozen with Taylor's hypothesis, Yamaguchi and Ishihara (2016), Eq. 2), power-law shear 0.1 on the
+mean (Yamaguchi and Ishihara, 2016, Eq. 1), harmonic 6-DOF motion of a buoy whose lidar head sits 2.5 m above
 the rotation centre. LOS speeds come from ``simulator.simulate_scans`` with the wind at each
 beam's measurement point (head displacement + range * earth beam vector). The IMU is
 perfect (the motion model itself), so the LOS-level numbers are an upper bound of what a
@@ -10,7 +10,7 @@ real IMU allows.
 
 Part A - motion classes x speed bins, for a ZephIR-like CW VAD (50 LOS/s, one height) and a
 WindCube-V1-like pulsed DBS (4 beams, 1 s each, range gates 40-200 m). Methods: uncorrected;
-seed 001 LS (Eq. 7); seed 002 conventional and new (DBS only); statistical (issue 5:
+Malekmohammadi et al. (2024) LS (Eq. 7); Yamaguchi and Ishihara (2016) conventional and new (DBS only); statistical (issue 5:
 ``correction.corrected_std`` with ``simulator.sigma_z`` for the record's roll/pitch amplitude,
 period and lever arm, U law rho = 0 because wind and motion are independent here).
 References: the same lidar on a fixed platform (motion-induced error) and the point truth at
@@ -21,14 +21,14 @@ raw IMU output, default sea-state scenario): the LOS-level correction from the L
 tables alone (5-Hz noisy IMU with gaps, and a noise-free 20-Hz IMU) vs the statistical one with
 the record's IMU amplitude and period; references: the campaign's fixed lidar and truth.
 
-Part B - seed 002's own setup: pulsed DBS, pitch maxima 5, 10, 15, 20 deg from a sum of
+Part B - Yamaguchi and Ishihara's (2016) own setup: pulsed DBS, pitch maxima 5, 10, 15, 20 deg from a sum of
 harmonics with periods 5-8 s and fixed phases ("same phase information"), TI 8-15 %, 10 m/s at
 100 m; conventional vs new compensation.
 
 Fractions of the motion-induced error removed (uncorrected = 0, perfect = 1), against the
 fixed lidar: ``frac_removed_ti`` of the mean |TI error| per record, ``frac_removed_ti_bias``
 of the mean signed TI error, ``frac_removed_ts`` of the std of the HWS time-series error
-(seed 001's Figs. 9-10 view; its 85 % / 82 % are compared with these in docs).
+(Malekmohammadi et al.'s (2024) Figs. 9-10 view; its 85 % / 82 % are compared with these in docs).
 
 Writes benchmarks/results/los_correction_comparison.csv (the table),
 los_correction_comparison_records.csv (per record) and two PNGs; prints the table.
@@ -63,7 +63,7 @@ DURATION_S = 600.0
 DT_WIND_S = 0.1
 HEIGHT_M = 100.0
 GATES_M = np.arange(40.0, 201.0, 20.0)
-ALPHA = 0.1  # seed 002 shear exponent
+ALPHA = 0.1  # Yamaguchi and Ishihara (2016) shear exponent
 LEVER_ARM_M = (0.0, 0.0, 2.5)
 H = M.Harmonic
 
@@ -79,7 +79,7 @@ NREP = 3
 
 
 class FrozenKaimalWind:
-    """Kaimal turbulence frozen in a mean flow with power-law shear (seed 002 Eqs. 1-2)."""
+    """Kaimal turbulence frozen in a mean flow with power-law shear (Yamaguchi and Ishihara, 2016, Eqs. 1-2)."""
 
     def __init__(self, hws_ms, wd_deg, sigma_u_ms, rng):
         self.hws, self.wd = float(hws_ms), float(wd_deg)
@@ -96,7 +96,7 @@ class FrozenKaimalWind:
         f = tau - np.floor(tau)
         fl = self.fl[:, i0] * (1 - f) + self.fl[:, (i0 + 1) % self.n] * f  # (3, ...)
         z = np.maximum(xyz_m[..., 2], 1.0)
-        ubar = self.hws * (z / HEIGHT_M) ** ALPHA  # seed 002 Eq. (1)
+        ubar = self.hws * (z / HEIGHT_M) ** ALPHA  # Yamaguchi and Ishihara (2016), Eq. (1)
         return wind_enu_ms(ubar, self.wd, np.moveaxis(fl, 0, -1)[..., None])[..., 0, :]
 
     def truth(self):
@@ -160,17 +160,17 @@ def record_rows(lidar, motion, wind, statistical_motion, meta):
         series["uncorrected"] = correct_dbs_motion(geom, t, az, vr, method="none", **kw).hws_ms[
             :, 0
         ]
-        series["seed001 LS"] = correct_least_squares(
+        series["least_squares"] = correct_least_squares(
             geom, t, az, vr[:, g100], motion, step=1
         ).hws_ms
         for m in ("conventional", "new"):
-            series[f"seed002 {m}"] = correct_dbs_motion(
-                geom, t, az, vr, motion, method=m, **kw
-            ).hws_ms[:, 0]
+            series[f"dbs_{m}"] = correct_dbs_motion(geom, t, az, vr, motion, method=m, **kw).hws_ms[
+                :, 0
+            ]
     else:
         fixed = correct_least_squares(geom, tf, azf, vrf[:, 0]).hws_ms
         series["uncorrected"] = correct_least_squares(geom, t, az, vr[:, 0]).hws_ms
-        series["seed001 LS"] = correct_least_squares(geom, t, az, vr[:, 0], motion).hws_ms
+        series["least_squares"] = correct_least_squares(geom, t, az, vr[:, 0], motion).hws_ms
     mean_f, ti_f = _stats(fixed)
     mean_t, ti_t = _stats(wind.truth())
     rows = []
@@ -222,8 +222,8 @@ def part_a(ss):
     return rows
 
 
-def seed002_motion(pitch_max_deg, phases):
-    """Floater motion with periods 5-8 s, fixed phases, scaled to a pitch maximum (seed 002)."""
+def yamaguchi2016_motion(pitch_max_deg, phases):
+    """Floater motion with periods 5-8 s, fixed phases, scaled to a pitch maximum (Yamaguchi and Ishihara, 2016)."""
     periods = np.array([5.0, 6.0, 7.0, 8.0])
     t = np.arange(0.0, DURATION_S + 10.0, 0.05)
     unit = np.sin(2 * np.pi * t[:, None] / periods + phases[0]).sum(1)
@@ -249,13 +249,15 @@ def part_b(ss):
             for pmax in (5.0, 10.0, 15.0, 20.0):
                 meta = dict(
                     part="B",
-                    motion_class=f"seed002 pitch max {pmax:.0f} deg",
+                    motion_class=f"yamaguchi2016 pitch max {pmax:.0f} deg",
                     speed_bin_ms=10.0,
                     rep=rep,
                     ti_input=ti,
                     pitch_max_deg=pmax,
                 )
-                rows += record_rows("windcube_v1", seed002_motion(pmax, phases), wind, None, meta)
+                rows += record_rows(
+                    "windcube_v1", yamaguchi2016_motion(pmax, phases), wind, None, meta
+                )
     return rows
 
 
@@ -308,7 +310,7 @@ def part_c(ss):
             vr = los.radial_speed_ms.to_numpy()[sel][:n]
             series = {
                 "uncorrected": correct_least_squares("zephir300", t, az, vr).hws_ms,
-                "seed001 LS": correct_least_squares("zephir300", t, az, vr, motion).hws_ms,
+                "least_squares": correct_least_squares("zephir300", t, az, vr, motion).hws_ms,
             }
             out_rows = [
                 dict(method=k, mean_ms=np.nanmean(h), ti=np.nanstd(h) / np.nanmean(h))
@@ -430,9 +432,9 @@ def plot(rec, table):
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     for m, mk in (
         ("uncorrected", "x"),
-        ("seed002 conventional", "o"),
-        ("seed002 new", "s"),
-        ("seed001 LS", "+"),
+        ("dbs_conventional", "o"),
+        ("dbs_new", "s"),
+        ("least_squares", "+"),
     ):
         s = b[b.method == m].groupby("pitch_max_deg")
         axes[0].plot(s.ti.mean().index, 100 * (s.ti.mean() - s.ti_truth.mean()), marker=mk, label=m)
@@ -444,16 +446,16 @@ def plot(rec, table):
     )
     axes[0].set_xlabel("maximum pitch (deg)")
     axes[0].set_ylabel("TI bias vs point truth (percentage points)")
-    axes[0].set_title("seed 002 setup: TI bias vs pitch maximum")
+    axes[0].set_title("Yamaguchi and Ishihara (2016) setup: TI bias vs pitch maximum")
     axes[0].legend(fontsize=8)
     lim = [5, 30]
     axes[1].plot(lim, lim, "k:", lw=0.8)
     axes[1].set_xlabel("reference TI (point truth, %)")
     axes[1].set_ylabel("estimated TI (%)")
-    axes[1].set_title("seed 002 setup (cf. its Fig. 8)")
+    axes[1].set_title("Yamaguchi and Ishihara (2016) setup (cf. its Fig. 8)")
     axes[1].legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(OUT / "los_correction_comparison_seed002.png", dpi=110)
+    fig.savefig(OUT / "los_correction_comparison_yamaguchi2016.png", dpi=110)
     plt.close(fig)
 
 
@@ -505,7 +507,7 @@ def main():
     ]
     print(
         "Part A, all classes, by speed bin and overall "
-        "(seed 001 reports 85 % (WindCube) / 82 % (ZephIR) removed):"
+        "(Malekmohammadi et al. (2024) reports 85 % (WindCube) / 82 % (ZephIR) removed):"
     )
     print(
         table[(table.part == "A") & (table.motion_class == "all")][cols].to_string(
@@ -518,7 +520,7 @@ def main():
             cols
         ].to_string(index=False, float_format="%.3f")
     )
-    print("\nPart B, seed 002 setup (pulsed DBS, TI 8-15 %, 10 m/s):")
+    print("\nPart B, Yamaguchi and Ishihara (2016) setup (pulsed DBS, TI 8-15 %, 10 m/s):")
     print(
         table[(table.part == "B") & (table.speed_bin_ms == "all") & (table.motion_class != "all")][
             cols

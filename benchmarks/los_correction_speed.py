@@ -4,7 +4,7 @@ Target (issue 7): correcting a 10-min record of 50-Hz LOS data (30,000 LOS, Zeph
 CW VAD, 600 scans) in <= 50 ms on one core. Timed: the whole call of
 ``correct_least_squares`` (IMU interpolation at the LOS times, rotations, CW sign
 resolution, least squares), for a 20-Hz sampled IMU and for harmonic motion; the
-uncorrected retrieval and the seed-002 DBS algorithms for scale.
+uncorrected retrieval and the Yamaguchi and Ishihara (2016) DBS algorithms for scale.
 
 Run: ``OPENBLAS_NUM_THREADS=1 taskset -c 0 .venv/bin/python
 benchmarks/los_correction_speed.py | tee benchmarks/results/los_correction_speed_stdout.txt``
@@ -88,14 +88,14 @@ def main() -> pd.DataFrame:
     rot, vel = imu_rotation_velocity(sampled, t)
     rows = []
     cases = {
-        "seed001 LS, CW VAD, given per-LOS R and v_head": lambda: correct_least_squares(
+        "least_squares, CW VAD, given per-LOS R and v_head": lambda: correct_least_squares(
             "zephir300", t, az, vr, rotation=rot, head_velocity_ms=vel
         ),
         "IMU evaluation only (motion.py, 20-Hz sampled)": lambda: imu_rotation_velocity(sampled, t),
-        "seed001 LS, CW VAD, 20-Hz sampled IMU": lambda: correct_least_squares(
+        "least_squares, CW VAD, 20-Hz sampled IMU": lambda: correct_least_squares(
             "zephir300", t, az, vr, sampled
         ),
-        "seed001 LS, CW VAD, harmonic motion": lambda: correct_least_squares(
+        "least_squares, CW VAD, harmonic motion": lambda: correct_least_squares(
             "zephir300", t, az, vr, harmonic
         ),
         "uncorrected CW VAD (same solver, no IMU)": lambda: correct_least_squares(
@@ -116,7 +116,7 @@ def main() -> pd.DataFrame:
         )
         rows.append(
             dict(
-                case=f"seed002 {method}, DBS, 9 gates, sliding",
+                case=f"dbs_{method}, DBS, 9 gates, sliding",
                 lidar="windcube_v1",
                 n_los=td.size,
                 median_ms=med,
@@ -128,7 +128,7 @@ def main() -> pd.DataFrame:
     )
     rows.append(
         dict(
-            case="seed001 LS, DBS, sliding",
+            case="least_squares, DBS, sliding",
             lidar="windcube_v1",
             n_los=td.size,
             median_ms=med,

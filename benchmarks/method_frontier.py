@@ -4,7 +4,7 @@ Methods, all on the QC-kept records of the same virtual campaign (default scenar
 against the true point TI (``true_ti``):
 
 * uncorrected (the floating lidar's TI);
-* seed 000's U, C, PC laws (:func:`flidar_uq.correction.propagation.variance_law_baselines`
+* Gutiérrez-Antuñano et al.'s (2018) U, C, PC laws (:func:`flidar_uq.correction.propagation.variance_law_baselines`
   and Eqs. 15-17 inverted; one shared wall time: the three come from one call);
 * the Bayesian correction: the record motion model
   (:func:`flidar_uq.inference.fit_record_model`) propagated by
@@ -80,7 +80,7 @@ def speed_group(hws_ms):
 def prepare(records):
     """QC (config), motion statistics and bins (config) as the pipeline does them."""
     res = qc.run_qc(records, qc.QCConfig(**CONFIG["qc"]))
-    kept = imu.record_motion(res.kept)
+    kept = imu.add_harmonic_motion(res.kept)
     b = CONFIG["binning"]
     assigned, _ = binning.bin_records(
         kept,
@@ -140,7 +140,7 @@ def campaign_methods(rec, sur):
         }
     t_laws = time.perf_counter() - t0
     for k, ti in laws.items():
-        rows += score(k, "seed 000 law", t_laws, ti, truth, hws_true)
+        rows += score(k, "Gutiérrez-Antuñano et al. (2018) law", t_laws, ti, truth, hws_true)
 
     t0 = time.perf_counter()
     heights = int(rec["height_m"].nunique())
@@ -277,7 +277,7 @@ def plot(df, path, load):
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 5.6))
     marks = {
         "uncorrected": "o",
-        "seed 000 law": "s",
+        "Gutiérrez-Antuñano et al. (2018) law": "s",
         "Bayesian (emcee)": "D",
         "Laplace approximation": "*",
         "LOS-level": "^",

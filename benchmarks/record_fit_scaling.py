@@ -109,12 +109,12 @@ def child_fit(assignments: Path, out_nc: Path, out_json: Path) -> None:
 def child_log_prob(assignments: Path, out_json: Path) -> None:
     """Peak RSS of one sampler likelihood call on 64 walkers over all records."""
     from flidar_uq.inference.record_fit import log_prob_record_model
-    from flidar_uq.inference.record_motion import record_motion
+    from flidar_uq.inference.record_motion import per_record_motion
     from flidar_uq.physics.surrogate import get_surrogate
 
     cfg = yaml.safe_load((REPO / "config" / "config.yaml").read_text())
     rec = pd.read_csv(assignments)
-    mot = record_motion(rec, surrogate=get_surrogate(cfg["campaign"]["lidar"]))
+    mot = per_record_motion(rec, surrogate=get_surrogate(cfg["campaign"]["lidar"]))
     s, r = rec["hws_std_ms"].to_numpy(float), rec["ref_hws_std_ms"].to_numpy(float)
     szr, u2 = mot["sigma_z_rot_ms"].to_numpy(), mot["translation_unit_sq"].to_numpy()
     use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.isfinite(szr) & np.isfinite(u2)

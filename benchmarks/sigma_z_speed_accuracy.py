@@ -1,10 +1,10 @@
-"""Speed and accuracy of sigma_Z: seed 000's 24^3 grid vs the fast quadrature vs the surrogate.
+"""Speed and accuracy of sigma_Z: Gutiérrez-Antuñano et al.'s (2018) 24^3 grid vs the fast quadrature vs the surrogate.
 
 Methods, each timed per evaluation in this run and compared with a converged reference
 (fast kernel, 64 roll/pitch x 256 scan-phase points; its agreement with the scan-by-scan
 simulation is a unit test):
 
-(a) ``seed-loop-24``: seed 000 Sec. 2.3 written straightforwardly, one ``simulate_scan``
+(a) ``seed-loop-24``: Gutiérrez-Antuñano et al. (2018), Sec. 2.3 written straightforwardly, one ``simulate_scan``
     call per (roll, pitch, scan) phase on the 24 x 24 x 24 grid (cases without lever arm);
 (a') ``seed-vectorised-24``: the same grid, vectorised scan simulation (``method="direct"``);
 (b) ``fourier-N``: the exact scan-phase reformulation with the trapezoid rule on N points per
@@ -98,7 +98,7 @@ MIN_TIMES: dict = {}
 
 
 def seed_loop(hws, amp, per, n=SEED_N):
-    """Seed 000's 24^3 procedure, one scan simulation per phase triple (Eqs. 4, 9, 12, 14)."""
+    """Gutiérrez-Antuñano et al.'s (2018) 24^3 procedure, one scan simulation per phase triple (Eqs. 4, 9, 12, 14)."""
     phases = 2 * np.pi * np.arange(n) / n
     wind = wind_vector_ms(hws, 0.0)
     z = np.empty((n, n, n))

@@ -31,7 +31,7 @@ import pandas as pd
 
 from flidar_uq.campaign.physics_mode import generate_campaign
 from flidar_uq.campaign.scenarios import load_scenario
-from flidar_uq.inference.record_motion import hull_sigma_z_ms, record_motion, six_dof_terms
+from flidar_uq.inference.record_motion import hull_sigma_z_ms, per_record_motion, six_dof_terms
 from flidar_uq.physics.surrogate import get_surrogate
 
 OUT = Path(__file__).resolve().parent / "results"
@@ -69,7 +69,7 @@ def main() -> None:
         sc["wind"] = sc.get("wind", {}) | {"ti_model": "constant_ti", "ti_params": {"ti": 1e-4}}
         rec = generate_campaign(sc, SEED, n_workers=2).records
         lever = float(rec["true_lever_arm_m"].iloc[0])
-        mot = record_motion(rec, surrogate=sur)
+        mot = per_record_motion(rec, surrogate=sur)
         terms = six_dof_terms(rec, mot, surrogate=sur)
         truth = rec["true_sigma_z_ms"].to_numpy()
         ok = np.isfinite(truth) & np.isfinite(mot["sigma_z_rot_ms"].to_numpy())

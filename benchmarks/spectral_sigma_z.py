@@ -8,7 +8,7 @@ fixed or weathervaning heading) and each HWS (5, 10, 15 m/s) and lever arm (0, 2
 - ``spectral``: the quadrature sum over 8 log-spaced period bands of the along-wind tilt
   (``data.imu.tilt_band_statistics`` + ``motion_spectrum.spectral_sigma_z_ms``);
 - ``moments``: table-only fallback, one harmonic at sqrt(2) std_along and Tz;
-- ``harmonic``: the old value, seed-000 harmonic at the mean of the sqrt(2)-std roll and
+- ``harmonic``: the old value, Gutiérrez-Antuñano et al. (2018) harmonic at the mean of the sqrt(2)-std roll and
   pitch amplitudes and the mean spectral-peak period (``record_motion``).
 
 Ratios are pooled over the records of a case: ``sqrt(mean(s_method^2) / mean(s_replay^2))``;

@@ -2,7 +2,8 @@
 
 Markers: ``slow`` (statistical, end-to-end and cluster tests; excluded by default,
 run by ``make test`` / ``.ci/run``). Under ``CI=true`` a test that needs an external
-tool (SLURM, Chromium) must not skip: use :func:`require_tool`.
+tool (SLURM, Chromium) must not skip: use :func:`require_tool`. Hypothesis runs
+derandomized (profile ``deterministic``).
 """
 
 from __future__ import annotations
@@ -12,8 +13,14 @@ import shutil
 
 import numpy as np
 import pytest
+from hypothesis import settings
 
 IN_CI = os.environ.get("CI", "").lower() in {"1", "true", "yes"}
+
+# Property tests draw their examples deterministically (the same examples on every machine
+# and rerun, no example database): a failure is reproducible, never a new random draw.
+settings.register_profile("deterministic", derandomize=True, database=None)
+settings.load_profile("deterministic")
 
 
 def require_tool(name: str) -> str:

@@ -1,4 +1,4 @@
-"""HWS x amplitude x period binning (flidar_uq.data.binning), seed 000 Sec. 3.1 and Table 1."""
+"""HWS x amplitude x period binning (flidar_uq.data.binning), Gutiérrez-Antuñano et al. (2018), Sec. 3.1 and Table 1."""
 
 from __future__ import annotations
 
@@ -23,8 +23,8 @@ def rec(hws, amp_roll, amp_pitch, per_roll, per_pitch) -> pd.DataFrame:
     )
 
 
-def test_seed000_edges_half_open_centred_on_integers():
-    # seed 000 Sec. 3.1: edges [0.5, 1.5), [1.5, 2.5), ...
+def test_gutierrez2018_edges_half_open_centred_on_integers():
+    # Gutiérrez-Antuñano et al. (2018), Sec. 3.1: edges [0.5, 1.5), [1.5, 2.5), ...
     x = [0.5, 1.4999, 1.5, 2.49, 7.5, 8.49999]
     assert bin_centre(x, 1.0).tolist() == [1.0, 1.0, 2.0, 2.0, 8.0, 8.0]
     assert bin_centre([0.74, 0.76, 1.26], 0.5).tolist() == [0.5, 1.0, 1.5]
@@ -37,7 +37,7 @@ def test_bin_label_is_stable_text():
     assert bin_label(12.5, 0.0, 10.0) == "H12p5_A00_T10"
 
 
-def test_binning_uses_roll_pitch_means_seed000_sec24():
+def test_binning_uses_roll_pitch_means_gutierrez2018_sec24():
     # amplitude (2.4 + 3.4)/2 = 2.9 -> 3 ; period (3.2 + 4.6)/2 = 3.9 -> 4
     assigned, table = bin_records(rec([8.2], [2.4], [3.4], [3.2], [4.6]))
     assert assigned["bin_id"].tolist() == ["H08_A03_T04"]

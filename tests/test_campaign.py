@@ -277,7 +277,7 @@ def test_default_campaign_is_about_8600_records_of_60_days():
     assert len(cfg["heights_m"]) == 3
 
 
-def test_hexapod_catalogue_has_seed001_table_a1_motion_types():
+def test_hexapod_catalogue_has_malekmohammadi2024_table_a1_motion_types():
     cases = load_scenario("hexapod_catalogue")["motion"]["harmonic"]["cases"]
     keys = {k for c in cases for k, v in c.items() if k.endswith(("_deg", "_m")) and v}
     assert {"heave_amplitude_m", "sway_amplitude_m", "yaw_amplitude_deg"} <= keys

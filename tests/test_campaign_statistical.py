@@ -55,7 +55,9 @@ def test_records_follow_eq15_mean_and_geometric_imu_mean(surrogate):
         ],
     }
     rec, _ = generate_statistical_campaign(1, 2000, tp, seed=1, surrogate=surrogate)
-    mu = sigma_moving_pc(rec.ref_hws_std_ms, rec.true_sigma_z_ms, 0.5)  # Eq. (15) of seed 000
+    mu = sigma_moving_pc(
+        rec.ref_hws_std_ms, rec.true_sigma_z_ms, 0.5
+    )  # Eq. (15) of Gutiérrez-Antuñano et al. (2018)
     np.testing.assert_allclose(rec.hws_std_ms, mu, rtol=2e-3, atol=1e-3)
     log_a = 0.5 * np.log(rec.roll_amplitude_deg * rec.pitch_amplitude_deg)
     assert log_a.mean() == pytest.approx(np.log(3.0), abs=0.02)

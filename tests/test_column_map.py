@@ -1,5 +1,5 @@
 """The column map (config campaign.columns) and the height selection (campaign.heights):
-files whose names differ, wide logger tables, and no record lost (README "Run on your own
+files whose names differ, wide logger tables, and no record lost (docs/user-guide.md "Run on your own
 data", example tests/data/logger_config.yaml)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Seed 000 variance-combination laws (Eqs. 15-17), its rho estimate, the deployment formula."""
+"""Gutiérrez-Antuñano et al. (2018) variance-combination laws (Eqs. 15-17), its rho estimate, the deployment formula."""
 
 from __future__ import annotations
 
@@ -18,21 +18,21 @@ from flidar_uq.physics.variance_laws import (
 )
 
 
-def test_seed000_eq15_hand_value():
-    # r = 0.6, sZ = 0.2, rho = 0.78 (seed 000 Sec. 3.2): 0.36 + 0.04 + 2*0.78*0.12 = 0.5872
+def test_gutierrez2018_eq15_hand_value():
+    # r = 0.6, sZ = 0.2, rho = 0.78 (Gutiérrez-Antuñano et al., 2018, Sec. 3.2): 0.36 + 0.04 + 2*0.78*0.12 = 0.5872
     assert sigma_moving_pc(0.6, 0.2, 0.78) == pytest.approx(np.sqrt(0.5872), rel=1e-12)
 
 
-def test_seed000_eq16_uncorrelated_is_pythagoras():
+def test_gutierrez2018_eq16_uncorrelated_is_pythagoras():
     assert sigma_moving_u(0.3, 0.4) == pytest.approx(0.5, rel=1e-12)
 
 
-def test_seed000_eq17_correlated_is_sum():
+def test_gutierrez2018_eq17_correlated_is_sum():
     assert sigma_moving_c(0.3, 0.4) == pytest.approx(0.7, rel=1e-12)
 
 
-def test_seed000_eq15_between_u_and_c_bounds():
-    # Sec. 3.4 of seed 000: U and C laws bound the PC law for 0 <= rho <= 1
+def test_gutierrez2018_eq15_between_u_and_c_bounds():
+    # Sec. 3.4 of Gutiérrez-Antuñano et al. (2018): U and C laws bound the PC law for 0 <= rho <= 1
     r, sz = 0.5, 0.3
     pc = sigma_moving_pc(r, sz, np.linspace(0, 1, 11))
     assert np.all(pc >= sigma_moving_u(r, sz) - 1e-15)
@@ -77,7 +77,7 @@ def test_negative_discriminant_flagged_and_zero():
     assert c[0] == pytest.approx(0.9 * 0.3 + np.sqrt(0.25**2 - 0.19 * 0.09))
 
 
-def test_rho_seed000_perfect_linear_and_shape_error():
+def test_rho_bin_correlation_perfect_linear_and_shape_error():
     x = np.array([4.0, 6.0, 8.0, 10.0])
     assert rho_bin_correlation(x, -0.01 * x) == pytest.approx(-1.0)
     assert np.isnan(rho_bin_correlation(x[:2], x[:2]))

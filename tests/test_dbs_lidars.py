@@ -1,7 +1,6 @@
 """Lidar geometries as data: the named DBS lidars, custom geometry blocks, and the config.
 
-Yamaguchi & Ishihara (2016, Eq. 3) for the beam-pair retrieval; design.md ("What real buoys
-add") for the WindCube v2 geometry.
+Yamaguchi & Ishihara (2016, Eq. 3) for the beam-pair retrieval.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """A fleet of campaigns (config key ``campaigns``): config merging and checks, the fleet
-summary, the DAG of two campaigns (dry run, the README's example) and (slow) a tiny
+summary, the DAG of two campaigns (dry run, the user guide's example) and (slow) a tiny
 two-campaign run whose campaign trees equal single-campaign runs byte for byte.
 
 The SLURM run of the same fleet is in tests/test_slurm.py.
@@ -47,11 +47,11 @@ def fleet_config(workdir: Path, shared: Path | None = None) -> Path:
 
 
 def readme_fleet_example() -> dict:
-    """The config of README's "A fleet of buoys" section (its first YAML block)."""
-    readme = (REPO / "README.md").read_text()
+    """The config of the user guide's "A fleet of buoys" section (its first YAML block)."""
+    readme = (REPO / "docs" / "user-guide.md").read_text()
     section = readme.split("## A fleet of buoys", 1)[1].split("\n## ", 1)[0]
     block = re.search(r"```yaml\n(.*?)```", section, re.S)
-    assert block, "README: no yaml block in 'A fleet of buoys'"
+    assert block, "docs/user-guide.md: no yaml block in 'A fleet of buoys'"
     return yaml.safe_load(block.group(1))
 
 

@@ -190,11 +190,11 @@ def _one_band_records(std_along_deg, period_s, hws_ms):
 def test_record_terms_equal_the_band_sum_for_one_band():
     """The moments description of the record model is the band sum when the record's sea is
     one band: (U - c)^2 leak and (L - g / omega^2)^2 translation, for any lever arm."""
-    from flidar_uq.inference.record_motion import hull_sigma_z_ms, record_motion, six_dof_terms
+    from flidar_uq.inference.record_motion import hull_sigma_z_ms, per_record_motion, six_dof_terms
 
     hws = np.array([5.0, 9.0, 14.0])
     rec = _one_band_records(np.array([1.2, 2.0, 3.1]), np.array([3.5, 6.0, 8.0]), hws)
-    mot = record_motion(rec)
+    mot = per_record_motion(rec)
     terms = six_dof_terms(rec, mot)
     for lever in (0.0, 2.5):
         got = hull_sigma_z_ms(mot, terms, lever_arm_m=lever, hull_response=1.0)
@@ -214,9 +214,9 @@ def test_record_terms_equal_the_band_sum_for_one_band():
 
 
 def test_record_terms_are_zero_without_the_follower_columns():
-    from flidar_uq.inference.record_motion import record_motion, six_dof_terms
+    from flidar_uq.inference.record_motion import per_record_motion, six_dof_terms
 
     rec = _one_band_records(np.array([1.5]), np.array([5.0]), np.array([8.0]))
     rec = rec.drop(columns=["follower_heave_velocity_std_ms"])
-    terms = six_dof_terms(rec, record_motion(rec))
+    terms = six_dof_terms(rec, per_record_motion(rec))
     assert (terms.to_numpy() == 0.0).all()

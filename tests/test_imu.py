@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from flidar_uq.data import imu
 
-FS = 5.0  # Hz, seed 000's IMU rate
+FS = 5.0  # Hz, Gutiérrez-Antuñano et al.'s (2018) IMU rate
 T10 = np.arange(0, 600, 1 / FS)  # one 10-min window
 
 
@@ -264,7 +264,7 @@ def test_bad_band_raises():
 
 
 # --------------------------------------------------------------------------- records
-def test_record_motion_is_mean_of_roll_and_pitch_seed000_sec24():
+def test_add_harmonic_motion_is_mean_of_roll_and_pitch_gutierrez2018_sec24():
     rec = pd.DataFrame(
         {
             "roll_amplitude_deg": [2.0, 3.0],
@@ -273,7 +273,7 @@ def test_record_motion_is_mean_of_roll_and_pitch_seed000_sec24():
             "pitch_period_s": [5.0, 4.5],
         }
     )
-    out = imu.record_motion(rec)
+    out = imu.add_harmonic_motion(rec)
     assert out["amplitude_deg"].tolist() == [3.0, 3.25]
     assert out["period_s"].tolist() == [4.0, 4.25]
 

@@ -426,8 +426,8 @@ def test_motion_log_prob_is_pointwise_likelihood_plus_data_free_prior():
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
 
 
-def test_log_prob_global_matches_seed000_eq15_observation_model():
-    """s ~ N(mu, tau), mu^2 = r^2 + sZ^2 + 2 rho r sZ (Eq. 15 of seed 000), tau as documented."""
+def test_log_prob_global_matches_gutierrez2018_eq15_observation_model():
+    """s ~ N(mu, tau), mu^2 = r^2 + sZ^2 + 2 rho r sZ (Eq. 15 of Gutiérrez-Antuñano et al. (2018)), tau as documented."""
     from scipy import stats
 
     s, r = np.array([0.5, 1.0, 0.7]), np.array([0.4, 0.9, 0.75])

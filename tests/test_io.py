@@ -442,12 +442,11 @@ def test_virtual_campaign_passes_validation_qc_and_binning(tmp_path):
     import yaml
 
     from flidar_uq.campaign import physics_mode as campaign
+    from flidar_uq.campaign.scenarios import scenario_dir
     from flidar_uq.data.binning import bin_records
     from flidar_uq.data.qc import run_qc
 
-    scenario = yaml.safe_load(
-        (Path(__file__).parents[1] / "config/scenarios/tiny.yaml").read_text()
-    )
+    scenario = yaml.safe_load((scenario_dir() / "tiny.yaml").read_text())
     records = campaign.generate_campaign(scenario, 1).records
     path = write_records(records, tmp_path / "virtual.csv")
     rec = read_records(path)

@@ -1,4 +1,4 @@
-"""Tests of lidar geometries and wind retrieval (seed 001 Eqs. 1-4, seed 002 Eq. 3)."""
+"""Tests of lidar geometries and wind retrieval (Malekmohammadi et al., 2024, Eqs. 1-4, Yamaguchi and Ishihara (2016), Eq. 3)."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ from flidar_uq.physics.lidar import (
 )
 
 
-def test_zephir300_geometry_matches_seed000_and_001():
+def test_zephir300_geometry_matches_gutierrez2018_and_malekmohammadi2024():
     g = get_lidar("ZephIR300")
     assert g is ZEPHIR300
     assert (g.kind, g.half_cone_angle_deg, g.n_los, g.scan_period_s, g.signed) == (
@@ -104,7 +104,7 @@ def test_vad_least_squares_exact_for_homogeneous_wind(hws, wd, w, phase):
     w=st.floats(-1, 1),
     phase=st.floats(0, 6.28),
 )
-def test_cw_sign_ambiguity_fit_seed001_eq4(hws, wd, w, phase):
+def test_cw_sign_ambiguity_fit_malekmohammadi2024_eq4(hws, wd, w, phase):
     _, az = scan_times_azimuths(ZEPHIR300, phase)
     vr = np.abs(beam_unit_vectors_body(ZEPHIR300, az) @ wind_vector_ms(hws, wd, w))
     r = retrieve_wind(ZEPHIR300, az, vr, sign_ambiguity=True)
@@ -128,7 +128,7 @@ def test_dbs_exact_for_static_homogeneous_wind(lidar, phase):
     assert r.wd_deg == pytest.approx(237.0)
 
 
-def test_dbs_beam_pairs_seed002_eq3_by_hand():
+def test_dbs_beam_pairs_yamaguchi2016_eq3_by_hand():
     # V_N = v s + w c, V_E = u s + w c, ... with s = sin 30, c = cos 30
     s, c = 0.5, np.sqrt(3) / 2
     u, v, w = 3.0, -4.0, 0.2

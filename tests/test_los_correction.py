@@ -1,9 +1,9 @@
-"""Tests of the LOS-level motion correction (seeds 001, 002, 003).
+"""Tests of the LOS-level motion correction (Malekmohammadi et al. (2024), Yamaguchi and Ishihara (2016), Nassif et al. (2020)).
 
 The forward model used to make LOS data is the definition of docs/conventions.md,
 ``v_r = (R(t) d_body) . (u(x, t) - v_head(t))`` with ``motion.PlatformMotion.rotation``,
 ``lidar.beam_unit_vectors_body`` and ``motion.head_velocity_ms``; a CW lidar reports
-``|v_r|`` (seed 001 Eq. 4).
+``|v_r|`` (Malekmohammadi et al., 2024, Eq. 4).
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ def _los(geom, motion, wind, nscan, t0_s=0.0):
 
 
 def _los_levels(geom, motion, wind_of_z, nscan, gate_height_m):
-    """LOS speeds at range gates in a height-dependent wind (seed 002 Eqs. 3-4)."""
+    """LOS speeds at range gates in a height-dependent wind (Yamaguchi and Ishihara, 2016, Eqs. 3-4)."""
     t, az = _record(geom, nscan)
     d = np.einsum("nij,nj->ni", motion.rotation(t), L.beam_unit_vectors_body(geom, az))
     range_m = np.asarray(gate_height_m) / np.cos(np.radians(geom.half_cone_angle_deg))
@@ -76,12 +76,12 @@ def _uvw(est):
     return np.stack([est.u_ms, est.v_ms, est.w_ms], axis=-1)
 
 
-# --- seed 001 Eq. (7) --------------------------------------------------------------------
+# --- Malekmohammadi et al. (2024), Eq. (7) --------------------------------------------------------------------
 
 
 @pytest.mark.parametrize("geom", LIDARS, ids=lambda g: g.name)
 @pytest.mark.parametrize("motion", [STATIC_TILT, MOTION_6DOF], ids=["static_tilt", "harmonic_6dof"])
-def test_seed001_eq7_exact_recovery_rigid_body(geom, motion):
+def test_malekmohammadi2024_eq7_exact_recovery_rigid_body(geom, motion):
     t, az, vr = _los(geom, motion, WIND, nscan=25, t0_s=3.7)
     est = correct_least_squares(geom, t, az, vr, motion)
     assert est.u_ms.shape == (25,)
@@ -93,14 +93,14 @@ def test_seed001_eq7_exact_recovery_rigid_body(geom, motion):
 
 
 @pytest.mark.parametrize("geom", [L.WINDCUBE_V1, L.WINDCUBE_V1_5BEAM], ids=lambda g: g.name)
-def test_seed001_eq7_dbs_sliding_windows_exact(geom):
+def test_malekmohammadi2024_eq7_dbs_sliding_windows_exact(geom):
     t, az, vr = _los(geom, MOTION_6DOF, WIND, nscan=10)
     est = correct_least_squares(geom, t, az, vr, MOTION_6DOF, step=1)
     assert est.u_ms.shape == (t.size - geom.n_los + 1,)
     np.testing.assert_allclose(_uvw(est), np.broadcast_to(WIND, est.u_ms.shape + (3,)), atol=1e-10)
 
 
-def test_seed001_eq7_sampled_imu_converges_to_harmonic():
+def test_malekmohammadi2024_eq7_sampled_imu_converges_to_harmonic():
     """An IMU sampled at 100 Hz (SampledMotion) gives nearly the exact correction."""
     t_imu = np.arange(-1.0, 40.0, 0.01)
     roll, pitch, yaw = (np.degrees(a) for a in MOTION_6DOF.attitude_rad(t_imu))
@@ -114,8 +114,8 @@ def test_seed001_eq7_sampled_imu_converges_to_harmonic():
     assert err.max() < 1e-3 < unc.max()
 
 
-def test_uncorrected_dbs_equals_seed002_eq3_pair_formula():
-    """With no motion data the LS of a 4-beam DBS cycle is the pair formula (seed 002 Eq. 3)."""
+def test_uncorrected_dbs_equals_yamaguchi2016_eq3_pair_formula():
+    """With no motion data the LS of a 4-beam DBS cycle is the pair formula (Yamaguchi and Ishihara, 2016, Eq. 3)."""
     t, az, vr = _los(L.WINDCUBE_V1, MOTION_6DOF, WIND, nscan=12)
     est = correct_least_squares("windcube_v1", t, az, vr)
     ref = L.retrieve_wind("windcube_v1", az.reshape(12, 4), vr.reshape(12, 4))
@@ -125,7 +125,7 @@ def test_uncorrected_dbs_equals_seed002_eq3_pair_formula():
 
 
 def test_cw_sign_resolution_matches_lidar_abs_fit_without_head_velocity():
-    """CW lidar, rotation only: same wind as lidar.retrieve_wind's |A cos + C| fit (seed 001
+    """CW lidar, rotation only: same wind as lidar.retrieve_wind's |A cos + C| fit (Malekmohammadi et al. (2024)
     Eq. 4) on the same earth-frame beam vectors, including the 180-deg branch rule."""
     rot_only = M.PlatformMotion(roll=MOTION_6DOF.roll, pitch=MOTION_6DOF.pitch, yaw=MOTION_6DOF.yaw)
     t, az, vr = _los(L.ZEPHIR300, rot_only, WIND, nscan=8)
@@ -167,7 +167,7 @@ def _static_motion(roll, pitch, yaw):
     wd=st.floats(0, 360),
     w=st.floats(-1, 1),
 )
-def test_seed001_static_attitude_invariance_signed_dbs(roll, pitch, yaw, hws, wd, w):
+def test_malekmohammadi2024_static_attitude_invariance_signed_dbs(roll, pitch, yaw, hws, wd, w):
     """Any static attitude and wind: the corrected DBS (signed LOS) wind is the true one."""
     motion = _static_motion(roll, pitch, yaw)
     t, az, vr = _los(L.WINDCUBE_V1, motion, L.wind_vector_ms(hws, wd, w), nscan=2)
@@ -184,8 +184,8 @@ def test_seed001_static_attitude_invariance_signed_dbs(roll, pitch, yaw, hws, wd
     wd=st.floats(0, 360),
     w=st.floats(-1, 1),
 )
-def test_seed001_static_attitude_invariance_cw_in_qc_range(roll, pitch, yaw, hws, wd, w):
-    """CW |v_r| (seed 001 Eq. 4): exact over the TI range of QC (HWS >= 3 m/s, |w| <= 1 m/s)."""
+def test_malekmohammadi2024_static_attitude_invariance_cw_in_qc_range(roll, pitch, yaw, hws, wd, w):
+    """CW |v_r| (Malekmohammadi et al., 2024, Eq. 4): exact over the TI range of QC (HWS >= 3 m/s, |w| <= 1 m/s)."""
     motion = _static_motion(roll, pitch, yaw)
     t, az, vr = _los(L.ZEPHIR300, motion, L.wind_vector_ms(hws, wd, w), nscan=2)
     est = correct_least_squares(L.ZEPHIR300, t, az, vr, motion)
@@ -205,11 +205,11 @@ def test_cw_sign_resolution_failure_is_flagged_by_its_residual():
     assert np.all(est.residual_ms[~wrong] < 1e-8)
 
 
-# --- seed 001 frame conversion ------------------------------------------------------------
+# --- Malekmohammadi et al. (2024) frame conversion ------------------------------------------------------------
 
 
-def test_seed001_frame_pure_roll_is_enu_pitch_of_opposite_sign():
-    """Seed 001 roll beta is about the south axis = -north: an ENU pitch of -beta."""
+def test_malekmohammadi2024_frame_pure_roll_is_enu_pitch_of_opposite_sign():
+    """Malekmohammadi et al. (2024) roll beta is about the south axis = -north: an ENU pitch of -beta."""
     beta = np.radians(7.0)
     np.testing.assert_allclose(
         rotation_from_swd_frame(beta, 0.0, 0.0), M.rotation_matrix(0.0, -beta, 0.0), atol=1e-15
@@ -221,8 +221,8 @@ def test_seed001_frame_pure_roll_is_enu_pitch_of_opposite_sign():
     np.testing.assert_allclose(velocity_from_swd_frame([1.0, 2.0, 3.0]), [-2.0, -1.0, -3.0])
 
 
-def test_seed001_frame_imu_input_exact_recovery():
-    """IMU angles and velocity given in seed 001's frame, passed as explicit rotations."""
+def test_malekmohammadi2024_frame_imu_input_exact_recovery():
+    """IMU angles and velocity given in Malekmohammadi et al.'s (2024) frame, passed as explicit rotations."""
     t, az = _record(L.WINDCUBE_V1, 6)
     rng = np.random.default_rng(7)
     angles = np.radians(rng.uniform(-15, 15, size=(3, t.size)))
@@ -235,13 +235,13 @@ def test_seed001_frame_imu_input_exact_recovery():
     np.testing.assert_allclose(_uvw(est), np.broadcast_to(WIND, (6, 3)), atol=1e-10)
 
 
-# --- seed 002 -----------------------------------------------------------------------------
+# --- Yamaguchi and Ishihara (2016) -----------------------------------------------------------------------------
 
 GATES_M = np.arange(40.0, 201.0, 20.0)
 
 
 @pytest.mark.parametrize("geom", [L.WINDCUBE_V1, L.WINDCUBE_V1_5BEAM], ids=lambda g: g.name)
-def test_seed002_new_exact_with_shear_and_6dof(geom):
+def test_dbs_new_exact_with_shear_and_6dof(geom):
     t, az, vr = _los_levels(geom, MOTION_6DOF, _linear_shear, 12, GATES_M)
     target = np.array([60.0, 100.0, 150.0])
     est = correct_dbs_motion(
@@ -254,7 +254,7 @@ def test_seed002_new_exact_with_shear_and_6dof(geom):
     assert np.all(np.isnan(est.w_ms))
 
 
-def test_seed002_conventional_exact_for_static_tilt_and_translation():
+def test_dbs_conventional_exact_for_static_tilt_and_translation():
     """Frozen attitude/velocity is exact when they do not change over the cycle."""
     motion = M.PlatformMotion(
         roll=(H(6.0, 1e12, np.pi / 2),),
@@ -275,8 +275,8 @@ def test_seed002_conventional_exact_for_static_tilt_and_translation():
     np.testing.assert_allclose(est.hws_ms, np.hypot(*_linear_shear(np.array(100.0))[:2]), atol=1e-9)
 
 
-def test_seed002_conventional_error_grows_with_pitch_maximum():
-    """Seed 002 Sec. 3: frozen attitude over the DBS cycle, pitch maxima 5-20 deg, periods
+def test_dbs_conventional_error_grows_with_pitch_maximum():
+    """Yamaguchi and Ishihara (2016), Sec. 3: frozen attitude over the DBS cycle, pitch maxima 5-20 deg, periods
     5-8 s: the HWS error grows with the pitch maximum; the new algorithm stays exact."""
     hws_true = np.hypot(*_linear_shear(np.array(100.0))[:2])
     std_conv = []
@@ -293,8 +293,8 @@ def test_seed002_conventional_error_grows_with_pitch_maximum():
     assert np.all(np.diff(std_conv) > 0) and std_conv[0] > 0.01
 
 
-def test_seed002_none_on_level_lidar_is_eq3():
-    """Fixed lidar at gate heights: method 'none' equals seed 002 Eq. (3) (lidar.retrieve_wind)."""
+def test_yamaguchi2016_none_on_level_lidar_is_eq3():
+    """Fixed lidar at gate heights: method 'none' equals Yamaguchi and Ishihara (2016), Eq. (3) (lidar.retrieve_wind)."""
     still = M.PlatformMotion()
     t, az, vr = _los_levels(L.WINDCUBE_V1, still, _linear_shear, 5, GATES_M)
     est = correct_dbs_motion(
@@ -309,11 +309,11 @@ def test_seed002_none_on_level_lidar_is_eq3():
     np.testing.assert_allclose(est.v_ms, ref.v_ms, atol=1e-12)
 
 
-# --- seed 003 -----------------------------------------------------------------------------
+# --- Nassif et al. (2020) -----------------------------------------------------------------------------
 
 
-def test_seed003_eqs1_4_printed_matrices():
-    """V = Y P R V' with seed 003's Eqs. (2)-(4) as printed (Eq. 4's R[0, 1] read as 0)."""
+def test_nassif2020_eqs1_4_printed_matrices():
+    """V = Y P R V' with Nassif et al.'s (2020) Eqs. (2)-(4) as printed (Eq. 4's R[0, 1] read as 0)."""
     g, a, b = np.radians([20.0, -7.0, 12.0])  # yaw gamma, pitch alpha, roll beta
     y = np.array([[np.cos(g), -np.sin(g), 0], [np.sin(g), np.cos(g), 0], [0, 0, 1]])
     p = np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
@@ -322,7 +322,7 @@ def test_seed003_eqs1_4_printed_matrices():
     np.testing.assert_allclose(rotate_to_earth(v_body, 12.0, -7.0, 20.0), y @ p @ r @ v_body)
 
 
-def test_seed003_height_correction_exact_for_log_profile():
+def test_nassif2020_height_correction_exact_for_log_profile():
     """A log profile reported at z while measured at z' = z cos(delta) is restored exactly."""
     z = np.array([10.0, 20.0, 40.0, 60.0, 80.0, 100.0, 140.0, 160.0, 180.0, 200.0])
     tilt = np.array([0.0, 5.0, 15.0, 35.0])
@@ -333,8 +333,8 @@ def test_seed003_height_correction_exact_for_log_profile():
     )
 
 
-def test_seed003_fig11_tilted_vad_error_at_100m():
-    """Seed 003 Fig. 11: at 100 m and 40 deg tilt the VAD average of a log profile
+def test_nassif2020_fig11_tilted_vad_error_at_100m():
+    """Nassif et al. (2020), Fig. 11: at 100 m and 40 deg tilt the VAD average of a log profile
     (z0 = 0.2 mm) is 0.25 m/s low; after the height correction much less (paper: 0.02)."""
     z0, v100 = 2e-4, 10.0
     prof = lambda zz: v100 * np.log(zz / z0) / np.log(100.0 / z0)  # noqa: E731
@@ -342,7 +342,9 @@ def test_seed003_fig11_tilted_vad_error_at_100m():
     az = 2.0 * np.pi * np.arange(50) / 50
     d = earth_beam_vectors("zephir300", az, M.rotation_matrix(0.0, np.radians(40.0), 0.0))
     ring_z = z[:, None] / np.cos(np.radians(30.0)) * d[None, :, 2]
-    vad = prof(ring_z).mean(axis=1)  # seed 003: average of the 50 speeds on the tilted cone
+    vad = prof(ring_z).mean(
+        axis=1
+    )  # Nassif et al. (2020): average of the 50 speeds on the tilted cone
     before = vad[1] - prof(100.0)
     after = height_correct_profile(vad, z, 40.0)[1] - prof(100.0)
     assert before == pytest.approx(-0.25, abs=0.01)
@@ -372,7 +374,7 @@ def test_bad_input_raises_clear_value_errors():
         correct_least_squares("windcube_v1", t, np.r_[np.nan, az[1:]], vr)
 
 
-def test_seed002_bad_input_raises_clear_value_errors():
+def test_yamaguchi2016_bad_input_raises_clear_value_errors():
     t, az, vr = _los_levels(L.WINDCUBE_V1, MOTION_6DOF, _linear_shear, 3, GATES_M)
     kw = dict(range_height_m=GATES_M)
     with pytest.raises(ValueError, match="needs a pulsed DBS lidar, got 'zephir300'"):
@@ -396,14 +398,14 @@ def test_seed002_bad_input_raises_clear_value_errors():
         correct_dbs_motion("windcube_v1", t, bad_az, vr, MOTION_6DOF, **kw)
 
 
-def test_seed003_bad_input_raises_clear_value_errors():
+def test_nassif2020_bad_input_raises_clear_value_errors():
     with pytest.raises(ValueError, match="height_m must be >= 2 increasing positive heights"):
         height_correct_profile([5.0, 6.0], [100.0, 50.0], 3.0)
     with pytest.raises(ValueError, match=r"hws_ms last axis \(3,\) must match height_m \(2,\)"):
         height_correct_profile([5.0, 6.0, 7.0], [50.0, 100.0], 3.0)
     with pytest.raises(ValueError, match="wind_body_ms last axis must be 3"):
         rotate_to_earth([1.0, 2.0], 1.0, 2.0)
-    with pytest.raises(ValueError, match="velocity_from_seed001_frame: last axis must be 3"):
+    with pytest.raises(ValueError, match="velocity_from_swd_frame: last axis must be 3"):
         velocity_from_swd_frame(np.zeros((4, 2)))
 
 
@@ -429,8 +431,8 @@ def test_cw_branch_choice_robust_to_los_noise(rng):
 
 
 @pytest.mark.parametrize("geom", [L.ZEPHIR300, L.WINDCUBE_V1], ids=lambda g: g.name)
-def test_seed001_exact_on_simulator_los(geom):
-    """LOS from the project's simulator (simulator.simulate_scans, seed 002 Eq. 3 with the
+def test_malekmohammadi2024_exact_on_simulator_los(geom):
+    """LOS from the project's simulator (simulator.simulate_scans, Yamaguchi and Ishihara (2016), Eq. 3 with the
     head velocity) are corrected exactly."""
     from flidar_uq.physics.simulator import simulate_scans
 
@@ -467,10 +469,14 @@ def _frozen_kaimal_wind(hws_ms, wd_deg, sigma_u_ms, rng, height_m=100.0, dt_s=0.
     along = np.array([-np.sin(np.radians(wd_deg)), -np.cos(np.radians(wd_deg)), 0.0])
 
     def wind(t_s, xyz_m):
-        tau = np.mod(t_s - xyz_m @ along / hws_ms, n * dt_s) / dt_s  # Taylor (seed 002 Eq. 2)
+        tau = (
+            np.mod(t_s - xyz_m @ along / hws_ms, n * dt_s) / dt_s
+        )  # Taylor (Yamaguchi and Ishihara, 2016, Eq. 2)
         i0, f = np.floor(tau).astype(int) % n, tau - np.floor(tau)
         uvw = fl[:, i0] * (1 - f) + fl[:, (i0 + 1) % n] * f
-        ubar = hws_ms * (np.maximum(xyz_m[..., 2], 1.0) / height_m) ** 0.1  # seed 002 Eq. 1
+        ubar = (
+            hws_ms * (np.maximum(xyz_m[..., 2], 1.0) / height_m) ** 0.1
+        )  # Yamaguchi and Ishihara (2016), Eq. 1
         return wind_enu_ms(ubar, wd_deg, np.moveaxis(uvw, 0, -1)[..., None])[..., 0, :]
 
     return wind
@@ -493,8 +499,8 @@ def _ti(hws):
     return np.nanstd(hws) / np.nanmean(hws)
 
 
-def test_seed002_turbulent_conventional_overestimates_ti_new_removes_most(rng):
-    """Seed 002 Secs. 3-5 on Kaimal turbulence: pulsed DBS, pitch periods 5-8 s. The
+def test_yamaguchi2016_turbulent_conventional_overestimates_ti_new_removes_most(rng):
+    """Yamaguchi and Ishihara (2016), Secs. 3-5 on Kaimal turbulence: pulsed DBS, pitch periods 5-8 s. The
     conventional TI overestimate grows from pitch maximum 5 to 20 deg; the new algorithm
     removes most of it (TI error vs the same lidar on a fixed platform)."""
     wind = _frozen_kaimal_wind(10.0, 250.0, 1.2, rng)
@@ -518,8 +524,8 @@ def test_seed002_turbulent_conventional_overestimates_ti_new_removes_most(rng):
     assert abs(err["new", 20.0]) < 0.3 * err["conventional", 20.0]
 
 
-def test_seed001_turbulent_cw_removes_most_motion_ti_error(rng):
-    """Seed 001 Sec. 5.4 (motion-induced errors of the ZephIR 300 reduced by 82 %): on
+def test_malekmohammadi2024_turbulent_cw_removes_most_motion_ti_error(rng):
+    """Malekmohammadi et al. (2024), Sec. 5.4 (motion-induced errors of the ZephIR 300 reduced by 82 %): on
     Kaimal turbulence with 10-deg, 7-s roll/pitch, heave and a 2.5-m lever arm, the LS
     correction of the CW lidar equals that of an ideal signed lidar (the sign resolution
     costs nothing) and removes most of the TI error against the fixed lidar; the rest is

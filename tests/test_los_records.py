@@ -70,7 +70,7 @@ def test_complete_scans_dbs_start_mid_cycle_and_missing_beam():
 
 def test_cw_vad_on_the_virtual_campaign_matches_the_lidar_and_removes_the_motion(campaign):
     """Uncorrected LOS retrieval = the floating lidar's own record TI (same scans, same
-    retrieval up to the sign resolution); seed 001 LS recovers the fixed reference lidar's
+    retrieval up to the sign resolution); Malekmohammadi et al. (2024) LS recovers the fixed reference lidar's
     TI (benchmarks/los_correction_comparison.py part C: ~90 % of the motion error removed)."""
     rows = []
     for k in range(8):
@@ -86,14 +86,14 @@ def test_cw_vad_on_the_virtual_campaign_matches_the_lidar_and_removes_the_motion
         )
         rows.append(out.assign(**{c: rec[c].to_numpy() for c in rec.columns if c != "height_m"}))
     res = pd.concat(rows, ignore_index=True)
-    assert list(los_methods("zephir300")) == ["uncorrected", "seed001_ls"]
+    assert list(los_methods("zephir300")) == ["uncorrected", "least_squares"]
     assert (res["los_flags"] == "").all()
     assert (res["n_scans_used"] == res["n_scans"]).all() and (res["n_scans"] > 150).all()
     ti_lidar = res["hws_std_ms"] / res["hws_mean_ms"]
     np.testing.assert_allclose(res["ti_los_uncorrected"], ti_lidar, rtol=0.02)
     ti_ref = res["ref_hws_std_ms"] / res["ref_hws_mean_ms"]
     err_unc = (res["ti_los_uncorrected"] - ti_ref).abs().mean()
-    err_ls = (res["ti_los_seed001_ls"] - ti_ref).abs().mean()
+    err_ls = (res["ti_los_least_squares"] - ti_ref).abs().mean()
     assert err_ls < 0.3 * err_unc
 
 
@@ -116,7 +116,7 @@ def test_imu_gaps_remove_scans_and_no_imu_flags_the_record(campaign):
     assert (gap["n_scans"] == full["n_scans"]).all()
     none = los_record_ti(los, imu.iloc[:0], **kw)
     assert (none["los_flags"] == "imu_gap").all()
-    assert none["ti_los_seed001_ls"].isna().all() and none["ti_los_uncorrected"].isna().all()
+    assert none["ti_los_least_squares"].isna().all() and none["ti_los_uncorrected"].isna().all()
     empty = los_record_ti(los.iloc[:0], imu, **kw)
     assert (empty["los_flags"] == "no_los").all() and (empty["n_los"] == 0).all()
     flags = set(";".join(pd.concat([full, gap, none, empty])["los_flags"]).split(";")) - {""}
@@ -139,8 +139,8 @@ def test_low_cnr_los_are_not_used(campaign):
     noisy.loc[bad, "cnr_db"] = -30.0
     ref = los_record_ti(los, imu, **kw)
     got = los_record_ti(noisy, imu, **kw)
-    assert got["ti_los_seed001_ls"].iloc[0] == pytest.approx(
-        ref["ti_los_seed001_ls"].iloc[0], rel=0.05
+    assert got["ti_los_least_squares"].iloc[0] == pytest.approx(
+        ref["ti_los_least_squares"].iloc[0], rel=0.05
     )
 
 
@@ -204,7 +204,7 @@ def dbs_record(rng, *, n_cycles=150, gates=(40.0, 60.0, 80.0, 100.0, 120.0)):
     return los, imu, hws.std(ddof=1) / hws.mean()
 
 
-def test_dbs_lidar_seed001_and_seed002_new_recover_the_ti(rng):
+def test_dbs_lidar_malekmohammadi2024_and_dbs_new_recover_the_ti(rng):
     los, imu, ti_true = dbs_record(rng)
     out = los_record_ti(
         los,
@@ -217,18 +217,18 @@ def test_dbs_lidar_seed001_and_seed002_new_recover_the_ti(rng):
     )
     assert list(los_methods("windcube_v1")) == [
         "uncorrected",
-        "seed001_ls",
-        "seed002_conventional",
-        "seed002_new",
+        "least_squares",
+        "dbs_conventional",
+        "dbs_new",
     ]
     assert (out["los_flags"] == "").all() and (out["n_scans_used"] == 150).all()
-    for m in ("seed001_ls", "seed002_new"):
+    for m in ("least_squares", "dbs_new"):
         np.testing.assert_allclose(out[f"ti_los_{m}"], ti_true, rtol=0.01, err_msg=m)
         assert (out[f"n_hws_{m}"] == 150).all()
     # the motion inflates the uncorrected TI; the conventional algorithm (attitude frozen at
     # one LOS of the cycle) removes part of it
     assert (out["ti_los_uncorrected"] > 1.1 * ti_true).all()
-    conv = out["ti_los_seed002_conventional"]
+    conv = out["ti_los_dbs_conventional"]
     assert ((conv - ti_true).abs() < (out["ti_los_uncorrected"] - ti_true).abs()).all()
 
 

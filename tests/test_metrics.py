@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from flidar_uq.data import metrics
 
 
-def test_md_rmse_seed000_eqs18_19_hand_computed():
+def test_md_rmse_gutierrez2018_eqs18_19_hand_computed():
     moving = [0.50, 0.70, 0.90, 0.60]
     corr = [0.40, 0.80, 0.60, 0.60]
     # differences 0.1, -0.1, 0.3, 0.0 -> MD = 0.3/4 = 0.075, RMSE = sqrt(0.11/4) = 0.16583
@@ -19,7 +19,7 @@ def test_md_rmse_seed000_eqs18_19_hand_computed():
 
 
 def test_md_sign_is_moving_minus_reference():
-    # seed 000: a positive MD means the floating lidar sees the larger std
+    # Gutiérrez-Antuñano et al. (2018): a positive MD means the floating lidar sees the larger std
     assert metrics.mean_deviation([1.0], [0.8]) == pytest.approx(0.2)
 
 
@@ -33,7 +33,7 @@ def test_shape_mismatch_raises():
         metrics.rmse([1, 2], [1, 2, 3])
 
 
-def test_ape_seed001_eq11_hand_computed():
+def test_ape_malekmohammadi2024_eq11_hand_computed():
     np.testing.assert_allclose(metrics.ape_pct([10.0, 8.0, 5.0], [9.5, 8.4, 5.0]), [5.0, 5.0, 0.0])
     assert np.isnan(metrics.ape_pct(0.0, 1.0))
 

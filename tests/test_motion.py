@@ -1,4 +1,4 @@
-"""Tests of rotations, platform motion and seed 003 tilt geometry."""
+"""Tests of rotations, platform motion and Nassif et al. (2020) tilt geometry."""
 
 from __future__ import annotations
 
@@ -36,8 +36,8 @@ def test_rotation_order_rz_ry_rx_and_right_handed():
     np.testing.assert_allclose(rotation_matrix(r, p, y), expected, atol=1e-15)
 
 
-def test_rotation_matrix_equals_seed003_eqs2_4_for_zero_yaw():
-    # seed 003 V = Y P R V' with P, R as its Eqs. (3)-(4) (its R has a typo "1 1 0" in row 1)
+def test_rotation_matrix_equals_nassif2020_eqs2_4_for_zero_yaw():
+    # Nassif et al. (2020) V = Y P R V' with P, R as its Eqs. (3)-(4) (its R has a typo "1 1 0" in row 1)
     a, b = np.deg2rad(7.0), np.deg2rad(-4.0)  # pitch alpha, roll beta
     p = np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
     r = np.array([[1, 0, 0], [0, np.cos(b), -np.sin(b)], [0, np.sin(b), np.cos(b)]])
@@ -194,15 +194,15 @@ def test_sampled_motion_rejects_bad_series():
         SampledMotion(np.arange(3.0), np.zeros(3), np.zeros(4))
 
 
-def test_total_tilt_seed003_eq8_matches_rotated_z_axis():
+def test_total_tilt_nassif2020_eq8_matches_rotated_z_axis():
     roll, pitch = 7.0, -11.0
     z = rotation_matrix(np.deg2rad(roll), np.deg2rad(pitch), 0.3) @ [0, 0, 1]
     assert total_tilt_deg(roll, pitch) == pytest.approx(np.rad2deg(np.arccos(z[2])))
     assert total_tilt_deg(0.0, 5.0) == pytest.approx(5.0)
 
 
-# Seed 003 Table 3: rows z', z_min, z_max, dz; columns z = 10, 100, 200 m x delta = 5, 10, 15 deg.
-SEED003_TABLE3 = {
+# Nassif et al. (2020), Table 3: rows z', z_min, z_max, dz; columns z = 10, 100, 200 m x delta = 5, 10, 15 deg.
+NASSIF2020_TABLE3 = {
     "z_prime": [9.9, 9.8, 9.6, 99.6, 98.5, 96.6, 199.2, 197.0, 193.2],
     "z_min": [9.4, 8.8, 8.2, 94.6, 88.4, 81.6, 189.2, 176.9, 163.3],
     "z_max": [10.5, 10.8, 11.1, 104.6, 108.5, 111.5, 209.3, 217.0, 223.1],
@@ -210,12 +210,12 @@ SEED003_TABLE3 = {
 }
 
 
-def test_seed003_table3_heights():
+def test_nassif2020_table3_heights():
     z = np.repeat([10.0, 100.0, 200.0], 3)
     delta = np.tile([5.0, 10.0, 15.0], 3)
-    got = dict(zip(SEED003_TABLE3, tilted_scan_heights(z, delta, 30.0), strict=True))
+    got = dict(zip(NASSIF2020_TABLE3, tilted_scan_heights(z, delta, 30.0), strict=True))
     n = 0
-    for key, ref in SEED003_TABLE3.items():
+    for key, ref in NASSIF2020_TABLE3.items():
         np.testing.assert_allclose(got[key], ref, atol=0.1, err_msg=key)
         n += len(ref)
     assert n == 36  # the 27 heights z', z_min, z_max plus the 9 thicknesses dz

@@ -1,6 +1,6 @@
 """Per-record sigma_Z from the wind-frame tilt spectrum (flidar_uq.physics.motion_spectrum).
 
-References: the direct sigma_Z kernel (``physics.simulator.sigma_z``, seed 000 Eqs. 1-14,
+References: the direct sigma_Z kernel (``physics.simulator.sigma_z``, Gutiérrez-Antuñano et al. (2018), Eqs. 1-14,
 with ``pitch_amplitude_deg=0`` for a single-axis roll tilt, which tilts the head along
 north-south) and the scan simulator (``replay_sigma_z``); analytic sinusoids.
 """

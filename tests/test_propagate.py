@@ -1,4 +1,4 @@
-"""Propagation of posterior draws to corrected std and TI, with the seed 000 baselines."""
+"""Propagation of posterior draws to corrected std and TI, with the Gutiérrez-Antuñano et al. (2018) baselines."""
 
 from __future__ import annotations
 
@@ -183,8 +183,8 @@ def test_point_target_divides_by_lidar_std_ratio_and_widens_by_its_scatter(surro
         corrected_ti(rec, fits, _global_fit(0.4), point_log_sd=np.zeros(3), **kw)
 
 
-def test_given_seed000_baseline_is_used_not_recomputed(surrogate, monkeypatch):
-    """The workflow computes seed 000's baseline once and passes it in; same result."""
+def test_given_gutierrez2018_baseline_is_used_not_recomputed(surrogate, monkeypatch):
+    """The workflow computes Gutiérrez-Antuñano et al.'s (2018) baseline once and passes it in; same result."""
     from flidar_uq.correction import propagation as prop
 
     rec = pd.concat([_records([0.6, 0.8], bin_id=0), _records([0.7], bin_id=1)], ignore_index=True)

@@ -51,7 +51,7 @@ def failed(result, reason: str) -> list[int]:
 
 
 # --------------------------------------------------------------------------- one filter each
-def test_hws_nonphysical_seed001_20ms():
+def test_hws_nonphysical_malekmohammadi2024_20ms():
     r = run_qc(records(hws_mean_ms=[8.0, 20.0, 20.01, 25.0, 8.0, 8.0]), QCConfig(hws_max_ms=20.0))
     assert failed(r, "hws_nonphysical") == [3, 4]  # 20 m/s itself is physical
 
@@ -67,7 +67,7 @@ def test_default_qc_keeps_20_to_25_ms_records_at_offshore_heights():
     assert failed(r, "hws_nonphysical") == [3]
 
 
-def test_hws_range_for_ti_seed000_3_to_20():
+def test_hws_range_for_ti_gutierrez2018_3_to_20():
     r = run_qc(
         records(hws_mean_ms=[2.99, 3.0, 12.0, 20.0, 20.5, 8.0]),
         QCConfig(mad=False, ti_hws_max_ms=20.0),
@@ -75,7 +75,7 @@ def test_hws_range_for_ti_seed000_3_to_20():
     assert failed(r, "hws_out_of_ti_range") == [1, 5]
 
 
-def test_spatial_variation_seed000_006():
+def test_spatial_variation_gutierrez2018_006():
     r = run_qc(records(sv=[0.01, 0.06, 0.0601, np.nan, 0.2, 0.03]))
     assert failed(r, "sv_high") == [3, 5]
     assert r.counts.loc["sv_high", "applicable"]
@@ -111,7 +111,7 @@ def test_sv_filter_not_applicable_without_column():
     assert r.counts.loc["sv_high", "n_failed"] == 0
 
 
-def test_relative_sigma_seed001_eq9_70pct():
+def test_relative_sigma_malekmohammadi2024_eq9_70pct():
     # Eq. (9): sigma_ref / sigma_moving - 1 > 0.70 fails: 1.0/0.6 - 1 = 0.667 passes,
     # 1.03/0.6 - 1 = 0.717 fails; a missing reference cannot fail
     ref = [0.6, 1.0, 1.03, 0.3, np.nan, 2.0]
@@ -119,7 +119,7 @@ def test_relative_sigma_seed001_eq9_70pct():
     assert failed(r, "relative_sigma") == [3, 6]
 
 
-def test_availability_seed001_50pct():
+def test_availability_malekmohammadi2024_50pct():
     r = run_qc(records(availability_pct=[49.99, 50.0, 100.0, 0.0, 75.0, 50.01]))
     assert failed(r, "low_availability") == [1, 4]
 
@@ -178,7 +178,7 @@ def test_mad_needs_min_count():
     assert not rolling_mad_outliers(x, np.arange(3) * 600.0, window_s=1e6, min_count=5).any()
 
 
-def test_cnr_seed001_minus23db_on_los():
+def test_cnr_malekmohammadi2024_minus23db_on_los():
     los = pd.DataFrame(
         {
             "timestamp": pd.date_range("2011-08-17", periods=6, freq="100s", tz="UTC"),

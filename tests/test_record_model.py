@@ -18,7 +18,7 @@ from flidar_uq.inference.record_fit import (
     fit_record_model,
     log_prob_record_model,
 )
-from flidar_uq.inference.record_motion import MOTION_DESCRIPTIONS, record_motion
+from flidar_uq.inference.record_motion import MOTION_DESCRIPTIONS, per_record_motion
 from flidar_uq.physics.surrogate import get_surrogate
 
 
@@ -34,7 +34,7 @@ def test_along_wind_description_is_a_single_axis_tilt_of_sqrt2_std():
             "pitch_period_s": [9.0, 9.0],
         }
     )
-    out = record_motion(rec)
+    out = per_record_motion(rec)
     assert list(out["motion_description"]) == ["along_wind", "along_wind"]
     assert out["motion_amplitude_deg"].iloc[0] == pytest.approx(2.0 * np.sqrt(2.0))
     expect = get_surrogate().sigma_z_ms(8.0, 2.0 * np.sqrt(2.0), 4.0)
@@ -58,12 +58,35 @@ def test_fallbacks_zero_crossing_period_then_roll_pitch_then_none():
             "pitch_period_s": [np.nan, 9.0, np.nan],
         }
     )
-    out = record_motion(rec)
+    out = per_record_motion(rec)
     assert tuple(out["motion_description"]) == MOTION_DESCRIPTIONS
     assert out["motion_period_s"].iloc[0] == pytest.approx(5.0)
     assert out["motion_amplitude_deg"].iloc[1] == pytest.approx(4.0)  # geometric mean
     assert out["motion_period_s"].iloc[1] == pytest.approx(6.0)
     assert np.isnan(out["sigma_z_rot_ms"].iloc[2])
+
+
+def test_describe_motion_agrees_with_the_terms_the_model_uses():
+    from flidar_uq.inference.record_motion import FOLLOWER_COLUMNS, describe_motion, six_dof_terms
+
+    rec = pd.DataFrame(
+        {
+            "hws_mean_ms": [8.0, 8.0, 8.0, 8.0],
+            "tilt_along_wind_std_deg": [2.0, 2.0, np.nan, np.nan],
+            "tilt_period_mean_s": [4.0, 4.0, np.nan, np.nan],
+            "roll_amplitude_deg": [np.nan, np.nan, 2.0, np.nan],
+            "pitch_amplitude_deg": [np.nan, np.nan, 3.0, np.nan],
+            "roll_period_s": [np.nan, np.nan, 4.0, np.nan],
+            "pitch_period_s": [np.nan, np.nan, 5.0, np.nan],
+        }
+    )
+    for c in FOLLOWER_COLUMNS:  # complete on the first and the roll/pitch record only
+        rec[c] = [0.5, np.nan, 0.5, 0.5]
+    d = describe_motion(rec)
+    assert list(d["motion_description"]) == list(per_record_motion(rec)["motion_description"])
+    assert list(d["translation_description"]) == ["tilt_spectrum", "none", "none", "none"]
+    terms = six_dof_terms(rec, per_record_motion(rec))
+    assert list(terms["heave_leak_sq"].to_numpy() > 0) == [True, False, False, False]
 
 
 def _draw_records(rng, n, truth):
@@ -91,6 +114,33 @@ def test_record_model_recovers_known_parameters(seed):
         lo, hi = np.quantile(fit.flat(name), [0.001, 0.999])
         assert lo <= truth[name] <= hi, (name, lo, hi)
     assert "motion_scale_warning" not in fit.info
+    assert "lever_arm_warning" not in fit.info
+
+
+def test_lever_arm_check_flags_an_arm_the_geometry_cannot_have():
+    from flidar_uq.inference.record_fit import LEVER_ARM_PLAUSIBLE_MAX_M, lever_arm_check
+
+    near = np.linspace(2.3, 2.7, 401)  # median 2.50 m
+    assert lever_arm_check(near) == ""
+    assert lever_arm_check(near, (2.4, 0.3)) == ""
+    # 1.2 m from the configured arm: beyond max(0.5 m, 3 x 0.3 m)
+    msg = lever_arm_check(near, (1.3, 0.3))
+    assert "1.20 m from the configured 1.30 m" in msg and "\n" not in msg
+    # a wide configured sd widens the tolerance (3 sd = 1.5 m)
+    assert lever_arm_check(near, (1.3, 0.5)) == ""
+    far = LEVER_ARM_PLAUSIBLE_MAX_M + 1.0 + near - 2.5
+    assert "exceeds" in lever_arm_check(far)
+    assert lever_arm_check(np.full(10, LEVER_ARM_PLAUSIBLE_MAX_M - 0.1)) == ""
+
+
+def test_lever_arm_words_say_what_it_means_and_what_to_do():
+    from flidar_uq.workflow.report_summary import lever_arm_words
+
+    d = np.linspace(5.5, 6.5, 1001)  # median 6.00 m, 90 % interval 5.55-6.45 m
+    txt = lever_arm_words(d, 2.0, 0.91)
+    assert "6.00 m above" in txt and "5.55-6.45 m" in txt and "2.00 m of the buoy's geometry" in txt
+    assert "91 %" in txt and "What to do" in txt
+    assert "any height" in lever_arm_words(d, None, np.nan)
 
 
 def test_lever_arm_prior_from_geometry_pulls_the_lever_arm(caplog):
@@ -154,7 +204,7 @@ def test_log_kappa_posterior_is_the_priors_exp_tail_where_the_data_hold_no_kappa
         "hull_response": 0.0,
     }
     rec = _draw_records(np.random.default_rng(12), 500, truth)
-    mot = record_motion(rec)
+    mot = per_record_motion(rec)
     args = (
         rec["hws_std_ms"].to_numpy(),
         rec["ref_hws_std_ms"].to_numpy(),

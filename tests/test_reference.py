@@ -17,10 +17,11 @@ from flidar_uq.correction.propagation import corrected_ti, reference_target
 from flidar_uq.data.metrics import reference_label, reference_values, score_estimates
 from flidar_uq.physics.surrogate import get_surrogate
 from flidar_uq.validation.regimes import scenario_calibration, scenario_records
+from flidar_uq.workflow.inputs import SCHEMA_PATH
 from flidar_uq.workflow.propagation_step import resolve_reference
 
 REPO = Path(__file__).resolve().parents[1]
-SCHEMA = REPO / "workflow" / "schemas" / "config.schema.yaml"
+SCHEMA = SCHEMA_PATH
 CONFIG = REPO / "config" / "config.yaml"
 REF_COLUMNS = ["timestamp", "hws_mean_ms", "hws_std_ms", "ref_hws_mean_ms", "ref_hws_std_ms"]
 

@@ -493,14 +493,20 @@ def test_templates_and_captions_ship_with_the_package():
     assert {"report.html.j2", "table.html.j2", "figure.html.j2", "provenance.html.j2"} <= names
     captions = [p.name.removesuffix(".txt.j2") for p in (root / "captions").iterdir()]
     assert "metrics" in captions and "bin_table" in captions
-    values = {"mass": 0.9, "n_hidden": 3, "label": "truth", "rho_pc": 0.78, "rho_src": "seed 000"}
+    values = {
+        "mass": 0.9,
+        "n_hidden": 3,
+        "label": "truth",
+        "rho_pc": 0.78,
+        "rho_src": "Gutiérrez-Antuñano et al. 2018",
+    }
     values |= {"height": "85", "min_count": 10, "names": "rho, kappa", "sample": "held out"}
     for name in captions:
         text = rep.caption(name, bin_id=7, **values)
         assert text and "{" not in text and "\n" not in text, name
     assert "90%" in rep.caption("ti_speed_bins", mass=0.9, height="85")
     assert "(rho, kappa, kappa_z)" in rep.caption("global_posterior", names="rho, kappa, kappa_z")
-    assert "rho = 0.78 (seed 000)" in rep.caption("sigma_scatter", **values)
+    assert "rho = 0.78 (Gutiérrez-Antuñano et al. 2018)" in rep.caption("sigma_scatter", **values)
 
 
 def test_provenance_config_reads_units_from_the_key_names():
@@ -522,3 +528,27 @@ def test_table_html_shows_booleans_in_words():
     html = rep.table_html(pd.DataFrame({"on": [True, False], "np": np.array([True, False])}))
     assert "True" not in html and "False" not in html
     assert html.count(">yes<") == 2 and html.count(">no<") == 2
+
+
+def test_first_screen_says_which_motion_description_each_record_got():
+    from flidar_uq.workflow.report_summary import motion_description_summary
+
+    rec = pd.DataFrame(
+        {
+            "motion_description": ["along_wind"] * 3 + ["roll_pitch", ""],
+            "translation_description": ["tilt_spectrum"] * 2 + ["none", "none", ""],
+        }
+    )
+    txt = motion_description_summary(rec)
+    parts = txt.split(" · ")
+    assert parts[0].startswith("2 records: tilt along the wind")
+    assert "surge and heave from the tilt spectrum" in parts[0]
+    assert sorted(parts[1:]) == sorted(
+        [
+            "1 records: tilt along the wind from the IMU spectrum; no translation (rotation "
+            "about a fixed centre)",
+            "1 records: roll and pitch amplitude and period only; no translation (rotation "
+            "about a fixed centre)",
+        ]
+    )
+    assert motion_description_summary(rec.drop(columns="translation_description")) == ""

@@ -1,7 +1,7 @@
 """The raw IMU series and the LOS branch in the pipeline: DAG, config errors, the merge of the
 series' statistics, the agreement table, the report section, and (slow) end-to-end runs: the
 virtual campaign given as raw series gives the same corrected TI as given as record statistics;
-the LOS branch runs and appears in the report; the README example runs."""
+the LOS branch runs and appears in the report; the user guide's example runs."""
 
 from __future__ import annotations
 
@@ -149,9 +149,9 @@ def test_los_correction_streams_every_record_row(tmp_path):
     assert (table["timestamp"].to_numpy() == records["timestamp"].to_numpy()).all()
     no_los = table["timestamp"] == starts[2]
     assert (table.loc[no_los, "los_flags"] == "no_los").all()
-    assert table.loc[no_los, "ti_los_seed001_ls"].isna().all()
+    assert table.loc[no_los, "ti_los_least_squares"].isna().all()
     assert (table.loc[~no_los, "los_flags"] == "").all()
-    assert table.loc[~no_los, "ti_los_seed001_ls"].notna().all()
+    assert table.loc[~no_los, "ti_los_least_squares"].notna().all()
     # the same numbers as the record function on each whole window
     from flidar_uq.correction.los_records import los_record_ti
 
@@ -168,7 +168,8 @@ def test_los_correction_streams_every_record_row(tmp_path):
         lever_arm_m=(0.0, 0.0, 2.5),
     )
     np.testing.assert_allclose(
-        table.loc[table["timestamp"] == start, "ti_los_seed001_ls"], direct["ti_los_seed001_ls"]
+        table.loc[table["timestamp"] == start, "ti_los_least_squares"],
+        direct["ti_los_least_squares"],
     )
 
 
@@ -195,7 +196,7 @@ def write_agreement_inputs(tmp_path: Path) -> tuple[Path, Path]:
             "los_flags": "",
             # on the target: 0.1155/1.05 = 0.110 (inside), 0.0945/1.05 = 0.09, 0.126/1.05 = 0.12
             "ti_los_uncorrected": [0.13, 0.13, 0.13, 0.13],
-            "ti_los_seed001_ls": [0.1155, 0.0945, 0.126, 0.1],
+            "ti_los_least_squares": [0.1155, 0.0945, 0.126, 0.1],
         }
     )
     p_ti, p_los = tmp_path / "ti.csv", tmp_path / "los.csv"
@@ -215,7 +216,7 @@ def test_agreement_statistics_by_hand(tmp_path):
         figure_out=out["agreement.png"],
     ).set_index("method")
     assert list(agreement.reset_index().columns) == AGREEMENT_COLUMNS
-    ls = agreement.loc["seed001_ls"]
+    ls = agreement.loc["least_squares"]
     d = np.array([0.11, 0.09, 0.12]) - 0.10  # LOS on the target minus Bayesian median
     assert ls["n_records"] == 3  # the record without a Bayesian value is not compared
     assert ls["bias_vs_bayesian"] == pytest.approx(d.mean())
@@ -226,7 +227,9 @@ def test_agreement_statistics_by_hand(tmp_path):
     assert agreement.loc["bayesian", "md_vs_truth"] == pytest.approx(0.0)
     records = pd.read_csv(out["records.csv"])
     assert len(records) == 4
-    np.testing.assert_allclose(records["ti_los_seed001_ls_target"], [0.11, 0.09, 0.12, 0.1 / 1.05])
+    np.testing.assert_allclose(
+        records["ti_los_least_squares_target"], [0.11, 0.09, 0.12, 0.1 / 1.05]
+    )
     assert out["agreement.png"].read_bytes()[:4] == b"\x89PNG"
 
 
@@ -279,7 +282,7 @@ def test_report_section_shows_the_override_gaps_and_agreement(tmp_path):
     assert "The series wins" in html and "replaced in 4 record rows" in html
     assert "data/&lt;buoy&gt;.csv" in html  # text escaped, tables and figure not
     assert "<table>" in html and "&lt;table" not in html and "data:image/png;base64," in html
-    assert "seed001_ls" in html and "1 of 4 record rows" in html
+    assert "least_squares" in html and "1 of 4 record rows" in html
     assert series_sections() == []
 
 
@@ -313,23 +316,23 @@ def test_virtual_campaign_as_raw_series_gives_the_same_corrected_ti_and_runs_the
     summary = pd.read_csv(res / "imu" / "summary.csv").set_index("key")["value"]
     assert int(summary["record_rows_overridden"]) == len(b)
     assert "the IMU series wins" in (res / "logs" / "validate.log").read_text()
-    # the LOS branch: every record row, seed 001 closer to the fixed reference lidar than the
+    # the LOS branch: every record row, Malekmohammadi et al. (2024) closer to the fixed reference lidar than the
     # uncorrected LOS retrieval, and in the report
     los = pd.read_csv(res / "los" / "records.csv")
     assert len(los) == len(b) and los["los_flags"].isna().all()  # "" is read as NaN
     ti_ref = pd.read_csv(res / "ti" / "records.csv")["ti_ref"]
-    err = {m: (los[f"ti_los_{m}"] - ti_ref).abs().mean() for m in ("uncorrected", "seed001_ls")}
-    assert err["seed001_ls"] < 0.3 * err["uncorrected"]
+    err = {m: (los[f"ti_los_{m}"] - ti_ref).abs().mean() for m in ("uncorrected", "least_squares")}
+    assert err["least_squares"] < 0.3 * err["uncorrected"]
     agreement = pd.read_csv(res / "los" / "agreement.csv").set_index("method")
-    assert agreement.loc["seed001_ls", "n_records"] == both.sum()
+    assert agreement.loc["least_squares", "n_records"] == both.sum()
     html = (res / "report" / "report.html").read_text()
     assert "LOS-level correction beside the Bayesian one" in html and "The series wins" in html
 
 
 @pytest.mark.slow
 def test_readme_series_example_runs(tmp_path):
-    """README, "Run on your own data": the example files and tests/data/user_series_config.yaml."""
-    readme = (REPO / "README.md").read_text()
+    """docs/user-guide.md, "Run on your own data": the example files and tests/data/user_series_config.yaml."""
+    readme = (REPO / "docs" / "user-guide.md").read_text()
     assert "scripts/series-example.py example" in readme
     assert "tests/data/user_series_config.yaml" in readme
     subprocess.run(
@@ -347,5 +350,5 @@ def test_readme_series_example_runs(tmp_path):
     data = pd.read_csv(tmp_path / "results" / "data" / "records.csv")
     assert data["tilt_along_wind_std_deg"].notna().all()  # derived from the IMU series
     los = pd.read_csv(tmp_path / "results" / "los" / "agreement.csv").set_index("method")
-    assert los.loc["seed001_ls", "n_records"] > 0.8 * len(records)
+    assert los.loc["least_squares", "n_records"] > 0.8 * len(records)
     assert "LOS-level correction" in (tmp_path / "results" / "report" / "report.html").read_text()

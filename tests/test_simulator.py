@@ -1,4 +1,4 @@
-"""Tests of the moving-lidar simulator and the sigma_Z phase integral (seed 000 Eqs. 1-14)."""
+"""Tests of the moving-lidar simulator and the sigma_Z phase integral (Gutiérrez-Antuñano et al., 2018, Eqs. 1-14)."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ def _static(roll_deg=0.0, pitch_deg=0.0):
 
 
 def _seed_loop(hws, amp, period, wd, n, arm=0.0, lidar=ZEPHIR300):
-    """Seed 000's procedure written out: one scan simulation per (roll, pitch, scan) phase."""
+    """Gutiérrez-Antuñano et al.'s (2018) procedure written out: one scan simulation per (roll, pitch, scan) phase."""
     phases = 2 * np.pi * np.arange(n) / n
     wind = wind_vector_ms(hws, wd)
     z = [
@@ -117,12 +117,12 @@ def test_sigma_z_scales_exactly_with_hws_without_lever_arm(hws, factor, amp, per
 
 
 @pytest.mark.parametrize("period_s", [1.0, 2.0, 4.0, 10.0])
-def test_seed000_fig3_equal_roll_pitch_sigma_z_independent_of_wd(period_s):
+def test_gutierrez2018_fig3_equal_roll_pitch_sigma_z_independent_of_wd(period_s):
     vals = [sigma_z(10.0, 3.5, period_s, wd).sigma_z_ms for wd in range(0, 360, 30)]
     assert max(vals) / min(vals) - 1 < 0.01
 
 
-def test_seed000_sec25_roll_only_depends_on_wd():
+def test_gutierrez2018_sec25_roll_only_depends_on_wd():
     vals = [
         sigma_z(10.0, 3.5, 4.0, wd, pitch_amplitude_deg=0.0).sigma_z_ms for wd in range(0, 181, 30)
     ]
@@ -380,6 +380,29 @@ def test_sigma_z_default_within_rtol_of_converged_reference(hws, amp, per, wd, a
     err = max(abs(res.sigma_z_ms - ref[0]), abs(res.mean_z_ms - ref[1]))
     assert err <= 1e-6 * scale
     assert err <= max(res.error_estimate_ms, 1e-12 * hws)  # floor: round-off
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known limit: with the head's speed near the wind speed (19 deg at 2.69 s, 2 m "
+    "lever arm, 2 m/s) the a-priori 16-point grid is 1.1e-6 off, above its 1e-6 target and "
+    "its own error estimate (6.4e-7); 1e-5 holds (next test)",
+)
+def test_sigma_z_default_bound_near_the_head_speed_cusp():
+    kw = dict(lever_arm_m=2.0, pitch_amplitude_deg=9.5)
+    res = sigma_z(2.0, 19.0, 2.69, 45.0, **kw)
+    ref = sigma_z_grid(2.0, 19.0, 2.69, 45.0, nphase=48, **kw)
+    err = max(abs(res.sigma_z_ms - ref[0]), abs(res.mean_z_ms - ref[1]))
+    assert err <= 1e-6 * max(ref[0], abs(ref[1]))
+    assert err <= res.error_estimate_ms
+
+
+def test_sigma_z_default_near_the_head_speed_cusp_within_1e5():
+    kw = dict(lever_arm_m=2.0, pitch_amplitude_deg=9.5)
+    res = sigma_z(2.0, 19.0, 2.69, 45.0, **kw)
+    ref = sigma_z_grid(2.0, 19.0, 2.69, 45.0, nphase=48, **kw)
+    err = max(abs(res.sigma_z_ms - ref[0]), abs(res.mean_z_ms - ref[1]))
+    assert err <= 1e-5 * max(ref[0], abs(ref[1]))
 
 
 def test_sigma_z_default_grid_is_chosen_a_priori():

@@ -1,4 +1,4 @@
-"""Tests of the sigma_Z surrogate against the direct phase integral (seed 000 Eqs. 1-14)."""
+"""Tests of the sigma_Z surrogate against the direct phase integral (Gutiérrez-Antuñano et al., 2018, Eqs. 1-14)."""
 
 from __future__ import annotations
 
@@ -58,7 +58,7 @@ def test_surrogate_zero_amplitude_and_hws_scaling(sur):
 
 
 def test_wind_direction_dependence_small_only_for_small_amplitude(sur):
-    # seed 000 Fig. 3 (3.5 deg): < 1 %; at 25 deg and 20 s the direction matters (> 10 %)
+    # Gutiérrez-Antuñano et al. (2018), Fig. 3 (3.5 deg): < 1 %; at 25 deg and 20 s the direction matters (> 10 %)
     wds = np.arange(0.0, 360.0, 15.0)
     small = sur.sigma_z_ms(10.0, 3.5, 4.0, wds)
     large = sur.sigma_z_ms(10.0, 25.0, 20.0, wds)

@@ -132,7 +132,7 @@ def _vad_hws_series(field_at, hws_ms, height_m, duration_s, roll_deg=None, pitch
 
     ``field_at(t_s, north_m)`` returns wind-aligned fluctuations (3, ...) at the focus
     points; the wind blows from the west (downwind = east), Taylor's hypothesis maps the
-    east offset to a time shift (seed 002 Eq. 2). The lidar is fixed unless a tilt
+    east offset to a time shift (Yamaguchi and Ishihara, 2016, Eq. 2). The lidar is fixed unless a tilt
     history is given (no lever arm, no shear): the VAD uses the nominal geometry.
     """
     from flidar_uq.physics.motion import rotation_matrix
@@ -141,7 +141,7 @@ def _vad_hws_series(field_at, hws_ms, height_m, duration_s, roll_deg=None, pitch
     t_los, az = lidar.scan_times_azimuths(g)
     rng_m = height_m / np.cos(g.half_cone_angle_rad)
     # a scan every 1.26 s (1-s scan + refocusing); the prism turns at 1 rev/s, so the
-    # scan phase walks (seed 000 Sec. 2.3)
+    # scan phase walks (Gutiérrez-Antuñano et al., 2018, Sec. 2.3)
     t0 = np.arange(0.0, duration_s - 2.0, 1.26)
     az_s = az[None, :] + 2.0 * np.pi * np.mod(t0, 1.0)[:, None]  # (S, L)
     m = lidar.beam_unit_vectors_body(g, az_s)  # (S, L, 3)

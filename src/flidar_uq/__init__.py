@@ -1,6 +1,6 @@
 """flidar_uq: motion-induced turbulence-intensity error of floating lidars.
 
-VAD motion simulator (seed 000), emcee inference of the correlation rho and the
+VAD motion simulator (Gutiérrez-Antuñano et al., 2018), emcee inference of the correlation rho and the
 per-bin motion parameters, and corrected TI with credible intervals.
 See docs/conventions.md for frames and names, docs/interfaces.md for the module map.
 """

@@ -405,7 +405,8 @@ def _add_generate_campaign(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--scenario",
         default="default",
-        help="scenario name under config/scenarios/ or a YAML path; default 'default'",
+        help="shipped scenario name (flidar_uq/resources/scenarios/) or a YAML path; "
+        "default 'default'",
     )
     p.add_argument("--seed", type=_nonnegative_int, default=0, help="root seed (SeedSequence)")
     p.add_argument("--output", required=True, help="output record table (.csv or .parquet)")
@@ -435,7 +436,11 @@ def _run_generate_campaign(args: argparse.Namespace) -> dict:
 
 
 SUBCOMMANDS: dict[str, tuple[Callable, Callable, str]] = {
-    "sigma-z": (_add_sigma_z, _run_sigma_z, "motion-induced HWS error std sigma_Z (seed 000)"),
+    "sigma-z": (
+        _add_sigma_z,
+        _run_sigma_z,
+        "motion-induced HWS error std sigma_Z (Gutiérrez-Antuñano et al., 2018)",
+    ),
     "validate": (_add_validate, _run_validate, "validate a record table (docs/data-format.md)"),
     "convert": (
         _add_convert,

@@ -15,7 +15,7 @@ CPU, but for the C library's ``cos`` and ``sin`` (``libm`` below). A rerun is th
 :func:`numeric_environment` is the same (with the same packages, ``requirements.lock``);
 across CPU types they differ in their last digits (the default run measured once under
 another OpenBLAS kernel: corrected TIs within 4e-9, flags and coverage identical, no
-sampler decision flipped; docs/performance.md, session 12). Both can be pinned for a run through
+sampler decision flipped; docs/user-guide.md, "Reproducibility across machines"). Both can be pinned for a run through
 environment variables read when NumPy is imported (``OPENBLAS_CORETYPE``,
 ``NPY_DISABLE_CPU_FEATURES``; README, "Reproducibility across machines").
 

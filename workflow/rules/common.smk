@@ -2,11 +2,12 @@
 import os
 import sys
 
+from flidar_uq.campaign.scenarios import scenario_dir
 from flidar_uq.workflow.inputs import pipeline_preflight
 
 
-# Before any job: the closed schema (workflow/schemas/config.schema.yaml, defaults filled
-# in), cross-key checks and, for campaign.source files, the record table read as the
+# Before any job: the closed schema (package data, src/flidar_uq/resources/config.schema.yaml,
+# defaults filled in), cross-key checks and, for campaign.source files, the record table read as the
 # pipeline will (main process only, not in cluster jobs). A bad input stops the run here
 # with one line naming the key or the file, row and column, and exit status 2 (config)
 # or 3 (data); warnings are printed and the run goes on.
@@ -60,13 +61,14 @@ PROPAGATION_FITS = (
 
 
 def scenario_file(wildcards):
-    """Scenario YAML of the virtual campaign (config/scenarios/<name>.yaml)."""
+    """Scenario YAML of the virtual campaign (a path, or a name shipped with the package:
+    flidar_uq/resources/scenarios/<name>.yaml, read from the installed package)."""
     if config["campaign"]["source"] != "virtual":
         return []
     scenario = config["campaign"]["scenario"]
     if scenario.endswith((".yaml", ".yml")):
         return scenario  # a path (relative to the working directory)
-    return os.path.join(REPO, "config", "scenarios", f"{scenario}.yaml")
+    return str(scenario_dir() / f"{scenario}.yaml")  # shipped with the package
 
 
 def user_records(wildcards):

@@ -40,7 +40,7 @@ rule posterior_bin:
         "../envs/flidar_uq.yaml"
     log:
         "results/logs/posterior_bin_{bin}.log",
-    # a relative symbolic link to the batch's file, not a copy (issue 13: output size); the
+    # a relative symbolic link to the batch's file, not a copy (output size); the
     # link itself is new, so its own time stamp (which Snakemake reads) follows the batch.
     # No benchmark: a year has ~300 bins, and monitoring each cost CPU that the fits
     # running beside these jobs lost

@@ -1,5 +1,5 @@
 # The LOS branch (campaign.los_series + campaign.imu_series, or virtual_series: imu_los):
-# LOS-level motion correction record by record (seed 001 least squares; seed 002 for a DBS
+# LOS-level motion correction record by record (Malekmohammadi et al. (2024) least squares; Yamaguchi and Ishihara (2016) for a DBS
 # lidar), beside the inference, then its agreement with the Bayesian corrected TI.
 
 LOS_OUTPUTS = (

@@ -1,11 +1,11 @@
-"""Virtual floating-lidar campaign, physics mode (issue 4).
+"""Virtual floating-lidar campaign, physics mode.
 
 Size: the generator is one vectorised pipeline over a chunk of records (turbulence, sea state, scanning lidar, IMU, 10-min statistics) whose arrays are shared between its stages (~760 lines).
 
 Per 10-min record (``record_length_s``) and for every measurement height:
 
 1. Reference wind: mean HWS drawn from a truncated Weibull with lag-1 persistence
-   (Gaussian copula), direction, power-law shear (seed 002: 0.1), a TI(HWS) draw
+   (Gaussian copula), direction, power-law shear (Yamaguchi and Ishihara, 2016: 0.1), a TI(HWS) draw
    (:func:`flidar_uq.physics.turbulence.draw_sigma_u_ms`, IEC NTM or offshore-like) and 1-D
    Kaimal (u, v, w) turbulence (:func:`flidar_uq.physics.turbulence.kaimal_series`) sampled
    every ``wind.wind_dt_s`` (0.1 s) and held in between, independent between heights.
@@ -18,18 +18,19 @@ Per 10-min record (``record_length_s``) and for every measurement height:
    The wind sea travels downwind (JONSWAP gamma fixed or drawn per record); the swell
    from anywhere or at a set angle to downwind; the buoy keeps a fixed (slowly
    drifting) heading or weathervanes, its bow into the wind (``motion.sea_state``
-   keys, ``config/scenarios/README.md``); ``true_*`` regime columns record which.
+   keys, ``flidar_uq/resources/scenarios/README.md``); ``true_*`` regime columns record
+   which.
    The lidar head sits at ``lever_arm_m`` from the rotation centre (body frame), so
-   it translates with ``v = d(R r)/dt`` (design.md).
+   it translates with ``v = d(R r)/dt`` (docs/motion_spectrum.md).
 3. ZephIR-like lidar: the prism turns continuously (one revolution per
    ``scan_period_s``); the lidar scans the heights in turn, one full revolution per
    scan, then refocuses for a random delay. With ``lidar.scan_phase: prism`` (default)
    a scan starts at the azimuth the prism has at that moment, so the scan phase is
-   locked to time and random relative to the motion (seed 000 Sec. 2.3).
-   ``scan_phase: random`` draws an independent uniform phase per scan (the seed's
+   locked to time and random relative to the motion (Gutiérrez-Antuñano et al., 2018, Sec. 2.3).
+   ``scan_phase: random`` draws an independent uniform phase per scan (the paper's
    assumption). Every line of sight is simulated with the attitude
    and head velocity at its own time: ``v_r = d_earth . (u_wind - v_head)``
-   (docs/conventions.md; seed 002 Eq. 3), measured as ``|v_r|`` (CW lidar, seed 001
+   (docs/conventions.md; Yamaguchi and Ishihara (2016), Eq. 3), measured as ``|v_r|`` (CW lidar, Malekmohammadi et al. (2024)
    Eq. 4) and retrieved with the nominal body geometry (VAD least squares with the
    sign unfolding of the ``|.|`` fit); spatial variation ``sv`` is the RMS fit
    residual over HWS. Occasional scans drop out.
@@ -98,7 +99,7 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-#: CNR written for valid lines of sight of the virtual lidar (dB; above seed 001's -23 dB).
+#: CNR written for valid lines of sight of the virtual lidar (dB; above Malekmohammadi et al.'s (2024) -23 dB).
 GOOD_CNR_DB = -10.0
 
 
@@ -178,7 +179,7 @@ def _record_parameters(cfg: CampaignConfig, rng: np.random.Generator) -> dict:
             dir2_deg=rng.uniform(0.0, 360.0, n),
             heading_deg=float(ss["heading_sd_deg"]) * rng.standard_normal(n),
         )
-        # options of issue 11, drawn after the draws above so that scenarios without them
+        # options, drawn after the draws above so that scenarios without them
         # keep their numbers
         g_range = ss["wind_sea_gamma_range"]
         if g_range is None:
@@ -442,7 +443,7 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
 
 
 def _regime_truth(settings, par, truth) -> dict[str, np.ndarray]:
-    """Truth columns of the records' sea-state and heading regime (issue 11), one value a
+    """Truth columns of the records' sea-state and heading regime, one value a
     record.
 
     ``truth``: the rows of :func:`flidar_uq.campaign.scan_kernel.attitude_truth` (tilt
@@ -768,7 +769,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                     }
                 )
             )
-    # IMU statistics with the data layer's estimators (issue 3), one window per record,
+    # IMU statistics with the data layer's estimators, one window per record,
     # from the chunk's arrays
     att = [np.stack([a[k] for a in imu_att]) for k in range(3)]  # roll, pitch, yaw (C, n)
     p_lo, p_hi = settings["imu"]["period_range_s"]
@@ -819,7 +820,7 @@ _BLAS_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 #: glibc's malloc in the workers: keep freed memory for reuse (no trimming of the heap, no
 #: mmap below 32 MB). By default a chunk's arrays of a few MB are returned to the kernel
 #: when freed and faulted in again page by page at the next chunk: ~0.8 ms of system time a
-#: record, ~10 % of the generator (docs/performance.md, session 13). No effect on results;
+#: record, ~10 % of the generator (measured with benchmarks/campaign_generation.py). No effect on results;
 #: ignored by other C libraries.
 _MALLOC_TUNABLES = (
     "glibc.malloc.mmap_threshold=33554432:glibc.malloc.trim_threshold=1073741824:"

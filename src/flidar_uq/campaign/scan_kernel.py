@@ -1,12 +1,12 @@
-"""Compiled line-of-sight loop of the virtual campaign (issue 13 item 7).
+"""Compiled line-of-sight loop of the virtual campaign.
 
 One pass over every line of sight of a chunk of records, fusing what
 :func:`flidar_uq.campaign.physics_mode._simulate_chunk` did before in ~40 NumPy passes
 over ``(records, scans, lines of sight)`` arrays: the attitude's rotation matrix at the
 line of sight's time, the beam direction in the earth frame, the lidar head's velocity,
 the sheared mean wind at the tilted focus height plus the turbulence, the radial speed
-``v_r = d_earth . (u_wind - v_head)`` (seed 002 Eq. 3, docs/conventions.md) and the VAD
-least squares of each scan with the CW sign unfolded (seed 001 Eq. 4;
+``v_r = d_earth . (u_wind - v_head)`` (Yamaguchi and Ishihara, 2016, Eq. 3, docs/conventions.md) and the VAD
+least squares of each scan with the CW sign unfolded (Malekmohammadi et al., 2024, Eq. 4;
 :func:`flidar_uq.physics.lidar.vad_sign_unfolding`), and the fixed reference lidar's
 radial speeds and fit; then the record's true motion statistics (:func:`attitude_truth`).
 The generator calls it a record at a time, right after drawing the record's series.
@@ -249,7 +249,7 @@ def simulate_chunk_scans(
     dt_s : float
         LOS duration, s. ``wind_step``: LOS slots per turbulence sample.
     cos_half_cone : float
-        Cosine of the half-cone angle (focus height follows the tilted beam, seed 003 Eq. 5).
+        Cosine of the half-cone angle (focus height follows the tilted beam, Nassif et al. (2020), Eq. 5).
     n_sign_iter : int
         CW sign-unfolding iterations (0: a lidar that measures the sign).
     wd_deg : ndarray, shape (C,)
@@ -290,7 +290,7 @@ def simulate_chunk_scans(
         _trig_into(roll_deg, pitch_deg, yaw_deg, c, trig, 0)
         e0, e1, e2 = e_wind[c, 0], e_wind[c, 1], e_wind[c, 2]
         a_ = alpha[c]
-        # head position R(t) r + translation at every slot (seed 002 Eq. 4), once a record
+        # head position R(t) r + translation at every slot (Yamaguchi and Ishihara, 2016, Eq. 4), once a record
         for t in range(pos.shape[0]):
             x0, x1, x2 = _rotate_at(trig, 0, t, lever[0], lever[1], lever[2])
             if trans.shape[1] > 0:
@@ -340,7 +340,7 @@ def simulate_chunk_scans(
                 w1 = ms * e1 + f1
                 w2 = ms * e2 + f2
                 if moving:
-                    # central difference of R(t) r + translation (seed 002 Eq. 4
+                    # central difference of R(t) r + translation (Yamaguchi and Ishihara, 2016, Eq. 4
                     # differentiated), one-sided at the record's ends
                     lo = min(max(s0 + k - 1, 0), n_slots - 1)
                     hi = min(s0 + k + 1, n_slots - 1)

@@ -1,9 +1,9 @@
 """Virtual-campaign scenarios: the keys a scenario may set, their defaults and validation.
 
-A scenario is a nested mapping (``config/scenarios/<name>.yaml``) merged over
-:data:`DEFAULT_SCENARIO`; :class:`CampaignConfig` validates it, :func:`load_scenario`
-reads a shipped or user file, :func:`reference_sampling` tells the lidar-response model
-how the virtual campaign samples the wind. The generator is
+A scenario is a nested mapping (``flidar_uq/resources/scenarios/<name>.yaml``, shipped as
+package data) merged over :data:`DEFAULT_SCENARIO`; :class:`CampaignConfig` validates it,
+:func:`load_scenario` reads a shipped or user file, :func:`reference_sampling` tells the
+lidar-response model how the virtual campaign samples the wind. The generator is
 :mod:`flidar_uq.campaign.physics_mode`.
 """
 
@@ -18,6 +18,7 @@ import numpy as np
 
 from flidar_uq.physics import lidar as _lidar
 from flidar_uq.physics.hull import get_hull
+from flidar_uq.resources import resource_path
 
 __all__ = [
     "DEFAULT_SCENARIO",
@@ -65,7 +66,7 @@ DEFAULT_SCENARIO: dict = {
         "refocus_delay_s": [0.3, 0.7],  # uniform range of the delay between scans
         # "prism": the scanner turns continuously, a scan starts at the azimuth the prism
         # has at that time (phase locked to time); "random": independent uniform scan
-        # phase per scan (seed 000 Sec. 2.3's assumption)
+        # phase per scan (Gutiérrez-Antuñano et al., 2018, Sec. 2.3's assumption)
         "scan_phase": "prism",
         "scan_dropout_probability": 0.02,
         "record_outage_probability": 0.003,
@@ -130,7 +131,7 @@ DEFAULT_SCENARIO: dict = {
         },
         "harmonic": {
             # ranges drawn per record when no cases are given; roll and pitch share
-            # amplitude and period (seed 000 Sec. 2.4), phases independent uniform
+            # amplitude and period (Gutiérrez-Antuñano et al., 2018, Sec. 2.4), phases independent uniform
             "amplitude_range_deg": [1.0, 5.0],
             "period_range_s": [2.0, 5.0],
             "cases": [],
@@ -163,8 +164,8 @@ HARMONIC_CASE_KEYS = (
 
 
 def scenario_dir() -> Path:
-    """Directory of the shipped scenario files (``config/scenarios`` of the repository)."""
-    return Path(__file__).resolve().parents[3] / "config" / "scenarios"
+    """Directory of the shipped scenario files (package data, ``flidar_uq/resources/scenarios``)."""
+    return resource_path("scenarios")
 
 
 def _merge_checked(defaults: Mapping, given: Mapping, where: str) -> dict:
@@ -341,7 +342,7 @@ def _check_positive(s, key, val, integer=False):
 
 
 def load_scenario(name_or_path: str | Path) -> dict:
-    """Read a scenario YAML file (``config/scenarios/<name>.yaml`` or a path).
+    """Read a scenario YAML file (``flidar_uq/resources/scenarios/<name>.yaml`` or a path).
 
     Parameters
     ----------

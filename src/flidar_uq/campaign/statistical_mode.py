@@ -12,7 +12,7 @@ sampler and the cut model:
   geometric mean (the inference's record statistic) is ``a_i`` exactly;
 * reference std ``r_i = TI_i m_i``; ``sZ_i`` from the surrogate at ``(m_i, A_b, T_b)``;
   floating-lidar std ``s_i ~ N(mu_i, tau_i)`` with
-  ``mu_i = sqrt(r_i^2 + sZ_i^2 + 2 rho r_i sZ_i)`` (Eq. 15 of seed 000) and
+  ``mu_i = sqrt(r_i^2 + sZ_i^2 + 2 rho r_i sZ_i)`` (Eq. 15 of Gutiérrez-Antuñano et al. (2018)) and
   ``tau_i^2 = (kappa mu_i)^2 + tau0^2``.
 """
 
@@ -195,7 +195,9 @@ def generate_statistical_campaign(
             )
             true_t = p["period1_s"]
         sz = np.asarray(sz, dtype=float)
-        mu = sigma_moving_pc(r, sz, true_params["rho"])  # Eq. (15) of seed 000
+        mu = sigma_moving_pc(
+            r, sz, true_params["rho"]
+        )  # Eq. (15) of Gutiérrez-Antuñano et al. (2018)
         tau = np.sqrt((true_params["kappa"] * mu) ** 2 + true_params["tau0_ms"] ** 2)
         s = mu + tau * rng_rec.standard_normal(n)
         while np.any(s <= 0):  # truncate at 0 (a std is positive); negligible mass

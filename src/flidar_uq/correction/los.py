@@ -1,26 +1,26 @@
-"""LOS-level motion correction of floating-lidar wind retrievals (seeds 001, 002, 003).
+"""LOS-level motion correction of floating-lidar wind retrievals (Malekmohammadi et al., 2024; Yamaguchi and Ishihara, 2016; Nassif et al., 2020).
 
-Size: seeds 001, 002 and 003's LOS-level corrections share the frame conversions and beam geometry helpers; one module keeps the three methods comparable (~730 lines, half of it docstrings).
+Size: the three papers' LOS-level corrections share the frame conversions and beam geometry helpers; one module keeps the three methods comparable (~730 lines, half of it docstrings).
 
 When the line-of-sight (LOS) speeds and the IMU series are available, the motion can be
 removed scan by scan instead of statistically (``correction.py``). Three published
 methods are implemented, all in the project's ENU frame (``docs/conventions.md``):
 
-* Seed 001 (Grimstad hexapod), Eq. (7): least-squares wind vector from the LOS speeds
+* Malekmohammadi et al. (2024) (Grimstad hexapod), Eq. (7): least-squares wind vector from the LOS speeds
   with every beam rotated by the platform attitude at its own LOS time and the head
   velocity projected out, ``u = [(RN)^T RN]^-1 (RN)^T (v_r - v_rT)``.
   :func:`correct_least_squares` (VAD / CW with its sign ambiguity, and DBS / pulsed).
-* Seed 002 (Yamaguchi & Ishihara), pulsed DBS lidar: LOS speeds interpolated along
+* Yamaguchi and Ishihara (2016), pulsed DBS lidar: LOS speeds interpolated along
   each beam to the target height, then the horizontal wind in the two opposite-beam
   planes; the *conventional* algorithm freezes attitude and velocity at the reference
   LOS of the DBS cycle, the *new* one uses them at each LOS time.
   :func:`correct_dbs_motion`.
-* Seed 003 (Nassif et al.): the frame rotation ``V = Y P R V'`` (Eqs. 1-4),
+* Nassif et al. (2020): the frame rotation ``V = Y P R V'`` (Eqs. 1-4),
   :func:`rotate_to_earth`, and the height correction of tilted scans
   (Eq. 5, ``z' = z cos(delta)``), :func:`height_correct_profile`.
 
-Frame conversions at the edge: seed 001 uses x south, y west, z down
-(:func:`rotation_from_swd_frame`, :func:`velocity_from_swd_frame`); seed 002's
+Frame conversions at the edge: Malekmohammadi et al. (2024) uses x south, y west, z down
+(:func:`rotation_from_swd_frame`, :func:`velocity_from_swd_frame`); Yamaguchi and Ishihara's (2016)
 Eq. (3) read with its Table 1 beam order gives ``u`` from ``V_W - V_E`` but ``v`` from
 ``V_N - V_S`` (inconsistent signs as printed; here both from speeds positive away); seed
 003 uses ENU with our rotation order (its Eq. 4 has a typo, ``R[0, 1] = 1``, read as 0).
@@ -56,8 +56,8 @@ __all__ = [
     "height_correct_profile",
 ]
 
-# Seed 001 frame (x south, y west, z down) -> ENU: columns are the seed's axes in ENU.
-_C_SEED001_TO_ENU = np.array([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+# Malekmohammadi et al. (2024) frame (x south, y west, z down) -> ENU: columns are the paper's axes in ENU.
+_C_SWD_TO_ENU = np.array([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 
 
 @dataclass(frozen=True)
@@ -70,7 +70,7 @@ class WindEstimate:
         Reference time of each window (s), shape ``(nwin,)``.
     u_ms, v_ms, w_ms : numpy.ndarray
         ENU wind components (m/s), shape ``(nwin,)`` or ``(nwin, nheight)``;
-        ``w_ms`` is NaN for seed 002 (horizontal-only algorithm).
+        ``w_ms`` is NaN for Yamaguchi and Ishihara (2016) (horizontal-only algorithm).
     hws_ms : numpy.ndarray
         Horizontal wind speed ``sqrt(u^2 + v^2)`` (m/s), same shape.
     wd_deg : numpy.ndarray
@@ -185,7 +185,7 @@ def earth_beam_vectors(lidar, azimuth_rad, rotation) -> np.ndarray:
 
 
 def _ls_operator(a, valid):
-    """Batched least-squares operator of seed 001 Eq. (7) over the valid LOS.
+    """Batched least-squares operator of Malekmohammadi et al. (2024), Eq. (7) over the valid LOS.
 
     a (nwin, k, 3) earth-frame beam vectors; valid (nwin, k). Returns the operator
     ``[(RN)^T RN]^-1 (RN)^T`` (nwin, 3, k), with invalid LOS weighted 0, and a (nwin,)
@@ -200,7 +200,7 @@ def _ls_operator(a, valid):
 def _apply_ls(op, a, valid, b):
     """u = op b and the RMS residual over valid LOS; b (nwin, k, c) -> u (nwin, 3, c)."""
     b0 = np.where(valid[..., None], b, 0.0)
-    u = op @ b0  # Eq. (7) of seed 001
+    u = op @ b0  # Eq. (7) of Malekmohammadi et al. (2024)
     r2 = np.sum(((a @ u - b0) * valid[..., None]) ** 2, axis=1)
     return u, np.sqrt(r2 / np.maximum(valid.sum(axis=1), 1)[:, None])
 
@@ -208,7 +208,7 @@ def _apply_ls(op, a, valid, b):
 def _ls_unsigned(
     a, valid, m, vproj, ncandidates: int, niter: int, reference_wd_deg=None, nstart: int = 2
 ):
-    """Seed 001 Eq. (7) for a CW lidar reporting |v_r| (seed 001 Eq. 4).
+    """Malekmohammadi et al. (2024), Eq. (7) for a CW lidar reporting |v_r| (Malekmohammadi et al., 2024, Eq. 4).
 
     The sign of each LOS speed is unknown. Candidate sign patterns: those of an
     algebraic fit of ``m^2 - vp^2 = d^T (u u^T) d - 2 vp d.u`` (linear in the entries of
@@ -272,7 +272,7 @@ def _ls_unsigned(
         s = np.sign(a @ u - vproj[..., None])
         s[s == 0] = 1.0
         u, res = _apply_ls(op, a, valid, s * m[..., None] + vproj[..., None])
-    # The 180-deg branch (seed 001 Eq. 4: B = Theta or Theta +- 180 deg). Only the head
+    # The 180-deg branch (Malekmohammadi et al., 2024, Eq. 4: B = Theta or Theta +- 180 deg). Only the head
     # velocity separates the two branches; when it is nearly uniform over a scan the mirror
     # fits almost as well and turbulence decides scan by scan, wrongly a third of the time
     # (measured). So a scan takes its lowest-residual solution only when it beats every
@@ -347,14 +347,14 @@ def correct_least_squares(
     niter: int = 2,
     reference_wd_deg: float | None = None,
 ) -> WindEstimate:
-    """Least-squares motion-corrected wind vector per scan (Eq. 7 of seed 001).
+    """Least-squares motion-corrected wind vector per scan (Eq. 7 of Malekmohammadi et al. (2024)).
 
     Each LOS keeps its own attitude and head velocity (interpolated from the IMU at the
     LOS time): ``d_i = R(t_i) d_body(az_i)``, corrected speed ``y_i = v_r,i + d_i . v_head(t_i)``
     and ``u = (A^T A)^-1 A^T y`` with ``A`` the stacked ``d_i`` of one window.
     Vectorised across windows.
 
-    A CW lidar reports ``|v_r|`` (seed 001 Eq. 4): the sign of every LOS is resolved with
+    A CW lidar reports ``|v_r|`` (Malekmohammadi et al., 2024, Eq. 4): the sign of every LOS is resolved with
     the wind (candidate sign patterns refined by fixed-point iteration, then the previous
     and next scans' solutions as starts), and the 180-deg branch, which only the head
     velocity separates, is chosen per record (see ``reference_wd_deg``). So CW windows
@@ -413,13 +413,19 @@ def correct_least_squares(
                 f"{where}: head_velocity_ms shape {vel.shape} must be (3,) or ({t.size}, 3)"
             )
         vel = np.broadcast_to(vel, (t.size, 3))
-    d = earth_beam_vectors(geom, az, rot)  # R N of Eq. (5) of seed 001, row by row
-    vproj = np.einsum("ni,ni->n", d, vel)  # v_rT of Eq. (7) of seed 001 (per LOS)
+    d = earth_beam_vectors(
+        geom, az, rot
+    )  # R N of Eq. (5) of Malekmohammadi et al. (2024), row by row
+    vproj = np.einsum(
+        "ni,ni->n", d, vel
+    )  # v_rT of Eq. (7) of Malekmohammadi et al. (2024) (per LOS)
     a, m, vp = d[idx], vr[idx], vproj[idx]
     valid = np.isfinite(m)
     if geom.signed:
         op, ok = _ls_operator(a, valid)
-        u, res = _apply_ls(op, a, valid, (m + vp)[..., None])  # Eq. (7) of seed 001
+        u, res = _apply_ls(
+            op, a, valid, (m + vp)[..., None]
+        )  # Eq. (7) of Malekmohammadi et al. (2024)
         u, res = u[..., 0], res[:, 0]
     else:
         if np.any(m[valid] < 0):
@@ -473,20 +479,20 @@ def correct_dbs_motion(
     method: str = "new",
     step: int = 1,
 ) -> WindEstimate:
-    """Motion compensation of a pulsed DBS lidar, conventional or new (seed 002).
+    """Motion compensation of a pulsed DBS lidar, conventional or new (Yamaguchi and Ishihara, 2016).
 
-    Steps (seed 002 Sec. 3-4): (1) interpolate each LOS speed along its beam to the
+    Steps (Yamaguchi and Ishihara, 2016, Sec. 3-4): (1) interpolate each LOS speed along its beam to the
     point at the target height; (2) horizontal wind in the planes of the opposite beams
     (E-W and N-S), with the head velocity added back to each LOS speed; (3) horizontal
     wind vector from the two in-plane horizontal components. ``method="conventional"``
     freezes attitude and velocity at the reference LOS of the window (Table 2 of seed
     002: the third of four), ``"new"`` uses them at each LOS time (Table 3),
-    ``"none"`` is the fixed-lidar DBS formula (seed 002 Eq. 3) with no motion data.
+    ``"none"`` is the fixed-lidar DBS formula (Yamaguchi and Ishihara, 2016, Eq. 3) with no motion data.
 
     Windows are ``lidar.n_los`` consecutive LOS (one DBS cycle; a vertical beam is carried
-    but unused, as in seed 002 Table 3) and must hold every beam once. The height of a
+    but unused, as in Yamaguchi and Ishihara (2016), Table 3) and must hold every beam once. The height of a
     beam point includes the head's height change (``motion.head_displacement_m``: heave and
-    lever arm, seed 002 Eq. 4), frozen like the attitude in the conventional algorithm.
+    lever arm, Yamaguchi and Ishihara (2016), Eq. 4), frozen like the attitude in the conventional algorithm.
     Vectorised across windows and heights.
 
     Parameters
@@ -507,7 +513,7 @@ def correct_dbs_motion(
     method : {"new", "conventional", "none"}
         Algorithm.
     step : int
-        LOS between windows; 1 (default) gives one estimate per LOS as in seed 002.
+        LOS between windows; 1 (default) gives one estimate per LOS as in Yamaguchi and Ishihara (2016).
 
     Returns
     -------
@@ -559,7 +565,9 @@ def correct_dbs_motion(
             f"{size} beams once; the LOS sequence is not a regular DBS cycle"
         )
     pos = np.argsort(win_ids, axis=1)  # pos[w, beam] = position of that beam in window w
-    ref = idx[:, size // 2]  # Table 2 of seed 002: attitude/velocity at t = 3 of t = 1..4
+    ref = idx[
+        :, size // 2
+    ]  # Table 2 of Yamaguchi and Ishihara (2016): attitude/velocity at t = 3 of t = 1..4
 
     rot, vel = imu_rotation_velocity(None if method == "none" else motion, t)
     los = np.take_along_axis(idx, pos, axis=1)  # (nwin, size) LOS index ordered by beam
@@ -569,12 +577,12 @@ def correct_dbs_motion(
     else:
         rot_w, vel_w = rot[los], vel[los]
     d = np.einsum("wkij,wkj->wki", rot_w, d_body_pattern[None, :, :])
-    # Head height change (heave + lever arm; Eq. 4 of seed 002), same freezing rule.
+    # Head height change (heave + lever arm; Eq. 4 of Yamaguchi and Ishihara (2016)), same freezing rule.
     dz = np.zeros(t.size)
     if method != "none" and hasattr(motion, "head_displacement_m"):
         dz = np.asarray(motion.head_displacement_m(t), dtype=float)[..., 2]
     dz_w = dz[ref][:, None] if method == "conventional" else dz[los]
-    # Step 1 of seed 002: the point of each beam at the target height, lambda_i
+    # Step 1 of Yamaguchi and Ishihara (2016): the point of each beam at the target height, lambda_i
     with np.errstate(divide="ignore", invalid="ignore"):
         r_tgt = (h_tgt[None, None, :] - dz_w[..., None]) / d[..., 2:3]
     r_tgt = np.where(d[..., 2:3] > 0, r_tgt, np.nan)
@@ -603,19 +611,19 @@ def correct_dbs_motion(
 
 
 def rotation_from_swd_frame(roll_rad, pitch_rad, yaw_rad) -> np.ndarray:
-    """ENU body-to-earth rotation from IMU angles given in seed 001's frame.
+    """ENU body-to-earth rotation from IMU angles given in Malekmohammadi et al.'s (2024) frame.
 
-    Seed 001 (Sec. 3, Eq. 6) uses x south, y west, z down, and the passive matrices
+    Malekmohammadi et al. (2024) (Sec. 3, Eq. 6) uses x south, y west, z down, and the passive matrices
     ``Rx(beta)``, ``Ry(phi)``, ``Rz(psi)`` of its Eq. (6) (earth -> body, composed
     ``Rx Ry Rz``: yaw first). The active body->earth rotation in that frame is the
     transpose; it is carried to ENU by ``C R C^T`` with ``C`` the axis map
-    (south -> -y, west -> -x, down -> -z). A pure seed-001 roll ``beta`` (about south)
+    (south -> -y, west -> -x, down -> -z). A pure Malekmohammadi et al. (2024) roll ``beta`` (about south)
     is therefore an ENU pitch of ``-beta``.
 
     Parameters
     ----------
     roll_rad, pitch_rad, yaw_rad : array_like
-        Seed-001 roll beta (about south), pitch phi (about west), yaw psi (about down),
+        Malekmohammadi et al. (2024) roll beta (about south), pitch phi (about west), yaw psi (about down),
         rad, broadcastable to shape ``(...)``.
 
     Returns
@@ -627,22 +635,22 @@ def rotation_from_swd_frame(roll_rad, pitch_rad, yaw_rad) -> np.ndarray:
         *(np.asarray(x, dtype=float) for x in (roll_rad, pitch_rad, yaw_rad))
     )
     zero = np.zeros_like(b)
-    # Eq. (6) of seed 001 (passive) equals the active rotation by the opposite angle.
+    # Eq. (6) of Malekmohammadi et al. (2024) (passive) equals the active rotation by the opposite angle.
     rx = rotation_matrix(-b, zero, zero)
     ry = rotation_matrix(zero, -p, zero)
     rz = rotation_matrix(zero, zero, -y)
     r_earth_to_body = rx @ ry @ rz
     r_body_to_earth = np.swapaxes(r_earth_to_body, -1, -2)
-    return _C_SEED001_TO_ENU @ r_body_to_earth @ _C_SEED001_TO_ENU.T
+    return _C_SWD_TO_ENU @ r_body_to_earth @ _C_SWD_TO_ENU.T
 
 
 def velocity_from_swd_frame(velocity_ms) -> np.ndarray:
-    """Translational velocity from seed 001's frame (x south, y west, z down) to ENU.
+    """Translational velocity from Malekmohammadi et al.'s (2024) frame (x south, y west, z down) to ENU.
 
     Parameters
     ----------
     velocity_ms : array_like
-        Velocity (m/s), shape ``(..., 3)`` in seed-001 axes.
+        Velocity (m/s), shape ``(..., 3)`` in Malekmohammadi et al. (2024) axes.
 
     Returns
     -------
@@ -651,16 +659,16 @@ def velocity_from_swd_frame(velocity_ms) -> np.ndarray:
     """
     v = np.asarray(velocity_ms, dtype=float)
     if v.shape[-1:] != (3,):
-        raise ValueError(f"velocity_from_seed001_frame: last axis must be 3, got shape {v.shape}")
-    return np.einsum("ij,...j->...i", _C_SEED001_TO_ENU, v)
+        raise ValueError(f"velocity_from_swd_frame: last axis must be 3, got shape {v.shape}")
+    return np.einsum("ij,...j->...i", _C_SWD_TO_ENU, v)
 
 
 def rotate_to_earth(wind_body_ms, roll_deg, pitch_deg, yaw_deg=0.0) -> np.ndarray:
-    """Instrument-frame wind to the earth frame, ``V = Y P R V'`` (Eqs. 1-4 of seed 003).
+    """Instrument-frame wind to the earth frame, ``V = Y P R V'`` (Eqs. 1-4 of Nassif et al. (2020)).
 
-    Seed 003's yaw (Eq. 2), pitch (Eq. 3) and roll (Eq. 4, read with ``R[0, 1] = 0``;
+    Nassif et al.'s (2020) yaw (Eq. 2), pitch (Eq. 3) and roll (Eq. 4, read with ``R[0, 1] = 0``;
     the printed 1 is a typo) matrices, applied yaw-pitch-roll, are the project's
-    ``rotation_matrix`` (``docs/conventions.md``); seed 003 sets yaw to 0 for its
+    ``rotation_matrix`` (``docs/conventions.md``); Nassif et al. (2020) sets yaw to 0 for its
     north-moored buoy.
 
     Parameters
@@ -677,18 +685,16 @@ def rotate_to_earth(wind_body_ms, roll_deg, pitch_deg, yaw_deg=0.0) -> np.ndarra
     """
     v = np.asarray(wind_body_ms, dtype=float)
     if v.shape[-1:] != (3,):
-        raise ValueError(
-            f"rotate_to_earth_seed003: wind_body_ms last axis must be 3, got {v.shape}"
-        )
+        raise ValueError(f"rotate_to_earth: wind_body_ms last axis must be 3, got {v.shape}")
     rot = rotation_matrix(np.radians(roll_deg), np.radians(pitch_deg), np.radians(yaw_deg))
-    return np.einsum("...ij,...j->...i", rot, v)  # Eq. (1) of seed 003: V = Y P R V'
+    return np.einsum("...ij,...j->...i", rot, v)  # Eq. (1) of Nassif et al. (2020): V = Y P R V'
 
 
 def height_correct_profile(hws_ms, height_m, tilt_deg) -> np.ndarray:
-    """Height correction of a tilted VAD profile (Eq. 5 of seed 003).
+    """Height correction of a tilted VAD profile (Eq. 5 of Nassif et al. (2020)).
 
     A cone tilted by ``delta`` samples, around the target height ``z``, the centre
-    height ``z' = z cos(delta)`` (Eq. 5 of seed 003). The retrieved speeds are
+    height ``z' = z cos(delta)`` (Eq. 5 of Nassif et al. (2020)). The retrieved speeds are
     re-assigned to ``z'`` and the profile is brought back to the target heights by
     interpolation linear in ``ln(z)`` (exact for a logarithmic profile; the end segments
     are extrapolated, which the top level always needs).
@@ -700,7 +706,7 @@ def height_correct_profile(hws_ms, height_m, tilt_deg) -> np.ndarray:
     height_m : array_like
         Target heights (m), shape ``(nheight,)``, increasing, > 0, ``nheight >= 2``.
     tilt_deg : array_like
-        Total tilt ``delta`` of each profile (deg, seed 003 Eq. 8,
+        Total tilt ``delta`` of each profile (deg, Nassif et al. (2020), Eq. 8,
         ``motion.total_tilt_deg``), shape ``(...)``; NaN where ``motion.tilted_scan_heights``
         says the tilted cone is not valid (negative tilt, tilt + half cone >= 90 deg).
 
@@ -713,16 +719,16 @@ def height_correct_profile(hws_ms, height_m, tilt_deg) -> np.ndarray:
     hws = np.asarray(hws_ms, dtype=float)
     if z.ndim != 1 or z.size < 2 or np.any(z <= 0) or np.any(np.diff(z) <= 0):
         raise ValueError(
-            f"height_correct_profile_seed003: height_m must be >= 2 increasing positive "
+            f"height_correct_profile: height_m must be >= 2 increasing positive "
             f"heights, got {z.tolist()}"
         )
     if hws.shape[-1:] != z.shape:
         raise ValueError(
-            f"height_correct_profile_seed003: hws_ms last axis {hws.shape[-1:]} must match "
+            f"height_correct_profile: hws_ms last axis {hws.shape[-1:]} must match "
             f"height_m ({z.size},)"
         )
     z_prime = tilted_scan_heights(z, np.asarray(tilt_deg, dtype=float)[..., None])[0]
-    log_z_true = np.log(z_prime)  # Eq. (5) of seed 003: z' = z cos(delta)
+    log_z_true = np.log(z_prime)  # Eq. (5) of Nassif et al. (2020): z' = z cos(delta)
     log_z = np.broadcast_to(np.log(z), np.broadcast_shapes(log_z_true.shape, hws.shape))
     log_z_true = np.broadcast_to(log_z_true, log_z.shape)
     hws = np.broadcast_to(hws, log_z.shape)

@@ -1,6 +1,6 @@
 """LOS-level motion-corrected TI of one 10-min record, from its LOS data and the IMU series.
 
-The scan-by-scan corrections of :mod:`flidar_uq.correction.los` (seed 001 Eq. 7,
+The scan-by-scan corrections of :mod:`flidar_uq.correction.los` (Malekmohammadi et al., 2024, Eq. 7,
 :func:`~flidar_uq.correction.los.correct_least_squares`; for a pulsed DBS lidar also seed
 002's conventional and new algorithms, :func:`~flidar_uq.correction.los.correct_dbs_motion`)
 applied to a record as a user has it: LOS rows in the format of ``docs/data-format.md``
@@ -43,12 +43,12 @@ IMU_MARGIN_S = 5.0
 
 
 def los_methods(lidar: str | LidarGeometry) -> tuple[str, ...]:
-    """Method names of the LOS branch for a lidar: ``uncorrected``, ``seed001_ls`` and, for a
-    pulsed DBS lidar, ``seed002_conventional`` and ``seed002_new``."""
+    """Method names of the LOS branch for a lidar: ``uncorrected``, ``least_squares`` and, for a
+    pulsed DBS lidar, ``dbs_conventional`` and ``dbs_new``."""
     geom = get_lidar(lidar)
     if geom.kind == "dbs":
-        return ("uncorrected", "seed001_ls", "seed002_conventional", "seed002_new")
-    return ("uncorrected", "seed001_ls")
+        return ("uncorrected", "least_squares", "dbs_conventional", "dbs_new")
+    return ("uncorrected", "least_squares")
 
 
 def complete_scans(t_s: np.ndarray, azimuth_rad: np.ndarray, lidar) -> np.ndarray:
@@ -192,7 +192,7 @@ def los_record_ti(
         One row per height: ``height_m``, ``n_los``, ``n_scans`` (complete), ``n_scans_used``
         (with IMU), ``los_flags`` (:data:`LOS_RECORD_REASONS`, ``;``-separated), and per
         method ``m`` of :func:`los_methods`: ``n_hws_<m>`` (scans with a retrieved HWS; a
-        seed 002 target above the top gate or a singular scan gives none),
+        Yamaguchi and Ishihara (2016) target above the top gate or a singular scan gives none),
         ``hws_mean_ms_<m>``, ``hws_std_ms_<m>`` (m/s, over those scans' HWS) and
         ``ti_los_<m>`` (-).
 
@@ -264,19 +264,19 @@ def los_record_ti(
                     geom, t[li], az[li], vr_d[li], method="none", **kw
                 ).hws_ms[:, 0]
                 for m in ("conventional", "new"):
-                    hws[f"seed002_{m}"] = correct_dbs_motion(
+                    hws[f"dbs_{m}"] = correct_dbs_motion(
                         geom, t[li], az[li], vr_d[li], motion, method=m, **kw
                     ).hws_ms[:, 0]
                 if h in gates:
                     g = int(np.flatnonzero(gates == h)[0])
-                    hws["seed001_ls"] = correct_least_squares(
+                    hws["least_squares"] = correct_least_squares(
                         geom, t[li], az[li], vr_d[li, g], motion
                     ).hws_ms
             else:
                 hws["uncorrected"] = correct_least_squares(
                     geom, t[li], az[li], vr[li], reference_wd_deg=ref
                 ).hws_ms
-                hws["seed001_ls"] = correct_least_squares(
+                hws["least_squares"] = correct_least_squares(
                     geom, t[li], az[li], vr[li], motion, reference_wd_deg=ref
                 ).hws_ms
         for m in methods:

@@ -1,12 +1,12 @@
-"""HWS x motion amplitude x period bins and the bin table (seed 000 Sec. 3.1, Table 1).
+"""HWS x motion amplitude x period bins and the bin table (Gutiérrez-Antuñano et al., 2018, Sec. 3.1, Table 1).
 
-Binning variables (seed 000 Secs. 2.4 and 3.1): the 10-min mean HWS, the motion
+Binning variables (Gutiérrez-Antuñano et al., 2018, Secs. 2.4 and 3.1): the 10-min mean HWS, the motion
 amplitude (mean of roll and pitch amplitude) and the motion period (mean of roll
 and pitch period).  Bins are ``width`` wide and centred on integer multiples of
 ``width``: with width 1 the edges are [0.5, 1.5), [1.5, 2.5), ... as in the seed.
 
 Each bin has a stable text id ``H08_A03_T04`` (centres; a fractional centre is
-written ``H08p5``).  The bin table is sorted by decreasing count with seed 000
+written ``H08p5``).  The bin table is sorted by decreasing count with Gutiérrez-Antuñano et al. (2018)
 Table 1's columns (``case_no``, ``hws_ms``, ``amplitude_deg``, ``period_s``,
 ``count``).  Bins with fewer than ``min_count`` records are kept and flagged
 (``below_min_count``), never dropped; records lacking a binning variable get no
@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from flidar_uq.data.imu import record_motion
+from flidar_uq.data.imu import add_harmonic_motion
 
 __all__ = ["bin_centre", "bin_label", "bin_records", "speed_bin_ms"]
 
@@ -93,9 +93,9 @@ def bin_records(
     ----------
     records : pandas.DataFrame
         Records with ``hws_mean_ms`` and roll/pitch amplitude and period columns
-        (``amplitude_deg``/``period_s`` are computed if absent, seed 000 Sec. 2.4).
+        (``amplitude_deg``/``period_s`` are computed if absent, Gutiérrez-Antuñano et al. (2018), Sec. 2.4).
     hws_width_ms, amplitude_width_deg, period_width_s : float
-        Bin widths, m/s, deg, s (1 each, seed 000 Sec. 3.1).
+        Bin widths, m/s, deg, s (1 each, Gutiérrez-Antuñano et al. (2018), Sec. 3.1).
     min_count : int
         Bins with fewer records get ``below_min_count = True`` (kept, not dropped).
 
@@ -116,7 +116,7 @@ def bin_records(
         raise ValueError(f"bin_records: min_count must be >= 1, got {min_count!r}")
     out = records.copy()
     if "amplitude_deg" not in out.columns or "period_s" not in out.columns:
-        out = record_motion(out)
+        out = add_harmonic_motion(out)
     widths = (hws_width_ms, amplitude_width_deg, period_width_s)
     values = (out["hws_mean_ms"], out["amplitude_deg"], out["period_s"])
     centres = [speed_bin_ms(values[0].to_numpy(dtype=np.float64), widths[0])] + [

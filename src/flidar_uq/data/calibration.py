@@ -2,7 +2,7 @@
 
 Calibration is judged per regime (wind speed, sea state, heading), never only in
 aggregate: a single campaign-wide correction can be right on average and wrong in every
-sea state (design.md, "What real seas add"). :func:`calibration_by_group` scores the
+sea state (docs/motion_spectrum.md). :func:`calibration_by_group` scores the
 per-record corrected TI and its credible interval against a known TI (the truth of a
 virtual campaign, or a reference instrument) within each group of records.
 """

@@ -22,7 +22,7 @@ Period, s
     spectrum also gives the two-peak description directly.
     ``"zero_crossing"``: mean interval between zero up-crossings.
 
-Bimodal motion: two peaks in the summed roll + pitch spectrum (seed 000 Sec. 2.4
+Bimodal motion: two peaks in the summed roll + pitch spectrum (Gutiérrez-Antuñano et al., 2018, Sec. 2.4
 reports two coexisting periods) give ``period1_s < period2_s`` and ``weight1``,
 the share of the in-band variance on the short-period side of the spectral
 minimum between them (``docs/conventions.md``: ``A1 = A sqrt(w)``).
@@ -69,7 +69,7 @@ __all__ = [
     "window_series",
     "motion_statistics",
     "motion_statistics_arrays",
-    "record_motion",
+    "add_harmonic_motion",
     "roll_pitch_correlation",
     "heading_mean_deg",
     "tilt_band_statistics",
@@ -700,11 +700,11 @@ def motion_statistics_arrays(
     return start_ns, cols | {"imu_availability_pct": coverage}, present
 
 
-def record_motion(records: pd.DataFrame) -> pd.DataFrame:
-    """Add the seed-000 single motion description to each record.
+def add_harmonic_motion(records: pd.DataFrame) -> pd.DataFrame:
+    """Add the Gutiérrez-Antuñano et al. (2018) single motion description to each record.
 
     ``amplitude_deg`` = mean of roll and pitch amplitude and ``period_s`` = mean
-    of roll and pitch period (seed 000 Sec. 2.4).
+    of roll and pitch period (Gutiérrez-Antuñano et al., 2018, Sec. 2.4).
 
     Parameters
     ----------
@@ -720,17 +720,21 @@ def record_motion(records: pd.DataFrame) -> pd.DataFrame:
     need = ["roll_amplitude_deg", "pitch_amplitude_deg", "roll_period_s", "pitch_period_s"]
     missing = [c for c in need if c not in records.columns]
     if missing:
-        raise ValueError(f"record_motion: records lack column(s) {missing}")
+        raise ValueError(f"add_harmonic_motion: records lack column(s) {missing}")
     out = records.copy()
-    out["amplitude_deg"] = 0.5 * (records[need[0]] + records[need[1]])  # seed 000 Sec. 2.4
-    out["period_s"] = 0.5 * (records[need[2]] + records[need[3]])  # seed 000 Sec. 2.4
+    out["amplitude_deg"] = 0.5 * (
+        records[need[0]] + records[need[1]]
+    )  # Gutiérrez-Antuñano et al. (2018), Sec. 2.4
+    out["period_s"] = 0.5 * (
+        records[need[2]] + records[need[3]]
+    )  # Gutiérrez-Antuñano et al. (2018), Sec. 2.4
     return out
 
 
 def roll_pitch_correlation(records: pd.DataFrame) -> dict[str, float]:
     """Pearson correlation of roll vs pitch amplitude and period across records.
 
-    Seed 000 Sec. 2.4 / Fig. 2 reports 0.88 (amplitude) and 0.54 (period) at
+    Gutiérrez-Antuñano et al. (2018), Sec. 2.4 / Fig. 2 reports 0.88 (amplitude) and 0.54 (period) at
     IJmuiden and uses it to justify one amplitude and one period per record.
 
     Parameters

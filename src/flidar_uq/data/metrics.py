@@ -1,7 +1,7 @@
 """Comparison metrics of a moving (floating) instrument against a reference.
 
-MD and RMSE (seed 000 Eqs. 18-19), APE (seed 001 Eq. 11), Pearson r and
-Deming regression (seed 001 Sec. 4.2), TI by speed bin and the representative
+MD and RMSE (Gutiérrez-Antuñano et al., 2018, Eqs. 18-19), APE (Malekmohammadi et al., 2024, Eq. 11), Pearson r and
+Deming regression (Malekmohammadi et al., 2024, Sec. 4.2), TI by speed bin and the representative
 TI (IEC 61400-1: mean + 1.28 std), and the IEA Wind RP 18 mean-speed KPIs.
 
 Pairs where either value is NaN are ignored; a metric without any valid pair
@@ -59,7 +59,7 @@ def _pair(x, y, name: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def mean_deviation(moving, reference) -> float:
-    """Mean deviation ``MD = sum(moving - reference) / N``, seed 000 Eq. (18).
+    """Mean deviation ``MD = sum(moving - reference) / N``, Gutiérrez-Antuñano et al. (2018), Eq. (18).
 
     Parameters
     ----------
@@ -74,20 +74,24 @@ def mean_deviation(moving, reference) -> float:
         MD, unit of the inputs (NaN without valid pairs).
     """
     m, r = _pair(moving, reference, "mean_deviation")
-    return float(np.mean(m - r)) if m.size else np.nan  # Eq. (18) of seed 000
+    return (
+        float(np.mean(m - r)) if m.size else np.nan
+    )  # Eq. (18) of Gutiérrez-Antuñano et al. (2018)
 
 
 def rmse(moving, reference) -> float:
-    """Root-mean-square error ``sqrt(sum((moving - reference)^2) / N)``, seed 000 Eq. (19).
+    """Root-mean-square error ``sqrt(sum((moving - reference)^2) / N)``, Gutiérrez-Antuñano et al. (2018), Eq. (19).
 
     Parameters and returns as :func:`mean_deviation`.
     """
     m, r = _pair(moving, reference, "rmse")
-    return float(np.sqrt(np.mean((m - r) ** 2))) if m.size else np.nan  # Eq. (19) of seed 000
+    return (
+        float(np.sqrt(np.mean((m - r) ** 2))) if m.size else np.nan
+    )  # Eq. (19) of Gutiérrez-Antuñano et al. (2018)
 
 
 def md_rmse(x, reference) -> tuple[float, float, int]:
-    """MD and RMSE of ``x`` against ``reference`` (seed 000 Eqs. 18-19) and the pair count.
+    """MD and RMSE of ``x`` against ``reference`` (Gutiérrez-Antuñano et al., 2018, Eqs. 18-19) and the pair count.
 
     Parameters
     ----------
@@ -218,7 +222,7 @@ def score_estimates(
     (finite ``ti_corrected_median``). The Bayesian estimate is compared in the reference's
     own terms: its point value against the truth, a cup or a sonic, times
     ``lidar_std_ratio`` (the motionless-lidar value) against a fixed lidar or an unnamed
-    reference instrument. Seed 000's U / C / PC laws estimate the reference instrument's
+    reference instrument. Gutiérrez-Antuñano et al.'s (2018) U / C / PC laws estimate the reference instrument's
     std, as published.
 
     Parameters
@@ -275,7 +279,7 @@ def score_estimates(
 
 
 def ape_pct(reference_mean, moving_mean) -> np.ndarray:
-    """Absolute percentage error ``|U_ref - U_moving| / U_ref * 100``, seed 001 Eq. (11).
+    """Absolute percentage error ``|U_ref - U_moving| / U_ref * 100``, Malekmohammadi et al. (2024), Eq. (11).
 
     Parameters
     ----------
@@ -290,7 +294,7 @@ def ape_pct(reference_mean, moving_mean) -> np.ndarray:
     r = np.asarray(reference_mean, dtype=np.float64)
     m = np.asarray(moving_mean, dtype=np.float64)
     with np.errstate(invalid="ignore", divide="ignore"):
-        out = np.abs(r - m) / r * 100.0  # Eq. (11) of seed 001
+        out = np.abs(r - m) / r * 100.0  # Eq. (11) of Malekmohammadi et al. (2024)
     return np.where(r != 0, out, np.nan)
 
 
@@ -359,11 +363,11 @@ def deming_regression(x, y, *, delta: float = 1.0) -> DemingFit:
 
 
 def turbulence_intensity(hws_std_ms, hws_mean_ms) -> np.ndarray:
-    """TI = std / mean of the 10-min HWS (seed 001 Eq. 10); NaN where mean <= 0."""
+    """TI = std / mean of the 10-min HWS (Malekmohammadi et al., 2024, Eq. 10); NaN where mean <= 0."""
     s = np.asarray(hws_std_ms, dtype=np.float64)
     m = np.asarray(hws_mean_ms, dtype=np.float64)
     with np.errstate(invalid="ignore", divide="ignore"):
-        ti = s / m  # Eq. (10) of seed 001
+        ti = s / m  # Eq. (10) of Malekmohammadi et al. (2024)
     return np.where(m > 0, ti, np.nan)
 
 
@@ -402,9 +406,9 @@ def ti_by_speed_bin(
     hws_mean_ms, hws_std_ms : array_like, shape (n,)
         10-min mean and std of HWS, m/s.
     bin_width_ms : float
-        Bin width, m/s (1, as seed 000 Fig. 8b); edges at ``(k -/+ 0.5) * width``.
+        Bin width, m/s (1, as Gutiérrez-Antuñano et al. (2018), Fig. 8b); edges at ``(k -/+ 0.5) * width``.
     hws_min_ms, hws_max_ms : float
-        HWS range considered, m/s, inclusive (3-20, seed 000 Sec. 3.5).
+        HWS range considered, m/s, inclusive (3-20, Gutiérrez-Antuñano et al. (2018), Sec. 3.5).
 
     Returns
     -------

@@ -13,11 +13,11 @@ reason                    rule (flagged if ...)                                 
 ========================  ====================================================  ============
 ``missing_wind``          ``hws_mean_ms`` or ``hws_std_ms`` is NaN               data contract
 ``hws_nonphysical``       ``hws_mean_ms > hws_max_ms`` (40 m/s)                  offshore range
-``hws_out_of_ti_range``   ``hws_mean_ms`` outside [3, 40] m/s                    seed 000 Sec. 3.5
-``sv_high``               ``sv > sv_max`` (0.06)                                 seed 000 Sec. 3.4
-``mad_outlier``           ``|X - M| > 3 MAD / 0.6745`` on a rolling median       seed 001 Eq. (8)
-``relative_sigma``        ``ref_std / moving_std - 1 > 0.70``                    seed 001 Eq. (9)
-``low_availability``      ``availability_pct < 50``                              seed 001 Sec. 4.2
+``hws_out_of_ti_range``   ``hws_mean_ms`` outside [3, 40] m/s                    Gutiérrez-Antuñano et al. (2018), Sec. 3.5
+``sv_high``               ``sv > sv_max`` (0.06)                                 Gutiérrez-Antuñano et al. (2018), Sec. 3.4
+``mad_outlier``           ``|X - M| > 3 MAD / 0.6745`` on a rolling median       Malekmohammadi et al. (2024), Eq. (8)
+``relative_sigma``        ``ref_std / moving_std - 1 > 0.70``                    Malekmohammadi et al. (2024), Eq. (9)
+``low_availability``      ``availability_pct < 50``                              Malekmohammadi et al. (2024), Sec. 4.2
 ``imu_gap``               a motion statistic NaN, or ``imu_availability_pct``    data contract
                           below its minimum (80 %)
 ``zero_std``              ``hws_std_ms`` or ``ref_hws_std_ms`` exactly 0 (a      data contract
@@ -27,7 +27,7 @@ reason                    rule (flagged if ...)                                 
 ========================  ====================================================  ============
 
 LOS-level filter (:func:`run_los_qc`): ``cnr_low``, CNR below -23 dB or missing
-(seed 001 Sec. 4.2).
+(Malekmohammadi et al., 2024, Sec. 4.2).
 """
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ RECORD_REASONS = (
 )
 LOS_REASONS = ("cnr_low",)
 
-#: Consistency constant of the MAD for a normal distribution (seed 001 Eq. 8).
+#: Consistency constant of the MAD for a normal distribution (Malekmohammadi et al., 2024, Eq. 8).
 MAD_SCALE = 0.6745
 
 _MOTION = ("roll_amplitude_deg", "pitch_amplitude_deg", "roll_period_s", "pitch_period_s")
@@ -74,28 +74,28 @@ _MOTION = ("roll_amplitude_deg", "pitch_amplitude_deg", "roll_period_s", "pitch_
 
 @dataclass(frozen=True)
 class QCConfig:
-    """Switches and thresholds of the QC filters (defaults from seeds 000 and 001).
+    """Switches and thresholds of the QC filters (defaults from Gutiérrez-Antuñano et al. (2018) and Malekmohammadi et al. (2024)).
 
     Parameters
     ----------
     missing_wind : bool
         Flag records whose ``hws_mean_ms`` or ``hws_std_ms`` is NaN.
     hws_nonphysical : bool
-        Flag ``hws_mean_ms > hws_max_ms`` (seed 001 Sec. 4.2).
+        Flag ``hws_mean_ms > hws_max_ms`` (Malekmohammadi et al., 2024, Sec. 4.2).
     hws_max_ms : float
         Nonphysical wind speed threshold, m/s (40: 20-25 m/s is ordinary winter wind at
-        80-150 m offshore; seed 001 used 20 on a hexapod).
+        80-150 m offshore; Malekmohammadi et al. (2024) used 20 on a hexapod).
     ti_range : bool
-        Flag records outside the HWS range used for TI (seed 000 Sec. 3.5).
+        Flag records outside the HWS range used for TI (Gutiérrez-Antuñano et al., 2018, Sec. 3.5).
     ti_hws_min_ms, ti_hws_max_ms : float
         Inclusive HWS range for TI, m/s (3, 40; the bins' minimum record count then ends
         the statistics at the highest bin with enough records).
     sv : bool
-        Flag records with spatial variation above ``sv_max`` (seed 000 Sec. 3.4).
+        Flag records with spatial variation above ``sv_max`` (Gutiérrez-Antuñano et al., 2018, Sec. 3.4).
     sv_max : float
         Spatial-variation threshold, dimensionless (0.06).
     mad : bool
-        Flag MAD outliers about a rolling median (seed 001 Eq. 8).
+        Flag MAD outliers about a rolling median (Malekmohammadi et al., 2024, Eq. 8).
     mad_column : str
         Record column tested for outliers (``hws_mean_ms``).
     mad_k : float
@@ -106,13 +106,13 @@ class QCConfig:
         Fewest finite values in a window for the test to apply (5); records with
         fewer are not judged (not flagged).
     relative_sigma : bool
-        Flag inconsistent reference std (seed 001 Eq. 9) when ``ref_hws_std_ms`` exists.
+        Flag inconsistent reference std (Malekmohammadi et al., 2024, Eq. 9) when ``ref_hws_std_ms`` exists.
     relative_sigma_max : float
         Largest accepted ``sigma_ref / sigma_moving - 1``, dimensionless (0.70).
     availability : bool
         Flag records with ``availability_pct < availability_min_pct``.
     availability_min_pct : float
-        Minimum availability, % (50; seed 001 Sec. 4.2).
+        Minimum availability, % (50; Malekmohammadi et al. (2024), Sec. 4.2).
     imu_gap : bool
         Flag records with missing motion statistics or low IMU coverage.
     imu_availability_min_pct : float
@@ -125,7 +125,7 @@ class QCConfig:
     cnr : bool
         Flag LOS measurements with CNR below ``cnr_min_db`` (LOS data only).
     cnr_min_db : float
-        CNR threshold, dB (-23; seed 001 Sec. 4.2).
+        CNR threshold, dB (-23; Malekmohammadi et al. (2024), Sec. 4.2).
     """
 
     missing_wind: bool = True
@@ -232,7 +232,7 @@ def rolling_mad_outliers(
     k: float = 3.0,
     min_count: int = 5,
 ) -> np.ndarray:
-    """Outliers about a rolling median, seed 001 Eq. (8).
+    """Outliers about a rolling median, Malekmohammadi et al. (2024), Eq. (8).
 
     A value ``X`` is an outlier if ``|X - M| > k * MAD / 0.6745`` where ``M`` is
     the rolling median and ``MAD`` the rolling median of ``|X - M|``, both over a
@@ -249,7 +249,7 @@ def rolling_mad_outliers(
     window_s : float
         Window width, s.
     k : float
-        Multiplier (3 in seed 001).
+        Multiplier (3 in Malekmohammadi et al. (2024)).
     min_count : int
         Fewest finite values in a window for a verdict; otherwise not flagged.
 
@@ -279,11 +279,13 @@ def rolling_mad_outliers(
         idx = order[sl]
         s = pd.Series(values[idx], index=pd.to_datetime(time_s[idx], unit="s"))
         roll = s.rolling(window, center=True, min_periods=int(min_count), closed="both")
-        med = roll.median()  # M of seed 001 Eq. (8)
+        med = roll.median()  # M of Malekmohammadi et al. (2024), Eq. (8)
         dev = (s - med).abs()
         mad = dev.rolling(window, center=True, min_periods=int(min_count), closed="both").median()
         with np.errstate(invalid="ignore"):
-            flag = dev.to_numpy() > k * mad.to_numpy() / MAD_SCALE  # Eq. (8) of seed 001
+            flag = (
+                dev.to_numpy() > k * mad.to_numpy() / MAD_SCALE
+            )  # Eq. (8) of Malekmohammadi et al. (2024)
         out_sorted[sl] = flag
     out = np.empty(n, dtype=bool)
     out[order] = out_sorted
@@ -350,7 +352,9 @@ def _record_masks(records: pd.DataFrame, c: QCConfig) -> dict[str, tuple[bool, b
         out["mad_outlier"] = (c.mad, has_mad, mad)
         has_ref = "ref_hws_std_ms" in cols
         if has_ref:
-            rel = _col(records, "ref_hws_std_ms") / std - 1.0  # Eq. (9) of seed 001
+            rel = (
+                _col(records, "ref_hws_std_ms") / std - 1.0
+            )  # Eq. (9) of Malekmohammadi et al. (2024)
             rel_fail = rel > c.relative_sigma_max
         else:
             rel_fail = none
@@ -437,7 +441,7 @@ def run_qc(records: pd.DataFrame, config: QCConfig | None = None) -> QCResult:
         least ``timestamp``, ``height_m``, ``hws_mean_ms``, ``hws_std_ms`` and
         ``availability_pct``.  Optional columns enable further filters.
     config : QCConfig, optional
-        Switches and thresholds; defaults follow seeds 000 and 001.
+        Switches and thresholds; defaults follow Gutiérrez-Antuñano et al. (2018) and Malekmohammadi et al. (2024).
 
     Returns
     -------
@@ -458,7 +462,7 @@ def run_qc(records: pd.DataFrame, config: QCConfig | None = None) -> QCResult:
 
 
 def run_los_qc(los: pd.DataFrame, config: QCConfig | None = None) -> QCResult:
-    """Apply the LOS-level CNR filter (seed 001 Sec. 4.2).
+    """Apply the LOS-level CNR filter (Malekmohammadi et al., 2024, Sec. 4.2).
 
     Parameters
     ----------

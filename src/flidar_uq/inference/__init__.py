@@ -11,8 +11,8 @@ Two stages, matching the Snakemake fan-out/gather (docs/inference.md):
    into the motion parameters). PSIS-LOO compares the global rho with a per-bin rho,
    and (:func:`select_global_model`) the rho-only model with the lever-arm model.
 
-Observation model (design.md): ``s_i ~ Normal(mu_i, tau_i)``,
-``mu_i = sqrt(r_i^2 + sZ_i^2 + 2 rho r_i sZ_i)`` (Eq. 15 of seed 000),
+Observation model (docs/inference.md): ``s_i ~ Normal(mu_i, tau_i)``,
+``mu_i = sqrt(r_i^2 + sZ_i^2 + 2 rho r_i sZ_i)`` (Eq. 15 of Gutiérrez-Antuñano et al. (2018)),
 ``tau_i^2 = (kappa mu_i)^2 + tau0^2 + (dmu/dsZ)^2 Var(sZ_i)``; ``kappa`` is the relative
 sampling std of a 10-min std (inferred), ``tau0`` the model error (m/s).
 
@@ -59,7 +59,7 @@ from flidar_uq.inference.observations import (
 from flidar_uq.inference.predictive import prior_predictive
 from flidar_uq.inference.priors import Priors, SamplerSettings, sample_motion_prior
 from flidar_uq.inference.record_fit import fit_record_model, is_record_model, log_prob_record_model
-from flidar_uq.inference.record_motion import record_motion
+from flidar_uq.inference.record_motion import per_record_motion
 from flidar_uq.inference.results import (
     BinFit,
     FailedFit,
@@ -74,7 +74,7 @@ __all__ = [
     "fit_record_model",
     "is_record_model",
     "log_prob_record_model",
-    "record_motion",
+    "per_record_motion",
     "Priors",
     "SamplerSettings",
     "BinFit",

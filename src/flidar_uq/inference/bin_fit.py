@@ -186,7 +186,7 @@ def fit_bin(
     Returns
     -------
     BinFit
-        ``converged`` False (with ``failure_reasons``) if any criterion of design.md fails.
+        ``converged`` False (with ``failure_reasons``) if any convergence criterion (docs/inference.md) fails.
         With no usable IMU statistics the posterior is the prior (``prior_only``) and a
         reason ``"no IMU statistics"`` is recorded: the bin is failed, its sigma_Z is unknown.
 

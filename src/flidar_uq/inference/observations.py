@@ -16,7 +16,7 @@ def effective_sigma_z_ms(sz_rot_ms, unit_sq, lever_arm_m, motion_scale=1.0):
     ``sZ = sqrt((k sZ_rot)^2 + L^2 u^2)``: the surrogate's rotational sigma_Z scaled by the
     motion-model scale ``k``, and the translation of a head ``L`` above the centre of
     rotation, ``u^2`` from
-    :func:`flidar_uq.physics.six_dof_sigma_z.translation_unit_sq` (design.md).
+    :func:`flidar_uq.physics.six_dof_sigma_z.translation_unit_sq` (docs/motion_spectrum.md).
 
     Parameters
     ----------

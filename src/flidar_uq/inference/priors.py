@@ -133,7 +133,7 @@ class SamplerSettings:
         a curved valley: ~60-80 steps on a wave follower); a near-Gaussian one never uses
         it.
     rhat_max, ess_min, n_autocorr : float
-        Convergence thresholds of design.md (rank R-hat, bulk and tail ESS, chain length
+        Convergence thresholds (docs/inference.md, "Convergence policy") (rank R-hat, bulk and tail ESS, chain length
         in integrated autocorrelation times).
     """
 
@@ -169,7 +169,9 @@ class SamplerSettings:
 
     def __post_init__(self):
         if self.nensembles < 4:
-            raise ValueError(f"SamplerSettings: nensembles={self.nensembles} < 4 (design.md)")
+            raise ValueError(
+                f"SamplerSettings: nensembles={self.nensembles} < 4 (docs/inference.md)"
+            )
         if self.mixture not in {"auto", "never", "always"}:
             raise ValueError(f"SamplerSettings: mixture={self.mixture!r} not auto/never/always")
         if not 0.0 < self.two_period_min_share <= 1.0:

@@ -1,14 +1,14 @@
 """The global observation model on per-record sigma_Z (the record motion model).
 
 Each record's sigma_Z comes from its own measured motion
-(:func:`flidar_uq.inference.record_motion.record_motion`): a rotational part ``sZ_rot``
+(:func:`flidar_uq.inference.record_motion.per_record_motion`): a rotational part ``sZ_rot``
 at unit scale and a head-translation unit ``u^2``. The model (docs/inference.md):
 
 * ``sZ_i = sqrt((k sZ_rot,i)^2 + L^2 u_i^2)``: ``L`` the lever arm (m) of the head above
   the buoy's rotation centre (prior from the buoy geometry when the config gives it),
   ``k`` a model-discrepancy check with a prior near 1 (``log k ~ N(0, 0.1)``);
 * ``s_i ~ Normal(mu_i, tau_i)``, ``mu_i^2 = r_i^2 + sZ_i^2 + 2 rho r_i sZ_i`` (Eq. (15)
-  of seed 000);
+  of Gutiérrez-Antuñano et al. (2018));
 * ``tau_i^2 = (kappa mu_i)^2 + (kappa_z sZ_i dmu_i/dsZ_i)^2 + (p_i r_i dmu_i/dr_i)^2``:
   ``kappa`` the relative sampling noise of a 10-min std, ``kappa_z`` the relative error of
   a record's sigma_Z (the realised motion error of 10 minutes scatters about the one its
@@ -38,7 +38,7 @@ from flidar_uq.inference.densities import _LOG2PI, _in, _log_halfnormal_logscale
 from flidar_uq.inference.diagnostics import _diagnostics, _thin
 from flidar_uq.inference.loo import _loo_chunked
 from flidar_uq.inference.priors import Priors, SamplerSettings
-from flidar_uq.inference.record_motion import record_motion, six_dof_terms
+from flidar_uq.inference.record_motion import per_record_motion, six_dof_terms
 from flidar_uq.inference.results import GlobalFit
 from flidar_uq.inference.sampler import _run_ensembles, laplace_init
 from flidar_uq.seeding import as_seedsequence
@@ -47,7 +47,9 @@ from flidar_uq.threads import single_threaded
 __all__ = [
     "RECORD_MODEL_NAMES",
     "fit_record_model",
+    "LEVER_ARM_PLAUSIBLE_MAX_M",
     "is_record_model",
+    "lever_arm_check",
     "log_prob_record_model",
 ]
 
@@ -103,7 +105,7 @@ def _record_z2_tau2(theta, s, r, sz_rot, u2, pair_sq, six=None):
     sz_sq *= np.exp(kz_sq)
     sz = np.sqrt(sz_sq)
     rho_r = rho * r
-    mu_sq = rho_r * sz  # Eq. (15) of seed 000: r^2 + sZ^2 + 2 rho r sZ
+    mu_sq = rho_r * sz  # Eq. (15) of Gutiérrez-Antuñano et al. (2018): r^2 + sZ^2 + 2 rho r sZ
     mu_sq *= 2.0
     mu_sq += sz_sq
     mu_sq += r**2
@@ -290,7 +292,7 @@ def _record_observations(records, surrogate, scan_period_s):
     records (all finite and ``s, r > 0``), the mask ``use`` over ``records`` and every
     record's motion description kind.
     """
-    mot = record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
+    mot = per_record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
     six = six_dof_terms(records, mot, surrogate=surrogate, scan_period_s=scan_period_s)
     s = records["hws_std_ms"].to_numpy(dtype=float)
     r = (
@@ -370,7 +372,9 @@ def fit_record_model(
         :func:`~flidar_uq.inference.save_fit` would store only its LOO anyway);
         ``info["motion_scale_warning"]`` is set when the median
         ``motion_scale`` leaves [0.8, 1.25] (the per-record motion model does not explain
-        the data: check the lidar type, the IMU columns and the lever arm).
+        the data: check the lidar type, the IMU columns and the lever arm);
+        ``info["lever_arm_warning"]`` when the lever arm is implausible
+        (:func:`lever_arm_check`).
     """
     for c in ("hws_mean_ms", "hws_std_ms"):
         if c not in records:
@@ -435,6 +439,9 @@ def fit_record_model(
             f"motion_scale {k_med:.2f} outside [0.8, 1.25]: the per-record motion model "
             "does not explain the data (check the lidar type, IMU columns and lever arm)"
         )
+    lever_warning = lever_arm_check(draws["lever_arm_m"], lever_arm_prior)
+    if lever_warning:
+        info["lever_arm_warning"] = lever_warning
     return GlobalFit(
         draws=draws,
         log_lik=None,
@@ -443,6 +450,51 @@ def fit_record_model(
         info=info,
         pointwise_loo=loo,
     )
+
+
+#: Largest plausible height (m) of a floating lidar's head above its buoy's rotation centre:
+#: the heads of floating-lidar buoys sit 1-4 m above the waterline and the centres of
+#: rotation of their hulls near or below it, so a fitted lever arm beyond this length is
+#: the fit absorbing motion the model lacks, not geometry.
+LEVER_ARM_PLAUSIBLE_MAX_M = 8.0
+#: Distance (m) from the configured lever arm beyond which the fit contradicts the geometry
+#: (at least this much and 3 prior standard deviations): the tolerance within which the
+#: physics-mode fits recover the true lever arm.
+LEVER_ARM_TOLERANCE_M = 0.5
+
+
+def lever_arm_check(lever_arm_draws_m, lever_arm_prior=None) -> str:
+    """The lever arm's plausibility check: "" when plausible, else the reason (one line).
+
+    Parameters
+    ----------
+    lever_arm_draws_m : array_like
+        Posterior draws of the lever arm (m).
+    lever_arm_prior : (float, float), optional
+        Mean and sd (m) of the configured lever arm (the buoy's geometry). With it, a
+        posterior median farther from the mean than ``max(LEVER_ARM_TOLERANCE_M, 3 sd)``
+        is implausible; without it, a median beyond :data:`LEVER_ARM_PLAUSIBLE_MAX_M`.
+    """
+    med = float(np.median(np.asarray(lever_arm_draws_m, dtype=float)))
+    if not np.isfinite(med):
+        return ""
+    if lever_arm_prior is not None:
+        mean, sd = (float(x) for x in lever_arm_prior)
+        tol = max(LEVER_ARM_TOLERANCE_M, 3.0 * sd)
+        if abs(med - mean) > tol:
+            return (
+                f"lever_arm_m {med:.2f} m is {abs(med - mean):.2f} m from the configured "
+                f"{mean:.2f} m (tolerance {tol:.2f} m): the motion model does not match the "
+                "buoy (check inference.lever_arm_m, the hull and the IMU's frame)"
+            )
+        return ""
+    if med > LEVER_ARM_PLAUSIBLE_MAX_M:
+        return (
+            f"lever_arm_m {med:.2f} m exceeds the {LEVER_ARM_PLAUSIBLE_MAX_M:g} m a floating "
+            "lidar's head can sit above its buoy's rotation centre: the fit absorbs motion "
+            "the model lacks (check the hull's translation columns and the lidar type)"
+        )
+    return ""
 
 
 def _record_loo(theta, s, r, sz_rot, u2, pair, six=None):

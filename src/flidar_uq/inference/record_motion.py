@@ -1,11 +1,11 @@
 """sigma_Z of each record from its own measured motion (the per-record motion model).
 
-Seed 000 computes sigma_Z for harmonic roll and pitch at one period; a real sea is
+Gutiérrez-Antuñano et al. (2018) computes sigma_Z for harmonic roll and pitch at one period; a real sea is
 broadband and directional, and only the tilt along the wind matters to first order
-(design.md, "What real seas add"). With the record's tilt variance along the wind and its
+(docs/motion_spectrum.md). With the record's tilt variance along the wind and its
 mean period (record-table columns derived by :mod:`flidar_uq.data.imu` from the raw IMU
 series), a single-axis tilt of amplitude ``A = sqrt(2) std_along`` along the wind gives
-the same sigma_Z as seed 000's roll-and-pitch case at amplitude ``A``; evaluated at the
+the same sigma_Z as Gutiérrez-Antuñano et al.'s (2018) roll-and-pitch case at amplitude ``A``; evaluated at the
 spectral mean period it reproduces the realised sigma_Z of a broadband sea within a few
 percent, against 0.6-0.95 for the harmonic value at the spectral-peak period.
 
@@ -26,8 +26,10 @@ from flidar_uq.physics.surrogate import default_surrogate
 __all__ = [
     "ALONG_WIND_COLUMNS",
     "MOTION_DESCRIPTIONS",
+    "TRANSLATION_DESCRIPTIONS",
+    "describe_motion",
     "hull_sigma_z_ms",
-    "record_motion",
+    "per_record_motion",
     "six_dof_terms",
 ]
 
@@ -40,6 +42,12 @@ ALONG_WIND_COLUMNS = ("tilt_along_wind_std_deg", "tilt_period_mean_s")
 
 #: Values of ``motion_description``: which description gave a record's sigma_Z.
 MOTION_DESCRIPTIONS = ("along_wind", "roll_pitch", "none")
+
+#: Values of ``translation_description``: where a record's hull translation comes from.
+#: ``"tilt_spectrum"``: the translation a wave follower has with the record's tilt spectrum
+#: (:data:`FOLLOWER_COLUMNS`), scaled by the fitted hull response; ``"none"``: the buoy is
+#: taken to rotate about a fixed centre (the rotation-only model).
+TRANSLATION_DESCRIPTIONS = ("tilt_spectrum", "none")
 
 
 def _col(records: pd.DataFrame, name: str) -> np.ndarray:
@@ -57,7 +65,26 @@ def _geometric_mean(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where(n > 0, np.exp(s), np.nan)
 
 
-def record_motion(
+def _tilt_description(records: pd.DataFrame):
+    """Tilt amplitude (deg) and period (s) of each record, and the masks of the along-wind
+    and the roll/pitch descriptions (the former wins where both are complete)."""
+    std_along = _col(records, ALONG_WIND_COLUMNS[0])
+    per_along = _col(records, ALONG_WIND_COLUMNS[1])
+    per_along = np.where(
+        np.isfinite(per_along), per_along, _col(records, "tilt_period_zero_crossing_s")
+    )
+    amp_rp = _geometric_mean(
+        _col(records, "roll_amplitude_deg"), _col(records, "pitch_amplitude_deg")
+    )
+    per_rp = _geometric_mean(_col(records, "roll_period_s"), _col(records, "pitch_period_s"))
+    along = np.isfinite(std_along) & (std_along >= 0) & np.isfinite(per_along) & (per_along > 0)
+    rp = ~along & np.isfinite(amp_rp) & np.isfinite(per_rp)
+    amp = np.where(along, np.sqrt(2.0) * std_along, np.where(rp, amp_rp, np.nan))
+    per = np.where(along, per_along, np.where(rp, per_rp, np.nan))
+    return amp, per, along, rp
+
+
+def per_record_motion(
     records: pd.DataFrame, *, surrogate=None, scan_period_s: float = 1.0
 ) -> pd.DataFrame:
     """Per-record motion amplitude, period, rotational sigma_Z and translation unit.
@@ -84,19 +111,7 @@ def record_motion(
         sigma_Z is NaN there).
     """
     surrogate = default_surrogate(surrogate)
-    std_along = _col(records, ALONG_WIND_COLUMNS[0])
-    per_along = _col(records, ALONG_WIND_COLUMNS[1])
-    per_along = np.where(
-        np.isfinite(per_along), per_along, _col(records, "tilt_period_zero_crossing_s")
-    )
-    amp_rp = _geometric_mean(
-        _col(records, "roll_amplitude_deg"), _col(records, "pitch_amplitude_deg")
-    )
-    per_rp = _geometric_mean(_col(records, "roll_period_s"), _col(records, "pitch_period_s"))
-    along = np.isfinite(std_along) & (std_along >= 0) & np.isfinite(per_along) & (per_along > 0)
-    rp = ~along & np.isfinite(amp_rp) & np.isfinite(per_rp)
-    amp = np.where(along, np.sqrt(2.0) * std_along, np.where(rp, amp_rp, np.nan))
-    per = np.where(along, per_along, np.where(rp, per_rp, np.nan))
+    amp, per, along, rp = _tilt_description(records)
     hws = _col(records, "hws_mean_ms")
     ok = np.isfinite(amp) & np.isfinite(per) & np.isfinite(hws)
     sz = np.full(len(records), np.nan)
@@ -162,15 +177,13 @@ def six_dof_terms(
     """
     surrogate = default_surrogate(surrogate)
     sig_h, per_h, sig_u, rho_h = (_col(records, c) for c in FOLLOWER_COLUMNS)
+    follower = _follower_complete(records)
     std_a = _col(records, ALONG_WIND_COLUMNS[0])
     std_c = _col(records, "tilt_across_wind_std_deg")
     per_m = motion["motion_period_s"].to_numpy(dtype=float)
     sz_rot = motion["sigma_z_rot_ms"].to_numpy(dtype=float)
     amp_tot = np.sqrt(2.0 * (std_a**2 + np.nan_to_num(std_c) ** 2))
-    ok = (
-        np.isfinite(sig_h) & np.isfinite(per_h) & np.isfinite(sig_u) & np.isfinite(rho_h)
-        & np.isfinite(amp_tot) & (amp_tot > 0) & np.isfinite(sz_rot) & np.isfinite(per_m)
-    )  # fmt: skip
+    ok = follower & np.isfinite(amp_tot) & (amp_tot > 0) & np.isfinite(sz_rot) & np.isfinite(per_m)
     out = {k: np.zeros(len(records)) for k in ("heave_cross_sq", "heave_leak_sq")}
     out |= {k: np.zeros(len(records)) for k in ("orbital_cross_sq", "orbital_sq")}
     if np.any(ok):
@@ -184,6 +197,39 @@ def six_dof_terms(
         out["orbital_cross_sq"][ok] = G_MS2 * np.deg2rad(std_a[ok]) ** 2 * sinc_m**2
         out["orbital_sq"][ok] = (sig_u[ok] * sinc_h) ** 2
     return pd.DataFrame(out, index=records.index)
+
+
+def _follower_complete(records: pd.DataFrame) -> np.ndarray:
+    """Records whose :data:`FOLLOWER_COLUMNS` are all finite."""
+    ok = np.ones(len(records), dtype=bool)
+    for c in FOLLOWER_COLUMNS:
+        ok &= np.isfinite(_col(records, c))
+    return ok
+
+
+def describe_motion(records: pd.DataFrame) -> pd.DataFrame:
+    """Which motion description each record gets in the record model, without evaluating it.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Record table (the columns :func:`record_motion` and :func:`six_dof_terms` read).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Index of ``records``; ``motion_description`` (the tilt's, one of
+        :data:`MOTION_DESCRIPTIONS`, as :func:`record_motion` gives it) and
+        ``translation_description`` (one of :data:`TRANSLATION_DESCRIPTIONS`;
+        ``"tilt_spectrum"`` only where the tilt is described along the wind).
+    """
+    amp, per, along, rp = _tilt_description(records)
+    ok = np.isfinite(amp) & np.isfinite(per) & np.isfinite(_col(records, "hws_mean_ms"))
+    tilt = np.where(along & ok, "along_wind", np.where(rp & ok, "roll_pitch", "none"))
+    trans = np.where(along & ok & _follower_complete(records), "tilt_spectrum", "none")
+    return pd.DataFrame(
+        {"motion_description": tilt, "translation_description": trans}, index=records.index
+    )
 
 
 def hull_sigma_z_ms(motion, terms, *, lever_arm_m, hull_response, motion_scale=1.0):

@@ -54,7 +54,7 @@ class _FitBase:
 
     @property
     def converged(self) -> bool:
-        """True only if every convergence criterion of design.md is met."""
+        """True only if every convergence convergence criterion (docs/inference.md) is met."""
         return len(self.failure_reasons) == 0
 
     def flat(self, name: str) -> np.ndarray:

@@ -1,7 +1,6 @@
 """The buoy's hull in six degrees of freedom: tilt, horizontal orbital motion and heave.
 
-A buoy does not only tilt about a fixed centre: it moves with the water (design.md, "What
-real buoys add"). For linear deep-water waves (dispersion ``k = omega^2 / g``) a wave
+A buoy does not only tilt about a fixed centre: it moves with the water (docs/motion_spectrum.md). For linear deep-water waves (dispersion ``k = omega^2 / g``) a wave
 component of surface slope ``S`` along its direction of travel ``xi`` has, at the buoy
 (complex amplitudes in the ``exp(+i omega t)`` convention of ``numpy.fft.irfft``):
 

@@ -2,13 +2,13 @@
 
 Two scan types (docs/conventions.md for frames and signs):
 
-- ``"vad"``: a continuous-wave conical scan like the ZephIR 300 (seed 000 Sec. 2.2,
-  seed 001 Eq. 4): ``n_los`` lines of sight equally spaced in azimuth during one
+- ``"vad"``: a continuous-wave conical scan like the ZephIR 300 (Gutiérrez-Antuñano et al., 2018, Sec. 2.2,
+  Malekmohammadi et al. (2024), Eq. 4): ``n_los`` lines of sight equally spaced in azimuth during one
   ``scan_period_s``, half-cone angle ``half_cone_angle_deg``. Retrieval: linear least
   squares of the VAD model on signed radial speeds, or, for a CW lidar that only
-  measures ``|v_r|``, a nonlinear fit of ``|A cos(az - B) + C|`` (seed 001 Eq. 4).
-- ``"dbs"``: a pulsed Doppler-beam-swinging lidar like the WindCube V1 (seed 001
-  Eqs. 2-3, seed 002 Eq. 3): four inclined beams (N, E, S, W) of about 1 s each and an
+  measures ``|v_r|``, a nonlinear fit of ``|A cos(az - B) + C|`` (Malekmohammadi et al., 2024, Eq. 4).
+- ``"dbs"``: a pulsed Doppler-beam-swinging lidar like the WindCube V1 (Malekmohammadi et al. (2024)
+  Eqs. 2-3, Yamaguchi and Ishihara (2016), Eq. 3): four inclined beams (N, E, S, W) of about 1 s each and an
   optional vertical beam (azimuth ``NaN`` marks it). Retrieval from beam pairs.
 
 Beam unit vector in the body frame: ``d = (sin th sin az, sin th cos az, cos th)``
@@ -65,9 +65,9 @@ class LidarGeometry:
         ``k * scan_period_s / n_los``.
     signed : bool
         True if the radial-speed sign is measured (pulsed); False for a CW lidar,
-        which reports ``|v_r|`` (seed 001 Eq. 4).
+        which reports ``|v_r|`` (Malekmohammadi et al., 2024, Eq. 4).
     vertical_beam : bool
-        DBS only: a vertical beam follows the inclined ones (seed 002 Table 1).
+        DBS only: a vertical beam follows the inclined ones (Yamaguchi and Ishihara, 2016, Table 1).
     beam_azimuths_deg : tuple of float or None
         DBS only: azimuths of the inclined beams in scan order, deg clockwise from
         the body y axis: two perpendicular opposite pairs, ``a, a + 90, a + 180, a + 270``
@@ -209,13 +209,13 @@ class LidarGeometry:
         return float(np.mean(lags))
 
 
-# ZephIR 300-like CW VAD: 50 LOS per 1-s scan, 30 deg (seed 000 Sec. 2.2, seed 001 Sec. 2).
+# ZephIR 300-like CW VAD: 50 LOS per 1-s scan, 30 deg (Gutiérrez-Antuñano et al., 2018, Sec. 2.2, Malekmohammadi et al. (2024), Sec. 2).
 ZEPHIR300 = LidarGeometry("zephir300", "vad", 30.0, 50, 1.0, signed=False)
-# WindCube V1-like pulsed DBS: N, E, S, W at ~1 s each (seed 001 Eq. 2, seed 002 Table 1).
+# WindCube V1-like pulsed DBS: N, E, S, W at ~1 s each (Malekmohammadi et al., 2024, Eq. 2, Yamaguchi and Ishihara (2016), Table 1).
 WINDCUBE_V1 = LidarGeometry(
     "windcube_v1", "dbs", 30.0, 4, 4.0, signed=True, beam_azimuths_deg=(0.0, 90.0, 180.0, 270.0)
 )
-# The same with the fifth, vertical beam (seed 002 Table 1, "latest model").
+# The same with the fifth, vertical beam (Yamaguchi and Ishihara, 2016, Table 1, "latest model").
 WINDCUBE_V1_5BEAM = LidarGeometry(
     "windcube_v1_5beam",
     "dbs",
@@ -227,7 +227,7 @@ WINDCUBE_V1_5BEAM = LidarGeometry(
     beam_azimuths_deg=(0.0, 90.0, 180.0, 270.0),
 )
 # WindCube v2-like pulsed DBS: 28 deg, N, E, S, W and a vertical beam, about 1 s a beam
-# (design.md, "What real buoys add"; Desert, Knapp & Aubrun 2021 on a WindCube v2 buoy).
+# (the WindCube v2 of floating-lidar systems, e.g. Desert, Knapp and Aubrun, 2021).
 WINDCUBE_V2 = LidarGeometry(
     "windcube_v2",
     "dbs",
@@ -237,8 +237,8 @@ WINDCUBE_V2 = LidarGeometry(
     signed=True,
     vertical_beam=True,
     beam_azimuths_deg=(0.0, 90.0, 180.0, 270.0),
-    notes="28 deg, 4 inclined beams + vertical, ~1 s a beam (design.md); the beam order "
-    "N, E, S, W, vertical is an assumption",
+    notes="28 deg, 4 inclined beams + vertical, ~1 s a beam (the WindCube v2's nominal "
+    "geometry); the beam order N, E, S, W, vertical is an assumption",
 )
 # WindCube v2.1: the v2's geometry with faster sampling. ASSUMPTION: 0.5 s a line of sight
 # (2.5-s cycle); the texts at hand state "faster sampling" without a number.
@@ -366,7 +366,7 @@ def scan_times_azimuths(
     ----------
     lidar : str or LidarGeometry
     scan_phase_rad : float
-        VAD: azimuth of the first line of sight at ``t = 0`` (seed 000 Sec. 2.2),
+        VAD: azimuth of the first line of sight at ``t = 0`` (Gutiérrez-Antuñano et al., 2018, Sec. 2.2),
         rad. DBS: selects the starting beam, ``floor(n_los * phase / 2 pi)``.
 
     Returns
@@ -499,7 +499,7 @@ def vad_sign_unfolding(
 ) -> tuple[np.ndarray, np.ndarray]:
     """VAD least squares of many scans with the CW sign unfolded by fixed-point iteration.
 
-    A CW lidar measures ``|v_r|`` (seed 001 Eq. 4). Given a sign pattern ``s``, the linear
+    A CW lidar measures ``|v_r|`` (Malekmohammadi et al., 2024, Eq. 4). Given a sign pattern ``s``, the linear
     VAD fit of the signed speeds ``s |v_r|`` is ``p = pinv (s |v_r|)``; the iteration
     ``s <- sign(M p)``, ``p <- pinv (s |v_r|)`` stops at a stationary point of the
     ``|.|`` least squares ``sum (|M p| - |v_r|)^2``. Used by :func:`retrieve_wind`
@@ -557,7 +557,7 @@ def vad_sign_unfolding(
 def _fit_abs_vad(
     m: np.ndarray, y: np.ndarray, reference_wd_deg: float | None, n_iter: int = 8
 ) -> np.ndarray:
-    """Fit ``|M p| = y`` for ``p = (u, v, w)`` (seed 001 Eq. 4), vectorised over the batch.
+    """Fit ``|M p| = y`` for ``p = (u, v, w)`` (Malekmohammadi et al., 2024, Eq. 4), vectorised over the batch.
 
     Start: ``y^2 = p^T (d d^T) p`` is linear in the products ``p_i p_j``; the identifiable
     ones (``u^2 - v^2``, ``uv``, ``uw``, ``vw``, plus the two squares) give ``p`` up to sign.
@@ -590,7 +590,7 @@ def _fit_abs_vad(
         signs0 = np.where(np.einsum("...nk,...k->...n", m, p) >= 0, 1.0, -1.0)
         pinv_t = np.swapaxes(vad_pseudo_inverse(m), -1, -2)
         p, _ = vad_sign_unfolding(pinv_t, m, y, signs0, n_iter - 1)
-    # Resolve the 180 deg ambiguity (seed 001 Eq. 4: B = Theta or Theta +- 180 deg).
+    # Resolve the 180 deg ambiguity (Malekmohammadi et al., 2024, Eq. 4: B = Theta or Theta +- 180 deg).
     wd = wind_direction_deg(p[..., 0], p[..., 1])
     if reference_wd_deg is None:
         flip = wd >= 180.0
@@ -621,11 +621,11 @@ def retrieve_wind(
         measured ``|v_r|``.
     beam_vectors : array_like, shape (..., n, 3), optional
         Unit vectors to use instead of the nominal body geometry (e.g. earth-frame
-        vectors known from an IMU: LOS-level correction, seed 001 Eq. 7).
+        vectors known from an IMU: LOS-level correction, Malekmohammadi et al. (2024), Eq. 7).
     sign_ambiguity : bool
-        VAD only: fit ``|A cos(az - B) + C|`` (seed 001 Eq. 4) to the measured ``|v_r|``
+        VAD only: fit ``|A cos(az - B) + C|`` (Malekmohammadi et al., 2024, Eq. 4) to the measured ``|v_r|``
         (nonlinear least squares). Default False: linear least squares on signed speeds
-        (seed 000's simulator). ``simulate_scan`` passes ``not lidar.signed``.
+        (Gutiérrez-Antuñano et al.'s (2018) simulator). ``simulate_scan`` passes ``not lidar.signed``.
     reference_wd_deg : float, optional
         With ``sign_ambiguity``: choose the 180-deg branch closest to this direction
         (e.g. a vane). Default: the branch with direction in [0, 180).
@@ -639,7 +639,7 @@ def retrieve_wind(
     -----
     VAD: ``u = (M^T M)^-1 M^T v_r`` with ``M`` the beam vectors (linear least squares).
     DBS: beam pairs, ``u = (V_E - V_W) / (2 sin th)``, ``v = (V_N - V_S) / (2 sin th)``
-    (seed 002 Eq. 3, seed 001 Eqs. 2-3 in ENU), ``w`` from the vertical beam if present,
+    (Yamaguchi and Ishihara, 2016, Eq. 3, Malekmohammadi et al. (2024), Eqs. 2-3 in ENU), ``w`` from the vertical beam if present,
     else ``(sum V) / (4 cos th)``; with ``beam_vectors`` DBS also uses least squares.
     """
     g = get_lidar(lidar)
@@ -667,7 +667,7 @@ def retrieve_wind(
 
 
 def _retrieve_dbs_pairs(g: LidarGeometry, az: np.ndarray, y: np.ndarray) -> WindRetrieval:
-    """DBS from opposite beam pairs (seed 002 Eq. 3; seed 001 Eqs. 2-3 in ENU)."""
+    """DBS from opposite beam pairs (Yamaguchi and Ishihara, 2016, Eq. 3; Malekmohammadi et al. (2024), Eqs. 2-3 in ENU)."""
     az_b = np.broadcast_to(az, y.shape)
     vertical = np.isnan(az_b)
     az_deg = np.where(vertical, -1e9, np.rad2deg(np.where(vertical, 0.0, az_b)) % 360.0)
@@ -680,8 +680,8 @@ def _retrieve_dbs_pairs(g: LidarGeometry, az: np.ndarray, y: np.ndarray) -> Wind
     st, ct = np.sin(g.half_cone_angle_rad), np.cos(g.half_cone_angle_rad)
     a0 = g.pair_axis_deg
     v_n, v_e, v_s, v_w = beam(a0), beam(a0 + 90.0), beam(a0 + 180.0), beam(a0 + 270.0)
-    u = (v_e - v_w) / (2.0 * st)  # Eq. (3) of seed 002 (east-west pair)
-    v = (v_n - v_s) / (2.0 * st)  # Eq. (3) of seed 002 (north-south pair)
+    u = (v_e - v_w) / (2.0 * st)  # Eq. (3) of Yamaguchi and Ishihara (2016) (east-west pair)
+    v = (v_n - v_s) / (2.0 * st)  # Eq. (3) of Yamaguchi and Ishihara (2016) (north-south pair)
     if a0 != 0.0:  # pairs along azimuths a0 + 90 and a0: back to the body x, y axes
         ca, sa = np.cos(np.deg2rad(a0)), np.sin(np.deg2rad(a0))
         u, v = u * ca + v * sa, -u * sa + v * ca

@@ -3,8 +3,8 @@
 Conventions (docs/conventions.md, binding): ENU earth frame; body -> earth rotation
 ``R = Rz(yaw) @ Ry(pitch) @ Rx(roll)``; a harmonic is ``A sin(2 pi t / T + phi)``;
 the lidar head sits at ``lever_arm_m`` (body frame) from the rotation centre and moves
-with ``v = d/dt (R r) + translation`` (= ``omega x R r`` + translation; seed 002
-Eqs. 3-4, seed 001 Eqs. 5-6). Surge, sway and heave are displacements along the
+with ``v = d/dt (R r) + translation`` (= ``omega x R r`` + translation; Yamaguchi and Ishihara (2016)
+Eqs. 3-4, Malekmohammadi et al. (2024), Eqs. 5-6). Surge, sway and heave are displacements along the
 earth x (east), y (north) and z (up) axes.
 """
 
@@ -120,8 +120,8 @@ def rotation_matrix(roll_rad, pitch_rad, yaw_rad=0.0) -> np.ndarray:
     """Body-to-earth rotation ``R = Rz(yaw) @ Ry(pitch) @ Rx(roll)``.
 
     Right-handed rotations about x (roll), y (pitch) and z (yaw, counter-clockwise seen
-    from above); ``v_earth = R @ v_body``. Same order as seed 003 Eq. 1 (``V = Y P R V'``)
-    and seed 001 Eq. 6 (after conversion of its x-south, y-west, z-down frame). The
+    from above); ``v_earth = R @ v_body``. Same order as Nassif et al. (2020), Eq. 1 (``V = Y P R V'``)
+    and Malekmohammadi et al. (2024), Eq. 6 (after conversion of its x-south, y-west, z-down frame). The
     product is evaluated entry by entry in closed form.
 
     Parameters
@@ -232,7 +232,7 @@ class _MotionMethods:
     def head_velocity_ms(self, t_s) -> np.ndarray:
         """Earth-frame velocity of the lidar head, m/s, shape ``(..., 3)``.
 
-        ``v = dR/dt @ r + (surge, sway, heave)'`` with ``r = lever_arm_m`` (seed 002
+        ``v = dR/dt @ r + (surge, sway, heave)'`` with ``r = lever_arm_m`` (Yamaguchi and Ishihara (2016)
         Eq. 4 differentiated), evaluated as ``omega x (R r)`` with the earth-frame
         angular velocity ``omega = yaw_rate z + pitch_rate Rz y + roll_rate Rz Ry x``.
         """
@@ -320,7 +320,7 @@ def harmonic_motion(
     *,
     lever_arm_m: float | tuple[float, float, float] = 0.0,
 ) -> PlatformMotion:
-    """Seed 000 motion: roll and pitch of equal amplitude and period (Sec. 2.4).
+    """Gutiérrez-Antuñano et al. (2018) motion: roll and pitch of equal amplitude and period (Sec. 2.4).
 
     Parameters
     ----------
@@ -415,7 +415,7 @@ class SampledMotion(_MotionMethods):
 
 
 def total_tilt_deg(roll_deg, pitch_deg) -> np.ndarray:
-    """Total tilt of the body z axis, ``delta = acos(cos(pitch) cos(roll))`` (seed 003 Eq. 8).
+    """Total tilt of the body z axis, ``delta = acos(cos(pitch) cos(roll))`` (Nassif et al., 2020, Eq. 8).
 
     Exact for ``R = Rz Ry Rx``: the earth z component of the body z axis is
     ``cos(pitch) cos(roll)``.
@@ -431,11 +431,11 @@ def total_tilt_deg(roll_deg, pitch_deg) -> np.ndarray:
         Tilt, deg in [0, 180].
     """
     c = np.cos(np.deg2rad(pitch_deg)) * np.cos(np.deg2rad(roll_deg))
-    return np.rad2deg(np.arccos(np.clip(c, -1.0, 1.0)))  # Eq. (8) of seed 003
+    return np.rad2deg(np.arccos(np.clip(c, -1.0, 1.0)))  # Eq. (8) of Nassif et al. (2020)
 
 
 def tilted_scan_heights(height_m, tilt_deg, half_cone_angle_deg: float = 30.0):
-    """Heights of a tilted VAD cone (seed 003 Eqs. 5-7, Table 3).
+    """Heights of a tilted VAD cone (Nassif et al., 2020, Eqs. 5-7, Table 3).
 
     Parameters
     ----------
@@ -444,7 +444,7 @@ def tilted_scan_heights(height_m, tilt_deg, half_cone_angle_deg: float = 30.0):
     tilt_deg : array_like
         Total tilt ``delta``, deg.
     half_cone_angle_deg : float
-        Half-cone angle, deg (30 in seed 003).
+        Half-cone angle, deg (30 in Nassif et al. (2020)).
 
     Returns
     -------
@@ -457,8 +457,8 @@ def tilted_scan_heights(height_m, tilt_deg, half_cone_angle_deg: float = 30.0):
     d = np.deg2rad(np.asarray(tilt_deg, float))
     th = np.deg2rad(half_cone_angle_deg)
     valid = (d >= 0) & (d + th < np.pi / 2)
-    z_prime = z * np.cos(d)  # Eq. (5) of seed 003
-    z_max = z * np.cos(th - d) / np.cos(th)  # Eq. (6) of seed 003
-    z_min = z * np.cos(th + d) / np.cos(th)  # Eq. (7) of seed 003
+    z_prime = z * np.cos(d)  # Eq. (5) of Nassif et al. (2020)
+    z_max = z * np.cos(th - d) / np.cos(th)  # Eq. (6) of Nassif et al. (2020)
+    z_min = z * np.cos(th + d) / np.cos(th)  # Eq. (7) of Nassif et al. (2020)
     out = [np.where(valid, a, np.nan) for a in (z_prime, z_min, z_max, z_max - z_min)]
     return tuple(out)

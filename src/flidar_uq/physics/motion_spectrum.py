@@ -1,10 +1,10 @@
 """Per-record sigma_Z from the buoy's tilt spectrum (broadband, directional seas).
 
-Size: the band reduction, the band/moments sigma_Z, two-period detection and attitude replay are one method (design.md, "What real seas add") and test against each other (~650 lines, half of it docstrings).
+Size: the band reduction, the band/moments sigma_Z, two-period detection and attitude replay are one method (docs/motion_spectrum.md) and test against each other (~650 lines, half of it docstrings).
 
-Seed 000's sigma_Z assumes harmonic roll and pitch of one amplitude and period. A real
+Gutiérrez-Antuñano et al.'s (2018) sigma_Z assumes harmonic roll and pitch of one amplitude and period. A real
 record is broadband and directional; this module computes its sigma_Z from the tilt
-spectrum resolved along and across the wind (design.md "What real seas add"):
+spectrum resolved along and across the wind (docs/motion_spectrum.md):
 
 1. **Wind-frame tilt** (:func:`wind_frame_tilt_deg`). The body z axis in the earth frame
    is ``R @ (0, 0, 1)`` with ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (docs/conventions.md); its
@@ -20,7 +20,7 @@ spectrum resolved along and across the wind (design.md "What real seas add"):
    ``sigma_Z^2 = sum_b sigma_Z(A_b, T_b)^2``, ``A_b = sqrt(2 var_along_b)``, each band a
    single-axis tilt along the wind. Measured with the direct kernel
    (:func:`flidar_uq.physics.simulator.sigma_z`, roll-only motion): a single-axis tilt of
-   amplitude A along the wind gives the seed's roll-and-pitch sigma_Z at amplitude A
+   amplitude A along the wind gives the paper's roll-and-pitch sigma_Z at amplitude A
    (within 0.05 % without lever arm), at angle psi to the wind ``|cos psi|`` times it
    (within 0.4 % up to 10 deg), and **exactly zero across the wind without lever arm**
    (rolling about the wind axis leaves the VAD retrieval exact). With a lever arm the
@@ -30,7 +30,7 @@ spectrum resolved along and across the wind (design.md "What real seas add"):
    The translation of the head (``v = omega x r``, ``r = (0, 0, h)``) is along the tilt
    rate, i.e. along the wind for the along-wind band, and coherent with its rotation
    error; it enters through the surrogate's ``sigma_z_lever_ms`` for the same band.
-   The quadrature sum itself is exact to first order in the tilt (design.md: 0.08 % at
+   The quadrature sum itself is exact to first order in the tilt (0.08 % at
    2 deg, 1.8 % at 10 deg against the direct multi-phase integral).
 4. **Moments-only fallback** (:func:`moments_sigma_z_ms`): one harmonic of amplitude
    ``sqrt(2) * std_along`` at the zero-crossing period ``Tz = sqrt(m0/m2)``;
@@ -386,7 +386,7 @@ def spectral_sigma_z_ms(
 def harmonic_sigma_z_ms(
     hws_ms, amplitude_deg, period_s, *, lever_arm_m=0.0, lidar="zephir300", surrogate=None
 ) -> np.ndarray:
-    """Seed-000 sigma_Z of one roll-and-pitch harmonic (surrogate), m/s; broadcasting.
+    """Gutiérrez-Antuñano et al. (2018) sigma_Z of one roll-and-pitch harmonic (surrogate), m/s; broadcasting.
 
     ``amplitude_deg`` (deg) is the amplitude of roll and of pitch, ``period_s`` in [1, 20]
     s (clipped), ``lever_arm_m`` as in :func:`spectral_sigma_z_ms`.
@@ -415,7 +415,7 @@ def moments_sigma_z_ms(
 
     ``sigma_Z = sigma_Z(HWS, sqrt(2) std_along, T)`` with ``T`` the zero-crossing period
     ``Tz = sqrt(m0/m2)`` of the along-wind tilt (record column
-    ``tilt_period_zero_crossing_s``; design.md: within 1-3 % for JONSWAP seas).
+    ``tilt_period_zero_crossing_s``; within 1-3 % for JONSWAP seas).
 
     Parameters
     ----------
@@ -464,8 +464,8 @@ def record_sigma_z_ms(
     Per record, in this order: the band sum (:func:`spectral_sigma_z_ms`) where ``spectrum``
     has finite bands; else the moments-only value (:func:`moments_sigma_z_ms`) where the
     optional record columns ``tilt_along_wind_std_deg`` and ``tilt_period_zero_crossing_s``
-    are finite; else the seed-000 harmonic (:func:`harmonic_sigma_z_ms`) at the record's
-    ``amplitude_deg`` / ``period_s`` (e.g. ``flidar_uq.data.imu.record_motion``), which
+    are finite; else the Gutiérrez-Antuñano et al. (2018) harmonic (:func:`harmonic_sigma_z_ms`) at the record's
+    ``amplitude_deg`` / ``period_s`` (e.g. ``flidar_uq.data.imu.add_harmonic_motion``), which
     ignores the wind direction (0.43-1.88 of the realised value in
     ``benchmarks/spectral_sigma_z.py``: give it wider intervals); else NaN.
 
@@ -478,7 +478,7 @@ def record_sigma_z_ms(
     tilt_along_wind_std_deg, tilt_period_zero_crossing_s : array_like, shape (nrec,), optional
         Record columns, deg and s.
     amplitude_deg, period_s : array_like, shape (nrec,), optional
-        Seed-000 single harmonic (roll and pitch amplitude, deg; period, s).
+        Gutiérrez-Antuñano et al. (2018) single harmonic (roll and pitch amplitude, deg; period, s).
     lever_arm_m, lidar, surrogate
         As in :func:`spectral_sigma_z_ms`.
 
@@ -645,9 +645,9 @@ def replay_sigma_z(
     (:class:`~flidar_uq.physics.motion.SampledMotion`, rates by central differences) and a
     constant wind; the lidar retrieves with its level geometry, compass-corrected by the
     scan's mean yaw (:func:`~flidar_uq.physics.simulator.simulate_scans`), and
-    ``Z = retrieved HWS - HWS`` (seed 000 Eq. 1). The scan phase (azimuth of the first
+    ``Z = retrieved HWS - HWS`` (Gutiérrez-Antuñano et al., 2018, Eq. 1). The scan phase (azimuth of the first
     line of sight) advances by the golden angle from scan to scan, so that it is spread
-    uniformly and deterministically (seed 000 Sec. 2.2: the scan phase is random).
+    uniformly and deterministically (Gutiérrez-Antuñano et al., 2018, Sec. 2.2: the scan phase is random).
 
     Parameters
     ----------
@@ -713,5 +713,5 @@ def replay_sigma_z(
         azimuth_rad=az,
         sign_ambiguity=sign_ambiguity,
     )
-    z = np.asarray(ret.hws_ms) - float(hws_ms)  # Eq. (1) of seed 000
+    z = np.asarray(ret.hws_ms) - float(hws_ms)  # Eq. (1) of Gutiérrez-Antuñano et al. (2018)
     return ReplayResult(float(np.std(z)), float(np.mean(z)), z)

@@ -10,7 +10,7 @@ travels in its own direction ``theta`` drawn around the system's mean direction
 tilts by ``roll = +d(eta)/dy``, ``pitch = -d(eta)/dx`` (small angles, ``R = Rz Ry Rx``
 of ``docs/conventions.md``: the body z axis is ``(pitch, -roll, 1)``). Roll and
 pitch are therefore correlated but not identical; a wind sea plus a swell gives the
-bimodal periods of seed 000 Sec. 2.4.
+bimodal periods of Gutiérrez-Antuñano et al. (2018), Sec. 2.4.
 
 Amplitudes follow the convention of ``docs/conventions.md``: a system's
 ``amplitude_deg`` is ``sqrt(2)`` times the expected std of its tilt, shared by roll

@@ -1,4 +1,4 @@
-"""Moving-lidar simulator and the sigma_Z / E(Z) phase-moment integral (seed 000).
+"""Moving-lidar simulator and the sigma_Z / E(Z) phase-moment integral (Gutiérrez-Antuñano et al., 2018).
 
 Size: the scan simulation and the phase-moment integral share the VAD coefficient kernels; kept together so that the sigma_Z integral and the scans it is checked against cannot drift apart (~710 lines, half of it docstrings).
 
@@ -9,7 +9,7 @@ Building blocks (vectorised over any batch of scans, for campaign generators):
   scans given the attitude at each line of sight;
 - :func:`simulate_scan` – one scan under a :class:`~flidar_uq.physics.motion.PlatformMotion`;
 - :func:`sigma_z` – std and mean of ``Z = retrieved HWS - true HWS`` over uniform roll,
-  pitch and scan phases (seed 000 Eqs. 1-14), by a fast exact reformulation of the VAD
+  pitch and scan phases (Gutiérrez-Antuñano et al., 2018, Eqs. 1-14), by a fast exact reformulation of the VAD
   retrieval (see ``docs/simulator.md``) and trapezoidal quadrature on a grid chosen from an
   a-priori bound of its geometric convergence rate (doubled while the error estimate is above
   ``rtol``).
@@ -83,8 +83,8 @@ def simulate_scans(
     """Radial speeds and retrieved wind of a batch of scans on a moving platform.
 
     The lidar retrieves with its nominal (level) geometry, i.e. without motion
-    correction, as in seed 000's simulator; the horizontal wind is then rotated by the
-    mean yaw of the scan (compass correction, seed 000 Sec. 2.2).
+    correction, as in Gutiérrez-Antuñano et al.'s (2018) simulator; the horizontal wind is then rotated by the
+    mean yaw of the scan (compass correction, Gutiérrez-Antuñano et al. (2018), Sec. 2.2).
 
     Parameters
     ----------
@@ -100,12 +100,12 @@ def simulate_scans(
     azimuth_rad : array_like, shape (..., n) or (n,), optional
         Body azimuths; default ``scan_times_azimuths(lidar)[1]``.
     sign_ambiguity : bool, optional
-        Report ``|v_r|`` and fit the CW model (seed 001 Eq. 4). Default: ``not lidar.signed``.
+        Report ``|v_r|`` and fit the CW model (Malekmohammadi et al., 2024, Eq. 4). Default: ``not lidar.signed``.
 
     Returns
     -------
     radial_speed_ms : ndarray, shape (..., n)
-        ``d_earth . (u - v_head)`` (seed 002 Eq. 3), or its absolute value.
+        ``d_earth . (u - v_head)`` (Yamaguchi and Ishihara, 2016, Eq. 3), or its absolute value.
     retrieval : WindRetrieval
         Retrieved wind, batch shape ``(...)``, horizontal components in the earth frame.
     """
@@ -118,9 +118,9 @@ def simulate_scans(
     if wind.ndim < d_earth.ndim:
         wind = wind[..., None, :]
     rel = wind if head_velocity_ms is None else wind - np.asarray(head_velocity_ms, float)
-    v_r = np.einsum("...i,...i->...", d_earth, rel)  # Eq. (3) of seed 002
+    v_r = np.einsum("...i,...i->...", d_earth, rel)  # Eq. (3) of Yamaguchi and Ishihara (2016)
     if amb:
-        v_r = np.abs(v_r)  # Eq. (4) of seed 001: a CW lidar measures |v_r|
+        v_r = np.abs(v_r)  # Eq. (4) of Malekmohammadi et al. (2024): a CW lidar measures |v_r|
     ret = retrieve_wind(g, np.broadcast_to(azimuth_rad, v_r.shape), v_r, sign_ambiguity=amb)
     yaw_mean = np.mean(np.broadcast_to(np.asarray(yaw_rad, float), v_r.shape), axis=-1)
     if np.any(yaw_mean != 0):
@@ -146,7 +146,7 @@ class ScanResult:
     hws_ms, wd_deg, w_ms : float
         Retrieved horizontal speed (m/s), direction (deg), vertical speed (m/s).
     z_ms : float
-        ``Z = retrieved HWS - true HWS`` (seed 000 Eq. 1), m/s.
+        ``Z = retrieved HWS - true HWS`` (Gutiérrez-Antuñano et al., 2018, Eq. 1), m/s.
     residual_ms : float
         RMS fit residual, m/s.
     """
@@ -172,7 +172,7 @@ def simulate_scan(
     shear_exponent: float = 0.0,
     sign_ambiguity: bool | None = None,
 ) -> ScanResult:
-    """Simulate one scan of a lidar on a moving platform (seed 000 Sec. 2.2).
+    """Simulate one scan of a lidar on a moving platform (Gutiérrez-Antuñano et al., 2018, Sec. 2.2).
 
     Parameters
     ----------
@@ -186,12 +186,12 @@ def simulate_scan(
     t_start_s : float
         Time of the first line of sight, s.
     scan_phase_rad : float
-        Azimuth of the first line of sight (seed 000 Sec. 2.2), rad.
+        Azimuth of the first line of sight (Gutiérrez-Antuñano et al., 2018, Sec. 2.2), rad.
     height_m : float, optional
         Measurement height above the lidar, m; needed for shear and callable winds.
         The focus (range) of the inclined beams is ``height_m / cos(half cone)``.
     shear_exponent : float
-        Power-law exponent ``alpha`` of ``u(z) = u_ref (z / height_m) ** alpha`` (seed 002
+        Power-law exponent ``alpha`` of ``u(z) = u_ref (z / height_m) ** alpha`` (Yamaguchi and Ishihara (2016)
         uses 0.1); a tilted cone then samples height-varying wind.
     sign_ambiguity : bool, optional
         Default ``not lidar.signed`` (a CW lidar reports ``|v_r|``).
@@ -249,7 +249,7 @@ def simulate_scan(
         hws_ms=float(ret.hws_ms),
         wd_deg=float(ret.wd_deg),
         w_ms=float(ret.w_ms),
-        z_ms=float(ret.hws_ms) - hws_true,  # Eq. (1) of seed 000
+        z_ms=float(ret.hws_ms) - hws_true,  # Eq. (1) of Gutiérrez-Antuñano et al. (2018)
         residual_ms=float(ret.residual_ms),
     )
 
@@ -513,7 +513,7 @@ class SigmaZResult:
     Attributes
     ----------
     sigma_z_ms : float
-        Standard deviation of ``Z`` over the phases (seed 000 Eq. 4), m/s.
+        Standard deviation of ``Z`` over the phases (Gutiérrez-Antuñano et al., 2018, Eq. 4), m/s.
     mean_z_ms : float
         ``E(Z)``, m/s.
     n_phase : int
@@ -602,11 +602,13 @@ def sigma_z_grid(
 
 def _moments(z: np.ndarray) -> tuple[float, float]:
     """``(sigma_Z, E(Z))`` of ``Z`` on a uniform product grid of phases (all axes)."""
-    # Eqs. (6)-(14) of seed 000: uniform phases, product trapezoid rule (a plain ufunc
+    # Eqs. (6)-(14) of Gutiérrez-Antuñano et al. (2018): uniform phases, product trapezoid rule (a plain ufunc
     # reduction: np.mean's Python wrapper costs as much as the sum on these small grids)
     mean = float(np.add.reduce(z, None)) / z.size
     d = z - mean
-    var = float(np.vdot(d, d)) / d.size  # Eq. (4) of seed 000 (two-pass form)
+    var = (
+        float(np.vdot(d, d)) / d.size
+    )  # Eq. (4) of Gutiérrez-Antuñano et al. (2018) (two-pass form)
     return math.sqrt(var), mean
 
 
@@ -687,7 +689,7 @@ def _z_grid(
         raise ValueError(
             f"sigma_z_grid: method must be 'auto', 'fourier' or 'direct', got {method!r}"
         )
-    return hws - hws_ms, g.kind == "vad"  # Eq. (1) of seed 000
+    return hws - hws_ms, g.kind == "vad"  # Eq. (1) of Gutiérrez-Antuñano et al. (2018)
 
 
 def sigma_z_direction_average(
@@ -745,9 +747,11 @@ def sigma_z_direction_average(
     u_x, u_y = -hws_ms * np.sin(wd), -hws_ms * np.cos(wd)
     coef = u_x[:, None, None, None] * a_x + u_y[:, None, None, None] * a_y + a_l  # (nwd, 3, mr, mp)
     h = coef[:, 0, :, :, None] + coef[:, 1, :, :, None] * q + coef[:, 2, :, :, None] * q**2
-    z = np.abs(h) - hws_ms  # Eq. (1) of seed 000
+    z = np.abs(h) - hws_ms  # Eq. (1) of Gutiérrez-Antuñano et al. (2018)
     mean = z.mean(axis=(1, 2, 3))
-    var = ((z - mean[:, None, None, None]) ** 2).mean(axis=(1, 2, 3))  # Eq. (4) of seed 000
+    var = ((z - mean[:, None, None, None]) ** 2).mean(
+        axis=(1, 2, 3)
+    )  # Eq. (4) of Gutiérrez-Antuñano et al. (2018)
     return float(np.sqrt(np.mean(var))), float(np.mean(mean))
 
 
@@ -767,10 +771,10 @@ def sigma_z(
     sign_ambiguity: bool = False,
     pitch_amplitude_deg: float | None = None,
 ) -> SigmaZResult:
-    """Motion-induced HWS error std sigma_Z and mean E(Z) (seed 000 Eqs. 1-14).
+    """Motion-induced HWS error std sigma_Z and mean E(Z) (Gutiérrez-Antuñano et al., 2018, Eqs. 1-14).
 
     Roll and pitch are harmonic with equal amplitude and period and independent uniform
-    phases; the scan phase is uniform too (seed 000 Secs. 2.3-2.4). The phase integrals
+    phases; the scan phase is uniform too (Gutiérrez-Antuñano et al., 2018, Secs. 2.3-2.4). The phase integrals
     use the trapezoid rule on uniform periodic grids (geometrically convergent for this
     smooth periodic integrand), doubled from ``nphase_start`` until the error estimate is
     below ``rtol``: the change from the nested half grid (every second point, no extra
@@ -811,10 +815,10 @@ def sigma_z(
         two periods; direct method 64, or 16 with two periods or ``sign_ambiguity``.
     sign_ambiguity : bool
         VAD only: simulate the CW ``|v_r|`` and its nonlinear fit (slow direct method).
-        Default False: seed 000's linear VAD retrieval on signed speeds.
+        Default False: Gutiérrez-Antuñano et al.'s (2018) linear VAD retrieval on signed speeds.
     pitch_amplitude_deg : float, optional
         Pitch amplitude if it differs from the roll amplitude ``amplitude_deg`` (e.g. 0
-        for roll-only motion, seed 000 Sec. 2.5); a second component is scaled alike.
+        for roll-only motion, Gutiérrez-Antuñano et al. (2018), Sec. 2.5); a second component is scaled alike.
 
     Returns
     -------
@@ -877,7 +881,7 @@ def sigma_z(
     # deg), which no finer grid resolves; 1e-12 m/s is no physical motion-induced error
     tiny = 1e-12 * max(hws, 1.0)
     while True:
-        if fast:  # the kernel's retrieved HWS itself: Z = HWS_retrieved - hws (Eq. 1 of seed 000)
+        if fast:  # the kernel's retrieved HWS itself: Z = HWS_retrieved - hws (Eq. 1 of Gutiérrez-Antuñano et al. (2018))
             z = _hws_vad(g, wind, comps, pcomps, arm3, n, _SCAN_PHASE_FACTOR * n)
             scan_nested, shift = True, hws
         else:
@@ -909,7 +913,7 @@ def sigma_z(
     return SigmaZResult(s, m, n, float(err), converged, "vad-fourier" if fast else "direct")
 
 
-# A-priori bound of the per-point geometric rate of the phase quadrature (issue 13): the
+# A-priori bound of the per-point geometric rate of the phase quadrature: the
 # trapezoid error of this smooth periodic integrand falls like rho^N, rho set by the size of
 # the perturbation of the retrieved wind (tilt amplitude A and lever-arm head speed over the
 # wind speed). Measured envelope of (err(N) / err(N/2))^(2/N), N = 8, 12, 16, against a

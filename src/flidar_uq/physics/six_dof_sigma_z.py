@@ -13,7 +13,7 @@ one band has two parts, uncorrelated over the scan phase:
    single-axis tilt along the wind, ``s(A, T) U`` (Gutierrez-Antunano et al. 2018, Eqs.
    4-14, through :mod:`flidar_uq.physics.surrogate`), becomes
    ``s(A, T) |U cos(psi) - R_z c|``. Without heave this is the ``|cos psi|`` scaling of a
-   tilt at an angle to the wind (design.md, "What real seas add"); with heave a swell
+   tilt at an angle to the wind (docs/motion_spectrum.md); with heave a swell
    across the wind, harmless to a tilt-only model, contributes ``s(A, T) c``.
 2. **Horizontal head velocity along the wind**: ``(L - R_x g / omega^2) dphi/dt`` along the
    direction of travel (the lever arm ``L`` against the orbital motion), of which the
@@ -21,7 +21,7 @@ one band has two parts, uncorrelated over the scan phase:
    scan (:func:`translation_unit_sq`).
 
 ``sigma_Z^2 = sum_b [s(A_b, T_b)^2 |U cos psi_b - R_z c_b|^2
-+ cos^2 psi_b |L - R_x g / omega_b^2|^2 u_b^2]``: the quadrature sum over bands of design.md
++ cos^2 psi_b |L - R_x g / omega_b^2|^2 u_b^2]``: the quadrature sum over bands
 ("What real seas add"), each band now a six-degree-of-freedom harmonic. Checked against the
 scan simulator's replay of six-degree-of-freedom series
 (:func:`flidar_uq.physics.motion_spectrum.replay_sigma_z` with the translation;
@@ -48,7 +48,7 @@ def translation_unit_sq(amplitude_deg, period_s, scan_period_s=1.0):
     horizontally at ``L A (2 pi / T) cos(...)`` along the lean; along the wind (the lean
     along the wind, random phase) its variance is ``(L A 2 pi / T)^2 / 2``. The VAD fit
     over one scan of ``scan_period_s`` averages it by ``sinc(scan / T)``. Checked against
-    design.md: 3 deg, 4 s, 4 m gives 0.21 m/s (design.md: sqrt(0.28^2 - 0.18^2) = 0.21).
+    Check: 3 deg, 4 s, 4 m gives 0.21 m/s (sqrt(0.28^2 - 0.18^2) = 0.21).
 
     Parameters
     ----------

@@ -7,9 +7,9 @@ Design (measured numbers in ``docs/simulator.md``):
   ``E(Z) = HWS * m(A, T, WD)`` exactly (tested); tabulated at HWS = 1 m/s.
 - Wind direction: with equal roll and pitch amplitude ``sigma_Z^2`` and ``E(Z)`` are even,
   180-deg periodic functions of WD (cosine series in ``2 WD``); the direction dependence
-  is < 1 % for small amplitudes (seed 000 Fig. 3) but reaches tens of percent at 25 deg and
+  is < 1 % for small amplitudes (Gutiérrez-Antuñano et al., 2018, Fig. 3) but reaches tens of percent at 25 deg and
   20 s. Five direction nodes (0-90 deg) resolve it; ``wd_deg=None`` (default) gives the
-  RMS over uniformly distributed directions (seed 000 Sec. 2.5 "WD exclusion").
+  RMS over uniformly distributed directions (Gutiérrez-Antuñano et al., 2018, Sec. 2.5 "WD exclusion").
 - ``s(A, T) / A`` and ``m(A, T) / A^2`` are smooth (analytic) in ``A`` and ``log T``; they are
   represented by a tensor-product Chebyshev interpolant on ``A in [0, 25] deg`` and
   ``T in [1, 20] s`` (log scale), from ``NODES[kind]`` direct integrals; the variance
@@ -286,7 +286,7 @@ class SigmaZSurrogate:
             Roll and pitch period, s, in [1, 20].
         wd_deg : array_like, optional
             Wind direction, deg. Default None: the RMS over uniformly distributed
-            directions, ``sqrt(mean_wd sigma_Z(wd)^2)`` (seed 000 Sec. 2.5 excludes the
+            directions, ``sqrt(mean_wd sigma_Z(wd)^2)`` (Gutiérrez-Antuñano et al., 2018, Sec. 2.5 excludes the
             direction; the spread is < 1 % for small amplitudes, see docs/simulator.md).
 
         Returns

@@ -1,6 +1,6 @@
-"""Variance-combination laws of seed 000 (Eqs. 15-17), its rho estimate, and the deployment formula.
+"""Variance-combination laws of Gutiérrez-Antuñano et al. (2018) (Eqs. 15-17), its rho estimate, and the deployment formula.
 
-Seed 000 (Gutierrez-Antunano et al. 2018, Sec. 3.2) combines the reference HWS std
+Gutiérrez-Antuñano et al. (2018, Sec. 3.2) combines the reference HWS std
 ``sigma_ref`` and the motion-induced HWS error std ``sigma_Z`` into the std a moving
 lidar sees:
 
@@ -34,7 +34,7 @@ __all__ = [
 
 
 def sigma_moving_pc(sigma_ref_ms, sigma_z_ms, rho):
-    """Std seen by the moving lidar, partially correlated law (Eq. 15 of seed 000).
+    """Std seen by the moving lidar, partially correlated law (Eq. 15 of Gutiérrez-Antuñano et al. (2018)).
 
     Parameters
     ----------
@@ -54,23 +54,27 @@ def sigma_moving_pc(sigma_ref_ms, sigma_z_ms, rho):
     r = np.asarray(sigma_ref_ms, dtype=float)
     sz = np.asarray(sigma_z_ms, dtype=float)
     rho = np.asarray(rho, dtype=float)
-    var = r**2 + sz**2 + 2.0 * rho * r * sz  # Eq. (15) of seed 000
+    var = r**2 + sz**2 + 2.0 * rho * r * sz  # Eq. (15) of Gutiérrez-Antuñano et al. (2018)
     ok = (r >= 0) & (sz >= 0) & (np.abs(rho) <= 1.0)
     return np.where(ok, np.sqrt(np.where(ok, np.maximum(var, 0.0), 0.0)), np.nan)
 
 
 def sigma_moving_u(sigma_ref_ms, sigma_z_ms):
-    """Std seen by the moving lidar, uncorrelated law (Eq. 16 of seed 000), m/s."""
-    return sigma_moving_pc(sigma_ref_ms, sigma_z_ms, 0.0)  # Eq. (16) of seed 000
+    """Std seen by the moving lidar, uncorrelated law (Eq. 16 of Gutiérrez-Antuñano et al. (2018)), m/s."""
+    return sigma_moving_pc(
+        sigma_ref_ms, sigma_z_ms, 0.0
+    )  # Eq. (16) of Gutiérrez-Antuñano et al. (2018)
 
 
 def sigma_moving_c(sigma_ref_ms, sigma_z_ms):
-    """Std seen by the moving lidar, linearly correlated law (Eq. 17 of seed 000), m/s."""
-    return sigma_moving_pc(sigma_ref_ms, sigma_z_ms, 1.0)  # Eq. (17) of seed 000: r + sZ
+    """Std seen by the moving lidar, linearly correlated law (Eq. 17 of Gutiérrez-Antuñano et al. (2018)), m/s."""
+    return sigma_moving_pc(
+        sigma_ref_ms, sigma_z_ms, 1.0
+    )  # Eq. (17) of Gutiérrez-Antuñano et al. (2018): r + sZ
 
 
 def corrected_std(sigma_moving_ms, sigma_z_ms, rho):
-    """Motion-corrected std: the root of Eq. (15) of seed 000 solved for the reference std.
+    """Motion-corrected std: the root of Eq. (15) of Gutiérrez-Antuñano et al. (2018) solved for the reference std.
 
     Parameters
     ----------
@@ -105,19 +109,19 @@ def corrected_std(sigma_moving_ms, sigma_z_ms, rho):
 
 
 def corrected_std_u(sigma_moving_ms, sigma_z_ms):
-    """Corrected std from the U law (Eq. 16 of seed 000 inverted), m/s; flag as corrected_std."""
+    """Corrected std from the U law (Eq. 16 of Gutiérrez-Antuñano et al. (2018) inverted), m/s; flag as corrected_std."""
     return corrected_std(sigma_moving_ms, sigma_z_ms, 0.0)
 
 
 def corrected_std_c(sigma_moving_ms, sigma_z_ms):
-    """Corrected std from the C law (Eq. 17 of seed 000 inverted: s - sZ), m/s; flag as corrected_std."""
+    """Corrected std from the C law (Eq. 17 of Gutiérrez-Antuñano et al. (2018) inverted: s - sZ), m/s; flag as corrected_std."""
     return corrected_std(sigma_moving_ms, sigma_z_ms, 1.0)
 
 
 def rho_bin_correlation(bin_ref_hws_ms, bin_mean_z_ms):
-    """Seed 000's rho: Pearson correlation over bins of (reference HWS, E(Z)) (Sec. 3.2).
+    """Gutiérrez-Antuñano et al.'s (2018) rho: Pearson correlation over bins of (reference HWS, E(Z)) (Sec. 3.2).
 
-    Seed 000 computed one (reference HWS, E(Z)) pair per bin (109 bins) and a single
+    Gutiérrez-Antuñano et al. (2018) computed one (reference HWS, E(Z)) pair per bin (109 bins) and a single
     correlation coefficient from them (rho = 0.78).
 
     Parameters
@@ -141,7 +145,7 @@ def rho_bin_correlation(bin_ref_hws_ms, bin_mean_z_ms):
     y = np.asarray(bin_mean_z_ms, dtype=float)
     if x.shape != y.shape:
         raise ValueError(
-            f"rho_seed000: bin_ref_hws_ms has shape {x.shape} but bin_mean_z_ms has {y.shape}"
+            f"rho_bin_correlation: bin_ref_hws_ms has shape {x.shape} but bin_mean_z_ms has {y.shape}"
         )
     ok = np.isfinite(x) & np.isfinite(y)
     x, y = x[ok], y[ok]
@@ -151,4 +155,4 @@ def rho_bin_correlation(bin_ref_hws_ms, bin_mean_z_ms):
     den = np.sqrt(np.sum(dx**2) * np.sum(dy**2))
     if den == 0.0:
         return float("nan")
-    return float(np.sum(dx * dy) / den)  # Sec. 3.2 of seed 000
+    return float(np.sum(dx * dy) / den)  # Sec. 3.2 of Gutiérrez-Antuñano et al. (2018)

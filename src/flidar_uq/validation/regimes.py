@@ -1,8 +1,8 @@
 """Calibration of the corrected TI by regime on virtual campaigns with truth.
 
-A virtual scenario (``config/scenarios/*.yaml``) is generated, QC-filtered, calibrated
-with the record motion model on the records that carry a reference, and every QC-kept
-record is corrected to the point TI, exactly as the pipeline does (without the per-bin
+A virtual scenario (``flidar_uq/resources/scenarios/*.yaml``) is generated, QC-filtered,
+calibrated with the record motion model on the records that carry a reference, and every
+QC-kept record is corrected to the point TI, exactly as the pipeline does (without the per-bin
 fits, which only serve the bin table). The corrected TI is then scored against the
 campaign's truth per regime: wind-speed group (3 m/s), sea state (wind sea only / with
 swell), heading (weathervaning / fixed), and their crossings
@@ -80,7 +80,7 @@ def scenario_records(
     Parameters
     ----------
     scenario : str, path or mapping
-        Scenario name (``config/scenarios/<name>.yaml``), path or settings.
+        Scenario name (``flidar_uq/resources/scenarios/<name>.yaml``), path or settings.
     seed : int
         Root seed: campaign, fit, point target and propagation get its spawned children.
     lidar : str

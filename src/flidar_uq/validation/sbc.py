@@ -14,6 +14,7 @@ import pandas as pd
 from scipy import stats
 
 from flidar_uq.campaign.statistical_mode import draw_true_params, generate_statistical_campaign
+from flidar_uq.correction.propagation import corrected_ti
 from flidar_uq.data.imu import follower_translation_columns
 from flidar_uq.inference import (
     Priors,
@@ -22,7 +23,7 @@ from flidar_uq.inference import (
     fit_global,
     fit_record_model,
 )
-from flidar_uq.inference.record_motion import hull_sigma_z_ms, record_motion, six_dof_terms
+from flidar_uq.inference.record_motion import hull_sigma_z_ms, per_record_motion, six_dof_terms
 from flidar_uq.physics.motion_spectrum import TiltBandSpectrum
 from flidar_uq.physics.surrogate import default_surrogate
 from flidar_uq.seeding import as_seedsequence
@@ -32,6 +33,7 @@ __all__ = [
     "SBC_RECORD_PARAMS",
     "draw_record_campaign",
     "draw_record_prior",
+    "propagation_ranks",
     "rank_uniformity",
     "sbc_record_replication",
     "sbc_replication",
@@ -222,7 +224,7 @@ def draw_record_campaign(
     for one band along and one across the wind at periods ``T`` and ``T U(1, 1.6)``. With
     ``sZ`` of :func:`~flidar_uq.inference.record_motion.hull_sigma_z_ms` (lever arm, hull
     response, motion scale) times ``exp(kappa_z^2 / 2)`` (the realised error's mean),
-    ``mu^2 = r^2 + sZ^2 + 2 rho r sZ`` (Eq. (15) of seed 000) and
+    ``mu^2 = r^2 + sZ^2 + 2 rho r sZ`` (Eq. (15) of Gutiérrez-Antuñano et al. (2018)) and
     ``tau^2 = (kappa mu)^2 + (kappa_z sZ dmu/dsZ)^2 + (pair_log_sd r dmu/dr)^2 + 1e-8``, the
     floating-lidar std is
     ``s ~ Normal(mu, tau)`` (the record model's likelihood, not a different generative
@@ -268,7 +270,7 @@ def draw_record_campaign(
     )
     for col, val in follower_translation_columns(bands).items():
         rec[col] = val
-    mot = record_motion(rec, surrogate=surrogate)
+    mot = per_record_motion(rec, surrogate=surrogate)
     terms = six_dof_terms(rec, mot, surrogate=surrogate)
     sz = hull_sigma_z_ms(
         mot,
@@ -279,7 +281,9 @@ def draw_record_campaign(
     )
     sz = sz * np.exp(0.5 * truth["kappa_z"] ** 2)  # the realised error's mean (record_fit)
     sz_sq = sz**2
-    mu_sq = np.maximum(r**2 + sz_sq + 2.0 * truth["rho"] * r * sz, 1e-12)  # Eq. (15) of seed 000
+    mu_sq = np.maximum(
+        r**2 + sz_sq + 2.0 * truth["rho"] * r * sz, 1e-12
+    )  # Eq. (15) of Gutiérrez-Antuñano et al. (2018)
     dmu_sq = (sz + truth["rho"] * r) ** 2 / mu_sq
     dmu_r_sq = (r + truth["rho"] * sz) ** 2 / mu_sq
     tau = np.sqrt(
@@ -303,6 +307,7 @@ def sbc_record_replication(
     n_rank_draws: int = 99,
     surrogate=None,
     pair_log_sd: float = 0.0,
+    n_propagated: int = 0,
 ) -> dict:
     """One simulation-based-calibration replication (Talts et al. 2018) of the record model.
 
@@ -328,6 +333,8 @@ def sbc_record_replication(
     pair_log_sd : float
         Known sampling scatter of a reference lidar pair (-), in the data and in the fit
         (:func:`draw_record_campaign`); 0: a point reference.
+    n_propagated : int
+        Records whose corrected TI is checked too (:func:`propagation_ranks`); 0: none.
 
     Returns
     -------
@@ -372,4 +379,59 @@ def sbc_record_replication(
     for name in SBC_RECORD_PARAMS:
         out[f"rank_{name}"] = _rank(fit.flat(name), truth[name], n_rank_draws)
         out[f"true_{name}"] = truth[name]
+    if n_propagated:
+        out |= propagation_ranks(
+            fit, rec, seed=ss_fit.spawn(1)[0], n_check=n_propagated,
+            n_rank_draws=n_rank_draws, surrogate=surrogate,
+        )  # fmt: skip
     return out
+
+
+def propagation_ranks(
+    fit, records: pd.DataFrame, *, seed, n_check: int, n_rank_draws: int = 99, surrogate=None
+) -> dict:
+    """The propagation's part of simulation-based calibration: ranks of true TIs.
+
+    The records come from the record model (:func:`draw_record_campaign`), so each one's
+    true point std is its ``ref_hws_std_ms`` (a point reference, no sampling scatter of
+    its own). :func:`~flidar_uq.correction.propagation.corrected_ti` draws
+    ``n_rank_draws`` corrected TIs of each record from the fit's posterior; the rank of the
+    true TI ``ref_hws_std_ms / hws_mean_ms`` among them is uniform on ``0 .. n_rank_draws``
+    when the propagation is calibrated. ``n_check`` records are drawn at random (without
+    replacement) among those with finite draws, so that the ranks of one replication share
+    little more than the posterior.
+
+    Parameters
+    ----------
+    fit : GlobalFit
+        The record model's fit of ``records``.
+    records : pandas.DataFrame
+        :func:`draw_record_campaign`'s records.
+    seed : int or numpy.random.SeedSequence
+    n_check : int
+        Records whose rank is returned.
+    n_rank_draws : int
+    surrogate : SigmaZSurrogate, optional
+
+    Returns
+    -------
+    dict
+        ``propagation_ranks`` (list of ``n_check`` ints in ``0 .. n_rank_draws``) and
+        ``propagation_coverage_90`` (the fraction of all records with finite draws whose
+        90 % interval holds the true TI, -).
+    """
+    ss_prop, ss_pick = as_seedsequence(seed).spawn(2)
+    per_record, _, ti = corrected_ti(
+        records.assign(bin_id=0), [], fit, surrogate=surrogate, ndraws=n_rank_draws,
+        return_draws=True, group_statistics=False, seed=ss_prop,
+    )  # fmt: skip
+    true_ti = (records["ref_hws_std_ms"] / records["hws_mean_ms"]).to_numpy()
+    finite = np.flatnonzero(np.all(np.isfinite(ti), axis=0))
+    pick = np.random.default_rng(ss_pick).choice(
+        finite, size=min(n_check, finite.size), replace=False
+    )
+    ranks = [int(np.sum(ti[:, j] < true_ti[j])) for j in np.sort(pick)]
+    lo = per_record["ti_corrected_lo"].to_numpy()[finite]
+    hi = per_record["ti_corrected_hi"].to_numpy()[finite]
+    inside = (lo <= true_ti[finite]) & (true_ti[finite] <= hi)
+    return {"propagation_ranks": ranks, "propagation_coverage_90": float(np.mean(inside))}

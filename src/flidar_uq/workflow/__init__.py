@@ -21,8 +21,8 @@ Files written (the pipeline's output contract, see README):
 
 * ``results/ti/records.csv``: one row per input record: ``timestamp, height_m, bin_id,
   hws_mean_ms, ti_uncorrected, ti_corrected_median, ti_corrected_lo, ti_corrected_hi,
-  flags`` (+ ``ti_true`` when the input carries truth, + the seed 000 U/C/PC baselines).
-* ``results/ti/bins.csv``: one row per bin (``bin_id`` = case no. of seed 000 Table 1)
+  flags`` (+ ``ti_true`` when the input carries truth, + the Gutiérrez-Antuñano et al. (2018) U/C/PC baselines).
+* ``results/ti/bins.csv``: one row per bin (``bin_id`` = case no. of Gutiérrez-Antuñano et al. (2018), Table 1)
   with the bin table, sigma_Z at the bin centre, fit status and diagnostics, and bin means
   of the uncorrected and corrected TI.
 * ``results/ti/speed_bins.csv``: per height and speed bin the mean, representative TI and P90 of the corrected TI with intervals of the statistic; ``groups.csv`` (campaign, sectors, sea states) and ``uncertainty_budget.csv`` beside it.

@@ -61,7 +61,8 @@ def make_campaign(
     seed : int
         SeedSequence entropy of the virtual campaign (-).
     scenario_path : path, optional
-        Scenario YAML (config/scenarios/<name>.yaml), required for ``source="virtual"``.
+        Scenario YAML (a shipped ``flidar_uq/resources/scenarios/<name>.yaml`` or the
+        user's), required for ``source="virtual"``.
     records_path : path, optional
         The user's record table (CSV or Parquet), required for ``source="files"``.
     threads : int
@@ -331,15 +332,15 @@ def run_qc(
 def motion_statistics(
     in_path: str | os.PathLike, out_path: str | os.PathLike, roll_pitch_path: str | os.PathLike
 ) -> pd.DataFrame:
-    """Per-record motion amplitude and period, and the roll-pitch correlation (seed 000 Sec. 2.4).
+    """Per-record motion amplitude and period, and the roll-pitch correlation (Gutiérrez-Antuñano et al., 2018, Sec. 2.4).
 
-    Adds ``amplitude_deg`` and ``period_s`` (the roll/pitch averages, seed 000 Sec. 2.4) to
+    Adds ``amplitude_deg`` and ``period_s`` (the roll/pitch averages, Gutiérrez-Antuñano et al. (2018), Sec. 2.4) to
     each kept record; writes the roll-pitch correlation of amplitude and period.
     """
     from flidar_uq.data import imu
 
     records = read_csv(in_path)
-    out = imu.record_motion(records)
+    out = imu.add_harmonic_motion(records)
     corr = imu.roll_pitch_correlation(records)
     write_csv(out, out_path)
     write_csv(pd.DataFrame([corr]), roll_pitch_path)
@@ -392,7 +393,7 @@ def make_bins(
 ) -> pd.DataFrame:
     """Bin the kept records (HWS x amplitude x period) and write the bin table with batches.
 
-    The bin table (seed 000 Table 1 style) is sorted by decreasing count; ``bin_id`` is the
+    The bin table (Gutiérrez-Antuñano et al., 2018, Table 1 style) is sorted by decreasing count; ``bin_id`` is the
     case number (1 = most frequent). Bins with at least ``min_count`` records are
     ``fitted`` and assigned a batch.
     """
@@ -430,7 +431,7 @@ def make_bins(
 def sigma_z_table(
     table_path: str | os.PathLike, out_path: str | os.PathLike, *, lidar: str
 ) -> pd.DataFrame:
-    """sigma_Z and E(Z) at each bin centre through the surrogate (seed 000 Eqs. 4-14)."""
+    """sigma_Z and E(Z) at each bin centre through the surrogate (Gutiérrez-Antuñano et al., 2018, Eqs. 4-14)."""
     from flidar_uq.physics.surrogate import get_surrogate
 
     table = read_csv(table_path)

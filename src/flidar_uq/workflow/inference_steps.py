@@ -226,8 +226,9 @@ def fit_global_model(
         Path(out_path).parent.mkdir(parents=True, exist_ok=True)
         inf.save_fit(fit, out_path)
         log.info("record model: converged=%s %s", fit.converged, "; ".join(fit.failure_reasons))
-        if "motion_scale_warning" in fit.info:
-            log.warning(fit.info["motion_scale_warning"])
+        for key in ("motion_scale_warning", "lever_arm_warning"):
+            if key in fit.info:
+                log.warning(fit.info[key])
         return
     bin_fits = gather_bin_summaries(batch_dirs)
     fits = load_bin_fits(batch_dirs, bin_fits)

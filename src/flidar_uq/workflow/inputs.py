@@ -30,6 +30,8 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # numpy and pandas are imported where used: `flidar-uq --help` stays fast
     import pandas as pd
 
+from flidar_uq.resources import resource_path
+
 log = logging.getLogger(__name__)
 
 __all__ = [
@@ -68,8 +70,8 @@ EXIT_CODES = {
     "inconsistent",
 }
 
-#: The closed config schema of the pipeline (the repository's workflow/schemas/).
-SCHEMA_PATH = Path(__file__).resolve().parents[3] / "workflow" / "schemas" / "config.schema.yaml"
+#: The closed config schema of the pipeline (package data: ``flidar_uq/resources/``).
+SCHEMA_PATH = resource_path("config.schema.yaml")
 
 #: The fleet summary's directory under results/ (a name no campaign of ``campaigns:`` may take).
 FLEET_DIR = "fleet"
@@ -449,7 +451,7 @@ def _check_scenario(scenario: str) -> None:
             raise ConfigError("campaign.scenario", f"no such scenario file {scenario!r}")
         return
     shipped = sorted(p.stem for p in scenario_dir().glob("*.yaml"))
-    if shipped and scenario not in shipped:
+    if scenario not in shipped:
         raise ConfigError(
             "campaign.scenario",
             f"no shipped scenario {scenario!r}; shipped: {', '.join(shipped)} "
@@ -630,7 +632,7 @@ def inspect_records(
         ``sampling`` (``interval_s``, per height ``n_records``, ``n_gaps``,
         ``missing_records``, ``largest_gap_h``); ``reference`` (shares of records with a
         reference mean and std); ``motion_description`` (records per description of
-        :func:`flidar_uq.inference.record_motion.record_motion`); ``qc_preview``
+        :func:`flidar_uq.inference.record_motion.per_record_motion`); ``qc_preview``
         (``n_kept``, ``n_flagged`` and per filter the records it flags); ``warnings``
         (one line each) and ``blocking`` (what the pipeline refuses, one line each).
     """
@@ -639,7 +641,7 @@ def inspect_records(
 
     from flidar_uq.data import qc
     from flidar_uq.data.schema import RECORD_COLUMNS, TRUTH_PREFIX
-    from flidar_uq.inference.record_motion import MOTION_DESCRIPTIONS, record_motion
+    from flidar_uq.inference.record_motion import MOTION_DESCRIPTIONS, per_record_motion
 
     n = len(records)
     names = [c.name for c in RECORD_COLUMNS]
@@ -660,7 +662,7 @@ def inspect_records(
         for r, row in res.counts.iterrows()
         if row["enabled"] and row["applicable"]
     }
-    motion = record_motion(records)
+    motion = per_record_motion(records)
     kinds = motion["motion_description"]
     counts = {k: int((kinds == k).sum()) for k in MOTION_DESCRIPTIONS}
 

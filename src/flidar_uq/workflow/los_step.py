@@ -44,7 +44,7 @@ def los_correction(
     allow_small_angles: bool = False,
     window_s: float = 600.0,
 ) -> pd.DataFrame:
-    """LOS-level corrected TI of every record (seed 001 LS; seed 002 for a DBS lidar).
+    """LOS-level corrected TI of every record (Malekmohammadi et al. (2024) LS; Yamaguchi and Ishihara (2016) for a DBS lidar).
 
     The LOS and IMU series are streamed in chunks (:mod:`flidar_uq.data.imu_series`), record
     window by record window, through :func:`flidar_uq.correction.los_records.los_record_ti`.
@@ -144,11 +144,11 @@ def los_correction(
     for col in ["n_los", "n_scans", "n_scans_used", *[f"n_hws_{m}" for m in methods]]:
         table[col] = table[col].fillna(0).astype(int)
     log.info(
-        "LOS branch (%s): %d record rows, %d with a seed 001 TI; %d record windows without "
+        "LOS branch (%s): %d record rows, %d with a Malekmohammadi et al. (2024) TI; %d record windows without "
         "LOS rows; %d LOS rows outside every record window, %d at heights without a record row",
         lidar,
         len(table),
-        int(table["ti_los_seed001_ls"].notna().sum()),
+        int(table["ti_los_least_squares"].notna().sum()),
         len(by_start) - len(seen),
         n_los_outside,
         n_los_other_height,
@@ -229,8 +229,8 @@ def los_agreement(
         }
         row |= _vs_truth(x, truth, both)
         rows.append(row)
-    # the Bayesian median's own errors, over the records compared with seed 001
-    both = np.isfinite(med) & np.isfinite(merged["ti_los_seed001_ls_target"].to_numpy(float))
+    # the Bayesian median's own errors, over the records compared with Malekmohammadi et al. (2024)
+    both = np.isfinite(med) & np.isfinite(merged["ti_los_least_squares_target"].to_numpy(float))
     rows.append({"method": "bayesian", "n_records": int(both.sum())} | _vs_truth(med, truth, both))
     agreement = pd.DataFrame(rows).reindex(columns=AGREEMENT_COLUMNS)
     write_csv(merged, records_out)
@@ -271,9 +271,9 @@ def _agreement_figure(merged: pd.DataFrame, methods: Sequence[str], path) -> Non
     fig, ax = plt.subplots(figsize=(5.5, 5))
     colours = {
         "uncorrected": "0.6",
-        "seed001_ls": "C0",
-        "seed002_conventional": "C1",
-        "seed002_new": "C2",
+        "least_squares": "C0",
+        "dbs_conventional": "C1",
+        "dbs_new": "C2",
     }
     finite = [med[np.isfinite(med)]]
     for m in methods:

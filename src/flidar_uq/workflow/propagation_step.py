@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 
 from flidar_uq.data.binning import bin_centre, speed_bin_ms
+from flidar_uq.inference.record_motion import describe_motion
 from flidar_uq.seeding import child_seed
 from flidar_uq.workflow.files import read_csv, write_csv
 from flidar_uq.workflow.inference_steps import load_bin_fits
@@ -254,7 +255,7 @@ def propagate(
 
     Calls :func:`flidar_uq.correction.propagation.corrected_ti` on the kept, binned records with the
     converged bin fits and the global fit (posterior draws through the deployment formula;
-    median and equal-tailed ``credible_mass`` interval), and seed 000's U / C / PC laws.
+    median and equal-tailed ``credible_mass`` interval), and Gutiérrez-Antuñano et al.'s (2018) U / C / PC laws.
 
     ``global_path``: the global posterior (NetCDF). The record motion model's needs nothing
     else: ``bin_fits_path`` (None) and ``batch_dirs`` (empty) are not read, so the
@@ -293,7 +294,7 @@ def propagate(
     at most ``0.77 / sqrt(budget_ndraws - 1)`` = 0.055 (docs/performance.md); with
     ``budget_ndraws >= ndraws`` the main pass's draws are reused, as before.
 
-    ``metrics_out``: MD and RMSE (seed 000 Eqs. 18-19) of std (m/s) and TI for the
+    ``metrics_out``: MD and RMSE (Gutiérrez-Antuñano et al., 2018, Eqs. 18-19) of std (m/s) and TI for the
     uncorrected, U, C, PC and Bayesian estimates against the truth (``true_*``, virtual
     campaigns) or else the reference instrument, over the records with a Bayesian value;
     and the coverage of the credible interval when the truth is known.
@@ -421,6 +422,10 @@ def propagate(
         write_csv(budget, budget_out)
 
     out = _records_table(rec, rid, flags["timestamp"], use, per_record, sz_seed, sz_table)
+    if record_model:  # which motion description gave each record's sigma_Z
+        desc = describe_motion(rec)
+        for col in desc:
+            out[col] = np.where(use, desc[col].to_numpy(), "")
     neg = _scatter(per_record["discriminant_negative"].to_numpy(dtype=bool), use, bool, False)
     described = (
         _scatter(np.isfinite(per_record["sigma_z_median_ms"].to_numpy()), use, bool, False)
@@ -458,7 +463,7 @@ def propagate(
     # MD / RMSE of std and TI (Tables 2-3 style) against the truth (virtual campaigns)
     # and against the reference instrument, where present, over the same records.
     scores = metrics.score_estimates(out, metrics.reference_values(rec, kind=ref["kind"]))
-    scores["rho_seed000"] = rho_seed
+    scores["rho_bin_correlation"] = rho_seed
     scores["credible_mass"] = credible_mass
     scores["reference_kind"] = ref["kind"]
     height = ref.get("height_m")
@@ -564,7 +569,7 @@ def _records_table(
         ("ti_corrected_pc", "ti_pc"),
     ):
         out[col] = _scatter(per_record[src].to_numpy(), use)
-    out["sigma_z_seed000_ms"] = _scatter(sz_seed, use)
+    out["sigma_z_baseline_ms"] = _scatter(sz_seed, use)
     for law in ("u", "c", "pc"):
         out[f"std_corrected_{law}_ms"] = out[f"ti_corrected_{law}"] * m
     out["sigma_z_bin_ms"] = sz_table["sigma_z_ms"].reindex(out["bin_id"]).to_numpy(dtype=float)
@@ -579,7 +584,7 @@ def bin_table(
     records_path: str | os.PathLike,
     out_path: str | os.PathLike,
 ) -> pd.DataFrame:
-    """results/ti/bins.csv: per bin (seed 000 Table 1 style), the bin table, sigma_Z and E(Z)
+    """results/ti/bins.csv: per bin (Gutiérrez-Antuñano et al., 2018, Table 1 style), the bin table, sigma_Z and E(Z)
     at the bin centre (m/s), the bin fit's status and diagnostics, and the means over its
     records of the uncorrected and corrected TI (median, interval bounds) and of the true
     TI where known, from the records :func:`propagate` wrote (``records_path``)."""

@@ -259,12 +259,16 @@ def _group_pivot(groups: pd.DataFrame, grouping: str, label: str) -> pd.DataFram
 
 def _plain_warnings(gfit, bins, records, global_summary, motion_model, coverage) -> list[str]:
     """The fit's and the data's warnings in plain words: what they mean, what to do."""
-    from flidar_uq.workflow.report_summary import motion_scale_words
+    from flidar_uq.workflow.report_summary import lever_arm_words, motion_scale_words
 
     out = []
     if gfit.info.get("motion_scale_warning"):
         k = float(np.median(gfit.flat("motion_scale"))) if "motion_scale" in gfit.draws else np.nan
         out.append(motion_scale_words(k, coverage))
+    if gfit.info.get("lever_arm_warning") and "lever_arm_m" in gfit.draws:
+        prior = gfit.info.get("lever_arm_prior")
+        configured = float(prior[0]) if prior else None
+        out.append(lever_arm_words(gfit.flat("lever_arm_m"), configured, coverage))
     loo_words = loo_statement(global_summary)
     if "per bin to the single global rho" in loo_words:
         out.append(
@@ -305,6 +309,7 @@ def _first_screen(ctx: dict) -> str:
         campaign_name,
         file_identity,
         first_screen_html,
+        motion_description_summary,
         reference_speed_bins,
         representative_at_15,
     )
@@ -326,6 +331,9 @@ def _first_screen(ctx: dict) -> str:
         ("reference", ctx["reference_kind"]),
         ("lidar", str((config.get("campaign") or {}).get("lidar", ""))),
     ]
+    described = motion_description_summary(records)
+    if described:
+        facts.append(("motion description", described))
     screen = FirstScreen(
         title=campaign_name(config),
         facts=facts,
@@ -695,8 +703,8 @@ def _methods_section(ctx: dict) -> rep.Section:
     body = rep.table_html(m.rename(columns=_METRIC_LABELS), caption=rep.caption("metrics"))
     rho_med = float(np.median(gfit.flat("rho")))
     rho_seed = (
-        float(metrics["rho_seed000"].iloc[0])
-        if "rho_seed000" in metrics and len(metrics)
+        float(metrics["rho_bin_correlation"].iloc[0])
+        if "rho_bin_correlation" in metrics and len(metrics)
         else np.nan
     )
     ref_col = next((c for c in ("ref_hws_std_ms", "true_hws_std_ms") if c in records), None)
@@ -708,7 +716,7 @@ def _methods_section(ctx: dict) -> rep.Section:
             if np.isfinite(rho_seed)
             else (rho_med, "posterior median")
         )
-        szb = r["sigma_z_seed000_ms"].to_numpy(dtype=float)
+        szb = r["sigma_z_baseline_ms"].to_numpy(dtype=float)
         corr = {
             "U": correction.sigma_moving_u(ref, szb),
             "C": correction.sigma_moving_c(ref, szb),

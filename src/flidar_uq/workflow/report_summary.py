@@ -28,6 +28,8 @@ __all__ = [
     "campaign_name",
     "first_screen_html",
     "held_out_records",
+    "lever_arm_words",
+    "motion_description_summary",
     "motion_scale_words",
     "reference_speed_bins",
     "representative_at_15",
@@ -318,3 +320,62 @@ def motion_scale_words(motion_scale: float, coverage: float) -> str:
         "or surge), a scale above 1 stands for the missing translation, and a hold-out "
         "(validation.holdout) shows whether the correction still predicts."
     )
+
+
+def lever_arm_words(lever_arm_draws_m, configured_m: float | None, coverage: float) -> str:
+    """The lever-arm check in plain words: what it means for the numbers, what to do.
+
+    ``lever_arm_draws_m``: posterior draws of the record model's lever arm (m);
+    ``configured_m``: the lever arm of the config (``inference.lever_arm_m``, m; None when
+    the fit infers it); ``coverage``: as :func:`motion_scale_words`.
+    """
+    d = np.asarray(lever_arm_draws_m, dtype=float)
+    lo, med, hi = np.quantile(d, [0.05, 0.5, 0.95])
+    where = (
+        f"the {configured_m:.2f} m of the buoy's geometry in the config"
+        if configured_m is not None
+        else "any height a floating lidar's head sits above its buoy's rotation centre"
+    )
+    cov = (
+        f" On the validation records the intervals hold the reference TI in "
+        f"{100 * coverage:.0f} % of the records."
+        if np.isfinite(coverage)
+        else ""
+    )
+    return (
+        f"The fit places the lidar head {med:.2f} m above the buoy's rotation centre (90 % "
+        f"interval {lo:.2f}-{hi:.2f} m), which does not agree with {where}. The lever arm "
+        "then stands for motion the model does not describe (the hull's surge, sway and "
+        "heave, or a lidar of another type): the corrected TI is calibrated by the "
+        f"reference period and holds for sea states like those in it.{cov} What to do: "
+        "check inference.lever_arm_m and campaign.lidar, give the buoy's translation "
+        "(MRU or wave-sensor columns, docs/data-format.md) if it has any, and use a "
+        "hold-out (validation.holdout) to see whether the correction still predicts."
+    )
+
+
+#: Plain words for the record model's motion descriptions (records.csv columns
+#: ``motion_description`` and ``translation_description``).
+_TILT_WORDS = {
+    "along_wind": "tilt along the wind from the IMU spectrum",
+    "roll_pitch": "roll and pitch amplitude and period only",
+}
+_TRANSLATION_WORDS = {
+    "tilt_spectrum": "surge and heave from the tilt spectrum through the fitted hull response",
+    "none": "no translation (rotation about a fixed centre)",
+}
+
+
+def motion_description_summary(records: pd.DataFrame) -> str:
+    """Which motion description the corrected records got, counted ("" without the columns)."""
+    if "translation_description" not in records:
+        return ""
+    used = records[records["motion_description"].isin(list(_TILT_WORDS))]
+    if used.empty:
+        return "none"
+    counts = used.groupby(["motion_description", "translation_description"]).size()
+    parts = [
+        f"{n:,} records: {_TILT_WORDS[t]}; {_TRANSLATION_WORDS.get(tr, tr)}"
+        for (t, tr), n in counts.sort_values(ascending=False).items()
+    ]
+    return " · ".join(parts)
