@@ -71,6 +71,7 @@ import os
 from collections.abc import Mapping
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
+from types import SimpleNamespace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -299,6 +300,46 @@ def _scan_schedule(rng, n_los, delay_slots, j_max):
     return starts
 
 
+def _scan_layout(geo) -> SimpleNamespace:
+    """The scan kernel's view of a lidar: its slots, their beam vectors and retrieval.
+
+    A VAD lidar: one slot a line of sight (``n_los`` azimuth slots of the prism, the VAD
+    least squares). A DBS lidar: each beam's dwell split into ``m`` sub-slots of about
+    :data:`flidar_uq.campaign.scenarios.DBS_CLOCK_S` (the motion changes within a beam),
+    the beam's radial speed their mean (pulse accumulation), retrieved by the beam pairs
+    (:func:`flidar_uq.physics.lidar.dbs_retrieval_operator`, each beam's row over its
+    sub-slots divided by ``m``); ``dead_slots`` of a cycle's dead time follow the beams.
+    """
+    from flidar_uq.campaign.scenarios import campaign_clock_s
+
+    if geo.kind == "vad":
+        az = 2.0 * np.pi * np.arange(geo.n_los) / geo.n_los
+        d = _lidar.beam_unit_vectors_body(geo, az)
+        return SimpleNamespace(
+            dbs=False,
+            n_los=geo.n_los,
+            los_duration_s=geo.los_duration_s,
+            az_slots=az,
+            d_body=d,
+            pinv_t=_lidar.vad_pseudo_inverse(d).T,
+            dead_slots=0,
+        )
+    dt = campaign_clock_s(geo)
+    m = int(round(geo.los_duration_s / dt))
+    _, az = _lidar.scan_times_azimuths(geo)
+    az_sub = np.repeat(az, m)
+    dead = int(round((geo.cycle_s - geo.n_los * geo.los_duration_s) / dt))
+    return SimpleNamespace(
+        dbs=True,
+        n_los=geo.n_los * m,
+        los_duration_s=dt,
+        az_slots=az_sub,
+        d_body=_lidar.beam_unit_vectors_body(geo, az_sub),
+        pinv_t=np.repeat(_lidar.dbs_retrieval_operator(geo), m, axis=0) / m,
+        dead_slots=dead,
+    )
+
+
 def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence, geo) -> dict:
     """Random series of one record, drawn from its own generator in a fixed order."""
     rng = np.random.default_rng(ss)
@@ -357,15 +398,24 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
             axis=-1,
         )
     # lidar schedule: prism phase, refocusing delays, dropouts, outage
-    lo, hi = settings["lidar"]["refocus_delay_s"]
-    delay_slots = (int(round(lo / dt)), int(round(hi / dt)))
-    j_max = int(np.ceil(n_slots / (geo.n_los + delay_slots[0]))) + 1
-    k0 = int(rng.integers(0, geo.n_los))
-    starts = _scan_schedule(rng, geo.n_los, delay_slots, j_max)
-    if settings["lidar"]["scan_phase"] == "random":
-        phase_slots = rng.integers(0, geo.n_los, size=j_max)
+    if getattr(geo, "dbs", False):
+        # a pulsed DBS lidar: back-to-back cycles from the first beam, every height from
+        # the same beams (range gates), so each cycle is a scan of every height
+        cycle = geo.n_los + geo.dead_slots
+        starts = np.repeat(np.arange(n_slots // cycle + 1) * cycle, heights.size)
+        j_max = starts.size
+        k0 = 0
+        phase_slots = (-starts) % geo.n_los  # the kernel's slot index starts at beam 0
     else:
-        phase_slots = np.zeros(j_max, dtype=int)
+        lo, hi = settings["lidar"]["refocus_delay_s"]
+        delay_slots = (int(round(lo / dt)), int(round(hi / dt)))
+        j_max = int(np.ceil(n_slots / (geo.n_los + delay_slots[0]))) + 1
+        k0 = int(rng.integers(0, geo.n_los))
+        starts = _scan_schedule(rng, geo.n_los, delay_slots, j_max)
+        if settings["lidar"]["scan_phase"] == "random":
+            phase_slots = rng.integers(0, geo.n_los, size=j_max)
+        else:
+            phase_slots = np.zeros(j_max, dtype=int)
     dropped = rng.random(j_max) < float(settings["lidar"]["scan_dropout_probability"])
     outage = rng.random() < float(settings["lidar"]["record_outage_probability"])
     # IMU
@@ -509,8 +559,14 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     from flidar_uq.campaign.scan_kernel import simulate_chunk_scans
 
     geo = _lidar.get_lidar(settings["lidar"]["name"])
-    n_los = geo.n_los
-    dt = geo.los_duration_s
+    lay = _scan_layout(geo)
+    if lay.dbs and want_los:
+        raise ValueError(
+            f"campaign: virtual LOS series are written for VAD lidars only, not {geo.name!r} "
+            "(set campaign.virtual_series to none or imu)"
+        )
+    n_los = lay.n_los
+    dt = lay.los_duration_s
     th = geo.half_cone_angle_rad
     t_len = float(settings["record_length_s"])
     n_slots = int(round(t_len / dt))
@@ -518,10 +574,9 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     n_h = heights.size
     lever = np.asarray(settings["lidar"]["lever_arm_m"], float)
     rate = float(settings["imu"]["rate_hz"])
-    # canonical azimuth slots of the prism and their VAD operator (lidar.py)
-    az_slots = 2.0 * np.pi * np.arange(n_los) / n_los
-    d_body = _lidar.beam_unit_vectors_body(geo, az_slots)  # (L,3)
-    pinv_t = _lidar.vad_pseudo_inverse(d_body).T  # (L,3)
+    # canonical azimuth slots of the prism and their VAD operator (lidar.py), or a DBS
+    # lidar's beams in sub-slots and its beam-pair operator
+    az_slots, d_body, pinv_t = lay.az_slots, lay.d_body, lay.pinv_t
     wd = np.deg2rad(par["wd_deg"])
     e_wind = np.stack([-np.sin(wd), -np.cos(wd), np.zeros_like(wd)], -1)  # (C,3)
     alpha = np.asarray(par["shear_exponent"], float)
@@ -535,7 +590,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     starts_ns = np.asarray(par["record_start_ns"], np.int64)  # from the parent (pandas)
     series, scans, imu_att, imu_ns, fl_truth, trans_truth = [], [], [], [], [], []
     for c, (ss, ts) in enumerate(zip(seeds, starts_ns.tolist(), strict=True)):
-        s = _record_series(settings, par, c, ss, geo)
+        s = _record_series(settings, par, c, ss, lay)
         yaw_c = s["yaw"][None]  # (1,N), or (1,1): a constant heading
         if yaw_c.shape[1] > 1 and (yaw_c == yaw_c[:, :1]).all():
             yaw_c = np.ascontiguousarray(yaw_c[:, :1])  # contiguous: the kernel's compiled type

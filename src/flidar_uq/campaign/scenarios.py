@@ -250,8 +250,10 @@ class CampaignConfig:
             raise ValueError(
                 f"scenario: lidar.scan_phase must be 'prism' or 'random', got {s['lidar']['scan_phase']!r}"
             )
-        if _lidar.get_lidar(s["lidar"]["name"]).kind != "vad":
-            raise ValueError("scenario: lidar.name must be a VAD (conical) lidar for the campaign")
+        try:
+            _lidar.get_lidar(s["lidar"]["name"])
+        except ValueError as exc:
+            raise ValueError(f"scenario: lidar.name: {exc}") from None
         return cls(settings=s)
 
     def __getitem__(self, key):
@@ -280,15 +282,20 @@ def reference_sampling(scenario: str | Path | Mapping) -> dict:
     """
     data = scenario if isinstance(scenario, Mapping) else load_scenario(scenario)
     settings = CampaignConfig.from_dict(data).settings
-    dt = _lidar.get_lidar(settings["lidar"]["name"]).los_duration_s
+    geo = _lidar.get_lidar(settings["lidar"]["name"])
+    dt = campaign_clock_s(geo)
     lo, hi = settings["lidar"]["refocus_delay_s"]
+    if geo.kind == "dbs":  # a pulsed lidar: every height from the same beams, no refocusing
+        lo = hi = geo.cycle_s - geo.n_los * geo.los_duration_s
     return {
-        "heights_in_turn": len(settings["heights_m"]),
+        "heights_in_turn": len(settings["heights_m"]) if geo.kind == "vad" else 1,
         "refocus_delay_s": (float(lo), float(hi)),
         "turbulence_dt_s": wind_step_slots(settings, dt) * dt,
         "point_sample_interval_s": TRUTH_SAMPLE_INTERVAL_S,
         "reference_kind": settings["reference_instrument"],
-        "lidar": settings["lidar"]["name"],
+        "lidar": geo.name
+        if isinstance(settings["lidar"]["name"], Mapping)
+        else settings["lidar"]["name"],
     }
 
 
@@ -365,6 +372,21 @@ def load_scenario(name_or_path: str | Path) -> dict:
         raise ValueError(f"load_scenario: {p} must hold a mapping, got {type(data).__name__}")
     CampaignConfig.from_dict(data)
     return dict(data)
+
+
+#: Motion clock of a virtual DBS campaign, s: each beam's dwell is split into sub-slots of
+#: about this length, and the beam's radial speed is their mean (the pulse accumulation
+#: over the dwell; Desert, Knapp & Aubrun 2021 name it among the DBS mechanisms).
+DBS_CLOCK_S = 0.05
+
+
+def campaign_clock_s(lidar) -> float:
+    """The virtual campaign's slot length (s) for a lidar: its line-of-sight time for a VAD
+    lidar, the beam's dwell split into sub-slots of about :data:`DBS_CLOCK_S` for a DBS one."""
+    g = _lidar.get_lidar(lidar)
+    if g.kind == "vad":
+        return g.los_duration_s
+    return g.los_duration_s / max(int(round(g.los_duration_s / DBS_CLOCK_S)), 1)
 
 
 def wind_step_slots(settings, dt):

@@ -17,7 +17,8 @@ with the azimuth clockwise from the body y axis (north at zero yaw).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -27,7 +28,12 @@ __all__ = [
     "ZEPHIR300",
     "WINDCUBE_V1",
     "WINDCUBE_V1_5BEAM",
+    "WINDCUBE_V2",
+    "WINDCUBE_V2_1",
     "KNOWN_LIDARS",
+    "GEOMETRY_KEYS",
+    "lidar_from_mapping",
+    "dbs_retrieval_operator",
     "get_lidar",
     "scan_times_azimuths",
     "beam_unit_vectors_body",
@@ -64,7 +70,14 @@ class LidarGeometry:
         DBS only: a vertical beam follows the inclined ones (Yamaguchi and Ishihara, 2016, Table 1).
     beam_azimuths_deg : tuple of float or None
         DBS only: azimuths of the inclined beams in scan order, deg clockwise from
-        the body y axis. Must contain the opposite pairs 0/180 and 90/270.
+        the body y axis: two perpendicular opposite pairs, ``a, a + 90, a + 180, a + 270``
+        in any order (``a = 0``: N, E, S, W).
+    los_time_s : float or None
+        Time from the start of one line of sight to the next, s; None:
+        ``scan_period_s / n_los``. Less than that when a cycle ends with dead time
+        (``n_los * los_time_s <= scan_period_s``).
+    notes : str
+        Where the values come from, and which of them are assumptions (for reports).
     """
 
     name: str
@@ -75,6 +88,8 @@ class LidarGeometry:
     signed: bool = True
     vertical_beam: bool = False
     beam_azimuths_deg: tuple[float, ...] | None = None
+    los_time_s: float | None = None
+    notes: str = field(default="", compare=False)
 
     def __post_init__(self) -> None:
         if self.kind not in ("vad", "dbs"):
@@ -105,10 +120,12 @@ class LidarGeometry:
                 raise ValueError(
                     f"LidarGeometry {self.name!r}: a DBS lidar needs beam_azimuths_deg"
                 )
-            if sorted(float(a) % 360.0 for a in az) != [0.0, 90.0, 180.0, 270.0]:
+            a0 = min(float(a) % 90.0 for a in az) if len(az) else 0.0
+            want = [a0 + 90.0 * k for k in range(4)]
+            if len(az) != 4 or not np.allclose(sorted(float(a) % 360.0 for a in az), want):
                 raise ValueError(
-                    f"LidarGeometry {self.name!r}: beam_azimuths_deg must be a permutation of "
-                    f"(0, 90, 180, 270), got {az!r}"
+                    f"LidarGeometry {self.name!r}: beam_azimuths_deg must be a permutation of two perpendicular "
+                    f"opposite pairs (a, a + 90, a + 180, a + 270 deg in any order), got {az!r}"
                 )
             if self.n_los != len(az) + int(self.vertical_beam):
                 raise ValueError(
@@ -119,6 +136,15 @@ class LidarGeometry:
                 raise ValueError(
                     f"LidarGeometry {self.name!r}: a pulsed DBS lidar measures signed speeds"
                 )
+        if self.los_time_s is not None and not (
+            np.isfinite(self.los_time_s)
+            and 0.0 < self.los_time_s
+            and self.los_time_s * self.n_los <= self.scan_period_s * (1.0 + 1e-9)
+        ):
+            raise ValueError(
+                f"LidarGeometry {self.name!r}: los_time_s must be > 0 and n_los * los_time_s "
+                f"<= scan_period_s = {self.scan_period_s}, got {self.los_time_s!r}"
+            )
 
     @property
     def half_cone_angle_rad(self) -> float:
@@ -127,8 +153,60 @@ class LidarGeometry:
 
     @property
     def los_duration_s(self) -> float:
-        """Time between consecutive lines of sight, s."""
-        return self.scan_period_s / self.n_los
+        """Time between consecutive lines of sight, s (``los_time_s`` if given)."""
+        return self.scan_period_s / self.n_los if self.los_time_s is None else self.los_time_s
+
+    @property
+    def cycle_s(self) -> float:
+        """Time per cycle (one complete scan, every beam once), s: ``scan_period_s``."""
+        return self.scan_period_s
+
+    @property
+    def pulsed(self) -> bool:
+        """True for a pulsed lidar (signed radial speeds), False for a CW lidar."""
+        return self.signed
+
+    @property
+    def retrieval(self) -> str:
+        """``"vad_least_squares"`` (VAD) or ``"beam_pairs"`` (DBS: ``u, v`` from the
+        differences of opposite beams, Yamaguchi & Ishihara 2016, Eq. 3)."""
+        return "vad_least_squares" if self.kind == "vad" else "beam_pairs"
+
+    @property
+    def w_from_vertical_beam(self) -> bool:
+        """DBS: ``w`` is the vertical beam's speed (else the mean of the inclined beams)."""
+        return self.kind == "dbs" and self.vertical_beam
+
+    @property
+    def beam_pairs_deg(self) -> tuple[tuple[float, float], ...]:
+        """DBS: the opposite beam pairs ``(a + 90, a + 270)`` and ``(a, a + 180)``, deg:
+        the first gives the component along azimuth ``a + 90``, the second along ``a``."""
+        if self.kind != "dbs":
+            return ()
+        a0 = self.pair_axis_deg
+        return ((a0 + 90.0, a0 + 270.0), (a0, a0 + 180.0))
+
+    @property
+    def pair_axis_deg(self) -> float:
+        """DBS: azimuth ``a`` (deg, in [0, 90)) of the first beam pair's axis; 0 for N/E/S/W."""
+        if self.kind != "dbs":
+            return 0.0
+        return float(min(float(x) % 90.0 for x in self.beam_azimuths_deg))
+
+    @property
+    def opposite_beam_lag_s(self) -> float:
+        """DBS: mean time between the two beams of an opposite pair, s (2 s for a
+        N, E, S, W sequence at 1 s a beam)."""
+        if self.kind != "dbs":
+            return 0.0
+        az = [float(a) % 360.0 for a in self.beam_azimuths_deg]
+        lags = [
+            (j - i) * self.los_duration_s
+            for i in range(len(az))
+            for j in range(i + 1, len(az))
+            if abs((az[j] - az[i]) % 360.0 - 180.0) < 1e-6
+        ]
+        return float(np.mean(lags))
 
 
 # ZephIR 300-like CW VAD: 50 LOS per 1-s scan, 30 deg (Gutiérrez-Antuñano et al., 2018, Sec. 2.2, Malekmohammadi et al. (2024), Sec. 2).
@@ -148,19 +226,115 @@ WINDCUBE_V1_5BEAM = LidarGeometry(
     vertical_beam=True,
     beam_azimuths_deg=(0.0, 90.0, 180.0, 270.0),
 )
+# WindCube v2-like pulsed DBS: 28 deg, N, E, S, W and a vertical beam, about 1 s a beam
+# (the WindCube v2 of floating-lidar systems, e.g. Desert, Knapp and Aubrun, 2021).
+WINDCUBE_V2 = LidarGeometry(
+    "windcube_v2",
+    "dbs",
+    28.0,
+    5,
+    5.0,
+    signed=True,
+    vertical_beam=True,
+    beam_azimuths_deg=(0.0, 90.0, 180.0, 270.0),
+    notes="28 deg, 4 inclined beams + vertical, ~1 s a beam (the WindCube v2's nominal "
+    "geometry); the beam order N, E, S, W, vertical is an assumption",
+)
+# WindCube v2.1: the v2's geometry with faster sampling. ASSUMPTION: 0.5 s a line of sight
+# (2.5-s cycle); the texts at hand state "faster sampling" without a number.
+WINDCUBE_V2_1 = LidarGeometry(
+    "windcube_v2_1",
+    "dbs",
+    28.0,
+    5,
+    2.5,
+    signed=True,
+    vertical_beam=True,
+    beam_azimuths_deg=(0.0, 90.0, 180.0, 270.0),
+    notes="the v2's geometry; ASSUMED 0.5 s a line of sight (2.5-s cycle) and the beam order "
+    "N, E, S, W, vertical: give a custom geometry block for other timings",
+)
 KNOWN_LIDARS: dict[str, LidarGeometry] = {
-    g.name: g for g in (ZEPHIR300, WINDCUBE_V1, WINDCUBE_V1_5BEAM)
+    g.name: g for g in (ZEPHIR300, WINDCUBE_V1, WINDCUBE_V1_5BEAM, WINDCUBE_V2, WINDCUBE_V2_1)
 }
 
+#: Keys of a custom geometry block (config ``campaign.lidar`` as a mapping).
+GEOMETRY_KEYS = (
+    "name",
+    "kind",
+    "half_cone_angle_deg",
+    "n_los",
+    "scan_period_s",
+    "los_time_s",
+    "pulsed",
+    "vertical_beam",
+    "beam_azimuths_deg",
+    "notes",
+)
 
-def get_lidar(name_or_geometry: str | LidarGeometry) -> LidarGeometry:
+
+def lidar_from_mapping(block: Mapping) -> LidarGeometry:
+    """A custom lidar geometry from a config block (keys :data:`GEOMETRY_KEYS`).
+
+    ``kind`` (``"vad"`` or ``"dbs"``) and ``half_cone_angle_deg`` are required; a DBS
+    block needs ``beam_azimuths_deg`` and one of ``scan_period_s`` or ``los_time_s``
+    (the cycle is then ``n_los * los_time_s``); a VAD block ``n_los`` and
+    ``scan_period_s``. ``pulsed`` (default: True for DBS, False for VAD) says whether the
+    radial-speed sign is measured; ``name`` defaults to ``"custom"``.
+
+    Raises
+    ------
+    ValueError
+        An unknown or missing key, or an inconsistent geometry (one line).
+    """
+    extra = sorted(set(block) - set(GEOMETRY_KEYS))
+    if extra:
+        raise ValueError(
+            f"lidar geometry: unknown key {extra[0]!r}; known keys: {', '.join(GEOMETRY_KEYS)}"
+        )
+    for key in ("kind", "half_cone_angle_deg"):
+        if key not in block:
+            raise ValueError(f"lidar geometry: {key!r} is required")
+    kind = str(block["kind"])
+    vertical = bool(block.get("vertical_beam", False))
+    az = block.get("beam_azimuths_deg")
+    az = None if az is None else tuple(float(a) for a in az)
+    if kind == "dbs" and az is None:
+        raise ValueError("lidar geometry: a DBS lidar needs beam_azimuths_deg")
+    n_los = block.get("n_los")
+    if n_los is None:
+        n_los = len(az) + int(vertical) if az is not None else None
+    if n_los is None:
+        raise ValueError("lidar geometry: a VAD lidar needs n_los")
+    los_t = block.get("los_time_s")
+    period = block.get("scan_period_s")
+    if period is None and los_t is None:
+        raise ValueError("lidar geometry: give scan_period_s or los_time_s")
+    if period is None:
+        period = float(los_t) * int(n_los)
+    return LidarGeometry(
+        name=str(block.get("name", "custom")).strip().lower(),
+        kind=kind,
+        half_cone_angle_deg=float(block["half_cone_angle_deg"]),
+        n_los=int(n_los),
+        scan_period_s=float(period),
+        signed=bool(block.get("pulsed", kind == "dbs")),
+        vertical_beam=vertical,
+        beam_azimuths_deg=az,
+        los_time_s=None if los_t is None else float(los_t),
+        notes=str(block.get("notes", "custom geometry from the config")),
+    )
+
+
+def get_lidar(name_or_geometry: str | LidarGeometry | Mapping) -> LidarGeometry:
     """Return a lidar geometry by name (case-insensitive) or pass a geometry through.
 
     Parameters
     ----------
-    name_or_geometry : str or LidarGeometry
+    name_or_geometry : str, LidarGeometry or mapping
         One of ``KNOWN_LIDARS`` (``"zephir300"``, ``"windcube_v1"``,
-        ``"windcube_v1_5beam"``) or a :class:`LidarGeometry`.
+        ``"windcube_v1_5beam"``, ``"windcube_v2"``, ``"windcube_v2_1"``), a
+        :class:`LidarGeometry`, or a custom geometry block (:func:`lidar_from_mapping`).
 
     Returns
     -------
@@ -173,6 +347,8 @@ def get_lidar(name_or_geometry: str | LidarGeometry) -> LidarGeometry:
     """
     if isinstance(name_or_geometry, LidarGeometry):
         return name_or_geometry
+    if isinstance(name_or_geometry, Mapping):
+        return lidar_from_mapping(name_or_geometry)
     key = str(name_or_geometry).strip().lower().replace("-", "_").replace(" ", "")
     if key not in KNOWN_LIDARS:
         raise ValueError(
@@ -502,9 +678,13 @@ def _retrieve_dbs_pairs(g: LidarGeometry, az: np.ndarray, y: np.ndarray) -> Wind
         return np.take_along_axis(y, idx, axis=-1)[..., 0]
 
     st, ct = np.sin(g.half_cone_angle_rad), np.cos(g.half_cone_angle_rad)
-    v_n, v_e, v_s, v_w = beam(0.0), beam(90.0), beam(180.0), beam(270.0)
+    a0 = g.pair_axis_deg
+    v_n, v_e, v_s, v_w = beam(a0), beam(a0 + 90.0), beam(a0 + 180.0), beam(a0 + 270.0)
     u = (v_e - v_w) / (2.0 * st)  # Eq. (3) of Yamaguchi and Ishihara (2016) (east-west pair)
     v = (v_n - v_s) / (2.0 * st)  # Eq. (3) of Yamaguchi and Ishihara (2016) (north-south pair)
+    if a0 != 0.0:  # pairs along azimuths a0 + 90 and a0: back to the body x, y axes
+        ca, sa = np.cos(np.deg2rad(a0)), np.sin(np.deg2rad(a0))
+        u, v = u * ca + v * sa, -u * sa + v * ca
     if g.vertical_beam:
         w = np.sum(np.where(vertical, y, 0.0), axis=-1)
     else:
@@ -512,3 +692,28 @@ def _retrieve_dbs_pairs(g: LidarGeometry, az: np.ndarray, y: np.ndarray) -> Wind
     uvw = np.stack([u, v, w], axis=-1)
     model = np.einsum("...nk,...k->...n", beam_unit_vectors_body(g, az_b), uvw)
     return _finish(uvw, y, model)
+
+
+def dbs_retrieval_operator(lidar: str | LidarGeometry | Mapping) -> np.ndarray:
+    """The beam-pair retrieval of a DBS lidar as a linear operator on its beams.
+
+    Parameters
+    ----------
+    lidar : str, LidarGeometry or mapping
+        A DBS geometry.
+
+    Returns
+    -------
+    ndarray, shape (n_los, 3)
+        ``P`` such that ``(u, v, w) = v_r @ P`` for the radial speeds ``v_r`` of one cycle
+        in scan order (``scan_times_azimuths(lidar)[1]``): exactly
+        :func:`retrieve_wind`'s pairs (Yamaguchi & Ishihara 2016, Eq. 3), ``w`` from the
+        vertical beam when there is one.
+    """
+    g = get_lidar(lidar)
+    if g.kind != "dbs":
+        raise ValueError(f"dbs_retrieval_operator: {g.name!r} is not a DBS lidar")
+    _, az = scan_times_azimuths(g)
+    eye = np.eye(g.n_los)
+    ret = _retrieve_dbs_pairs(g, np.broadcast_to(az, eye.shape), eye)
+    return np.stack([ret.u_ms, ret.v_ms, ret.w_ms], axis=-1)

@@ -178,6 +178,17 @@ def _schema_error(err, schema: dict) -> ConfigError:
             else (f"known keys{' of ' + '.'.join(path) if path else ''}: {', '.join(known)}")
         )
         return ConfigError(key, f"unknown key ({hint})")
+    if err.validator == "anyOf" and err.context:  # a lidar: a name or a geometry block
+        if isinstance(err.instance, str):
+            enum = next((e for e in err.context if e.validator == "enum"), None)
+            if enum is not None:
+                known = ", ".join(map(str, enum.validator_value))
+                return ConfigError(
+                    ".".join(path), f"unknown name {err.instance!r}; known names: {known}"
+                )
+        own = [e for e in err.context if e.validator not in ("type", "enum")] or list(err.context)
+        deepest = max(own, key=lambda e: len(e.absolute_path))
+        return _schema_error(deepest, schema)
     key = ".".join(path) if path else "(top level)"
     problem = err.message
     if len(problem) > 200:
@@ -304,8 +315,10 @@ def _check_semantics(config: dict) -> None:
             "missing, but campaign.source is 'files': give the path of your record table "
             "(CSV or Parquet, docs/data-format.md)",
         )
+    _check_lidars(config)
     if camp["source"] == "virtual":
         _check_scenario(camp["scenario"])
+        _check_scenario_lidar(camp)
     _check_series_keys(config)
     _check_trial_posterior(config)
     try:
@@ -326,6 +339,55 @@ def _check_semantics(config: dict) -> None:
     ):
         if not pri[lo] < pri[hi]:
             raise ConfigError(f"priors.{lo}", f"{pri[lo]} must be below priors.{hi} = {pri[hi]}")
+
+
+def _check_lidars(config: dict) -> None:
+    """``campaign.lidar`` and ``reference.lidar``: a custom geometry block must make a
+    consistent geometry (:func:`flidar_uq.physics.lidar.get_lidar`)."""
+    from flidar_uq.physics.lidar import get_lidar
+
+    for section in ("campaign", "reference"):
+        value = (config.get(section) or {}).get("lidar")
+        if value is None:
+            continue
+        try:
+            get_lidar(value)
+        except ValueError as exc:
+            raise ConfigError(f"{section}.lidar", str(exc)) from None
+
+
+def _lidar_label(value) -> str:
+    from flidar_uq.physics.lidar import get_lidar
+
+    return get_lidar(value).name
+
+
+def _check_scenario_lidar(camp: dict) -> None:
+    """A virtual campaign's ``campaign.lidar`` must be the lidar its scenario simulates
+    (the scenario's ``lidar.name``): one line when they disagree. The default
+    ``campaign.lidar`` (zephir300) with a scenario of another lidar is a disagreement too:
+    sigma_Z would be computed for the wrong geometry."""
+    from flidar_uq.campaign.scenarios import CampaignConfig, load_scenario
+
+    try:
+        scen = CampaignConfig.from_dict(load_scenario(camp["scenario"])).settings
+    except (ValueError, OSError):
+        return  # reported by the campaign step with its own message
+    simulated = scen["lidar"]["name"]
+    try:
+        same = _lidar_label(simulated) == _lidar_label(camp["lidar"])
+        if same and isinstance(camp["lidar"], Mapping):
+            from flidar_uq.physics.lidar import get_lidar
+
+            same = get_lidar(simulated) == get_lidar(camp["lidar"])
+    except ValueError:
+        return
+    if not same:
+        raise ConfigError(
+            "campaign.lidar",
+            f"{_lidar_label(camp['lidar'])!r}, but the virtual scenario {camp['scenario']!r} "
+            f"simulates {_lidar_label(simulated)!r}: set campaign.lidar: {_lidar_label(simulated)}",
+        )
 
 
 def _check_trial_posterior(config: dict) -> None:

@@ -1,0 +1,327 @@
+"""sigma_Z of a DBS lidar: the harmonic sum over its beam times against LOS-level replay,
+and the virtual campaign of a DBS lidar (Yamaguchi & Ishihara 2016, Eqs. 3-4)."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+
+from flidar_uq.physics import dbs_sigma_z as dbs
+from flidar_uq.physics.seastate import WaveSystem, hull_motion_series
+
+DT = 0.05
+
+
+def _harmonic_replay(amp, period, direction_deg, hws, beta, lidar, hull, lever, n_phase=48):
+    """Replay of one harmonic component over its phase (the reference for one component)."""
+    from flidar_uq.physics.hull import G_MS2, get_hull
+
+    t = np.arange(int(round(40 * 60 / DT))) * DT
+    th = np.deg2rad(direction_deg)
+    omega = 2 * np.pi / period
+    r_x, r_z = get_hull(hull).relative_responses(np.array(period))
+    phi = np.deg2rad(amp) * np.exp(1j * omega * t)  # lean along the direction of travel
+    roll = np.rad2deg((-phi * np.sin(th)).real)
+    pitch = np.rad2deg((phi * np.cos(th)).real)
+    horiz = (-r_x * G_MS2 / omega**2 * phi).real  # orbital displacement along the direction
+    heave = (-1j * r_z * G_MS2 / omega**2 * phi).real  # velocity R_z c phi (hull.py)
+    trans = np.column_stack([horiz * np.cos(th), horiz * np.sin(th), heave])
+    wd = float(dbs.wind_to_body_deg(beta))
+    return dbs.dbs_replay_sigma_z_ms(
+        t, roll, pitch, hws_ms=hws, wd_deg=wd, lever_arm_m=lever, translation_m=trans, lidar=lidar
+    )
+
+
+@pytest.mark.parametrize(
+    ("period", "direction", "beta", "hull", "lidar"),
+    [
+        (4.3, 0.0, 0.0, "rotation_only", "windcube_v2"),
+        (4.3, 30.0, 60.0, "wave_follower", "windcube_v2"),
+        (8.7, 90.0, 0.0, "wave_follower", "windcube_v1"),  # a swell across: heave only
+        (6.1, 200.0, 135.0, "discus_buoy", "windcube_v2_1"),
+    ],
+)
+def test_one_harmonic_matches_replay(period, direction, beta, hull, lidar):
+    rep = _harmonic_replay(2.5, period, direction, 10.0, beta, lidar, hull, 2.0)
+    s = dbs.dbs_harmonic_sigma_z_ms(
+        np.array([2.5]),
+        np.array([period]),
+        np.array([direction]),
+        hws_ms=10.0,
+        wind_body_deg=beta,
+        lever_arm_m=2.0,
+        hull=hull,
+        lidar=lidar,
+    )
+    assert float(s) == pytest.approx(rep, rel=0.05)
+
+
+def test_sea_components_match_replay_over_headings():
+    rng = np.random.default_rng(5)
+    n = int(3600 / DT)
+    t = np.arange(n) * DT
+    systems = [WaveSystem(2.4, 4.0, 3.3, 0.0, 30.0), WaveSystem(1.8, 9.0, 6.0, 90.0, 10.0)]
+    m = hull_motion_series(n, DT, systems, rng, "wave_follower", return_components=True)
+    c = m["components"]
+    a = c["amplitude_deg"].ravel()
+    k = a > 1e-4 * a.max()
+    trans = np.column_stack([m["surge_m"], m["sway_m"], m["heave_m"]])
+    ratios = []
+    for beta in (0.0, 45.0, 90.0, 200.0):
+        rep = dbs.dbs_replay_sigma_z_ms(
+            t,
+            m["roll_deg"],
+            m["pitch_deg"],
+            hws_ms=8.0,
+            wd_deg=float(dbs.wind_to_body_deg(beta)),
+            lever_arm_m=2.0,
+            translation_m=trans,
+        )
+        s = dbs.dbs_harmonic_sigma_z_ms(
+            a[k],
+            c["period_s"].ravel()[k],
+            c["direction_deg"].ravel()[k],
+            hws_ms=8.0,
+            wind_body_deg=beta,
+            lever_arm_m=2.0,
+        )
+        ratios.append(float(s) / rep)
+    np.testing.assert_allclose(ratios, 1.0, atol=0.06)
+
+
+def test_opposite_beam_leak_weight():
+    """A vertical motion that changes between opposite beams leaks into u with the weight
+    cos(theta) / (2 sin(theta)) per m/s of change (0.87 at 30 deg)."""
+    from flidar_uq.physics.lidar import get_lidar
+
+    g = get_lidar("windcube_v1")
+    # heave alone on a hull that only heaves: a period of 4 s, beams 2 s apart -> the
+    # change between E and W is twice the heave velocity amplitude
+    from flidar_uq.physics.hull import DofResponse, HullResponse, phase_speed_ms
+
+    heave_only = HullResponse(
+        "h", DofResponse(gain=1.0), DofResponse(gain=0.0), DofResponse(gain=1.0)
+    )
+    s = dbs.dbs_harmonic_sigma_z_ms(
+        np.array([1.0]),
+        np.array([4.0]),
+        np.array([0.0]),
+        hws_ms=10.0,
+        wind_body_deg=0.0,
+        hull=heave_only,
+        mechanisms=("heave", "beam_timing"),
+        lidar=g,
+        cross_wind=False,
+    )
+    w_amp = phase_speed_ms(4.0) * np.deg2rad(1.0)  # heave velocity amplitude, m/s
+    weight = np.cos(g.half_cone_angle_rad) / (2 * np.sin(g.half_cone_angle_rad))
+    assert float(s) == pytest.approx(weight * 2 * w_amp / np.sqrt(2), rel=1e-9)
+    off = dbs.dbs_harmonic_sigma_z_ms(
+        np.array([1.0]),
+        np.array([4.0]),
+        np.array([0.0]),
+        hws_ms=10.0,
+        wind_body_deg=0.0,
+        hull=heave_only,
+        mechanisms=("heave",),
+        lidar=g,
+    )
+    assert float(off) == pytest.approx(0.0, abs=1e-12)  # beams at once: no leak
+
+
+def test_band_moments_equal_the_components_sum():
+    rng = np.random.default_rng(2)
+    a = rng.uniform(0.2, 1.0, 40)
+    d = rng.normal(20.0, 30.0, 40)
+    p = np.full(40, 5.0)  # one band: every component at one period
+    exact = dbs.dbs_harmonic_sigma_z_ms(
+        a, p, d, hws_ms=9.0, wind_body_deg=30.0, lever_arm_m=1.0, cross_wind=False
+    )
+    mom = dbs.direction_moments(d, a**2)
+    band = dbs.dbs_harmonic_sigma_z_ms(
+        np.array([np.sqrt(np.sum(a**2))]),
+        np.array([5.0]),
+        hws_ms=9.0,
+        wind_body_deg=30.0,
+        direction_moments_=mom[None],
+        lever_arm_m=1.0,
+        cross_wind=False,
+    )
+    # components at one period but independent phases: the band sum is the components'
+    # incoherent sum only through their second moments -> equal
+    assert float(band) == pytest.approx(float(exact), rel=1e-9)
+    np.testing.assert_allclose(dbs.rotate_moments(mom, 40.0), dbs.direction_moments(d + 40.0, a**2))
+
+
+def test_heading_matters_and_the_average_reports_its_spread():
+    # the leak of a tilt along the wind goes as 1 + sin(2 beta) cos(omega tau): a 6-s
+    # period, tau = 1 s, differs by +-50 % between the diagonals
+    kw = dict(hws_ms=10.0, hull="rotation_only", lidar="windcube_v2")
+    along_beam = dbs.dbs_harmonic_sigma_z_ms(
+        np.array([3.0]), np.array([6.0]), np.array([0.0]), wind_body_deg=0.0, **kw
+    )
+    diagonal = dbs.dbs_harmonic_sigma_z_ms(
+        np.array([3.0]), np.array([6.0]), np.array([45.0]), wind_body_deg=45.0, **kw
+    )
+    assert abs(float(along_beam) / float(diagonal) - 1.0) > 0.05
+    rms, spread = dbs.dbs_heading_average_sigma_z_ms(
+        np.array([3.0]), np.array([6.0]), np.array([0.0]), **kw
+    )
+    assert spread > 0.01 * rms
+    assert min(along_beam, diagonal) < rms < max(along_beam, diagonal) * 1.5
+
+
+def test_record_function_known_and_unknown_heading():
+    s_known, sp = dbs.dbs_record_sigma_z_ms(
+        np.array([8.0, 12.0]),
+        np.array([2.0, 3.0]),
+        np.array([2.5, 3.0]),
+        np.array([4.0, 5.0]),
+        heading_deg=np.array([30.0, 30.0]),
+        wd_deg=np.array([240.0, 90.0]),
+        lever_arm_m=2.0,
+    )
+    assert np.all(sp == 0) and np.all(s_known > 0)
+    s_avg, spread = dbs.dbs_record_sigma_z_ms(
+        np.array([8.0, 12.0]),
+        np.array([2.0, 3.0]),
+        np.array([2.5, 3.0]),
+        np.array([4.0, 5.0]),
+        lever_arm_m=2.0,
+    )
+    assert np.all(spread > 0) and np.all(np.abs(s_known - s_avg) <= 2.5 * spread)
+
+
+# --------------------------------------------------------------------------- virtual campaign
+
+
+def test_virtual_dbs_campaign_scans_every_height_each_cycle():
+    from flidar_uq.campaign.physics_mode import generate_campaign
+    from flidar_uq.campaign.scenarios import load_scenario
+
+    sc = load_scenario("dbs_wave_follower")
+    sc["n_records"] = 4
+    out = generate_campaign(sc, seed=11).records
+    # 5-s cycles of the WindCube v2: 120 a 10-min record, each at every height
+    assert out["true_n_scans"].max() <= 120 and out["true_n_scans"].median() >= 110
+    assert (out["true_sigma_z_ms"] > 0).all()
+    with pytest.raises(ValueError, match="VAD lidars only"):
+        generate_campaign(sc, seed=11, return_los=True)
+
+
+def test_dbs_layout_is_the_pair_retrieval():
+    from flidar_uq.campaign.physics_mode import _scan_layout
+    from flidar_uq.physics.lidar import dbs_retrieval_operator, get_lidar
+
+    g = get_lidar("windcube_v2")
+    lay = _scan_layout(g)
+    m = lay.n_los // g.n_los
+    y = np.random.default_rng(0).normal(size=g.n_los)
+    np.testing.assert_allclose(np.repeat(y, m) @ lay.pinv_t, y @ dbs_retrieval_operator(g))
+    assert lay.los_duration_s * m == pytest.approx(g.los_duration_s)
+
+
+@pytest.mark.parametrize(
+    ("scenario", "lidar", "ok"),
+    [
+        ("dbs_wave_follower", "windcube_v2", True),
+        ("dbs_tilt_only", "windcube_v2", True),
+        ("dbs_wave_follower", "zephir300", False),
+        ("wave_follower", "windcube_v1", False),  # a ZephIR scenario told it is a WindCube
+    ],
+)
+def test_scenario_and_campaign_lidar_must_agree(scenario, lidar, ok):
+    from flidar_uq.workflow.inputs import EXIT_OK, EXIT_USAGE, pipeline_preflight
+
+    config = {"campaign": {"source": "virtual", "scenario": scenario, "lidar": lidar}}
+    stream = io.StringIO()
+    code = pipeline_preflight(config, stream=stream)
+    if ok:
+        assert code == EXIT_OK, stream.getvalue()
+    else:
+        lines = stream.getvalue().strip().splitlines()
+        assert code == EXIT_USAGE and len(lines) == 1
+        assert "campaign.lidar" in lines[0] and "simulates" in lines[0]
+
+
+@pytest.mark.parametrize(("period", "wd"), [(6.0, 270.0), (4.5, 200.0), (9.0, 225.0)])
+def test_virtual_dbs_campaign_matches_the_harmonic_sum(period, wd):
+    """The campaign's beam-by-beam WindCube v2 (each beam the mean over its 1-s dwell) under
+    a pitch harmonic gives the harmonic sum's sigma_Z with the dwell average (sinc(1 s / T):
+    4 % at 6 s, 8 % at 4.5 s)."""
+    from flidar_uq.campaign.physics_mode import generate_campaign
+
+    case = {"label": "p", "n_records": 3, "roll_amplitude_deg": 0.0, "pitch_amplitude_deg": 3.0}
+    sc = {
+        "name": "h",
+        "n_records": 3,
+        "heights_m": [80.0],
+        "lidar": {
+            "name": "windcube_v2",
+            "lever_arm_m": [0.0, 0.0, 2.0],
+            "scan_dropout_probability": 0.0,
+            "record_outage_probability": 0.0,
+        },
+        "wind": {
+            "wd_mean_deg": wd,
+            "wd_sd_deg": 0.0,
+            "shear_exponent_mean": 0.0,
+            "shear_exponent_sd": 0.0,
+            "ti_model": "constant_ti",
+            "ti_params": {"ti": 0.01},
+            "reference_height_m": 80.0,
+        },
+        "motion": {"model": "harmonic", "harmonic": {"cases": [case | {"period_s": period}]}},
+    }
+    out = generate_campaign(sc, seed=1).records
+    n = len(out)
+    beta = dbs.wind_to_body_deg(out["true_wd_deg"].to_numpy(), out["true_yaw_deg"].to_numpy())
+    args = (np.full((n, 1), 3.0), np.full((n, 1), period), np.zeros((n, 1)))
+    kw = dict(
+        hws_ms=out["true_hws_mean_ms"].to_numpy(),
+        wind_body_deg=beta,
+        lever_arm_m=2.0,
+        hull="rotation_only",
+    )
+    s = dbs.dbs_harmonic_sigma_z_ms(*args, dwell_average=True, **kw)
+    np.testing.assert_allclose(out["true_sigma_z_ms"].to_numpy() / s, 1.0, atol=0.03)
+    point = dbs.dbs_harmonic_sigma_z_ms(*args, **kw)
+    np.testing.assert_allclose(s / point, np.sinc(1.0 / period), rtol=1e-3)  # + cross-wind term
+
+
+@pytest.mark.parametrize("known", [True, False])
+def test_record_terms_quadratic_form_equals_the_sum(known):
+    hws = np.array([6.0, 11.0, 16.0])
+    ra, pa, per = np.array([2.0, 3.0, 1.0]), np.array([2.5, 1.0, 3.0]), np.array([4.0, 6.0, 8.0])
+    beta = np.array([0.0, 70.0, 200.0]) if known else None
+    gram = dbs.dbs_record_terms(hws, ra, pa, per, wind_body_deg=beta)
+    for hull, h in (("rotation_only", 0.0), ("wave_follower", 1.0)):
+        for lever in (0.0, 2.5):
+            q = dbs.dbs_sigma_z_from_terms(gram, lever_arm_m=lever, hull_response=h)
+            amp = np.stack([ra, pa], -1)
+            pp = np.stack([per, per], -1)
+            d = np.broadcast_to([90.0, 0.0], amp.shape)
+            kw = dict(lever_arm_m=lever, hull=hull, dwell_average=True, cross_wind=False)
+            if known:
+                s = dbs.dbs_harmonic_sigma_z_ms(amp, pp, d, hws_ms=hws, wind_body_deg=beta, **kw)
+            else:
+                s = np.sqrt(
+                    np.mean(
+                        [
+                            dbs.dbs_harmonic_sigma_z_ms(
+                                amp, pp, d, hws_ms=hws, wind_body_deg=b, **kw
+                            )
+                            ** 2
+                            for b in np.arange(24) * 15.0
+                        ],
+                        axis=0,
+                    )
+                )
+            np.testing.assert_allclose(q, s, rtol=1e-9)
+    # draws broadcast: (n_draws, 1) against (n,)
+    q = dbs.dbs_sigma_z_from_terms(
+        gram, lever_arm_m=np.array([[0.0], [2.0]]), hull_response=np.array([[0.0], [1.0]])
+    )
+    assert q.shape == (2, 3)
