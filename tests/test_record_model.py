@@ -85,6 +85,8 @@ def test_describe_motion_agrees_with_the_terms_the_model_uses():
     d = describe_motion(rec)
     assert list(d["motion_description"]) == list(per_record_motion(rec)["motion_description"])
     assert list(d["translation_description"]) == ["tilt_spectrum", "none", "none", "none"]
+    kept_rotation = describe_motion(rec, hull_model="rotation_only")
+    assert kept_rotation["translation_description"].eq("none").all()
     terms = six_dof_terms(rec, per_record_motion(rec))
     assert list(terms["heave_leak_sq"].to_numpy() > 0) == [True, False, False, False]
 

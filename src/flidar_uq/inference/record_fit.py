@@ -240,7 +240,7 @@ def log_prob_record_model(
         Floating-lidar and reference 10-min HWS std (m/s).
     sz_rot, u2 : numpy.ndarray, shape (n_obs,)
         Each record's rotational sigma_Z at unit scale (m/s) and head-translation unit
-        ((m/s)^2 per m^2 of lever arm), from :func:`record_motion`.
+        ((m/s)^2 per m^2 of lever arm), from :func:`~flidar_uq.inference.record_motion.per_record_motion`.
     priors : Priors
     lever_arm_prior : (float, float), optional
         Mean and sd (m) of a normal prior on the lever arm from the buoy's geometry;
@@ -352,7 +352,7 @@ def fit_record_model(
     ----------
     records : pandas.DataFrame
         Records with ``hws_mean_ms``, ``hws_std_ms``, ``ref_hws_std_ms`` and the motion
-        columns :func:`record_motion` reads.
+        columns :func:`~flidar_uq.inference.record_motion.per_record_motion` reads.
     surrogate : SigmaZSurrogate, optional
         The lidar's sigma_Z surrogate (default: ZephIR 300).
     settings : SamplerSettings

@@ -207,7 +207,7 @@ def six_dof_terms(
 
     The six-degree-of-freedom band sum (:mod:`flidar_uq.physics.six_dof_sigma_z`) with the
     record's moments instead of its bands: the tilt's vertical-wind leak ``sZ_rot``
-    (:func:`record_motion`), the heave's ``hl = Lambda(A, T_h) sqrt(2) sigma_h`` with
+    (:func:`per_record_motion`), the heave's ``hl = Lambda(A, T_h) sqrt(2) sigma_h`` with
     ``Lambda = sZ(1 m/s, A, T) / A`` of the surrogate at the total tilt amplitude and the
     heave's mean period, correlated by ``rho_h``; the orbital velocity along the wind
     ``sigma_u`` against the lever arm's ``L dphi/dt`` (covariance ``-g sigma_along^2`` per
@@ -227,9 +227,9 @@ def six_dof_terms(
     records : pandas.DataFrame
         Records with the along-wind and :data:`FOLLOWER_COLUMNS` columns.
     motion : pandas.DataFrame
-        :func:`record_motion` of the same records.
+        :func:`per_record_motion` of the same records.
     surrogate, scan_period_s
-        As :func:`record_motion`.
+        As :func:`per_record_motion`.
 
     Returns
     -------
@@ -277,19 +277,22 @@ def _follower_complete(records: pd.DataFrame) -> np.ndarray:
     return ok
 
 
-def describe_motion(records: pd.DataFrame) -> pd.DataFrame:
+def describe_motion(records: pd.DataFrame, *, hull_model: str | None = None) -> pd.DataFrame:
     """Which motion description each record gets in the record model, without evaluating it.
 
     Parameters
     ----------
     records : pandas.DataFrame
-        Record table (the columns :func:`record_motion` and :func:`six_dof_terms` read).
+        Record table (the columns :func:`per_record_motion` and :func:`six_dof_terms` read).
+    hull_model : str, optional
+        The fit's kept hull model (``GlobalFit.info["hull_model"]``): ``"rotation_only"``
+        describes no record's translation, whatever its columns.
 
     Returns
     -------
     pandas.DataFrame
         Index of ``records``; ``motion_description`` (the tilt's, one of
-        :data:`MOTION_DESCRIPTIONS`, as :func:`record_motion` gives it) and
+        :data:`MOTION_DESCRIPTIONS`, as :func:`per_record_motion` gives it) and
         ``translation_description`` (one of :data:`TRANSLATION_DESCRIPTIONS`;
         ``"tilt_spectrum"`` only where the tilt is described along the wind).
     """
@@ -300,6 +303,8 @@ def describe_motion(records: pd.DataFrame) -> pd.DataFrame:
     r_z, r_x = measured_response(records)
     measured = follower & np.isfinite(r_z) & np.isfinite(r_x)
     trans = np.where(measured, "measured", np.where(follower, "tilt_spectrum", "none"))
+    if hull_model == "rotation_only":
+        trans = np.full(len(records), "none")
     return pd.DataFrame(
         {"motion_description": tilt, "translation_description": trans}, index=records.index
     )
@@ -308,7 +313,7 @@ def describe_motion(records: pd.DataFrame) -> pd.DataFrame:
 def hull_sigma_z_ms(motion, terms, *, lever_arm_m, hull_response, motion_scale=1.0):
     """sigma_Z (m/s) of records for a lever arm ``L`` (m), a hull response ``h`` (-: 0
     rotates about a fixed centre, 1 follows the waves) and a motion scale ``k`` (-), from
-    :func:`record_motion` and :func:`six_dof_terms` (broadcasting over draws of ``L, h, k``
+    :func:`per_record_motion` and :func:`six_dof_terms` (broadcasting over draws of ``L, h, k``
     given as arrays of shape (n_draws, 1))."""
     sz = np.asarray(motion["sigma_z_rot_ms"], float)
     u2 = np.asarray(motion["translation_unit_sq"], float)

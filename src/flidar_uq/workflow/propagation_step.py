@@ -423,7 +423,7 @@ def propagate(
 
     out = _records_table(rec, rid, flags["timestamp"], use, per_record, sz_seed, sz_table)
     if record_model:  # which motion description gave each record's sigma_Z
-        desc = describe_motion(rec)
+        desc = describe_motion(rec, hull_model=gfit.info.get("hull_model"))
         for col in desc:
             out[col] = np.where(use, desc[col].to_numpy(), "")
     neg = _scatter(per_record["discriminant_negative"].to_numpy(dtype=bool), use, bool, False)
