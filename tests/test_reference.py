@@ -488,13 +488,13 @@ def test_pipeline_record_fit_takes_the_reference_lidars_pair_term(tmp_path, monk
     monkeypatch.setattr(propagation_step, "reference_noise", spy)
 
     class _Fit:
-        converged, failure_reasons, info = True, [], {}
+        converged, failure_reasons, info = True, [], {"hull_model": "rotation_only"}
 
     def fake_fit(records, **kwargs):
         seen.update(kwargs)
         return _Fit()
 
-    monkeypatch.setattr(inference, "fit_record_model", fake_fit)
+    monkeypatch.setattr(inference, "fit_record_model_selecting_hull", fake_fit)
     monkeypatch.setattr(inference, "save_fit", lambda fit, path: None)
     rec = pd.DataFrame(
         {"record_id": [0, 1, 2], "bin_id": [1, 1, 2], "hws_mean_ms": [6.0, 9.0, 12.0],
