@@ -365,6 +365,10 @@ def test_hull_model_selection_keeps_the_simplest_description_the_data_support(hu
     )  # fmt: skip
     assert plain.info["hull_model"] == "rotation_only"
     assert "hull_model_comparison" not in plain.info
+    # its hull response has no effect: left out of the convergence check
+    assert plain.info["hull_response_identified"] is False
+    assert "hull_response" not in plain.diagnostics and "rho" in plain.diagnostics
+    assert fit.info["hull_response_identified"] is (kept == "translating")
     with pytest.raises(ValueError, match="rotation_only, translating"):
         fit_record_model_selecting_hull(rec, hull_model="follower", seed=1)
 

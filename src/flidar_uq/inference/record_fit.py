@@ -382,7 +382,9 @@ def fit_record_model(
         ``motion_scale`` leaves [0.8, 1.25] (the per-record motion model does not explain
         the data: check the lidar type, the IMU columns and the lever arm);
         ``info["lever_arm_warning"]`` when the lever arm is implausible
-        (:func:`lever_arm_check`).
+        (:func:`lever_arm_check`); ``info["hull_response_identified"]`` False when no
+        record has a translation the hull response scales (its draws are then its
+        prior's, and it is left out of the convergence check and ``diagnostics``).
     """
     for c in ("hws_mean_ms", "hws_std_ms"):
         if c not in records:
@@ -411,11 +413,15 @@ def fit_record_model(
     init = laplace_init(log_prob_record_model, args, x0, _broad(lever_arm_prior))
     ndim = len(RECORD_MODEL_NAMES)
 
+    # the hull response acts only through records with a translation it scales: without
+    # any (rotation only, or every translation measured) its draws are its prior's, and
+    # waiting for the chains to mix over that prior's long log-scale tail buys nothing
+    h_used = bool(np.any((six[1] > 0) & (six[4] == 0))) if six.shape[1] else False
+    checked = [n for n in RECORD_MODEL_NAMES if h_used or n != "hull_response"]
+
     def check(ch):
         nat = natural_draws(ch)
-        return _diagnostics(
-            np.stack([nat[n] for n in RECORD_MODEL_NAMES], -1), list(RECORD_MODEL_NAMES), gs
-        )
+        return _diagnostics(np.stack([nat[n] for n in checked], -1), checked, gs)
 
     chains, diag, reasons = _run_ensembles(
         log_prob_record_model, args, init, ndim, gs, seedseq, check, label="record model"
@@ -431,6 +437,7 @@ def fit_record_model(
     info = {
         "n_records": int(s.size),
         "prior_only": prior_only,
+        "hull_response_identified": h_used,
         "excluded_bins": [],
         "loo": {"model": "record", **({"record_elpd": loo["elpd"]} if loo else {})},
         "motion_description_counts": {
