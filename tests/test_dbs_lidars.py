@@ -201,3 +201,17 @@ def test_unknown_name_one_line_exit_2_in_validate_and_pipeline(tmp_path):
     )
     assert snake.returncode == EXIT_USAGE, snake.stderr[-2000:]
     _unknown_name_line(snake.stdout + snake.stderr)
+
+
+def test_virtual_scenario_and_campaign_lidar_that_disagree_are_one_line():
+    from flidar_uq.workflow.inputs import ConfigError, check_config
+
+    cfg = yaml.safe_load((REPO / "config" / "config.yaml").read_text())
+    cfg["campaign"]["source"], cfg["campaign"]["scenario"] = "virtual", "tiny"
+    cfg["campaign"]["lidar"] = "windcube_v1"  # the tiny scenario simulates a ZephIR 300
+    with pytest.raises(ConfigError) as err:
+        check_config(cfg)
+    msg = str(err.value)
+    assert "campaign.lidar" in msg and "simulates 'zephir300'" in msg and "\n" not in msg
+    cfg["campaign"]["lidar"] = "zephir300"
+    check_config(cfg)  # agreeing: accepted

@@ -429,9 +429,11 @@ def test_tiny_end_to_end_rerun_nothing_clean_rerun_identical(tmp_path):
     assert "infer_batch" in out and "fit_global" in out
     for rule in ("rule campaign", "rule validate", "rule qc", "rule bins"):
         assert rule not in out, rule
-    # changing the lidar refits the global model and propagates again, not the bin fits
+    # changing the reference's settings refits the global model and propagates again, not
+    # the bin fits (a virtual campaign's lidar is its scenario's: changing campaign.lidar
+    # alone is refused, test_dbs_lidars.py)
     del data["inference"]["seed"]  # back to the run's inference seed
-    data["campaign"]["lidar"] = "windcube_v1"
+    data.setdefault("reference", {})["lidar_std_ratio_log_sd"] = 0.03
     cfg_a.write_text(yaml.safe_dump(data))
     out = snakemake(a, cfg_a, "-n", "--cores", "2").stdout
     assert "rule fit_global_model" in out and "rule propagate" in out
