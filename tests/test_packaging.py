@@ -31,6 +31,7 @@ import pytest
 import yaml
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
+from test_workflow import TINY_BINNING, TINY_INFERENCE
 
 REPO = Path(__file__).resolve().parents[1]
 PACKAGE = REPO / "src" / "flidar_uq"
@@ -209,20 +210,8 @@ def test_the_schema_and_scenarios_are_found_as_resources():
 #: end-to-end tests of test_workflow.py).
 _TINY_RUN = {
     "campaign": {"source": "virtual", "scenario": "tiny", "seed": 7},
-    "binning": {
-        "min_count": 2,
-        "hws_width_ms": 4.0,
-        "amplitude_width_deg": 2.0,
-        "period_width_s": 2.0,
-    },
-    "inference": {
-        "nwalkers": 16,
-        "nsteps": 250,
-        "nburn": 50,
-        "ndraws": 50,
-        "nbatches": 2,
-        "mixture": "never",
-    },
+    "binning": TINY_BINNING,
+    "inference": TINY_INFERENCE,
     "propagation": {"ndraws": 100},
 }
 
