@@ -220,3 +220,58 @@ def test_record_terms_are_zero_without_the_follower_columns():
     rec = rec.drop(columns=["follower_heave_velocity_std_ms"])
     terms = six_dof_terms(rec, per_record_motion(rec))
     assert (terms.to_numpy() == 0.0).all()
+
+
+@pytest.mark.parametrize(
+    "hull, h", [("rotation_only", 0.0), ("wave_follower", 1.0), ("discus_buoy", 1.0), ("spar", 1.0)]
+)
+def test_band_terms_give_the_band_sum_for_any_lever_arm(hull, h):
+    """six_dof_band_terms of a reference hull assembled with a hull response h is the band
+    sum of that hull (h = 1) or of the rotation-only one (h = 0), record by record, for
+    several lever arms; sZ^2 is convex in h."""
+    from flidar_uq.physics.six_dof_sigma_z import six_dof_band_terms
+    from flidar_uq.physics.surrogate import get_surrogate
+
+    rng = np.random.default_rng(7)
+    n, nb = 40, 8
+    amp = rng.uniform(0.0, 6.0, (n, nb)) * (rng.random((n, nb)) > 0.2)  # some empty bands
+    per = np.geomspace(1.2, 18.0, nb)[None, :] * rng.uniform(0.9, 1.1, (n, nb))
+    c2 = rng.uniform(0.0, 1.0, (n, nb))
+    c1 = np.sqrt(c2) * rng.uniform(-1.0, 1.0, (n, nb))
+    hws = rng.uniform(3.0, 20.0, n)
+    sur = get_surrogate("zephir300")
+    ref = "wave_follower" if hull == "rotation_only" else hull
+    t = six_dof_band_terms(
+        hws,
+        amp,
+        per,
+        band_cos_psi=c1,
+        band_cos_sq_psi=c2,
+        surrogate=sur,
+        scan_period_s=1.0,
+        hull=ref,
+    )
+
+    def assembled(lever, hh):
+        return np.sqrt(
+            t["sigma_z_rot_ms"] ** 2
+            - 2 * hh * t["heave_cross_sq"]
+            + hh**2 * t["heave_leak_sq"]
+            + lever**2 * t["translation_unit_sq"]
+            - 2 * lever * hh * t["orbital_cross_sq"]
+            + hh**2 * t["orbital_sq"]
+        )
+
+    for lever in (0.0, 1.5, 6.0):
+        want = six_dof_band_sigma_z_ms(
+            hws, amp, per, band_cos_psi=c1, band_cos_sq_psi=c2, lever_arm_m=lever, hull=hull
+        )
+        np.testing.assert_allclose(assembled(lever, h), want, rtol=1e-10)
+    lo = six_dof_band_sigma_z_ms(
+        hws, amp, per, band_cos_psi=c1, band_cos_sq_psi=c2, hull="rotation_only"
+    )
+    hi = six_dof_band_sigma_z_ms(hws, amp, per, band_cos_psi=c1, band_cos_sq_psi=c2, hull=ref)
+    # sZ^2 is a convex quadratic in h (its h^2 coefficient H + O >= 0)
+    mid = assembled(0.0, 0.5)
+    assert np.all(mid**2 <= 0.5 * (lo**2 + hi**2) + 1e-12)
+    assert not np.allclose(mid, lo) and not np.allclose(mid, hi)

@@ -448,6 +448,10 @@ def test_optional_tilt_columns_read_and_bounds_checked(tmp_path):
     df["follower_heave_period_s"] = 5.0
     df["follower_velocity_along_wind_std_ms"] = 0.25
     df["follower_heave_tilt_correlation"] = 0.9
+    for b in range(1, 9):
+        df[f"tilt_band{b}_period_s"] = 1.2 * 1.45**b
+        df[f"tilt_band{b}_along_wind_var_deg2"] = 0.2
+        df[f"tilt_band{b}_across_wind_var_deg2"] = 0.05
     df.to_csv(tmp_path / "ok.csv", index=False)
     rec = io.read_records(tmp_path / "ok.csv")
     assert set(imu.TILT_SPECTRUM_COLUMNS) <= set(rec.columns)
@@ -583,3 +587,45 @@ def test_follower_translation_columns_of_known_bands():
     rho = c6 * sig**2 / (heave * sig)
     assert across["follower_heave_tilt_correlation"][0] == pytest.approx(rho)
     assert 6.0 < across["follower_heave_period_s"][0] < 8.0
+
+
+def test_tilt_band_columns_round_trip_through_the_record_table():
+    """The IMU step's band columns are read back by the record model's reader: the same
+    periods, the lean amplitude sqrt(2 (var_along + var_across)), the along-wind share as
+    <cos^2 psi> and the wrapped-normal <cos psi>; a missing band value marks the record
+    incomplete and a table without the columns gives None."""
+    import pandas as pd
+
+    from flidar_uq.data.schema import N_TILT_BANDS
+    from flidar_uq.physics.motion_spectrum import TiltBandSpectrum
+
+    rng = np.random.default_rng(3)
+    n = 5
+    per = np.geomspace(1.3, 17.0, N_TILT_BANDS)[None, :] * rng.uniform(0.95, 1.05, (n, 1))
+    va, vc = rng.uniform(0, 2, (n, N_TILT_BANDS)), rng.uniform(0, 2, (n, N_TILT_BANDS))
+    z = np.zeros(n)
+    spec = TiltBandSpectrum(np.geomspace(1, 20, N_TILT_BANDS + 1), per, va, vc, z, z, z, z, z)
+    rec = pd.DataFrame(imu.tilt_spectrum_columns(spec))
+    rec.loc[2, "tilt_band4_along_wind_var_deg2"] = np.nan
+    got = imu.tilt_bands_from_records(rec)
+    np.testing.assert_array_equal(got["period_s"], per)
+    np.testing.assert_allclose(got["amplitude_deg"][0], np.sqrt(2 * (va[0] + vc[0])))
+    share = va / (va + vc)
+    np.testing.assert_allclose(got["cos_sq_psi"][0], share[0])
+    want = np.where(share > 0.5, np.abs(2 * share - 1) ** 0.25, 0.0)
+    np.testing.assert_allclose(got["cos_psi"][0], want[0])
+    assert got["complete"].tolist() == [True, True, False, True, True]
+    assert imu.tilt_bands_from_records(rec.drop(columns="tilt_band8_period_s")) is None
+    spec12 = TiltBandSpectrum(
+        np.geomspace(1, 20, 13),
+        per[:, :1].repeat(12, 1),
+        va[:, :1].repeat(12, 1),
+        vc[:, :1].repeat(12, 1),
+        z,
+        z,
+        z,
+        z,
+        z,
+    )
+    with pytest.raises(ValueError, match="8 tilt bands, the spectrum has 12"):
+        imu.tilt_spectrum_columns(spec12)

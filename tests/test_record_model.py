@@ -46,24 +46,79 @@ def test_along_wind_description_is_a_single_axis_tilt_of_sqrt2_std():
     assert out["sigma_z_rot_ms"].iloc[1] == pytest.approx(0.0, abs=1e-6)
 
 
-def test_fallbacks_zero_crossing_period_then_roll_pitch_then_none():
+def _band_columns(period_s, var_along_deg2, var_across_deg2):
+    """The tilt-band columns of records (arrays of shape (n, 8))."""
+    from flidar_uq.data.schema import tilt_band_column_names
+
+    cols = {}
+    for b in range(8):
+        per, along, across = tilt_band_column_names(b + 1)
+        cols |= {per: period_s[:, b], along: var_along_deg2[:, b], across: var_across_deg2[:, b]}
+    return cols
+
+
+def test_fallbacks_bands_then_zero_crossing_period_then_roll_pitch_then_none():
+    nan = np.full((4, 8), np.nan)
+    per = np.where(np.arange(4)[:, None] == 0, np.geomspace(1.3, 17.0, 8), nan)
+    var = np.where(np.arange(4)[:, None] == 0, 0.3, nan)
     rec = pd.DataFrame(
         {
-            "hws_mean_ms": [8.0, 8.0, 8.0],
-            "tilt_along_wind_std_deg": [2.0, np.nan, np.nan],
-            "tilt_period_zero_crossing_s": [5.0, np.nan, np.nan],
-            "roll_amplitude_deg": [np.nan, 2.0, np.nan],
-            "pitch_amplitude_deg": [np.nan, 8.0, np.nan],
-            "roll_period_s": [np.nan, 4.0, np.nan],
-            "pitch_period_s": [np.nan, 9.0, np.nan],
+            "hws_mean_ms": [8.0, 8.0, 8.0, 8.0],
+            "tilt_along_wind_std_deg": [np.nan, 2.0, np.nan, np.nan],
+            "tilt_period_zero_crossing_s": [np.nan, 5.0, np.nan, np.nan],
+            "roll_amplitude_deg": [np.nan, np.nan, 2.0, np.nan],
+            "pitch_amplitude_deg": [np.nan, np.nan, 8.0, np.nan],
+            "roll_period_s": [np.nan, np.nan, 4.0, np.nan],
+            "pitch_period_s": [np.nan, np.nan, 9.0, np.nan],
         }
+        | _band_columns(per, var, 0.5 * var)
     )
     out = per_record_motion(rec)
     assert tuple(out["motion_description"]) == MOTION_DESCRIPTIONS
-    assert out["motion_period_s"].iloc[0] == pytest.approx(5.0)
-    assert out["motion_amplitude_deg"].iloc[1] == pytest.approx(4.0)  # geometric mean
-    assert out["motion_period_s"].iloc[1] == pytest.approx(6.0)
-    assert np.isnan(out["sigma_z_rot_ms"].iloc[2])
+    # the bands' along-wind amplitude sqrt(2 sum var_along) and mean period m0 / m1
+    assert out["motion_amplitude_deg"].iloc[0] == pytest.approx(np.sqrt(2 * 8 * 0.3))
+    assert out["motion_period_s"].iloc[0] == pytest.approx(8 / np.sum(1 / per[0]))
+    assert out["motion_period_s"].iloc[1] == pytest.approx(5.0)
+    assert out["motion_amplitude_deg"].iloc[2] == pytest.approx(4.0)  # geometric mean
+    assert out["motion_period_s"].iloc[2] == pytest.approx(6.0)
+    assert np.isnan(out["sigma_z_rot_ms"].iloc[3])
+
+
+def test_band_description_is_the_six_dof_band_sum():
+    """Records with tilt bands: the record model's sigma_Z for any lever arm and hull
+    response is the band sum of :func:`six_dof_band_sigma_z_ms` (h = 0 rotation only, 1
+    wave follower), whatever the moments columns say."""
+    from flidar_uq.inference.record_motion import hull_sigma_z_ms, six_dof_terms
+    from flidar_uq.physics.six_dof_sigma_z import six_dof_band_sigma_z_ms
+
+    rng = np.random.default_rng(11)
+    n = 6
+    per = np.geomspace(1.3, 17.0, 8)[None, :] * rng.uniform(0.95, 1.05, (n, 8))
+    va, vc = rng.uniform(0, 1.5, (n, 8)), rng.uniform(0, 1.5, (n, 8))
+    hws = rng.uniform(4, 18, n)
+    rec = pd.DataFrame(
+        {
+            "hws_mean_ms": hws,
+            "tilt_along_wind_std_deg": 9.0,  # ignored: the bands win
+            "tilt_period_mean_s": 3.0,
+        }
+        | _band_columns(per, va, vc)
+    )
+    mot = per_record_motion(rec)
+    terms = six_dof_terms(rec, mot)
+    share = va / (va + vc)
+    cos = np.where(share > 0.5, np.abs(2 * share - 1) ** 0.25, 0.0)
+    amp = np.sqrt(2 * (va + vc))
+    for lever, h, hull in (
+        (0.0, 0.0, "rotation_only"),
+        (2.5, 0.0, "rotation_only"),
+        (2.5, 1.0, "wave_follower"),
+    ):
+        got = hull_sigma_z_ms(mot, terms, lever_arm_m=lever, hull_response=h)
+        want = six_dof_band_sigma_z_ms(
+            hws, amp, per, band_cos_psi=cos, band_cos_sq_psi=share, lever_arm_m=lever, hull=hull
+        )
+        np.testing.assert_allclose(got, want, rtol=1e-10)
 
 
 def test_describe_motion_agrees_with_the_terms_the_model_uses():

@@ -42,7 +42,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy import fft as _fft
 
-from flidar_uq.data.schema import TILT_SPECTRUM_COLUMNS
+from flidar_uq.data.schema import N_TILT_BANDS, TILT_SPECTRUM_COLUMNS, tilt_band_column_names
 from flidar_uq.physics.hull import G_MS2
 from flidar_uq.physics.motion_spectrum import (
     PERIOD_RANGE_S,
@@ -74,7 +74,9 @@ __all__ = [
     "heading_mean_deg",
     "tilt_band_statistics",
     "TILT_SPECTRUM_COLUMNS",
+    "band_direction_moments",
     "follower_translation_columns",
+    "tilt_bands_from_records",
     "tilt_spectrum_columns",
     "tilt_spectrum_statistics",
     "tilt_spectrum_statistics_by_height",
@@ -887,12 +889,86 @@ def tilt_spectrum_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
     ``tilt_across_wind_std_deg`` likewise across, ``tilt_period_zero_crossing_s`` =
     ``sqrt(m0/m2)`` (along), ``tilt_period_mean_s`` = ``m0/m1`` (along); deg and s.
     """
+    if spec.period_s.shape[-1] != N_TILT_BANDS:
+        raise ValueError(
+            f"tilt_spectrum_columns: the record table holds {N_TILT_BANDS} tilt bands, the "
+            f"spectrum has {spec.period_s.shape[-1]}"
+        )
+    bands = {}
+    for b in range(N_TILT_BANDS):
+        per, along, across = tilt_band_column_names(b + 1)
+        bands[per] = np.asarray(spec.period_s[:, b], float)
+        bands[along] = np.asarray(spec.var_along_deg2[:, b], float)
+        bands[across] = np.asarray(spec.var_across_deg2[:, b], float)
+    return (
+        {
+            "tilt_along_wind_std_deg": spec.along_std_deg,
+            "tilt_across_wind_std_deg": spec.across_std_deg,
+            "tilt_period_zero_crossing_s": spec.tz_s,
+            "tilt_period_mean_s": spec.tm01_s,
+        }
+        | follower_translation_columns(spec)
+        | bands
+    )
+
+
+def band_direction_moments(var_along, var_across) -> tuple[np.ndarray, np.ndarray]:
+    """``<cos^2 psi>`` and ``<cos psi>`` of each band's directions of travel against the wind.
+
+    ``<cos^2 psi>`` is the band's along-wind share of the tilt variance. The tilt cannot tell
+    a wave running downwind from one running upwind, so ``<cos psi>`` is taken as for waves
+    running downwind with a wrapped-normal spread: ``<cos psi> = (2 <cos^2 psi> - 1)^(1/4)``
+    (for a wrapped normal of spread s, ``<cos psi> = exp(-s^2 / 2)`` and ``<cos 2 psi> =
+    exp(-2 s^2)``), 0 where the band is mostly across the wind (a swell whose side the tilt
+    cannot tell).
+
+    Parameters
+    ----------
+    var_along, var_across : array_like
+        Tilt variance along and across the wind per band (any one unit, e.g. deg^2).
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        ``<cos^2 psi>`` and ``<cos psi>`` (-), 0 for an empty band.
+    """
+    va = np.asarray(var_along, float)
+    vt = va + np.asarray(var_across, float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = np.where(vt > 0, va / np.where(vt > 0, vt, 1.0), 0.0)
+    cos_mean = np.where(2.0 * share - 1.0 > 0, np.abs(2.0 * share - 1.0) ** 0.25, 0.0)
+    return share, cos_mean
+
+
+def tilt_bands_from_records(records: pd.DataFrame):
+    """The tilt bands of a record table (:data:`N_TILT_BANDS` bands, ``tilt_band{b}_*``).
+
+    Returns
+    -------
+    dict or None
+        ``amplitude_deg`` (the lean amplitude of each band along its direction of travel,
+        ``sqrt(2 (var_along + var_across))``, deg), ``period_s`` (s), ``cos_sq_psi`` and
+        ``cos_psi`` (-, :func:`band_direction_moments`), each of shape (n_records,
+        n_bands), and ``complete`` (n_records,) True where every band value is finite; None
+        when the table lacks a band column.
+    """
+    names = [tilt_band_column_names(b + 1) for b in range(N_TILT_BANDS)]
+    if any(c not in records for cols in names for c in cols):
+        return None
+
+    def stack(i):
+        return np.stack([records[cols[i]].to_numpy(dtype=float) for cols in names], axis=-1)
+
+    per, va, vc = stack(0), stack(1), stack(2)
+    complete = np.all(np.isfinite(per) & np.isfinite(va) & np.isfinite(vc), axis=-1)
+    cos_sq, cos_mean = band_direction_moments(va, vc)
     return {
-        "tilt_along_wind_std_deg": spec.along_std_deg,
-        "tilt_across_wind_std_deg": spec.across_std_deg,
-        "tilt_period_zero_crossing_s": spec.tz_s,
-        "tilt_period_mean_s": spec.tm01_s,
-    } | follower_translation_columns(spec)
+        "amplitude_deg": np.sqrt(2.0 * (va + vc)),
+        "period_s": per,
+        "cos_sq_psi": cos_sq,
+        "cos_psi": cos_mean,
+        "complete": complete,
+    }
 
 
 def follower_translation_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
@@ -903,10 +979,8 @@ def follower_translation_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray
     (linear deep-water waves: ``c = g / omega`` per radian of lean,
     :mod:`flidar_uq.physics.hull`); heave from the along + across tilt, the horizontal
     velocity along the wind from the along-wind tilt. The heave is correlated with the
-    along-wind tilt through ``<cos psi>`` of the band's directions of travel, taken from
-    its along-wind share ``<cos^2 psi>`` as for waves running downwind with a
-    wrapped-normal spread: ``<cos psi> = (2 <cos^2 psi> - 1)^(1/4)``, 0 where the band is
-    mostly across the wind (a swell whose side the tilt cannot tell).
+    along-wind tilt through ``<cos psi>`` of the band's directions of travel
+    (:func:`band_direction_moments`).
 
     Returns
     -------
@@ -921,9 +995,8 @@ def follower_translation_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray
     c = G_MS2 * np.asarray(spec.period_s, float) / (2.0 * np.pi)  # phase speed, m/s
     heave_var = np.sum(vt * c**2, axis=-1)
     along_var = np.sum(va * c**2, axis=-1)
+    _, cos_mean = band_direction_moments(va, vt - va)
     with np.errstate(invalid="ignore", divide="ignore"):
-        share = np.where(vt > 0, va / np.where(vt > 0, vt, 1.0), 0.0)
-        cos_mean = np.where(2.0 * share - 1.0 > 0, np.abs(2.0 * share - 1.0) ** 0.25, 0.0)
         cov = np.sum(c * cos_mean * vt, axis=-1)  # cov(heave velocity, along-wind lean)
         corr = cov / np.sqrt(heave_var * np.sum(va, axis=-1))
         inv_per = np.sum(vt * c**2 / np.asarray(spec.period_s, float), axis=-1) / heave_var

@@ -23,7 +23,9 @@ __all__ = [
     "LOS_COLUMNS",
     "TRUTH_PREFIX",
     "MOTION_COLUMNS",
+    "N_TILT_BANDS",
     "TILT_SPECTRUM_COLUMNS",
+    "tilt_band_column_names",
     "RADIAN_SUSPECT_MAX_DEG",
     "RADIAN_SUSPECT_MIN_COUNT",
     "IMU_RATE_RANGE_HZ",
@@ -121,6 +123,22 @@ _HEIGHT_M = Column(
     "Measurement height above the lidar.",
     lower_exclusive=True,
 )
+
+#: Period bands of the tilt spectrum in the record table (``tilt_band{b}_*`` columns,
+#: b = 1 .. N_TILT_BANDS): log-spaced between 1 and 20 s, the bands the data layer reduces a
+#: raw IMU series to (:func:`flidar_uq.data.imu.tilt_band_statistics`).
+N_TILT_BANDS = 8
+
+
+def tilt_band_column_names(b: int) -> tuple[str, str, str]:
+    """Names of the record columns of tilt band ``b`` (1-based): period, along-wind
+    variance, across-wind variance."""
+    return (
+        f"tilt_band{b}_period_s",
+        f"tilt_band{b}_along_wind_var_deg2",
+        f"tilt_band{b}_across_wind_var_deg2",
+    )
+
 
 RECORD_COLUMNS: tuple[Column, ...] = (
     Column(
@@ -337,6 +355,45 @@ RECORD_COLUMNS: tuple[Column, ...] = (
         "Correlation of a wave follower's heave velocity with its along-wind tilt, band by "
         "band, each band's waves taken to run downwind with a wrapped-normal spread "
         "(<cos psi> = (2 <cos^2 psi> - 1)^(1/4), 0 for a band mostly across the wind).",
+    ),
+    *(
+        col
+        for b in range(1, N_TILT_BANDS + 1)
+        for col in (
+            Column(
+                f"tilt_band{b}_period_s",
+                "float",
+                "s",
+                False,
+                0.0,
+                60.0,
+                True,
+                f"Tilt spectrum band {b} of {N_TILT_BANDS} (log-spaced 1-20 s bands, shortest "
+                "first): its centroid period 1/f_c, f_c the variance-weighted mean frequency "
+                "of the along + across tilt spectrum in the band.",
+                lower_exclusive=True,
+            ),
+            Column(
+                f"tilt_band{b}_along_wind_var_deg2",
+                "float",
+                "deg^2",
+                False,
+                0.0,
+                2025.0,
+                True,
+                f"Variance of the tilt along the mean wind in band {b}.",
+            ),
+            Column(
+                f"tilt_band{b}_across_wind_var_deg2",
+                "float",
+                "deg^2",
+                False,
+                0.0,
+                2025.0,
+                True,
+                f"Variance of the tilt across the mean wind in band {b}.",
+            ),
+        )
     ),
     Column(
         "heading_mean_deg",
@@ -585,6 +642,7 @@ TILT_SPECTRUM_COLUMNS = (
     "follower_heave_period_s",
     "follower_velocity_along_wind_std_ms",
     "follower_heave_tilt_correlation",
+    *(c for b in range(1, N_TILT_BANDS + 1) for c in tilt_band_column_names(b)),
 )
 
 IMU_COLUMNS: tuple[Column, ...] = (

@@ -19,8 +19,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from flidar_uq.data.imu import tilt_bands_from_records
 from flidar_uq.physics.hull import G_MS2
-from flidar_uq.physics.six_dof_sigma_z import translation_unit_sq
+from flidar_uq.physics.six_dof_sigma_z import six_dof_band_terms, translation_unit_sq
 from flidar_uq.physics.surrogate import default_surrogate
 
 __all__ = [
@@ -42,8 +43,13 @@ __all__ = [
 #: (docs/motion_spectrum.md, docs/inference.md).
 ALONG_WIND_COLUMNS = ("tilt_along_wind_std_deg", "tilt_period_mean_s")
 
-#: Values of ``motion_description``: which description gave a record's sigma_Z.
-MOTION_DESCRIPTIONS = ("along_wind", "roll_pitch", "none")
+#: Values of ``motion_description``: which description gave a record's sigma_Z, best first:
+#: ``"tilt_bands"`` the record's tilt spectrum by period bands along and across the wind
+#: (``tilt_band{b}_*`` columns: the six-degree-of-freedom band sum,
+#: :func:`flidar_uq.physics.six_dof_sigma_z.six_dof_band_terms`), ``"along_wind"`` its
+#: moments (std along the wind at the mean period), ``"roll_pitch"`` the harmonic roll and
+#: pitch of Gutiérrez-Antuñano et al. (2018).
+MOTION_DESCRIPTIONS = ("tilt_bands", "along_wind", "roll_pitch", "none")
 
 #: Values of ``translation_description``: where a record's hull translation comes from.
 #: ``"measured"``: the record's MRU or GNSS translation stds
@@ -88,6 +94,30 @@ def _tilt_description(records: pd.DataFrame):
     return amp, per, along, rp
 
 
+def _band_terms(records: pd.DataFrame, surrogate, scan_period_s: float):
+    """Mask of the records described by tilt bands (all band values finite, a finite mean
+    speed, every band inside the surrogate's range) and their band-sum terms
+    (:func:`flidar_uq.physics.six_dof_sigma_z.six_dof_band_terms`, the wave follower's
+    translation scaled by the hull response)."""
+    bands = tilt_bands_from_records(records)
+    if bands is None:
+        return np.zeros(len(records), dtype=bool), None
+    hws = _col(records, "hws_mean_ms")
+    use = bands["complete"] & np.isfinite(hws)
+    terms = six_dof_band_terms(
+        hws[use],
+        bands["amplitude_deg"][use],
+        bands["period_s"][use],
+        band_cos_psi=bands["cos_psi"][use],
+        band_cos_sq_psi=bands["cos_sq_psi"][use],
+        surrogate=surrogate,
+        scan_period_s=scan_period_s,
+    )
+    finite = np.all(np.stack([np.isfinite(v) for v in terms.values()]), axis=0)
+    use[use] = finite
+    return use, {k: v[finite] for k, v in terms.items()}
+
+
 def per_record_motion(
     records: pd.DataFrame, *, surrogate=None, scan_period_s: float = 1.0
 ) -> pd.DataFrame:
@@ -96,9 +126,12 @@ def per_record_motion(
     Parameters
     ----------
     records : pandas.DataFrame
-        Records with ``hws_mean_ms`` and either the along-wind columns
-        (:data:`ALONG_WIND_COLUMNS`) or the core IMU columns ``roll_amplitude_deg``,
-        ``pitch_amplitude_deg``, ``roll_period_s``, ``pitch_period_s``.
+        Records with ``hws_mean_ms`` and, best first, the tilt-band columns
+        (``tilt_band{b}_*``, :func:`flidar_uq.data.imu.tilt_bands_from_records`: the
+        six-degree-of-freedom band sum of :mod:`flidar_uq.physics.six_dof_sigma_z`), the
+        along-wind columns (:data:`ALONG_WIND_COLUMNS`) or the core IMU columns
+        ``roll_amplitude_deg``, ``pitch_amplitude_deg``, ``roll_period_s``,
+        ``pitch_period_s``.
     surrogate : SigmaZSurrogate, optional
         sigma_Z surrogate of the lidar (default: the ZephIR 300's).
     scan_period_s : float
@@ -124,6 +157,19 @@ def per_record_motion(
         sz[ok] = surrogate.sigma_z_ms(hws[ok], amp[ok], per[ok])
         u2[ok] = translation_unit_sq(amp[ok], per[ok], scan_period_s)
     kind = np.where(along & ok, "along_wind", np.where(rp & ok, "roll_pitch", "none"))
+    banded, terms = _band_terms(records, surrogate, scan_period_s)
+    if banded.any():
+        sz[banded] = terms["sigma_z_rot_ms"]
+        u2[banded] = terms["translation_unit_sq"]
+        kind = np.where(banded, "tilt_bands", kind)
+        # the bands' along-wind amplitude and mean period where the moments are absent
+        bands = tilt_bands_from_records(records)
+        va = 0.5 * bands["amplitude_deg"] ** 2 * bands["cos_sq_psi"]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            per_b = np.sum(va, axis=-1) / np.sum(va / bands["period_s"], axis=-1)
+        fill = banded & ~ok
+        amp = np.where(fill, np.sqrt(2.0 * np.sum(va, axis=-1)), amp)
+        per = np.where(fill, per_b, per)
     return pd.DataFrame(
         {
             "motion_amplitude_deg": amp,
@@ -203,10 +249,12 @@ def measured_response(records: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
 def six_dof_terms(
     records: pd.DataFrame, motion: pd.DataFrame, *, surrogate=None, scan_period_s: float = 1.0
 ) -> pd.DataFrame:
-    """Per-record terms of the hull's translation in sigma_Z (moments description).
+    """Per-record terms of the hull's translation in sigma_Z.
 
-    The six-degree-of-freedom band sum (:mod:`flidar_uq.physics.six_dof_sigma_z`) with the
-    record's moments instead of its bands: the tilt's vertical-wind leak ``sZ_rot``
+    Where the record's tilt bands are given (``tilt_band{b}_*``), the terms of the
+    six-degree-of-freedom band sum itself
+    (:func:`flidar_uq.physics.six_dof_sigma_z.six_dof_band_terms`). Else the band sum with
+    the record's moments instead of its bands: the tilt's vertical-wind leak ``sZ_rot``
     (:func:`per_record_motion`), the heave's ``hl = Lambda(A, T_h) sqrt(2) sigma_h`` with
     ``Lambda = sZ(1 m/s, A, T) / A`` of the surrogate at the total tilt amplitude and the
     heave's mean period, correlated by ``rho_h``; the orbital velocity along the wind
@@ -259,6 +307,11 @@ def six_dof_terms(
         sinc_h = np.sinc(scan_period_s / th)
         out["orbital_cross_sq"][ok] = G_MS2 * np.deg2rad(std_a[ok]) ** 2 * sinc_m**2
         out["orbital_sq"][ok] = (sig_u[ok] * sinc_h) ** 2
+    banded, bt = _band_terms(records, surrogate, scan_period_s)
+    if banded.any():  # the band sum where the record's tilt bands are given
+        ok = ok | banded
+        for key in ("heave_cross_sq", "heave_leak_sq", "orbital_cross_sq", "orbital_sq"):
+            out[key][banded] = bt[key]
     r_z, r_x = measured_response(records)
     meas = ok & np.isfinite(r_z) & np.isfinite(r_x)
     out["heave_cross_sq"][meas] *= r_z[meas]
@@ -294,12 +347,18 @@ def describe_motion(records: pd.DataFrame, *, hull_model: str | None = None) -> 
         Index of ``records``; ``motion_description`` (the tilt's, one of
         :data:`MOTION_DESCRIPTIONS`, as :func:`per_record_motion` gives it) and
         ``translation_description`` (one of :data:`TRANSLATION_DESCRIPTIONS`;
-        ``"tilt_spectrum"`` only where the tilt is described along the wind).
+        ``"tilt_spectrum"`` only where the tilt is described along the wind, by bands or
+        moments).
     """
     amp, per, along, rp = _tilt_description(records)
     ok = np.isfinite(amp) & np.isfinite(per) & np.isfinite(_col(records, "hws_mean_ms"))
     tilt = np.where(along & ok, "along_wind", np.where(rp & ok, "roll_pitch", "none"))
     follower = along & ok & _follower_complete(records)
+    bands = tilt_bands_from_records(records)
+    if bands is not None:
+        banded = bands["complete"] & np.isfinite(_col(records, "hws_mean_ms"))
+        tilt = np.where(banded, "tilt_bands", tilt)
+        follower = follower | banded
     r_z, r_x = measured_response(records)
     measured = follower & np.isfinite(r_z) & np.isfinite(r_x)
     trans = np.where(measured, "measured", np.where(follower, "tilt_spectrum", "none"))

@@ -35,7 +35,7 @@ import numpy as np
 from flidar_uq.physics.hull import get_hull, orbital_lever_arm_m, phase_speed_ms
 from flidar_uq.physics.lidar import LidarGeometry
 
-__all__ = ["six_dof_band_sigma_z_ms", "translation_unit_sq"]
+__all__ = ["six_dof_band_sigma_z_ms", "six_dof_band_terms", "translation_unit_sq"]
 
 #: periods (s) the rotational surrogate covers; bands outside are clipped onto it
 _PERIOD_RANGE_S = (1.0, 20.0)
@@ -138,3 +138,76 @@ def six_dof_band_sigma_z_ms(
     trans_sq = c2 * lever_eff_sq * translation_unit_sq(amp, per, scan)
     var = np.where(amp == 0, 0.0, np.maximum(leak_sq, 0.0) + trans_sq)
     return np.sqrt(np.sum(var, axis=-1))
+
+
+def six_dof_band_terms(
+    hws_ms,
+    band_amplitude_deg,
+    band_period_s,
+    *,
+    band_cos_psi,
+    band_cos_sq_psi,
+    surrogate,
+    scan_period_s: float,
+    hull="wave_follower",
+) -> dict[str, np.ndarray]:
+    """The band sum of :func:`six_dof_band_sigma_z_ms` split into the terms of a hull response.
+
+    For a hull whose translation is ``h`` (-) times that of a reference hull of responses
+    ``R_x(T), R_z(T)`` (``hull``; the wave follower's are 1: ``h = 0`` rotates about a
+    fixed centre, ``h = 1`` follows the waves), a lever arm ``L`` (m) and a motion scale
+    ``k`` (-) on the tilt's vertical-wind leak, the band sum is a quadratic form in
+    ``(k, k h, L, h)``:
+
+    ``sZ^2 = k^2 (R^2 - 2 h X + h^2 H) + L^2 u2 - 2 L h Y + h^2 O`` with, over bands,
+    ``R^2 = sum s^2 U^2 <cos^2 psi>``, ``X = sum s^2 U c Re(R_z) <cos psi>``,
+    ``H = sum s^2 |R_z|^2 c^2``, ``u2 = sum <cos^2 psi> u^2``,
+    ``Y = sum <cos^2 psi> Re(R_x) (g / omega^2) u^2``,
+    ``O = sum <cos^2 psi> |R_x|^2 (g / omega^2)^2 u^2`` (``s = s(A_b, T_b)`` the rotational
+    sigma_Z per m/s of vertical leak, ``c = g / omega`` the phase speed, ``u^2`` of
+    :func:`translation_unit_sq`; module docstring). With ``h = 1`` it equals
+    :func:`six_dof_band_sigma_z_ms` with the same hull, with ``h = 0`` the
+    ``rotation_only`` one.
+
+    Parameters
+    ----------
+    hws_ms : array_like, shape (n,)
+        Mean horizontal wind speed, m/s.
+    band_amplitude_deg, band_period_s, band_cos_psi, band_cos_sq_psi : array_like, shape (n, nb)
+        As :func:`six_dof_band_sigma_z_ms` (deg, s, -, -).
+    surrogate : SigmaZSurrogate
+        Rotational sigma_Z of a single-axis tilt along the wind (the lidar's).
+    scan_period_s : float
+        Duration of one scan, s.
+    hull : str or HullResponse
+        The reference hull whose translation ``h`` scales (:data:`flidar_uq.physics.hull.HULLS`).
+
+    Returns
+    -------
+    dict
+        ``sigma_z_rot_ms`` (``R``, m/s), ``translation_unit_sq`` (``u2``, (m/s)^2 per m^2),
+        ``heave_cross_sq`` (``X``), ``heave_leak_sq`` (``H``), ``orbital_sq`` (``O``), all
+        (m/s)^2 but ``orbital_cross_sq`` (``Y``, (m/s)^2 per m); arrays of shape (n,), NaN
+        where a band amplitude is outside the surrogate's range or a value is missing.
+    """
+    amp = np.asarray(band_amplitude_deg, float)
+    per = np.asarray(band_period_s, float)
+    c1 = np.asarray(band_cos_psi, float)
+    c2 = np.asarray(band_cos_sq_psi, float)
+    hws = np.asarray(hws_ms, float)[..., None]
+    per_c = np.clip(per, *_PERIOD_RANGE_S)
+    empty = amp == 0
+    s1 = np.where(empty, 0.0, surrogate.sigma_z_ms(1.0, np.where(empty, 1.0, amp), per_c))
+    s1_sq = s1**2
+    c = phase_speed_ms(per)
+    r_x, r_z = get_hull(hull).relative_responses(per)
+    orb = r_x * orbital_lever_arm_m(per)  # the reference hull's orbital lever arm, m
+    u_sq = np.where(empty, 0.0, translation_unit_sq(amp, per, float(scan_period_s)))
+    return {
+        "sigma_z_rot_ms": np.sqrt(np.sum(s1_sq * hws**2 * c2, axis=-1)),
+        "translation_unit_sq": np.sum(c2 * u_sq, axis=-1),
+        "heave_cross_sq": np.sum(s1_sq * hws * c * r_z.real * c1, axis=-1),
+        "heave_leak_sq": np.sum(s1_sq * np.abs(r_z) ** 2 * c**2, axis=-1),
+        "orbital_cross_sq": np.sum(c2 * orb.real * u_sq, axis=-1),
+        "orbital_sq": np.sum(c2 * np.abs(orb) ** 2 * u_sq, axis=-1),
+    }

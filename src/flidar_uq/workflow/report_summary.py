@@ -358,6 +358,7 @@ def lever_arm_words(lever_arm_draws_m, configured_m: float | None, coverage: flo
 #: Plain words for the record model's motion descriptions (records.csv columns
 #: ``motion_description`` and ``translation_description``).
 _TILT_WORDS = {
+    "tilt_bands": "tilt spectrum by period bands from the IMU",
     "along_wind": "tilt along the wind from the IMU spectrum",
     "roll_pitch": "roll and pitch amplitude and period only",
 }
