@@ -18,7 +18,11 @@ from flidar_uq.inference.record_fit import (
     fit_record_model,
     log_prob_record_model,
 )
-from flidar_uq.inference.record_motion import MOTION_DESCRIPTIONS, per_record_motion
+from flidar_uq.inference.record_motion import (
+    MOTION_DESCRIPTIONS,
+    gram_from_cw_terms,
+    per_record_motion,
+)
 from flidar_uq.physics.surrogate import get_surrogate
 
 
@@ -187,7 +191,7 @@ def test_record_log_prob_is_finite_or_minus_inf_never_nan():
             [0.99, -30.0, -30.0, 19.9, 1.6, -1.2],
         ]
     )
-    lp = log_prob_record_model(theta, s, r, szr, u2)
+    lp = log_prob_record_model(theta, s, r, gram_from_cw_terms(szr, u2))
     assert not np.any(np.isnan(lp))
     assert np.isfinite(lp[0]) and np.all(np.isneginf(lp[1:6]))
 
@@ -210,8 +214,7 @@ def test_log_kappa_posterior_is_the_priors_exp_tail_where_the_data_hold_no_kappa
     args = (
         rec["hws_std_ms"].to_numpy(),
         rec["ref_hws_std_ms"].to_numpy(),
-        mot["sigma_z_rot_ms"].to_numpy(),
-        mot["translation_unit_sq"].to_numpy(),
+        gram_from_cw_terms(mot["sigma_z_rot_ms"].to_numpy(), mot["translation_unit_sq"].to_numpy()),
     )
     log_kappa = np.log([1e-7, 1e-6, 1e-5])
     theta = np.column_stack(
@@ -236,7 +239,7 @@ def test_record_loglik_reduces_to_eq15_without_motion_noise():
     mu = np.sqrt(1.0 + 0.09 + 2 * 0.2 * 0.3)
     tau = 0.05 * mu
     expect = -0.5 * ((1.1 - mu) ** 2 / tau**2 + np.log(2 * np.pi * tau**2))
-    got = _record_loglik_pointwise(theta, s, r, szr, np.zeros(1))
+    got = _record_loglik_pointwise(theta, s, r, gram_from_cw_terms(szr, np.zeros(1)))
     assert got[0, 0] == pytest.approx(expect, rel=1e-6)
 
 
@@ -249,7 +252,9 @@ def test_reference_pair_scatter_enters_through_the_turbulent_part_only(sz_over_r
     szr = np.array([sz_over_r])
     theta = np.array([[rho, np.log(1e-7), np.log(1e-7), 0.0, 0.0, 0.0]])
     mu = np.sqrt(1.0 + sz_over_r**2 + 2 * rho * sz_over_r)
-    ll = _record_loglik_pointwise(theta, np.array([mu]), r, szr, np.zeros(1), np.array([p**2]))
+    ll = _record_loglik_pointwise(
+        theta, np.array([mu]), r, gram_from_cw_terms(szr, np.zeros(1)), np.array([p**2])
+    )
     tau_model = np.sqrt(np.exp(-2.0 * ll[0, 0]) / (2 * np.pi))
     e = np.exp(p * np.random.default_rng(3).standard_normal(400_000))
     s = np.sqrt(e**2 + sz_over_r**2 + 2 * rho * e * sz_over_r)
@@ -269,11 +274,12 @@ def test_record_loglik_sum_in_blocks_of_records_equals_the_whole_row_sums(monkey
         (10, 6)
     )
     monkeypatch.setattr(rf, "_SUM_BLOCK_ELEMENTS", 10 * 700)  # 700, 700, 700, 400 records
+    g = gram_from_cw_terms(szr, u2)
     for p in (pair_sq, 0.0):
-        whole = _record_loglik_pointwise(theta, s, r, szr, u2, p).sum(axis=1)
-        got = rf._record_loglik_sum(theta, s, r, szr, u2, p)
+        whole = _record_loglik_pointwise(theta, s, r, g, p).sum(axis=1)
+        got = rf._record_loglik_sum(theta, s, r, g, p)
         np.testing.assert_allclose(got, whole, rtol=1e-13, atol=0)
-        assert not np.allclose(got, rf._record_loglik_sum(theta, s, r, szr, u2, 0.5 + p))
+        assert not np.allclose(got, rf._record_loglik_sum(theta, s, r, g, 0.5 + p))
 
 
 def test_record_fit_loo_in_blocks_equals_loo_of_the_whole_pointwise_matrix(monkeypatch):
@@ -305,9 +311,9 @@ def test_record_fit_loo_in_blocks_equals_loo_of_the_whole_pointwise_matrix(monke
             for k, n in enumerate(RECORD_MODEL_NAMES)
         ]
     )
-    (s, rr, szr, u2, six), use, _ = rf._record_observations(rec, None, 1.0)
+    (s, rr, gram), use, _ = rf._record_observations(rec, None, 1.0)
     assert use.all()
-    whole = _loo(_record_loglik_pointwise(theta, s, rr, szr, u2, pair**2, six))
+    whole = _loo(_record_loglik_pointwise(theta, s, rr, gram, pair**2))
     for fit in (a, b):
         got = fit.loo()
         assert got["elpd"] == fit.info["loo"]["record_elpd"]
@@ -398,9 +404,9 @@ def _with_measured_translation(rec, ratio):
 def test_measured_translation_fixes_the_hull_response_of_its_records():
     from flidar_uq.inference.record_motion import (
         describe_motion,
-        hull_sigma_z_ms,
+        gram_sigma_z_ms,
         measured_response,
-        six_dof_terms,
+        motion_gram,
     )
 
     truth = {"rho": 0.0, "kappa": 0.03, "kappa_z": 0.1, "lever_arm_m": 2.0,
@@ -411,13 +417,12 @@ def test_measured_translation_fixes_the_hull_response_of_its_records():
     np.testing.assert_allclose(r_z, 0.6, rtol=1e-12)
     np.testing.assert_allclose(r_x, 0.6, rtol=1e-12)
     assert np.all(np.isnan(measured_response(rec)[0]))
-    mot = per_record_motion(meas)
-    t_meas, t_foll = six_dof_terms(meas, mot), six_dof_terms(rec, mot)
+    t_meas, t_foll = motion_gram(meas), motion_gram(rec)
     assert t_meas["translation_measured"].eq(1.0).all()
     assert t_foll["translation_measured"].eq(0.0).all()
-    expect = hull_sigma_z_ms(mot, t_foll, lever_arm_m=2.0, hull_response=0.6)
+    expect = gram_sigma_z_ms(t_foll, lever_arm_m=2.0, hull_response=0.6)
     for h in (0.0, 0.3, 1.4):  # the fitted response no longer matters where measured
-        got = hull_sigma_z_ms(mot, t_meas, lever_arm_m=2.0, hull_response=h)
+        got = gram_sigma_z_ms(t_meas, lever_arm_m=2.0, hull_response=h)
         np.testing.assert_allclose(got, expect, rtol=1e-12)
     assert describe_motion(meas)["translation_description"].eq("measured").all()
     # a displacement std stands in for a missing velocity std at the heave's mean period
