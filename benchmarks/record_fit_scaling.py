@@ -108,24 +108,18 @@ def child_fit(assignments: Path, out_nc: Path, out_json: Path) -> None:
 
 def child_log_prob(assignments: Path, out_json: Path) -> None:
     """Peak RSS of one sampler likelihood call on 64 walkers over all records."""
-    from flidar_uq.inference.record_fit import log_prob_record_model
-    from flidar_uq.inference.record_motion import per_record_motion
-    from flidar_uq.physics.surrogate import get_surrogate
+    from flidar_uq.inference.record_fit import _record_observations, log_prob_record_model
 
     cfg = yaml.safe_load((REPO / "config" / "config.yaml").read_text())
     rec = pd.read_csv(assignments)
-    mot = per_record_motion(rec, surrogate=get_surrogate(cfg["campaign"]["lidar"]))
-    s, r = rec["hws_std_ms"].to_numpy(float), rec["ref_hws_std_ms"].to_numpy(float)
-    szr, u2 = mot["sigma_z_rot_ms"].to_numpy(), mot["translation_unit_sq"].to_numpy()
-    use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.isfinite(szr) & np.isfinite(u2)
-    s, r, szr, u2 = s[use], r[use], szr[use], u2[use]
+    (s, r, gram), _, _ = _record_observations(rec, None, None, cfg["campaign"]["lidar"])
     rng = np.random.default_rng(0)
-    centre = np.array([0.0, np.log(0.05), np.log(0.15), 2.0, 0.0])
-    theta = centre + 0.01 * rng.standard_normal((N_WALKERS, 5))
-    log_prob_record_model(theta[:1], s, r, szr, u2)  # warm-up: imports, small buffers
+    centre = np.array([0.0, np.log(0.05), np.log(0.15), 2.0, 0.0, np.log(0.3)])
+    theta = centre + 0.01 * rng.standard_normal((N_WALKERS, 6))
+    log_prob_record_model(theta[:1], s, r, gram)  # warm-up: imports, small buffers
     base = _vm("VmRSS")
     t0 = time.perf_counter()
-    lp = log_prob_record_model(theta, s, r, szr, u2)
+    lp = log_prob_record_model(theta, s, r, gram)
     wall = time.perf_counter() - t0
     out_json.write_text(
         json.dumps(

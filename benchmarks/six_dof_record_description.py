@@ -10,7 +10,7 @@ sigma_Z with the scenario's true lever arm and a motion scale of 1:
 
 - ``rotation_only``: the record model's description (hull response h = 0);
 - ``follower``: the six-degree-of-freedom terms with h = 1
-  (:func:`flidar_uq.inference.record_motion.hull_sigma_z_ms`).
+  (:func:`flidar_uq.inference.record_motion.gram_sigma_z_ms`).
 
 What matters for a campaign-wide calibration is that the ratio predicted / realised is the
 same in every regime (a single motion scale then fits all of them): the table gives the pooled
@@ -31,7 +31,7 @@ import pandas as pd
 
 from flidar_uq.campaign.physics_mode import generate_campaign
 from flidar_uq.campaign.scenarios import load_scenario
-from flidar_uq.inference.record_motion import hull_sigma_z_ms, per_record_motion, six_dof_terms
+from flidar_uq.inference.record_motion import gram_sigma_z_ms, motion_gram
 from flidar_uq.physics.surrogate import get_surrogate
 
 OUT = Path(__file__).resolve().parent / "results"
@@ -69,12 +69,11 @@ def main() -> None:
         sc["wind"] = sc.get("wind", {}) | {"ti_model": "constant_ti", "ti_params": {"ti": 1e-4}}
         rec = generate_campaign(sc, SEED, n_workers=2).records
         lever = float(rec["true_lever_arm_m"].iloc[0])
-        mot = per_record_motion(rec, surrogate=sur)
-        terms = six_dof_terms(rec, mot, surrogate=sur)
+        gram = motion_gram(rec, surrogate=sur)
         truth = rec["true_sigma_z_ms"].to_numpy()
-        ok = np.isfinite(truth) & np.isfinite(mot["sigma_z_rot_ms"].to_numpy())
+        ok = np.isfinite(truth) & np.isfinite(gram["gram_kk"].to_numpy())
         for desc, h in DESCRIPTIONS.items():
-            pred = hull_sigma_z_ms(mot, terms, lever_arm_m=lever, hull_response=h)
+            pred = gram_sigma_z_ms(gram, lever_arm_m=lever, hull_response=h)
             for group, mask in _groups(rec).items():
                 m = mask.to_numpy() & ok
                 if m.sum() < 30:

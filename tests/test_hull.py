@@ -190,14 +190,14 @@ def _one_band_records(std_along_deg, period_s, hws_ms):
 def test_record_terms_equal_the_band_sum_for_one_band():
     """The moments description of the record model is the band sum when the record's sea is
     one band: (U - c)^2 leak and (L - g / omega^2)^2 translation, for any lever arm."""
-    from flidar_uq.inference.record_motion import hull_sigma_z_ms, per_record_motion, six_dof_terms
+    from flidar_uq.inference.record_motion import gram_sigma_z_ms, motion_gram, per_record_motion
 
     hws = np.array([5.0, 9.0, 14.0])
     rec = _one_band_records(np.array([1.2, 2.0, 3.1]), np.array([3.5, 6.0, 8.0]), hws)
     mot = per_record_motion(rec)
-    terms = six_dof_terms(rec, mot)
+    gram = motion_gram(rec)
     for lever in (0.0, 2.5):
-        got = hull_sigma_z_ms(mot, terms, lever_arm_m=lever, hull_response=1.0)
+        got = gram_sigma_z_ms(gram, lever_arm_m=lever, hull_response=1.0)
         want = [
             six_dof_band_sigma_z_ms(u, [np.sqrt(2) * a], [t], band_cos_psi=[1.0], lever_arm_m=lever)
             for u, a, t in zip(
@@ -208,7 +208,7 @@ def test_record_terms_equal_the_band_sum_for_one_band():
         # h = 0: the rotation-only record model, sqrt(sZ_rot^2 + L^2 u^2)
         from flidar_uq.inference import effective_sigma_z_ms
 
-        rot = hull_sigma_z_ms(mot, terms, lever_arm_m=lever, hull_response=0.0)
+        rot = gram_sigma_z_ms(gram, lever_arm_m=lever, hull_response=0.0)
         want0 = effective_sigma_z_ms(mot["sigma_z_rot_ms"], mot["translation_unit_sq"], lever)
         np.testing.assert_allclose(rot, want0, rtol=1e-12)
 

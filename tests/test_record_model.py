@@ -18,7 +18,11 @@ from flidar_uq.inference.record_fit import (
     fit_record_model,
     log_prob_record_model,
 )
-from flidar_uq.inference.record_motion import MOTION_DESCRIPTIONS, per_record_motion
+from flidar_uq.inference.record_motion import (
+    MOTION_DESCRIPTIONS,
+    gram_from_cw_terms,
+    per_record_motion,
+)
 from flidar_uq.physics.surrogate import get_surrogate
 
 
@@ -88,7 +92,7 @@ def test_band_description_is_the_six_dof_band_sum():
     """Records with tilt bands: the record model's sigma_Z for any lever arm and hull
     response is the band sum of :func:`six_dof_band_sigma_z_ms` (h = 0 rotation only, 1
     wave follower), whatever the moments columns say."""
-    from flidar_uq.inference.record_motion import hull_sigma_z_ms, six_dof_terms
+    from flidar_uq.inference.record_motion import gram_sigma_z_ms, motion_gram
     from flidar_uq.physics.six_dof_sigma_z import six_dof_band_sigma_z_ms
 
     rng = np.random.default_rng(11)
@@ -104,8 +108,8 @@ def test_band_description_is_the_six_dof_band_sum():
         }
         | _band_columns(per, va, vc)
     )
-    mot = per_record_motion(rec)
-    terms = six_dof_terms(rec, mot)
+    gram = motion_gram(rec)
+    assert (gram["motion_description"] == "tilt_bands").all()
     share = va / (va + vc)
     cos = np.where(share > 0.5, np.abs(2 * share - 1) ** 0.25, 0.0)
     amp = np.sqrt(2 * (va + vc))
@@ -114,7 +118,7 @@ def test_band_description_is_the_six_dof_band_sum():
         (2.5, 0.0, "rotation_only"),
         (2.5, 1.0, "wave_follower"),
     ):
-        got = hull_sigma_z_ms(mot, terms, lever_arm_m=lever, hull_response=h)
+        got = gram_sigma_z_ms(gram, lever_arm_m=lever, hull_response=h)
         want = six_dof_band_sigma_z_ms(
             hws, amp, per, band_cos_psi=cos, band_cos_sq_psi=share, lever_arm_m=lever, hull=hull
         )
@@ -242,7 +246,7 @@ def test_record_log_prob_is_finite_or_minus_inf_never_nan():
             [0.99, -30.0, -30.0, 19.9, 1.6, -1.2],
         ]
     )
-    lp = log_prob_record_model(theta, s, r, szr, u2)
+    lp = log_prob_record_model(theta, s, r, gram_from_cw_terms(szr, u2))
     assert not np.any(np.isnan(lp))
     assert np.isfinite(lp[0]) and np.all(np.isneginf(lp[1:6]))
 
@@ -265,8 +269,7 @@ def test_log_kappa_posterior_is_the_priors_exp_tail_where_the_data_hold_no_kappa
     args = (
         rec["hws_std_ms"].to_numpy(),
         rec["ref_hws_std_ms"].to_numpy(),
-        mot["sigma_z_rot_ms"].to_numpy(),
-        mot["translation_unit_sq"].to_numpy(),
+        gram_from_cw_terms(mot["sigma_z_rot_ms"].to_numpy(), mot["translation_unit_sq"].to_numpy()),
     )
     log_kappa = np.log([1e-7, 1e-6, 1e-5])
     theta = np.column_stack(
@@ -291,7 +294,7 @@ def test_record_loglik_reduces_to_eq15_without_motion_noise():
     mu = np.sqrt(1.0 + 0.09 + 2 * 0.2 * 0.3)
     tau = 0.05 * mu
     expect = -0.5 * ((1.1 - mu) ** 2 / tau**2 + np.log(2 * np.pi * tau**2))
-    got = _record_loglik_pointwise(theta, s, r, szr, np.zeros(1))
+    got = _record_loglik_pointwise(theta, s, r, gram_from_cw_terms(szr, np.zeros(1)))
     assert got[0, 0] == pytest.approx(expect, rel=1e-6)
 
 
@@ -304,7 +307,9 @@ def test_reference_pair_scatter_enters_through_the_turbulent_part_only(sz_over_r
     szr = np.array([sz_over_r])
     theta = np.array([[rho, np.log(1e-7), np.log(1e-7), 0.0, 0.0, 0.0]])
     mu = np.sqrt(1.0 + sz_over_r**2 + 2 * rho * sz_over_r)
-    ll = _record_loglik_pointwise(theta, np.array([mu]), r, szr, np.zeros(1), np.array([p**2]))
+    ll = _record_loglik_pointwise(
+        theta, np.array([mu]), r, gram_from_cw_terms(szr, np.zeros(1)), np.array([p**2])
+    )
     tau_model = np.sqrt(np.exp(-2.0 * ll[0, 0]) / (2 * np.pi))
     e = np.exp(p * np.random.default_rng(3).standard_normal(400_000))
     s = np.sqrt(e**2 + sz_over_r**2 + 2 * rho * e * sz_over_r)
@@ -324,11 +329,12 @@ def test_record_loglik_sum_in_blocks_of_records_equals_the_whole_row_sums(monkey
         (10, 6)
     )
     monkeypatch.setattr(rf, "_SUM_BLOCK_ELEMENTS", 10 * 700)  # 700, 700, 700, 400 records
+    g = gram_from_cw_terms(szr, u2)
     for p in (pair_sq, 0.0):
-        whole = _record_loglik_pointwise(theta, s, r, szr, u2, p).sum(axis=1)
-        got = rf._record_loglik_sum(theta, s, r, szr, u2, p)
+        whole = _record_loglik_pointwise(theta, s, r, g, p).sum(axis=1)
+        got = rf._record_loglik_sum(theta, s, r, g, p)
         np.testing.assert_allclose(got, whole, rtol=1e-13, atol=0)
-        assert not np.allclose(got, rf._record_loglik_sum(theta, s, r, szr, u2, 0.5 + p))
+        assert not np.allclose(got, rf._record_loglik_sum(theta, s, r, g, 0.5 + p))
 
 
 def test_record_fit_loo_in_blocks_equals_loo_of_the_whole_pointwise_matrix(monkeypatch):
@@ -360,9 +366,9 @@ def test_record_fit_loo_in_blocks_equals_loo_of_the_whole_pointwise_matrix(monke
             for k, n in enumerate(RECORD_MODEL_NAMES)
         ]
     )
-    (s, rr, szr, u2, six), use, _ = rf._record_observations(rec, None, 1.0)
+    (s, rr, gram), use, _ = rf._record_observations(rec, None, 1.0)
     assert use.all()
-    whole = _loo(_record_loglik_pointwise(theta, s, rr, szr, u2, pair**2, six))
+    whole = _loo(_record_loglik_pointwise(theta, s, rr, gram, pair**2))
     for fit in (a, b):
         got = fit.loo()
         assert got["elpd"] == fit.info["loo"]["record_elpd"]
@@ -453,9 +459,9 @@ def _with_measured_translation(rec, ratio):
 def test_measured_translation_fixes_the_hull_response_of_its_records():
     from flidar_uq.inference.record_motion import (
         describe_motion,
-        hull_sigma_z_ms,
+        gram_sigma_z_ms,
         measured_response,
-        six_dof_terms,
+        motion_gram,
     )
 
     truth = {"rho": 0.0, "kappa": 0.03, "kappa_z": 0.1, "lever_arm_m": 2.0,
@@ -466,13 +472,12 @@ def test_measured_translation_fixes_the_hull_response_of_its_records():
     np.testing.assert_allclose(r_z, 0.6, rtol=1e-12)
     np.testing.assert_allclose(r_x, 0.6, rtol=1e-12)
     assert np.all(np.isnan(measured_response(rec)[0]))
-    mot = per_record_motion(meas)
-    t_meas, t_foll = six_dof_terms(meas, mot), six_dof_terms(rec, mot)
+    t_meas, t_foll = motion_gram(meas), motion_gram(rec)
     assert t_meas["translation_measured"].eq(1.0).all()
     assert t_foll["translation_measured"].eq(0.0).all()
-    expect = hull_sigma_z_ms(mot, t_foll, lever_arm_m=2.0, hull_response=0.6)
+    expect = gram_sigma_z_ms(t_foll, lever_arm_m=2.0, hull_response=0.6)
     for h in (0.0, 0.3, 1.4):  # the fitted response no longer matters where measured
-        got = hull_sigma_z_ms(mot, t_meas, lever_arm_m=2.0, hull_response=h)
+        got = gram_sigma_z_ms(t_meas, lever_arm_m=2.0, hull_response=h)
         np.testing.assert_allclose(got, expect, rtol=1e-12)
     assert describe_motion(meas)["translation_description"].eq("measured").all()
     # a displacement std stands in for a missing velocity std at the heave's mean period

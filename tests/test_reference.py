@@ -352,6 +352,7 @@ def test_record_likelihood_without_motion_adds_the_pair_scatter_to_kappa_in_quad
     # is p mu and adds to kappa mu in quadrature; with motion it is less
     # (tests/test_record_model.py::test_reference_pair_scatter_enters_through_the_turbulent_part_only)
     from flidar_uq.inference import log_prob_record_model
+    from flidar_uq.inference.record_motion import gram_from_cw_terms
 
     rng = np.random.default_rng(3)
     n = 50
@@ -360,8 +361,9 @@ def test_record_likelihood_without_motion_adds_the_pair_scatter_to_kappa_in_quad
     kappa, pair = 0.02, 0.04
     theta = np.array([[0.1, np.log(kappa), np.log(0.1), 2.0, 0.0, 0.0]])
     both = np.array([[0.1, np.log(np.hypot(kappa, pair)), np.log(0.1), 2.0, 0.0, 0.0]])
-    with_pair = log_prob_record_model(theta, s, r, szr, u2, pair_log_sd=np.full(n, pair))
-    merged = log_prob_record_model(both, s, r, szr, u2)
+    g = gram_from_cw_terms(szr, u2)
+    with_pair = log_prob_record_model(theta, s, r, g, pair_log_sd=np.full(n, pair))
+    merged = log_prob_record_model(both, s, r, g)
     # equal likelihood; the priors differ only by the half-normal of log kappa
     from flidar_uq.inference.densities import _log_halfnormal_logscale
     from flidar_uq.inference.priors import Priors

@@ -47,8 +47,9 @@ import pandas as pd
 from flidar_uq.data.binning import speed_bin_ms
 from flidar_uq.data.metrics import REPRESENTATIVE_TI_FACTOR, representative_ti
 from flidar_uq.inference import effective_sigma_z_ms, imu_observations, is_record_model
-from flidar_uq.inference.record_motion import hull_sigma_z_ms, per_record_motion, six_dof_terms
-from flidar_uq.physics.surrogate import default_surrogate
+from flidar_uq.inference.record_motion import GRAM_COLUMNS, gram_sigma_z_ms, motion_gram
+from flidar_uq.physics.lidar import get_lidar
+from flidar_uq.physics.surrogate import default_surrogate, get_surrogate
 from flidar_uq.physics.variance_laws import corrected_std, rho_bin_correlation
 from flidar_uq.seeding import as_seedsequence
 
@@ -580,7 +581,8 @@ def corrected_ti(
     credible_mass: float = 0.9,
     ndraws: int = 400,
     speed_bin_width_ms: float = 1.0,
-    scan_period_s: float = 1.0,
+    scan_period_s: float | None = None,
+    lidar=None,
     lidar_std_ratio=None,
     point_log_sd=None,
     lidar_std_ratio_log_sd: float = 0.0,
@@ -608,9 +610,13 @@ def corrected_ti(
     speed_bin_width_ms : float
         Width of the speed bins of the per-bin table (m/s), centred on multiples of it
         (:func:`flidar_uq.data.binning.speed_bin_ms`).
-    scan_period_s : float
-        VAD scan duration (s), for the head-translation term when the global fit chose
-        the lever-arm model (its ``lever_arm_m`` draws are then propagated too).
+    scan_period_s : float, optional
+        A CW lidar's scan duration (s), for the head-translation term (the record model,
+        or a bin-motion global fit with the lever-arm model); default the lidar's.
+    lidar : str, LidarGeometry or mapping, optional
+        The floating lidar (config ``campaign.lidar``; default the ZephIR 300): the record
+        model's sigma_Z is that lidar's (:func:`flidar_uq.inference.record_motion.motion_gram`;
+        a DBS lidar's from its beam timing and the record's heading).
     lidar_std_ratio : array_like, shape (n_records,), optional
         Std of a motionless lidar over the point std per record (-), from
         :func:`flidar_uq.physics.lidar_response.lidar_std_ratio`. Given: the corrected std and TI
@@ -733,7 +739,10 @@ def corrected_ti(
                 f"corrected_ti: lidar_std_ratio must be {len(records)} positive values, got "
                 f"shape {g_ratio.shape}"
             )
+    if surrogate is None and lidar is not None:
+        surrogate = get_surrogate(lidar)
     surrogate = default_surrogate(surrogate)
+    scan = get_lidar(lidar or "zephir300").scan_period_s if scan_period_s is None else scan_period_s
     rng = np.random.default_rng(as_seedsequence(seed))
     q = [(1.0 - credible_mass) / 2.0, 0.5, (1.0 + credible_mass) / 2.0]
     n = len(records)
@@ -823,13 +832,15 @@ def corrected_ti(
         scale = global_draws("motion_scale", "motion")
         kappa_z = global_draws("kappa_z", "motion")
         hull = global_draws("hull_response", "motion")
-        mot = per_record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
-        terms = six_dof_terms(records, mot, surrogate=surrogate, scan_period_s=scan_period_s)
-        if global_fit.info.get("hull_model") == "rotation_only":  # the kept hull model
-            terms = terms * 0.0
-        szr = mot["sigma_z_rot_ms"].to_numpy()
-        u2 = mot["translation_unit_sq"].to_numpy()
-        described = np.isfinite(szr) & np.isfinite(u2)
+        gram = motion_gram(
+            records,
+            lidar=lidar,
+            surrogate=surrogate,
+            scan_period_s=scan,
+            translation=global_fit.info.get("hull_model") != "rotation_only",  # the kept model
+        )
+        cols = [*GRAM_COLUMNS, "translation_measured"]
+        described = np.all(np.isfinite(gram[cols].to_numpy(dtype=float)), axis=1)
         reasons[~described] = "no motion description (IMU columns missing)"
         for start in range(0, n, _RECORD_CHUNK):
             mask = np.zeros(n, dtype=bool)
@@ -838,9 +849,8 @@ def corrected_ti(
             if not mask.any():
                 continue
             k = int(mask.sum())
-            sz = hull_sigma_z_ms(
-                {"sigma_z_rot_ms": szr[mask][None, :], "translation_unit_sq": u2[mask][None, :]},
-                {c: terms[c].to_numpy()[mask][None, :] for c in terms},
+            sz = gram_sigma_z_ms(
+                {c: gram[c].to_numpy()[mask][None, :] for c in cols},
                 lever_arm_m=lever,
                 hull_response=hull,
                 motion_scale=scale,
@@ -868,7 +878,7 @@ def corrected_ti(
                 continue
             nb = int(f.flat("amplitude_deg").size)
             idx = rng.choice(nb, size=ndraws, replace=ndraws > nb)
-            sz, u2 = f._motion_draws(m[mask], surrogate, idx, scan_period_s)
+            sz, u2 = f._motion_draws(m[mask], surrogate, idx, scan)
             if lever is None:  # motion-model scale of the surrogate (1 if absent)
                 sz = scale * sz
             else:  # plus the head translation of the lever-arm model

@@ -100,7 +100,8 @@ def laplace_record_model(
     seed,
     priors: Priors = Priors(),
     lever_arm_prior: tuple[float, float] | None = None,
-    scan_period_s: float = 1.0,
+    scan_period_s: float | None = None,
+    lidar=None,
 ) -> GlobalFit:
     """Laplace approximation of :func:`~flidar_uq.inference.record_fit.fit_record_model`'s posterior.
 
@@ -120,8 +121,10 @@ def laplace_record_model(
     priors : Priors
     lever_arm_prior : (float, float), optional
         Mean and sd (m) of the lever arm from the buoy's geometry.
-    scan_period_s : float
-        VAD scan duration (s).
+    scan_period_s : float, optional
+        A CW lidar's scan duration (s); default the lidar's.
+    lidar : str, LidarGeometry or mapping, optional
+        The floating lidar, as for ``fit_record_model`` (default the ZephIR 300).
 
     Returns
     -------
@@ -139,13 +142,12 @@ def laplace_record_model(
         if c not in records:
             raise ValueError(f"laplace_record_model: records lack column {c!r}")
     rng = np.random.default_rng(as_seedsequence(seed))
-    obs, use, _ = _record_observations(records, surrogate, scan_period_s)
+    (s, r, gram), use, _ = _record_observations(records, surrogate, scan_period_s, lidar)
     if not use.any():
         raise ValueError(
             "laplace_record_model: no record with a reference std and a motion description"
         )
-    *obs5, six = obs
-    args = (*obs5, priors, lever_arm_prior, None, six)
+    args = (s, r, gram, priors, lever_arm_prior, None)
     x0 = _start(lever_arm_prior)
     mode, hess = laplace_approximation(log_prob_record_model, args, x0)
     reasons = []

@@ -1,12 +1,16 @@
 """The global observation model on per-record sigma_Z (the record motion model).
 
 Each record's sigma_Z comes from its own measured motion
-(:func:`flidar_uq.inference.record_motion.per_record_motion`): a rotational part ``sZ_rot``
-at unit scale and a head-translation unit ``u^2``. The model (docs/inference.md):
+(:func:`flidar_uq.inference.record_motion.motion_gram`): a Gram matrix ``G_i`` of the
+lidar's motion error, for any lidar (a CW VAD lidar's rotational part ``sZ_rot``,
+head-translation unit ``u^2`` and hull terms, or a pulsed DBS lidar's beam-pair
+phasors). The model (docs/inference.md):
 
-* ``sZ_i = sqrt((k sZ_rot,i)^2 + L^2 u_i^2)``: ``L`` the lever arm (m) of the head above
+* ``sZ_i^2 = v^T G_i v``, ``v = (k, k h, L, h)`` (for a buoy that only rotates
+  ``(k sZ_rot,i)^2 + L^2 u_i^2``): ``L`` the lever arm (m) of the head above
   the buoy's rotation centre (prior from the buoy geometry when the config gives it),
-  ``k`` a model-discrepancy check with a prior near 1 (``log k ~ N(0, 0.1)``);
+  ``k`` a model-discrepancy check with a prior near 1 (``log k ~ N(0, 0.1)``), ``h`` the
+  hull response (0 rotation only, 1 wave follower);
 * ``s_i ~ Normal(mu_i, tau_i)``, ``mu_i^2 = r_i^2 + sZ_i^2 + 2 rho r_i sZ_i`` (Eq. (15)
   of Gutiérrez-Antuñano et al. (2018));
 * ``tau_i^2 = (kappa mu_i)^2 + (kappa_z sZ_i dmu_i/dsZ_i)^2 + (p_i r_i dmu_i/dr_i)^2``:
@@ -40,9 +44,10 @@ from flidar_uq.inference.loo import _loo_chunked, _loo_compare
 from flidar_uq.inference.priors import Priors, SamplerSettings
 from flidar_uq.inference.record_motion import (
     FOLLOWER_COLUMNS,
+    GRAM_COLUMNS,
     describe_motion,
-    per_record_motion,
-    six_dof_terms,
+    gram_coefficients,
+    motion_gram,
 )
 from flidar_uq.inference.results import GlobalFit
 from flidar_uq.inference.sampler import _run_ensembles, laplace_init
@@ -81,33 +86,33 @@ def is_record_model(fit) -> bool:
     return getattr(fit, "info", {}).get("loo", {}).get("model") == "record"
 
 
-def _record_z2_tau2(theta, s, r, sz_rot, u2, pair_sq, six=None):
+def _record_z2_tau2(theta, s, r, gram, pair_sq):
     """``(z^2 / tau^2, tau^2)`` of the record model (module docstring), each of shape
     (n_walkers, n_obs), with ``z = s - mu``: ``-2 log p(s_i | theta) - log(2 pi)`` is
     ``z^2 / tau^2 + log tau^2``. Computed in place (seven temporaries of the output's size).
 
     ``pair_sq``: the known relative variance of the two instruments' sampling (-), a
     scatter of the turbulent part ``r`` (enters through ``(dmu/dr)^2``); a scalar 0 or an
-    array of ``n_obs`` values. ``six``: the hull-translation terms ``(X, H, Y, O)`` of
-    :func:`flidar_uq.inference.record_motion.six_dof_terms`, shape (5, n_obs) (the fifth row the measured-translation flag; 4 rows: none measured), or None
-    (none: the hull response ``h`` then has no effect).
+    array of ``n_obs`` values. ``gram``: each record's motion error, shape (11, n_obs): the
+    entries :data:`~flidar_uq.inference.record_motion.GRAM_COLUMNS` of
+    :func:`~flidar_uq.inference.record_motion.motion_gram` and the measured-translation
+    flag (``h = 1`` there; 10 rows: none measured); ``sZ^2`` is one (walkers x 10) by
+    (10 x records) product.
     """
     rho = theta[:, 0:1]
     kappa_sq = np.exp(2.0 * theta[:, 1:2])
     kz_sq = np.exp(2.0 * theta[:, 2:3])
-    lever = theta[:, 3:4]
-    k_sq = np.exp(2.0 * theta[:, 4:5])
-    sz_sq = sz_rot**2
-    if six is not None:  # the hull's translation (module docstring)
-        h = np.exp(theta[:, 5:6])
-        if six.shape[0] > 4 and np.any(six[4]):  # measured translation: response known
-            h = h + six[4] * (1.0 - h)
-        sz_sq = sz_sq - 2.0 * h * six[0] + h**2 * six[1]
-    sz_sq = k_sq * sz_sq
-    sz_sq += lever**2 * u2
-    if six is not None:
-        sz_sq += h * (h * six[3] - 2.0 * lever * six[2])
-        np.maximum(sz_sq, 0.0, out=sz_sq)
+    k = np.exp(theta[:, 4])
+    h = np.exp(theta[:, 5])
+    lever = theta[:, 3]
+    coef = gram_coefficients(k, h, lever)  # (n_walkers, 10)
+    g = gram[:10]
+    sz_sq = coef @ g
+    if gram.shape[0] > 10 and np.any(
+        gram[10]
+    ):  # measured translation: the response is known (h = 1)
+        sz_sq += (gram_coefficients(k, 1.0, lever) - coef) @ (g * gram[10])
+    np.maximum(sz_sq, 0.0, out=sz_sq)
     # the realised motion error is sZ exp(kappa_z N(0, 1)) (median sZ, as the propagation
     # draws it): the data's mean sees its mean, sZ exp(kappa_z^2 / 2) (module docstring)
     sz_sq *= np.exp(kz_sq)
@@ -139,10 +144,10 @@ def _record_z2_tau2(theta, s, r, sz_rot, u2, pair_sq, six=None):
     return z, tau_sq
 
 
-def _record_neg2_loglik(theta, s, r, sz_rot, u2, pair_sq, six=None):
+def _record_neg2_loglik(theta, s, r, gram, pair_sq):
     """``-2 log p(s_i | theta) - log(2 pi)`` of the record model, shape (n_walkers, n_obs)
     (:func:`_record_z2_tau2`)."""
-    z, tau_sq = _record_z2_tau2(theta, s, r, sz_rot, u2, pair_sq, six)
+    z, tau_sq = _record_z2_tau2(theta, s, r, gram, pair_sq)
     z += np.log(tau_sq, out=tau_sq)
     return z
 
@@ -163,12 +168,12 @@ def _sum_log_rows(x):
     return np.log(y).sum(axis=1) + np.log(x[:, k:]).sum(axis=1)
 
 
-def _record_loglik_pointwise(theta, s, r, sz_rot, u2, pair_sq=0.0, six=None):
+def _record_loglik_pointwise(theta, s, r, gram, pair_sq=0.0):
     """(n_walkers, n_obs) pointwise log-likelihood of the record model (module docstring);
     ``pair_sq``: the known relative variance of the two instruments' sampling (-), a
-    scatter of the turbulent part ``r`` (enters through ``(dmu/dr)^2``); ``six``: the
-    hull-translation terms (:func:`_record_z2_tau2`)."""
-    q = _record_neg2_loglik(theta, s, r, sz_rot, u2, pair_sq, six)
+    scatter of the turbulent part ``r`` (enters through ``(dmu/dr)^2``); ``gram``: the
+    records' motion error (:func:`_record_z2_tau2`)."""
+    q = _record_neg2_loglik(theta, s, r, gram, pair_sq)
     q += _LOG2PI
     q *= -0.5
     return q
@@ -179,7 +184,7 @@ def _record_loglik_pointwise(theta, s, r, sz_rot, u2, pair_sq=0.0, six=None):
 _SUM_BLOCK_ELEMENTS = 2**16
 
 
-def _record_loglik_sum(theta, s, r, sz_rot, u2, pair_sq=0.0, six=None):
+def _record_loglik_sum(theta, s, r, gram, pair_sq=0.0):
     """(n_walkers,) log-likelihood of the record model summed over the records.
 
     :func:`_record_z2_tau2` on blocks of records (all walkers of the call, at most
@@ -193,15 +198,7 @@ def _record_loglik_sum(theta, s, r, sz_rot, u2, pair_sq=0.0, six=None):
     b = max(1, _SUM_BLOCK_ELEMENTS // max(theta.shape[0], 1))
     for a in range(0, n, b):
         p = pair_sq[a : a + b] if np.ndim(pair_sq) else pair_sq
-        z, tau_sq = _record_z2_tau2(
-            theta,
-            s[a : a + b],
-            r[a : a + b],
-            sz_rot[a : a + b],
-            u2[a : a + b],
-            p,
-            None if six is None else six[:, a : a + b],
-        )
+        z, tau_sq = _record_z2_tau2(theta, s[a : a + b], r[a : a + b], gram[:, a : a + b], p)
         out += z.sum(axis=1)
         out += _sum_log_rows(tau_sq)
     return -0.5 * (out + n * _LOG2PI)
@@ -228,7 +225,7 @@ def _log_prior(theta, priors: Priors, lever_arm_prior):
 
 
 def log_prob_record_model(
-    theta, s, r, sz_rot, u2, priors=Priors(), lever_arm_prior=None, pair_log_sd=None, six=None
+    theta, s, r, gram, priors=Priors(), lever_arm_prior=None, pair_log_sd=None
 ):
     """Log posterior of the record model, vectorised over walkers.
 
@@ -238,9 +235,12 @@ def log_prob_record_model(
         ``(rho, log kappa, log kappa_z, lever_arm_m, log motion_scale, log hull_response)``.
     s, r : numpy.ndarray, shape (n_obs,)
         Floating-lidar and reference 10-min HWS std (m/s).
-    sz_rot, u2 : numpy.ndarray, shape (n_obs,)
-        Each record's rotational sigma_Z at unit scale (m/s) and head-translation unit
-        ((m/s)^2 per m^2 of lever arm), from :func:`~flidar_uq.inference.record_motion.per_record_motion`.
+    gram : numpy.ndarray, shape (11 or 10, n_obs)
+        Each record's motion error: the Gram entries
+        :data:`~flidar_uq.inference.record_motion.GRAM_COLUMNS` of
+        :func:`~flidar_uq.inference.record_motion.motion_gram` (units there) and the
+        measured-translation flag (1 or 0, -; absent: none measured). Rows of a CW lidar's terms:
+        :func:`~flidar_uq.inference.record_motion.gram_from_cw_terms`.
     priors : Priors
     lever_arm_prior : (float, float), optional
         Mean and sd (m) of a normal prior on the lever arm from the buoy's geometry;
@@ -248,10 +248,6 @@ def log_prob_record_model(
     pair_log_sd : numpy.ndarray, shape (n_obs,), optional
         Known std of ``log(s / r)`` from the two instruments' sampling alone (-): added to
         ``kappa`` in quadrature (module docstring); default None: 0.
-    six : numpy.ndarray, shape (4 or 5, n_obs), optional
-        The hull-translation terms of :func:`flidar_uq.inference.record_motion.six_dof_terms`
-        (``heave_cross_sq``, ``heave_leak_sq``, ``orbital_cross_sq``, ``orbital_sq``);
-        default None: the buoy only rotates.
 
     Returns
     -------
@@ -264,7 +260,7 @@ def log_prob_record_model(
     if np.any(ok):
         with np.errstate(all="ignore"):
             pair_sq = 0.0 if pair_log_sd is None else np.asarray(pair_log_sd) ** 2
-            ll = _record_loglik_sum(theta[ok], s, r, sz_rot, u2, pair_sq, six)
+            ll = _record_loglik_sum(theta[ok], s, r, gram, pair_sq)
         out[ok] = lp[ok] + ll
     return np.where(np.isfinite(out), out, -np.inf)
 
@@ -291,17 +287,16 @@ def _broad(lever_arm_prior):
 
 
 @single_threaded
-def _record_observations(records, surrogate, scan_period_s):
+def _record_observations(records, surrogate, scan_period_s, lidar=None):
     """The records the record model can use and their observations.
 
-    Returns ``((s, r, sz_rot, u2, six), use, kinds)``: measured std ``s`` (m/s), reference
-    std ``r`` (m/s), rotational sigma_Z (m/s), translation term ``u2`` ((m/s)^2 / m^2) and
-    the hull-translation terms ``six`` (5, n) (:func:`six_dof_terms`) of the usable
-    records (all finite and ``s, r > 0``), the mask ``use`` over ``records`` and every
-    record's motion description kind.
+    Returns ``((s, r, gram), use, kinds)``: measured std ``s`` (m/s), reference std ``r``
+    (m/s) and the motion error ``gram`` (11, n) (:func:`motion_gram`'s
+    :data:`GRAM_COLUMNS` and ``translation_measured``) of the usable records (all finite
+    and ``s, r > 0``), the mask ``use`` over ``records`` and every record's motion
+    description kind.
     """
-    mot = per_record_motion(records, surrogate=surrogate, scan_period_s=scan_period_s)
-    six = six_dof_terms(records, mot, surrogate=surrogate, scan_period_s=scan_period_s)
+    mot = motion_gram(records, lidar=lidar, surrogate=surrogate, scan_period_s=scan_period_s)
     s = records["hws_std_ms"].to_numpy(dtype=float)
     r = (
         records["ref_hws_std_ms"].to_numpy(dtype=float)
@@ -309,11 +304,9 @@ def _record_observations(records, surrogate, scan_period_s):
         else np.full(len(records), np.nan)
     )
     kinds = mot["motion_description"].to_numpy()
-    szr = mot["sigma_z_rot_ms"].to_numpy()
-    u2 = mot["translation_unit_sq"].to_numpy()
-    use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.isfinite(szr) & np.isfinite(u2)
-    six = six.to_numpy(dtype=float).T  # (5, n): X, H, Y, O, measured
-    return (s[use], r[use], szr[use], u2[use], np.ascontiguousarray(six[:, use])), use, kinds
+    gram = mot[[*GRAM_COLUMNS, "translation_measured"]].to_numpy(dtype=float).T  # (11, n)
+    use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.all(np.isfinite(gram), axis=0)
+    return (s[use], r[use], np.ascontiguousarray(gram[:, use])), use, kinds
 
 
 def _start(lever_arm_prior):
@@ -339,8 +332,9 @@ def fit_record_model(
     seed,
     priors: Priors = Priors(),
     lever_arm_prior: tuple[float, float] | None = None,
-    scan_period_s: float = 1.0,
+    scan_period_s: float | None = None,
     pair_log_sd=None,
+    lidar=None,
 ) -> GlobalFit:
     """Posterior of ``rho``, ``kappa``, ``kappa_z``, ``lever_arm_m``, ``motion_scale`` (record model).
 
@@ -354,14 +348,14 @@ def fit_record_model(
         Records with ``hws_mean_ms``, ``hws_std_ms``, ``ref_hws_std_ms`` and the motion
         columns :func:`~flidar_uq.inference.record_motion.per_record_motion` reads.
     surrogate : SigmaZSurrogate, optional
-        The lidar's sigma_Z surrogate (default: ZephIR 300).
+        A CW lidar's sigma_Z surrogate (default: the lidar's).
     settings : SamplerSettings
     seed : int or numpy.random.SeedSequence
     priors : Priors
     lever_arm_prior : (float, float), optional
         Mean and sd (m) of the lever arm from the buoy's geometry (config).
-    scan_period_s : float
-        VAD scan duration (s).
+    scan_period_s : float, optional
+        A CW lidar's scan duration (s); default the lidar's ``scan_period_s``.
     pair_log_sd : array_like, shape (n_records,), optional
         With a reference lidar: the std of ``log(s / r)`` that the two lidars' sampling
         against each other gives alone (-), per record
@@ -369,6 +363,9 @@ def fit_record_model(
         turbulent part ``r`` (``(p r dmu/dr)^2`` in ``tau^2``, module docstring), so that
         ``kappa`` is the floating lidar's own noise beyond it. Default None: 0 (a cup or
         sonic: ``kappa`` is the floating-lidar-vs-point scatter itself).
+    lidar : str, LidarGeometry or mapping, optional
+        The floating lidar (config ``campaign.lidar``), default the ZephIR 300: a DBS
+        lidar's records get its own sigma_Z (:func:`~flidar_uq.inference.record_motion.motion_gram`).
 
     Returns
     -------
@@ -397,7 +394,7 @@ def fit_record_model(
             )
         lever_arm_prior = (mean, sd)
     seedseq = as_seedsequence(seed)
-    (s, r, szr, u2, six), use, kinds = _record_observations(records, surrogate, scan_period_s)
+    (s, r, gram), use, kinds = _record_observations(records, surrogate, scan_period_s, lidar)
     pair = None
     if pair_log_sd is not None:
         pair_all = np.asarray(pair_log_sd, dtype=float)
@@ -407,7 +404,7 @@ def fit_record_model(
                 f"where the record has a reference), got shape {pair_all.shape}"
             )
         pair = pair_all[use]
-    args = (s, r, szr, u2, priors, lever_arm_prior, pair, six)
+    args = (s, r, gram, priors, lever_arm_prior, pair)
     gs = settings.for_global_fit()
     x0 = _start(lever_arm_prior)
     init = laplace_init(log_prob_record_model, args, x0, _broad(lever_arm_prior))
@@ -416,7 +413,7 @@ def fit_record_model(
     # the hull response acts only through records with a translation it scales: without
     # any (rotation only, or every translation measured) its draws are its prior's, and
     # waiting for the chains to mix over that prior's long log-scale tail buys nothing
-    h_used = bool(np.any((six[1] > 0) & (six[4] == 0))) if six.shape[1] else False
+    h_used = bool(np.any((gram[4] > 0) & (gram[10] == 0))) if gram.shape[1] else False
     checked = [n for n in RECORD_MODEL_NAMES if h_used or n != "hull_response"]
 
     def check(ch):
@@ -432,7 +429,7 @@ def fit_record_model(
     prior_only = s.size == 0
     if prior_only:
         reasons.append("no record with a reference std and a motion description: prior only")
-    loo = None if prior_only else _record_loo(thin.reshape(-1, ndim), s, r, szr, u2, pair, six)
+    loo = None if prior_only else _record_loo(thin.reshape(-1, ndim), s, r, gram, pair)
     k_med = float(np.median(draws["motion_scale"]))
     info = {
         "n_records": int(s.size),
@@ -512,7 +509,7 @@ def lever_arm_check(lever_arm_draws_m, lever_arm_prior=None) -> str:
     return ""
 
 
-def _record_loo(theta, s, r, sz_rot, u2, pair, six=None):
+def _record_loo(theta, s, r, gram, pair):
     """PSIS-LOO of the record model over the draws ``theta`` (n_draws, 5), computed in blocks
     of records (:func:`~flidar_uq.inference.loo._loo_chunked`): the (draws x records)
     pointwise log-likelihood (1.26 GB in float64 for a year at 3 heights) is never held
@@ -521,13 +518,7 @@ def _record_loo(theta, s, r, sz_rot, u2, pair, six=None):
 
     def pointwise(sl):
         return _record_loglik_pointwise(
-            theta,
-            s[sl],
-            r[sl],
-            sz_rot[sl],
-            u2[sl],
-            0.0 if pair_sq is None else pair_sq[sl],
-            None if six is None else six[:, sl],
+            theta, s[sl], r[sl], gram[:, sl], 0.0 if pair_sq is None else pair_sq[sl]
         )
 
     return _loo_chunked(pointwise, s.size, n_samples=theta.shape[0])
@@ -580,7 +571,8 @@ def fit_record_model_selecting_hull(records: pd.DataFrame, *, hull_model: str = 
             f"{', '.join(HULL_MODELS)}"
         )
     rotation = records.drop(columns=[c for c in FOLLOWER_COLUMNS if c in records])
-    has_translation = bool((describe_motion(records)["translation_description"] != "none").any())
+    desc = describe_motion(records, lidar=kw.get("lidar"))
+    has_translation = bool((desc["translation_description"] != "none").any())
     if hull_model == "rotation_only" or not has_translation:
         fit = fit_record_model(rotation, **kw)
         fit.info["hull_model"] = "rotation_only"

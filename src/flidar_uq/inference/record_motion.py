@@ -12,6 +12,12 @@ percent, against 0.6-0.95 for the harmonic value at the spectral-peak period.
 When a record has only the core IMU columns (roll and pitch amplitude and period), the
 seed's harmonic description is used (``motion_description = "roll_pitch"``); the global
 fit's motion-error term then widens the intervals accordingly.
+
+Every lidar's motion error is carried as one per-record Gram matrix (:func:`motion_gram`):
+``sigma_Z^2 = v^T G v`` with ``v = (k, k h, L, h)`` (motion scale ``k``, hull response
+``h``, lever arm ``L``). A CW VAD lidar's (the ZephIR terms above) and a pulsed DBS
+lidar's (:func:`flidar_uq.physics.dbs_sigma_z.dbs_record_terms`) are the same quadratic
+form, so the likelihood, the propagation and the SBC need no branch on the lidar.
 """
 
 from __future__ import annotations
@@ -21,17 +27,22 @@ import pandas as pd
 
 from flidar_uq.data.imu import tilt_bands_from_records
 from flidar_uq.physics.hull import G_MS2
+from flidar_uq.physics.lidar import get_lidar
 from flidar_uq.physics.six_dof_sigma_z import six_dof_band_terms, translation_unit_sq
-from flidar_uq.physics.surrogate import default_surrogate
+from flidar_uq.physics.surrogate import default_surrogate, get_surrogate
 
 __all__ = [
     "ALONG_WIND_COLUMNS",
+    "GRAM_COLUMNS",
     "MEASURED_TRANSLATION_COLUMNS",
     "MOTION_DESCRIPTIONS",
     "TRANSLATION_DESCRIPTIONS",
     "describe_motion",
-    "hull_sigma_z_ms",
+    "gram_coefficients",
+    "gram_from_cw_terms",
+    "gram_sigma_z_ms",
     "measured_response",
+    "motion_gram",
     "per_record_motion",
     "six_dof_terms",
 ]
@@ -260,7 +271,7 @@ def six_dof_terms(
     heave's mean period, correlated by ``rho_h``; the orbital velocity along the wind
     ``sigma_u`` against the lever arm's ``L dphi/dt`` (covariance ``-g sigma_along^2`` per
     metre, exact for linear waves). For a hull response ``h`` (0 rotation only, 1 wave
-    follower; :func:`hull_sigma_z_ms`):
+    follower; :func:`gram_sigma_z_ms` of :func:`motion_gram`):
 
     ``sZ^2 = k^2 (sZ_rot^2 - 2 h heave_cross_sq + h^2 heave_leak_sq)
     + L^2 u^2 - 2 L h orbital_cross_sq + h^2 orbital_sq``.
@@ -268,7 +279,7 @@ def six_dof_terms(
     Where the record's translation is measured (:func:`measured_response`), the heave
     terms are scaled by ``R_z`` (the cross term) and ``R_z^2``, the orbital ones by ``R_x``
     and ``R_x^2``, and ``translation_measured`` is 1: the hull response is known there,
-    ``h = 1`` in :func:`hull_sigma_z_ms` and the likelihood.
+    ``h = 1`` in :func:`gram_sigma_z_ms` and the likelihood.
 
     Parameters
     ----------
@@ -330,35 +341,46 @@ def _follower_complete(records: pd.DataFrame) -> np.ndarray:
     return ok
 
 
-def describe_motion(records: pd.DataFrame, *, hull_model: str | None = None) -> pd.DataFrame:
+def describe_motion(
+    records: pd.DataFrame, *, hull_model: str | None = None, lidar=None
+) -> pd.DataFrame:
     """Which motion description each record gets in the record model, without evaluating it.
 
     Parameters
     ----------
     records : pandas.DataFrame
-        Record table (the columns :func:`per_record_motion` and :func:`six_dof_terms` read).
+        Record table (the columns :func:`motion_gram` reads).
     hull_model : str, optional
         The fit's kept hull model (``GlobalFit.info["hull_model"]``): ``"rotation_only"``
         describes no record's translation, whatever its columns.
+    lidar : str, LidarGeometry or mapping, optional
+        The floating lidar (config ``campaign.lidar``; default the ZephIR 300). A DBS
+        lidar's tilt is always the roll/pitch description (:func:`motion_gram`).
 
     Returns
     -------
     pandas.DataFrame
         Index of ``records``; ``motion_description`` (the tilt's, one of
-        :data:`MOTION_DESCRIPTIONS`, as :func:`per_record_motion` gives it) and
+        :data:`MOTION_DESCRIPTIONS`, as :func:`motion_gram` gives it) and
         ``translation_description`` (one of :data:`TRANSLATION_DESCRIPTIONS`;
-        ``"tilt_spectrum"`` only where the tilt is described along the wind, by bands or
-        moments).
+        ``"tilt_spectrum"`` only where the tilt is described along the wind (by bands or
+        moments), or for a DBS lidar by its roll and pitch).
     """
     amp, per, along, rp = _tilt_description(records)
-    ok = np.isfinite(amp) & np.isfinite(per) & np.isfinite(_col(records, "hws_mean_ms"))
-    tilt = np.where(along & ok, "along_wind", np.where(rp & ok, "roll_pitch", "none"))
-    follower = along & ok & _follower_complete(records)
-    bands = tilt_bands_from_records(records)
-    if bands is not None:
-        banded = bands["complete"] & np.isfinite(_col(records, "hws_mean_ms"))
-        tilt = np.where(banded, "tilt_bands", tilt)
-        follower = follower | banded
+    hws_ok = np.isfinite(_col(records, "hws_mean_ms"))
+    if _is_dbs(lidar):
+        ok = _dbs_motion(records)[-1] & hws_ok
+        tilt = np.where(ok, "roll_pitch", "none")
+        follower = ok & _follower_complete(records)
+    else:
+        ok = np.isfinite(amp) & np.isfinite(per) & hws_ok
+        tilt = np.where(along & ok, "along_wind", np.where(rp & ok, "roll_pitch", "none"))
+        follower = along & ok & _follower_complete(records)
+        bands = tilt_bands_from_records(records)
+        if bands is not None:
+            banded = bands["complete"] & hws_ok
+            tilt = np.where(banded, "tilt_bands", tilt)
+            follower = follower | banded
     r_z, r_x = measured_response(records)
     measured = follower & np.isfinite(r_z) & np.isfinite(r_x)
     trans = np.where(measured, "measured", np.where(follower, "tilt_spectrum", "none"))
@@ -369,23 +391,221 @@ def describe_motion(records: pd.DataFrame, *, hull_model: str | None = None) -> 
     )
 
 
-def hull_sigma_z_ms(motion, terms, *, lever_arm_m, hull_response, motion_scale=1.0):
-    """sigma_Z (m/s) of records for a lever arm ``L`` (m), a hull response ``h`` (-: 0
-    rotates about a fixed centre, 1 follows the waves) and a motion scale ``k`` (-), from
-    :func:`per_record_motion` and :func:`six_dof_terms` (broadcasting over draws of ``L, h, k``
-    given as arrays of shape (n_draws, 1))."""
-    sz = np.asarray(motion["sigma_z_rot_ms"], float)
-    u2 = np.asarray(motion["translation_unit_sq"], float)
-    h = np.asarray(hull_response, float)
-    if "translation_measured" in terms:  # measured translation: the response is known
-        meas = np.asarray(terms["translation_measured"], float)
-        h = h + meas * (1.0 - h)
-    lev = np.asarray(lever_arm_m, float)
-    leak = (
-        sz**2
-        - 2.0 * h * np.asarray(terms["heave_cross_sq"])
-        + h**2 * np.asarray(terms["heave_leak_sq"])
+#: The 10 unique entries of a record's Gram matrix ``G`` (:func:`motion_gram`), upper
+#: triangle row by row in the basis ``v = (k, k h, L, h)``: ``sigma_Z^2 = sum_ii G_ii v_i^2
+#: + 2 sum_i<j G_ij v_i v_j``. Units: (m/s)^2 for the entries without ``L``
+#: (``gram_kk, gram_k_kh, gram_k_h, gram_kh_kh, gram_kh_h, gram_hh``), (m/s)^2 per m for
+#: those with one (``gram_k_l, gram_kh_l, gram_l_h``), (m/s)^2 per m^2 for ``gram_ll``.
+GRAM_COLUMNS = (
+    "gram_kk",
+    "gram_k_kh",
+    "gram_k_l",
+    "gram_k_h",
+    "gram_kh_kh",
+    "gram_kh_l",
+    "gram_kh_h",
+    "gram_ll",
+    "gram_l_h",
+    "gram_hh",
+)
+_GRAM_IJ = tuple((i, j) for i in range(4) for j in range(i, 4))
+#: entries of GRAM_COLUMNS that carry the hull response (a row or column 1 or 3)
+_HULL_ENTRIES = tuple(n for n, (i, j) in enumerate(_GRAM_IJ) if {i, j} & {1, 3})
+
+
+def gram_from_cw_terms(
+    sigma_z_rot_ms,
+    translation_unit_sq,
+    heave_cross_sq=0.0,
+    heave_leak_sq=0.0,
+    orbital_cross_sq=0.0,
+    orbital_sq=0.0,
+) -> np.ndarray:
+    """The Gram entries (:data:`GRAM_COLUMNS`, shape (10, n)) of a CW VAD lidar's terms.
+
+    ``sZ^2 = k^2 sZ_rot^2 - 2 k^2 h X + k^2 h^2 H + L^2 u^2 - 2 L h Y + h^2 O``
+    (:func:`six_dof_terms`) is ``v^T G v`` with ``G_kk = sZ_rot^2`` (m/s)^2,
+    ``G_k,kh = -X``, ``G_kh,kh = H``, ``G_ll = u^2`` ((m/s)^2 per m^2), ``G_l,h = -Y``
+    ((m/s)^2 per m), ``G_hh = O`` ((m/s)^2), the others 0. Arguments as
+    :func:`per_record_motion` and :func:`six_dof_terms` return them (scalars broadcast).
+    """
+    sz = np.asarray(sigma_z_rot_ms, float)
+    u2, x, h_, y, o = np.broadcast_arrays(
+        translation_unit_sq, heave_cross_sq, heave_leak_sq, orbital_cross_sq, orbital_sq, sz
+    )[:5]
+    out = np.zeros((10,) + sz.shape)
+    out[0], out[1], out[4] = sz**2, -np.asarray(x, float), h_
+    out[7], out[8], out[9] = u2, -np.asarray(y, float), o
+    return out
+
+
+def _gram_entries(gram4: np.ndarray) -> np.ndarray:
+    """(10, n) entries of :data:`GRAM_COLUMNS` from Gram matrices (n, 4, 4)."""
+    return np.stack([gram4[..., i, j] for i, j in _GRAM_IJ])
+
+
+def _is_dbs(lidar) -> bool:
+    return lidar is not None and get_lidar(lidar).kind == "dbs"
+
+
+def _dbs_motion(records: pd.DataFrame):
+    """Roll and pitch amplitudes (deg) and periods (s) of each record (the core IMU
+    columns), and the mask of records where all four are finite."""
+    cols = [
+        _col(records, c)
+        for c in ("roll_amplitude_deg", "pitch_amplitude_deg", "roll_period_s", "pitch_period_s")
+    ]
+    ok = np.ones(len(records), dtype=bool)
+    for c in cols:
+        ok &= np.isfinite(c)
+    ok &= (cols[2] > 0) & (cols[3] > 0)
+    return (*cols, ok)
+
+
+def _dbs_gram(records, g, n_headings, translation):
+    """(10, n) Gram entries, measured flag and description of a DBS lidar (:func:`motion_gram`)."""
+    from flidar_uq.physics.dbs_sigma_z import dbs_record_terms, wind_to_body_deg
+
+    a_r, a_p, t_r, t_p, ok = _dbs_motion(records)
+    hws = _col(records, "hws_mean_ms")
+    ok &= np.isfinite(hws)
+    beta = wind_to_body_deg(_col(records, "wd_mean_deg"), _col(records, "heading_mean_deg"))
+    known = np.isfinite(beta)
+    out = np.full((10, len(records)), np.nan)
+    for sel, wb in ((ok & known, beta), (ok & ~known, None)):
+        if np.any(sel):
+            out[:, sel] = _gram_entries(
+                dbs_record_terms(
+                    hws[sel],
+                    a_r[sel],
+                    a_p[sel],
+                    t_p[sel],
+                    wind_body_deg=None if wb is None else wb[sel],
+                    roll_period_s=t_r[sel],
+                    lidar=g,
+                    n_headings=n_headings,
+                )
+            )
+    follower = ok & _follower_complete(records) & translation
+    hull = list(_HULL_ENTRIES)
+    out[np.ix_(hull, ok & ~follower)] = 0.0  # rotation only: no heave, no orbital motion
+    r_z, r_x = measured_response(records)
+    meas = follower & np.isfinite(r_z) & np.isfinite(r_x)
+    if np.any(meas):  # the heave phasor scales with R_z, the orbital one with R_x
+        scale = np.stack([np.ones(len(records)), r_z, np.ones(len(records)), r_x])
+        for n, (i, j) in enumerate(_GRAM_IJ):
+            out[n, meas] *= scale[i, meas] * scale[j, meas]
+    return out, meas, np.where(ok, "roll_pitch", "none")
+
+
+def motion_gram(
+    records: pd.DataFrame,
+    *,
+    lidar=None,
+    surrogate=None,
+    scan_period_s: float | None = None,
+    n_headings: int = 24,
+    translation: bool = True,
+) -> pd.DataFrame:
+    """Each record's motion error as the Gram matrix of ``v = (k, k h, L, h)``.
+
+    ``sigma_Z^2 = v^T G v`` for a motion scale ``k`` (-), a hull response ``h`` (-: 0 rotates
+    about a fixed centre, 1 follows the waves) and a lever arm ``L`` (m)
+    (:func:`gram_sigma_z_ms`).
+
+    * A CW VAD lidar (the ZephIR 300): :func:`per_record_motion` and :func:`six_dof_terms`
+      (Gutiérrez-Antuñano et al. 2018 and the six-degree-of-freedom terms) through
+      :func:`gram_from_cw_terms`: the same sigma_Z as those terms. A conical scan is
+      azimuth symmetric: the heading does not enter.
+    * A pulsed DBS lidar (``kind == "dbs"``): :func:`flidar_uq.physics.dbs_sigma_z.dbs_record_terms`
+      (the beam-pair retrieval of Yamaguchi & Ishihara 2016, Eqs. 3-4) with the record's
+      roll and pitch amplitudes and periods (the core IMU columns; the along-wind
+      description drops the cross-wind tilt, whose heave and translation a DBS lidar
+      sees, and the body axes the heading needs), the lidar's own beam timing and the
+      wind's direction relative to the beams,
+      ``wind_to_body_deg(wd_mean_deg, heading_mean_deg)`` (the heading column is the yaw of
+      docs/conventions.md, the convention ``wind_to_body_deg`` takes). Where the heading or
+      the wind direction is NaN or absent: averaged over ``n_headings`` headings. The
+      hull's heave and orbital phasors are those of a wave follower with the record's roll
+      and pitch; they are kept only where the record has the follower columns
+      (:data:`FOLLOWER_COLUMNS`, as for a CW lidar; else rotation only). A measured
+      translation (:func:`measured_response`) scales the heave phasor by ``R_z`` and the
+      orbital one by ``R_x``, with ``h = 1`` (``translation_measured``), as for a CW lidar.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Record table (``hws_mean_ms``, the motion columns; for a DBS lidar ``wd_mean_deg``
+        (deg, from, clockwise from north) and ``heading_mean_deg`` (deg) when known).
+    lidar : str, LidarGeometry or mapping, optional
+        The floating lidar (config ``campaign.lidar``: a name or a custom block); default
+        the ZephIR 300.
+    surrogate : SigmaZSurrogate, optional
+        A CW lidar's sigma_Z surrogate (default: ``get_surrogate(lidar)``).
+    scan_period_s : float, optional
+        A CW lidar's scan duration (s), for the head-translation terms; default the
+        lidar's ``scan_period_s``. A DBS lidar uses its own beam timing.
+    n_headings : int
+        Headings averaged over where the heading is unknown (DBS only).
+    translation : bool
+        False: the hull's translation left out (the ``"rotation_only"`` hull model).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Index of ``records``; :data:`GRAM_COLUMNS` (units there; NaN where the record has
+        no motion description), ``translation_measured`` (1 or 0, -) and
+        ``motion_description`` (:data:`MOTION_DESCRIPTIONS`).
+    """
+    g = get_lidar("zephir300" if lidar is None else lidar)
+    if g.kind == "dbs":
+        gram, meas, kind = _dbs_gram(records, g, n_headings, translation)
+    else:
+        sur = get_surrogate(g) if surrogate is None and lidar is not None else surrogate
+        scan = g.scan_period_s if scan_period_s is None else float(scan_period_s)
+        mot = per_record_motion(records, surrogate=sur, scan_period_s=scan)
+        terms = six_dof_terms(records, mot, surrogate=sur, scan_period_s=scan)
+        if not translation:
+            terms = terms * 0.0
+        gram = gram_from_cw_terms(
+            mot["sigma_z_rot_ms"].to_numpy(),
+            mot["translation_unit_sq"].to_numpy(),
+            *(terms[c].to_numpy() for c in terms.columns[:4]),
+        )
+        meas, kind = terms["translation_measured"].to_numpy() > 0, mot["motion_description"]
+    out = pd.DataFrame(dict(zip(GRAM_COLUMNS, gram, strict=True)), index=records.index)
+    out["translation_measured"] = np.asarray(meas, float)
+    out["motion_description"] = np.asarray(kind)
+    return out
+
+
+def gram_coefficients(motion_scale, hull_response, lever_arm_m):
+    """Weights of :data:`GRAM_COLUMNS` in ``sigma_Z^2`` (the off-diagonal entries twice):
+    shape ``(..., 10)`` for arrays ``k`` (-), ``h`` (-), ``L`` (m) broadcast together."""
+    k, h, lev = np.broadcast_arrays(
+        np.asarray(motion_scale, float), np.asarray(hull_response, float), lever_arm_m
     )
-    trans = lev**2 * u2 - 2.0 * lev * h * np.asarray(terms["orbital_cross_sq"])
-    trans = trans + h**2 * np.asarray(terms["orbital_sq"])
-    return np.sqrt(np.maximum(np.asarray(motion_scale, float) ** 2 * leak + trans, 0.0))
+    v = (k, k * h, np.asarray(lev, float), h)
+    return np.stack([v[i] * v[j] * (1.0 if i == j else 2.0) for i, j in _GRAM_IJ], -1)
+
+
+def gram_sigma_z_ms(gram, *, lever_arm_m, hull_response, motion_scale=1.0):
+    """sigma_Z (m/s) of records from :func:`motion_gram` for a lever arm ``L`` (m), a hull
+    response ``h`` (-: 0 rotates about a fixed centre, 1 follows the waves) and a motion
+    scale ``k`` (-): ``sqrt(v^T G v)``, ``v = (k, k h, L, h)``, ``h = 1`` where the
+    translation is measured. Broadcasts over draws of ``L, h, k`` given as arrays of shape
+    (n_draws, 1); ``gram`` a DataFrame or mapping of :data:`GRAM_COLUMNS` (and optionally
+    ``translation_measured``) with arrays of shape (n,) or (1, n)."""
+    k = np.asarray(motion_scale, float)
+    h = np.asarray(hull_response, float)
+    lev = np.asarray(lever_arm_m, float)
+    if "translation_measured" in gram:  # measured translation: the response is known
+        meas = np.asarray(gram["translation_measured"], float)
+        h = h + meas * (1.0 - h)
+    k, h, lev = np.broadcast_arrays(k, h, lev)
+    v = (k, k * h, lev, h)
+    var = 0.0
+    for n, (i, j) in enumerate(_GRAM_IJ):
+        w = 1.0 if i == j else 2.0
+        var = var + w * v[i] * v[j] * np.asarray(gram[GRAM_COLUMNS[n]], float)
+    return np.sqrt(np.maximum(var, 0.0))

@@ -181,6 +181,7 @@ def scenario_records(
     fit = fit_record_model(
         calib,
         surrogate=surrogate,
+        lidar=lidar,
         settings=settings,
         seed=ss_fit,
         lever_arm_prior=lever_arm_prior,
@@ -191,6 +192,7 @@ def scenario_records(
         [],
         fit,
         surrogate=surrogate,
+        lidar=lidar,
         credible_mass=credible_mass,
         ndraws=ndraws,
         lidar_std_ratio=g,

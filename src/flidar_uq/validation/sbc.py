@@ -23,7 +23,7 @@ from flidar_uq.inference import (
     fit_global,
     fit_record_model,
 )
-from flidar_uq.inference.record_motion import hull_sigma_z_ms, per_record_motion, six_dof_terms
+from flidar_uq.inference.record_motion import gram_sigma_z_ms, motion_gram
 from flidar_uq.physics.motion_spectrum import TiltBandSpectrum
 from flidar_uq.physics.surrogate import default_surrogate
 from flidar_uq.seeding import as_seedsequence
@@ -222,7 +222,7 @@ def draw_record_campaign(
     mean period ``U(2.5, 7)`` s; across the wind log-normal (median 1.0 deg, log-sd 0.5);
     the wave follower's translation of :func:`flidar_uq.data.imu.follower_translation_columns`
     for one band along and one across the wind at periods ``T`` and ``T U(1, 1.6)``. With
-    ``sZ`` of :func:`~flidar_uq.inference.record_motion.hull_sigma_z_ms` (lever arm, hull
+    ``sZ`` of :func:`~flidar_uq.inference.record_motion.gram_sigma_z_ms` (lever arm, hull
     response, motion scale) times ``exp(kappa_z^2 / 2)`` (the realised error's mean),
     ``mu^2 = r^2 + sZ^2 + 2 rho r sZ`` (Eq. (15) of Gutiérrez-Antuñano et al. (2018)) and
     ``tau^2 = (kappa mu)^2 + (kappa_z sZ dmu/dsZ)^2 + (pair_log_sd r dmu/dr)^2 + 1e-8``, the
@@ -270,11 +270,8 @@ def draw_record_campaign(
     )
     for col, val in follower_translation_columns(bands).items():
         rec[col] = val
-    mot = per_record_motion(rec, surrogate=surrogate)
-    terms = six_dof_terms(rec, mot, surrogate=surrogate)
-    sz = hull_sigma_z_ms(
-        mot,
-        terms,
+    sz = gram_sigma_z_ms(
+        motion_gram(rec, surrogate=surrogate),
         lever_arm_m=truth["lever_arm_m"],
         hull_response=truth["hull_response"],
         motion_scale=truth["motion_scale"],

@@ -181,6 +181,7 @@ def fit_global_model(
     that the fit never sees it).
     """
     from flidar_uq import inference as inf
+    from flidar_uq.physics.lidar import get_lidar
     from flidar_uq.physics.surrogate import get_surrogate
 
     seed = child_seed(inference["seed"], 0)
@@ -216,6 +217,7 @@ def fit_global_model(
             assigned,
             hull_model=inference.get("hull_model", "auto"),
             surrogate=get_surrogate(lidar),
+            lidar=lidar,
             settings=_settings(inference),
             seed=seed,
             priors=_priors(priors),
@@ -247,6 +249,7 @@ def fit_global_model(
         seed=seed,
         priors=_priors(priors),
         lever_arm=model,
+        scan_period_s=get_lidar(lidar).scan_period_s,
     )
     Path(out_path).parent.mkdir(parents=True, exist_ok=True)
     inf.save_fit(fit, out_path)

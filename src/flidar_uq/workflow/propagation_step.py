@@ -366,6 +366,7 @@ def propagate(
             [f for f in fits.values() if f.converged],
             gfit,
             surrogate=surrogate,
+            lidar=lidar,
             credible_mass=credible_mass,
             ndraws=ndraws,
             lidar_std_ratio=g_ratio,
@@ -423,7 +424,7 @@ def propagate(
 
     out = _records_table(rec, rid, flags["timestamp"], use, per_record, sz_seed, sz_table)
     if record_model:  # which motion description gave each record's sigma_Z
-        desc = describe_motion(rec, hull_model=gfit.info.get("hull_model"))
+        desc = describe_motion(rec, hull_model=gfit.info.get("hull_model"), lidar=lidar)
         for col in desc:
             out[col] = np.where(use, desc[col].to_numpy(), "")
     neg = _scatter(per_record["discriminant_negative"].to_numpy(dtype=bool), use, bool, False)

@@ -1,0 +1,211 @@
+"""One per-record Gram matrix of the motion error for every lidar (record_motion.motion_gram)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from flidar_uq.inference.record_fit import _record_loglik_pointwise, _record_observations
+from flidar_uq.inference.record_motion import (
+    FOLLOWER_COLUMNS,
+    GRAM_COLUMNS,
+    describe_motion,
+    gram_from_cw_terms,
+    gram_sigma_z_ms,
+    motion_gram,
+    per_record_motion,
+    six_dof_terms,
+)
+from flidar_uq.inference.results import GlobalFit
+from flidar_uq.physics.dbs_sigma_z import (
+    dbs_record_terms,
+    dbs_sigma_z_from_terms,
+    wind_to_body_deg,
+)
+
+
+def _records(n, seed=0, *, follower=True, measured=False):
+    """Random records with the along-wind, roll/pitch, heading and follower columns."""
+    rng = np.random.default_rng(seed)
+    rec = pd.DataFrame(
+        {
+            "hws_mean_ms": rng.uniform(4.0, 16.0, n),
+            "hws_std_ms": rng.uniform(0.4, 1.6, n),
+            "ref_hws_std_ms": rng.uniform(0.4, 1.5, n),
+            "wd_mean_deg": rng.uniform(0.0, 360.0, n),
+            "heading_mean_deg": rng.uniform(-180.0, 180.0, n),
+            "roll_amplitude_deg": rng.uniform(0.5, 6.0, n),
+            "pitch_amplitude_deg": rng.uniform(0.5, 6.0, n),
+            "roll_period_s": rng.uniform(3.0, 10.0, n),
+            "pitch_period_s": rng.uniform(3.0, 10.0, n),
+            "tilt_along_wind_std_deg": rng.uniform(0.3, 4.0, n),
+            "tilt_across_wind_std_deg": rng.uniform(0.1, 3.0, n),
+            "tilt_period_mean_s": rng.uniform(3.0, 10.0, n),
+        }
+    )
+    if follower:
+        rec["follower_heave_velocity_std_ms"] = rng.uniform(0.1, 0.8, n)
+        rec["follower_heave_period_s"] = rng.uniform(3.0, 10.0, n)
+        rec["follower_velocity_along_wind_std_ms"] = rng.uniform(0.1, 0.8, n)
+        rec["follower_heave_tilt_correlation"] = rng.uniform(0.2, 1.0, n)
+    if measured:  # half the records with a measured heave and surge
+        v = rec["follower_heave_velocity_std_ms"].to_numpy() * rng.uniform(0.3, 1.2, n)
+        rec["heave_velocity_std_ms"] = np.where(np.arange(n) % 2 == 0, v, np.nan)
+        rec["surge_velocity_std_ms"] = np.where(np.arange(n) % 2 == 0, 0.8 * v, np.nan)
+    return rec
+
+
+def _former_sigma_z(mot, terms, lever, h, k):
+    """The ZephIR-style sigma_Z as the record model wrote it before the Gram matrix."""
+    sz, u2 = mot["sigma_z_rot_ms"].to_numpy(), mot["translation_unit_sq"].to_numpy()
+    x, hh, y, o, meas = (terms[c].to_numpy() for c in terms.columns)
+    h = h + meas * (1.0 - h)
+    leak = sz**2 - 2.0 * h * x + h**2 * hh
+    trans = lever**2 * u2 - 2.0 * lever * h * y + h**2 * o
+    return np.sqrt(np.maximum(k**2 * leak + trans, 0.0))
+
+
+def _draws(n=7, seed=1):
+    rng = np.random.default_rng(seed)
+    return (
+        rng.uniform(0.0, 4.0, (n, 1)),  # lever arm, m
+        rng.uniform(0.0, 1.2, (n, 1)),  # hull response
+        rng.uniform(0.8, 1.25, (n, 1)),  # motion scale
+    )
+
+
+def test_zephir_gram_gives_the_former_sigma_z_and_likelihood():
+    rec = _records(400, measured=True)
+    mot = per_record_motion(rec)
+    terms = six_dof_terms(rec, mot)
+    assert terms["translation_measured"].sum() > 50  # the measured branch is exercised
+    gram = motion_gram(rec, lidar="zephir300")
+    lever, h, k = _draws()
+    want = _former_sigma_z(mot, terms, lever, h, k)
+    got = gram_sigma_z_ms(gram, lever_arm_m=lever, hull_response=h, motion_scale=k)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
+    assert np.ptp(want) > 0.1  # records and draws differ: the comparison is not trivial
+    # the likelihood's sigma_Z (one walker): equal to a rotation-only record of that sigma_Z
+    (s, r, g), use, _ = _record_observations(rec, None, None, "zephir300")
+    assert use.all()
+    theta = np.array(
+        [[0.2, np.log(0.04), np.log(0.12), lever[0, 0], np.log(k[0, 0]), np.log(h[0, 0])]]
+    )
+    same = gram_from_cw_terms(want[0] / k[0, 0], np.zeros(len(rec)))
+    np.testing.assert_allclose(
+        _record_loglik_pointwise(theta, s, r, g),
+        _record_loglik_pointwise(theta, s, r, same),
+        rtol=1e-12,
+    )
+    # a zephir300 given by name is the default lidar
+    pd.testing.assert_frame_equal(gram, motion_gram(rec))
+
+
+def test_dbs_gram_is_dbs_record_terms_with_the_records_heading():
+    rec = _records(60)
+    gram = motion_gram(rec, lidar="windcube_v2")
+    beta = wind_to_body_deg(rec["wd_mean_deg"], rec["heading_mean_deg"])
+    g4 = dbs_record_terms(
+        rec["hws_mean_ms"],
+        rec["roll_amplitude_deg"],
+        rec["pitch_amplitude_deg"],
+        rec["pitch_period_s"],
+        wind_body_deg=beta,
+        roll_period_s=rec["roll_period_s"],
+        lidar="windcube_v2",
+    )
+    lever, h, k = _draws()
+    want = dbs_sigma_z_from_terms(g4, lever_arm_m=lever, hull_response=h, motion_scale=k)
+    got = gram_sigma_z_ms(gram, lever_arm_m=lever, hull_response=h, motion_scale=k)
+    np.testing.assert_allclose(got, want, rtol=1e-12)
+    assert (gram["motion_description"] == "roll_pitch").all()
+    # heading unknown: the average over headings
+    blind = motion_gram(rec.drop(columns="heading_mean_deg"), lidar="windcube_v2")
+    g_avg = dbs_record_terms(
+        rec["hws_mean_ms"],
+        rec["roll_amplitude_deg"],
+        rec["pitch_amplitude_deg"],
+        rec["pitch_period_s"],
+        roll_period_s=rec["roll_period_s"],
+        lidar="windcube_v2",
+        n_headings=24,
+    )
+    want_avg = dbs_sigma_z_from_terms(g_avg, lever_arm_m=lever, hull_response=h, motion_scale=k)
+    got_avg = gram_sigma_z_ms(blind, lever_arm_m=lever, hull_response=h, motion_scale=k)
+    np.testing.assert_allclose(got_avg, want_avg, rtol=1e-12)
+    assert not np.allclose(got_avg, got, rtol=1e-3)
+
+
+def test_dbs_gram_without_follower_columns_is_rotation_only():
+    rec = _records(20, follower=False)
+    gram = motion_gram(rec, lidar="windcube_v2")
+    lever, h, k = _draws()
+    s0 = gram_sigma_z_ms(gram, lever_arm_m=lever, hull_response=0.0, motion_scale=k)
+    np.testing.assert_array_equal(
+        gram_sigma_z_ms(gram, lever_arm_m=lever, hull_response=h, motion_scale=k), s0
+    )
+    assert (describe_motion(rec, lidar="windcube_v2")["translation_description"] == "none").all()
+    full = motion_gram(_records(20), lidar="windcube_v2")
+    assert (full["gram_kh_kh"] > 0).all()
+
+
+def test_heading_turned_by_90_deg_changes_a_dbs_lidars_sigma_z_not_a_cw_lidars():
+    """A CW conical scan is azimuth symmetric; a DBS lidar's opposite-beam pairs are taken
+    at different times, so the leak goes as 1 + sin(2 beta) cos(omega tau)
+    (physics/dbs_sigma_z.py): turning the wind by 90 deg relative to the beams flips it."""
+    rec = _records(40).assign(wd_mean_deg=270.0 - 45.0, heading_mean_deg=0.0)  # beta = 45 deg
+    turned = rec.assign(heading_mean_deg=90.0)  # beta = -45 deg
+    for lidar, changes in (("windcube_v2", True), ("zephir300", False)):
+        a = gram_sigma_z_ms(motion_gram(rec, lidar=lidar), lever_arm_m=2.0, hull_response=0.5)
+        b = gram_sigma_z_ms(motion_gram(turned, lidar=lidar), lever_arm_m=2.0, hull_response=0.5)
+        if changes:
+            assert np.median(np.abs(a / b - 1.0)) > 0.02
+        else:
+            np.testing.assert_array_equal(a, b)
+
+
+def _record_fit(lever=2.0, hull=0.3):
+    shape = (2, 50)
+    draws = {
+        "rho": np.full(shape, 0.1),
+        "kappa": np.full(shape, 1e-6),
+        "kappa_z": np.full(shape, 1e-6),
+        "lever_arm_m": np.full(shape, lever),
+        "motion_scale": np.ones(shape),
+        "hull_response": np.full(shape, hull),
+    }
+    return GlobalFit(
+        draws=draws,
+        log_lik=None,
+        diagnostics={},
+        failure_reasons=[],
+        info={"loo": {"model": "record"}, "hull_model": "translating", "n_records": 1},
+    )
+
+
+def test_propagation_uses_the_configured_lidars_sigma_z():
+    from flidar_uq.correction.propagation import corrected_ti
+
+    rec = _records(30).assign(bin_id=0)
+    fit = _record_fit()
+    out = {}
+    for lidar in ("zephir300", "windcube_v2"):
+        per_record, _ = corrected_ti(
+            rec, [], fit, lidar=lidar, ndraws=50, seed=3, group_statistics=False
+        )
+        want = gram_sigma_z_ms(motion_gram(rec, lidar=lidar), lever_arm_m=2.0, hull_response=0.3)
+        np.testing.assert_allclose(per_record["sigma_z_median_ms"], want, rtol=1e-4)
+        out[lidar] = per_record["ti_corrected_median"].to_numpy()
+    ok = np.isfinite(out["zephir300"]) & np.isfinite(out["windcube_v2"])
+    assert ok.sum() > 20
+    assert np.median(np.abs(out["windcube_v2"][ok] / out["zephir300"][ok] - 1.0)) > 0.01
+
+
+@pytest.mark.parametrize("lidar", ["zephir300", "windcube_v2"])
+def test_record_observations_hold_the_gram_of_the_configured_lidar(lidar):
+    rec = _records(25)
+    (s, r, g), use, kinds = _record_observations(rec, None, None, lidar)
+    gram = motion_gram(rec, lidar=lidar)
+    np.testing.assert_array_equal(g[:10], gram[list(GRAM_COLUMNS)].to_numpy().T[:, use])
+    assert g.shape == (11, use.sum()) and set(FOLLOWER_COLUMNS) <= set(rec)
