@@ -91,8 +91,10 @@ def test_fallbacks_bands_then_zero_crossing_period_then_roll_pitch_then_none():
 def test_band_description_is_the_six_dof_band_sum():
     """Records with tilt bands: the record model's sigma_Z for any lever arm and hull
     response is the band sum of :func:`six_dof_band_sigma_z_ms` (h = 0 rotation only, 1
-    wave follower), whatever the moments columns say."""
+    wave follower), whatever the moments columns say; swell bands (wave age > 1.2) enter
+    with the side of their travel unknown."""
     from flidar_uq.inference.record_motion import gram_sigma_z_ms, motion_gram
+    from flidar_uq.physics.seastate import downwind_side_known
     from flidar_uq.physics.six_dof_sigma_z import six_dof_band_sigma_z_ms
 
     rng = np.random.default_rng(11)
@@ -112,6 +114,7 @@ def test_band_description_is_the_six_dof_band_sum():
     assert (gram["motion_description"] == "tilt_bands").all()
     share = va / (va + vc)
     cos = np.where(share > 0.5, np.abs(2 * share - 1) ** 0.25, 0.0)
+    cos = np.where(downwind_side_known(per, hws[:, None]), cos, 0.0)  # swell: side unknown
     amp = np.sqrt(2 * (va + vc))
     for lever, h, hull in (
         (0.0, 0.0, "rotation_only"),
@@ -520,3 +523,34 @@ def test_propagation_of_a_rotation_only_hull_model_ignores_the_translation_colum
 
     np.testing.assert_array_equal(sz(rec, "rotation_only"), sz(plain, "translating"))
     assert np.mean(np.abs(sz(rec, "translating") / sz(plain, "translating") - 1)) > 0.05
+
+
+def test_swell_band_of_unknown_side_has_no_heave_cross_term():
+    """A tilt record cannot tell waves running downwind from waves running upwind: a band
+    older than a fully developed wind sea (c / U > 1.2, Pierson & Moskowitz 1964) enters
+    with <cos psi> = 0 (no heave-tilt cross term), a wind-sea band with its downwind
+    cosine; the same band at a wind strong enough to drive it counts as wind sea."""
+    from flidar_uq.inference.record_motion import motion_gram
+    from flidar_uq.physics.seastate import WIND_SEA_MAX_WAVE_AGE, downwind_side_known
+
+    assert downwind_side_known(6.0, 9.37 / WIND_SEA_MAX_WAVE_AGE + 0.01)
+    assert not downwind_side_known(6.0, 9.37 / WIND_SEA_MAX_WAVE_AGE - 0.01)
+    per = np.tile(np.geomspace(1.3, 17.0, 8), (2, 1))
+    va = np.zeros((2, 8))
+    va[:, 4] = 1.0  # one band, all along the wind, at ~6 s (c ~ 9.4 m/s)
+    rec = pd.DataFrame(
+        {
+            "hws_mean_ms": [4.0, 15.0],
+            "tilt_along_wind_std_deg": 1.0,
+            "tilt_period_mean_s": 6.0,
+            "follower_heave_velocity_std_ms": 0.2,
+            "follower_heave_period_s": 6.0,
+            "follower_velocity_along_wind_std_ms": 0.2,
+            "follower_heave_tilt_correlation": 1.0,
+        }
+        | _band_columns(per, va, 0.0 * va)
+    )
+    gram = motion_gram(rec)
+    assert gram["gram_k_kh"].iloc[0] == 0.0  # swell at 4 m/s: side unknown
+    assert gram["gram_k_kh"].iloc[1] < 0.0  # wind sea at 15 m/s: heave against the tilt
+    assert (gram["gram_kh_kh"] > 0).all()

@@ -28,6 +28,7 @@ import pandas as pd
 from flidar_uq.data.imu import tilt_bands_from_records
 from flidar_uq.physics.hull import G_MS2
 from flidar_uq.physics.lidar import get_lidar
+from flidar_uq.physics.seastate import downwind_side_known
 from flidar_uq.physics.six_dof_sigma_z import six_dof_band_terms, translation_unit_sq
 from flidar_uq.physics.surrogate import default_surrogate, get_surrogate
 
@@ -109,17 +110,23 @@ def _band_terms(records: pd.DataFrame, surrogate, scan_period_s: float):
     """Mask of the records described by tilt bands (all band values finite, a finite mean
     speed, every band inside the surrogate's range) and their band-sum terms
     (:func:`flidar_uq.physics.six_dof_sigma_z.six_dof_band_terms`, the wave follower's
-    translation scaled by the hull response)."""
+    translation scaled by the hull response). A band's ``<cos psi>`` is that of waves
+    running downwind (:func:`flidar_uq.data.imu.band_direction_moments`) where its wave
+    age says wind sea, else 0 (swell of unknown side,
+    :func:`flidar_uq.physics.seastate.downwind_side_known`)."""
     bands = tilt_bands_from_records(records)
     if bands is None:
         return np.zeros(len(records), dtype=bool), None
     hws = _col(records, "hws_mean_ms")
     use = bands["complete"] & np.isfinite(hws)
+    # the side a band's waves travel on is known for wind sea only (downwind); for swell
+    # its mean cosine to the wind is 0 whatever its along-wind share
+    wind_sea = downwind_side_known(bands["period_s"][use], hws[use, None])
     terms = six_dof_band_terms(
         hws[use],
         bands["amplitude_deg"][use],
         bands["period_s"][use],
-        band_cos_psi=bands["cos_psi"][use],
+        band_cos_psi=np.where(wind_sea, bands["cos_psi"][use], 0.0),
         band_cos_sq_psi=bands["cos_sq_psi"][use],
         surrogate=surrogate,
         scan_period_s=scan_period_s,

@@ -27,12 +27,31 @@ from flidar_uq.physics.hull import G_MS2, get_hull
 from flidar_uq.physics.turbulence import complex_normal_coefficients
 
 __all__ = [
+    "WIND_SEA_MAX_WAVE_AGE",
     "WaveSystem",
+    "downwind_side_known",
     "jonswap_spectrum",
     "tilt_series",
     "hull_motion_series",
     "dominant_period_s",
 ]
+
+
+#: Largest wave age ``c / U`` (phase speed over the mean wind speed) of waves the wind still
+#: drives: the fully developed sea of Pierson & Moskowitz (1964) has its peak at
+#: ``c_p / U_19.5 = 1.14``, about 1.2 in the 10-m wind. Older waves are swell.
+WIND_SEA_MAX_WAVE_AGE = 1.2
+
+
+def downwind_side_known(period_s, hws_ms) -> np.ndarray:
+    """True where waves of ``period_s`` (s) can be taken to run downwind in a wind of
+    ``hws_ms`` (m/s): deep-water wave age ``c / U = g T / (2 pi U)`` at most
+    :data:`WIND_SEA_MAX_WAVE_AGE` (Pierson & Moskowitz 1964). A tilt record cannot tell
+    a wave running downwind from one running upwind; for wind sea the wind decides, for
+    swell (older waves) neither side is known."""
+    c = G_MS2 * np.asarray(period_s, float) / (2.0 * np.pi)
+    u = np.asarray(hws_ms, float)
+    return c <= WIND_SEA_MAX_WAVE_AGE * u
 
 
 @dataclass(frozen=True)
