@@ -32,6 +32,7 @@ separate run of one code to the CSV.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import filecmp
 import json
 import os
@@ -103,7 +104,8 @@ def step_args(base: Path, inp: Path, res: Path, new: bool) -> dict:
     """propagate()'s keyword arguments as the pipeline gives them (config/config.yaml)."""
     sys.path.insert(0, str(REPO / "src"))
     from flidar_uq.campaign.scenarios import reference_sampling
-    from flidar_uq.workflow.propagation_step import resolve_reference
+    from flidar_uq.correction.campaign import CorrectionSettings
+    from flidar_uq.correction.reference import Reference
 
     cfg = yaml.safe_load((REPO / "config" / "config.yaml").read_text())
     virtual = reference_sampling(REPO / "config" / "scenarios" / "default.yaml")
@@ -113,19 +115,12 @@ def step_args(base: Path, inp: Path, res: Path, new: bool) -> dict:
         scan_refocus_delay_s=list(virtual["refocus_delay_s"]),
         turbulence_dt_s=virtual["turbulence_dt_s"],
     )
-    if not new:
-        prop.pop("budget_ndraws", None)
-    ref = resolve_reference(
-        dict(cfg["reference"]),
-        virtual_kind=virtual["reference_kind"],
-        record_columns=None,
-        lidar=cfg["campaign"]["lidar"],
-    )
+    ref = Reference.from_config(
+        cfg["reference"], lidar=cfg["campaign"]["lidar"], virtual_kind=virtual["reference_kind"]
+    ).to_config()
     batches = sorted(str(p) for p in (base / "inference").glob("batch_*"))
     res.mkdir(parents=True, exist_ok=True)
-    old_only = {} if new else {"bins_out": str(res / "bins.csv")}  # a rule of its own now
-    return dict(
-        **old_only,
+    inputs = dict(
         records_path=str(inp / "data" / "records.csv"),
         flags_path=str(inp / "qc" / "flags.csv"),
         assignments_path=str(inp / "bins" / "assignments.csv"),
@@ -134,6 +129,16 @@ def step_args(base: Path, inp: Path, res: Path, new: bool) -> dict:
         bin_fits_path=str(base / "inference" / "bin_fits.csv"),
         batch_dirs=batches,
         global_path=str(base / "posterior" / "global.nc"),
+        reference=ref,
+    )
+    if new:  # the library's settings, built from the config as the workflow does
+        settings = CorrectionSettings.from_config(cfg | {"propagation": prop})
+        return inputs | {"out_dir": str(res), "settings": dataclasses.asdict(settings)}
+    # the step's signature before the library API (one keyword per option)
+    prop.pop("budget_ndraws", None)
+    return dict(
+        **inputs,
+        bins_out=str(res / "bins.csv"),
         records_out=str(res / "records.csv"),
         speed_bins_out=str(res / "speed_bins.csv"),
         metrics_out=str(res / "metrics.csv"),
@@ -143,7 +148,6 @@ def step_args(base: Path, inp: Path, res: Path, new: bool) -> dict:
         min_count=cfg["report"]["group_min_count"],
         seed=cfg["inference"]["seed"],
         lidar=cfg["campaign"]["lidar"],
-        reference=ref,
         **prop,
     )
 
@@ -189,10 +193,11 @@ def compare(new: Path, old: Path) -> dict:
 BUDGET_MC_RUNNER = """
 import json, sys
 import numpy as np
+import flidar_uq.correction.campaign as lib
 import flidar_uq.workflow.propagation_step as step
 args, rep = json.loads(sys.argv[1]), int(sys.argv[2])
 # only the propagation's random numbers change with rep (the point target keeps its seed)
-step.child_seed = lambda seed, *key: np.random.SeedSequence(int(seed), spawn_key=(*key, rep))
+lib.child_seed = lambda seed, *key: np.random.SeedSequence(int(seed), spawn_key=(*key, rep))
 step.propagate(**args)
 """
 
@@ -211,7 +216,7 @@ def budget_mc(base: Path, work: Path, size: str, reps: int, draws: list[int]) ->
         for rep in range(reps):
             res = work / size / f"budget_{nb}_{rep}"
             args = step_args(base, inp, res, new=True)
-            args.update(ndraws=max(draws), budget_ndraws=nb)
+            args["settings"].update(ndraws=max(draws), budget_ndraws=nb)
             env = dict(os.environ, PYTHONPATH=str(REPO / "src"))
             subprocess.run(
                 ["nice", "-n", "5", sys.executable, "-c", BUDGET_MC_RUNNER, json.dumps(args),

@@ -35,11 +35,11 @@ import pandas as pd  # noqa: E402
 import yaml  # noqa: E402
 
 from flidar_uq.campaign.scenarios import reference_sampling  # noqa: E402
+from flidar_uq.correction.reference import Reference  # noqa: E402
 from flidar_uq.inference import Priors, SamplerSettings, record_fit, sampler  # noqa: E402
 from flidar_uq.physics.surrogate import get_surrogate  # noqa: E402
 from flidar_uq.seeding import child_seed  # noqa: E402
 from flidar_uq.workflow.files import read_csv  # noqa: E402
-from flidar_uq.workflow.propagation_step import reference_noise, resolve_reference  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 OUT = REPO / "benchmarks" / "results" / "record_fit_kappa_bound"
@@ -52,16 +52,12 @@ def main() -> None:
     args = ap.parse_args()
     cfg = yaml.safe_load((REPO / "config" / "config.yaml").read_text())
     virtual = reference_sampling("default")
-    ref = resolve_reference(
-        dict(cfg["reference"]),
-        virtual_kind=virtual["reference_kind"],
-        record_columns=None,
-        lidar="zephir300",
+    ref = Reference.from_config(
+        cfg["reference"], lidar="zephir300", virtual_kind=virtual["reference_kind"]
     )
     records = read_csv(args.assignments)
-    *_, pair = reference_noise(
+    *_, pair = ref.noise(
         records,
-        ref,
         heights_in_turn=virtual["heights_in_turn"],
         refocus_delay_s=virtual["refocus_delay_s"],
         point_sample_interval_s=1.0,

@@ -14,11 +14,11 @@ import yaml
 
 from flidar_uq.campaign.scenarios import CampaignConfig, load_scenario, reference_sampling
 from flidar_uq.correction.propagation import corrected_ti, reference_target
+from flidar_uq.correction.reference import Reference
 from flidar_uq.data.metrics import reference_label, reference_values, score_estimates
 from flidar_uq.physics.surrogate import get_surrogate
 from flidar_uq.validation.regimes import scenario_calibration, scenario_records
 from flidar_uq.workflow.inputs import SCHEMA_PATH
-from flidar_uq.workflow.propagation_step import resolve_reference
 
 REPO = Path(__file__).resolve().parents[1]
 SCHEMA = SCHEMA_PATH
@@ -63,40 +63,40 @@ def test_reference_kind_required_when_records_carry_a_reference():
     with pytest.raises(
         ValueError, match=r"^config key reference\.kind is missing: .*ref_hws_std_ms"
     ):
-        resolve_reference(
+        Reference.from_config(
             {"kind": None}, virtual_kind=None, record_columns=REF_COLUMNS, lidar="zephir300"
         )
     with pytest.raises(ValueError, match=r"reference\.kind is 'none' but the records carry"):
-        resolve_reference(
+        Reference.from_config(
             {"kind": "none"}, virtual_kind=None, record_columns=REF_COLUMNS, lidar="zephir300"
         )
-    no_ref = resolve_reference(
+    no_ref = Reference.from_config(
         {"kind": None}, virtual_kind=None, record_columns=REF_COLUMNS[:3], lidar="zephir300"
     )
-    assert no_ref["kind"] == "none" and no_ref["lidar"] == "zephir300"
-    cup = resolve_reference(
+    assert no_ref.kind == "none" and no_ref.lidar == "zephir300"
+    cup = Reference.from_config(
         {"kind": "cup", "lidar": None},
         virtual_kind=None,
         record_columns=REF_COLUMNS,
         lidar="zephir300",
     )
-    assert cup["kind"] == "cup"
+    assert cup.kind == "cup"
 
 
 def test_virtual_campaign_sets_the_reference_kind_itself():
     kind = reference_sampling("cup_reference")["reference_kind"]
     assert kind == "cup"
     assert reference_sampling("default")["reference_kind"] == "fixed_lidar"
-    got = resolve_reference(
+    got = Reference.from_config(
         {"kind": None}, virtual_kind=kind, record_columns=None, lidar="zephir300"
     )
-    assert got["kind"] == "cup"
+    assert got.kind == "cup"
     with pytest.raises(ValueError, match=r"reference\.kind='fixed_lidar' contradicts"):
-        resolve_reference(
+        Reference.from_config(
             {"kind": "fixed_lidar"}, virtual_kind="cup", record_columns=None, lidar="zephir300"
         )
     with pytest.raises(ValueError, match=r"reference\.lidar='no_such_lidar'"):
-        resolve_reference(
+        Reference.from_config(
             {"kind": "fixed_lidar", "lidar": "no_such_lidar"},
             virtual_kind=None,
             record_columns=REF_COLUMNS,
@@ -451,43 +451,43 @@ def test_pair_sampling_correlation_per_record_from_the_config_and_the_heading():
 
 
 def test_sampling_correlation_auto_is_synchronized_for_the_virtual_twin_else_zero():
-    user = resolve_reference(
+    user = Reference.from_config(
         {"kind": "fixed_lidar"}, virtual_kind=None, record_columns=["ref_hws_std_ms"],
         lidar="zephir300",
     )  # fmt: skip
-    assert user["sampling_correlation"] == 0.0
-    virtual = resolve_reference(
+    assert user.sampling_correlation == 0.0
+    virtual = Reference.from_config(
         {"kind": None, "sampling_correlation": "auto"}, virtual_kind="fixed_lidar",
         record_columns=None, lidar="zephir300",
     )  # fmt: skip
-    assert virtual["sampling_correlation"] == "synchronized"
+    assert virtual.sampling_correlation == "synchronized"
     # resolved once (common.smk), unchanged when the step resolves it again
-    again = resolve_reference(virtual, virtual_kind=None, record_columns=None, lidar="zephir300")
-    assert again["sampling_correlation"] == "synchronized"
-    given = resolve_reference(
+    again = Reference.from_config(virtual.to_config(), lidar="zephir300")
+    assert again.sampling_correlation == "synchronized"
+    given = Reference.from_config(
         {"kind": "fixed_lidar", "sampling_correlation": 0.4}, virtual_kind=None,
         record_columns=None, lidar="zephir300",
     )  # fmt: skip
-    assert given["sampling_correlation"] == 0.4
+    assert given.sampling_correlation == 0.4
 
 
 @pytest.mark.parametrize(
     "kind", [pytest.param("fixed_lidar", marks=pytest.mark.slow), "cup"]
 )  # fixed_lidar: ~30 s of scan simulation (point scatter and pair correlation)
 def test_pipeline_record_fit_takes_the_reference_lidars_pair_term(tmp_path, monkeypatch, kind):
-    """fit_global_model (model record) passes the pair term of the same reference_noise the
+    """fit_global_model (model record) passes the pair term of the same Reference.noise the
     propagation uses: sqrt(2 (1 - c)) sd per record for a fixed lidar, none for a cup."""
     from flidar_uq import inference
-    from flidar_uq.workflow import inference_steps, propagation_step
+    from flidar_uq.workflow import inference_steps
 
     seen, spied = {}, []
-    real_noise = propagation_step.reference_noise
+    real_noise = Reference.noise
 
     def spy(*args, **kwargs):
         spied.append(real_noise(*args, **kwargs))
         return spied[-1]
 
-    monkeypatch.setattr(propagation_step, "reference_noise", spy)
+    monkeypatch.setattr(Reference, "noise", spy)
 
     class _Fit:
         converged, failure_reasons, info = True, [], {"hull_model": "rotation_only"}
@@ -504,7 +504,7 @@ def test_pipeline_record_fit_takes_the_reference_lidars_pair_term(tmp_path, monk
     )  # fmt: skip
     rec.to_csv(tmp_path / "assign.csv", index=False)
     cfg = _yaml(CONFIG)
-    ref = resolve_reference(
+    ref = Reference.from_config(
         {"kind": kind, "sampling_correlation": "synchronized"}, virtual_kind=None,
         record_columns=None, lidar="zephir300",
     )  # fmt: skip
@@ -513,7 +513,7 @@ def test_pipeline_record_fit_takes_the_reference_lidars_pair_term(tmp_path, monk
     inference_steps.fit_global_model(
         [], tmp_path / "assign.csv", tmp_path / "global.nc", model="record",
         inference=cfg["inference"], priors=cfg["priors"], lidar="zephir300",
-        reference=ref, propagation=scan,
+        reference=ref.to_config(), propagation=scan,
     )  # fmt: skip
     if kind == "cup":
         assert seen["pair_log_sd"] is None and not spied

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from flidar_uq.workflow.propagation_step import record_groups
+from flidar_uq.correction.campaign import record_groups
 from flidar_uq.workflow.report_step import (
     build_developer_report,
     file_provenance,

@@ -25,11 +25,11 @@ import pandas as pd
 import pytest
 import yaml
 
+from flidar_uq.correction.campaign import RECORD_COLUMNS
 from flidar_uq.data.calibration import calibration_by_group, speed_group_label
 from flidar_uq.workflow.data_steps import assign_batches
 from flidar_uq.workflow.inference_steps import bin_seed
 from flidar_uq.workflow.inputs import SCHEMA_PATH
-from flidar_uq.workflow.propagation_step import RECORD_COLUMNS
 
 REPO = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))

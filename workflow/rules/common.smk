@@ -87,23 +87,20 @@ def user_part_files(wildcards):
 
 
 def reference_params():
-    """config["reference"] with its kind decided (flidar_uq.workflow.propagation_step.
-    resolve_reference): from the virtual campaign's scenario; for the user's files the
-    config's kind, checked against the records' ref_* columns by pipeline_preflight at
+    """config["reference"] resolved (flidar_uq.correction.reference.Reference.from_config),
+    as plain values: its kind from the virtual campaign's scenario; for the user's files
+    the config's kind, checked against the records' ref_* columns by pipeline_preflight at
     parse time (one line, exit status 2)."""
-    from flidar_uq.workflow.propagation_step import resolve_reference
+    from flidar_uq.correction.reference import Reference
 
     virtual_kind = None
     if config["campaign"]["source"] == "virtual":
         from flidar_uq.campaign.scenarios import reference_sampling
 
         virtual_kind = reference_sampling(scenario_file(None))["reference_kind"]
-    return resolve_reference(
-        dict(config["reference"]),
-        virtual_kind=virtual_kind,
-        record_columns=None,
-        lidar=config["campaign"]["lidar"],
-    )
+    return Reference.from_config(
+        config["reference"], lidar=config["campaign"]["lidar"], virtual_kind=virtual_kind
+    ).to_config()
 
 
 def bin_ids():
@@ -130,7 +127,7 @@ def batch_of_bin(wildcards):
 def propagation_params():
     """config["propagation"] with the "auto" sampling keys resolved: from the virtual
     campaign's scenario (source virtual), else the data-driven defaults of
-    flidar_uq.workflow.propagation_step.propagate (heights counted in the records, continuous spectrum)."""
+    flidar_uq.correction.campaign.CorrectionSettings (heights counted in the records, continuous spectrum)."""
     params = dict(config["propagation"])
     sampling = {
         "scan_heights_in_turn": None,
@@ -150,6 +147,16 @@ def propagation_params():
         if params[key] == "auto":
             params[key] = value
     return params
+
+
+def correction_settings():
+    """The propagation's options (flidar_uq.correction.campaign.CorrectionSettings, built
+    from the config with the "auto" sampling keys resolved), as plain values."""
+    from dataclasses import asdict
+
+    from flidar_uq.correction.campaign import CorrectionSettings
+
+    return asdict(CorrectionSettings.from_config(config | {"propagation": propagation_params()}))
 
 
 def _series_paths():

@@ -131,13 +131,9 @@ rule propagate:
             category="Corrected TI",
         ),
     params:
-        propagation=propagation_params(),
-        sector_width_deg=config["report"]["sector_width_deg"],
-        group_min_count=config["report"]["group_min_count"],
+        settings=correction_settings(),
         reference=reference_params(),
         qc=config["qc"],
-        lidar=config["campaign"]["lidar"],
-        seed=config["inference"]["seed"],
     conda:
         "../envs/flidar_uq.yaml"
     log:

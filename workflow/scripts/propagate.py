@@ -1,10 +1,15 @@
 """Rule propagate: corrected TI with credible intervals per record and bin (propagation_step.propagate)."""
 
+from pathlib import Path
+
 from flidar_uq.workflow.files import setup_logging
 from flidar_uq.workflow.propagation_step import propagate
 
 snakemake = globals()["snakemake"]  # injected by the script directive
 setup_logging(snakemake.log[0])
+out_dir = Path(snakemake.output.records).parent
+# to_files writes the five tables of the rule's outputs, all in one directory
+assert all(Path(p).parent == out_dir for p in snakemake.output), snakemake.output
 propagate(
     records_path=snakemake.input.records,
     flags_path=snakemake.input.flags,
@@ -14,15 +19,7 @@ propagate(
     bin_fits_path=snakemake.input.get("bin_fits"),
     batch_dirs=list(snakemake.input.get("batches", [])),
     global_path=snakemake.input.posterior,
-    records_out=snakemake.output.records,
-    speed_bins_out=snakemake.output.speed_bins,
-    metrics_out=snakemake.output.metrics,
-    groups_out=snakemake.output.groups,
-    budget_out=snakemake.output.budget,
-    sector_width_deg=snakemake.params.sector_width_deg,
-    min_count=snakemake.params.group_min_count,
-    seed=snakemake.params.seed,
-    lidar=snakemake.params.lidar,
+    out_dir=out_dir,
     reference=dict(snakemake.params.reference),
-    **dict(snakemake.params.propagation),
+    settings=dict(snakemake.params.settings),
 )

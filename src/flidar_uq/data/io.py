@@ -18,6 +18,7 @@ from __future__ import annotations
 import csv
 import gzip
 import io
+import os
 import re
 import zlib
 from collections.abc import Iterable, Mapping
@@ -52,7 +53,9 @@ __all__ = [
     "DataValidationError",
     "HEIGHT_FIELD",
     "check_column_map",
+    "read_csv",
     "read_records",
+    "write_csv",
     "write_records",
     "validate_records",
     "read_imu_series",
@@ -1267,3 +1270,25 @@ def los_imu_match(
             n_more=t_los.size - 1,
         )
     return ok
+
+
+#: how every result table writes a time stamp (UTC)
+_DATE_FORMAT = "%Y-%m-%dT%H:%M:%SZ"
+
+
+def write_csv(df: pd.DataFrame, path: str | os.PathLike, *, float_format: str = "%.10g") -> None:
+    """Write a result table deterministically (fixed float format, no index; ``"%.17g"``
+    keeps every bit of a float64, for tables that feed later steps exactly)."""
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    df.to_csv(
+        path,
+        index=False,
+        float_format=float_format,
+        lineterminator="\n",
+        date_format=_DATE_FORMAT,
+    )
+
+
+def read_csv(path: str | os.PathLike) -> pd.DataFrame:
+    """Read a result table written by :func:`write_csv`."""
+    return pd.read_csv(path, keep_default_na=True)

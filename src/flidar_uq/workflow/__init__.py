@@ -8,7 +8,7 @@ step, exit statuses, the validation report), :mod:`.files` (CSV read/write, logg
 :mod:`.data_steps` (campaign, validate,
 QC, motion statistics, bins, sigma_Z table), :mod:`.imu_step` (motion statistics of a raw IMU
 series), :mod:`.inference_steps` (per-bin batches, global models, global fit),
-:mod:`.propagation_step` (corrected TI), :mod:`.los_step` (the LOS branch and its agreement
+:mod:`.propagation_step` (corrected TI: files in, :func:`flidar_uq.correction.campaign.correct_campaign`, files out), :mod:`.los_step` (the LOS branch and its agreement
 with the Bayesian TI), :mod:`.report_step` (HTML report), :mod:`.series_report` (its section
 of the raw series), :mod:`.report` (HTML building blocks), :mod:`.plots` (figures),
 :mod:`.fleet` (the summary of a fleet of campaigns, ``results/fleet/``).

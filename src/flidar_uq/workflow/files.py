@@ -13,8 +13,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-import pandas as pd
-
+from flidar_uq.data.io import read_csv, write_csv
 from flidar_uq.threads import numeric_environment
 
 __all__ = ["JobResources", "bin_file", "job_resources", "read_csv", "setup_logging", "write_csv"]
@@ -87,28 +86,6 @@ def job_resources(log_path: str | os.PathLike) -> JobResources | None:
         return None
     cpu, rss, end = found[-1]
     return JobResources(float(cpu), float(rss), float(end) if end else None)
-
-
-#: how every result table writes a time stamp (UTC)
-_DATE_FORMAT = "%Y-%m-%dT%H:%M:%SZ"
-
-
-def write_csv(df: pd.DataFrame, path: str | os.PathLike, *, float_format: str = "%.10g") -> None:
-    """Write a result table deterministically (fixed float format, no index; ``"%.17g"``
-    keeps every bit of a float64, for tables that feed later steps exactly)."""
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    df.to_csv(
-        path,
-        index=False,
-        float_format=float_format,
-        lineterminator="\n",
-        date_format=_DATE_FORMAT,
-    )
-
-
-def read_csv(path: str | os.PathLike) -> pd.DataFrame:
-    """Read a result table written by :func:`write_csv`."""
-    return pd.read_csv(path, keep_default_na=True)
 
 
 def bin_file(batch_dirs: Sequence[str | os.PathLike], bin_id: int) -> Path:

@@ -162,15 +162,16 @@ def fit_global_model(
     per-bin fits and write its posterior (NetCDF) to ``out_path``.
 
     ``lidar`` (config ``campaign.lidar``) picks the sigma_Z surrogate, the same one
-    :func:`flidar_uq.workflow.propagation_step.propagate` uses.
+    :func:`flidar_uq.correction.campaign.correct_campaign` uses.
 
-    ``reference`` (:func:`flidar_uq.workflow.propagation_step.resolve_reference`'s output)
-    and ``propagation`` (config ``propagation`` with its scan keys resolved): with a fixed
-    reference lidar, the record model takes the two lidars' sampling scatter against each
-    other as known (``fit_record_model(pair_log_sd=...)``, the pair term of
-    :func:`flidar_uq.workflow.propagation_step.reference_noise`, the same numbers the
-    propagation uses), so that ``kappa`` is the floating lidar's own noise. None: no pair
-    term (``kappa`` holds both lidars' sampling).
+    ``reference`` (:meth:`flidar_uq.correction.reference.Reference.to_config` of the
+    resolved reference) and ``propagation`` (config ``propagation`` with its scan keys
+    resolved): with a fixed reference lidar, the record model takes the two lidars'
+    sampling scatter against each other as known (``fit_record_model(pair_log_sd=...)``,
+    the pair term of :meth:`flidar_uq.correction.reference.Reference.noise` with the
+    :class:`flidar_uq.correction.campaign.CorrectionSettings` of the config, the same
+    numbers the propagation uses), so that ``kappa`` is the floating lidar's own noise.
+    None: no pair term (``kappa`` holds both lidars' sampling).
 
     The three models run as parallel jobs; :func:`fit_global` then picks one by PSIS-LOO.
     Each model's draws depend only on the seed (``inference.fit_global`` seeds each model
@@ -194,23 +195,24 @@ def fit_global_model(
         lever = inference.get("lever_arm_m")
         pair_log_sd = None
         if reference is not None and reference["kind"] == "fixed_lidar":
-            from flidar_uq.workflow.propagation_step import reference_noise
+            from flidar_uq.correction.campaign import CorrectionSettings
+            from flidar_uq.correction.reference import Reference
 
-            scan = propagation or {}
-            *_, corr, pair_log_sd = reference_noise(
-                assigned,
-                reference,
-                heights_in_turn=scan.get("scan_heights_in_turn")
-                or int(assigned["height_m"].nunique()),
-                refocus_delay_s=scan.get("scan_refocus_delay_s", (0.3, 0.7)),
-                point_sample_interval_s=scan.get("point_sample_interval_s", 1.0),
-                turbulence_dt_s=scan.get("turbulence_dt_s"),
-                seed=inference["seed"],
+            ref = Reference.from_config(reference, lidar=reference["lidar"])
+            settings = CorrectionSettings.from_config(
+                {
+                    "propagation": propagation or {},
+                    "inference": inference,
+                    "campaign": {"lidar": lidar},
+                }
+            )
+            *_, corr, pair_log_sd = settings.reference_noise(
+                assigned, ref, heights=settings.heights_in_turn(assigned)
             )
             log.info(
                 "record model: reference lidar's sampling correlation (%s) %.3f-%.3f, "
                 "pair log-sd %.4f-%.4f taken as known",
-                reference["sampling_correlation"], np.nanmin(corr), np.nanmax(corr),
+                ref.sampling_correlation, np.nanmin(corr), np.nanmax(corr),
                 np.nanmin(pair_log_sd), np.nanmax(pair_log_sd),
             )  # fmt: skip
         fit = inf.fit_record_model_selecting_hull(

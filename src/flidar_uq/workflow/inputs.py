@@ -755,12 +755,12 @@ def exit_status(exc: BaseException) -> int | None:
     return None
 
 
-def check_reference(config: dict, record_columns=None) -> dict:
+def check_reference(config: dict, record_columns=None):
     """``config["reference"]`` resolved for the user's records (``record_columns``: their
     columns after the column map) or the virtual campaign's scenario:
-    :func:`flidar_uq.workflow.propagation_step.resolve_reference`, whose one-line error
+    :meth:`flidar_uq.correction.reference.Reference.from_config`, whose one-line error
     becomes a :class:`ConfigError` naming the key (exit status 2)."""
-    from flidar_uq.workflow.propagation_step import resolve_reference
+    from flidar_uq.correction.reference import Reference
 
     camp = config["campaign"]
     virtual_kind = None
@@ -775,11 +775,11 @@ def check_reference(config: dict, record_columns=None) -> dict:
         )
         virtual_kind = reference_sampling(path)["reference_kind"]
     try:
-        return resolve_reference(
-            dict(config.get("reference") or {}),
+        return Reference.from_config(
+            config.get("reference"),
+            lidar=camp["lidar"],
             virtual_kind=virtual_kind,
             record_columns=record_columns,
-            lidar=camp["lidar"],
         )
     except ValueError as err:
         raise ConfigError("reference", str(err), message=str(err)) from None

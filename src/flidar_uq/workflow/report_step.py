@@ -519,8 +519,8 @@ def _direction_section(ctx: dict) -> rep.Section:
 
 def _motion_section(ctx: dict) -> rep.Section:
     """The buoy's motion: tilt and period distributions; the correction's error by sea state."""
+    from flidar_uq.correction.campaign import record_groups
     from flidar_uq.workflow import plots
-    from flidar_uq.workflow.propagation_step import record_groups
 
     data, records, v = ctx["data"], ctx["records"], ctx["validation"]
     amp = [c for c in ("roll_amplitude_deg", "pitch_amplitude_deg") if c in data]

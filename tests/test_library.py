@@ -1,0 +1,164 @@
+"""The correction as a library: Reference.from_config per kind, correct_campaign equal to the
+workflow step's files, the package's user path, and the code of docs/library.md run as is."""
+
+from __future__ import annotations
+
+import dataclasses
+import filecmp
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from test_propagate import _bin_fit, _global_fit, _records
+
+import flidar_uq
+from flidar_uq.correction.campaign import (
+    RESULT_FILES,
+    BinTables,
+    CorrectionSettings,
+    correct_campaign,
+)
+from flidar_uq.correction.reference import REFERENCE_KINDS, Reference
+from flidar_uq.workflow.files import write_csv
+from flidar_uq.workflow.propagation_step import propagate
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.parametrize("kind", REFERENCE_KINDS)
+def test_reference_from_config_of_each_kind(kind):
+    ref = Reference.from_config({"kind": kind, "height_m": [58.0, 85.0]}, lidar="windcube_v2")
+    assert ref.kind == kind and ref.lidar == "windcube_v2"
+    assert ref.sampling_correlation == 0.0  # a user's fixed lidar: its own scan schedule
+    assert ref.height_m == (58.0, 85.0) and ref.height_label() == "58;85"
+    # the workflow passes it as plain values and resolves it again: the same reference
+    assert Reference.from_config(ref.to_config(), lidar="zephir300") == ref
+
+
+def test_reference_from_config_refuses_an_unknown_kind_in_one_line():
+    with pytest.raises(ValueError) as err:
+        Reference.from_config({"kind": "mast"}, lidar="zephir300")
+    assert str(err.value) == (
+        "config key reference.kind='mast' must be one of cup, sonic, fixed_lidar, none"
+    )
+
+
+def test_correction_settings_from_the_config_sections():
+    cfg = {
+        "propagation": {
+            "ndraws": 50,
+            "scan_heights_in_turn": "auto",
+            "scan_refocus_delay_s": [0.2, 0.6],
+        },
+        "report": {"sector_width_deg": 45, "group_min_count": 3},
+        "inference": {"seed": 7},
+        "campaign": {"lidar": "windcube_v2"},
+    }
+    s = CorrectionSettings.from_config(cfg)
+    assert (s.ndraws, s.seed, s.lidar, s.sector_width_deg, s.min_count) == (
+        50, 7, "windcube_v2", 45, 3
+    )  # fmt: skip
+    assert s.scan_heights_in_turn is None and s.scan_refocus_delay_s == (0.2, 0.6)
+
+
+def _campaign_files(tmp_path: Path) -> dict:
+    """A two-bin campaign of the bin motion model written as the pipeline's inputs of the
+    propagation (one record flagged by QC, one unbinned), the fits kept in memory."""
+    rec = pd.concat(
+        [_records([0.6, 0.7, 0.8], bin_id=1), _records([0.5, 0.9], hws=11.0, bin_id=2)],
+        ignore_index=True,
+    )
+    n = len(rec)
+    rec = rec.drop(columns="bin_id").assign(
+        timestamp=[f"2015-04-01T0{i}:00:00Z" for i in range(n)],
+        height_m=[58.0, 85.0, 58.0, 85.0, 58.0],
+        ref_hws_mean_ms=rec["hws_mean_ms"] * 0.98,
+        ref_hws_std_ms=rec["hws_std_ms"] * 0.8,
+        wd_mean_deg=[10.0, 40.0, 200.0, 250.0, 355.0],
+    )
+    flags = pd.DataFrame(
+        {"record_id": np.arange(n), "timestamp": rec["timestamp"],
+         "reasons": ["", "", "availability_low", "", ""]}
+    )  # fmt: skip
+    assignments = pd.DataFrame({"record_id": [0, 1, 3, 4], "bin_id": [1, 1, 2, 2]})
+    table = pd.DataFrame({"bin_id": [1, 2], "fitted": [True, True]})
+    sigma_z = pd.DataFrame({"bin_id": [1, 2], "sigma_z_ms": [0.2, 0.25]})
+    status = pd.DataFrame({"bin_id": [1, 2], "status": ["ok", "ok"]})
+    paths = {}
+    for name, df in (("records", rec), ("flags", flags), ("assignments", assignments),
+                     ("table", table), ("sigma_z", sigma_z), ("bin_fits", status)):  # fmt: skip
+        paths[name] = tmp_path / f"{name}.csv"
+        write_csv(df, paths[name])
+    fits = {1: _bin_fit(1, 3.0, 4.0), 2: _bin_fit(2, 2.5, 5.0)}
+    bins = BinTables(assignments, table, sigma_z, status=status, fits=fits)
+    return {"paths": paths, "records": rec, "flags": flags, "bins": bins, "fits": fits}
+
+
+def test_correct_campaign_writes_the_workflow_steps_files(tmp_path, monkeypatch):
+    from flidar_uq import inference
+    from flidar_uq.workflow import propagation_step
+
+    camp = _campaign_files(tmp_path)
+    gfit = _global_fit(0.3, 0.02, 0.05)
+    monkeypatch.setattr(inference, "load_fit", lambda path: gfit)
+    monkeypatch.setattr(propagation_step, "load_bin_fits", lambda dirs, status: camp["fits"])
+    reference = Reference.from_config(
+        {"kind": "cup", "height_m": 70.0, "separation_m": 60.0}, lidar="zephir300"
+    )
+    settings = CorrectionSettings(ndraws=60, budget_ndraws=30, seed=5, min_count=2)
+    p = camp["paths"]
+    propagate(
+        records_path=p["records"], flags_path=p["flags"], assignments_path=p["assignments"],
+        table_path=p["table"], sigma_z_path=p["sigma_z"], bin_fits_path=p["bin_fits"],
+        batch_dirs=[], global_path=tmp_path / "global.nc", out_dir=tmp_path / "step",
+        reference=reference.to_config(), settings=dataclasses.asdict(settings),
+    )  # fmt: skip
+    result = correct_campaign(
+        camp["records"], gfit, reference, settings, flags=camp["flags"], bins=camp["bins"]
+    )
+    written = result.to_files(tmp_path / "library")
+    assert sorted(f.name for f in written.values()) == sorted(RESULT_FILES.values())
+    for name, path in written.items():
+        assert filecmp.cmp(path, tmp_path / "step" / path.name, shallow=False), name
+    out = result.records
+    assert out["flags"].tolist()[2] == "availability_low"
+    assert out["ti_corrected_median"].notna().sum() == 4  # the four binned records
+    assert set(result.groups["grouping"]) == {"campaign", "direction sector", "sea state"}
+    assert result.metrics["reference_height_m"].iloc[0] == "70"
+
+
+def test_correct_campaign_refuses_a_bin_model_without_its_bins():
+    with pytest.raises(ValueError, match="bin motion model needs the bins"):
+        correct_campaign(_records([0.6]), _global_fit(0.3), Reference(), CorrectionSettings())
+
+
+def test_the_package_exports_the_user_path_lazily():
+    code = (
+        "import sys, flidar_uq; assert 'flidar_uq.correction' not in sys.modules; "
+        "flidar_uq.correct_campaign; assert 'flidar_uq.correction.campaign' in sys.modules"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+    for name in flidar_uq.__all__:
+        assert getattr(flidar_uq, name) is not None, name
+    with pytest.raises(AttributeError, match="no attribute 'nope'"):
+        flidar_uq.nope  # noqa: B018
+
+
+def _doc_code() -> str:
+    text = (REPO / "docs" / "library.md").read_text()
+    (block,) = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    return block
+
+
+@pytest.mark.slow  # ~40 s: a short record fit of 30 records
+def test_the_library_page_runs_end_to_end(tmp_path, monkeypatch):
+    monkeypatch.chdir(REPO)
+    code = _doc_code().replace('"results/ti"', repr(str(tmp_path / "ti")))
+    exec(compile(code, "docs/library.md", "exec"), {})
+    records = pd.read_csv(tmp_path / "ti" / "records.csv")
+    assert len(records) == 30 and records["ti_corrected_median"].notna().any()
+    assert sorted(p.name for p in (tmp_path / "ti").iterdir()) == sorted(RESULT_FILES.values())
