@@ -289,7 +289,8 @@ def _wrap180(deg):
 
 
 # ---------------------------------------------------------------------------
-# per-record random series (own generator per record)
+# per-record random series (own generator per record): wind, sea, lidar schedule and
+# IMU errors, drawn in this order
 # ---------------------------------------------------------------------------
 
 
@@ -340,94 +341,177 @@ def _scan_layout(geo) -> SimpleNamespace:
     )
 
 
-def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence, geo) -> dict:
-    """Random series of one record, drawn from its own generator in a fixed order."""
-    rng = np.random.default_rng(ss)
-    t_len = float(settings["record_length_s"])
-    dt = geo.los_duration_s
-    n_slots = int(round(t_len / dt))
+def _wind_turbulence(settings, par, i, rng, dt_s, n_slots):
+    """Wind: record ``i``'s mean HWS at each height and its turbulence.
+
+    Mean HWS by the power law ``U(z) = U_ref (z / z_ref)**alpha`` (m/s; docs/conventions.md,
+    Yamaguchi and Ishihara, 2016), ``U_ref`` (m/s at ``wind.reference_height_m``) and the
+    shear exponent ``alpha`` (dimensionless) the record's draws. Turbulence: the 1-D Kaimal
+    (u, v, w) fluctuations of IEC 61400-1 ed. 4 (2019), Annex C
+    (:func:`flidar_uq.physics.turbulence.kaimal_series`; m/s, wind frame), ``sigma_u``
+    (m/s) constant with height, independent between heights, sampled every
+    ``wind.wind_dt_s`` (a whole number of LOS slots of ``dt_s``, s) and held in between.
+
+    Returns ``hws_h`` (H,), m/s, and ``fluct_uvw`` (H, 3, Nw), m/s, over the record's
+    ``n_slots`` LOS slots.
+    """
     heights = np.asarray(settings["heights_m"], float)
     z_ref = float(settings["wind"]["reference_height_m"])
     alpha = par["shear_exponent"][i]
     hws_h = par["hws_ref_ms"][i] * (heights / z_ref) ** alpha  # power law (conventions.md)
     # 1-D Kaimal turbulence, sigma_u constant with height (IEC 61400-1)
     # turbulence on its own clock (wind_dt_s, a multiple of the LOS time), held between samples
-    step = wind_step_slots(settings, dt)
+    step = wind_step_slots(settings, dt_s)
     n_wind = -(-n_slots // step)
-    fluct = kaimal_series(n_wind, dt * step, hws_h, par["sigma_u_ms"][i], heights, rng)  # (H,3,Nw)
-    # motion
+    fluct = kaimal_series(n_wind, dt_s * step, hws_h, par["sigma_u_ms"][i], heights, rng)
+    return hws_h, fluct  # (H,), (H,3,Nw)
+
+
+def _sea_motion(settings, par, i, rng, dt_s, n_slots):
+    """Sea: the buoy's attitude and translation over record ``i``, on the LOS clock.
+
+    A random sea state (:func:`_sea_state_motion`) or harmonic six-degree-of-freedom
+    motion (:func:`_harmonic_motion`), by ``motion.model``. Returns ``roll, pitch`` (N,),
+    deg; ``yaw`` (N,), or (1,) for a constant heading, deg counter-clockwise from east
+    (docs/conventions.md); the translation of the rotation centre (N, 3), m, east-north-up,
+    or None for a hull that only rotates. ``N = n_slots`` slots of ``dt_s`` (s).
+    """
     m = settings["motion"]
     if m["model"] == "sea_state":
-        sea = m["sea_state"]
-        rel = par["heading_deg"][i]
-        w1 = par["weight1"][i]
-        amp = par["amplitude_deg"][i]
-        systems = {
-            "amplitude_deg": [[amp * np.sqrt(w1), amp * np.sqrt(max(1.0 - w1, 0.0))]],
-            "tp_s": [[par["tp1_s"][i], np.nan_to_num(par["tp2_s"][i], nan=6.0)]],
-            "gamma": [[par["gamma1"][i], float(sea["swell_gamma"])]],
-            # direction of travel relative to the body x axis (ENU angle minus heading)
-            "direction_deg": [[90.0 - par["dir1_deg"][i] - rel, 90.0 - par["dir2_deg"][i] - rel]],
-            "spread_deg": [[float(sea["spread_deg"]), float(sea["swell_spread_deg"])]],
-        }
-        yaw = np.array([rel])  # a constant heading: one value (broadcast over the slots)
-        if sea["hull"] == "rotation_only":
-            roll, pitch = tilt_series(n_slots, dt, systems, rng)
-            roll, pitch = roll[0], pitch[0]
-            trans = None
-        else:  # six degrees of freedom: the same draws, the tilt unchanged
-            hull = hull_motion_series(n_slots, dt, systems, rng, sea["hull"])
-            roll, pitch = hull["roll_deg"][0], hull["pitch_deg"][0]
-            trans = _body_to_enu(hull["surge_m"][0], hull["sway_m"][0], hull["heave_m"][0], rel)
-    else:
-        t = np.arange(n_slots) * dt
-        ph = rng.uniform(0.0, 2.0 * np.pi, size=6)
-        w_ = 2.0 * np.pi / par["period_s"][i]
-        roll = par["roll_amplitude_deg"][i] * np.sin(w_ * t + ph[0])
-        pitch = par["pitch_amplitude_deg"][i] * np.sin(w_ * t + ph[1])
-        yaw = par["heading_deg"][i] + par["yaw_amplitude_deg"][i] * np.sin(
-            2.0 * np.pi / par["yaw_period_s"][i] * t + ph[2]
-        )
-        wt = 2.0 * np.pi / par["translation_period_s"][i]
-        trans = np.stack(
-            [
-                par["surge_amplitude_m"][i] * np.sin(wt * t + ph[3]),
-                par["sway_amplitude_m"][i] * np.sin(wt * t + ph[4]),
-                par["heave_amplitude_m"][i] * np.sin(wt * t + ph[5]),
-            ],
-            axis=-1,
-        )
-    # lidar schedule: prism phase, refocusing delays, dropouts, outage
-    if getattr(geo, "dbs", False):
+        return _sea_state_motion(m["sea_state"], par, i, rng, dt_s, n_slots)
+    return _harmonic_motion(par, i, rng, dt_s, n_slots)
+
+
+def _sea_state_motion(sea, par, i, rng, dt_s, n_slots):
+    """Roll, pitch (deg), constant heading (deg) and translation (m) in a JONSWAP sea.
+
+    The wind sea and an optional swell (Hasselmann et al., 1973), tilt variance
+    ``amplitude_deg**2`` split between them by ``weight1``, each with its peak period (s),
+    peak enhancement ``gamma``, direction of travel relative to the body x axis (deg; ENU
+    angle minus the heading) and spread (deg): :func:`flidar_uq.physics.seastate.tilt_series`
+    for a hull that only rotates, or the six degrees of freedom of
+    :func:`flidar_uq.physics.seastate.hull_motion_series` (the same draws, the same tilt;
+    surge, sway, heave of linear deep-water waves, m), turned into east-north-up by
+    :func:`_body_to_enu`. Returns as :func:`_sea_motion`.
+    """
+    rel = par["heading_deg"][i]
+    w1 = par["weight1"][i]
+    amp = par["amplitude_deg"][i]
+    systems = {
+        "amplitude_deg": [[amp * np.sqrt(w1), amp * np.sqrt(max(1.0 - w1, 0.0))]],
+        "tp_s": [[par["tp1_s"][i], np.nan_to_num(par["tp2_s"][i], nan=6.0)]],
+        "gamma": [[par["gamma1"][i], float(sea["swell_gamma"])]],
+        # direction of travel relative to the body x axis (ENU angle minus heading)
+        "direction_deg": [[90.0 - par["dir1_deg"][i] - rel, 90.0 - par["dir2_deg"][i] - rel]],
+        "spread_deg": [[float(sea["spread_deg"]), float(sea["swell_spread_deg"])]],
+    }
+    yaw = np.array([rel])  # a constant heading: one value (broadcast over the slots)
+    if sea["hull"] == "rotation_only":
+        roll, pitch = tilt_series(n_slots, dt_s, systems, rng)
+        return roll[0], pitch[0], yaw, None
+    # six degrees of freedom: the same draws, the tilt unchanged
+    hull = hull_motion_series(n_slots, dt_s, systems, rng, sea["hull"])
+    trans = _body_to_enu(hull["surge_m"][0], hull["sway_m"][0], hull["heave_m"][0], rel)
+    return hull["roll_deg"][0], hull["pitch_deg"][0], yaw, trans
+
+
+def _harmonic_motion(par, i, rng, dt_s, n_slots):
+    """Harmonic six-degree-of-freedom motion (a motion platform; Malekmohammadi et al., 2024).
+
+    ``x(t) = A sin(2 pi t / T + phi)`` for roll, pitch and yaw about the heading (deg) and
+    for surge, sway, heave (m, east-north-up of a zero heading), amplitudes ``A`` and
+    periods ``T`` (s) the record's, phases ``phi`` (rad) uniform on [0, 2 pi), at
+    ``t = k dt_s`` (s). Returns as :func:`_sea_motion`.
+    """
+    t = np.arange(n_slots) * dt_s
+    ph = rng.uniform(0.0, 2.0 * np.pi, size=6)
+    w_ = 2.0 * np.pi / par["period_s"][i]
+    roll = par["roll_amplitude_deg"][i] * np.sin(w_ * t + ph[0])
+    pitch = par["pitch_amplitude_deg"][i] * np.sin(w_ * t + ph[1])
+    yaw = par["heading_deg"][i] + par["yaw_amplitude_deg"][i] * np.sin(
+        2.0 * np.pi / par["yaw_period_s"][i] * t + ph[2]
+    )
+    wt = 2.0 * np.pi / par["translation_period_s"][i]
+    trans = np.stack(
+        [
+            par["surge_amplitude_m"][i] * np.sin(wt * t + ph[3]),
+            par["sway_amplitude_m"][i] * np.sin(wt * t + ph[4]),
+            par["heave_amplitude_m"][i] * np.sin(wt * t + ph[5]),
+        ],
+        axis=-1,
+    )
+    return roll, pitch, yaw, trans
+
+
+def _lidar_schedule(settings, rng, lay, n_slots, n_heights):
+    """Scan schedule of a record: prism phase, scan starts, dropouts, outage.
+
+    A CW VAD lidar (ZephIR-like) scans the heights in turn, one prism revolution of
+    ``n_los`` slots a scan, then refocuses for a uniform random delay
+    (``lidar.refocus_delay_s``, s); the prism's azimuth slot at the record's first slot
+    ``k0`` is uniform, and a scan starts at the prism's azimuth then (``scan_phase: prism``;
+    Gutiérrez-Antuñano et al., 2018, Sec. 2.3) or at a uniform one (``random``). A pulsed
+    DBS lidar runs back-to-back cycles from the first beam (cycle ``n_los + dead_slots``
+    slots), every height from the same beams. A scan drops out with probability
+    ``lidar.scan_dropout_probability``, the whole record with
+    ``lidar.record_outage_probability``.
+
+    Returns ``k0``; ``phase_slots`` and ``starts`` (J,), slots; ``dropped`` (J,) bool;
+    ``outage`` bool.
+    """
+    if lay.dbs:
         # a pulsed DBS lidar: back-to-back cycles from the first beam, every height from
         # the same beams (range gates), so each cycle is a scan of every height
-        cycle = geo.n_los + geo.dead_slots
-        starts = np.repeat(np.arange(n_slots // cycle + 1) * cycle, heights.size)
+        cycle = lay.n_los + lay.dead_slots
+        starts = np.repeat(np.arange(n_slots // cycle + 1) * cycle, n_heights)
         j_max = starts.size
         k0 = 0
-        phase_slots = (-starts) % geo.n_los  # the kernel's slot index starts at beam 0
+        phase_slots = (-starts) % lay.n_los  # the kernel's slot index starts at beam 0
     else:
+        dt = lay.los_duration_s
         lo, hi = settings["lidar"]["refocus_delay_s"]
         delay_slots = (int(round(lo / dt)), int(round(hi / dt)))
-        j_max = int(np.ceil(n_slots / (geo.n_los + delay_slots[0]))) + 1
-        k0 = int(rng.integers(0, geo.n_los))
-        starts = _scan_schedule(rng, geo.n_los, delay_slots, j_max)
+        j_max = int(np.ceil(n_slots / (lay.n_los + delay_slots[0]))) + 1
+        k0 = int(rng.integers(0, lay.n_los))
+        starts = _scan_schedule(rng, lay.n_los, delay_slots, j_max)
         if settings["lidar"]["scan_phase"] == "random":
-            phase_slots = rng.integers(0, geo.n_los, size=j_max)
+            phase_slots = rng.integers(0, lay.n_los, size=j_max)
         else:
             phase_slots = np.zeros(j_max, dtype=int)
     dropped = rng.random(j_max) < float(settings["lidar"]["scan_dropout_probability"])
     outage = rng.random() < float(settings["lidar"]["record_outage_probability"])
-    # IMU
-    imu = settings["imu"]
+    return k0, phase_slots, starts, dropped, outage
+
+
+def _imu_errors(imu, rng, t_len_s):
+    """IMU errors of a record: white noise of ``imu.noise_deg`` (deg) on roll, pitch and yaw
+    at each of the ``floor(t_len_s * imu.rate_hz)`` samples, and with probability
+    ``imu.gap_probability`` one gap of uniform length (``imu.gap_length_range_s``, s) at a
+    uniform start. Returns the noise (3, n_imu), deg, and the gap ``(start, end)`` in s from
+    the record's start, or None."""
     rate = float(imu["rate_hz"])
-    n_imu = int(np.floor(t_len * rate + 1e-9))
+    n_imu = int(np.floor(t_len_s * rate + 1e-9))
     noise = float(imu["noise_deg"]) * rng.standard_normal((3, n_imu))
     gap = None
     if rng.random() < float(imu["gap_probability"]):
         g_len = rng.uniform(*imu["gap_length_range_s"])
-        g0 = rng.uniform(0.0, max(t_len - g_len, 0.0))
+        g0 = rng.uniform(0.0, max(t_len_s - g_len, 0.0))
         gap = (g0, g0 + g_len)
+    return noise, gap
+
+
+def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence, lay) -> dict:
+    """Random series of record ``i``, drawn from its own generator in a fixed order: wind,
+    sea, lidar schedule, IMU errors (``lay``: :func:`_scan_layout`)."""
+    rng = np.random.default_rng(ss)
+    t_len = float(settings["record_length_s"])
+    dt = lay.los_duration_s
+    n_slots = int(round(t_len / dt))
+    hws_h, fluct = _wind_turbulence(settings, par, i, rng, dt, n_slots)
+    roll, pitch, yaw, trans = _sea_motion(settings, par, i, rng, dt, n_slots)
+    n_h = len(settings["heights_m"])
+    k0, phase_slots, starts, dropped, outage = _lidar_schedule(settings, rng, lay, n_slots, n_h)
+    noise, gap = _imu_errors(settings["imu"], rng, t_len)
     return dict(
         hws_h=hws_h,
         fluct_uvw=fluct,
