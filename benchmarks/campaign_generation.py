@@ -116,6 +116,13 @@ if __name__ == "__main__":
 """
 
 
+def _default_scenario_file(src: Path) -> Path:
+    """The ``default`` scenario's file of the tree ``src``: package data
+    (``flidar_uq/resources/scenarios``) or, in older trees, ``config/scenarios``."""
+    packaged = src / "flidar_uq" / "resources" / "scenarios" / "default.yaml"
+    return packaged if packaged.is_file() else src.parent / "config" / "scenarios" / "default.yaml"
+
+
 def step_runs(n_runs: int) -> pd.DataFrame:
     """Wall time of the ``campaign`` step (generation + CSV) from a fresh process, previous
     and current tree alternating, each tree's compiled kernels cached first (an extracted
@@ -132,7 +139,7 @@ def step_runs(n_runs: int) -> pd.DataFrame:
             subprocess.run([sys.executable, str(warm), str(SEED)], check=True, env=env)
         for k in range(n_runs):
             for impl, src in trees.items():
-                scenario = src.parent / "config" / "scenarios" / "default.yaml"
+                scenario = _default_scenario_file(src)
                 cmd = [sys.executable, "-c", _STEP, str(outs[impl]), str(SEED), str(scenario)]
                 load0 = os.getloadavg()[0]
                 t0 = time.perf_counter()

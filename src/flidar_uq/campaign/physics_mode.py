@@ -1,6 +1,11 @@
 """Virtual floating-lidar campaign, physics mode.
 
-Size: the generator is one vectorised pipeline over a chunk of records (turbulence, sea state, scanning lidar, IMU, 10-min statistics) whose arrays are shared between its stages (~760 lines).
+Layout: :func:`_simulate_chunk` runs a chunk of records in named stages, in the order
+below: per record its wind (:func:`_wind_turbulence`), sea (:func:`_sea_motion`), lidar
+schedule (:func:`_lidar_schedule`) and IMU errors (:func:`_imu_errors`), drawn from its own
+generator (:func:`_record_series`), then its scans (:func:`_scan_record`) and IMU series
+(:func:`_imu_series`); then the chunk's scans (:func:`_chunk_scans`), record statistics
+(:func:`_record_statistics`), LOS frames and IMU statistics (:func:`_imu_statistics`).
 
 Per 10-min record (``record_length_s``) and for every measurement height:
 
@@ -289,7 +294,8 @@ def _wrap180(deg):
 
 
 # ---------------------------------------------------------------------------
-# per-record random series (own generator per record)
+# per-record random series (own generator per record): wind, sea, lidar schedule and
+# IMU errors, drawn in this order
 # ---------------------------------------------------------------------------
 
 
@@ -340,94 +346,177 @@ def _scan_layout(geo) -> SimpleNamespace:
     )
 
 
-def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence, geo) -> dict:
-    """Random series of one record, drawn from its own generator in a fixed order."""
-    rng = np.random.default_rng(ss)
-    t_len = float(settings["record_length_s"])
-    dt = geo.los_duration_s
-    n_slots = int(round(t_len / dt))
+def _wind_turbulence(settings, par, i, rng, dt_s, n_slots):
+    """Wind: record ``i``'s mean HWS at each height and its turbulence.
+
+    Mean HWS by the power law ``U(z) = U_ref (z / z_ref)**alpha`` (m/s; docs/conventions.md,
+    Yamaguchi and Ishihara, 2016), ``U_ref`` (m/s at ``wind.reference_height_m``) and the
+    shear exponent ``alpha`` (dimensionless) the record's draws. Turbulence: the 1-D Kaimal
+    (u, v, w) fluctuations of IEC 61400-1 ed. 4 (2019), Annex C
+    (:func:`flidar_uq.physics.turbulence.kaimal_series`; m/s, wind frame), ``sigma_u``
+    (m/s) constant with height, independent between heights, sampled every
+    ``wind.wind_dt_s`` (a whole number of LOS slots of ``dt_s``, s) and held in between.
+
+    Returns ``hws_h`` (H,), m/s, and ``fluct_uvw`` (H, 3, Nw), m/s, over the record's
+    ``n_slots`` LOS slots.
+    """
     heights = np.asarray(settings["heights_m"], float)
     z_ref = float(settings["wind"]["reference_height_m"])
     alpha = par["shear_exponent"][i]
     hws_h = par["hws_ref_ms"][i] * (heights / z_ref) ** alpha  # power law (conventions.md)
     # 1-D Kaimal turbulence, sigma_u constant with height (IEC 61400-1)
     # turbulence on its own clock (wind_dt_s, a multiple of the LOS time), held between samples
-    step = wind_step_slots(settings, dt)
+    step = wind_step_slots(settings, dt_s)
     n_wind = -(-n_slots // step)
-    fluct = kaimal_series(n_wind, dt * step, hws_h, par["sigma_u_ms"][i], heights, rng)  # (H,3,Nw)
-    # motion
+    fluct = kaimal_series(n_wind, dt_s * step, hws_h, par["sigma_u_ms"][i], heights, rng)
+    return hws_h, fluct  # (H,), (H,3,Nw)
+
+
+def _sea_motion(settings, par, i, rng, dt_s, n_slots):
+    """Sea: the buoy's attitude and translation over record ``i``, on the LOS clock.
+
+    A random sea state (:func:`_sea_state_motion`) or harmonic six-degree-of-freedom
+    motion (:func:`_harmonic_motion`), by ``motion.model``. Returns ``roll, pitch`` (N,),
+    deg; ``yaw`` (N,), or (1,) for a constant heading, deg counter-clockwise from east
+    (docs/conventions.md); the translation of the rotation centre (N, 3), m, east-north-up,
+    or None for a hull that only rotates. ``N = n_slots`` slots of ``dt_s`` (s).
+    """
     m = settings["motion"]
     if m["model"] == "sea_state":
-        sea = m["sea_state"]
-        rel = par["heading_deg"][i]
-        w1 = par["weight1"][i]
-        amp = par["amplitude_deg"][i]
-        systems = {
-            "amplitude_deg": [[amp * np.sqrt(w1), amp * np.sqrt(max(1.0 - w1, 0.0))]],
-            "tp_s": [[par["tp1_s"][i], np.nan_to_num(par["tp2_s"][i], nan=6.0)]],
-            "gamma": [[par["gamma1"][i], float(sea["swell_gamma"])]],
-            # direction of travel relative to the body x axis (ENU angle minus heading)
-            "direction_deg": [[90.0 - par["dir1_deg"][i] - rel, 90.0 - par["dir2_deg"][i] - rel]],
-            "spread_deg": [[float(sea["spread_deg"]), float(sea["swell_spread_deg"])]],
-        }
-        yaw = np.array([rel])  # a constant heading: one value (broadcast over the slots)
-        if sea["hull"] == "rotation_only":
-            roll, pitch = tilt_series(n_slots, dt, systems, rng)
-            roll, pitch = roll[0], pitch[0]
-            trans = None
-        else:  # six degrees of freedom: the same draws, the tilt unchanged
-            hull = hull_motion_series(n_slots, dt, systems, rng, sea["hull"])
-            roll, pitch = hull["roll_deg"][0], hull["pitch_deg"][0]
-            trans = _body_to_enu(hull["surge_m"][0], hull["sway_m"][0], hull["heave_m"][0], rel)
-    else:
-        t = np.arange(n_slots) * dt
-        ph = rng.uniform(0.0, 2.0 * np.pi, size=6)
-        w_ = 2.0 * np.pi / par["period_s"][i]
-        roll = par["roll_amplitude_deg"][i] * np.sin(w_ * t + ph[0])
-        pitch = par["pitch_amplitude_deg"][i] * np.sin(w_ * t + ph[1])
-        yaw = par["heading_deg"][i] + par["yaw_amplitude_deg"][i] * np.sin(
-            2.0 * np.pi / par["yaw_period_s"][i] * t + ph[2]
-        )
-        wt = 2.0 * np.pi / par["translation_period_s"][i]
-        trans = np.stack(
-            [
-                par["surge_amplitude_m"][i] * np.sin(wt * t + ph[3]),
-                par["sway_amplitude_m"][i] * np.sin(wt * t + ph[4]),
-                par["heave_amplitude_m"][i] * np.sin(wt * t + ph[5]),
-            ],
-            axis=-1,
-        )
-    # lidar schedule: prism phase, refocusing delays, dropouts, outage
-    if getattr(geo, "dbs", False):
+        return _sea_state_motion(m["sea_state"], par, i, rng, dt_s, n_slots)
+    return _harmonic_motion(par, i, rng, dt_s, n_slots)
+
+
+def _sea_state_motion(sea, par, i, rng, dt_s, n_slots):
+    """Roll, pitch (deg), constant heading (deg) and translation (m) in a JONSWAP sea.
+
+    The wind sea and an optional swell (Hasselmann et al., 1973), tilt variance
+    ``amplitude_deg**2`` split between them by ``weight1``, each with its peak period (s),
+    peak enhancement ``gamma``, direction of travel relative to the body x axis (deg; ENU
+    angle minus the heading) and spread (deg): :func:`flidar_uq.physics.seastate.tilt_series`
+    for a hull that only rotates, or the six degrees of freedom of
+    :func:`flidar_uq.physics.seastate.hull_motion_series` (the same draws, the same tilt;
+    surge, sway, heave of linear deep-water waves, m), turned into east-north-up by
+    :func:`_body_to_enu`. Returns as :func:`_sea_motion`.
+    """
+    rel = par["heading_deg"][i]
+    w1 = par["weight1"][i]
+    amp = par["amplitude_deg"][i]
+    systems = {
+        "amplitude_deg": [[amp * np.sqrt(w1), amp * np.sqrt(max(1.0 - w1, 0.0))]],
+        "tp_s": [[par["tp1_s"][i], np.nan_to_num(par["tp2_s"][i], nan=6.0)]],
+        "gamma": [[par["gamma1"][i], float(sea["swell_gamma"])]],
+        # direction of travel relative to the body x axis (ENU angle minus heading)
+        "direction_deg": [[90.0 - par["dir1_deg"][i] - rel, 90.0 - par["dir2_deg"][i] - rel]],
+        "spread_deg": [[float(sea["spread_deg"]), float(sea["swell_spread_deg"])]],
+    }
+    yaw = np.array([rel])  # a constant heading: one value (broadcast over the slots)
+    if sea["hull"] == "rotation_only":
+        roll, pitch = tilt_series(n_slots, dt_s, systems, rng)
+        return roll[0], pitch[0], yaw, None
+    # six degrees of freedom: the same draws, the tilt unchanged
+    hull = hull_motion_series(n_slots, dt_s, systems, rng, sea["hull"])
+    trans = _body_to_enu(hull["surge_m"][0], hull["sway_m"][0], hull["heave_m"][0], rel)
+    return hull["roll_deg"][0], hull["pitch_deg"][0], yaw, trans
+
+
+def _harmonic_motion(par, i, rng, dt_s, n_slots):
+    """Harmonic six-degree-of-freedom motion (a motion platform; Malekmohammadi et al., 2024).
+
+    ``x(t) = A sin(2 pi t / T + phi)`` for roll, pitch and yaw about the heading (deg) and
+    for surge, sway, heave (m, east-north-up of a zero heading), amplitudes ``A`` and
+    periods ``T`` (s) the record's, phases ``phi`` (rad) uniform on [0, 2 pi), at
+    ``t = k dt_s`` (s). Returns as :func:`_sea_motion`.
+    """
+    t = np.arange(n_slots) * dt_s
+    ph = rng.uniform(0.0, 2.0 * np.pi, size=6)
+    w_ = 2.0 * np.pi / par["period_s"][i]
+    roll = par["roll_amplitude_deg"][i] * np.sin(w_ * t + ph[0])
+    pitch = par["pitch_amplitude_deg"][i] * np.sin(w_ * t + ph[1])
+    yaw = par["heading_deg"][i] + par["yaw_amplitude_deg"][i] * np.sin(
+        2.0 * np.pi / par["yaw_period_s"][i] * t + ph[2]
+    )
+    wt = 2.0 * np.pi / par["translation_period_s"][i]
+    trans = np.stack(
+        [
+            par["surge_amplitude_m"][i] * np.sin(wt * t + ph[3]),
+            par["sway_amplitude_m"][i] * np.sin(wt * t + ph[4]),
+            par["heave_amplitude_m"][i] * np.sin(wt * t + ph[5]),
+        ],
+        axis=-1,
+    )
+    return roll, pitch, yaw, trans
+
+
+def _lidar_schedule(settings, rng, lay, n_slots, n_heights):
+    """Scan schedule of a record: prism phase, scan starts, dropouts, outage.
+
+    A CW VAD lidar (ZephIR-like) scans the heights in turn, one prism revolution of
+    ``n_los`` slots a scan, then refocuses for a uniform random delay
+    (``lidar.refocus_delay_s``, s); the prism's azimuth slot at the record's first slot
+    ``k0`` is uniform, and a scan starts at the prism's azimuth then (``scan_phase: prism``;
+    Gutiérrez-Antuñano et al., 2018, Sec. 2.3) or at a uniform one (``random``). A pulsed
+    DBS lidar runs back-to-back cycles from the first beam (cycle ``n_los + dead_slots``
+    slots), every height from the same beams. A scan drops out with probability
+    ``lidar.scan_dropout_probability``, the whole record with
+    ``lidar.record_outage_probability``.
+
+    Returns ``k0``; ``phase_slots`` and ``starts`` (J,), slots; ``dropped`` (J,) bool;
+    ``outage`` bool.
+    """
+    if lay.dbs:
         # a pulsed DBS lidar: back-to-back cycles from the first beam, every height from
         # the same beams (range gates), so each cycle is a scan of every height
-        cycle = geo.n_los + geo.dead_slots
-        starts = np.repeat(np.arange(n_slots // cycle + 1) * cycle, heights.size)
+        cycle = lay.n_los + lay.dead_slots
+        starts = np.repeat(np.arange(n_slots // cycle + 1) * cycle, n_heights)
         j_max = starts.size
         k0 = 0
-        phase_slots = (-starts) % geo.n_los  # the kernel's slot index starts at beam 0
+        phase_slots = (-starts) % lay.n_los  # the kernel's slot index starts at beam 0
     else:
+        dt = lay.los_duration_s
         lo, hi = settings["lidar"]["refocus_delay_s"]
         delay_slots = (int(round(lo / dt)), int(round(hi / dt)))
-        j_max = int(np.ceil(n_slots / (geo.n_los + delay_slots[0]))) + 1
-        k0 = int(rng.integers(0, geo.n_los))
-        starts = _scan_schedule(rng, geo.n_los, delay_slots, j_max)
+        j_max = int(np.ceil(n_slots / (lay.n_los + delay_slots[0]))) + 1
+        k0 = int(rng.integers(0, lay.n_los))
+        starts = _scan_schedule(rng, lay.n_los, delay_slots, j_max)
         if settings["lidar"]["scan_phase"] == "random":
-            phase_slots = rng.integers(0, geo.n_los, size=j_max)
+            phase_slots = rng.integers(0, lay.n_los, size=j_max)
         else:
             phase_slots = np.zeros(j_max, dtype=int)
     dropped = rng.random(j_max) < float(settings["lidar"]["scan_dropout_probability"])
     outage = rng.random() < float(settings["lidar"]["record_outage_probability"])
-    # IMU
-    imu = settings["imu"]
+    return k0, phase_slots, starts, dropped, outage
+
+
+def _imu_errors(imu, rng, t_len_s):
+    """IMU errors of a record: white noise of ``imu.noise_deg`` (deg) on roll, pitch and yaw
+    at each of the ``floor(t_len_s * imu.rate_hz)`` samples, and with probability
+    ``imu.gap_probability`` one gap of uniform length (``imu.gap_length_range_s``, s) at a
+    uniform start. Returns the noise (3, n_imu), deg, and the gap ``(start, end)`` in s from
+    the record's start, or None."""
     rate = float(imu["rate_hz"])
-    n_imu = int(np.floor(t_len * rate + 1e-9))
+    n_imu = int(np.floor(t_len_s * rate + 1e-9))
     noise = float(imu["noise_deg"]) * rng.standard_normal((3, n_imu))
     gap = None
     if rng.random() < float(imu["gap_probability"]):
         g_len = rng.uniform(*imu["gap_length_range_s"])
-        g0 = rng.uniform(0.0, max(t_len - g_len, 0.0))
+        g0 = rng.uniform(0.0, max(t_len_s - g_len, 0.0))
         gap = (g0, g0 + g_len)
+    return noise, gap
+
+
+def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence, lay) -> dict:
+    """Random series of record ``i``, drawn from its own generator in a fixed order: wind,
+    sea, lidar schedule, IMU errors (``lay``: :func:`_scan_layout`)."""
+    rng = np.random.default_rng(ss)
+    t_len = float(settings["record_length_s"])
+    dt = lay.los_duration_s
+    n_slots = int(round(t_len / dt))
+    hws_h, fluct = _wind_turbulence(settings, par, i, rng, dt, n_slots)
+    roll, pitch, yaw, trans = _sea_motion(settings, par, i, rng, dt, n_slots)
+    n_h = len(settings["heights_m"])
+    k0, phase_slots, starts, dropped, outage = _lidar_schedule(settings, rng, lay, n_slots, n_h)
+    noise, gap = _imu_errors(settings["imu"], rng, t_len)
     return dict(
         hws_h=hws_h,
         fluct_uvw=fluct,
@@ -446,7 +535,7 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
 
 
 # ---------------------------------------------------------------------------
-# vectorised lidar simulation of a chunk of records
+# a chunk of records, stage by stage: scans, IMU, record statistics
 # ---------------------------------------------------------------------------
 
 
@@ -555,9 +644,15 @@ def _concat_frames(frames: list) -> pd.DataFrame | None:
 
 
 def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
-    # imported here: numba's import (~0.2 s) only in processes that simulate a campaign
-    from flidar_uq.campaign.scan_kernel import simulate_chunk_scans
+    """One chunk of records (``rec_idx``, their ``par`` and ``seeds``), stage by stage.
 
+    Per record: its random series (wind, sea, lidar schedule, IMU errors;
+    :func:`_record_series`), its scans (:func:`_scan_record`), its IMU series
+    (:func:`_imu_series`) and its truth samples; then the chunk's scans
+    (:func:`_chunk_scans`), 10-min statistics (:func:`_record_statistics`), LOS frames and
+    IMU statistics (:func:`_imu_statistics`). Returns the record columns (a dict of arrays,
+    one row per record and height), the IMU frame and the LOS frame (or None).
+    """
     geo = _lidar.get_lidar(settings["lidar"]["name"])
     lay = _scan_layout(geo)
     if lay.dbs and want_los:
@@ -565,28 +660,9 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
             f"campaign: virtual LOS series are written for VAD lidars only, not {geo.name!r} "
             "(set campaign.virtual_series to none or imu)"
         )
-    n_los = lay.n_los
-    dt = lay.los_duration_s
-    th = geo.half_cone_angle_rad
-    t_len = float(settings["record_length_s"])
-    n_slots = int(round(t_len / dt))
-    heights = np.asarray(settings["heights_m"], float)
-    n_h = heights.size
-    lever = np.asarray(settings["lidar"]["lever_arm_m"], float)
-    rate = float(settings["imu"]["rate_hz"])
-    # canonical azimuth slots of the prism and their VAD operator (lidar.py), or a DBS
-    # lidar's beams in sub-slots and its beam-pair operator
-    az_slots, d_body, pinv_t = lay.az_slots, lay.d_body, lay.pinv_t
+    clk = _chunk_clocks(settings, lay)
     wd = np.deg2rad(par["wd_deg"])
     e_wind = np.stack([-np.sin(wd), -np.cos(wd), np.zeros_like(wd)], -1)  # (C,3)
-    alpha = np.asarray(par["shear_exponent"], float)
-    wd_deg = np.asarray(par["wd_deg"], float)
-    step = wind_step_slots(settings, dt)
-    # the tilt along and across the wind and the heading on a 0.1-s clock: the attitude
-    # varies on seconds, and the full LOS clock (0.02 s) would cost a fifth of the
-    # record's time
-    stride = max(int(round(0.1 / (t_len / n_slots))), 1)
-    k_truth = max(int(round(TRUTH_SAMPLE_INTERVAL_S / (dt * step))), 1)  # 1-Hz truth series
     starts_ns = np.asarray(par["record_start_ns"], np.int64)  # from the parent (pandas)
     series, scans, imu_att, imu_ns, fl_truth, trans_truth = [], [], [], [], [], []
     for c, (ss, ts) in enumerate(zip(seeds, starts_ns.tolist(), strict=True)):
@@ -594,138 +670,253 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         yaw_c = s["yaw"][None]  # (1,N), or (1,1): a constant heading
         if yaw_c.shape[1] > 1 and (yaw_c == yaw_c[:, :1]).all():
             yaw_c = np.ascontiguousarray(yaw_c[:, :1])  # contiguous: the kernel's compiled type
-        # every line of sight of the record, its head velocity, wind, radial speed and scan
-        # fit, and the record's true motion statistics, in one compiled pass, while the
-        # record's series are in cache (records are independent: one call a record gives
-        # the numbers of one call a chunk)
-        v_r_c, *fits = simulate_chunk_scans(
-            s["roll"][None],
-            s["pitch"][None],
-            yaw_c,
-            s["trans"][None] if s["trans"] is not None else np.empty((1, 0, 3)),
-            s["starts"][None],
-            np.array([s["k0"]]),
-            s["phase_slots"][None],
-            d_body,
-            pinv_t,
-            s["fluct_uvw"][None],  # (1,H,3,Nw), wind frame
-            s["hws_h"][None],
-            e_wind[c : c + 1],
-            alpha[c : c + 1],
-            lever,
-            dt,
-            step,
-            np.cos(th),
-            0 if geo.signed else 1,
-            wd_deg[c : c + 1],
-            stride,
-        )
+        v_r_c, *fits = _scan_record(s, yaw_c, settings, par, c, e_wind, geo, lay, clk)
         scans.append((v_r_c if want_los else None, *fits))  # the radial speeds: LOS output
-        # IMU: true attitude at the IMU clock, noise, gap
-        n_imu = s["imu_noise"].shape[1]
-        t_imu = np.arange(n_imu) / rate
-        att = [_on_imu_clock(s[k], n_imu, rate, dt) for k in ("roll", "pitch")]
-        att.append(
-            _on_imu_clock(yaw_c[0], n_imu, rate, dt)
-            if yaw_c.shape[1] > 1
-            else np.full(n_imu, yaw_c[0, 0])
-        )
-        att = [a + nz for a, nz in zip(att, s["imu_noise"], strict=True)]
-        if s["imu_gap"] is not None:
-            g = (t_imu >= s["imu_gap"][0]) & (t_imu < s["imu_gap"][1])
-            for a in att:
-                a[g] = np.nan
+        att, ns = _imu_series(s, yaw_c, ts, clk)
         imu_att.append(att)
-        imu_ns.append(_utc_ns(ts, t_imu))
-        fl_truth.append(s["fluct_uvw"][..., ::k_truth].copy())  # the 1-Hz samples
-        trans_truth.append(_translation_truth(s["trans"], dt, e_wind[c, :2], yaw_c[0]))
+        imu_ns.append(ns)
+        fl_truth.append(s["fluct_uvw"][..., :: clk.k_truth].copy())  # the 1-Hz samples
+        trans_truth.append(_translation_truth(s["trans"], clk.dt_s, e_wind[c, :2], yaw_c[0]))
         for key in ("roll", "pitch", "fluct_uvw", "trans", "imu_noise"):
             del s[key]  # the record's long series: done with
         series.append(s)
+    sc = _chunk_scans(series, scans, par, lay.n_los, clk.n_slots, want_los)
+    cols, wd_mean = _record_statistics(
+        settings, par, rec_idx, starts_ns, sc, fl_truth, trans_truth, e_wind
+    )
+    los = _los_frames(sc, settings, starts_ns, geo, lay, clk) if want_los else None
+    att = _imu_statistics(cols, settings, imu_att, imu_ns, wd_mean, clk)
+    imu_df = _imu_frame(att, imu_ns) if want_imu else None
+    return cols, imu_df, los
+
+
+def _chunk_clocks(settings, lay) -> SimpleNamespace:
+    """The clocks of a chunk's records: the LOS slot ``dt_s`` (s) and the record's
+    ``n_slots``, the wind's step (``wind_step`` LOS slots), the 0.1-s stride of the
+    attitude truth, the 1-Hz step of the truth series (``k_truth`` wind samples), the
+    record length ``t_len_s`` (s) and the IMU rate ``imu_rate_hz`` (Hz)."""
+    dt = lay.los_duration_s
+    t_len = float(settings["record_length_s"])
+    n_slots = int(round(t_len / dt))
+    step = wind_step_slots(settings, dt)
+    return SimpleNamespace(
+        dt_s=dt,
+        t_len_s=t_len,
+        n_slots=n_slots,
+        wind_step=step,
+        # the tilt along and across the wind and the heading on a 0.1-s clock: the attitude
+        # varies on seconds, and the full LOS clock (0.02 s) would cost a fifth of the
+        # record's time
+        truth_stride=max(int(round(0.1 / (t_len / n_slots))), 1),
+        k_truth=max(int(round(TRUTH_SAMPLE_INTERVAL_S / (dt * step))), 1),  # 1-Hz truth
+        imu_rate_hz=float(settings["imu"]["rate_hz"]),
+    )
+
+
+def _scan_record(s, yaw_c, settings, par, c, e_wind, geo, lay, clk):
+    """Scans: every line of sight of record ``c`` and its scan fits, in one compiled pass.
+
+    :func:`flidar_uq.campaign.scan_kernel.simulate_chunk_scans`: each line of sight with
+    the attitude (deg) and head velocity (m/s; the lever arm ``lidar.lever_arm_m``, m,
+    turned and translated, ``v = d(R r)/dt``, docs/motion_spectrum.md) at its own time;
+    radial speed ``v_r = d_earth . (u_wind - v_head)`` (m/s; Yamaguchi and Ishihara, 2016,
+    Eq. 3), measured as ``|v_r|`` by a CW lidar (Malekmohammadi et al., 2024, Eq. 4);
+    retrieved with the nominal body geometry (``lay.pinv_t``: the VAD least squares with
+    the sign unfolding of the ``|.|`` fit, or a DBS lidar's beam pairs); the motionless
+    lidar's fit of the same wind; the record's true motion statistics. ``yaw_c`` (1, N)
+    or (1, 1), deg. Returns the kernel's radial speeds (1, J, L), m/s, then its fits.
+    """
+    # imported here: numba's import (~0.2 s) only in processes that simulate a campaign
+    from flidar_uq.campaign.scan_kernel import simulate_chunk_scans
+
+    # the record's series are still in cache (records are independent: one call a record
+    # gives the numbers of one call a chunk)
+    return simulate_chunk_scans(
+        s["roll"][None],
+        s["pitch"][None],
+        yaw_c,
+        s["trans"][None] if s["trans"] is not None else np.empty((1, 0, 3)),
+        s["starts"][None],
+        np.array([s["k0"]]),
+        s["phase_slots"][None],
+        lay.d_body,
+        lay.pinv_t,
+        s["fluct_uvw"][None],  # (1,H,3,Nw), wind frame
+        s["hws_h"][None],
+        e_wind[c : c + 1],
+        np.asarray(par["shear_exponent"], float)[c : c + 1],
+        np.asarray(settings["lidar"]["lever_arm_m"], float),
+        clk.dt_s,
+        clk.wind_step,
+        np.cos(geo.half_cone_angle_rad),
+        0 if geo.signed else 1,
+        np.asarray(par["wd_deg"], float)[c : c + 1],
+        clk.truth_stride,
+    )
+
+
+def _imu_series(s, yaw_c, ts_ns, clk):
+    """IMU: the record's roll, pitch and yaw (deg) as its IMU reports them.
+
+    The true attitude at the IMU's sample times ``k / imu_rate_hz`` (s;
+    :func:`_on_imu_clock`), plus the record's white noise (deg), NaN within its gap.
+    Returns the three series (n_imu,), deg, and their times, integer ns since the epoch
+    (``ts_ns``: the record's start, ns).
+    """
+    rate, dt = clk.imu_rate_hz, clk.dt_s
+    n_imu = s["imu_noise"].shape[1]
+    t_imu = np.arange(n_imu) / rate
+    att = [_on_imu_clock(s[k], n_imu, rate, dt) for k in ("roll", "pitch")]
+    att.append(
+        _on_imu_clock(yaw_c[0], n_imu, rate, dt)
+        if yaw_c.shape[1] > 1
+        else np.full(n_imu, yaw_c[0, 0])
+    )
+    att = [a + nz for a, nz in zip(att, s["imu_noise"], strict=True)]
+    if s["imu_gap"] is not None:
+        g = (t_imu >= s["imu_gap"][0]) & (t_imu < s["imu_gap"][1])
+        for a in att:
+            a[g] = np.nan
+    return att, _utc_ns(ts_ns, t_imu)
+
+
+def _chunk_scans(series, scans, par, n_los, n_slots, want_los) -> SimpleNamespace:
+    """The chunk's scans (C records x J scans): each one's wind and whether it counts.
+
+    Each scan's HWS ``sqrt(u**2 + v**2)`` (m/s) of the floating lidar and of the motionless
+    one, and its wind direction (compass, deg; the body frame turned by the heading at the
+    scan's middle slot), a CW lidar's on the 180-deg branch closest to the true direction
+    (a met-station vane). A scan counts (``ok``) if it ends within the record (``valid``),
+    did not drop out and its record is not out. ``n_los`` slots a scan, ``n_slots`` a record.
+    """
     n_c = len(series)
+    n_h = series[0]["hws_h"].size
     j_max = series[0]["starts"].size
     starts = np.stack([s["starts"] for s in series])  # (C,J)
     valid = starts + n_los <= n_slots
-    k0 = np.array([s["k0"] for s in series])
-    phase_slots = np.stack([s["phase_slots"] for s in series])  # (C,J)
-    h_idx = np.broadcast_to(np.arange(j_max) % n_h, starts.shape)  # heights in turn
     yaw = np.stack([s["yaw"] for s in series])  # (C,N), or (C,1): a constant heading
-    hws_h = np.stack([s["hws_h"] for s in series])  # (C,H)
-    v_r = np.concatenate([o[0] for o in scans]) if want_los else None  # (C,J,L)
     uvw, uvw0, resid = (np.concatenate([o[k] for o in scans]) for k in (1, 2, 3))
-    truth = np.concatenate([o[4] for o in scans], axis=1)  # (5,C)
     hws_scan = np.hypot(uvw[..., 0], uvw[..., 1])  # (C,J)
-    hws0 = np.hypot(uvw0[..., 0], uvw0[..., 1])
     mid = np.minimum(starts + n_los // 2, n_slots - 1)  # (C,J): each scan's middle slot
     yaw_mid = yaw[np.arange(n_c)[:, None], np.minimum(mid, yaw.shape[1] - 1)]
     wd_scan = _lidar.wind_direction_deg(uvw[..., 0], uvw[..., 1]) - yaw_mid  # compass
     # 180-deg branch of the CW lidar: the one closest to the met-station vane (true wd)
     wd_true = par["wd_deg"][:, None]
     off = np.abs((wd_scan - wd_true + 180.0) % 360.0 - 180.0) > 90.0
-    wd_scan = (wd_scan + 180.0 * off) % 360.0
-
     dropped = np.stack([s["dropped"] for s in series])
     outage = np.array([s["outage"] for s in series])
-    ok = valid & ~dropped & ~outage[:, None]
-    los_frames = []
-    # truth of the motion (noise-free, gap-free series on the LOS clock)
-    roll_amp, pitch_amp = truth[0], truth[1]
-    regimes = _regime_truth(settings, par, truth)
-    lever_norm = float(np.linalg.norm(lever))
-    # 10-min statistics of every (record, height) at once: its scans are a mask over J
-    at_h = h_idx[:, None, :] == np.arange(n_h)[:, None]  # (C,H,J)
-    sel = ok[:, None, :] & at_h
-    sel_ref = valid[:, None, :] & at_h
-    n_sel, hs_mean, hs_std = _masked_mean_std(hws_scan[:, None, :], sel)
-    _, z_mean, z_std = _masked_mean_std((hws_scan - hws0)[:, None, :], sel)
+    return SimpleNamespace(
+        starts=starts,
+        valid=valid,
+        ok=valid & ~dropped & ~outage[:, None],
+        k0=np.array([s["k0"] for s in series]),
+        phase_slots=np.stack([s["phase_slots"] for s in series]),  # (C,J)
+        h_idx=np.broadcast_to(np.arange(j_max) % n_h, starts.shape),  # heights in turn
+        hws_h=np.stack([s["hws_h"] for s in series]),  # (C,H)
+        v_r=np.concatenate([o[0] for o in scans]) if want_los else None,  # (C,J,L)
+        hws_scan=hws_scan,
+        hws0=np.hypot(uvw0[..., 0], uvw0[..., 1]),
+        resid=resid,
+        wd_scan=(wd_scan + 180.0 * off) % 360.0,
+        attitude=np.concatenate([o[4] for o in scans], axis=1),  # (5,C)
+    )
+
+
+def _scan_statistics(sc, n_h) -> SimpleNamespace:
+    """10-min statistics of every (record, height) at once: its scans are a mask over J.
+
+    Counted scans ``n``, mean and std (``ddof=1``) of the scans' HWS (m/s), of their error
+    against the motionless lidar ``Z`` (m/s), the spatial variation ``sv`` (RMS fit
+    residual over HWS, dimensionless), the circular mean direction (deg), NaN below two
+    scans; availability (%, counted over complete scans).
+    """
+    at_h = sc.h_idx[:, None, :] == np.arange(n_h)[:, None]  # (C,H,J)
+    sel = sc.ok[:, None, :] & at_h
+    sel_ref = sc.valid[:, None, :] & at_h
+    n_sel, hs_mean, hs_std = _masked_mean_std(sc.hws_scan[:, None, :], sel)
+    _, z_mean, z_std = _masked_mean_std((sc.hws_scan - sc.hws0)[:, None, :], sel)
     with np.errstate(invalid="ignore", divide="ignore"):
-        _, sv, _ = _masked_mean_std((resid / hws_scan)[:, None, :], sel)
-    wd_mean = _circ_mean_deg(wd_scan[:, None, :], sel, -1)
+        _, sv, _ = _masked_mean_std((sc.resid / sc.hws_scan)[:, None, :], sel)
+    wd_mean = _circ_mean_deg(sc.wd_scan[:, None, :], sel, -1)
     enough = n_sel >= 2
     hs_mean, hs_std, z_mean, z_std, sv, wd_mean = (
         np.where(enough, v, np.nan) for v in (hs_mean, hs_std, z_mean, z_std, sv, wd_mean)
     )
-    availability = 100.0 * n_sel / np.maximum(sel_ref.sum(axis=-1), 1)
-    # the true HWS series (1 Hz) and the reference: a motionless lidar's scans, or the
-    # point series (cup, sonic)
+    return SimpleNamespace(
+        n_sel=n_sel,
+        hs_mean=hs_mean,
+        hs_std=hs_std,
+        z_mean=z_mean,
+        z_std=z_std,
+        sv=sv,
+        wd_mean=wd_mean,
+        sel_ref=sel_ref,
+        availability=100.0 * n_sel / np.maximum(sel_ref.sum(axis=-1), 1),
+    )
+
+
+def _reference_wind(settings, par, sc, st, fl_truth, e_wind):
+    """The true HWS series (1 Hz) at each height, mean and std (m/s), and what the
+    reference instrument measures: a motionless lidar's scans (``fixed_lidar``), or the
+    point series (cup, sonic). ``fl_truth``: the records' (H, 3, T) 1-Hz fluctuations,
+    m/s; ``e_wind`` (C, 3): the unit vector the wind blows along (ENU)."""
     fl = np.stack(fl_truth)  # (C,H,3,T)
     truth = wind_enu_ms(0.0, par["wd_deg"][:, None], fl)[..., :2]  # (C,H,T,2)
-    truth += hws_h[..., None, None] * e_wind[:, None, None, :2]
+    truth += sc.hws_h[..., None, None] * e_wind[:, None, None, :2]
     true_hws = np.hypot(truth[..., 0], truth[..., 1])  # (C,H,T)
     t_mean, t_std = true_hws.mean(axis=-1), true_hws.std(axis=-1, ddof=1)
     if settings["reference_instrument"] != "fixed_lidar":
-        h0_mean, h0_std = t_mean, t_std
-    else:
-        _, h0_mean, h0_std = _masked_mean_std(hws0[:, None, :], sel_ref)
-    # per-record truths, one value a record (repeated over its heights below)
-    true_amp = np.sqrt(0.5 * (roll_amp**2 + pitch_amp**2))
+        return t_mean, t_std, t_mean, t_std
+    _, h0_mean, h0_std = _masked_mean_std(sc.hws0[:, None, :], st.sel_ref)
+    return t_mean, t_std, h0_mean, h0_std
+
+
+def _motion_truth(settings, par, n_c):
+    """The records' true dominant period (s), the periods of the wind sea and swell (s;
+    NaN without one) and the wind sea's share of the tilt variance (dimensionless)."""
     if settings["motion"]["model"] == "sea_state":
         w1_true = np.asarray(par["weight1"], float)
         t1, t2 = np.asarray(par["tp1_s"], float), np.asarray(par["tp2_s"], float)
-        true_period = np.where(w1_true >= 0.5, t1, t2)
-    else:
-        tilted = (par["roll_amplitude_deg"] > 0) | (par["pitch_amplitude_deg"] > 0)
-        w1_true, t2 = np.ones(n_c), np.full(n_c, np.nan)
-        t1 = np.where(tilted, par["period_s"], np.nan)
-        true_period = t1
+        return np.where(w1_true >= 0.5, t1, t2), t1, t2, w1_true
+    tilted = (par["roll_amplitude_deg"] > 0) | (par["pitch_amplitude_deg"] > 0)
+    w1_true, t2 = np.ones(n_c), np.full(n_c, np.nan)
+    t1 = np.where(tilted, par["period_s"], np.nan)
+    return t1, t1, t2, w1_true
+
+
+def _record_statistics(settings, par, rec_idx, starts_ns, sc, fl_truth, trans_truth, e_wind):
+    """Record statistics: the chunk's rows (a record's heights in turn) as columns of
+    ``docs/data-format.md`` plus ``true_*`` truths. Returns them and the mean wind
+    direction (deg) of each (record, height), (C, H)."""
+    heights = np.asarray(settings["heights_m"], float)
+    n_h, n_c = heights.size, len(rec_idx)
+    st = _scan_statistics(sc, n_h)
+    t_mean, t_std, h0_mean, h0_std = _reference_wind(settings, par, sc, st, fl_truth, e_wind)
+    roll_amp, pitch_amp = sc.attitude[0], sc.attitude[1]
+    true_amp = np.sqrt(0.5 * (roll_amp**2 + pitch_amp**2))
+    true_period, t1, t2, w1_true = _motion_truth(settings, par, n_c)
     ref_days = settings["reference_days"]
-    rec_start_s = np.asarray(rec_idx) * t_len
+    rec_start_s = np.asarray(rec_idx) * float(settings["record_length_s"])
     has_ref = (np.ones(n_c, bool) if ref_days is None else rec_start_s < float(ref_days) * 86400.0)[
         :, None
     ]
+    lever_norm = float(np.linalg.norm(np.asarray(settings["lidar"]["lever_arm_m"], float)))
 
     def per_record(v):  # one value a record -> one a row (a record's heights in turn)
         return np.repeat(np.asarray(v), n_h)
+
+    def per_translation(j):  # the j-th translation truth of each record
+        return per_record(np.array([t[j] for t in trans_truth]))
 
     # the chunk's rows as columns; (C,H) arrays flatten to the same row order
     cols = {
         "timestamp": per_record(starts_ns),  # ns since the epoch
         "height_m": np.tile(heights, n_c),
-        "hws_mean_ms": hs_mean.ravel(),
-        "hws_std_ms": hs_std.ravel(),
-        "wd_mean_deg": wd_mean.ravel(),
-        "availability_pct": availability.ravel(),
-        "sv": sv.ravel(),
+        "hws_mean_ms": st.hs_mean.ravel(),
+        "hws_std_ms": st.hs_std.ravel(),
+        "wd_mean_deg": st.wd_mean.ravel(),
+        "availability_pct": st.availability.ravel(),
+        "sv": st.sv.ravel(),
         "ref_hws_mean_ms": np.where(has_ref, h0_mean, np.nan).ravel(),
         "ref_hws_std_ms": np.where(has_ref, h0_std, np.nan).ravel(),
         "true_hws_mean_ms": t_mean.ravel(),
@@ -742,53 +933,75 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         "true_period2_s": per_record(t2),
         "true_weight1": per_record(w1_true),
         "true_lever_arm_m": per_record(np.full(n_c, lever_norm)),
-        "true_heave_std_m": per_record(np.array([t[0] for t in trans_truth])),
-        "true_heave_velocity_std_ms": per_record(np.array([t[1] for t in trans_truth])),
-        "true_velocity_along_wind_std_ms": per_record(np.array([t[2] for t in trans_truth])),
-        "true_sigma_z_ms": z_std.ravel(),
-        "true_mean_z_ms": z_mean.ravel(),
-        "true_n_scans": n_sel.ravel().astype(float),
+        "true_heave_std_m": per_translation(0),
+        "true_heave_velocity_std_ms": per_translation(1),
+        "true_velocity_along_wind_std_ms": per_translation(2),
+        "true_sigma_z_ms": st.z_std.ravel(),
+        "true_mean_z_ms": st.z_mean.ravel(),
+        "true_n_scans": st.n_sel.ravel().astype(float),
         "true_record": per_record(np.asarray(rec_idx, float)),
         "true_case": per_record(par["case"] if "case" in par else np.full(n_c, np.nan)),
         # what the reference would measure, also where it is absent
         "true_ref_hws_mean_ms": h0_mean.ravel(),
         "true_ref_hws_std_ms": h0_std.ravel(),
-    } | {k: per_record(v) for k, v in regimes.items()}
+    } | {k: per_record(v) for k, v in _regime_truth(settings, par, sc.attitude).items()}
     if settings["imu"].get("mru_translation"):  # the buoy's motion reference unit
         for j, col in ((1, "heave_velocity_std_ms"), (3, "surge_velocity_std_ms"),
                        (4, "sway_velocity_std_ms")):  # fmt: skip
-            cols[col] = per_record(np.array([t[j] for t in trans_truth]))
-    if want_los:
-        import pandas as pd  # the series' frames (the records go back as arrays)
+            cols[col] = per_translation(j)
+    return cols, st.wd_mean
 
-        for c, ts in enumerate(starts_ns.tolist()):
-            idx = np.minimum(starts[c][:, None] + np.arange(n_los), n_slots - 1)  # (J,L)
-            jj = np.nonzero(valid[c])[0]
-            a_c = (idx[jj] + k0[c] + phase_slots[c][jj][:, None]) % n_los  # azimuth slots
-            t_los = (idx[jj] * dt).ravel()
-            vr = np.abs(v_r[c][jj]) if not geo.signed else v_r[c][jj]
-            vr = np.where((~ok[c][jj])[:, None], np.nan, vr)
-            los_frames.append(
-                pd.DataFrame(
-                    {
-                        "timestamp": _utc_index(_utc_ns(ts, t_los)),
-                        "height_m": np.repeat(heights[h_idx[c][jj]], n_los),
-                        "azimuth_deg": np.rad2deg(az_slots[a_c]).ravel(),
-                        "radial_speed_ms": vr.ravel(),
-                        # a valid CW measurement reports a good CNR; dropped scans
-                        # carry NaN speed and CNR (flagged by qc.run_los_qc)
-                        "cnr_db": np.where(np.isfinite(vr.ravel()), GOOD_CNR_DB, np.nan),
-                    }
-                )
+
+def _los_frames(sc, settings, starts_ns, geo, lay, clk):
+    """The floating lidar's lines of sight of the chunk's complete scans (one frame):
+    time, height (m), azimuth (deg), radial speed (m/s; ``|v_r|`` for a CW lidar, NaN for
+    a scan not counted) and CNR (dB)."""
+    import pandas as pd  # the series' frames (the records go back as arrays)
+
+    heights = np.asarray(settings["heights_m"], float)
+    n_los, dt, n_slots = lay.n_los, clk.dt_s, clk.n_slots
+    frames = []
+    for c, ts in enumerate(starts_ns.tolist()):
+        idx = np.minimum(sc.starts[c][:, None] + np.arange(n_los), n_slots - 1)  # (J,L)
+        jj = np.nonzero(sc.valid[c])[0]
+        a_c = (idx[jj] + sc.k0[c] + sc.phase_slots[c][jj][:, None]) % n_los  # azimuth slots
+        t_los = (idx[jj] * dt).ravel()
+        vr = np.abs(sc.v_r[c][jj]) if not geo.signed else sc.v_r[c][jj]
+        vr = np.where((~sc.ok[c][jj])[:, None], np.nan, vr)
+        frames.append(
+            pd.DataFrame(
+                {
+                    "timestamp": _utc_index(_utc_ns(ts, t_los)),
+                    "height_m": np.repeat(heights[sc.h_idx[c][jj]], n_los),
+                    "azimuth_deg": np.rad2deg(lay.az_slots[a_c]).ravel(),
+                    "radial_speed_ms": vr.ravel(),
+                    # a valid CW measurement reports a good CNR; dropped scans
+                    # carry NaN speed and CNR (flagged by qc.run_los_qc)
+                    "cnr_db": np.where(np.isfinite(vr.ravel()), GOOD_CNR_DB, np.nan),
+                }
             )
-    # IMU statistics with the data layer's estimators, one window per record,
-    # from the chunk's arrays
+        )
+    return _concat_frames(frames)
+
+
+def _imu_statistics(cols, settings, imu_att, imu_ns, wd_mean, clk):
+    """IMU statistics: the data layer's estimators on the records' IMU series, one window
+    a record, added to ``cols``.
+
+    The motion statistics of :func:`flidar_uq.data.imu.motion_statistics_arrays` (spectral
+    peaks in ``imu.period_range_s``, s); the tilt along and across each row's measured wind
+    direction ``wd_mean`` (deg) and its spectral moments and periods
+    (:func:`flidar_uq.data.imu.tilt_band_statistics`); the mean heading (deg) as a compass
+    reports it. Returns the chunk's roll, pitch and yaw (C, n_imu), deg.
+    """
+    n_h = len(settings["heights_m"])
+    rate = clk.imu_rate_hz
     att = [np.stack([a[k] for a in imu_att]) for k in range(3)]  # roll, pitch, yaw (C, n)
     p_lo, p_hi = settings["imu"]["period_range_s"]
     start_ns, stats, present = _imu.motion_statistics_arrays(
         np.concatenate(imu_ns),
         np.stack([att[0].ravel(), att[1].ravel()], axis=-1),
-        window_s=t_len,
+        window_s=clk.t_len_s,
         period_min_s=float(p_lo),
         period_max_s=float(p_hi),
         fs_hz=_imu.grid_rate_hz(1.0 / rate),  # given: no median of the chunk's intervals
@@ -809,22 +1022,20 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         cols[key] = np.asarray(col, float)
     # the buoy's mean heading over each record, as a compass would report it
     cols["heading_mean_deg"] = np.repeat(_imu.heading_mean_deg(att[2]), n_h).astype(float)
-    imu_df = None
-    if want_imu:
-        import pandas as pd
+    return att
 
-        imu_df = pd.DataFrame(
-            {
-                "timestamp": _utc_index(np.concatenate(imu_ns)),
-                "roll_deg": att[0].ravel(),
-                "pitch_deg": att[1].ravel(),
-                "yaw_deg": att[2].ravel(),
-            }
-        )
-    return (
-        cols,
-        imu_df,
-        _concat_frames(los_frames),
+
+def _imu_frame(att, imu_ns):
+    """The chunk's raw IMU series as a frame: time, roll, pitch, yaw (deg)."""
+    import pandas as pd
+
+    return pd.DataFrame(
+        {
+            "timestamp": _utc_index(np.concatenate(imu_ns)),
+            "roll_deg": att[0].ravel(),
+            "pitch_deg": att[1].ravel(),
+            "yaw_deg": att[2].ravel(),
+        }
     )
 
 
