@@ -209,3 +209,113 @@ def test_record_observations_hold_the_gram_of_the_configured_lidar(lidar):
     gram = motion_gram(rec, lidar=lidar)
     np.testing.assert_array_equal(g[:10], gram[list(GRAM_COLUMNS)].to_numpy().T[:, use])
     assert g.shape == (11, use.sum()) and set(FOLLOWER_COLUMNS) <= set(rec)
+
+
+def test_reference_hull_scales_the_translation_by_its_response_and_the_propagation_follows():
+    """inference.hull_reference: with moments the heave and orbital terms take the hull's
+    relative responses at the heave's mean period (a discus buoy's differ from 1 below its
+    natural periods, a wave follower's are 1), measured records keep the measured ratios,
+    the rotational terms do not change; the propagation uses the fit's reference hull."""
+    from flidar_uq.correction.propagation import corrected_ti
+    from flidar_uq.physics.hull import get_hull
+
+    rec = _records(40, measured=True).assign(bin_id=0)
+    fol = motion_gram(rec)
+    dis = motion_gram(rec, hull="discus_buoy")
+    meas = fol["translation_measured"].to_numpy() > 0
+    assert meas.any() and (~meas).any()
+    rx, rz = get_hull("discus_buoy").relative_responses(
+        np.clip(rec["follower_heave_period_s"].to_numpy(), 1.0, 20.0)
+    )
+    free = ~meas
+    np.testing.assert_allclose(
+        dis["gram_kh_kh"][free], fol["gram_kh_kh"][free] * np.abs(rz[free]) ** 2
+    )
+    np.testing.assert_allclose(dis["gram_k_kh"][free], fol["gram_k_kh"][free] * rz.real[free])
+    np.testing.assert_allclose(dis["gram_hh"][free], fol["gram_hh"][free] * np.abs(rx[free]) ** 2)
+    np.testing.assert_allclose(dis["gram_l_h"][free], fol["gram_l_h"][free] * rx.real[free])
+    for col in ("gram_kk", "gram_ll"):
+        np.testing.assert_array_equal(dis[col], fol[col])
+    for col in GRAM_COLUMNS:
+        np.testing.assert_array_equal(dis[col][meas], fol[col][meas])
+    assert not np.allclose(dis["gram_hh"][free], fol["gram_hh"][free])
+    fit = _record_fit(hull=1.0)
+    fit.info["hull_reference"] = "discus_buoy"
+    per_record, _ = corrected_ti(rec, [], fit, ndraws=50, seed=3, group_statistics=False)
+    want = gram_sigma_z_ms(dis, lever_arm_m=2.0, hull_response=1.0)
+    np.testing.assert_allclose(per_record["sigma_z_median_ms"], want, rtol=1e-4)
+
+
+def test_reference_hull_with_tilt_bands_is_that_hulls_band_sum():
+    """With tilt bands each band takes the reference hull's response at its own period: h = 1
+    gives the band sum of that hull (six_dof_band_sigma_z_ms), here a spar's and a discus
+    buoy's, different from the wave follower's."""
+    from flidar_uq.data.schema import tilt_band_column_names
+    from flidar_uq.physics.seastate import downwind_side_known
+    from flidar_uq.physics.six_dof_sigma_z import six_dof_band_sigma_z_ms
+
+    rng = np.random.default_rng(5)
+    n = 12
+    per = np.geomspace(1.3, 17.0, 8)[None, :] * rng.uniform(0.95, 1.05, (n, 8))
+    va, vc = rng.uniform(0, 1.5, (n, 8)), rng.uniform(0, 1.5, (n, 8))
+    hws = rng.uniform(4, 18, n)
+    rec = pd.DataFrame({"hws_mean_ms": hws})
+    for b in range(8):
+        p, a, c = tilt_band_column_names(b + 1)
+        rec[p], rec[a], rec[c] = per[:, b], va[:, b], vc[:, b]
+    share = va / (va + vc)
+    cos = np.where(share > 0.5, np.abs(2 * share - 1) ** 0.25, 0.0)
+    cos = np.where(downwind_side_known(per, hws[:, None]), cos, 0.0)
+    amp = np.sqrt(2 * (va + vc))
+    got = {}
+    for hull in ("wave_follower", "discus_buoy", "spar"):
+        got[hull] = gram_sigma_z_ms(motion_gram(rec, hull=hull), lever_arm_m=1.5, hull_response=1.0)
+        want = six_dof_band_sigma_z_ms(
+            hws, amp, per, band_cos_psi=cos, band_cos_sq_psi=share, lever_arm_m=1.5, hull=hull
+        )
+        np.testing.assert_allclose(got[hull], want, rtol=1e-10)
+    assert not np.allclose(got["discus_buoy"], got["wave_follower"])
+    assert not np.allclose(got["spar"], got["wave_follower"])
+
+
+def test_hull_response_at_its_lower_end_is_negligible_not_when_it_moves_sigma_z():
+    """The record fit waits for the hull response's chains only when its posterior moves a
+    record's sigma_Z by more than 1 %: draws near 0 on a translating record table do not,
+    draws near 1 do, and records without translation never do."""
+    from flidar_uq.inference.record_fit import _hull_response_negligible
+
+    rec = _records(30)
+    (_, _, g), _, _ = _record_observations(rec, None, None)
+    rng = np.random.default_rng(2)
+
+    def nat(h):
+        return {
+            "hull_response": h * np.exp(0.1 * rng.standard_normal(400)),
+            "lever_arm_m": np.full(400, 2.0),
+            "motion_scale": np.ones(400),
+        }
+
+    assert _hull_response_negligible(nat(1e-4), g)
+    assert not _hull_response_negligible(nat(1.0), g)
+    (_, _, g0), _, _ = _record_observations(rec.drop(columns=list(FOLLOWER_COLUMNS)), None, None)
+    assert _hull_response_negligible(nat(1.0), g0)
+
+
+def test_rotation_only_observations_have_no_translation_even_with_tilt_bands():
+    """The rotation-only hull model leaves the translation out whatever the columns hold:
+    dropping the follower columns is not enough once the tilt bands carry the translation."""
+    from flidar_uq.data.schema import tilt_band_column_names
+    from flidar_uq.inference.record_motion import _HULL_ENTRIES
+
+    rec = _records(20).drop(columns=list(FOLLOWER_COLUMNS))
+    rng = np.random.default_rng(9)
+    for b in range(8):
+        p, a, c = tilt_band_column_names(b + 1)
+        rec[p] = 1.3 * 1.42**b
+        rec[a], rec[c] = rng.uniform(0, 1, 20), rng.uniform(0, 1, 20)
+    (_, _, g), _, kinds = _record_observations(rec, None, None)
+    assert set(kinds) == {"tilt_bands"}
+    assert np.any(g[list(_HULL_ENTRIES)] != 0)  # the bands give the translation
+    (_, _, g0), _, _ = _record_observations(rec, None, None, translation=False)
+    np.testing.assert_array_equal(g0[list(_HULL_ENTRIES)], 0.0)
+    np.testing.assert_array_equal(g0[0], g[0])

@@ -201,6 +201,7 @@ def test_config_keys_match_library_dataclasses():
         "nbatches",
         "motion_model",
         "hull_model",
+        "hull_reference",
         "lever_arm_m",
         "lever_arm_sd_m",
     }

@@ -838,6 +838,7 @@ def corrected_ti(
             surrogate=surrogate,
             scan_period_s=scan,
             translation=global_fit.info.get("hull_model") != "rotation_only",  # the kept model
+            hull=global_fit.info.get("hull_reference", "wave_follower"),
         )
         cols = [*GRAM_COLUMNS, "translation_measured"]
         described = np.all(np.isfinite(gram[cols].to_numpy(dtype=float)), axis=1)

@@ -43,14 +43,15 @@ from flidar_uq.inference.diagnostics import _diagnostics, _thin
 from flidar_uq.inference.loo import _loo_chunked, _loo_compare
 from flidar_uq.inference.priors import Priors, SamplerSettings
 from flidar_uq.inference.record_motion import (
-    FOLLOWER_COLUMNS,
     GRAM_COLUMNS,
     describe_motion,
     gram_coefficients,
+    gram_sigma_z_ms,
     motion_gram,
 )
 from flidar_uq.inference.results import GlobalFit
 from flidar_uq.inference.sampler import _run_ensembles, laplace_init
+from flidar_uq.physics.hull import get_hull
 from flidar_uq.seeding import as_seedsequence
 from flidar_uq.threads import single_threaded
 
@@ -287,7 +288,9 @@ def _broad(lever_arm_prior):
 
 
 @single_threaded
-def _record_observations(records, surrogate, scan_period_s, lidar=None):
+def _record_observations(
+    records, surrogate, scan_period_s, lidar=None, hull="wave_follower", translation=True
+):
     """The records the record model can use and their observations.
 
     Returns ``((s, r, gram), use, kinds)``: measured std ``s`` (m/s), reference std ``r``
@@ -296,7 +299,14 @@ def _record_observations(records, surrogate, scan_period_s, lidar=None):
     and ``s, r > 0``), the mask ``use`` over ``records`` and every record's motion
     description kind.
     """
-    mot = motion_gram(records, lidar=lidar, surrogate=surrogate, scan_period_s=scan_period_s)
+    mot = motion_gram(
+        records,
+        lidar=lidar,
+        surrogate=surrogate,
+        scan_period_s=scan_period_s,
+        hull=hull,
+        translation=translation,
+    )
     s = records["hws_std_ms"].to_numpy(dtype=float)
     r = (
         records["ref_hws_std_ms"].to_numpy(dtype=float)
@@ -307,6 +317,30 @@ def _record_observations(records, surrogate, scan_period_s, lidar=None):
     gram = mot[[*GRAM_COLUMNS, "translation_measured"]].to_numpy(dtype=float).T  # (11, n)
     use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.all(np.isfinite(gram), axis=0)
     return (s[use], r[use], np.ascontiguousarray(gram[:, use])), use, kinds
+
+
+#: Largest relative change of any record's sigma_Z between the hull response's lower end (0)
+#: and its posterior's 95 % quantile below which the hull response is left out of the
+#: convergence check (-): its draws then change no corrected TI by more than this share of
+#: the motion term.
+HULL_NEGLIGIBLE_SIGMA_Z_SHARE = 0.01
+
+
+def _hull_response_negligible(nat: dict[str, np.ndarray], gram: np.ndarray) -> bool:
+    """True when the hull response's posterior (95 % quantile against 0) changes no
+    record's sigma_Z by more than :data:`HULL_NEGLIGIBLE_SIGMA_Z_SHARE`, at the median lever
+    arm and motion scale; ``gram`` (11, n) as :func:`_record_observations` returns it."""
+    if not gram.shape[1]:
+        return True
+    g = dict(zip((*GRAM_COLUMNS, "translation_measured"), gram, strict=True))
+    lever = float(np.median(nat["lever_arm_m"]))
+    scale = float(np.median(nat["motion_scale"]))
+    h95 = float(np.quantile(nat["hull_response"], 0.95))
+    s0 = gram_sigma_z_ms(g, lever_arm_m=lever, hull_response=0.0, motion_scale=scale)
+    s1 = gram_sigma_z_ms(g, lever_arm_m=lever, hull_response=h95, motion_scale=scale)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = np.abs(s1 - s0) / s0
+    return bool(np.nanmax(np.where(s0 > 0, rel, 0.0)) <= HULL_NEGLIGIBLE_SIGMA_Z_SHARE)
 
 
 def _start(lever_arm_prior):
@@ -335,6 +369,8 @@ def fit_record_model(
     scan_period_s: float | None = None,
     pair_log_sd=None,
     lidar=None,
+    hull="wave_follower",
+    translation: bool = True,
 ) -> GlobalFit:
     """Posterior of ``rho``, ``kappa``, ``kappa_z``, ``lever_arm_m``, ``motion_scale`` (record model).
 
@@ -366,6 +402,13 @@ def fit_record_model(
     lidar : str, LidarGeometry or mapping, optional
         The floating lidar (config ``campaign.lidar``), default the ZephIR 300: a DBS
         lidar's records get its own sigma_Z (:func:`~flidar_uq.inference.record_motion.motion_gram`).
+    hull : str
+        The reference hull whose translation the hull response scales (config
+        ``inference.hull_reference``, :data:`flidar_uq.physics.hull.HULLS`; default the
+        wave follower); ``info["hull_reference"]`` records it for the propagation.
+    translation : bool
+        False: the hull's translation left out whatever the record columns hold (the
+        ``"rotation_only"`` hull model).
 
     Returns
     -------
@@ -381,7 +424,10 @@ def fit_record_model(
         ``info["lever_arm_warning"]`` when the lever arm is implausible
         (:func:`lever_arm_check`); ``info["hull_response_identified"]`` False when no
         record has a translation the hull response scales (its draws are then its
-        prior's, and it is left out of the convergence check and ``diagnostics``).
+        prior's, and it is left out of the convergence check and ``diagnostics``);
+        ``info["hull_response_negligible"]`` True when its posterior, though identified,
+        changes no record's sigma_Z by more than
+        :data:`HULL_NEGLIGIBLE_SIGMA_Z_SHARE` (also left out of the check).
     """
     for c in ("hws_mean_ms", "hws_std_ms"):
         if c not in records:
@@ -394,7 +440,10 @@ def fit_record_model(
             )
         lever_arm_prior = (mean, sd)
     seedseq = as_seedsequence(seed)
-    (s, r, gram), use, kinds = _record_observations(records, surrogate, scan_period_s, lidar)
+    hull = get_hull(hull).name
+    (s, r, gram), use, kinds = _record_observations(
+        records, surrogate, scan_period_s, lidar, hull, translation
+    )
     pair = None
     if pair_log_sd is not None:
         pair_all = np.asarray(pair_log_sd, dtype=float)
@@ -414,10 +463,16 @@ def fit_record_model(
     # any (rotation only, or every translation measured) its draws are its prior's, and
     # waiting for the chains to mix over that prior's long log-scale tail buys nothing
     h_used = bool(np.any((gram[4] > 0) & (gram[10] == 0))) if gram.shape[1] else False
-    checked = [n for n in RECORD_MODEL_NAMES if h_used or n != "hull_response"]
+    negligible = []
 
     def check(ch):
         nat = natural_draws(ch)
+        # a hull response whose whole posterior leaves every sigma_Z unchanged (a buoy that
+        # only rotates: h at its lower end) is not waited for either
+        negligible.append(h_used and _hull_response_negligible(nat, gram))
+        checked = [
+            n for n in RECORD_MODEL_NAMES if n != "hull_response" or (h_used and not negligible[-1])
+        ]
         return _diagnostics(np.stack([nat[n] for n in checked], -1), checked, gs)
 
     chains, diag, reasons = _run_ensembles(
@@ -435,6 +490,8 @@ def fit_record_model(
         "n_records": int(s.size),
         "prior_only": prior_only,
         "hull_response_identified": h_used,
+        "hull_response_negligible": bool(negligible and negligible[-1]),
+        "hull_reference": hull,
         "excluded_bins": [],
         "loo": {"model": "record", **({"record_elpd": loo["elpd"]} if loo else {})},
         "motion_description_counts": {
@@ -570,18 +627,17 @@ def fit_record_model_selecting_hull(records: pd.DataFrame, *, hull_model: str = 
             f"fit_record_model_selecting_hull: hull_model={hull_model!r}, expected one of "
             f"{', '.join(HULL_MODELS)}"
         )
-    rotation = records.drop(columns=[c for c in FOLLOWER_COLUMNS if c in records])
     desc = describe_motion(records, lidar=kw.get("lidar"))
     has_translation = bool((desc["translation_description"] != "none").any())
     if hull_model == "rotation_only" or not has_translation:
-        fit = fit_record_model(rotation, **kw)
+        fit = fit_record_model(records, translation=False, **kw)
         fit.info["hull_model"] = "rotation_only"
         return fit
     full = fit_record_model(records, **kw)
     full.info["hull_model"] = "translating"
     if hull_model == "translating":
         return full
-    rot = fit_record_model(rotation, **kw)
+    rot = fit_record_model(records, translation=False, **kw)
     rot.info["hull_model"] = "rotation_only"
     a, b = full.pointwise_loo, rot.pointwise_loo
     if a is None or b is None or a["elpd_i"].shape != b["elpd_i"].shape:

@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 
 from flidar_uq.data.imu import tilt_bands_from_records
-from flidar_uq.physics.hull import G_MS2
+from flidar_uq.physics.hull import G_MS2, get_hull
 from flidar_uq.physics.lidar import get_lidar
 from flidar_uq.physics.seastate import downwind_side_known
 from flidar_uq.physics.six_dof_sigma_z import six_dof_band_terms, translation_unit_sq
@@ -106,7 +106,7 @@ def _tilt_description(records: pd.DataFrame):
     return amp, per, along, rp
 
 
-def _band_terms(records: pd.DataFrame, surrogate, scan_period_s: float):
+def _band_terms(records: pd.DataFrame, surrogate, scan_period_s: float, hull="wave_follower"):
     """Mask of the records described by tilt bands (all band values finite, a finite mean
     speed, every band inside the surrogate's range) and their band-sum terms
     (:func:`flidar_uq.physics.six_dof_sigma_z.six_dof_band_terms`, the wave follower's
@@ -130,6 +130,7 @@ def _band_terms(records: pd.DataFrame, surrogate, scan_period_s: float):
         band_cos_sq_psi=bands["cos_sq_psi"][use],
         surrogate=surrogate,
         scan_period_s=scan_period_s,
+        hull=hull,
     )
     finite = np.all(np.stack([np.isfinite(v) for v in terms.values()]), axis=0)
     use[use] = finite
@@ -265,7 +266,12 @@ def measured_response(records: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
 
 
 def six_dof_terms(
-    records: pd.DataFrame, motion: pd.DataFrame, *, surrogate=None, scan_period_s: float = 1.0
+    records: pd.DataFrame,
+    motion: pd.DataFrame,
+    *,
+    surrogate=None,
+    scan_period_s: float = 1.0,
+    hull="wave_follower",
 ) -> pd.DataFrame:
     """Per-record terms of the hull's translation in sigma_Z.
 
@@ -296,6 +302,11 @@ def six_dof_terms(
         :func:`per_record_motion` of the same records.
     surrogate, scan_period_s
         As :func:`per_record_motion`.
+    hull : str or HullResponse
+        The reference hull whose translation the hull response ``h`` scales
+        (:data:`flidar_uq.physics.hull.HULLS`; default the wave follower). With tilt bands
+        each band takes the hull's response at its period, with moments the response at
+        the heave's mean period; a measured translation replaces it.
 
     Returns
     -------
@@ -332,6 +343,20 @@ def six_dof_terms(
             out[key][banded] = bt[key]
     r_z, r_x = measured_response(records)
     meas = ok & np.isfinite(r_z) & np.isfinite(r_x)
+    ref = get_hull(hull)
+    if ref.name != "wave_follower":  # the reference hull's response where not measured
+        sel = ok & ~meas & ~banded  # moments: the responses at the heave's mean period
+        if np.any(sel):
+            rx, rz = ref.relative_responses(np.clip(per_h[sel], 1.0, 20.0))
+            out["heave_cross_sq"][sel] *= rz.real
+            out["heave_leak_sq"][sel] *= np.abs(rz) ** 2
+            out["orbital_cross_sq"][sel] *= rx.real
+            out["orbital_sq"][sel] *= np.abs(rx) ** 2
+        if np.any(banded & ~meas):  # bands: each band's own response
+            hb, ht = _band_terms(records, surrogate, scan_period_s, hull=ref)
+            sel = hb & ~meas
+            for key in ("heave_cross_sq", "heave_leak_sq", "orbital_cross_sq", "orbital_sq"):
+                out[key][sel] = ht[key][sel[hb]]
     out["heave_cross_sq"][meas] *= r_z[meas]
     out["heave_leak_sq"][meas] *= r_z[meas] ** 2
     out["orbital_cross_sq"][meas] *= r_x[meas]
@@ -513,6 +538,7 @@ def motion_gram(
     scan_period_s: float | None = None,
     n_headings: int = 24,
     translation: bool = True,
+    hull="wave_follower",
 ) -> pd.DataFrame:
     """Each record's motion error as the Gram matrix of ``v = (k, k h, L, h)``.
 
@@ -556,6 +582,9 @@ def motion_gram(
         Headings averaged over where the heading is unknown (DBS only).
     translation : bool
         False: the hull's translation left out (the ``"rotation_only"`` hull model).
+    hull : str or HullResponse
+        A CW lidar's reference hull, whose translation ``h`` scales (:func:`six_dof_terms`);
+        a DBS lidar's is the wave follower.
 
     Returns
     -------
@@ -571,7 +600,7 @@ def motion_gram(
         sur = get_surrogate(g) if surrogate is None and lidar is not None else surrogate
         scan = g.scan_period_s if scan_period_s is None else float(scan_period_s)
         mot = per_record_motion(records, surrogate=sur, scan_period_s=scan)
-        terms = six_dof_terms(records, mot, surrogate=sur, scan_period_s=scan)
+        terms = six_dof_terms(records, mot, surrogate=sur, scan_period_s=scan, hull=hull)
         if not translation:
             terms = terms * 0.0
         gram = gram_from_cw_terms(

@@ -30,7 +30,7 @@ from flidar_uq.correction.propagation import (
 )
 from flidar_uq.data.calibration import calibration_by_group, speed_group_label
 from flidar_uq.data.qc import QCConfig, run_qc
-from flidar_uq.inference import SamplerSettings, fit_record_model
+from flidar_uq.inference import SamplerSettings, fit_record_model_selecting_hull
 from flidar_uq.physics.surrogate import get_surrogate
 from flidar_uq.seeding import as_seedsequence
 
@@ -74,6 +74,8 @@ def scenario_records(
     calibrate_on_sea_state: str | None = None,
     lidar_std_ratio_log_sd: float = LIDAR_STD_RATIO_LOG_SD,
     reference_pair: bool = True,
+    hull_model: str = "translating",
+    hull_reference: str = "wave_follower",
 ) -> tuple[pd.DataFrame, object]:
     """Generate a scenario and correct every QC-kept record in 3-20 m/s (the pipeline's steps).
 
@@ -110,6 +112,13 @@ def scenario_records(
         (:func:`~flidar_uq.correction.propagation.pair_sampling_correlation`). False: the fit
         without it, and the propagation splits ``kappa`` with ``c = 0``
         (:func:`~flidar_uq.correction.propagation.split_noise`).
+    hull_model : {"translating", "auto", "rotation_only"}
+        The record model's hull description (config ``inference.hull_model``,
+        :func:`~flidar_uq.inference.fit_record_model_selecting_hull`); default the
+        translating one alone (one fit).
+    hull_reference : str
+        The hull whose translation the hull response scales (config
+        ``inference.hull_reference``).
 
     The point target follows the scenario's ``reference_instrument`` as the pipeline's
     ``reference.kind`` does (:func:`flidar_uq.correction.propagation.reference_target`).
@@ -178,8 +187,10 @@ def scenario_records(
         calib = kept[in_calib]
         if pair_log_sd is not None:
             pair_log_sd = pair_log_sd[in_calib]
-    fit = fit_record_model(
+    fit = fit_record_model_selecting_hull(
         calib,
+        hull_model=hull_model,
+        hull=hull_reference,
         surrogate=surrogate,
         lidar=lidar,
         settings=settings,
