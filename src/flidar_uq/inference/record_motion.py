@@ -110,13 +110,14 @@ def _band_terms(records: pd.DataFrame, surrogate, scan_period_s: float, hull="wa
     """Mask of the records described by tilt bands (all band values finite, a finite mean
     speed, every band inside the surrogate's range) and their band-sum terms
     (:func:`flidar_uq.physics.six_dof_sigma_z.six_dof_band_terms`, the wave follower's
-    translation scaled by the hull response). A band's ``<cos psi>`` is that of waves
-    running downwind (:func:`flidar_uq.data.imu.band_direction_moments`) where its wave
-    age says wind sea, else 0 (swell of unknown side,
-    :func:`flidar_uq.physics.seastate.downwind_side_known`)."""
+    translation scaled by the hull response), and the bands themselves
+    (:func:`flidar_uq.data.imu.tilt_bands_from_records`, None without band columns). A
+    band's ``<cos psi>`` is that of waves running downwind
+    (:func:`flidar_uq.data.imu.band_direction_moments`) where its wave age says wind sea,
+    else 0 (swell of unknown side, :func:`flidar_uq.physics.seastate.downwind_side_known`)."""
     bands = tilt_bands_from_records(records)
     if bands is None:
-        return np.zeros(len(records), dtype=bool), None
+        return np.zeros(len(records), dtype=bool), None, None
     hws = _col(records, "hws_mean_ms")
     use = bands["complete"] & np.isfinite(hws)
     # the side a band's waves travel on is known for wind sea only (downwind); for swell
@@ -134,7 +135,7 @@ def _band_terms(records: pd.DataFrame, surrogate, scan_period_s: float, hull="wa
     )
     finite = np.all(np.stack([np.isfinite(v) for v in terms.values()]), axis=0)
     use[use] = finite
-    return use, {k: v[finite] for k, v in terms.items()}
+    return use, {k: v[finite] for k, v in terms.items()}, bands
 
 
 def per_record_motion(
@@ -166,7 +167,12 @@ def per_record_motion(
         :data:`MOTION_DESCRIPTIONS`; ``"none"`` where neither description is complete:
         sigma_Z is NaN there).
     """
-    surrogate = default_surrogate(surrogate)
+    return _motion_and_bands(records, default_surrogate(surrogate), scan_period_s)[0]
+
+
+def _motion_and_bands(records: pd.DataFrame, surrogate, scan_period_s: float):
+    """:func:`per_record_motion` and the wave follower's band terms it used
+    (:func:`_band_terms`), for :func:`six_dof_terms` not to compute them again."""
     amp, per, along, rp = _tilt_description(records)
     hws = _col(records, "hws_mean_ms")
     ok = np.isfinite(amp) & np.isfinite(per) & np.isfinite(hws)
@@ -176,20 +182,20 @@ def per_record_motion(
         sz[ok] = surrogate.sigma_z_ms(hws[ok], amp[ok], per[ok])
         u2[ok] = translation_unit_sq(amp[ok], per[ok], scan_period_s)
     kind = np.where(along & ok, "along_wind", np.where(rp & ok, "roll_pitch", "none"))
-    banded, terms = _band_terms(records, surrogate, scan_period_s)
+    band_terms = _band_terms(records, surrogate, scan_period_s)
+    banded, terms, bands = band_terms
     if banded.any():
         sz[banded] = terms["sigma_z_rot_ms"]
         u2[banded] = terms["translation_unit_sq"]
         kind = np.where(banded, "tilt_bands", kind)
         # the bands' along-wind amplitude and mean period where the moments are absent
-        bands = tilt_bands_from_records(records)
         va = 0.5 * bands["amplitude_deg"] ** 2 * bands["cos_sq_psi"]
         with np.errstate(invalid="ignore", divide="ignore"):
             per_b = np.sum(va, axis=-1) / np.sum(va / bands["period_s"], axis=-1)
         fill = banded & ~ok
         amp = np.where(fill, np.sqrt(2.0 * np.sum(va, axis=-1)), amp)
         per = np.where(fill, per_b, per)
-    return pd.DataFrame(
+    motion = pd.DataFrame(
         {
             "motion_amplitude_deg": amp,
             "motion_period_s": per,
@@ -199,6 +205,7 @@ def per_record_motion(
         },
         index=records.index,
     )
+    return motion, band_terms
 
 
 #: Record columns of a wave follower's translation implied by the tilt spectrum
@@ -316,6 +323,13 @@ def six_dof_terms(
         (the rotation-only model); ``translation_measured`` (1 or 0, -).
     """
     surrogate = default_surrogate(surrogate)
+    band_terms = _band_terms(records, surrogate, scan_period_s)
+    return _translation_terms(records, motion, surrogate, scan_period_s, hull, band_terms)
+
+
+def _translation_terms(records, motion, surrogate, scan_period_s, hull, band_terms):
+    """:func:`six_dof_terms` with the wave follower's band terms given
+    (:func:`_band_terms` of the same records)."""
     sig_h, per_h, sig_u, rho_h = (_col(records, c) for c in FOLLOWER_COLUMNS)
     follower = _follower_complete(records)
     std_a = _col(records, ALONG_WIND_COLUMNS[0])
@@ -336,7 +350,7 @@ def six_dof_terms(
         sinc_h = np.sinc(scan_period_s / th)
         out["orbital_cross_sq"][ok] = G_MS2 * np.deg2rad(std_a[ok]) ** 2 * sinc_m**2
         out["orbital_sq"][ok] = (sig_u[ok] * sinc_h) ** 2
-    banded, bt = _band_terms(records, surrogate, scan_period_s)
+    banded, bt, _ = band_terms
     if banded.any():  # the band sum where the record's tilt bands are given
         ok = ok | banded
         for key in ("heave_cross_sq", "heave_leak_sq", "orbital_cross_sq", "orbital_sq"):
@@ -352,11 +366,11 @@ def six_dof_terms(
             out["heave_leak_sq"][sel] *= np.abs(rz) ** 2
             out["orbital_cross_sq"][sel] *= rx.real
             out["orbital_sq"][sel] *= np.abs(rx) ** 2
-        if np.any(banded & ~meas):  # bands: each band's own response
-            hb, ht = _band_terms(records, surrogate, scan_period_s, hull=ref)
-            sel = hb & ~meas
+        sel = np.flatnonzero(banded & ~meas)
+        if sel.size:  # bands: each band's own response
+            hb, ht, _ = _band_terms(records.iloc[sel], surrogate, scan_period_s, hull=ref)
             for key in ("heave_cross_sq", "heave_leak_sq", "orbital_cross_sq", "orbital_sq"):
-                out[key][sel] = ht[key][sel[hb]]
+                out[key][sel[hb]] = ht[key]
     out["heave_cross_sq"][meas] *= r_z[meas]
     out["heave_leak_sq"][meas] *= r_z[meas] ** 2
     out["orbital_cross_sq"][meas] *= r_x[meas]
@@ -599,8 +613,9 @@ def motion_gram(
     else:
         sur = get_surrogate(g) if surrogate is None and lidar is not None else surrogate
         scan = g.scan_period_s if scan_period_s is None else float(scan_period_s)
-        mot = per_record_motion(records, surrogate=sur, scan_period_s=scan)
-        terms = six_dof_terms(records, mot, surrogate=sur, scan_period_s=scan, hull=hull)
+        sur = default_surrogate(sur)
+        mot, band_terms = _motion_and_bands(records, sur, scan)
+        terms = _translation_terms(records, mot, sur, scan, hull, band_terms)
         if not translation:
             terms = terms * 0.0
         gram = gram_from_cw_terms(
