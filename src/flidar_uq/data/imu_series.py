@@ -563,9 +563,8 @@ def series_motion_statistics(
     wanted = set(rec_t.tolist())
     motion_rows, tilt_rows = [], []
     fs: float | None = None
-    n_rows = n_valid = n_missing = n_gaps = 0
-    gaps: list[tuple] = []
-    first_valid = last_valid = None
+    n_rows = 0
+    gaps = _GapLog(gap_min_s)
     shifted = (
         c.assign(timestamp=c["timestamp"] - pd.Timedelta(offset_ns, "ns")) if offset_ns else c
         for c in iter_imu_series(
@@ -582,22 +581,8 @@ def series_motion_statistics(
             if t.size < 2:
                 raise ValueError(f"{path}: the IMU series needs at least 2 samples")
             fs = 1.0 / (round(float(np.median(np.diff(t))) * 1e-3) * 1e-6)
-        # gaps: intervals between valid samples longer than 1.5 nominal intervals
         ok = np.isfinite(batch[["roll_deg", "pitch_deg"]].to_numpy(dtype=float)).all(axis=1)
-        tv = t[ok]
-        n_valid += tv.size
-        if tv.size:
-            edges = tv if last_valid is None else np.r_[last_valid, tv]
-            dt = np.diff(edges)
-            big = dt > 1.5e9 / fs
-            missing = np.rint(dt[big] * fs * 1e-9).astype(np.int64) - 1
-            n_gaps += int(big.sum())
-            n_missing += int(missing.sum())
-            for a, b, k in zip(edges[:-1][big], edges[1:][big], missing, strict=True):
-                if (b - a) * 1e-9 - 1.0 / fs >= gap_min_s:
-                    gaps.append(("inside", a, b, (b - a) * 1e-9 - 1.0 / fs, int(k)))
-            first_valid = tv[0] if first_valid is None else first_valid
-            last_valid = tv[-1]
+        gaps.add(t[ok], fs)
         # statistics, run by run of consecutive windows
         win = t // window_ns
         m = int(round(window_s * fs))
@@ -615,61 +600,23 @@ def series_motion_statistics(
             for h, (tab, _) in by_height.items():
                 tab = tab[tab["timestamp"].isin(wd_by_height[h].index)]
                 tilt_rows.append(tab.assign(height_m=h))
-    out = rec_keys.copy()
-    stat_cols = list(_imu.MOTION_STAT_COLUMNS)
-    if motion_rows:
-        ms = pd.concat(motion_rows, ignore_index=True)
-        out = out.merge(ms, on="timestamp", how="left")
-    else:
-        out = out.assign(**{c: np.nan for c in stat_cols})
-    if tilt_rows:
-        tl = pd.concat(tilt_rows, ignore_index=True)
-        out = out.merge(tl, on=["timestamp", "height_m"], how="left")
-    else:
-        out = out.assign(**{c: np.nan for c in (*TILT_SPECTRUM_COLUMNS, "heading_mean_deg")})
-    out["imu_availability_pct"] = out["imu_availability_pct"].fillna(0.0)
-    out["timestamp"] = records["timestamp"].to_numpy()  # back to the records' own times
-    out = out[["timestamp", "height_m", *SERIES_MOTION_COLUMNS]]
-
-    # gaps before the first and after the last valid sample, within the records' span
-    span_lo = int(rec_t.min())
-    span_hi = int(rec_t.max()) + window_ns
-    if first_valid is None:
-        gaps.append(("no_valid_sample", span_lo, span_hi, (span_hi - span_lo) * 1e-9, 0))
-    else:
-        if first_valid > span_lo:
-            gaps.append(
-                ("before_first_sample", span_lo, first_valid, (first_valid - span_lo) * 1e-9, 0)
-            )
-        if last_valid < span_hi - 1e9 / fs:
-            gaps.append(
-                ("after_last_sample", last_valid, span_hi, (span_hi - last_valid) * 1e-9, 0)
-            )
-    gap_table = pd.DataFrame(
-        gaps, columns=["kind", "start", "end", "duration_s", "missing_samples"]
-    )
-    for col in ("start", "end"):
-        gap_table[col] = pd.to_datetime(gap_table[col].astype(np.int64) + offset_ns, utc=True)
+    out = _record_table(records, rec_keys, motion_rows, tilt_rows)
+    gap_table = gaps.table(int(rec_t.min()), int(rec_t.max()) + window_ns, fs, offset_ns)
     stats_ok = np.isfinite(out["roll_amplitude_deg"].to_numpy())
     avail = out["imu_availability_pct"].to_numpy()
+    inside = gap_table["kind"] == "inside"
     summary = {
         "imu_series": str(path),
         "rows": n_rows,
-        "valid_samples": n_valid,
+        "valid_samples": gaps.n_valid,
         "rate_hz": fs,
-        "first_sample": None
-        if first_valid is None
-        else pd.Timestamp(first_valid + offset_ns, tz="UTC").isoformat(),
-        "last_sample": None
-        if last_valid is None
-        else pd.Timestamp(last_valid + offset_ns, tz="UTC").isoformat(),
-        "gaps": n_gaps,
-        "missing_samples_inside": n_missing,
-        f"gaps_listed_ge_{gap_min_s:g}_s": int((gap_table["kind"] == "inside").sum()),
-        "longest_gap_inside_s": float(
-            gap_table.loc[gap_table["kind"] == "inside", "duration_s"].max()
-        )
-        if (gap_table["kind"] == "inside").any()
+        "first_sample": _iso(gaps.first_valid, offset_ns),
+        "last_sample": _iso(gaps.last_valid, offset_ns),
+        "gaps": gaps.n_gaps,
+        "missing_samples_inside": gaps.n_missing,
+        f"gaps_listed_ge_{gap_min_s:g}_s": int(inside.sum()),
+        "longest_gap_inside_s": float(gap_table.loc[inside, "duration_s"].max())
+        if inside.any()
         else 0.0,
         "record_rows": len(out),
         "record_rows_with_statistics": int(stats_ok.sum()),
@@ -678,3 +625,74 @@ def series_motion_statistics(
     }
     log.info("IMU series %s: %s", path, summary)
     return SeriesMotion(out, gap_table, summary)
+
+
+def _iso(t_ns, offset_ns: int) -> str | None:
+    """ISO-8601 UTC time of a shifted sample time (ns), None for None."""
+    return None if t_ns is None else pd.Timestamp(t_ns + offset_ns, tz="UTC").isoformat()
+
+
+def _record_table(records, rec_keys, motion_rows, tilt_rows) -> pd.DataFrame:
+    """The per-record statistics of :func:`series_motion_statistics`, one row per record
+    (NaN where no window of the series matched), at the records' own times."""
+    out = rec_keys.copy()
+    if motion_rows:
+        out = out.merge(pd.concat(motion_rows, ignore_index=True), on="timestamp", how="left")
+    else:
+        out = out.assign(**{c: np.nan for c in _imu.MOTION_STAT_COLUMNS})
+    if tilt_rows:
+        tl = pd.concat(tilt_rows, ignore_index=True)
+        out = out.merge(tl, on=["timestamp", "height_m"], how="left")
+    else:
+        out = out.assign(**{c: np.nan for c in (*TILT_SPECTRUM_COLUMNS, "heading_mean_deg")})
+    out["imu_availability_pct"] = out["imu_availability_pct"].fillna(0.0)
+    out["timestamp"] = records["timestamp"].to_numpy()  # back to the records' own times
+    return out[["timestamp", "height_m", *SERIES_MOTION_COLUMNS]]
+
+
+class _GapLog:
+    """Gaps of a series read chunk by chunk: intervals between valid samples longer than
+    1.5 nominal intervals (all counted, those of at least ``gap_min_s`` listed), and the
+    first and last valid sample times (ns)."""
+
+    def __init__(self, gap_min_s: float) -> None:
+        self.gap_min_s = gap_min_s
+        self.n_valid = self.n_gaps = self.n_missing = 0
+        self.first_valid = self.last_valid = None
+        self.rows: list[tuple] = []
+
+    def add(self, tv: np.ndarray, fs: float) -> None:
+        """The valid sample times ``tv`` (ns, increasing) of the next chunk, at ``fs`` (Hz)."""
+        self.n_valid += tv.size
+        if not tv.size:
+            return
+        edges = tv if self.last_valid is None else np.r_[self.last_valid, tv]
+        dt = np.diff(edges)
+        big = dt > 1.5e9 / fs
+        missing = np.rint(dt[big] * fs * 1e-9).astype(np.int64) - 1
+        self.n_gaps += int(big.sum())
+        self.n_missing += int(missing.sum())
+        for a, b, k in zip(edges[:-1][big], edges[1:][big], missing, strict=True):
+            if (b - a) * 1e-9 - 1.0 / fs >= self.gap_min_s:
+                self.rows.append(("inside", a, b, (b - a) * 1e-9 - 1.0 / fs, int(k)))
+        self.first_valid = tv[0] if self.first_valid is None else self.first_valid
+        self.last_valid = tv[-1]
+
+    def table(self, span_lo: int, span_hi: int, fs: float, offset_ns: int) -> pd.DataFrame:
+        """The listed gaps with those before the first and after the last valid sample
+        within the records' span ``[span_lo, span_hi)`` (ns), times back at ``offset_ns``."""
+        rows = list(self.rows)
+        first, last = self.first_valid, self.last_valid
+        if first is None:
+            rows.append(("no_valid_sample", span_lo, span_hi, (span_hi - span_lo) * 1e-9, 0))
+        else:
+            if first > span_lo:
+                rows.append(("before_first_sample", span_lo, first, (first - span_lo) * 1e-9, 0))
+            if last < span_hi - 1e9 / fs:
+                rows.append(("after_last_sample", last, span_hi, (span_hi - last) * 1e-9, 0))
+        table = pd.DataFrame(
+            rows, columns=["kind", "start", "end", "duration_s", "missing_samples"]
+        )
+        for col in ("start", "end"):
+            table[col] = pd.to_datetime(table[col].astype(np.int64) + offset_ns, utc=True)
+        return table
