@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from flidar_uq.physics import motion_spectrum as ms
@@ -275,3 +276,78 @@ def test_band_terms_give_the_band_sum_for_any_lever_arm(hull, h):
     mid = assembled(0.0, 0.5)
     assert np.all(mid**2 <= 0.5 * (lo**2 + hi**2) + 1e-12)
     assert not np.allclose(mid, lo) and not np.allclose(mid, hi)
+
+
+def _follower_sea(direction_deg, spread_deg, hull="wave_follower", seed=1, fs=5.0, n=3000):
+    """A 10-min JONSWAP sea (Tp 6 s) running ``direction_deg`` from the body x axis (east,
+    yaw 0): roll, pitch (deg) and the hull's vertical velocity (m/s)."""
+    from flidar_uq.physics.seastate import hull_motion_series
+
+    systems = {
+        "amplitude_deg": [[4.0]],
+        "tp_s": [[6.0]],
+        "gamma": [[3.3]],
+        "direction_deg": [[direction_deg]],
+        "spread_deg": [[spread_deg]],
+    }
+    h = hull_motion_series(n, 1.0 / fs, systems, np.random.default_rng(seed), hull)
+    return h["roll_deg"][0], h["pitch_deg"][0], np.gradient(h["heave_m"][0], 1.0 / fs)
+
+
+@pytest.mark.parametrize("hull", ["wave_follower", "discus_buoy"])
+@pytest.mark.parametrize("direction_deg", [0.0, 60.0, 90.0, 180.0, 240.0])
+def test_heave_gives_each_bands_signed_direction_of_travel(direction_deg, hull):
+    """The heave-tilt co-spectrum gives <cos psi> of a narrow sea with its sign: waves
+    running downwind (wind from the west, waves towards east) +1, upwind -1, across 0.
+    For a wrapped-normal spread s, <cos psi> = cos(psi) exp(-s^2 / 2); a hull whose heave
+    lags its tilt by phi (its response amplitude operators) gives that times cos(phi)."""
+    from flidar_uq.data.imu import tilt_band_statistics
+    from flidar_uq.physics.hull import get_hull
+
+    spread = 10.0
+    roll, pitch, w = _follower_sea(direction_deg, spread, hull)
+    spec = tilt_band_statistics(roll, pitch, 0.0, 270.0, 5.0, velocity_up_ms=w)
+    var = spec.var_along_deg2[0] + spec.var_across_deg2[0]
+    strong = var > 0.05 * var.max()  # the bands that carry the sea
+    expect = np.cos(np.deg2rad(direction_deg)) * np.exp(-0.5 * np.deg2rad(spread) ** 2)
+    _, r_z = get_hull(hull).relative_responses(spec.period_s[0])
+    expect = expect * np.cos(np.angle(r_z))
+    np.testing.assert_allclose(spec.cos_psi[0][strong], expect[strong], atol=0.08)
+    # the tilt alone cannot tell the side: without the heave there is no measured direction
+    assert tilt_band_statistics(roll, pitch, 0.0, 270.0, 5.0).cos_psi is None
+
+
+def test_measured_direction_reaches_the_record_columns_and_the_record_model():
+    """tilt_spectrum_columns writes tilt_band{b}_cos_psi; tilt_bands_from_records reads it;
+    the record model's band sum takes it instead of the wave-age rule (a wave follower's
+    heave-tilt cross term changes sign when the waves run upwind)."""
+    from flidar_uq.data.imu import (
+        tilt_band_statistics,
+        tilt_bands_from_records,
+        tilt_spectrum_columns,
+    )
+    from flidar_uq.inference.record_motion import motion_gram
+
+    grams = {}
+    for d in (0.0, 180.0):
+        roll, pitch, w = _follower_sea(d, 10.0)
+        spec = tilt_band_statistics(roll, pitch, 0.0, 270.0, 5.0, velocity_up_ms=w)
+        rec = pd.DataFrame(tilt_spectrum_columns(spec)).assign(hws_mean_ms=8.0)
+        assert {f"tilt_band{b}_cos_psi" for b in range(1, 9)} <= set(rec.columns)
+        bands = tilt_bands_from_records(rec)
+        np.testing.assert_array_equal(bands["cos_psi_measured"][0], spec.cos_psi[0])
+        grams[d] = motion_gram(rec)
+        # without the measured direction the wave-age rule takes the wind sea downwind
+        grams[d, "rule"] = motion_gram(
+            rec.drop(columns=[f"tilt_band{b}_cos_psi" for b in range(1, 9)])
+        )
+    cross = [c for c in grams[0.0].columns if c.startswith("gram_") and c != "gram_kk"]
+    downwind, upwind = grams[0.0], grams[180.0]
+    # the same tilt spectrum, so the rule gives the same gram for both seas ...
+    np.testing.assert_allclose(
+        grams[0.0, "rule"][cross].to_numpy(float),
+        grams[180.0, "rule"][cross].to_numpy(float),
+        rtol=0.05,
+    )
+    # ... while the measured direction tells them apart
+    assert not np.allclose(downwind[cross].to_numpy(float), upwind[cross].to_numpy(float), rtol=0.2)

@@ -352,3 +352,23 @@ def test_readme_series_example_runs(tmp_path):
     los = pd.read_csv(tmp_path / "results" / "los" / "agreement.csv").set_index("method")
     assert los.loc["least_squares", "n_records"] > 0.8 * len(records)
     assert "LOS-level correction" in (tmp_path / "results" / "report" / "report.html").read_text()
+
+
+def test_merge_takes_the_series_measured_band_directions(tmp_path):
+    """With a vertical velocity in the series, its tilt_band{b}_cos_psi replace the table's."""
+    records = pd.DataFrame(
+        {
+            "timestamp": pd.to_datetime(["2015-04-01T00:00Z"], utc=True),
+            "height_m": 58.0,
+            "tilt_band3_cos_psi": [0.1],
+        }
+    )
+    stats = records[["timestamp", "height_m"]].copy()
+    for col in SERIES_MOTION_COLUMNS:
+        stats[col] = 1.0
+    stats["tilt_band3_cos_psi"] = -0.7
+    path = tmp_path / "statistics.csv"
+    stats.to_csv(path, index=False, date_format="%Y-%m-%dT%H:%M:%SZ")
+    merged, n = merge_series_motion(records, path)
+    assert merged["tilt_band3_cos_psi"].tolist() == [-0.7]
+    assert n == 1  # the table's own direction counted as replaced

@@ -517,6 +517,11 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
     n_h = len(settings["heights_m"])
     k0, phase_slots, starts, dropped, outage = _lidar_schedule(settings, rng, lay, n_slots, n_h)
     noise, gap = _imu_errors(settings["imu"], rng, t_len)
+    w_noise = None  # the vertical velocity's noise (m/s), drawn last: the rest unchanged
+    if settings["imu"].get("vertical_velocity") and trans is not None:
+        w_noise = float(settings["imu"]["vertical_velocity_noise_ms"]) * rng.standard_normal(
+            noise.shape[1]
+        )
     return dict(
         hws_h=hws_h,
         fluct_uvw=fluct,
@@ -530,6 +535,7 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
         dropped=dropped,
         outage=outage,
         imu_noise=noise,
+        imu_w_noise=w_noise,
         imu_gap=gap,
     )
 
@@ -677,7 +683,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         imu_ns.append(ns)
         fl_truth.append(s["fluct_uvw"][..., :: clk.k_truth].copy())  # the 1-Hz samples
         trans_truth.append(_translation_truth(s["trans"], clk.dt_s, e_wind[c, :2], yaw_c[0]))
-        for key in ("roll", "pitch", "fluct_uvw", "trans", "imu_noise"):
+        for key in ("roll", "pitch", "fluct_uvw", "trans", "imu_noise", "imu_w_noise"):
             del s[key]  # the record's long series: done with
         series.append(s)
     sc = _chunk_scans(series, scans, par, lay.n_los, clk.n_slots, want_los)
@@ -759,9 +765,11 @@ def _imu_series(s, yaw_c, ts_ns, clk):
     """IMU: the record's roll, pitch and yaw (deg) as its IMU reports them.
 
     The true attitude at the IMU's sample times ``k / imu_rate_hz`` (s;
-    :func:`_on_imu_clock`), plus the record's white noise (deg), NaN within its gap.
-    Returns the three series (n_imu,), deg, and their times, integer ns since the epoch
-    (``ts_ns``: the record's start, ns).
+    :func:`_on_imu_clock`), plus the record's white noise (deg), NaN within its gap; with
+    ``imu.vertical_velocity``, a fourth series: the hull's vertical velocity (m/s, the
+    rotation centre's, positive up) plus white noise of ``imu.vertical_velocity_noise_ms``.
+    Returns the series (n_imu,) and their times, integer ns since the epoch (``ts_ns``:
+    the record's start, ns).
     """
     rate, dt = clk.imu_rate_hz, clk.dt_s
     n_imu = s["imu_noise"].shape[1]
@@ -773,6 +781,9 @@ def _imu_series(s, yaw_c, ts_ns, clk):
         else np.full(n_imu, yaw_c[0, 0])
     )
     att = [a + nz for a, nz in zip(att, s["imu_noise"], strict=True)]
+    if s["imu_w_noise"] is not None:  # the vertical velocity of the rotation centre, m/s
+        w = np.gradient(s["trans"][:, 2], dt)
+        att.append(_on_imu_clock(w, n_imu, rate, dt) + s["imu_w_noise"])
     if s["imu_gap"] is not None:
         g = (t_imu >= s["imu_gap"][0]) & (t_imu < s["imu_gap"][1])
         for a in att:
@@ -996,7 +1007,8 @@ def _imu_statistics(cols, settings, imu_att, imu_ns, wd_mean, clk):
     """
     n_h = len(settings["heights_m"])
     rate = clk.imu_rate_hz
-    att = [np.stack([a[k] for a in imu_att]) for k in range(3)]  # roll, pitch, yaw (C, n)
+    # roll, pitch, yaw (C, n), deg, and the vertical velocity (m/s) where the IMU has it
+    att = [np.stack([a[k] for a in imu_att]) for k in range(len(imu_att[0]))]
     p_lo, p_hi = settings["imu"]["period_range_s"]
     start_ns, stats, present = _imu.motion_statistics_arrays(
         np.concatenate(imu_ns),
@@ -1017,7 +1029,8 @@ def _imu_statistics(cols, settings, imu_att, imu_ns, wd_mean, clk):
     # tilt along and across the wind (each row's own measured wind direction), its
     # spectral moments and periods: the per-record motion description (docs/data-format.md);
     # the attitude's trigonometry once per record for all its heights
-    spec = _imu.tilt_band_statistics(*att, wd_mean, rate)
+    w_up = att[3] if len(att) > 3 else None
+    spec = _imu.tilt_band_statistics(*att[:3], wd_mean, rate, velocity_up_ms=w_up)
     for key, col in _imu.tilt_spectrum_columns(spec).items():
         cols[key] = np.asarray(col, float)
     # the buoy's mean heading over each record, as a compass would report it
@@ -1026,16 +1039,14 @@ def _imu_statistics(cols, settings, imu_att, imu_ns, wd_mean, clk):
 
 
 def _imu_frame(att, imu_ns):
-    """The chunk's raw IMU series as a frame: time, roll, pitch, yaw (deg)."""
+    """The chunk's raw IMU series as a frame: time, roll, pitch, yaw (deg) and, where
+    the IMU has it, the vertical velocity (m/s)."""
     import pandas as pd
 
+    names = ("roll_deg", "pitch_deg", "yaw_deg", "velocity_up_ms")
     return pd.DataFrame(
-        {
-            "timestamp": _utc_index(np.concatenate(imu_ns)),
-            "roll_deg": att[0].ravel(),
-            "pitch_deg": att[1].ravel(),
-            "yaw_deg": att[2].ravel(),
-        }
+        {"timestamp": _utc_index(np.concatenate(imu_ns))}
+        | {name: a.ravel() for name, a in zip(names, att, strict=False)}
     )
 
 

@@ -146,6 +146,11 @@ DEFAULT_SCENARIO: dict = {
         # a motion reference unit: the hull's surge, sway and heave velocity stds in the
         # records (heave_velocity_std_ms, surge_velocity_std_ms, sway_velocity_std_ms)
         "mru_translation": False,
+        # the hull's vertical velocity in the IMU series (velocity_up_ms, m/s), as a wave
+        # sensor or motion reference unit reports it, with white noise (m/s): the records
+        # then carry each tilt band's measured direction (tilt_band{b}_cos_psi)
+        "vertical_velocity": False,
+        "vertical_velocity_noise_ms": 0.02,
     },
 }
 

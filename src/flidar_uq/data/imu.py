@@ -37,16 +37,23 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy import fft as _fft
 
-from flidar_uq.data.schema import N_TILT_BANDS, TILT_SPECTRUM_COLUMNS, tilt_band_column_names
+from flidar_uq.data.schema import (
+    N_TILT_BANDS,
+    TILT_SPECTRUM_COLUMNS,
+    tilt_band_column_names,
+    tilt_band_cos_psi_column,
+)
 from flidar_uq.physics.hull import G_MS2
 from flidar_uq.physics.motion_spectrum import (
     PERIOD_RANGE_S,
     TiltBandSpectrum,
+    band_edges_s,
     project_tilt_on_wind_deg,
     tilt_band_spectrum,
     tilt_vector_en,
@@ -57,6 +64,7 @@ if TYPE_CHECKING:  # pandas is imported where a function builds or reads a DataF
 
 __all__ = [
     "AMPLITUDE_METHODS",
+    "band_cos_psi_from_heave",
     "grid_rate_hz",
     "PERIOD_METHODS",
     "amplitude_std_deg",
@@ -231,6 +239,91 @@ def _welch_hann(x: np.ndarray, fs_hz: float, nperseg: int) -> tuple[np.ndarray, 
     n_doubled = spec.shape[-1] - 1 - (0 if nperseg % 2 else 1)  # all but DC and Nyquist
     p = imu_kernels.welch_power(spec, fs_hz * win_power, n_doubled)
     return _fft.rfftfreq(nperseg, 1.0 / fs_hz), p
+
+
+def band_cos_psi_from_heave(
+    velocity_up_ms,
+    along_deg,
+    across_deg,
+    fs_hz: float,
+    *,
+    segment_s: float = 200.0,
+    n_bands: int = 8,
+    period_min_s: float = 1.0,
+    period_max_s: float = 20.0,
+) -> np.ndarray:
+    """Signed mean cosine of each band's directions of travel against the wind, from heave.
+
+    A buoy that follows a wave ``eta = a cos(k x cos psi - omega t)`` (``x`` downwind)
+    rises with the vertical velocity ``w = a omega sin(.)`` while its mast leans with the
+    surface normal, upwind by ``a k cos psi sin(.)``: the two are in phase, with the sign
+    of ``cos psi``. Minus the band's co-spectrum of ``w`` and the along-wind tilt (positive
+    where the mast leans upwind, :func:`flidar_uq.physics.motion_spectrum.project_tilt_on_wind_deg`),
+    normalised by the band's power of ``w`` and of the whole tilt (along + across), is then
+    ``<cos psi>`` of its waves, the
+    first directional moment a pitch-roll buoy measures (Longuet-Higgins, Cartwright and
+    Smith, 1963): +1 for waves running downwind, -1 upwind, 0 across or for a sea split
+    evenly between the two. A hull that responds less than a follower, in phase, gives
+    the same ratio. Welch estimate as :func:`motion_spectrum` (gaps linearly filled,
+    detrended, periodic Hann segments with 50 % overlap).
+
+    Parameters
+    ----------
+    velocity_up_ms : array_like, shape (nwin, n)
+        Vertical velocity of the buoy, positive up, m/s (NaN: missing sample).
+    along_deg, across_deg : array_like, shape (nwin, n)
+        Tilt along and across the mean wind (:func:`tilt_band_statistics`'s projection),
+        deg.
+    fs_hz : float
+        Sampling rate, Hz.
+    segment_s, n_bands, period_min_s, period_max_s
+        Welch segment (s) and the period bands (s), those of :func:`tilt_band_statistics`.
+
+    Returns
+    -------
+    numpy.ndarray, shape (nwin, n_bands)
+        ``<cos psi>`` per band (-, in [-1, 1]); NaN for a band without heave or tilt power
+        or a window without a finite vertical velocity.
+    """
+    from flidar_uq.data import imu_kernels  # numba: imported where an estimator runs
+
+    rows = [_as_2d(a)[0] for a in (velocity_up_ms, along_deg, across_deg)]
+    n = rows[0].shape[-1]
+    nperseg = int(min(n, round(segment_s * fs_hz)))
+    step = nperseg - nperseg // 2
+    n_seg = (n - nperseg) // step + 1
+    win, _ = _hann(nperseg)
+    no_heave = ~np.isfinite(rows[0]).any(axis=-1)
+    spectra = [
+        _fft.rfft(
+            imu_kernels.welch_segments(
+                np.ascontiguousarray(_detrend(_fill(np.where(no_heave[:, None], 0.0, x)))),
+                win,
+                step,
+                n_seg,
+            ),
+            axis=-1,
+        )
+        for x in rows
+    ]
+    w, a, c = spectra
+    co = np.mean((np.conj(w) * a).real, axis=1)  # (nwin, nf), common scale cancels below
+    p_w = np.mean(np.abs(w) ** 2, axis=1)
+    p_tilt = np.mean(np.abs(a) ** 2 + np.abs(c) ** 2, axis=1)
+    f = _fft.rfftfreq(nperseg, 1.0 / fs_hz)
+    with np.errstate(divide="ignore"):
+        per = np.where(f > 0, 1.0 / f, np.inf)
+    edges = band_edges_s(n_bands, period_min_s, period_max_s)
+    idx = np.searchsorted(edges, per, side="right") - 1
+    idx = np.where(per == edges[-1], n_bands - 1, idx)
+    out = np.full((co.shape[0], n_bands), np.nan)
+    for b in range(n_bands):
+        k = idx == b
+        cb, wb, tb = co[:, k].sum(-1), p_w[:, k].sum(-1), p_tilt[:, k].sum(-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[:, b] = np.where((wb > 0) & (tb > 0), -cb / np.sqrt(wb * tb), np.nan)
+    out[no_heave] = np.nan
+    return np.clip(out, -1.0, 1.0)
 
 
 def _band(f: np.ndarray, period_min_s: float, period_max_s: float) -> np.ndarray:
@@ -801,6 +894,7 @@ def tilt_band_statistics(
     n_bands: int = 8,
     period_min_s: float = 1.0,
     period_max_s: float = 20.0,
+    velocity_up_ms=None,
 ) -> TiltBandSpectrum:
     """Per-record tilt spectrum along and across the wind, reduced to period bands.
 
@@ -828,6 +922,9 @@ def tilt_band_statistics(
         Sampling rate, Hz.
     segment_s, n_bands, period_min_s, period_max_s
         Welch segment length (s) and the bands.
+    velocity_up_ms : array_like, shape like roll_deg, optional
+        Vertical velocity of the buoy, positive up, m/s: then each band's signed
+        ``<cos psi>`` (:func:`band_cos_psi_from_heave`) is in ``cos_psi``.
 
     Returns
     -------
@@ -836,6 +933,7 @@ def tilt_band_statistics(
         ``(nwin * k, ...)``.
     """
     east, north = _tilt_vector(roll_deg, pitch_deg, yaw_deg)  # (nwin, n)
+    w_up = None if velocity_up_ms is None else _as_2d(velocity_up_ms)[0]
     if np.ndim(wd_deg) == 2:  # k directions per series: rows (series, direction)
         wd = np.asarray(wd_deg, np.float64)
         if wd.shape[0] != east.shape[0]:
@@ -845,6 +943,7 @@ def tilt_band_statistics(
             )
         # each series projected on its k directions by broadcasting (rows: series, direction)
         east, north, wd = east[:, None, :], north[:, None, :], wd[:, :, None]
+        w_up = None if w_up is None else np.repeat(w_up, wd.shape[1], axis=0)
     else:
         wd = np.asarray(wd_deg, np.float64).reshape(-1, 1) if np.ndim(wd_deg) else float(wd_deg)
     return _projected_band_spectrum(
@@ -856,6 +955,7 @@ def tilt_band_statistics(
         n_bands=n_bands,
         period_min_s=period_min_s,
         period_max_s=period_max_s,
+        velocity_up_ms=w_up,
     )
 
 
@@ -869,17 +969,32 @@ def _tilt_vector(roll_deg, pitch_deg, yaw_deg) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _projected_band_spectrum(
-    east, north, wd_deg, fs_hz, *, segment_s, n_bands, period_min_s, period_max_s
+    east,
+    north,
+    wd_deg,
+    fs_hz,
+    *,
+    segment_s,
+    n_bands,
+    period_min_s,
+    period_max_s,
+    velocity_up_ms=None,
 ) -> TiltBandSpectrum:
-    """Band spectrum of the tilt vector projected on the wind (``wd_deg`` broadcast; s, Hz)."""
+    """Band spectrum of the tilt vector projected on the wind (``wd_deg`` broadcast; s, Hz),
+    with each band's ``<cos psi>`` from the vertical velocity (m/s) where it is given."""
     along, across = project_tilt_on_wind_deg(east, north, wd_deg)
     if along.ndim == 3:  # (series, direction, sample): one row a (series, direction)
         along, across = (a.reshape(-1, a.shape[-1]) for a in (along, across))
     f, pa = motion_spectrum(along, fs_hz, segment_s=segment_s)
     _, pc = motion_spectrum(across, fs_hz, segment_s=segment_s)
-    return tilt_band_spectrum(
-        f, pa, pc, n_bands=n_bands, period_min_s=period_min_s, period_max_s=period_max_s
+    bands = dict(n_bands=n_bands, period_min_s=period_min_s, period_max_s=period_max_s)
+    spec = tilt_band_spectrum(f, pa, pc, **bands)
+    if velocity_up_ms is None:
+        return spec
+    cos_psi = band_cos_psi_from_heave(
+        velocity_up_ms, along, across, fs_hz, segment_s=segment_s, **bands
     )
+    return replace(spec, cos_psi=cos_psi)
 
 
 def tilt_spectrum_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
@@ -900,6 +1015,8 @@ def tilt_spectrum_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
         bands[per] = np.asarray(spec.period_s[:, b], float)
         bands[along] = np.asarray(spec.var_along_deg2[:, b], float)
         bands[across] = np.asarray(spec.var_across_deg2[:, b], float)
+        if spec.cos_psi is not None:
+            bands[tilt_band_cos_psi_column(b + 1)] = np.asarray(spec.cos_psi[:, b], float)
     return (
         {
             "tilt_along_wind_std_deg": spec.along_std_deg,
@@ -948,9 +1065,10 @@ def tilt_bands_from_records(records: pd.DataFrame):
     dict or None
         ``amplitude_deg`` (the lean amplitude of each band along its direction of travel,
         ``sqrt(2 (var_along + var_across))``, deg), ``period_s`` (s), ``cos_sq_psi`` and
-        ``cos_psi`` (-, :func:`band_direction_moments`), each of shape (n_records,
-        n_bands), and ``complete`` (n_records,) True where every band value is finite; None
-        when the table lacks a band column.
+        ``cos_psi`` (-, :func:`band_direction_moments`), ``cos_psi_measured`` (-, the
+        optional ``tilt_band{b}_cos_psi`` columns of :func:`band_cos_psi_from_heave`, NaN
+        where absent), each of shape (n_records, n_bands), and ``complete`` (n_records,)
+        True where every band value is finite; None when the table lacks a band column.
     """
     names = [tilt_band_column_names(b + 1) for b in range(N_TILT_BANDS)]
     if any(c not in records for cols in names for c in cols):
@@ -962,11 +1080,17 @@ def tilt_bands_from_records(records: pd.DataFrame):
     per, va, vc = stack(0), stack(1), stack(2)
     complete = np.all(np.isfinite(per) & np.isfinite(va) & np.isfinite(vc), axis=-1)
     cos_sq, cos_mean = band_direction_moments(va, vc)
+    measured = np.full(per.shape, np.nan)
+    for b in range(N_TILT_BANDS):
+        col = tilt_band_cos_psi_column(b + 1)
+        if col in records:
+            measured[:, b] = records[col].to_numpy(dtype=float)
     return {
         "amplitude_deg": np.sqrt(2.0 * (va + vc)),
         "period_s": per,
         "cos_sq_psi": cos_sq,
         "cos_psi": cos_mean,
+        "cos_psi_measured": measured,
         "complete": complete,
     }
 
@@ -996,6 +1120,8 @@ def follower_translation_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray
     heave_var = np.sum(vt * c**2, axis=-1)
     along_var = np.sum(va * c**2, axis=-1)
     _, cos_mean = band_direction_moments(va, vt - va)
+    if spec.cos_psi is not None:  # measured from the heave where it is
+        cos_mean = np.where(np.isfinite(spec.cos_psi), spec.cos_psi, cos_mean)
     with np.errstate(invalid="ignore", divide="ignore"):
         cov = np.sum(c * cos_mean * vt, axis=-1)  # cov(heave velocity, along-wind lean)
         corr = cov / np.sqrt(heave_var * np.sum(va, axis=-1))
@@ -1116,6 +1242,8 @@ def _tilt_spectrum_windows(
     window_ns = int(round(window_s * 1e9))
     t0_ns = (int(t_ns[0]) // window_ns) * window_ns
     names = ["roll_deg", "pitch_deg"] + (["yaw_deg"] if "yaw_deg" in imu.columns else [])
+    heave = "velocity_up_ms" in imu.columns
+    names += ["velocity_up_ms"] if heave else []
     vals = imu[names].to_numpy(dtype=np.float64)
     start_s, grid, fs = window_series((t_ns - t0_ns) * 1e-9, vals, window_s=window_s, fs_hz=fs_hz)
     stamps = pd.to_datetime(t0_ns + np.rint(start_s * 1e9).astype(np.int64), utc=True)
@@ -1132,13 +1260,15 @@ def _tilt_spectrum_windows(
     present = np.isfinite(grid[..., :2]).any(axis=(1, 2))
     covered = present & (coverage >= min_coverage_pct)
     good = covered[:, None] & np.isfinite(wd)
-    yaw = grid[..., 2] if grid.shape[-1] == 3 else 0.0
+    has_yaw = "yaw_deg" in names
+    yaw = grid[..., 2] if has_yaw else 0.0
     east, north = _tilt_vector(grid[..., 0], grid[..., 1], yaw)  # once for every source
     heading = (
         np.where(covered, heading_mean_deg(yaw), np.nan)
-        if grid.shape[-1] == 3
+        if has_yaw
         else np.full(len(stamps), np.nan)
     )
+    w_up = grid[..., -1] if heave else None
     keep = np.flatnonzero(present)
     out = []
     for j in range(wd.shape[1]):
@@ -1152,6 +1282,7 @@ def _tilt_spectrum_windows(
             n_bands=n_bands,
             period_min_s=PERIOD_RANGE_S[0],
             period_max_s=PERIOD_RANGE_S[1],
+            velocity_up_ms=w_up,
         ).masked(good[:, j])
         table = pd.DataFrame(
             {"timestamp": stamps} | tilt_spectrum_columns(spec) | {"heading_mean_deg": heading}

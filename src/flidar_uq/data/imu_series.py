@@ -647,7 +647,8 @@ def _record_table(records, rec_keys, motion_rows, tilt_rows) -> pd.DataFrame:
         out = out.assign(**{c: np.nan for c in (*TILT_SPECTRUM_COLUMNS, "heading_mean_deg")})
     out["imu_availability_pct"] = out["imu_availability_pct"].fillna(0.0)
     out["timestamp"] = records["timestamp"].to_numpy()  # back to the records' own times
-    return out[["timestamp", "height_m", *SERIES_MOTION_COLUMNS]]
+    measured = [c for c in out if c.startswith("tilt_band") and c.endswith("_cos_psi")]
+    return out[["timestamp", "height_m", *SERIES_MOTION_COLUMNS, *measured]]
 
 
 class _GapLog:

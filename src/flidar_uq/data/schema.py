@@ -26,6 +26,7 @@ __all__ = [
     "N_TILT_BANDS",
     "TILT_SPECTRUM_COLUMNS",
     "tilt_band_column_names",
+    "tilt_band_cos_psi_column",
     "RADIAN_SUSPECT_MAX_DEG",
     "RADIAN_SUSPECT_MIN_COUNT",
     "IMU_RATE_RANGE_HZ",
@@ -128,6 +129,12 @@ _HEIGHT_M = Column(
 #: b = 1 .. N_TILT_BANDS): log-spaced between 1 and 20 s, the bands the data layer reduces a
 #: raw IMU series to (:func:`flidar_uq.data.imu.tilt_band_statistics`).
 N_TILT_BANDS = 8
+
+
+def tilt_band_cos_psi_column(b: int) -> str:
+    """Name of the optional record column of tilt band ``b`` (1-based): the signed mean
+    cosine of its waves' directions of travel against the wind, from the heave."""
+    return f"tilt_band{b}_cos_psi"
 
 
 def tilt_band_column_names(b: int) -> tuple[str, str, str]:
@@ -392,6 +399,20 @@ RECORD_COLUMNS: tuple[Column, ...] = (
                 2025.0,
                 True,
                 f"Variance of the tilt across the mean wind in band {b}.",
+            ),
+            Column(
+                f"tilt_band{b}_cos_psi",
+                "float",
+                "-",
+                False,
+                -1.0,
+                1.0,
+                True,
+                f"Signed mean cosine of the directions of travel of band {b}'s waves against "
+                "the wind (+1 downwind, -1 upwind), from the co-spectrum of the IMU series' "
+                "vertical velocity and the along-wind tilt (Longuet-Higgins et al., 1963); "
+                "absent without a vertical velocity: then wind sea is taken to run downwind "
+                "and swell to have no known side.",
             ),
         )
     ),
@@ -714,7 +735,8 @@ IMU_COLUMNS: tuple[Column, ...] = (
         -20.0,
         20.0,
         True,
-        "Vertical velocity of the lidar, positive up (ENU earth frame).",
+        "Vertical velocity of the lidar, positive up (ENU earth frame); with it the record "
+        "table gets each tilt band's measured direction of travel (tilt_band{b}_cos_psi).",
     ),
 )
 

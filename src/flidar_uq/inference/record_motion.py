@@ -112,9 +112,11 @@ def _band_terms(records: pd.DataFrame, surrogate, scan_period_s: float, hull="wa
     (:func:`flidar_uq.physics.six_dof_sigma_z.six_dof_band_terms`, the wave follower's
     translation scaled by the hull response), and the bands themselves
     (:func:`flidar_uq.data.imu.tilt_bands_from_records`, None without band columns). A
-    band's ``<cos psi>`` is that of waves running downwind
-    (:func:`flidar_uq.data.imu.band_direction_moments`) where its wave age says wind sea,
-    else 0 (swell of unknown side, :func:`flidar_uq.physics.seastate.downwind_side_known`)."""
+    band's ``<cos psi>`` is the measured one where the record has it
+    (``tilt_band{b}_cos_psi``, :func:`flidar_uq.data.imu.band_cos_psi_from_heave`), else
+    that of waves running downwind (:func:`flidar_uq.data.imu.band_direction_moments`)
+    where its wave age says wind sea, else 0 (swell of unknown side,
+    :func:`flidar_uq.physics.seastate.downwind_side_known`)."""
     bands = tilt_bands_from_records(records)
     if bands is None:
         return np.zeros(len(records), dtype=bool), None, None
@@ -123,11 +125,21 @@ def _band_terms(records: pd.DataFrame, surrogate, scan_period_s: float, hull="wa
     # the side a band's waves travel on is known for wind sea only (downwind); for swell
     # its mean cosine to the wind is 0 whatever its along-wind share
     wind_sea = downwind_side_known(bands["period_s"][use], hws[use, None])
+    assumed = np.where(wind_sea, bands["cos_psi"][use], 0.0)
+    measured = bands["cos_psi_measured"][use]  # from the heave, where the series had one
+    ref = get_hull(hull)
+    if ref.name != "wave_follower" and np.isfinite(measured).any():
+        # the heave-tilt co-spectrum holds cos(psi) times the cosine of the hull's heave
+        # phase against its tilt, which the reference hull's response applies again
+        _, r_z = ref.relative_responses(np.clip(bands["period_s"][use], 1.0, 20.0))
+        phase = np.cos(np.angle(r_z))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            measured = np.where(np.abs(phase) > 0.1, np.clip(measured / phase, -1.0, 1.0), measured)
     terms = six_dof_band_terms(
         hws[use],
         bands["amplitude_deg"][use],
         bands["period_s"][use],
-        band_cos_psi=np.where(wind_sea, bands["cos_psi"][use], 0.0),
+        band_cos_psi=np.where(np.isfinite(measured), measured, assumed),
         band_cos_sq_psi=bands["cos_sq_psi"][use],
         surrogate=surrogate,
         scan_period_s=scan_period_s,

@@ -173,6 +173,11 @@ class TiltBandSpectrum:
         In-band spectral moments ``m_k = int f^k S_along(f) df`` of the along-wind tilt.
     tp_s : ndarray, shape (nrec,)
         Peak period of the along + across tilt spectrum inside the bands, s.
+    cos_psi : ndarray, shape (nrec, nb), or None
+        Signed mean cosine of each band's directions of travel against the wind, measured
+        from the co-spectrum of the vertical velocity and the along-wind tilt
+        (:func:`flidar_uq.data.imu.band_cos_psi_from_heave`); None without a vertical
+        velocity.
     """
 
     edges_s: np.ndarray
@@ -184,6 +189,7 @@ class TiltBandSpectrum:
     m1_deg2_hz: np.ndarray
     m2_deg2_hz2: np.ndarray
     tp_s: np.ndarray
+    cos_psi: np.ndarray | None = None
 
     _RECORD_FIELDS = (
         "period_s",
@@ -198,13 +204,16 @@ class TiltBandSpectrum:
 
     def take(self, index) -> TiltBandSpectrum:
         """The records ``index`` (integer array or boolean mask) as a new spectrum."""
-        return replace(self, **{k: getattr(self, k)[index] for k in self._RECORD_FIELDS})
+        return replace(self, **{k: getattr(self, k)[index] for k in self._fields()})
+
+    def _fields(self) -> tuple[str, ...]:
+        return self._RECORD_FIELDS + (("cos_psi",) if self.cos_psi is not None else ())
 
     def masked(self, keep) -> TiltBandSpectrum:
         """A copy with NaN in every record where the boolean ``keep`` (nrec,) is False."""
         keep = np.asarray(keep, bool)
         out = {}
-        for k in self._RECORD_FIELDS:
+        for k in self._fields():
             a = np.array(getattr(self, k), dtype=float)
             a[~keep] = np.nan
             out[k] = a

@@ -147,7 +147,9 @@ def merge_series_motion(
             len(records),
         )
     merged = records.drop(columns=own)
-    for col in SERIES_MOTION_COLUMNS:
+    # the bands' measured directions where the series had a vertical velocity
+    measured = [c for c in stats if c.startswith("tilt_band") and c.endswith("_cos_psi")]
+    for col in (*SERIES_MOTION_COLUMNS, *measured):
         merged[col] = stats[col].to_numpy(dtype=float)
     return merged, n_overridden
 
@@ -156,4 +158,5 @@ def _table_motion_columns(records: pd.DataFrame) -> list[str]:
     """The motion columns (derived from a series) that the record table itself carries."""
     from flidar_uq.data.imu_series import SERIES_MOTION_COLUMNS
 
-    return [c for c in SERIES_MOTION_COLUMNS if c in records.columns]
+    measured = [c for c in records if c.startswith("tilt_band") and c.endswith("_cos_psi")]
+    return [c for c in SERIES_MOTION_COLUMNS if c in records.columns] + measured
