@@ -8,7 +8,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flidar_uq.data.binning import bin_centre, bin_label, bin_records, speed_bin_ms
+from flidar_uq.data.binning import (
+    add_harmonic_motion,
+    bin_centre,
+    bin_label,
+    bin_records,
+    speed_bin_ms,
+)
 
 
 def rec(hws, amp_roll, amp_pitch, per_roll, per_pitch) -> pd.DataFrame:
@@ -142,3 +148,17 @@ def test_one_speed_bin_rule_for_bins_speed_bins_and_plots():
     assert sorted(table["hws_ms"]) == sorted(set(speed_bin_ms(hws)))
     ti = metrics.ti_by_speed_bin(hws, records["hws_std_ms"], hws_min_ms=0.0)
     assert ti["hws_bin_ms"].tolist() == [3.0, 5.0]
+
+
+def test_add_harmonic_motion_is_mean_of_roll_and_pitch_gutierrez2018_sec24():
+    rec = pd.DataFrame(
+        {
+            "roll_amplitude_deg": [2.0, 3.0],
+            "pitch_amplitude_deg": [4.0, 3.5],
+            "roll_period_s": [3.0, 4.0],
+            "pitch_period_s": [5.0, 4.5],
+        }
+    )
+    out = add_harmonic_motion(rec)
+    assert out["amplitude_deg"].tolist() == [3.0, 3.25]
+    assert out["period_s"].tolist() == [4.0, 4.25]

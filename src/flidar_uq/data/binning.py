@@ -18,9 +18,38 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from flidar_uq.data.imu import add_harmonic_motion
+__all__ = ["add_harmonic_motion", "bin_centre", "bin_label", "bin_records", "speed_bin_ms"]
 
-__all__ = ["bin_centre", "bin_label", "bin_records", "speed_bin_ms"]
+
+def add_harmonic_motion(records: pd.DataFrame) -> pd.DataFrame:
+    """Add the Gutiérrez-Antuñano et al. (2018) single motion description to each record.
+
+    ``amplitude_deg`` = mean of roll and pitch amplitude and ``period_s`` = mean
+    of roll and pitch period (Gutiérrez-Antuñano et al., 2018, Sec. 2.4).
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records with ``roll_amplitude_deg``, ``pitch_amplitude_deg``,
+        ``roll_period_s``, ``pitch_period_s``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy with ``amplitude_deg`` (deg) and ``period_s`` (s) added.
+    """
+    need = ["roll_amplitude_deg", "pitch_amplitude_deg", "roll_period_s", "pitch_period_s"]
+    missing = [c for c in need if c not in records.columns]
+    if missing:
+        raise ValueError(f"add_harmonic_motion: records lack column(s) {missing}")
+    out = records.copy()
+    out["amplitude_deg"] = 0.5 * (
+        records[need[0]] + records[need[1]]
+    )  # Gutiérrez-Antuñano et al. (2018), Sec. 2.4
+    out["period_s"] = 0.5 * (
+        records[need[2]] + records[need[3]]
+    )  # Gutiérrez-Antuñano et al. (2018), Sec. 2.4
+    return out
 
 
 def bin_centre(x, width: float) -> np.ndarray:

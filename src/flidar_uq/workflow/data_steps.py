@@ -337,10 +337,10 @@ def motion_statistics(
     Adds ``amplitude_deg`` and ``period_s`` (the roll/pitch averages, Gutiérrez-Antuñano et al. (2018), Sec. 2.4) to
     each kept record; writes the roll-pitch correlation of amplitude and period.
     """
-    from flidar_uq.data import imu
+    from flidar_uq.data import binning, imu
 
     records = read_csv(in_path)
-    out = imu.add_harmonic_motion(records)
+    out = binning.add_harmonic_motion(records)
     corr = imu.roll_pitch_correlation(records)
     write_csv(out, out_path)
     write_csv(pd.DataFrame([corr]), roll_pitch_path)

@@ -495,31 +495,34 @@ def read_campaign_records(
     """
     import numpy as np
 
-    from flidar_uq.data import io
+    from flidar_uq.data.formats.join import read_campaign
 
     campaign = dict(campaign or {})
     if allow_small_angles is None:
         allow_small_angles = bool(campaign.get("allow_small_angles", False))
-    records = io.read_records(
+    conventions = {
+        k: campaign[k]
+        for k in (
+            "format",
+            "utc_offset_h",
+            "timestamp_at",
+            "heading_convention",
+            "motion_file",
+            "reference_file",
+        )
+        if k in campaign
+    }
+    records = read_campaign(
         path,
-        columns=campaign.get("columns") or None,
-        allow_small_angles=allow_small_angles,
+        {
+            **conventions,
+            "columns": campaign.get("columns") or None,
+            "extra_columns": campaign.get("extra_columns", "keep"),
+        },
         # the motion columns may be absent when a raw IMU series gives them
         require_motion=not campaign.get("imu_series"),
-        extra_columns=campaign.get("extra_columns", "keep"),
-        conventions={
-            k: campaign[k]
-            for k in (
-                "format",
-                "utc_offset_h",
-                "timestamp_at",
-                "heading_convention",
-                "motion_file",
-                "reference_file",
-            )
-            if k in campaign
-        },
-    )
+        allow_small_angles=allow_small_angles,
+    )[0]
     heights = campaign.get("heights")
     if heights:
         present = np.unique(records["height_m"].to_numpy(dtype=float))
