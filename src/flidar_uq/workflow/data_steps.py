@@ -224,7 +224,8 @@ def validate_records(
     import json
 
     from flidar_uq.data import io
-    from flidar_uq.workflow.inputs import inspect_records, reference_problems
+    from flidar_uq.data.inspection import reference_problems
+    from flidar_uq.workflow.inputs import inspect_records
 
     if imu_statistics_path:
         from flidar_uq.workflow.imu_step import merge_series_motion
