@@ -44,7 +44,9 @@ __all__ = [
     "TimeCursor",
     "iter_imu_series",
     "iter_los_series",
+    "merge_series_motion",
     "record_window_offset_s",
+    "series_overrides",
     "series_motion_statistics",
     "series_span",
     "window_batches",
@@ -678,3 +680,65 @@ def series_motion_statistics(
     }
     log.info("IMU series %s: %s", path, summary)
     return SeriesMotion(out, gap_table, summary)
+
+
+def series_overrides(records: pd.DataFrame) -> tuple[list[str], int]:
+    """The motion columns of a record table that a raw IMU series replaces.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Record table (motion columns optional).
+
+    Returns
+    -------
+    columns : list of str
+        The :data:`SERIES_MOTION_COLUMNS` the table itself carries.
+    n_rows : int
+        Record rows with a value in one of them (the series wins over it).
+    """
+    own = [c for c in SERIES_MOTION_COLUMNS if c in records.columns]
+    return own, int(records[own].notna().any(axis=1).sum()) if own else 0
+
+
+def merge_series_motion(
+    records: pd.DataFrame, statistics: pd.DataFrame, *, source: str = "<statistics>"
+) -> pd.DataFrame:
+    """Replace the record table's motion columns by those derived from the IMU series.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Validated record table (motion columns optional).
+    statistics : pandas.DataFrame
+        :attr:`SeriesMotion.statistics` of the records (same rows, same order): timestamps
+        and the :data:`SERIES_MOTION_COLUMNS` (deg, s, ...; see :func:`series_motion_statistics`).
+    source : str
+        The statistics' file, for the message.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The records with the series' motion columns (the table's own dropped,
+        :func:`series_overrides`).
+
+    Raises
+    ------
+    ValueError
+        If the statistics do not match the records row by row.
+    """
+    if (
+        len(statistics) != len(records)
+        or not (
+            pd.to_datetime(statistics["timestamp"], utc=True).to_numpy()
+            == records["timestamp"].to_numpy()
+        ).all()
+    ):
+        raise ValueError(
+            f"{source}: IMU statistics do not match the record table row by row "
+            f"({len(statistics)} vs {len(records)} rows); rerun the imu_statistics step"
+        )
+    merged = records.drop(columns=series_overrides(records)[0])
+    for col in SERIES_MOTION_COLUMNS:
+        merged[col] = statistics[col].to_numpy(dtype=float)
+    return merged
