@@ -49,7 +49,7 @@ from flidar_uq.campaign.physics_mode import generate_campaign  # noqa: E402
 from flidar_uq.campaign.scenarios import DEFAULT_SCENARIO, load_scenario  # noqa: E402
 from flidar_uq.correction import propagation as prop  # noqa: E402
 from flidar_uq.correction.los import correct_least_squares  # noqa: E402
-from flidar_uq.data import binning, imu, io, qc  # noqa: E402
+from flidar_uq.data import binning, io, qc  # noqa: E402
 from flidar_uq.inference import fit_record_model  # noqa: E402
 from flidar_uq.inference.laplace import laplace_record_model  # noqa: E402
 from flidar_uq.inference.priors import SamplerSettings  # noqa: E402
@@ -80,7 +80,7 @@ def speed_group(hws_ms):
 def prepare(records):
     """QC (config), motion statistics and bins (config) as the pipeline does them."""
     res = qc.run_qc(records, qc.QCConfig(**CONFIG["qc"]))
-    kept = imu.add_harmonic_motion(res.kept)
+    kept = binning.add_harmonic_motion(res.kept)
     b = CONFIG["binning"]
     assigned, _ = binning.bin_records(
         kept,

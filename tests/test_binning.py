@@ -8,7 +8,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flidar_uq.data.binning import bin_centre, bin_label, bin_records, speed_bin_ms
+from flidar_uq.data.binning import (
+    add_harmonic_motion,
+    assign_batches,
+    bin_centre,
+    bin_label,
+    bin_records,
+    bins_for_fitting,
+    speed_bin_ms,
+)
 
 
 def rec(hws, amp_roll, amp_pitch, per_roll, per_pitch) -> pd.DataFrame:
@@ -142,3 +150,51 @@ def test_one_speed_bin_rule_for_bins_speed_bins_and_plots():
     assert sorted(table["hws_ms"]) == sorted(set(speed_bin_ms(hws)))
     ti = metrics.ti_by_speed_bin(hws, records["hws_std_ms"], hws_min_ms=0.0)
     assert ti["hws_bin_ms"].tolist() == [3.0, 5.0]
+
+
+def test_add_harmonic_motion_is_mean_of_roll_and_pitch_gutierrez2018_sec24():
+    rec = pd.DataFrame(
+        {
+            "roll_amplitude_deg": [2.0, 3.0],
+            "pitch_amplitude_deg": [4.0, 3.5],
+            "roll_period_s": [3.0, 4.0],
+            "pitch_period_s": [5.0, 4.5],
+        }
+    )
+    out = add_harmonic_motion(rec)
+    assert out["amplitude_deg"].tolist() == [3.0, 3.25]
+    assert out["period_s"].tolist() == [4.0, 4.25]
+
+
+def test_assign_batches_balances_counts_and_is_deterministic():
+    counts = [30, 27, 10, 10, 8, 3, 2, 2, 2, 2]
+    batch = assign_batches(counts, 2)
+    load = np.bincount(batch, weights=np.asarray(counts) + 1.0, minlength=2)
+    assert set(batch) == {0, 1}
+    assert abs(load[0] - load[1]) <= max(counts) + 1  # LPT bound
+    np.testing.assert_array_equal(batch, assign_batches(counts, 2))
+    assert set(assign_batches(counts, 20)) <= set(range(20))
+    with pytest.raises(ValueError, match="nbatches must be >= 1, got 0"):
+        assign_batches(counts, 0)
+
+
+def test_bins_for_fitting_integer_ids_fitted_bins_and_batches():
+    # three records in H08_A02_T04, two in H10_A02_T04, one in H05_A01_T03
+    r = add_harmonic_motion(
+        rec(
+            [8.1, 7.9, 8.2, 10.0, 10.3, 5.0],
+            [2.0, 2.1, 1.9, 2.0, 2.2, 1.0],
+            [2.0, 2.1, 1.9, 2.0, 2.2, 1.0],
+            [4.0, 4.1, 3.9, 4.0, 4.2, 3.0],
+            [4.0, 4.1, 3.9, 4.0, 4.2, 3.0],
+        )
+    )
+    widths = dict(hws_width_ms=1.0, amplitude_width_deg=1.0, period_width_s=1.0)
+    assigned, table = bins_for_fitting(r, **widths, min_count=2, nbatches=2)
+    assert table["bin_id"].tolist() == [1, 2, 3]
+    assert table["bin_label"].tolist() == ["H08_A02_T04", "H10_A02_T04", "H05_A01_T03"]
+    assert table["count"].tolist() == [3, 2, 1]
+    assert table["fitted"].tolist() == [True, True, False]
+    assert table["batch"].tolist() == [0, 1, -1]
+    assert sorted(assigned["bin_id"]) == [1, 1, 1, 2, 2, 3]
+    assert list(assigned.index) == list(range(6))

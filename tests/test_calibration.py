@@ -4,7 +4,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from flidar_uq.data.calibration import calibration_by_group, speed_group_label, wilson_interval
+from flidar_uq.data.calibration import (
+    HEIGHT_SUMMARY_COLUMNS,
+    calibration_by_group,
+    height_summary,
+    speed_group_label,
+    wilson_interval,
+)
 
 
 def test_wilson_interval_hand_value_and_edges():
@@ -46,3 +52,40 @@ def test_calibration_by_group_hand_computed():
 def test_calibration_by_group_names_missing_column():
     with pytest.raises(ValueError, match="lack column 'ti_true'"):
         calibration_by_group(pd.DataFrame({"g": [1]}), "g")
+
+
+def test_height_summary_counts_campaign_means_and_coverage_by_hand():
+    nan = np.nan
+    records = pd.DataFrame(
+        {
+            "height_m": [40.0, 40.0, 40.0, 90.0, 90.0],
+            "ti_corrected_median": [0.10, 0.12, nan, 0.08, 0.09],
+            "ti_corrected_lo": [0.09, 0.11, nan, 0.07, 0.08],
+            "ti_corrected_hi": [0.11, 0.13, nan, 0.09, 0.10],
+            "ti_true": [0.105, 0.20, 0.1, nan, 0.085],
+        }
+    )
+    groups = pd.DataFrame(
+        {
+            "grouping": ["campaign", "speed_bin", "campaign"],
+            "height_m": [40.0, 40.0, 90.0],
+            "ti_mean": [0.11, 0.5, 0.085],
+            "ti_mean_lo": [0.10, 0.4, 0.08],
+            "ti_mean_hi": [0.12, 0.6, 0.09],
+            "ti_mean_uncorrected": [0.13, 0.7, 0.10],
+        }
+    )
+    metrics = pd.DataFrame({"reference_kind": ["cup"], "credible_mass": [0.9]})
+    got = height_summary(records, groups, metrics)
+    assert list(got.columns) == list(HEIGHT_SUMMARY_COLUMNS)
+    assert got["height_m"].tolist() == [40.0, 90.0]
+    assert got["n_records"].tolist() == [3, 2]
+    assert got["n_corrected"].tolist() == [2, 2]
+    assert got["n_truth"].tolist() == [2, 1]
+    np.testing.assert_allclose(got["coverage"], [1 / 2, 1.0])  # 0.20 outside [0.11, 0.13]
+    np.testing.assert_allclose(got["ti_mean"], [0.11, 0.085])  # the campaign rows only
+    assert got["reference_kind"].tolist() == ["cup", "cup"]
+    assert got["credible_mass"].tolist() == [0.9, 0.9]
+    without_truth = height_summary(records.drop(columns="ti_true"), groups, metrics.iloc[:0])
+    assert without_truth["coverage"].isna().all() and (without_truth["n_truth"] == 0).all()
+    assert without_truth["reference_kind"].tolist() == ["", ""]

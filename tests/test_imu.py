@@ -264,20 +264,6 @@ def test_bad_band_raises():
 
 
 # --------------------------------------------------------------------------- records
-def test_add_harmonic_motion_is_mean_of_roll_and_pitch_gutierrez2018_sec24():
-    rec = pd.DataFrame(
-        {
-            "roll_amplitude_deg": [2.0, 3.0],
-            "pitch_amplitude_deg": [4.0, 3.5],
-            "roll_period_s": [3.0, 4.0],
-            "pitch_period_s": [5.0, 4.5],
-        }
-    )
-    out = imu.add_harmonic_motion(rec)
-    assert out["amplitude_deg"].tolist() == [3.0, 3.25]
-    assert out["period_s"].tolist() == [4.0, 4.25]
-
-
 def test_roll_pitch_correlation_linear_and_independent(rng):
     n = 500
     a = rng.uniform(1, 5, n)

@@ -17,8 +17,10 @@ from flidar_uq.data.imu_series import (
     TimeCursor,
     iter_imu_series,
     iter_los_series,
+    merge_series_motion,
     record_window_offset_s,
     series_motion_statistics,
+    series_overrides,
     series_span,
     window_batches,
 )
@@ -296,3 +298,23 @@ def test_vertical_velocity_gives_the_bands_measured_direction_as_in_the_campaign
     io.write_imu_series(camp.imu.drop(columns="velocity_up_ms"), path)
     without = series_motion_statistics(path, camp.records, chunk_rows=4000).statistics
     assert not set(cols) & set(without.columns)
+
+
+def test_merge_series_motion_the_series_wins_row_by_row():
+    t = pd.to_datetime(["2016-05-01T00:00:00Z", "2016-05-01T00:10:00Z"], utc=True)
+    records = pd.DataFrame(
+        {"timestamp": t, "height_m": 58.0, "roll_amplitude_deg": [9.0, np.nan], "x": [1, 2]}
+    )
+    stats = pd.DataFrame({"timestamp": t.strftime("%Y-%m-%dT%H:%M:%SZ")})
+    for i, col in enumerate(SERIES_MOTION_COLUMNS):
+        stats[col] = [1.0 + i, 2.0 + i]
+    assert series_overrides(records) == (["roll_amplitude_deg"], 1)
+    assert series_overrides(records.drop(columns="roll_amplitude_deg")) == ([], 0)
+    merged = merge_series_motion(records, stats)
+    assert merged["roll_amplitude_deg"].tolist() == [1.0, 2.0]
+    assert merged["x"].tolist() == [1, 2]
+    assert list(merged.columns) == ["timestamp", "height_m", "x", *SERIES_MOTION_COLUMNS]
+    with pytest.raises(ValueError, match="s.csv: IMU statistics do not match"):
+        merge_series_motion(records.iloc[:1], stats, source="s.csv")
+    with pytest.raises(ValueError, match="row by row"):
+        merge_series_motion(records, stats.iloc[::-1].reset_index(drop=True))

@@ -14,7 +14,9 @@ from flidar_uq.campaign.physics_mode import generate_campaign
 from flidar_uq.campaign.scenarios import DEFAULT_SCENARIO
 from flidar_uq.correction.los import earth_beam_vectors, imu_rotation_velocity
 from flidar_uq.correction.los_records import (
+    AGREEMENT_COLUMNS,
     LOS_RECORD_REASONS,
+    agreement_with_bayesian,
     complete_scans,
     los_methods,
     los_record_ti,
@@ -244,3 +246,39 @@ def test_dbs_with_a_vertical_beam_is_refused(rng):
             lidar="windcube_v1_5beam",
             lever_arm_m=(0, 0, 2.5),
         )
+
+
+def test_agreement_with_bayesian_on_the_target_by_hand():
+    nan = np.nan
+    t = ["2016-05-01T00:00:00Z", "2016-05-01T00:10:00Z", "2016-05-01T00:20:00Z"]
+    ti = pd.DataFrame(
+        {
+            "timestamp": t,
+            "height_m": 80.0,
+            "hws_mean_ms": [8.0, 9.0, 10.0],
+            "ti_uncorrected": [0.12, 0.11, 0.10],
+            "ti_corrected_median": [0.10, 0.10, 0.08],
+            "ti_corrected_lo": [0.09, 0.09, 0.07],
+            "ti_corrected_hi": [0.11, 0.11, 0.09],
+            "flags": "",
+            "lidar_std_ratio": [1.0, 2.0, nan],
+            "ti_true": [0.10, 0.12, 0.08],
+        }
+    )
+    los = pd.DataFrame(
+        {"timestamp": t, "height_m": 80.0, "ti_los_least_squares": [0.105, 0.24, 0.08]}
+    )
+    merged, agreement, methods = agreement_with_bayesian(ti, los)
+    assert methods == ["least_squares"]
+    # on the target: 0.105 / 1, 0.24 / 2; the third has no lidar_std_ratio
+    np.testing.assert_allclose(merged["ti_los_least_squares_target"], [0.105, 0.12, nan])
+    assert list(agreement.columns) == AGREEMENT_COLUMNS
+    ls, bayes = agreement.to_dict("records")
+    assert ls["n_records"] == 2
+    assert ls["bias_vs_bayesian"] == pytest.approx((0.005 + 0.02) / 2)
+    assert ls["rmse_vs_bayesian"] == pytest.approx(np.sqrt((0.005**2 + 0.02**2) / 2))
+    assert np.isnan(ls["r_vs_bayesian"])  # two records only
+    assert ls["inside_interval_pct"] == pytest.approx(50.0)
+    assert ls["md_vs_truth"] == pytest.approx((0.005 + 0.0) / 2)
+    assert bayes["method"] == "bayesian" and bayes["n_records"] == 2
+    assert bayes["md_vs_truth"] == pytest.approx((0.0 - 0.02) / 2)

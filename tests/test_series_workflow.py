@@ -17,10 +17,11 @@ import pytest
 import yaml
 from test_workflow import REPO, check_outputs, load_yaml, snakemake, tiny_config
 
+from flidar_uq.correction.los_records import AGREEMENT_COLUMNS
 from flidar_uq.data import io
 from flidar_uq.data.imu_series import SERIES_MOTION_COLUMNS
 from flidar_uq.workflow.imu_step import merge_series_motion
-from flidar_uq.workflow.los_step import AGREEMENT_COLUMNS, los_agreement
+from flidar_uq.workflow.los_step import los_agreement
 from flidar_uq.workflow.series_report import series_sections
 
 

@@ -27,7 +27,6 @@ import yaml
 
 from flidar_uq.correction.campaign import RECORD_COLUMNS
 from flidar_uq.data.calibration import calibration_by_group, speed_group_label
-from flidar_uq.workflow.data_steps import assign_batches
 from flidar_uq.workflow.inference_steps import bin_seed
 from flidar_uq.workflow.inputs import SCHEMA_PATH
 
@@ -211,18 +210,6 @@ def test_config_keys_match_library_dataclasses():
 
 
 # --------------------------------------------------------------------------- glue units
-
-
-def test_assign_batches_balances_counts_and_is_deterministic():
-    counts = [30, 27, 10, 10, 8, 3, 2, 2, 2, 2]
-    batch = assign_batches(counts, 2)
-    load = np.bincount(batch, weights=np.asarray(counts) + 1.0, minlength=2)
-    assert set(batch) == {0, 1}
-    assert abs(load[0] - load[1]) <= max(counts) + 1  # LPT bound
-    np.testing.assert_array_equal(batch, assign_batches(counts, 2))
-    assert set(assign_batches(counts, 20)) <= set(range(20))
-    with pytest.raises(ValueError, match="nbatches must be >= 1, got 0"):
-        assign_batches(counts, 0)
 
 
 def test_bin_seed_independent_of_batch_layout_and_distinct_per_bin():

@@ -25,11 +25,32 @@ import numpy as np
 import pandas as pd
 
 from flidar_uq.correction.los import correct_dbs_motion, correct_least_squares
+from flidar_uq.data.metrics import pearson_r
 from flidar_uq.data.qc import QCConfig, run_los_qc
 from flidar_uq.physics.lidar import LidarGeometry, get_lidar, scan_times_azimuths
 from flidar_uq.physics.motion import SampledMotion
 
-__all__ = ["LOS_RECORD_REASONS", "los_methods", "los_record_ti", "complete_scans"]
+__all__ = [
+    "AGREEMENT_COLUMNS",
+    "LOS_RECORD_REASONS",
+    "agreement_with_bayesian",
+    "los_methods",
+    "los_record_ti",
+    "complete_scans",
+]
+
+#: Columns of results/los/agreement.csv (:func:`agreement_with_bayesian`), one row per LOS method.
+AGREEMENT_COLUMNS = [
+    "method",
+    "n_records",
+    "bias_vs_bayesian",
+    "rmse_vs_bayesian",
+    "r_vs_bayesian",
+    "inside_interval_pct",
+    "md_vs_truth",
+    "rmse_vs_truth",
+]
+
 
 #: Why a record height has no LOS-corrected TI (column ``los_flags``).
 LOS_RECORD_REASONS = {
@@ -291,3 +312,89 @@ def los_record_ti(
             )
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def agreement_with_bayesian(
+    ti: pd.DataFrame, los: pd.DataFrame
+) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
+    """The LOS-level corrected TI beside the Bayesian one, record by record, and their agreement.
+
+    Each LOS TI is put on the Bayesian target by dividing it by the record's
+    ``lidar_std_ratio`` (1 for the motionless-lidar target; docs/lidar-response.md):
+    columns ``ti_los_<method>`` (lidar) and ``ti_los_<method>_target``.
+
+    Parameters
+    ----------
+    ti : pandas.DataFrame
+        The corrected records (``results/ti/records.csv``): ``timestamp``, ``height_m``
+        (m), ``hws_mean_ms`` (m/s), ``ti_uncorrected``, ``ti_corrected_median``,
+        ``ti_corrected_lo``, ``ti_corrected_hi`` (-), ``flags``, and optionally
+        ``lidar_std_ratio`` and ``ti_true`` (-).
+    los : pandas.DataFrame
+        The LOS-level TI per record (``results/los/corrected.csv``): ``timestamp``,
+        ``height_m`` and one ``ti_los_<method>`` column (-) per method, ``least_squares``
+        among them.
+
+    Returns
+    -------
+    merged : pandas.DataFrame
+        The records of ``ti`` with the LOS columns and ``ti_los_<method>_target``.
+    agreement : pandas.DataFrame
+        :data:`AGREEMENT_COLUMNS`, one row per method (records with both values):
+        ``bias_vs_bayesian`` = mean of LOS minus Bayesian median, ``rmse_vs_bayesian`` (-),
+        ``r_vs_bayesian`` (Pearson, more than 2 records), ``inside_interval_pct`` = share
+        of LOS values inside the Bayesian credible interval (%); against the truth
+        (``ti_true``): ``md_vs_truth``, ``rmse_vs_truth`` (-, NaN without truth). A last
+        row ``bayesian`` gives the Bayesian median's own MD and RMSE against the truth,
+        over the records with a least-squares LOS value.
+    methods : list of str
+        The LOS methods, in the order of ``los``'s columns.
+    """
+    methods = [c[len("ti_los_") :] for c in los.columns if c.startswith("ti_los_")]
+    keep = ["timestamp", "height_m", "hws_mean_ms", "ti_uncorrected", "ti_corrected_median"]
+    keep += ["ti_corrected_lo", "ti_corrected_hi", "flags"]
+    keep += [c for c in ("lidar_std_ratio", "ti_true") if c in ti.columns]
+    merged = ti[keep].merge(los, on=["timestamp", "height_m"], how="left", validate="1:1")
+    g = merged["lidar_std_ratio"].to_numpy(float) if "lidar_std_ratio" in merged else 1.0
+    g = np.where(np.isfinite(g), g, np.nan)
+    for m in methods:
+        merged[f"ti_los_{m}_target"] = merged[f"ti_los_{m}"].to_numpy(float) / g
+    med = merged["ti_corrected_median"].to_numpy(float)
+    lo = merged["ti_corrected_lo"].to_numpy(float)
+    hi = merged["ti_corrected_hi"].to_numpy(float)
+    truth = merged["ti_true"].to_numpy(float) if "ti_true" in merged else None
+    rows = []
+    for m in methods:
+        x = merged[f"ti_los_{m}_target"].to_numpy(float)
+        both = np.isfinite(x) & np.isfinite(med)
+        d = x[both] - med[both]
+        row = {
+            "method": m,
+            "n_records": int(both.sum()),
+            "bias_vs_bayesian": float(d.mean()) if d.size else np.nan,
+            "rmse_vs_bayesian": float(np.sqrt(np.mean(d**2))) if d.size else np.nan,
+            "r_vs_bayesian": float(pearson_r(x[both], med[both])) if d.size > 2 else np.nan,
+            "inside_interval_pct": float(
+                100.0 * np.mean((x[both] >= lo[both]) & (x[both] <= hi[both]))
+            )
+            if d.size
+            else np.nan,
+        }
+        row |= _vs_truth(x, truth, both)
+        rows.append(row)
+    # the Bayesian median's own errors, over the records compared with Malekmohammadi et al. (2024)
+    both = np.isfinite(med) & np.isfinite(merged["ti_los_least_squares_target"].to_numpy(float))
+    rows.append({"method": "bayesian", "n_records": int(both.sum())} | _vs_truth(med, truth, both))
+    agreement = pd.DataFrame(rows).reindex(columns=AGREEMENT_COLUMNS)
+    return merged, agreement, methods
+
+
+def _vs_truth(x: np.ndarray, truth: np.ndarray | None, use: np.ndarray) -> dict:
+    """MD and RMSE of ``x`` against the truth over ``use`` (NaN without truth)."""
+    if truth is None:
+        return {"md_vs_truth": np.nan, "rmse_vs_truth": np.nan}
+    ok = use & np.isfinite(truth)
+    d = x[ok] - truth[ok]
+    if d.size == 0:
+        return {"md_vs_truth": np.nan, "rmse_vs_truth": np.nan}
+    return {"md_vs_truth": float(d.mean()), "rmse_vs_truth": float(np.sqrt(np.mean(d**2)))}

@@ -15,12 +15,51 @@ bin (``bin_id`` missing, ``case_no`` -1) and are counted in ``table.attrs``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import pandas as pd
 
-from flidar_uq.data.imu import add_harmonic_motion
+__all__ = [
+    "add_harmonic_motion",
+    "assign_batches",
+    "bin_centre",
+    "bin_label",
+    "bin_records",
+    "bins_for_fitting",
+    "speed_bin_ms",
+]
 
-__all__ = ["bin_centre", "bin_label", "bin_records", "speed_bin_ms"]
+
+def add_harmonic_motion(records: pd.DataFrame) -> pd.DataFrame:
+    """Add the Gutiérrez-Antuñano et al. (2018) single motion description to each record.
+
+    ``amplitude_deg`` = mean of roll and pitch amplitude and ``period_s`` = mean
+    of roll and pitch period (Gutiérrez-Antuñano et al., 2018, Sec. 2.4).
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records with ``roll_amplitude_deg``, ``pitch_amplitude_deg``,
+        ``roll_period_s``, ``pitch_period_s``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy with ``amplitude_deg`` (deg) and ``period_s`` (s) added.
+    """
+    need = ["roll_amplitude_deg", "pitch_amplitude_deg", "roll_period_s", "pitch_period_s"]
+    missing = [c for c in need if c not in records.columns]
+    if missing:
+        raise ValueError(f"add_harmonic_motion: records lack column(s) {missing}")
+    out = records.copy()
+    out["amplitude_deg"] = 0.5 * (
+        records[need[0]] + records[need[1]]
+    )  # Gutiérrez-Antuñano et al. (2018), Sec. 2.4
+    out["period_s"] = 0.5 * (
+        records[need[2]] + records[need[3]]
+    )  # Gutiérrez-Antuñano et al. (2018), Sec. 2.4
+    return out
 
 
 def bin_centre(x, width: float) -> np.ndarray:
@@ -177,3 +216,91 @@ def bin_records(
         min_count=int(min_count),
     )
     return out, table
+
+
+def assign_batches(counts: Sequence[int], nbatches: int) -> np.ndarray:
+    """Spread bins over ``nbatches`` batch jobs, balancing record counts (greedy, deterministic).
+
+    Parameters
+    ----------
+    counts : sequence of int, shape (n_bins,)
+        Records per bin (the cost proxy of a fit).
+    nbatches : int
+        Number of batch jobs (>= 1).
+
+    Returns
+    -------
+    numpy.ndarray of int, shape (n_bins,)
+        Batch index of each bin, in ``[0, nbatches)``.
+
+    Raises
+    ------
+    ValueError
+        If ``nbatches < 1``.
+    """
+    if nbatches < 1:
+        raise ValueError(f"assign_batches: nbatches must be >= 1, got {nbatches}")
+    counts = np.asarray(counts, dtype=float)
+    load = np.zeros(nbatches)
+    batch = np.zeros(counts.size, dtype=int)
+    # longest-processing-time first; stable sort so ties keep bin order
+    for i in np.argsort(-counts, kind="stable"):
+        b = int(np.argmin(load))
+        batch[i] = b
+        load[b] += counts[i] + 1.0  # +1: fixed per-fit overhead
+    return batch
+
+
+def bins_for_fitting(
+    records: pd.DataFrame,
+    *,
+    hws_width_ms: float,
+    amplitude_width_deg: float,
+    period_width_s: float,
+    min_count: int,
+    nbatches: int,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The bins the bin model fits: :func:`bin_records` with integer bin ids and batches.
+
+    The integer case number (1 = most frequent bin) becomes ``bin_id`` (file names,
+    seeds) and the text id ``bin_label``; bins with at least ``min_count`` records are
+    ``fitted`` and spread over ``nbatches`` batch jobs (:func:`assign_batches`).
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Kept records with ``hws_mean_ms`` (m/s), ``amplitude_deg`` (deg) and
+        ``period_s`` (s) (:func:`add_harmonic_motion`).
+    hws_width_ms, amplitude_width_deg, period_width_s : float
+        Bin widths, m/s, deg and s.
+    min_count : int
+        Fewest records of a fitted bin.
+    nbatches : int
+        Number of batch jobs (>= 1).
+
+    Returns
+    -------
+    assigned : pandas.DataFrame
+        The binned records (``bin_id`` >= 1, ``bin_label``), index reset.
+    table : pandas.DataFrame
+        The bin table (:func:`bin_records`) with ``bin_id``, ``bin_label``, ``fitted``
+        and ``batch`` (-1: not fitted).
+    """
+    assigned, table = bin_records(
+        records,
+        hws_width_ms=hws_width_ms,
+        amplitude_width_deg=amplitude_width_deg,
+        period_width_s=period_width_s,
+        min_count=min_count,
+    )
+    # integer case number as the pipeline's bin id (file names, seeds); text label kept
+    table = table.rename(columns={"bin_id": "bin_label", "case_no": "bin_id"}).reset_index(
+        drop=True
+    )
+    assigned = assigned.rename(columns={"bin_id": "bin_label", "case_no": "bin_id"})
+    assigned = assigned[assigned["bin_id"] > 0].reset_index(drop=True)
+    table["fitted"] = ~table["below_min_count"].astype(bool)
+    table["batch"] = -1
+    fitted = table["fitted"].to_numpy()
+    table.loc[fitted, "batch"] = assign_batches(table.loc[fitted, "count"].to_numpy(), nbatches)
+    return assigned, table

@@ -15,7 +15,31 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-__all__ = ["SPEED_GROUP_WIDTH_MS", "calibration_by_group", "speed_group_label", "wilson_interval"]
+from flidar_uq.data.metrics import interval_coverage
+
+__all__ = [
+    "HEIGHT_SUMMARY_COLUMNS",
+    "SPEED_GROUP_WIDTH_MS",
+    "calibration_by_group",
+    "height_summary",
+    "speed_group_label",
+    "wilson_interval",
+]
+
+#: Columns of :func:`height_summary`, one row per height of a campaign.
+HEIGHT_SUMMARY_COLUMNS = (
+    "height_m",
+    "n_records",
+    "n_corrected",
+    "ti_mean",
+    "ti_mean_lo",
+    "ti_mean_hi",
+    "ti_mean_uncorrected",
+    "n_truth",
+    "coverage",
+    "credible_mass",
+    "reference_kind",
+)
 
 #: Width of the wind-speed groups in which calibration is judged (m/s), from 3 m/s.
 SPEED_GROUP_WIDTH_MS = 3.0
@@ -145,3 +169,69 @@ def calibration_by_group(
             }
         )
     return pd.DataFrame(rows)
+
+
+def height_summary(
+    records: pd.DataFrame, groups: pd.DataFrame, metrics: pd.DataFrame
+) -> pd.DataFrame:
+    """One campaign's corrected TI per height: records, campaign means and coverage.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        The corrected records (``ti/records.csv``): ``height_m`` (m),
+        ``ti_corrected_median``, ``ti_corrected_lo``, ``ti_corrected_hi`` and, in a
+        virtual campaign, ``ti_true`` (all -).
+    groups : pandas.DataFrame
+        The group table (``ti/groups.csv``); its ``grouping == "campaign"`` rows give
+        ``ti_mean``, ``ti_mean_lo``, ``ti_mean_hi`` and ``ti_mean_uncorrected`` (-) per
+        height.
+    metrics : pandas.DataFrame
+        The run's metrics (``ti/metrics.csv``): ``reference_kind``, ``credible_mass`` (-).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per height, ascending: ``height_m`` (m), ``n_records`` (records at the
+        height), ``n_corrected`` (with a corrected TI), ``ti_mean``, ``ti_mean_lo``,
+        ``ti_mean_hi``, ``ti_mean_uncorrected`` (NaN without a campaign row), ``n_truth``
+        (corrected records with a true TI), ``coverage`` (share of their credible intervals
+        holding the true TI, :func:`flidar_uq.data.metrics.interval_coverage`; NaN without
+        truth), ``credible_mass`` and ``reference_kind``.
+    """
+    whole = groups[groups["grouping"] == "campaign"]
+    rows = []
+    kind = str(metrics["reference_kind"].iloc[0]) if len(metrics) else ""
+    mass = float(metrics["credible_mass"].iloc[0]) if len(metrics) else np.nan
+    for height in sorted(records["height_m"].dropna().unique()):
+        at = records[np.isclose(records["height_m"], height)]
+        corrected = np.isfinite(at["ti_corrected_median"].to_numpy(dtype=float))
+        row = whole[np.isclose(whole["height_m"], height)]
+        stat = {
+            c: (float(row[c].iloc[0]) if len(row) else np.nan)
+            for c in ("ti_mean", "ti_mean_lo", "ti_mean_hi", "ti_mean_uncorrected")
+        }
+        n_truth, coverage = 0, np.nan
+        if "ti_true" in at:
+            truth = at["ti_true"].to_numpy(dtype=float)
+            n_truth = int((corrected & np.isfinite(truth)).sum())
+            if n_truth:
+                coverage = interval_coverage(
+                    truth,
+                    at["ti_corrected_lo"].to_numpy(dtype=float),
+                    at["ti_corrected_hi"].to_numpy(dtype=float),
+                    corrected,
+                )
+        rows.append(
+            {
+                "height_m": float(height),
+                "n_records": len(at),
+                "n_corrected": int(corrected.sum()),
+                **stat,
+                "n_truth": n_truth,
+                "coverage": coverage,
+                "credible_mass": mass,
+                "reference_kind": kind,
+            }
+        )
+    return pd.DataFrame(rows, columns=list(HEIGHT_SUMMARY_COLUMNS))

@@ -77,7 +77,6 @@ __all__ = [
     "window_series",
     "motion_statistics",
     "motion_statistics_arrays",
-    "add_harmonic_motion",
     "roll_pitch_correlation",
     "heading_mean_deg",
     "tilt_band_statistics",
@@ -793,37 +792,6 @@ def motion_statistics_arrays(
             cols["period1_s"][good], cols["period2_s"][good], cols["weight1"][good] = p1, p2, w1
     start_ns = t0_ns + np.rint(start_s * 1e9).astype(np.int64)
     return start_ns, cols | {"imu_availability_pct": coverage}, present
-
-
-def add_harmonic_motion(records: pd.DataFrame) -> pd.DataFrame:
-    """Add the Gutiérrez-Antuñano et al. (2018) single motion description to each record.
-
-    ``amplitude_deg`` = mean of roll and pitch amplitude and ``period_s`` = mean
-    of roll and pitch period (Gutiérrez-Antuñano et al., 2018, Sec. 2.4).
-
-    Parameters
-    ----------
-    records : pandas.DataFrame
-        Records with ``roll_amplitude_deg``, ``pitch_amplitude_deg``,
-        ``roll_period_s``, ``pitch_period_s``.
-
-    Returns
-    -------
-    pandas.DataFrame
-        A copy with ``amplitude_deg`` (deg) and ``period_s`` (s) added.
-    """
-    need = ["roll_amplitude_deg", "pitch_amplitude_deg", "roll_period_s", "pitch_period_s"]
-    missing = [c for c in need if c not in records.columns]
-    if missing:
-        raise ValueError(f"add_harmonic_motion: records lack column(s) {missing}")
-    out = records.copy()
-    out["amplitude_deg"] = 0.5 * (
-        records[need[0]] + records[need[1]]
-    )  # Gutiérrez-Antuñano et al. (2018), Sec. 2.4
-    out["period_s"] = 0.5 * (
-        records[need[2]] + records[need[3]]
-    )  # Gutiérrez-Antuñano et al. (2018), Sec. 2.4
-    return out
 
 
 def roll_pitch_correlation(records: pd.DataFrame) -> dict[str, float]:

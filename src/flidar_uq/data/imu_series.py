@@ -44,7 +44,9 @@ __all__ = [
     "TimeCursor",
     "iter_imu_series",
     "iter_los_series",
+    "merge_series_motion",
     "record_window_offset_s",
+    "series_overrides",
     "series_motion_statistics",
     "series_span",
     "window_batches",
@@ -647,7 +649,7 @@ def _record_table(records, rec_keys, motion_rows, tilt_rows) -> pd.DataFrame:
         out = out.assign(**{c: np.nan for c in (*TILT_SPECTRUM_COLUMNS, "heading_mean_deg")})
     out["imu_availability_pct"] = out["imu_availability_pct"].fillna(0.0)
     out["timestamp"] = records["timestamp"].to_numpy()  # back to the records' own times
-    measured = [c for c in out if c.startswith("tilt_band") and c.endswith("_cos_psi")]
+    measured = _measured_direction_columns(out)
     return out[["timestamp", "height_m", *SERIES_MOTION_COLUMNS, *measured]]
 
 
@@ -697,3 +699,72 @@ class _GapLog:
         for col in ("start", "end"):
             table[col] = pd.to_datetime(table[col].astype(np.int64) + offset_ns, utc=True)
         return table
+
+
+def series_overrides(records: pd.DataFrame) -> tuple[list[str], int]:
+    """The motion columns of a record table that a raw IMU series replaces.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Record table (motion columns optional).
+
+    Returns
+    -------
+    columns : list of str
+        The :data:`SERIES_MOTION_COLUMNS` the table itself carries.
+    n_rows : int
+        Record rows with a value in one of them (the series wins over it).
+    """
+    own = [c for c in SERIES_MOTION_COLUMNS if c in records.columns]
+    own += _measured_direction_columns(records)
+    return own, int(records[own].notna().any(axis=1).sum()) if own else 0
+
+
+def _measured_direction_columns(table: pd.DataFrame) -> list[str]:
+    """The bands' measured directions (``tilt_band{b}_cos_psi``) a table carries."""
+    return [c for c in table if c.startswith("tilt_band") and c.endswith("_cos_psi")]
+
+
+def merge_series_motion(
+    records: pd.DataFrame, statistics: pd.DataFrame, *, source: str = "<statistics>"
+) -> pd.DataFrame:
+    """Replace the record table's motion columns by those derived from the IMU series.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Validated record table (motion columns optional).
+    statistics : pandas.DataFrame
+        :attr:`SeriesMotion.statistics` of the records (same rows, same order): timestamps
+        and the :data:`SERIES_MOTION_COLUMNS` (deg, s, ...; see :func:`series_motion_statistics`).
+    source : str
+        The statistics' file, for the message.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The records with the series' motion columns (the table's own dropped,
+        :func:`series_overrides`).
+
+    Raises
+    ------
+    ValueError
+        If the statistics do not match the records row by row.
+    """
+    if (
+        len(statistics) != len(records)
+        or not (
+            pd.to_datetime(statistics["timestamp"], utc=True).to_numpy()
+            == records["timestamp"].to_numpy()
+        ).all()
+    ):
+        raise ValueError(
+            f"{source}: IMU statistics do not match the record table row by row "
+            f"({len(statistics)} vs {len(records)} rows); rerun the imu_statistics step"
+        )
+    merged = records.drop(columns=series_overrides(records)[0])
+    # with the bands' measured directions where the series had a vertical velocity
+    for col in (*SERIES_MOTION_COLUMNS, *_measured_direction_columns(statistics)):
+        merged[col] = statistics[col].to_numpy(dtype=float)
+    return merged

@@ -59,6 +59,7 @@ __all__ = [
     "write_records",
     "validate_records",
     "read_imu_series",
+    "heading_ccw_deg",
     "imu_heading_to_ccw",
     "validate_imu_series",
     "write_imu_series",
@@ -993,29 +994,21 @@ def read_records(
     allow_small_angles: bool = False,
     columns: Mapping[str, str | None] | None = None,
     extra_columns: str = "error",
-    conventions: Mapping | None = None,
 ) -> pd.DataFrame:
-    """Read and validate a record table (CSV or Parquet) or an instrument file.
+    """Read and validate a record table (CSV or Parquet).
 
     Parameters
     ----------
     path : str or pathlib.Path
-        ``.csv``, ``.csv.gz``, ``.parquet`` or ``.pq`` file; with ``conventions`` also a
-        WindCube ``.sta``, a ZephIR CSV or an IEA Task 43 file
-        (:mod:`flidar_uq.data.formats`).
+        ``.csv``, ``.csv.gz``, ``.parquet`` or ``.pq`` file (an instrument's own file, or
+        a table under the campaign's time and heading conventions:
+        :func:`flidar_uq.data.formats.join.read_campaign`).
     require_motion, allow_small_angles : bool
         See :func:`validate_records`.
     columns : mapping, optional
         Column map of a file whose names differ, see :func:`validate_records`.
     extra_columns : {"error", "keep", "ignore"}
         See :func:`validate_records`.
-    conventions : mapping, optional
-        Config ``campaign`` keys ``format``, ``utc_offset_h`` (h), ``timestamp_at``,
-        ``heading_convention`` and the sections ``motion_file`` and ``reference_file``
-        (:func:`flidar_uq.data.formats.join.read_campaign`); given, the stamps are turned
-        into UTC at the interval start, checked on the 10-min grid, the other files
-        joined on the interval and absent motion columns derived
-        (:func:`flidar_uq.data.formats.complete_motion`).
 
     Returns
     -------
@@ -1027,15 +1020,6 @@ def read_records(
     DataValidationError
         Naming file, row and column of the first problem.
     """
-    if conventions is not None:
-        from flidar_uq.data.formats.join import read_campaign
-
-        return read_campaign(
-            path,
-            {**conventions, "columns": columns, "extra_columns": extra_columns},
-            require_motion=require_motion,
-            allow_small_angles=allow_small_angles,
-        )[0]
     df, source, csv = _read_table(path)
     return validate_records(
         df,
@@ -1149,11 +1133,28 @@ def read_imu_series(
 
     ``heading_convention="compass"``: the file's ``yaw_deg`` is a compass heading
     (clockwise from north, deg), turned into the project's counter-clockwise yaw
-    (:func:`flidar_uq.data.formats.heading_ccw_deg`, config ``campaign.heading_convention``).
+    (:func:`heading_ccw_deg`, config ``campaign.heading_convention``).
     """
     df, source, csv = _read_table(path)
     out = validate_imu_series(df, source, allow_small_angles=allow_small_angles, csv=csv)
     return imu_heading_to_ccw(out, heading_convention)
+
+
+def heading_ccw_deg(compass_deg) -> np.ndarray:
+    """The project's heading of a compass bearing: ``-compass`` wrapped to [-180, 180).
+
+    Parameters
+    ----------
+    compass_deg : array_like
+        Compass bearing, clockwise from north, deg.
+
+    Returns
+    -------
+    numpy.ndarray
+        Heading, counter-clockwise from above (0 = body y north), deg, in [-180, 180).
+    """
+    c = np.asarray(compass_deg, dtype=np.float64)
+    return (180.0 - c) % 360.0 - 180.0
 
 
 def imu_heading_to_ccw(imu: pd.DataFrame, heading_convention: str) -> pd.DataFrame:
@@ -1165,8 +1166,6 @@ def imu_heading_to_ccw(imu: pd.DataFrame, heading_convention: str) -> pd.DataFra
         )
     if heading_convention == "ccw" or "yaw_deg" not in imu.columns:
         return imu
-    from flidar_uq.data.formats.common import heading_ccw_deg
-
     out = imu.copy()
     out["yaw_deg"] = heading_ccw_deg(out["yaw_deg"].to_numpy())
     return out

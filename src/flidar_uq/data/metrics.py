@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from flidar_uq.data.binning import speed_bin_ms
+
 __all__ = [
     "REPRESENTATIVE_TI_FACTOR",
     "RP18_SLOPE_RANGE",
@@ -421,9 +423,6 @@ def ti_by_speed_bin(
     m = np.asarray(hws_mean_ms, dtype=np.float64)
     ti = turbulence_intensity(hws_std_ms, m)
     ok = np.isfinite(ti) & (m >= hws_min_ms) & (m <= hws_max_ms)
-    # imported here: binning -> imu -> metrics would be an import cycle at module level
-    from flidar_uq.data.binning import speed_bin_ms
-
     centre = speed_bin_ms(m[ok], bin_width_ms)
     g = pd.Series(ti[ok]).groupby(centre)
     out = pd.DataFrame({"count": g.size(), "ti_mean": g.mean(), "ti_std": g.std(ddof=1)})

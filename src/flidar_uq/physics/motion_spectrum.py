@@ -474,7 +474,7 @@ def record_sigma_z_ms(
     has finite bands; else the moments-only value (:func:`moments_sigma_z_ms`) where the
     optional record columns ``tilt_along_wind_std_deg`` and ``tilt_period_zero_crossing_s``
     are finite; else the Gutiérrez-Antuñano et al. (2018) harmonic (:func:`harmonic_sigma_z_ms`) at the record's
-    ``amplitude_deg`` / ``period_s`` (e.g. ``flidar_uq.data.imu.add_harmonic_motion``), which
+    ``amplitude_deg`` / ``period_s`` (e.g. ``flidar_uq.data.binning.add_harmonic_motion``), which
     ignores the wind direction (0.43-1.88 of the realised value in
     ``benchmarks/spectral_sigma_z.py``: give it wider intervals); else NaN.
 

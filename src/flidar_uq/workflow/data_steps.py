@@ -20,7 +20,6 @@ log = logging.getLogger(__name__)
 MAX_VIRTUAL_LOS_RECORDS = 2000
 
 __all__ = [
-    "assign_batches",
     "make_bins",
     "make_campaign",
     "motion_statistics",
@@ -224,7 +223,8 @@ def validate_records(
     import json
 
     from flidar_uq.data import io
-    from flidar_uq.workflow.inputs import inspect_records, reference_problems
+    from flidar_uq.data.inspection import reference_problems
+    from flidar_uq.workflow.inputs import inspect_records
 
     if imu_statistics_path:
         from flidar_uq.workflow.imu_step import merge_series_motion
@@ -337,47 +337,14 @@ def motion_statistics(
     Adds ``amplitude_deg`` and ``period_s`` (the roll/pitch averages, Gutiérrez-Antuñano et al. (2018), Sec. 2.4) to
     each kept record; writes the roll-pitch correlation of amplitude and period.
     """
-    from flidar_uq.data import imu
+    from flidar_uq.data import binning, imu
 
     records = read_csv(in_path)
-    out = imu.add_harmonic_motion(records)
+    out = binning.add_harmonic_motion(records)
     corr = imu.roll_pitch_correlation(records)
     write_csv(out, out_path)
     write_csv(pd.DataFrame([corr]), roll_pitch_path)
     return out
-
-
-def assign_batches(counts: Sequence[int], nbatches: int) -> np.ndarray:
-    """Spread bins over ``nbatches`` batch jobs, balancing record counts (greedy, deterministic).
-
-    Parameters
-    ----------
-    counts : sequence of int, shape (n_bins,)
-        Records per bin (the cost proxy of a fit).
-    nbatches : int
-        Number of batch jobs (>= 1).
-
-    Returns
-    -------
-    numpy.ndarray of int, shape (n_bins,)
-        Batch index of each bin, in ``[0, nbatches)``.
-
-    Raises
-    ------
-    ValueError
-        If ``nbatches < 1``.
-    """
-    if nbatches < 1:
-        raise ValueError(f"assign_batches: nbatches must be >= 1, got {nbatches}")
-    counts = np.asarray(counts, dtype=float)
-    load = np.zeros(nbatches)
-    batch = np.zeros(counts.size, dtype=int)
-    # longest-processing-time first; stable sort so ties keep bin order
-    for i in np.argsort(-counts, kind="stable"):
-        b = int(np.argmin(load))
-        batch[i] = b
-        load[b] += counts[i] + 1.0  # +1: fixed per-fit overhead
-    return batch
 
 
 def make_bins(
@@ -400,29 +367,20 @@ def make_bins(
     from flidar_uq.data import binning
 
     records = read_csv(in_path)
-    assigned, table = binning.bin_records(
+    assigned, table = binning.bins_for_fitting(
         records,
         hws_width_ms=hws_width_ms,
         amplitude_width_deg=amplitude_width_deg,
         period_width_s=period_width_s,
         min_count=min_count,
+        nbatches=nbatches,
     )
-    # integer case number as the pipeline's bin id (file names, seeds); text label kept
-    table = table.rename(columns={"bin_id": "bin_label", "case_no": "bin_id"}).reset_index(
-        drop=True
-    )
-    assigned = assigned.rename(columns={"bin_id": "bin_label", "case_no": "bin_id"})
-    assigned = assigned[assigned["bin_id"] > 0].reset_index(drop=True)
-    table["fitted"] = ~table["below_min_count"].astype(bool)
-    table["batch"] = -1
-    fitted = table["fitted"].to_numpy()
-    table.loc[fitted, "batch"] = assign_batches(table.loc[fitted, "count"].to_numpy(), nbatches)
     write_csv(assigned, assignments_path)
     write_csv(table, table_path)
     log.info(
         "bins: %d bins, %d fitted, %d records unbinned",
         len(table),
-        int(fitted.sum()),
+        int(table["fitted"].sum()),
         len(records) - len(assigned),
     )
     return table

@@ -14,26 +14,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from flidar_uq.data.metrics import interval_coverage
+from flidar_uq.data.calibration import HEIGHT_SUMMARY_COLUMNS, height_summary
 from flidar_uq.workflow.files import read_csv, write_csv
 
 __all__ = ["FLEET_COLUMNS", "fleet_summary", "fleet_table"]
 
 #: Columns of results/fleet/summary.csv, one row per campaign and height.
-FLEET_COLUMNS = (
-    "campaign",
-    "height_m",
-    "n_records",
-    "n_corrected",
-    "ti_mean",
-    "ti_mean_lo",
-    "ti_mean_hi",
-    "ti_mean_uncorrected",
-    "n_truth",
-    "coverage",
-    "credible_mass",
-    "reference_kind",
-)
+FLEET_COLUMNS = ("campaign", *HEIGHT_SUMMARY_COLUMNS)
 
 
 def fleet_table(campaign_dirs: Mapping[str, str | os.PathLike]) -> pd.DataFrame:
@@ -54,49 +41,15 @@ def fleet_table(campaign_dirs: Mapping[str, str | os.PathLike]) -> pd.DataFrame:
         credible interval of that mean, -) and ``ti_mean_uncorrected`` (-); ``n_truth``
         (corrected records with a true TI, -) and ``coverage`` (share of their credible
         intervals holding the true TI, -; NaN without truth), ``credible_mass`` (-) and
-        ``reference_kind`` (metrics.csv).
+        ``reference_kind`` (metrics.csv): :func:`flidar_uq.data.calibration.height_summary`.
     """
     rows = []
     for name, directory in campaign_dirs.items():
         ti = Path(directory) / "ti"
-        records = read_csv(ti / "records.csv")
-        groups = read_csv(ti / "groups.csv")
-        whole = groups[groups["grouping"] == "campaign"]
-        metrics = read_csv(ti / "metrics.csv")
-        kind = str(metrics["reference_kind"].iloc[0]) if len(metrics) else ""
-        mass = float(metrics["credible_mass"].iloc[0]) if len(metrics) else np.nan
-        for height in sorted(records["height_m"].dropna().unique()):
-            at = records[np.isclose(records["height_m"], height)]
-            corrected = np.isfinite(at["ti_corrected_median"].to_numpy(dtype=float))
-            row = whole[np.isclose(whole["height_m"], height)]
-            stat = {
-                c: (float(row[c].iloc[0]) if len(row) else np.nan)
-                for c in ("ti_mean", "ti_mean_lo", "ti_mean_hi", "ti_mean_uncorrected")
-            }
-            n_truth, coverage = 0, np.nan
-            if "ti_true" in at:
-                truth = at["ti_true"].to_numpy(dtype=float)
-                n_truth = int((corrected & np.isfinite(truth)).sum())
-                if n_truth:
-                    coverage = interval_coverage(
-                        truth,
-                        at["ti_corrected_lo"].to_numpy(dtype=float),
-                        at["ti_corrected_hi"].to_numpy(dtype=float),
-                        corrected,
-                    )
-            rows.append(
-                {
-                    "campaign": name,
-                    "height_m": float(height),
-                    "n_records": len(at),
-                    "n_corrected": int(corrected.sum()),
-                    **stat,
-                    "n_truth": n_truth,
-                    "coverage": coverage,
-                    "credible_mass": mass,
-                    "reference_kind": kind,
-                }
-            )
+        summary = height_summary(
+            read_csv(ti / "records.csv"), read_csv(ti / "groups.csv"), read_csv(ti / "metrics.csv")
+        )
+        rows.extend({"campaign": name, **row} for row in summary.to_dict("records"))
     return pd.DataFrame(rows, columns=list(FLEET_COLUMNS))
 
 

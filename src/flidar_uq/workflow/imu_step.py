@@ -58,7 +58,7 @@ def imu_statistics(
         The statistics written.
     """
     from flidar_uq.data import io
-    from flidar_uq.data.imu_series import series_motion_statistics
+    from flidar_uq.data.imu_series import series_motion_statistics, series_overrides
 
     records = io.read_records(
         records_path,
@@ -74,10 +74,10 @@ def imu_statistics(
         allow_small_angles=allow_small_angles,
         heading_convention=heading_convention,
     )
-    own = _table_motion_columns(records)
+    own, n_overridden = series_overrides(records)
     info = result.summary | {
         "record_table_motion_columns": " ".join(own) if own else "none",
-        "record_rows_overridden": int(records[own].notna().any(axis=1).sum()) if own else 0,
+        "record_rows_overridden": n_overridden,
     }
     if own:
         log.warning(
@@ -107,7 +107,8 @@ def merge_series_motion(
     records : pandas.DataFrame
         Validated record table (motion columns optional).
     statistics_path : path
-        Output of :func:`imu_statistics` (same rows, same order).
+        Output of :func:`imu_statistics` (same rows, same order); merged by
+        :func:`flidar_uq.data.imu_series.merge_series_motion`.
 
     Returns
     -------
@@ -122,22 +123,11 @@ def merge_series_motion(
     ValueError
         If the statistics do not match the records row by row.
     """
-    from flidar_uq.data.imu_series import SERIES_MOTION_COLUMNS
+    from flidar_uq.data.imu_series import merge_series_motion as merge
+    from flidar_uq.data.imu_series import series_overrides
 
-    stats = read_csv(statistics_path)
-    if (
-        len(stats) != len(records)
-        or not (
-            pd.to_datetime(stats["timestamp"], utc=True).to_numpy()
-            == records["timestamp"].to_numpy()
-        ).all()
-    ):
-        raise ValueError(
-            f"{statistics_path}: IMU statistics do not match the record table row by row "
-            f"({len(stats)} vs {len(records)} rows); rerun the imu_statistics step"
-        )
-    own = _table_motion_columns(records)
-    n_overridden = int(records[own].notna().any(axis=1).sum()) if own else 0
+    merged = merge(records, read_csv(statistics_path), source=str(statistics_path))
+    own, n_overridden = series_overrides(records)
     if own:
         log.warning(
             "the IMU series wins: its statistics replace the record table's columns %s "
@@ -146,17 +136,4 @@ def merge_series_motion(
             n_overridden,
             len(records),
         )
-    merged = records.drop(columns=own)
-    # the bands' measured directions where the series had a vertical velocity
-    measured = [c for c in stats if c.startswith("tilt_band") and c.endswith("_cos_psi")]
-    for col in (*SERIES_MOTION_COLUMNS, *measured):
-        merged[col] = stats[col].to_numpy(dtype=float)
     return merged, n_overridden
-
-
-def _table_motion_columns(records: pd.DataFrame) -> list[str]:
-    """The motion columns (derived from a series) that the record table itself carries."""
-    from flidar_uq.data.imu_series import SERIES_MOTION_COLUMNS
-
-    measured = [c for c in records if c.startswith("tilt_band") and c.endswith("_cos_psi")]
-    return [c for c in SERIES_MOTION_COLUMNS if c in records.columns] + measured

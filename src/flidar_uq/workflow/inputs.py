@@ -52,7 +52,6 @@ __all__ = [
     "load_config_file",
     "pipeline_preflight",
     "read_campaign_records",
-    "reference_problems",
     "step_errors_exit",
 ]
 
@@ -75,13 +74,6 @@ SCHEMA_PATH = resource_path("config.schema.yaml")
 
 #: The fleet summary's directory under results/ (a name no campaign of ``campaigns:`` may take).
 FLEET_DIR = "fleet"
-
-#: Share of records one QC filter may flag before :func:`inspect_records` warns.
-_QC_WARN_SHARE = 0.5
-#: Fewest records with a reference std for rho to be learnt without a warning.
-_MIN_REFERENCE_RECORDS = 10
-#: Nominal record length (s).
-_RECORD_S = 600.0
 
 
 class ConfigError(ValueError):
@@ -495,31 +487,34 @@ def read_campaign_records(
     """
     import numpy as np
 
-    from flidar_uq.data import io
+    from flidar_uq.data.formats.join import read_campaign
 
     campaign = dict(campaign or {})
     if allow_small_angles is None:
         allow_small_angles = bool(campaign.get("allow_small_angles", False))
-    records = io.read_records(
+    conventions = {
+        k: campaign[k]
+        for k in (
+            "format",
+            "utc_offset_h",
+            "timestamp_at",
+            "heading_convention",
+            "motion_file",
+            "reference_file",
+        )
+        if k in campaign
+    }
+    records = read_campaign(
         path,
-        columns=campaign.get("columns") or None,
-        allow_small_angles=allow_small_angles,
+        {
+            **conventions,
+            "columns": campaign.get("columns") or None,
+            "extra_columns": campaign.get("extra_columns", "keep"),
+        },
         # the motion columns may be absent when a raw IMU series gives them
         require_motion=not campaign.get("imu_series"),
-        extra_columns=campaign.get("extra_columns", "keep"),
-        conventions={
-            k: campaign[k]
-            for k in (
-                "format",
-                "utc_offset_h",
-                "timestamp_at",
-                "heading_convention",
-                "motion_file",
-                "reference_file",
-            )
-            if k in campaign
-        },
-    )
+        allow_small_angles=allow_small_angles,
+    )[0]
     heights = campaign.get("heights")
     if heights:
         present = np.unique(records["height_m"].to_numpy(dtype=float))
@@ -533,74 +528,6 @@ def read_campaign_records(
     return records
 
 
-def reference_problems(records: pd.DataFrame, source: str) -> list:
-    """What makes every record uncorrectable: a reference mean without a reference std.
-
-    rho (and with it every corrected value) is learnt only from records with
-    ``ref_hws_std_ms``; a file with the reference's mean speed but no std would run to the
-    end and flag every record ``global_fit_failed``.
-
-    Returns
-    -------
-    list of flidar_uq.data.io.DataValidationError
-        Empty when fine (the pipeline raises the first one, the command line warns).
-    """
-    import numpy as np
-
-    from flidar_uq.data.io import DataValidationError
-
-    if "ref_hws_mean_ms" not in records:
-        return []
-    mean = records["ref_hws_mean_ms"].to_numpy(dtype=float)
-    std = (
-        records["ref_hws_std_ms"].to_numpy(dtype=float)
-        if "ref_hws_std_ms" in records
-        else np.full(len(records), np.nan)
-    )
-    if np.isfinite(mean).any() and not np.isfinite(std).any():
-        what = "has no value" if "ref_hws_std_ms" in records else "is missing"
-        return [
-            DataValidationError(
-                source,
-                None,
-                "ref_hws_std_ms",
-                f"the reference mean ref_hws_mean_ms is given but its std {what}: rho is "
-                "learnt only from the reference std, so every record would be flagged "
-                "global_fit_failed; add (or map, campaign.columns) the reference std column, "
-                "or drop the mean (campaign.columns: {<its name>: null})",
-            )
-        ]
-    return []
-
-
-def _gaps(records: pd.DataFrame) -> tuple[float, list[dict]]:
-    """Median record spacing (s) and the sampling gaps per height."""
-    import numpy as np
-    import pandas as pd
-
-    out = []
-    spacings = []
-    for h, grp in records.groupby("height_m", sort=True):
-        t = pd.DatetimeIndex(grp["timestamp"]).as_unit("ns").asi8 * 1e-9
-        dt = np.diff(np.sort(t))
-        spacings.append(dt)
-        out.append({"height_m": float(h), "n_records": len(grp), "dt": dt})
-    alldt = np.concatenate(spacings) if spacings else np.array([])
-    step = float(np.median(alldt)) if alldt.size else float("nan")
-    per_height = []
-    for row in out:
-        dt = row.pop("dt")
-        gap = dt > 1.5 * step if np.isfinite(step) else np.zeros(dt.shape, bool)
-        missing = int(np.sum(np.round(dt[gap] / step) - 1)) if gap.any() else 0
-        row.update(
-            n_gaps=int(gap.sum()),
-            missing_records=missing,
-            largest_gap_h=round(float(dt.max()) / 3600.0, 3) if dt.size else 0.0,
-        )
-        per_height.append(row)
-    return step, per_height
-
-
 def inspect_records(
     records: pd.DataFrame,
     *,
@@ -610,6 +537,9 @@ def inspect_records(
     columns: Mapping | None = None,
 ) -> dict:
     """What the pipeline will find in a validated record table, and warnings.
+
+    :func:`flidar_uq.data.inspection.inspect_records` with the records' motion
+    descriptions (:func:`flidar_uq.inference.record_motion.per_record_motion`).
 
     Parameters
     ----------
@@ -627,118 +557,20 @@ def inspect_records(
     Returns
     -------
     dict
-        ``n_records``, ``heights_m``; ``columns`` (``present``, ``absent_optional``,
-        ``truth``, ``renamed``); ``time_span`` (``start``, ``end`` ISO 8601 UTC, ``days``);
-        ``sampling`` (``interval_s``, per height ``n_records``, ``n_gaps``,
-        ``missing_records``, ``largest_gap_h``); ``reference`` (shares of records with a
-        reference mean and std); ``motion_description`` (records per description of
-        :func:`flidar_uq.inference.record_motion.per_record_motion`); ``qc_preview``
-        (``n_kept``, ``n_flagged`` and per filter the records it flags); ``warnings``
-        (one line each) and ``blocking`` (what the pipeline refuses, one line each).
+        See :func:`flidar_uq.data.inspection.inspect_records`.
     """
-    import numpy as np
-    import pandas as pd
-
-    from flidar_uq.data import qc
-    from flidar_uq.data.schema import RECORD_COLUMNS, TRUTH_PREFIX
+    from flidar_uq.data import inspection
     from flidar_uq.inference.record_motion import MOTION_DESCRIPTIONS, per_record_motion
 
-    n = len(records)
-    names = [c.name for c in RECORD_COLUMNS]
-    present = [c for c in names if c in records]
-    truth = [c for c in records if str(c).startswith(TRUTH_PREFIX)]
-    absent = [c.name for c in RECORD_COLUMNS if not c.required and c.name not in records]
-    t = pd.DatetimeIndex(records["timestamp"])
-    step, per_height = _gaps(records)
-    share = {}
-    for c in ("ref_hws_mean_ms", "ref_hws_std_ms"):
-        share[c] = (
-            float(np.isfinite(records[c].to_numpy(dtype=float)).mean()) if c in records else 0.0
-        )
-    config = qc.QCConfig(**dict(qc_params or {}), heights_m=tuple(heights) if heights else None)
-    res = qc.run_qc(records, config)
-    by_filter = {
-        r: int(row["n_failed"])
-        for r, row in res.counts.iterrows()
-        if row["enabled"] and row["applicable"]
-    }
-    motion = per_record_motion(records)
-    kinds = motion["motion_description"]
-    counts = {k: int((kinds == k).sum()) for k in MOTION_DESCRIPTIONS}
-
-    warnings: list[str] = []
-    blocking = [str(e) for e in reference_problems(records, source)]
-    if share["ref_hws_std_ms"] == 0.0 and not blocking:
-        warnings.append(
-            "no reference std (ref_hws_std_ms): rho cannot be learnt, its posterior is the "
-            "prior, the intervals are wide and every record is flagged global_fit_failed"
-        )
-    elif 0 < share["ref_hws_std_ms"] * n < _MIN_REFERENCE_RECORDS:
-        warnings.append(
-            f"only {round(share['ref_hws_std_ms'] * n)} records with a reference std: rho "
-            "is learnt from few records, the intervals will be wide"
-        )
-    kept = res.flags["kept"].to_numpy()
-    none_kept = int(((kinds == "none").to_numpy() & kept).sum())
-    if none_kept:
-        warnings.append(
-            f"{none_kept} of {int(kept.sum())} QC-kept records have neither the along-wind "
-            "tilt columns nor complete roll/pitch statistics: they will be flagged "
-            "no_motion_description (no corrected TI)"
-        )
-    for h_row in per_height:
-        h = h_row["height_m"]
-        at = np.isclose(records["height_m"].to_numpy(dtype=float), h)
-        if kept[at].sum() == 0 and (heights is None or np.isclose(heights, h).any()):
-            reasons = res.flags.loc[at, "reasons"].astype(str).str.split(";").explode()
-            top = reasons.value_counts().index[0] if len(reasons) else "?"
-            warnings.append(
-                f"QC keeps no record at {h:g} m (most frequent reason: {top}): nothing "
-                "is corrected at this height"
-            )
-    for reason, k in by_filter.items():
-        if reason != "height_not_selected" and n and k / n > _QC_WARN_SHARE:
-            thr = res.counts.loc[reason, "threshold"]
-            warnings.append(
-                f"QC filter {reason} ({thr}) flags {k} of {n} records ({100 * k / n:.0f} %): "
-                "check the units of the column it tests or the threshold in the config's qc section"
-            )
-    if np.isfinite(step) and abs(step - _RECORD_S) > 1.0:
-        warnings.append(
-            f"the median spacing of the records at one height is {step:g} s, expected "
-            f"{_RECORD_S:g} s (10-min records): the statistics must be over 10 minutes"
-        )
-    rename = {}
-    for name, target in (columns or {}).items():
-        rename[name] = target
-    return {
-        "n_records": n,
-        "heights_m": sorted(float(h) for h in records["height_m"].unique()),
-        "columns": {
-            "present": present,
-            "absent_optional": absent,
-            "truth": truth,
-            "renamed": rename,
-        },
-        "time_span": {
-            "start": t.min().isoformat() if n else None,
-            "end": t.max().isoformat() if n else None,
-            "days": round((t.max() - t.min()).total_seconds() / 86400.0, 3) if n else 0.0,
-        },
-        "sampling": {"interval_s": step, "per_height": per_height},
-        "reference": {
-            "share_with_mean": round(share["ref_hws_mean_ms"], 4),
-            "share_with_std": round(share["ref_hws_std_ms"], 4),
-        },
-        "motion_description": counts,
-        "qc_preview": {
-            "n_kept": int(res.n_kept),
-            "n_flagged": int(res.n_flagged),
-            "by_filter": by_filter,
-        },
-        "warnings": warnings,
-        "blocking": blocking,
-    }
+    return inspection.inspect_records(
+        records,
+        per_record_motion(records)["motion_description"],
+        descriptions=MOTION_DESCRIPTIONS,
+        source=source,
+        qc_params=qc_params,
+        heights=heights,
+        columns=columns,
+    )
 
 
 # --------------------------------------------------------------------------- exit status
@@ -830,7 +662,7 @@ def pipeline_preflight(config: dict, *, read_data: bool = True, stream=None) -> 
     Validates the config (:func:`check_config`, defaults filled in place) and, for
     ``campaign.source: files`` with ``read_data``, reads the record table as the pipeline
     will (:func:`read_campaign_records`), refuses what would make every record
-    uncorrectable (:func:`reference_problems`), a reference kind missing for records
+    uncorrectable (:func:`flidar_uq.data.inspection.reference_problems`), a reference kind missing for records
     with a reference (:func:`check_reference`) and bad raw series (:func:`check_series`).
     The warnings of :func:`inspect_records` come from the ``validate`` rule (they need the
     inference layer, slow to import). A fleet (``campaigns:``) is checked campaign by
@@ -866,6 +698,8 @@ def _preflight_data(config: dict, read_data: bool) -> None:
     """The data checks of :func:`pipeline_preflight` for one campaign's checked config."""
     camp = config["campaign"]
     if read_data and camp["source"] == "files":
+        from flidar_uq.data.inspection import reference_problems
+
         records = read_campaign_records(camp["records"], camp)
         problems = reference_problems(records, str(camp["records"]))
         if problems:

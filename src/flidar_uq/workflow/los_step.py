@@ -16,19 +16,7 @@ from flidar_uq.workflow.files import read_csv, write_csv
 
 log = logging.getLogger(__name__)
 
-__all__ = ["AGREEMENT_COLUMNS", "los_agreement", "los_correction"]
-
-#: Columns of results/los/agreement.csv, one row per LOS method.
-AGREEMENT_COLUMNS = [
-    "method",
-    "n_records",
-    "bias_vs_bayesian",
-    "rmse_vs_bayesian",
-    "r_vs_bayesian",
-    "inside_interval_pct",
-    "md_vs_truth",
-    "rmse_vs_truth",
-]
+__all__ = ["los_agreement", "los_correction"]
 
 
 def los_correction(
@@ -173,7 +161,8 @@ def los_agreement(
     ``lidar_std_ratio`` (1 for the motionless-lidar target; docs/lidar-response.md) before
     comparing: columns ``ti_los_<method>`` (lidar) and ``ti_los_<method>_target``.
 
-    Agreement per method (records with both values): ``bias_vs_bayesian`` = mean of LOS
+    Agreement per method (:func:`flidar_uq.correction.los_records.agreement_with_bayesian`,
+    records with both values): ``bias_vs_bayesian`` = mean of LOS
     minus Bayesian median, ``rmse_vs_bayesian``, ``r_vs_bayesian`` (Pearson),
     ``inside_interval_pct`` = share of LOS values inside the Bayesian credible interval (%);
     against the truth (virtual campaigns): ``md_vs_truth``, ``rmse_vs_truth``. A last row
@@ -193,62 +182,15 @@ def los_agreement(
     pandas.DataFrame
         The agreement table.
     """
-    from flidar_uq.data.metrics import pearson_r
+    from flidar_uq.correction.los_records import agreement_with_bayesian
 
     los = read_csv(los_path)
-    ti = read_csv(ti_records_path)
-    methods = [c[len("ti_los_") :] for c in los.columns if c.startswith("ti_los_")]
-    keep = ["timestamp", "height_m", "hws_mean_ms", "ti_uncorrected", "ti_corrected_median"]
-    keep += ["ti_corrected_lo", "ti_corrected_hi", "flags"]
-    keep += [c for c in ("lidar_std_ratio", "ti_true") if c in ti.columns]
-    merged = ti[keep].merge(los, on=["timestamp", "height_m"], how="left", validate="1:1")
-    g = merged["lidar_std_ratio"].to_numpy(float) if "lidar_std_ratio" in merged else 1.0
-    g = np.where(np.isfinite(g), g, np.nan)
-    for m in methods:
-        merged[f"ti_los_{m}_target"] = merged[f"ti_los_{m}"].to_numpy(float) / g
-    med = merged["ti_corrected_median"].to_numpy(float)
-    lo = merged["ti_corrected_lo"].to_numpy(float)
-    hi = merged["ti_corrected_hi"].to_numpy(float)
-    truth = merged["ti_true"].to_numpy(float) if "ti_true" in merged else None
-    rows = []
-    for m in methods:
-        x = merged[f"ti_los_{m}_target"].to_numpy(float)
-        both = np.isfinite(x) & np.isfinite(med)
-        d = x[both] - med[both]
-        row = {
-            "method": m,
-            "n_records": int(both.sum()),
-            "bias_vs_bayesian": float(d.mean()) if d.size else np.nan,
-            "rmse_vs_bayesian": float(np.sqrt(np.mean(d**2))) if d.size else np.nan,
-            "r_vs_bayesian": float(pearson_r(x[both], med[both])) if d.size > 2 else np.nan,
-            "inside_interval_pct": float(
-                100.0 * np.mean((x[both] >= lo[both]) & (x[both] <= hi[both]))
-            )
-            if d.size
-            else np.nan,
-        }
-        row |= _vs_truth(x, truth, both)
-        rows.append(row)
-    # the Bayesian median's own errors, over the records compared with Malekmohammadi et al. (2024)
-    both = np.isfinite(med) & np.isfinite(merged["ti_los_least_squares_target"].to_numpy(float))
-    rows.append({"method": "bayesian", "n_records": int(both.sum())} | _vs_truth(med, truth, both))
-    agreement = pd.DataFrame(rows).reindex(columns=AGREEMENT_COLUMNS)
+    merged, agreement, methods = agreement_with_bayesian(read_csv(ti_records_path), los)
     write_csv(merged, records_out)
     write_csv(agreement, agreement_out)
     _agreement_figure(merged, methods, figure_out)
     log.info("LOS agreement:\n%s", agreement.to_string(index=False))
     return agreement
-
-
-def _vs_truth(x: np.ndarray, truth: np.ndarray | None, use: np.ndarray) -> dict:
-    """MD and RMSE of ``x`` against the truth over ``use`` (NaN without truth)."""
-    if truth is None:
-        return {"md_vs_truth": np.nan, "rmse_vs_truth": np.nan}
-    ok = use & np.isfinite(truth)
-    d = x[ok] - truth[ok]
-    if d.size == 0:
-        return {"md_vs_truth": np.nan, "rmse_vs_truth": np.nan}
-    return {"md_vs_truth": float(d.mean()), "rmse_vs_truth": float(np.sqrt(np.mean(d**2)))}
 
 
 def _agreement_figure(merged: pd.DataFrame, methods: Sequence[str], path) -> None:

@@ -18,8 +18,8 @@ import numpy as np
 import pandas as pd
 
 from flidar_uq.data.formats import iea43, windcube, zephir
-from flidar_uq.data.formats.common import INTERVAL_MIN, check_alignment, heading_ccw_deg
-from flidar_uq.data.io import DataValidationError
+from flidar_uq.data.formats.common import INTERVAL_MIN, check_alignment
+from flidar_uq.data.io import DataValidationError, heading_ccw_deg
 from flidar_uq.data.schema import WAVE_PERIOD_FALLBACK_COLUMN
 
 __all__ = [

@@ -25,7 +25,6 @@ __all__ = [
     "parse_stamps",
     "to_utc_start",
     "check_alignment",
-    "heading_ccw_deg",
     "resolve_offset_h",
     "availability_from_packets",
 ]
@@ -196,13 +195,6 @@ def check_alignment(
         csv=first_line is None,
         n_more=int(bad.sum()) - 1,
     )
-
-
-def heading_ccw_deg(compass_deg) -> np.ndarray:
-    """The project's heading (counter-clockwise from above, 0 = body y north) of a
-    compass bearing (clockwise from north), deg: ``-compass`` wrapped to [-180, 180)."""
-    c = np.asarray(compass_deg, dtype=np.float64)
-    return (180.0 - c) % 360.0 - 180.0
 
 
 def availability_from_packets(table: pd.DataFrame, per_height: dict) -> list[str]:

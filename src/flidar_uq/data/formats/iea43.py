@@ -21,14 +21,13 @@ import pandas as pd
 from flidar_uq.data.formats.common import (
     ParsedFile,
     availability_from_packets,
-    heading_ccw_deg,
     numeric_columns,
     parse_stamps,
     read_text,
     resolve_offset_h,
     to_utc_start,
 )
-from flidar_uq.data.io import DataValidationError
+from flidar_uq.data.io import DataValidationError, heading_ccw_deg
 
 __all__ = ["looks_like", "read", "TARGETS"]
 

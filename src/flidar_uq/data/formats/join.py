@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from flidar_uq.data import io
-from flidar_uq.data.formats.common import INTERVAL_MIN, check_alignment, heading_ccw_deg
+from flidar_uq.data.formats.common import INTERVAL_MIN, check_alignment
 from flidar_uq.data.schema import TRUTH_PREFIX, record_columns_by_name
 
 __all__ = ["PART_KEYS", "JOIN_COLUMNS", "read_part", "join_records", "join_report"]
@@ -72,7 +72,7 @@ def read_part(part: dict, *, extra_columns: str = "keep") -> pd.DataFrame:
         try:
             if part.get("heading_convention") == "compass" and "heading_mean_deg" in table:
                 x = pd.to_numeric(table["heading_mean_deg"], errors="coerce")
-                table = table.assign(heading_mean_deg=heading_ccw_deg(x))
+                table = table.assign(heading_mean_deg=io.heading_ccw_deg(x))
             values = io._coerce(table[list(cols)], cols, source, csv)
             for col in cols.values():
                 io._check_values(values, col, source, csv)
