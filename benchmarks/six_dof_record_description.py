@@ -14,7 +14,11 @@ sigma_Z with the scenario's true lever arm and a motion scale of 1:
 - ``follower_bands``: the same from the record's tilt bands (``tilt_band{b}_*``, the band
   sum of :func:`flidar_uq.physics.six_dof_sigma_z.six_dof_band_terms`), what the record
   model uses when the bands are given
-  (:func:`flidar_uq.inference.record_motion.gram_sigma_z_ms`).
+  (:func:`flidar_uq.inference.record_motion.gram_sigma_z_ms`), each band's direction of
+  travel assumed by its wave age;
+- ``follower_bands_heave``: the same with each band's direction measured from the heave
+  (the campaigns' IMU carries the vertical velocity, ``imu.vertical_velocity``: columns
+  ``tilt_band{b}_cos_psi``, :func:`flidar_uq.data.imu.band_cos_psi_from_heave`).
 
 What matters for a campaign-wide calibration is that the ratio predicted / realised is the
 same in every regime (a single motion scale then fits all of them): the table gives the pooled
@@ -43,11 +47,12 @@ OUT = Path(__file__).resolve().parent / "results"
 SCENARIOS = ("wave_follower", "wave_follower_weathervane", "discus_buoy", "misaligned_swell")
 N_RECORDS = 600
 SEED = 902_417_553  # drawn for this benchmark, not used while developing the model
-#: description -> (hull response h, keep the tilt-band columns)
+#: description -> (hull response h, the record columns it reads)
 DESCRIPTIONS = {
-    "rotation_only": (0.0, True),
-    "follower_moments": (1.0, False),
-    "follower_bands": (1.0, True),
+    "rotation_only": (0.0, "bands"),
+    "follower_moments": (1.0, "moments"),
+    "follower_bands": (1.0, "bands"),
+    "follower_bands_heave": (1.0, "bands_heave"),
 }
 
 
@@ -77,23 +82,31 @@ def main() -> None:
         # it also holds the in-scan sampling difference to the reference lidar, whose beams
         # do not turn with the buoy's heading)
         sc["wind"] = sc.get("wind", {}) | {"ti_model": "constant_ti", "ti_params": {"ti": 1e-4}}
+        sc["imu"] = sc.get("imu", {}) | {"vertical_velocity": True}  # hulls that translate
         rec = generate_campaign(sc, SEED, n_workers=2).records
         lever = float(rec["true_lever_arm_m"].iloc[0])
         bands = [c for c in rec if c.startswith("tilt_band")]
+        heave = [c for c in bands if c.endswith("_cos_psi")]
+        tables = {
+            "moments": rec.drop(columns=bands),
+            "bands": rec.drop(columns=heave),
+            "bands_heave": rec,
+        }
         grams, speed = {}, {}
-        for with_bands in (True, False):
-            table = rec if with_bands else rec.drop(columns=bands)
+        for kind, table in tables.items():
             big = pd.concat([table] * 10, ignore_index=True)  # ~18,000 records to time
             t1 = time.perf_counter()
             motion_gram(big, surrogate=sur)
-            speed[with_bands] = len(big) / (time.perf_counter() - t1)
-            grams[with_bands] = motion_gram(table, surrogate=sur)
+            speed[kind] = len(big) / (time.perf_counter() - t1)
+            grams[kind] = motion_gram(table, surrogate=sur)
         truth = rec["true_sigma_z_ms"].to_numpy()
         ok = np.isfinite(truth)
-        ok &= np.isfinite(grams[True]["gram_kk"].to_numpy())
-        ok &= np.isfinite(grams[False]["gram_kk"].to_numpy())
-        for desc, (h, with_bands) in DESCRIPTIONS.items():
-            pred = gram_sigma_z_ms(grams[with_bands], lever_arm_m=lever, hull_response=h)
+        for g in grams.values():
+            ok &= np.isfinite(g["gram_kk"].to_numpy())
+        for desc, (h, kind) in DESCRIPTIONS.items():
+            if kind == "bands_heave" and not heave:
+                continue  # a hull that only rotates: no vertical velocity
+            pred = gram_sigma_z_ms(grams[kind], lever_arm_m=lever, hull_response=h)
             for group, mask in _groups(rec).items():
                 m = mask.to_numpy() & ok
                 if m.sum() < 30:
@@ -106,13 +119,13 @@ def main() -> None:
                         n=int(m.sum()),
                         ratio=float(np.sqrt(np.mean(pred[m] ** 2) / np.mean(truth[m] ** 2))),
                         log_sd=float(np.std(np.log(pred[m] / truth[m]))),
-                        records_per_s=speed[with_bands],
+                        records_per_s=speed[kind],
                     )
                 )
         print(
             f"{name}: {len(rec)} rows in {time.perf_counter() - t0:.0f} s; motion_gram "
-            f"{speed[True]:,.0f} records/s with the tilt bands, {speed[False]:,.0f} with the "
-            "moments",
+            f"{speed['bands']:,.0f} records/s with the tilt bands, {speed['moments']:,.0f} "
+            "with the moments",
             flush=True,
         )
     df = pd.DataFrame(rows)
@@ -141,7 +154,7 @@ def _plot(df: pd.DataFrame) -> None:
     for ax, name in zip(axes, SCENARIOS, strict=True):
         g = df[df.scenario == name]
         groups = list(dict.fromkeys(g.group))
-        for k, (desc, mk) in enumerate(zip(DESCRIPTIONS, "ox^", strict=True)):
+        for k, (desc, mk) in enumerate(zip(DESCRIPTIONS, "ox^s", strict=True)):
             gg = g[g.description == desc].set_index("group").reindex(groups)
             ax.plot(np.arange(len(groups)) + 0.1 * k, gg["ratio"], mk, label=desc)
         ax.set_xticks(range(len(groups)), groups, rotation=45, ha="right", fontsize=8)
@@ -151,7 +164,7 @@ def _plot(df: pd.DataFrame) -> None:
     axes[0].legend(fontsize=8)
     fig.suptitle(
         "Record-table description of sigma_Z per regime: rotation only, wave follower by "
-        "moments and by tilt bands"
+        "moments, by tilt bands, by tilt bands with the heave's directions"
     )
     fig.tight_layout()
     fig.savefig(OUT / "six_dof_record_description.png", dpi=110)
