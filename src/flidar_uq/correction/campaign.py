@@ -432,8 +432,12 @@ def correct_campaign(
     # its own passes at budget_ndraws (common random numbers: the same seed and draws
     # for every hold), the main pass's draws when it has no more
     nb = min(int(settings.budget_ndraws), int(ndraws))
-    free = ti_draws if nb == ndraws else correct((), nb).ti
-    usable = per_record["converged"].to_numpy(dtype=bool) & np.all(np.isfinite(free), axis=0)
+    if nb == ndraws:
+        free = ti_draws
+    else:  # the main pass's draws are done with: freed before the budget's passes
+        del main, ti_draws
+        free = correct((), nb).ti
+    usable = per_record["converged"].to_numpy(dtype=bool) & prop.finite_records(free)
     budget = uncertainty_budget(
         lambda hold: free if not hold else correct(hold, nb).ti,
         {"campaign": speed_keys[["height_m"]], "speed bin": speed_keys},

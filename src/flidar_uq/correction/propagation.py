@@ -65,6 +65,7 @@ __all__ = [
     "corrected_ti",
     "draw_corrected_ti",
     "draw_held_ti",
+    "finite_records",
     "record_summary",
     "speed_bin_keys",
     "speed_bin_statistics",
@@ -790,29 +791,30 @@ class _Propagation:
         """Posterior draws of a global parameter (conditioned on the held ones), (ndraws, 1)."""
         return self.held_globals.get(name, self.global_fit.flat(name)[self.g_idx])[:, None]
 
-    def own_noise(self, mask):
-        """The floating lidar's relative noise on s, (ndraws, n_mask) or (ndraws, 1)."""
+    def own_noise(self, cols):
+        """The floating lidar's relative noise on s for the records ``cols`` (indices),
+        (ndraws, cols.size) or (ndraws, 1)."""
         if self.pair_known or not self.with_scatter or self.corr is None:
             return self.kappa
-        return split_noise(self.kappa, self.log_sd[mask][None, :], self.corr[mask][None, :])
+        return split_noise(self.kappa, self.log_sd[cols][None, :], self.corr[cols][None, :])
 
-    def deploy(self, mask, sz, rel, tau0=0.0):
+    def deploy(self, mask, sz, tau0=0.0):
         """Steps 2-4 of the module docstring for the records of ``mask`` (sZ draws given;
-        ``rel`` the floating lidar's relative sampling sd about its motionless-lidar std,
-        ``tau0`` an absolute one, m/s). The random numbers are drawn for all of them (z,
-        then e: the stream does not depend on the blocks); the rest runs on blocks of
-        records to bound the temporaries."""
+        the floating lidar's relative sampling sd about its motionless-lidar std from
+        :meth:`own_noise`, ``tau0`` an absolute one, m/s). The random numbers are drawn for
+        all of them (z, then e: the stream does not depend on the blocks); the rest runs on
+        blocks of records to bound the temporaries."""
         hold, s, m = self.hold, self.s, self.m
         cols = np.flatnonzero(mask)
         z = self.rng.standard_normal((self.ndraws, cols.size))
         e = self.rng.standard_normal((self.ndraws, cols.size))
         if "sampling" in hold:
             z[:] = 0.0
-        rel = np.broadcast_to(rel, z.shape)
         tau0 = np.broadcast_to(tau0, z.shape)
         for j in range(0, cols.size, _DEPLOY_BLOCK):
             b, cb = slice(j, j + _DEPLOY_BLOCK), cols[j : j + _DEPLOY_BLOCK]
-            zb, rb, t0 = z[:, b], rel[:, b], tau0[:, b]
+            zb, t0 = z[:, b], tau0[:, b]
+            rb = np.broadcast_to(self.own_noise(cb), zb.shape)
             s_star = s[cb][None, :] / np.maximum(1.0 + rb * zb, _PIVOT_FLOOR)
             if np.any(t0):  # s = mu + sqrt((kappa mu)^2 + tau0^2) z solved for mu
                 for _ in range(_PIVOT_ITERATIONS):
@@ -890,7 +892,7 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan) ->
         err *= kappa_z
         sz *= np.exp(err, out=err)  # sz exp(kappa_z N(0, 1)), in place
         del err
-        p.deploy(mask, sz, p.own_noise(mask))
+        p.deploy(mask, sz)
     p.conv[described] = global_fit.converged
     p.reasons[described] = "; ".join(p.global_reasons)
 
@@ -918,7 +920,7 @@ def _propagate_bin_model(p: _Propagation, records, bin_fits, surrogate, scan) ->
             sz = scale * sz
         else:  # plus the head translation of the lever-arm model
             sz = effective_sigma_z_ms(sz, u2, lever, scale)
-        p.deploy(mask, sz, p.own_noise(mask), tau0)
+        p.deploy(mask, sz, tau0)
         p.conv[mask] = f.converged and global_fit.converged
         p.reasons[mask] = "; ".join([*f.failure_reasons, *p.global_reasons])
 
@@ -1228,7 +1230,7 @@ def ti_group_statistics(
     q = [(1.0 - credible_mass) / 2.0, 0.5, (1.0 + credible_mass) / 2.0]
     key_cols = list(keys.columns)
     conv = per_record["converged"].to_numpy(dtype=bool)
-    finite = np.all(np.isfinite(ti_draws), axis=0) if ti_draws.shape[0] else conv
+    finite = finite_records(ti_draws) if ti_draws.shape[0] else conv
     usable = conv & finite
     kv = keys.reset_index(drop=True)
     valid = kv.notna().all(axis=1).to_numpy()
@@ -1269,6 +1271,18 @@ def ti_group_statistics(
 
 #: Draw values (float64) held at once by the group statistics (bounds their memory).
 _BLOCK_VALUES = 4_000_000
+
+
+def finite_records(ti_draws) -> np.ndarray:
+    """Records whose draws are all finite: ``np.all(np.isfinite(ti_draws), axis=0)`` for
+    ``ti_draws`` of shape (ndraws, n_records), computed on blocks of records (no
+    ndraws x n_records temporary); a bool array of shape (n_records,)."""
+    ti_draws = np.asarray(ti_draws)
+    out = np.empty(ti_draws.shape[1], dtype=bool)
+    step = max(1, _BLOCK_VALUES // max(ti_draws.shape[0], 1))
+    for j in range(0, ti_draws.shape[1], step):
+        out[j : j + step] = np.all(np.isfinite(ti_draws[:, j : j + step]), axis=0)
+    return out
 
 
 def _draw_statistics(ti_draws: np.ndarray, columns: np.ndarray):
