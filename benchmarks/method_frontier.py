@@ -8,7 +8,7 @@ against the true point TI (``true_ti``):
   and Eqs. 15-17 inverted; one shared wall time: the three come from one call);
 * the Bayesian correction: the record motion model
   (:func:`flidar_uq.inference.fit_record_model`) propagated by
-  :func:`flidar_uq.correction.propagation.corrected_ti` (point target, as the pipeline),
+  :func:`flidar_uq.correction.propagation.draw_corrected_ti` (point target, as the pipeline),
   at several sampler budgets (walkers x fixed steps, and the default adaptive budget);
 * its Laplace approximation (:func:`flidar_uq.inference.laplace.laplace_record_model`)
   through the same propagation;
@@ -158,18 +158,16 @@ def campaign_methods(rec, sur):
 
     def propagate(gfit, seed):
         t = time.perf_counter()
-        per, _ = prop.corrected_ti(
+        draws = prop.draw_corrected_ti(
             rec,
             [],
             gfit,
             surrogate=sur,
-            credible_mass=CREDIBLE_MASS,
-            ndraws=NDRAWS,
-            lidar_std_ratio=g_ratio,
-            point_log_sd=log_sd,
-            baseline=(sz_seed, rho_seed),
+            settings=prop.PropagationSettings(ndraws=NDRAWS, credible_mass=CREDIBLE_MASS),
+            target=prop.PointTarget(lidar_std_ratio=g_ratio, point_log_sd=log_sd),
             seed=seed,
         )
+        per = prop.record_summary(rec, draws, (sz_seed, rho_seed))
         return per, time.perf_counter() - t
 
     def score_fit(label, method, fit, t_fit, prop_seed, **extra):

@@ -24,7 +24,7 @@ own 200-draw passes in the new code).
 shares over REPS random streams at 200 and 1000 budget draws (1 month;
 ``benchmarks/results/budget_draws.csv``), the justification of ``budget_ndraws = 200``.
 
-Usage: ``python benchmarks/propagation_scaling.py [--sizes 1m,3m,1y] [--codes new,old]``
+Usage: ``python benchmarks/propagation_scaling.py [--sizes 1m,3m,1y,3y] [--codes new,old]``
 (every size of the first code, then of the next); ``--append --workdir DIR`` adds a
 separate run of one code to the CSV.
 """
@@ -48,7 +48,7 @@ import yaml
 
 REPO = Path(__file__).resolve().parents[1]
 OUT = REPO / "benchmarks" / "results"
-SIZES = {"1m": 30, "3m": 91, "1y": 365}  # days
+SIZES = {"1m": 30, "3m": 91, "1y": 365, "3y": 1095}  # days
 ROWS_PER_DAY = 144 * 3  # 10-min records x 3 heights
 
 RUNNER = """
@@ -108,7 +108,7 @@ def step_args(base: Path, inp: Path, res: Path, new: bool) -> dict:
     from flidar_uq.correction.reference import Reference
 
     cfg = yaml.safe_load((REPO / "config" / "config.yaml").read_text())
-    virtual = reference_sampling(REPO / "config" / "scenarios" / "default.yaml")
+    virtual = reference_sampling("default")  # the shipped default scenario
     prop = dict(cfg["propagation"])
     prop.update(
         scan_heights_in_turn=virtual["heights_in_turn"],
@@ -271,6 +271,12 @@ def main() -> None:
     p.add_argument("--sizes", default="1m,3m,1y")
     p.add_argument("--codes", default="new,old")
     p.add_argument("--old-commit", default="619c380")
+    p.add_argument(
+        "--old-settings",
+        action="store_true",
+        help="the old code's propagate() takes the library settings too (an --old-commit "
+        "after the library API); default: one keyword per option",
+    )
     p.add_argument("--workdir", type=Path, default=None)
     p.add_argument("--csv", default="propagation_scaling.csv", help="file name of the table")
     p.add_argument(
@@ -330,7 +336,8 @@ def main() -> None:
             if not (inp / "bins" / "assignments.csv").exists():
                 tile_inputs(a.base, inp, n_rows)
             res = work / size / code
-            m = run_case(srcs[code], step_args(a.base, inp, res, new=code == "new"))
+            new_api = code == "new" or a.old_settings
+            m = run_case(srcs[code], step_args(a.base, inp, res, new=new_api))
             m.update(size=size, n_rows=n_rows, code=code)
             if m["ok"] and all((work / size / c / "records.csv").exists() for c in srcs):
                 m.update(compare(work / size / "new", work / size / "old"))

@@ -7,7 +7,16 @@ import pandas as pd
 import pytest
 
 from flidar_uq.campaign.statistical_mode import generate_statistical_campaign
-from flidar_uq.correction.propagation import corrected_ti
+from flidar_uq.correction.propagation import (
+    PointTarget,
+    PropagationSettings,
+    corrected_ti,
+    draw_corrected_ti,
+    draw_held_ti,
+    record_summary,
+    speed_bin_statistics,
+    variance_law_baselines,
+)
 from flidar_uq.inference import BinFit, GlobalFit, fit_bin, fit_global
 from flidar_uq.physics.surrogate import get_surrogate
 from flidar_uq.physics.variance_laws import corrected_std
@@ -138,7 +147,7 @@ def test_cred_mass_out_of_range_raises(surrogate):
             [_bin_fit(0, 3, 4)],
             _global_fit(0.0),
             surrogate=surrogate,
-            credible_mass=1.5,
+            settings=PropagationSettings(credible_mass=1.5),
             seed=1,
         )
 
@@ -160,16 +169,16 @@ def test_point_target_divides_by_lidar_std_ratio_and_widens_by_its_scatter(surro
     # docs/lidar-response.md: the motionless-lidar std c -> point std c exp(e) / g
     rec = _records([0.6, 0.8, 1.0])
     fits = [_bin_fit(0, 3.0, 4.0)]
-    kw = dict(surrogate=surrogate, seed=3, ndraws=2000)
+    kw = dict(surrogate=surrogate, seed=3, settings=PropagationSettings(ndraws=2000))
     base, _ = corrected_ti(rec, fits, _global_fit(0.4), **kw)
     g = np.array([1.02, 1.03, 1.05])
-    pr, _ = corrected_ti(rec, fits, _global_fit(0.4), lidar_std_ratio=g, **kw)
+    pr, _ = corrected_ti(rec, fits, _global_fit(0.4), target=PointTarget(g), **kw)
     np.testing.assert_allclose(
         pr["sigma_corrected_median_ms"] * g, base["sigma_corrected_median_ms"]
     )
     np.testing.assert_allclose(pr["lidar_std_ratio"], g)
     wide, _ = corrected_ti(
-        rec, fits, _global_fit(0.4), lidar_std_ratio=g, point_log_sd=np.full(3, 0.04), **kw
+        rec, fits, _global_fit(0.4), target=PointTarget(g, np.full(3, 0.04)), **kw
     )
     # without other noise (tau0, kappa ~ 0) the interval is exp(+-1.645 * 0.04) about c / g
     ratio = wide["sigma_corrected_hi_ms"] / wide["sigma_corrected_lo_ms"]
@@ -178,28 +187,27 @@ def test_point_target_divides_by_lidar_std_ratio_and_widens_by_its_scatter(surro
         wide["sigma_corrected_median_ms"], pr["sigma_corrected_median_ms"], rtol=0.01
     )
     with pytest.raises(ValueError, match="lidar_std_ratio"):
-        corrected_ti(rec, fits, _global_fit(0.4), lidar_std_ratio=np.array([1.0, 0.0, 1.0]), **kw)
+        corrected_ti(
+            rec, fits, _global_fit(0.4), target=PointTarget(np.array([1.0, 0.0, 1.0])), **kw
+        )
     with pytest.raises(ValueError, match="point_log_sd needs"):
-        corrected_ti(rec, fits, _global_fit(0.4), point_log_sd=np.zeros(3), **kw)
+        corrected_ti(
+            rec, fits, _global_fit(0.4), target=PointTarget(point_log_sd=np.zeros(3)), **kw
+        )
 
 
-def test_given_gutierrez2018_baseline_is_used_not_recomputed(surrogate, monkeypatch):
-    """The workflow computes Gutiérrez-Antuñano et al.'s (2018) baseline once and passes it in; same result."""
-    from flidar_uq.correction import propagation as prop
-
+def test_record_summary_uses_the_given_gutierrez2018_baseline(surrogate):
+    """The workflow computes Gutiérrez-Antuñano et al.'s (2018) baseline once and passes it to
+    record_summary; the same table as corrected_ti's, the corrected values independent of it."""
     rec = pd.concat([_records([0.6, 0.8], bin_id=0), _records([0.7], bin_id=1)], ignore_index=True)
     fits = [_bin_fit(0, 3.0, 4.0), _bin_fit(1, 2.0, 5.0)]
     ref, _ = corrected_ti(rec, fits, _global_fit(0.3), surrogate=surrogate, seed=5)
-    baseline = prop.variance_law_baselines(rec, surrogate)
-
-    def fail(*args, **kwargs):
-        raise AssertionError("variance_law_baselines recomputed")
-
-    monkeypatch.setattr(prop, "variance_law_baselines", fail)
-    got, _ = corrected_ti(
-        rec, fits, _global_fit(0.3), surrogate=surrogate, baseline=baseline, seed=5
-    )
+    draws = draw_corrected_ti(rec, fits, _global_fit(0.3), surrogate=surrogate, seed=5)
+    got = record_summary(rec, draws, variance_law_baselines(rec, surrogate))
     pd.testing.assert_frame_equal(got, ref)
+    none = record_summary(rec, draws, (np.full(len(rec), np.nan), np.nan))
+    assert none["ti_u"].isna().all() and none["rho_seed"].isna().all()
+    pd.testing.assert_series_equal(none["ti_corrected_median"], ref["ti_corrected_median"])
 
 
 def test_record_flags_order_of_reasons():
@@ -258,15 +266,16 @@ def test_bin_statistic_interval_is_the_quantile_of_the_statistic_draws(surrogate
     directly from the draw matrix), not from the average of the records' intervals, which
     is several times wider when the records' errors are independent."""
     rec = _records(np.linspace(0.6, 1.0, 40))
-    pr, pb, draws = corrected_ti(
+    out = draw_corrected_ti(
         rec,
         [_bin_fit(0, 3.0, 4.0)],
         _global_fit(0.3, 0.02, 0.08),
         surrogate=surrogate,
-        ndraws=2000,
-        return_draws=True,
+        settings=PropagationSettings(ndraws=2000),
         seed=8,
     )
+    pr = record_summary(rec, out, variance_law_baselines(rec, surrogate))
+    pb, draws = speed_bin_statistics(out.ti, pr, rec), out.ti
     assert draws.shape == (2000, 40) and draws.dtype == np.float32
     draws = draws.astype(float)  # the statistics are computed in float64
     mean_draws = draws.mean(axis=1)
@@ -290,36 +299,34 @@ def test_hold_removes_a_source_and_only_that_source(surrogate):
     here), holding rho (constant) changes nothing; an unknown source is an error."""
     rec = _records([0.7, 0.8])
     fits, g = [_bin_fit(0, 3.0, 4.0)], _global_fit(0.3, 0.02, 0.08)
-    _, _, full = corrected_ti(rec, fits, g, surrogate=surrogate, return_draws=True, seed=9)
-    _, _, rho = corrected_ti(
-        rec, fits, g, surrogate=surrogate, return_draws=True, hold={"rho"}, seed=9
-    )
-    _, _, both = corrected_ti(
-        rec, fits, g, surrogate=surrogate, hold={"sampling", "noise_model"}, return_draws=True,
-        seed=9,
-    )  # fmt: skip
+    full = draw_corrected_ti(rec, fits, g, surrogate=surrogate, seed=9).ti
+    rho = draw_held_ti(rec, fits, g, {"rho"}, surrogate=surrogate, seed=9).ti
+    both = draw_held_ti(rec, fits, g, {"sampling", "noise_model"}, surrogate=surrogate, seed=9).ti
+    none = draw_held_ti(rec, fits, g, (), surrogate=surrogate, seed=9).ti
     np.testing.assert_array_equal(full, rho)
+    np.testing.assert_array_equal(full, none)
     assert np.ptp(both, axis=0).max() < 1e-9 < np.ptp(full, axis=0).min()
     with pytest.raises(ValueError, match=r"hold=\['wind'\] must be among"):
-        corrected_ti(rec, fits, g, surrogate=surrogate, hold={"wind"}, seed=9)
+        draw_held_ti(rec, fits, g, {"wind"}, surrogate=surrogate, seed=9)
 
 
 def test_per_record_quantiles_are_those_of_the_returned_draws(surrogate):
     """The per-record median and interval (computed bin by bin from the float64 draws)
     are the quantiles of the returned float32 TI draws, record by record (float32
-    rounding apart); records of a bin without a fit have NaN in both. Without the group
-    statistics the per-record table is the same."""
+    rounding apart); records of a bin without a fit have NaN in both. corrected_ti's
+    per-record table and speed bins are those of the draws."""
     rec = pd.concat([_records(np.linspace(0.6, 1.0, 9)), _records([0.7, 0.8], bin_id=1)])
     rec = rec.reset_index(drop=True)
-    kw = dict(surrogate=surrogate, ndraws=300, return_draws=True, seed=4)
+    kw = dict(surrogate=surrogate, settings=PropagationSettings(ndraws=300), seed=4)
     args = (rec, [_bin_fit(0, 3.0, 4.0)], _global_fit(0.3, 0.02, 0.05))
-    pr, pb, draws = corrected_ti(*args, **kw)
+    out = draw_corrected_ti(*args, **kw)
+    pr, draws = record_summary(rec, out, variance_law_baselines(rec, surrogate)), out.ti
     assert draws.dtype == np.float32 and draws.shape == (300, 11)
     assert np.isnan(draws[:, 9:]).all() and pr.loc[9:, "ti_corrected_median"].isna().all()
     want = np.quantile(draws[:, :9].astype(float), [0.05, 0.5, 0.95], axis=0)
     got = pr.loc[:8, ["ti_corrected_lo", "ti_corrected_median", "ti_corrected_hi"]]
     np.testing.assert_allclose(got.to_numpy().T, want, rtol=1e-6)
-    pr2, pb2, draws2 = corrected_ti(*args, group_statistics=False, **kw)
-    assert pb2 is None and len(pb) == 1
+    pr2, pb2 = corrected_ti(*args, **kw)
     pd.testing.assert_frame_equal(pr2, pr)
-    np.testing.assert_array_equal(draws2, draws)
+    pd.testing.assert_frame_equal(pb2, speed_bin_statistics(draws, pr, rec))
+    assert len(pb2) == 1

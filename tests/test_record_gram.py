@@ -185,18 +185,18 @@ def _record_fit(lever=2.0, hull=0.3):
 
 
 def test_propagation_uses_the_configured_lidars_sigma_z():
-    from flidar_uq.correction.propagation import corrected_ti
+    from flidar_uq.correction.propagation import PropagationSettings, draw_corrected_ti
 
     rec = _records(30).assign(bin_id=0)
     fit = _record_fit()
     out = {}
     for lidar in ("zephir300", "windcube_v2"):
-        per_record, _ = corrected_ti(
-            rec, [], fit, lidar=lidar, ndraws=50, seed=3, group_statistics=False
+        draws = draw_corrected_ti(
+            rec, [], fit, settings=PropagationSettings(ndraws=50, lidar=lidar), seed=3
         )
         want = gram_sigma_z_ms(motion_gram(rec, lidar=lidar), lever_arm_m=2.0, hull_response=0.3)
-        np.testing.assert_allclose(per_record["sigma_z_median_ms"], want, rtol=1e-4)
-        out[lidar] = per_record["ti_corrected_median"].to_numpy()
+        np.testing.assert_allclose(draws.sigma_z_median_ms, want, rtol=1e-4)
+        out[lidar] = draws.ti_quantiles[1]
     ok = np.isfinite(out["zephir300"]) & np.isfinite(out["windcube_v2"])
     assert ok.sum() > 20
     assert np.median(np.abs(out["windcube_v2"][ok] / out["zephir300"][ok] - 1.0)) > 0.01
@@ -216,7 +216,7 @@ def test_reference_hull_scales_the_translation_by_its_response_and_the_propagati
     relative responses at the heave's mean period (a discus buoy's differ from 1 below its
     natural periods, a wave follower's are 1), measured records keep the measured ratios,
     the rotational terms do not change; the propagation uses the fit's reference hull."""
-    from flidar_uq.correction.propagation import corrected_ti
+    from flidar_uq.correction.propagation import PropagationSettings, draw_corrected_ti
     from flidar_uq.physics.hull import get_hull
 
     rec = _records(40, measured=True).assign(bin_id=0)
@@ -241,9 +241,9 @@ def test_reference_hull_scales_the_translation_by_its_response_and_the_propagati
     assert not np.allclose(dis["gram_hh"][free], fol["gram_hh"][free])
     fit = _record_fit(hull=1.0)
     fit.info["hull_reference"] = "discus_buoy"
-    per_record, _ = corrected_ti(rec, [], fit, ndraws=50, seed=3, group_statistics=False)
+    draws = draw_corrected_ti(rec, [], fit, settings=PropagationSettings(ndraws=50), seed=3)
     want = gram_sigma_z_ms(dis, lever_arm_m=2.0, hull_response=1.0)
-    np.testing.assert_allclose(per_record["sigma_z_median_ms"], want, rtol=1e-4)
+    np.testing.assert_allclose(draws.sigma_z_median_ms, want, rtol=1e-4)
 
 
 def test_reference_hull_with_tilt_bands_is_that_hulls_band_sum():

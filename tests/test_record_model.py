@@ -507,7 +507,7 @@ def test_record_model_with_measured_translation_recovers_lever_arm_and_scale():
 
 
 def test_propagation_of_a_rotation_only_hull_model_ignores_the_translation_columns():
-    from flidar_uq.correction.propagation import corrected_ti
+    from flidar_uq.correction.propagation import PropagationSettings, draw_corrected_ti
     from flidar_uq.inference.record_motion import FOLLOWER_COLUMNS
 
     truth = {"rho": 0.0, "kappa": 0.03, "kappa_z": 0.1, "lever_arm_m": 2.0,
@@ -518,8 +518,8 @@ def test_propagation_of_a_rotation_only_hull_model_ignores_the_translation_colum
 
     def sz(records, hull_model):
         fit.info["hull_model"] = hull_model
-        out = corrected_ti(records, [], fit, ndraws=50, group_statistics=False, seed=3)[0]
-        return out["sigma_z_median_ms"].to_numpy()
+        settings = PropagationSettings(ndraws=50)
+        return draw_corrected_ti(records, [], fit, settings=settings, seed=3).sigma_z_median_ms
 
     np.testing.assert_array_equal(sz(rec, "rotation_only"), sz(plain, "translating"))
     assert np.mean(np.abs(sz(rec, "translating") / sz(plain, "translating") - 1)) > 0.05

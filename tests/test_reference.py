@@ -13,7 +13,15 @@ import pytest
 import yaml
 
 from flidar_uq.campaign.scenarios import CampaignConfig, load_scenario, reference_sampling
-from flidar_uq.correction.propagation import corrected_ti, reference_target
+from flidar_uq.correction.propagation import (
+    PointTarget,
+    PropagationSettings,
+    corrected_ti,
+    draw_corrected_ti,
+    record_summary,
+    reference_target,
+    variance_law_baselines,
+)
 from flidar_uq.correction.reference import Reference
 from flidar_uq.data.metrics import reference_label, reference_values, score_estimates
 from flidar_uq.physics.surrogate import get_surrogate
@@ -182,11 +190,15 @@ def test_ratio_prior_is_one_shared_factor_in_the_total_interval_and_the_draws_on
     rec = _records([0.6, 0.8, 1.0])
     bins, glob = _fits()
     g = np.array([1.02, 1.03, 1.05])
-    kw = dict(surrogate=get_surrogate("zephir300"), seed=4, ndraws=4000, lidar_std_ratio=g)
-    exact, _, exact_draws = corrected_ti(rec, bins, glob, return_draws=True, **kw)
-    wide, _, draws = corrected_ti(
-        rec, bins, glob, lidar_std_ratio_log_sd=0.03, return_draws=True, **kw
-    )
+    sur = get_surrogate("zephir300")
+    kw = dict(surrogate=sur, seed=4, settings=PropagationSettings(ndraws=4000))
+
+    def run(log_sd):
+        out = draw_corrected_ti(rec, bins, glob, target=PointTarget(g, None, log_sd), **kw)
+        return record_summary(rec, out, variance_law_baselines(rec, sur)), out.ti
+
+    exact, exact_draws = run(0.0)
+    wide, draws = run(0.03)
     for col in ("ti_corrected_lo", "ti_corrected_median", "ti_corrected_hi"):
         np.testing.assert_array_equal(wide[col], exact[col])
     np.testing.assert_array_equal(exact["ti_corrected_lo_total"], exact["ti_corrected_lo"])
@@ -198,11 +210,9 @@ def test_ratio_prior_is_one_shared_factor_in_the_total_interval_and_the_draws_on
     np.testing.assert_allclose(factor, factor[:, :1] * np.ones((1, 3)), rtol=1e-6)
     assert np.std(np.log(factor[:, 0])) == pytest.approx(0.03, rel=0.05)
     with pytest.raises(ValueError, match="lidar_std_ratio_log_sd needs lidar_std_ratio"):
-        corrected_ti(
-            rec, bins, glob, surrogate=kw["surrogate"], seed=4, lidar_std_ratio_log_sd=0.03
-        )
+        corrected_ti(rec, bins, glob, target=PointTarget(lidar_std_ratio_log_sd=0.03), **kw)
     with pytest.raises(ValueError, match="must be >= 0"):
-        corrected_ti(rec, bins, glob, lidar_std_ratio_log_sd=-0.1, **kw)
+        corrected_ti(rec, bins, glob, target=PointTarget(g, None, -0.1), **kw)
 
 
 # --------------------------------------------------------------------------- labels
@@ -377,14 +387,19 @@ def test_record_likelihood_without_motion_adds_the_pair_scatter_to_kappa_in_quad
     np.testing.assert_allclose(with_pair - merged, dprior, rtol=1e-9)
 
 
-def _interval_log_width(glob, **kw):
+def _interval_log_width(glob, reference_sampling_correlation=None):
     rec = _records([1.0, 1.1, 1.2, 0.9] * 50)
     bins, _ = _fits()
-    out, _ = corrected_ti(
-        rec, bins, glob, surrogate=get_surrogate("zephir300"), seed=5, ndraws=4000,
-        lidar_std_ratio=np.full(len(rec), 1.03), point_log_sd=np.full(len(rec), 0.03), **kw
+    target = PointTarget(
+        np.full(len(rec), 1.03), np.full(len(rec), 0.03),
+        reference_sampling_correlation=reference_sampling_correlation,
     )  # fmt: skip
-    return np.median(np.log(out["sigma_corrected_hi_ms"] / out["sigma_corrected_lo_ms"]))
+    out = draw_corrected_ti(
+        rec, bins, glob, surrogate=get_surrogate("zephir300"), seed=5,
+        settings=PropagationSettings(ndraws=4000), target=target,
+    )  # fmt: skip
+    lo, _, hi = out.sigma_quantiles
+    return np.median(np.log(hi / lo))
 
 
 def test_reference_sampling_is_propagated_once():

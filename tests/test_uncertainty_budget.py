@@ -9,7 +9,11 @@ import pandas as pd
 import pytest
 from test_propagate import _bin_fit, _records
 
-from flidar_uq.correction.propagation import UNCERTAINTY_SOURCES, corrected_ti
+from flidar_uq.correction.propagation import (
+    UNCERTAINTY_SOURCES,
+    PropagationSettings,
+    draw_held_ti,
+)
 from flidar_uq.correction.uncertainty_budget import uncertainty_budget
 from flidar_uq.inference import GlobalFit
 from flidar_uq.physics.surrogate import get_surrogate
@@ -58,11 +62,13 @@ def test_budget_of_the_propagation_finds_the_dominant_source():
     fits, sur = [_bin_fit(0, 3.0, 4.0)], get_surrogate("zephir300")
     draws = {}
     for hold in ((), *((k,) for k in UNCERTAINTY_SOURCES)):
-        pr, _, draws[hold] = corrected_ti(
-            rec, fits, gfit, surrogate=sur, hold=hold, ndraws=2000, return_draws=True, seed=3
+        out = draw_held_ti(
+            rec, fits, gfit, hold, surrogate=sur, settings=PropagationSettings(ndraws=2000), seed=3
         )
+        draws[hold] = out.ti
+    conv = out.converged
     keys = {"campaign": rec[["height_m"]], "speed bin": rec[["height_m"]].assign(b=8.0)}
-    tab = uncertainty_budget(draws.get, keys, pr["converged"].to_numpy())
+    tab = uncertainty_budget(draws.get, keys, conv)
     assert tab["grouping"].tolist() == ["campaign"] * 2 + ["speed bin"] * 2
     tab = tab[tab["grouping"] == "campaign"]
     assert tab["height_m"].tolist() == [50.0, 90.0]

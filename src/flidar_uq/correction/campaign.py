@@ -18,6 +18,7 @@ from flidar_uq.correction import propagation as prop
 from flidar_uq.correction.reference import Reference
 from flidar_uq.data.binning import bin_centre, speed_bin_ms
 from flidar_uq.data.io import write_csv
+from flidar_uq.data.schema import CORRECTED_TI_COLUMNS
 from flidar_uq.inference.record_motion import describe_motion
 from flidar_uq.seeding import child_seed
 
@@ -174,6 +175,16 @@ class CorrectionSettings:
             kw["lidar"] = config["campaign"]["lidar"]
         return cls(**kw)
 
+    def propagation(self, ndraws: int | None = None) -> prop.PropagationSettings:
+        """The options of :func:`flidar_uq.correction.propagation.draw_corrected_ti`:
+        :attr:`ndraws` (or ``ndraws``, e.g. the uncertainty budget's), :attr:`credible_mass`
+        and :attr:`lidar` (its scan period), 1-m/s speed bins."""
+        return prop.PropagationSettings(
+            ndraws=self.ndraws if ndraws is None else int(ndraws),
+            credible_mass=self.credible_mass,
+            lidar=self.lidar,
+        )
+
     def heights_in_turn(self, records: pd.DataFrame) -> int:
         """Heights scanned in turn (-): :attr:`scan_heights_in_turn`, else the number of
         distinct ``height_m`` of ``records``."""
@@ -267,7 +278,8 @@ def correct_campaign(
 ) -> CorrectionResult:
     """Corrected std and TI per record, speed bin and group, beside the baselines.
 
-    Calls :func:`flidar_uq.correction.propagation.corrected_ti` on the QC-kept records
+    Calls :func:`flidar_uq.correction.propagation.draw_corrected_ti` (and
+    :func:`~flidar_uq.correction.propagation.record_summary`) on the QC-kept records
     (record motion model) or the kept, binned records with the converged bin fits (bin
     motion model): posterior draws through the deployment formula; median and
     equal-tailed ``settings.credible_mass`` interval; and Gutiérrez-Antuñano et al.'s
@@ -373,27 +385,23 @@ def correct_campaign(
     baseline = prop.variance_law_baselines(sub, surrogate)
     ndraws, credible_mass, min_count = settings.ndraws, settings.credible_mass, settings.min_count
 
+    target = prop.PointTarget(g_ratio, log_sd, g_log_sd, pair_corr)
+    converged_fits = [f for f in fits.values() if f.converged]
+
     def correct(hold=(), ndraws=ndraws):
-        return prop.corrected_ti(
+        return prop.draw_held_ti(
             sub,
-            [f for f in fits.values() if f.converged],
+            converged_fits,
             fit,
+            hold,
             surrogate=surrogate,
-            lidar=settings.lidar,
-            credible_mass=credible_mass,
-            ndraws=ndraws,
-            lidar_std_ratio=g_ratio,
-            point_log_sd=log_sd,
-            lidar_std_ratio_log_sd=g_log_sd,
-            reference_sampling_correlation=pair_corr,
-            baseline=baseline,
-            hold=hold,
-            return_draws=True,
-            group_statistics=False,
+            settings=settings.propagation(ndraws),
+            target=target,
             seed=child_seed(settings.seed, 2),
         )
 
-    per_record, _, ti_draws = correct()
+    main = correct()
+    per_record, ti_draws = prop.record_summary(sub, main, baseline), main.ti
     sz_seed, rho_seed = baseline
     sub_heights = sub["height_m"].to_numpy(dtype=float)
     speed_keys = pd.DataFrame(
@@ -424,10 +432,14 @@ def correct_campaign(
     # its own passes at budget_ndraws (common random numbers: the same seed and draws
     # for every hold), the main pass's draws when it has no more
     nb = min(int(settings.budget_ndraws), int(ndraws))
-    free = ti_draws if nb == ndraws else correct((), nb)[2]
-    usable = per_record["converged"].to_numpy(dtype=bool) & np.all(np.isfinite(free), axis=0)
+    if nb == ndraws:
+        free = ti_draws
+    else:  # the main pass's draws are done with: freed before the budget's passes
+        del main, ti_draws
+        free = correct((), nb).ti
+    usable = per_record["converged"].to_numpy(dtype=bool) & prop.finite_records(free)
     budget = uncertainty_budget(
-        lambda hold: free if not hold else correct(hold, nb)[2],
+        lambda hold: free if not hold else correct(hold, nb).ti,
         {"campaign": speed_keys[["height_m"]], "speed bin": speed_keys},
         usable,
         credible_mass=credible_mass,
@@ -550,7 +562,7 @@ def _records_table(
     sz_table: pd.DataFrame,
 ) -> pd.DataFrame:
     """results/ti/records.csv without flags and references: one row per input record, the
-    corrected values of :func:`~flidar_uq.correction.propagation.corrected_ti` where ``use``."""
+    corrected values of :func:`~flidar_uq.correction.propagation.record_summary` where ``use``."""
     m = rec["hws_mean_ms"].to_numpy(dtype=float)
     s = rec["hws_std_ms"].to_numpy(dtype=float)
     out = pd.DataFrame({"record_id": rid, "timestamp": timestamp, "height_m": rec["height_m"]})
@@ -559,13 +571,7 @@ def _records_table(
     out["hws_std_ms"] = s
     with np.errstate(invalid="ignore", divide="ignore"):
         out["ti_uncorrected"] = s / m
-    for col in (
-        "ti_corrected_median",
-        "ti_corrected_lo",
-        "ti_corrected_hi",
-        "ti_corrected_lo_total",
-        "ti_corrected_hi_total",
-    ):
+    for col in CORRECTED_TI_COLUMNS:
         out[col] = _scatter(per_record[col].to_numpy(), use)
     for col, src in (
         ("std_corrected_median_ms", "sigma_corrected_median_ms"),

@@ -40,6 +40,7 @@ rho (correlation over bins of reference HWS and E(Z), Sec. 3.2).
 from __future__ import annotations
 
 from collections.abc import Collection
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -58,7 +59,16 @@ __all__ = [
     "REFERENCE_KINDS",
     "REFERENCE_SAMPLING_CORRELATION",
     "UNCERTAINTY_SOURCES",
+    "CorrectedDraws",
+    "PointTarget",
+    "PropagationSettings",
     "corrected_ti",
+    "draw_corrected_ti",
+    "draw_held_ti",
+    "finite_records",
+    "record_summary",
+    "speed_bin_keys",
+    "speed_bin_statistics",
     "point_target",
     "record_flags",
     "pair_sampling_correlation",
@@ -70,8 +80,8 @@ __all__ = [
     "variance_law_baselines",
 ]
 
-#: Sources of the corrected TI's uncertainty that :func:`corrected_ti` can hold at their
-#: median (``hold``): the motion description (sigma_Z: motion parameters, lever arm,
+#: Sources of the corrected TI's uncertainty that :func:`draw_held_ti` can hold at their
+#: median: the motion description (sigma_Z: motion parameters, lever arm,
 #: motion scale, record-level motion error), rho, the noise model's parameters (kappa,
 #: tau0), the reference's response to turbulence (the point scatter of g and its prior), and the
 #: sampling of the measured 10-min std.
@@ -220,7 +230,7 @@ def split_noise(kappa, point_log_sd, correlation=REFERENCE_SAMPLING_CORRELATION)
     model, or ``fit_record_model`` without ``pair_log_sd``), ``kappa^2`` holds it:
     ``kappa^2 = eta^2 + pair^2`` with ``pair`` of :func:`reference_pair_log_sd`. The point
     std given ``s`` is uncertain by ``eta^2 + sd^2`` (the floating lidar's own sampling
-    ``sd`` is drawn as ``e`` by :func:`corrected_ti`), so ``eta`` is what is propagated on
+    ``sd`` is drawn as ``e`` by :func:`draw_corrected_ti`), so ``eta`` is what is propagated on
     ``s``: the reference's sampling, which the fit saw in ``kappa``, is not counted twice.
     ``eta = sqrt(max(kappa^2 - pair^2, 0))``: when the lidars scatter less against each other
     than ``c`` implies, their errors are more correlated than assumed and the floating
@@ -294,7 +304,7 @@ def point_target(
     """Motionless lidar's std ratio to the point std and its log scatter, per record.
 
     The inputs of step 4 above (``lidar_std_ratio`` and ``point_log_sd`` of
-    :func:`corrected_ti`).
+    :class:`PointTarget`).
 
     Parameters
     ----------
@@ -344,7 +354,7 @@ def point_target(
     return g_ratio, log_sd
 
 
-#: Which uncertainty source each global parameter belongs to (``hold`` of corrected_ti).
+#: Which uncertainty source each global parameter belongs to (``hold`` of draw_held_ti).
 _GLOBAL_SOURCES = {
     "rho": "rho",
     "kappa": "noise_model",
@@ -390,7 +400,7 @@ def reference_target(
     lidar: str,
     **sampling,
 ) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """The point-target inputs of :func:`corrected_ti` for a reference instrument.
+    """The point-target inputs (:class:`PointTarget`) for a reference instrument.
 
     Parameters
     ----------
@@ -443,7 +453,7 @@ def pair_sampling_correlation(
     """Correlation ``c`` of a reference lidar's and the floating lidar's sampling errors, per record.
 
     The input of :func:`reference_pair_log_sd` (the record fit's known pair term) and of
-    :func:`corrected_ti`'s ``reference_sampling_correlation``.
+    ``PointTarget.reference_sampling_correlation``.
 
     Parameters
     ----------
@@ -572,236 +582,239 @@ def record_flags(
     return [";".join(r) for r in reasons]
 
 
-def corrected_ti(
-    records: pd.DataFrame,
-    bin_fits,
-    global_fit,
-    *,
-    surrogate=None,
-    credible_mass: float = 0.9,
-    ndraws: int = 400,
-    speed_bin_width_ms: float = 1.0,
-    scan_period_s: float | None = None,
-    lidar=None,
-    lidar_std_ratio=None,
-    point_log_sd=None,
-    lidar_std_ratio_log_sd: float = 0.0,
-    reference_sampling_correlation=None,
-    baseline: tuple[np.ndarray, float] | None = None,
-    hold: Collection[str] = (),
-    return_draws: bool = False,
-    group_statistics: bool = True,
-    seed,
-):
-    """Corrected std and TI as posterior draws, summarised per record and per speed bin.
+@dataclass(frozen=True)
+class PropagationSettings:
+    """The scalar options of the propagation (the library default 400 draws; the pipeline's
+    are :meth:`flidar_uq.correction.campaign.CorrectionSettings.propagation`).
 
-    Parameters
+    Attributes
     ----------
-    records : pandas.DataFrame
-        Records with ``bin_id``, ``hws_mean_ms``, ``hws_std_ms`` and IMU statistics.
-    bin_fits : sequence of BinFit
-    global_fit : GlobalFit
-    surrogate : SigmaZSurrogate, optional
-        Default ``get_surrogate()``.
-    credible_mass : float
-        Equal-tailed credible mass in (0, 1) (default 0.9).
     ndraws : int
-        Posterior draws propagated per record.
+        Posterior draws propagated per record (-).
+    credible_mass : float
+        Equal-tailed credible mass in (0, 1) (-).
     speed_bin_width_ms : float
-        Width of the speed bins of the per-bin table (m/s), centred on multiples of it
-        (:func:`flidar_uq.data.binning.speed_bin_ms`).
-    scan_period_s : float, optional
+        Width of the speed bins of :func:`speed_bin_statistics` (m/s), centred on
+        multiples of it (:func:`flidar_uq.data.binning.speed_bin_ms`).
+    scan_period_s : float or None
         A CW lidar's scan duration (s), for the head-translation term (the record model,
-        or a bin-motion global fit with the lever-arm model); default the lidar's.
-    lidar : str, LidarGeometry or mapping, optional
-        The floating lidar (config ``campaign.lidar``; default the ZephIR 300): the record
+        or a bin-motion global fit with the lever-arm model); None: the lidar's.
+    lidar : str, LidarGeometry, mapping or None
+        The floating lidar (config ``campaign.lidar``; None: the ZephIR 300): the record
         model's sigma_Z is that lidar's (:func:`flidar_uq.inference.record_motion.motion_gram`;
         a DBS lidar's from its beam timing and the record's heading).
-    lidar_std_ratio : array_like, shape (n_records,), optional
+    """
+
+    ndraws: int = 400
+    credible_mass: float = 0.9
+    speed_bin_width_ms: float = 1.0
+    scan_period_s: float | None = None
+    lidar: object = None
+
+    def quantile_levels(self) -> list[float]:
+        """Lower bound, median and upper bound of the equal-tailed interval (-)."""
+        if not 0.0 < self.credible_mass < 1.0:
+            raise ValueError(f"credible_mass={self.credible_mass} must be in (0, 1)")
+        return [(1.0 - self.credible_mass) / 2.0, 0.5, (1.0 + self.credible_mass) / 2.0]
+
+
+@dataclass(frozen=True)
+class PointTarget:
+    """What turns the deployment formula's std into the point std (step 4 of the module
+    docstring; :func:`reference_target` gives the first two).
+
+    Attributes
+    ----------
+    lidar_std_ratio : array_like, shape (n_records,), or None
         Std of a motionless lidar over the point std per record (-), from
-        :func:`flidar_uq.physics.lidar_response.lidar_std_ratio`. Given: the corrected std and TI
-        are point values (the motionless-lidar value divided by it). Default None: they
-        are the values a motionless lidar of this type would measure.
-    point_log_sd : array_like, shape (n_records,), optional
+        :func:`flidar_uq.physics.lidar_response.lidar_std_ratio`. Given: the corrected std
+        and TI are point values (the motionless-lidar value divided by it). None: they are
+        the values a motionless lidar of this type would measure.
+    point_log_sd : array_like, shape (n_records,), or None
         Std of ``log(motionless-lidar std / point std)`` per record (-), with
         ``lidar_std_ratio``: each draw is multiplied by ``exp(N(0, sd^2))`` so that the
-        intervals are for the point std. Default None: no scatter.
+        intervals are for the point std. None: no scatter.
     lidar_std_ratio_log_sd : float
         Prior sd of ``log g`` (-), with ``lidar_std_ratio``: every posterior draw divides
         by ``g exp(N(0, sd^2))``, one factor per draw shared by all records (the ratio's
         error is systematic: probe-volume averaging, stability). It is in the draws, the
         group statistics and ``ti_corrected_lo_total`` / ``ti_corrected_hi_total``; the
         per-record interval ``ti_corrected_lo`` / ``ti_corrected_hi`` is given ``g``.
-        Default 0: g exact.
-    reference_sampling_correlation : float or array_like, shape (n_records,), optional
+        0: g exact.
+    reference_sampling_correlation : float, array_like of shape (n_records,), or None
         With ``point_log_sd`` (a lidar reference) and a global fit that did not take the
         two lidars' sampling scatter as known (no ``info["pair_log_sd_median"]``):
         correlation ``c`` in [-1, 1] (-) of the reference lidar's and the floating lidar's
         sampling errors against the point wind; the part ``2 (1 - c) sd^2`` of ``kappa^2``
         is not propagated (:func:`split_noise`; :data:`REFERENCE_SAMPLING_CORRELATION`
-        for a lidar on its own scan schedule). Default None: ``kappa`` propagated whole,
-        as ``c = 1`` (never narrower; the reference's sampling counted twice when the
+        for a lidar on its own scan schedule). None: ``kappa`` propagated whole, as
+        ``c = 1`` (never narrower; the reference's sampling counted twice when the
         lidars' scans differ).
-    baseline : (numpy.ndarray, float), optional
-        :func:`variance_law_baselines` of ``records`` with the same surrogate, when the caller
-        has it already (computed here otherwise).
-    hold : collection of str
-        Uncertainty sources held at their median (the uncertainty budget,
-        :mod:`flidar_uq.correction.uncertainty_budget`): ``"motion"`` (the global motion
-        parameters, and each record's sigma_Z at its posterior median), ``"rho"``,
-        ``"noise_model"`` (``kappa``, ``tau0``); the other global parameters are then
-        conditioned on the held ones (Gaussian approximation of the joint posterior),
-        ``"reference_response"`` (the point scatter ``e = 0``), ``"sampling"`` (``z = 0``:
-        the measured 10-min std taken as noise-free). The same random numbers are drawn
-        whatever is held (common random numbers: with the same ``seed`` the runs differ
-        only by the held source).
-    return_draws : bool
-        Also return the draw matrix of the corrected TI.
-    group_statistics : bool
-        Compute ``per_bin`` (default); False: ``per_bin`` is None (for callers that
-        compute their own group statistics from the draws, e.g. the pipeline's propagate
-        step and the uncertainty budget's passes).
-    seed : int or numpy.random.SeedSequence
-
-    Returns
-    -------
-    per_record : pandas.DataFrame
-        Index of ``records``; columns ``bin_id``, ``hws_mean_ms``, ``ti_uncorrected``,
-        ``sigma_corrected_median_ms``, ``sigma_corrected_lo_ms``, ``sigma_corrected_hi_ms``,
-        ``ti_corrected_median``, ``ti_corrected_lo``, ``ti_corrected_hi`` (given the
-        reference's std ratio ``g``: the record's own uncertainty),
-        ``ti_corrected_lo_total``, ``ti_corrected_hi_total`` (with ``g``'s campaign-wide
-        error, ``lidar_std_ratio_log_sd``; equal to the former when it is 0),
-        ``discriminant_negative`` (the formula at the measured std, posterior-median sZ and
-        rho has no real root), ``discriminant_negative_frac`` (share of draws),
-        ``sigma_z_median_ms``, ``converged`` (bin and global fit both converged),
-        ``failure_reasons``, ``lidar_std_ratio`` (1 when not given), ``point_log_sd`` (0 when
-        not given), and the baselines
-        ``ti_u``, ``ti_c``, ``ti_pc``, ``rho_seed`` (Gutiérrez-Antuñano et al.'s (2018) laws, as published: they
-        estimate the reference instrument's std).
-    per_bin : pandas.DataFrame or None
-        One row per height and speed bin (``height_m``, ``hws_bin_ms``; 0 m when the
-        records have no height), the statistics of :func:`ti_group_statistics`: mean,
-        representative TI (mean + 1.28 std), 90th percentile and std of the corrected TI
-        with credible intervals of the statistic, beside the uncorrected and Gutiérrez-Antuñano et al. (2018) values.
-    ti_draws : numpy.ndarray of float32, shape (ndraws, n_records)
-        With ``return_draws``: the corrected TI draws (-); draw ``d`` of every record uses
-        the same global posterior draw, so a statistic over records per draw is a draw of
-        that statistic's posterior. Stored as float32 (relative rounding 6e-8, far below
-        the Monte Carlo error; half the memory: 0.63 GB for 1000 draws of a year's 157,680
-        records): they serve only statistics over records (:func:`ti_group_statistics`,
-        the uncertainty budget). ``per_record``'s quantiles are computed in float64 record
-        chunk by record chunk, from the draws before rounding.
-
-    Raises
-    ------
-    ValueError
-        If ``credible_mass`` is not in (0, 1) or a required column is missing.
     """
-    if not 0.0 < credible_mass < 1.0:
-        raise ValueError(f"corrected_ti: credible_mass={credible_mass} must be in (0, 1)")
-    hold = frozenset(hold)
-    if not hold <= set(UNCERTAINTY_SOURCES):
-        raise ValueError(
-            f"corrected_ti: hold={sorted(hold)} must be among {list(UNCERTAINTY_SOURCES)}"
-        )
-    for c in ("bin_id", "hws_mean_ms", "hws_std_ms"):
-        if c not in records:
-            raise ValueError(f"corrected_ti: records lack column {c!r}")
-    g_ratio = np.ones(len(records))
-    log_sd = np.zeros(len(records))
-    if point_log_sd is not None:
-        if lidar_std_ratio is None:
-            raise ValueError("corrected_ti: point_log_sd needs lidar_std_ratio")
-        log_sd = np.asarray(point_log_sd, dtype=float)
-        if log_sd.shape != (len(records),) or np.any(~(log_sd >= 0)):
+
+    lidar_std_ratio: object = None
+    point_log_sd: object = None
+    lidar_std_ratio_log_sd: float = 0.0
+    reference_sampling_correlation: object = None
+
+    def checked(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """``(g, sd, c)`` for ``n`` records: ``g`` 1 and ``sd`` 0 when not given, ``c`` None.
+
+        Raises
+        ------
+        ValueError
+            If a value is out of range, has not ``n`` entries, or ``point_log_sd`` or a
+            positive ``lidar_std_ratio_log_sd`` comes without ``lidar_std_ratio``.
+        """
+        g_ratio, log_sd, corr = np.ones(n), np.zeros(n), None
+        if self.point_log_sd is not None:
+            if self.lidar_std_ratio is None:
+                raise ValueError("PointTarget: point_log_sd needs lidar_std_ratio")
+            log_sd = np.asarray(self.point_log_sd, dtype=float)
+            if log_sd.shape != (n,) or np.any(~(log_sd >= 0)):
+                raise ValueError(
+                    f"PointTarget: point_log_sd must be {n} values >= 0, got shape {log_sd.shape}"
+                )
+        if not self.lidar_std_ratio_log_sd >= 0.0:
             raise ValueError(
-                f"corrected_ti: point_log_sd must be {len(records)} values >= 0, got shape "
-                f"{log_sd.shape}"
+                f"PointTarget: lidar_std_ratio_log_sd={self.lidar_std_ratio_log_sd} must be >= 0"
             )
-    if not lidar_std_ratio_log_sd >= 0.0:
-        raise ValueError(
-            f"corrected_ti: lidar_std_ratio_log_sd={lidar_std_ratio_log_sd} must be >= 0"
-        )
-    corr = None
-    if reference_sampling_correlation is not None:
-        corr = np.broadcast_to(
-            np.asarray(reference_sampling_correlation, dtype=float), (len(records),)
-        )
-        if np.any(~((corr >= -1.0) & (corr <= 1.0))):
-            raise ValueError("corrected_ti: reference_sampling_correlation must be in [-1, 1]")
-    if lidar_std_ratio_log_sd > 0.0 and lidar_std_ratio is None:
-        raise ValueError("corrected_ti: lidar_std_ratio_log_sd needs lidar_std_ratio")
-    if lidar_std_ratio is not None:
-        g_ratio = np.asarray(lidar_std_ratio, dtype=float)
-        if g_ratio.shape != (len(records),) or np.any(~(g_ratio > 0)):
-            raise ValueError(
-                f"corrected_ti: lidar_std_ratio must be {len(records)} positive values, got "
-                f"shape {g_ratio.shape}"
-            )
-    if surrogate is None and lidar is not None:
-        surrogate = get_surrogate(lidar)
-    surrogate = default_surrogate(surrogate)
-    scan = get_lidar(lidar or "zephir300").scan_period_s if scan_period_s is None else scan_period_s
-    rng = np.random.default_rng(as_seedsequence(seed))
-    q = [(1.0 - credible_mass) / 2.0, 0.5, (1.0 + credible_mass) / 2.0]
-    n = len(records)
-    m = records["hws_mean_ms"].to_numpy(dtype=float)
-    s = records["hws_std_ms"].to_numpy(dtype=float)
-    g_idx = rng.choice(global_fit.flat("rho").size, size=ndraws, replace=True)
+        if self.reference_sampling_correlation is not None:
+            c = np.asarray(self.reference_sampling_correlation, dtype=float)
+            corr = np.broadcast_to(c, (n,))
+            if np.any(~((corr >= -1.0) & (corr <= 1.0))):
+                raise ValueError("PointTarget: reference_sampling_correlation must be in [-1, 1]")
+        if self.lidar_std_ratio_log_sd > 0.0 and self.lidar_std_ratio is None:
+            raise ValueError("PointTarget: lidar_std_ratio_log_sd needs lidar_std_ratio")
+        if self.lidar_std_ratio is not None:
+            g_ratio = np.asarray(self.lidar_std_ratio, dtype=float)
+            if g_ratio.shape != (n,) or np.any(~(g_ratio > 0)):
+                raise ValueError(
+                    f"PointTarget: lidar_std_ratio must be {n} positive values, got shape "
+                    f"{g_ratio.shape}"
+                )
+        return g_ratio, log_sd, corr
 
-    held_globals = _held_global_draws(global_fit, g_idx, hold)
 
-    def global_draws(name, source):
-        """Posterior draws of a global parameter (conditioned on the held ones)."""
-        return held_globals.get(name, global_fit.flat(name)[g_idx])[:, None]
+@dataclass(frozen=True)
+class CorrectedDraws:
+    """The corrected TI draws of :func:`draw_corrected_ti` and the per-record numbers taken
+    from them before rounding (what :func:`record_summary` needs).
 
-    rho = global_draws("rho", "rho")
-    kappa = global_draws("kappa", "noise_model")
-    # kappa of a fit that took the lidars' sampling scatter as known is the floating lidar's
-    # own noise; otherwise the reference's share is taken out here (split_noise)
-    pair_known = global_fit.info.get("pair_log_sd_median") is not None
+    Attributes
+    ----------
+    ti : numpy.ndarray of float32, shape (ndraws, n_records)
+        The corrected TI draws (-), with the ratio's systematic error; draw ``d`` of every
+        record uses the same global posterior draw, so a statistic over records per draw is
+        a draw of that statistic's posterior. Stored as float32 (relative rounding 6e-8,
+        far below the Monte Carlo error; half the memory: 0.63 GB for 1000 draws of a
+        year's 157,680 records): they serve only statistics over records
+        (:func:`ti_group_statistics`, the uncertainty budget).
+    sigma_quantiles : numpy.ndarray, shape (3, n_records)
+        Lower bound, median, upper bound of the corrected std per record (m/s), float64,
+        computed record chunk by record chunk from the draws before rounding.
+    ti_quantiles : numpy.ndarray, shape (3, n_records)
+        The same of the corrected TI (-), given the reference's std ratio ``g``.
+    ti_quantiles_total : numpy.ndarray, shape (3, n_records)
+        The same with ``g``'s campaign-wide error (equal to ``ti_quantiles`` without it).
+    discriminant_negative_frac : numpy.ndarray, shape (n_records,)
+        Share of draws with a negative discriminant (-).
+    sigma_z_median_ms : numpy.ndarray, shape (n_records,)
+        Posterior median of sigma_Z (m/s).
+    converged : numpy.ndarray of bool, shape (n_records,)
+        Bin and global fit both converged.
+    failure_reasons : numpy.ndarray of str, shape (n_records,)
+        The fits' failure reasons, ``;``-joined.
+    lidar_std_ratio, point_log_sd : numpy.ndarray, shape (n_records,)
+        ``g`` (1 when not given) and ``sd`` (0 when not given) of the :class:`PointTarget` (-).
+    rho_median : float
+        Posterior median of rho (-).
+    """
 
-    def own_noise(mask):
-        """The floating lidar's relative noise on s, (ndraws, n_mask) or (ndraws, 1)."""
-        if pair_known or point_log_sd is None or corr is None:
-            return kappa
-        return split_noise(kappa, log_sd[mask][None, :], corr[mask][None, :])
+    ti: np.ndarray
+    sigma_quantiles: np.ndarray
+    ti_quantiles: np.ndarray
+    ti_quantiles_total: np.ndarray
+    discriminant_negative_frac: np.ndarray
+    sigma_z_median_ms: np.ndarray
+    converged: np.ndarray
+    failure_reasons: np.ndarray
+    lidar_std_ratio: np.ndarray
+    point_log_sd: np.ndarray
+    rho_median: float
 
-    rho_med = float(np.median(global_fit.flat("rho")))
-    # the ratio's systematic error: one factor per draw, shared by every record (drawn
-    # whatever its sd, so that the other random numbers do not depend on it)
-    g_draw = np.exp(-lidar_std_ratio_log_sd * rng.standard_normal((ndraws, 1)))
-    systematic = lidar_std_ratio_log_sd > 0.0 and "reference_response" not in hold
 
-    q = np.asarray(q, dtype=float)
-    sq = np.full((q.size, n), np.nan)  # per-record quantiles of the corrected std (m/s)
-    tq = np.full((q.size, n), np.nan)  # and of the corrected TI (-), given g
-    tq_total = tq.copy()  # and with g's systematic error
-    # TI draws for the group statistics (and the caller): float32, 4 bytes per draw
-    ti = np.full((ndraws, n), np.nan, dtype=np.float32)
-    neg_frac = np.full(n, np.nan)
-    sz_med = np.full(n, np.nan)
-    conv = np.zeros(n, dtype=bool)
-    reasons = np.full(n, "", dtype=object)
-    global_reasons = [f"global: {r}" for r in global_fit.failure_reasons]
+class _Propagation:
+    """The state of one propagation: the global draws, the random stream and the outputs
+    filled record by record (:meth:`deploy`, steps 2-4 of the module docstring)."""
 
-    def deploy(mask, sz, rel, tau0=0.0):
+    def __init__(self, records, global_fit, settings, target, hold, seed):
+        self.hold = frozenset(hold)
+        if not self.hold <= set(UNCERTAINTY_SOURCES):
+            raise ValueError(f"hold={sorted(self.hold)} must be among {list(UNCERTAINTY_SOURCES)}")
+        for c in ("bin_id", "hws_mean_ms", "hws_std_ms"):
+            if c not in records:
+                raise ValueError(f"corrected TI: records lack column {c!r}")
+        n = len(records)
+        self.q = np.asarray(settings.quantile_levels(), dtype=float)
+        self.g_ratio, self.log_sd, self.corr = target.checked(n)
+        self.with_scatter = target.point_log_sd is not None
+        self.ndraws = ndraws = settings.ndraws
+        self.rng = np.random.default_rng(as_seedsequence(seed))
+        self.m = records["hws_mean_ms"].to_numpy(dtype=float)
+        self.s = records["hws_std_ms"].to_numpy(dtype=float)
+        self.global_fit = global_fit
+        self.g_idx = self.rng.choice(global_fit.flat("rho").size, size=ndraws, replace=True)
+        self.held_globals = _held_global_draws(global_fit, self.g_idx, self.hold)
+        self.rho = self.global_draws("rho")
+        self.kappa = self.global_draws("kappa")
+        # kappa of a fit that took the lidars' sampling scatter as known is the floating
+        # lidar's own noise; otherwise the reference's share is taken out here (split_noise)
+        self.pair_known = global_fit.info.get("pair_log_sd_median") is not None
+        self.rho_med = float(np.median(global_fit.flat("rho")))
+        # the ratio's systematic error: one factor per draw, shared by every record (drawn
+        # whatever its sd, so that the other random numbers do not depend on it)
+        g_log_sd = target.lidar_std_ratio_log_sd
+        self.g_draw = np.exp(-g_log_sd * self.rng.standard_normal((ndraws, 1)))
+        self.systematic = g_log_sd > 0.0 and "reference_response" not in self.hold
+        self.sq = np.full((self.q.size, n), np.nan)  # corrected std quantiles (m/s)
+        self.tq = np.full((self.q.size, n), np.nan)  # and of the corrected TI (-), given g
+        self.tq_total = self.tq.copy()  # and with g's systematic error
+        self.ti = np.full((ndraws, n), np.nan, dtype=np.float32)  # 4 bytes per draw
+        self.neg_frac = np.full(n, np.nan)
+        self.sz_med = np.full(n, np.nan)
+        self.conv = np.zeros(n, dtype=bool)
+        self.reasons = np.full(n, "", dtype=object)
+        self.global_reasons = [f"global: {r}" for r in global_fit.failure_reasons]
+
+    def global_draws(self, name):
+        """Posterior draws of a global parameter (conditioned on the held ones), (ndraws, 1)."""
+        return self.held_globals.get(name, self.global_fit.flat(name)[self.g_idx])[:, None]
+
+    def own_noise(self, cols):
+        """The floating lidar's relative noise on s for the records ``cols`` (indices),
+        (ndraws, cols.size) or (ndraws, 1)."""
+        if self.pair_known or not self.with_scatter or self.corr is None:
+            return self.kappa
+        return split_noise(self.kappa, self.log_sd[cols][None, :], self.corr[cols][None, :])
+
+    def deploy(self, mask, sz, tau0=0.0):
         """Steps 2-4 of the module docstring for the records of ``mask`` (sZ draws given;
-        ``rel`` the floating lidar's relative sampling sd about its motionless-lidar std,
-        ``tau0`` an absolute one, m/s). The random numbers are drawn for all of them (z,
-        then e: the stream does not depend on the blocks); the rest runs on blocks of
-        records to bound the temporaries."""
+        the floating lidar's relative sampling sd about its motionless-lidar std from
+        :meth:`own_noise`, ``tau0`` an absolute one, m/s). The random numbers are drawn for
+        all of them (z, then e: the stream does not depend on the blocks); the rest runs on
+        blocks of records to bound the temporaries."""
+        hold, s, m = self.hold, self.s, self.m
         cols = np.flatnonzero(mask)
-        z = rng.standard_normal((ndraws, cols.size))
-        e = rng.standard_normal((ndraws, cols.size))
+        z = self.rng.standard_normal((self.ndraws, cols.size))
+        e = self.rng.standard_normal((self.ndraws, cols.size))
         if "sampling" in hold:
             z[:] = 0.0
-        rel = np.broadcast_to(rel, z.shape)
         tau0 = np.broadcast_to(tau0, z.shape)
         for j in range(0, cols.size, _DEPLOY_BLOCK):
             b, cb = slice(j, j + _DEPLOY_BLOCK), cols[j : j + _DEPLOY_BLOCK]
-            zb, rb, t0 = z[:, b], rel[:, b], tau0[:, b]
+            zb, t0 = z[:, b], tau0[:, b]
+            rb = np.broadcast_to(self.own_noise(cb), zb.shape)
             s_star = s[cb][None, :] / np.maximum(1.0 + rb * zb, _PIVOT_FLOOR)
             if np.any(t0):  # s = mu + sqrt((kappa mu)^2 + tau0^2) z solved for mu
                 for _ in range(_PIVOT_ITERATIONS):
@@ -810,104 +823,253 @@ def corrected_ti(
             szb = sz[:, b]
             if "motion" in hold:
                 szb = np.broadcast_to(np.median(szb, axis=0), szb.shape)
-            c, neg = corrected_std(s_star, szb, rho)
+            c, neg = corrected_std(s_star, szb, self.rho)
             # point std (g = 1, sd = 0: the reference's own std, a cup's or sonic's point std)
             ref = 0.0 if "reference_response" in hold else e[:, b]
-            sig = c * (np.exp(log_sd[cb] * ref) / g_ratio[cb])
-            sq[:, cb], tq[:, cb] = _record_quantiles(sig, m[cb], q)
-            if systematic:  # the campaign-wide error of g: in the draws and the total interval
-                sig = sig * g_draw
-                tq_total[:, cb] = _record_quantiles(sig, m[cb], q)[1]
+            sig = c * (np.exp(self.log_sd[cb] * ref) / self.g_ratio[cb])
+            self.sq[:, cb], self.tq[:, cb] = _record_quantiles(sig, m[cb], self.q)
+            if self.systematic:  # the campaign-wide error of g: in the draws and the total
+                sig = sig * self.g_draw
+                self.tq_total[:, cb] = _record_quantiles(sig, m[cb], self.q)[1]
             else:
-                tq_total[:, cb] = tq[:, cb]
+                self.tq_total[:, cb] = self.tq[:, cb]
             with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-                ti[:, cb] = sig / m[cb][None, :]
-            neg_frac[cb] = np.mean(neg, axis=0)
-            sz_med[cb] = np.median(szb, axis=0)
+                self.ti[:, cb] = sig / m[cb][None, :]
+            self.neg_frac[cb] = np.mean(neg, axis=0)
+            self.sz_med[cb] = np.median(szb, axis=0)
 
+    def result(self) -> CorrectedDraws:
+        """The filled outputs."""
+        return CorrectedDraws(
+            ti=self.ti,
+            sigma_quantiles=self.sq,
+            ti_quantiles=self.tq,
+            ti_quantiles_total=self.tq_total,
+            discriminant_negative_frac=self.neg_frac,
+            sigma_z_median_ms=self.sz_med,
+            converged=self.conv,
+            failure_reasons=self.reasons,
+            lidar_std_ratio=self.g_ratio,
+            point_log_sd=self.log_sd,
+            rho_median=self.rho_med,
+        )
+
+
+def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan) -> None:
+    """Record motion model: each record's sigma_Z from its own measured motion, with the
+    global lever arm, motion scale and the record-level motion error kappa_z, record
+    chunk by record chunk (:data:`_RECORD_CHUNK`)."""
+    global_fit, n = p.global_fit, len(records)
+    lever = p.global_draws("lever_arm_m")
+    scale = p.global_draws("motion_scale")
+    kappa_z = p.global_draws("kappa_z")
+    hull = p.global_draws("hull_response")
+    gram = motion_gram(
+        records,
+        lidar=lidar,
+        surrogate=surrogate,
+        scan_period_s=scan,
+        translation=global_fit.info.get("hull_model") != "rotation_only",  # the kept model
+        hull=global_fit.info.get("hull_reference", "wave_follower"),
+    )
+    cols = [*GRAM_COLUMNS, "translation_measured"]
+    described = np.all(np.isfinite(gram[cols].to_numpy(dtype=float)), axis=1)
+    p.reasons[~described] = "no motion description (IMU columns missing)"
+    for start in range(0, n, _RECORD_CHUNK):
+        mask = np.zeros(n, dtype=bool)
+        mask[start : start + _RECORD_CHUNK] = True
+        mask &= described
+        if not mask.any():
+            continue
+        k = int(mask.sum())
+        sz = gram_sigma_z_ms(
+            {c: gram[c].to_numpy()[mask][None, :] for c in cols},
+            lever_arm_m=lever,
+            hull_response=hull,
+            motion_scale=scale,
+        )
+        err = p.rng.standard_normal((p.ndraws, k))
+        err *= kappa_z
+        sz *= np.exp(err, out=err)  # sz exp(kappa_z N(0, 1)), in place
+        del err
+        p.deploy(mask, sz)
+    p.conv[described] = global_fit.converged
+    p.reasons[described] = "; ".join(p.global_reasons)
+
+
+def _propagate_bin_model(p: _Propagation, records, bin_fits, surrogate, scan) -> None:
+    """Bin motion model: each record's sigma_Z from its bin's posterior (surrogate at the
+    record's mean HWS, times the motion scale, plus the head translation of the lever-arm
+    model), bin by bin in the order of first appearance."""
+    global_fit = p.global_fit
+    tau0 = p.global_draws("tau0_ms")
+    lever = p.global_draws("lever_arm_m") if "lever_arm_m" in global_fit.draws else None
+    scale = p.global_draws("motion_scale") if "motion_scale" in global_fit.draws else 1.0
+    bins = records["bin_id"].to_numpy()
+    fits = {f.bin_id: f for f in bin_fits}
+    for b in pd.unique(bins):
+        mask = bins == b
+        f = fits.get(b)
+        if f is None:
+            p.reasons[mask] = "no fit for this bin"
+            continue
+        nb = int(f.flat("amplitude_deg").size)
+        idx = p.rng.choice(nb, size=p.ndraws, replace=p.ndraws > nb)
+        sz, u2 = f._motion_draws(p.m[mask], surrogate, idx, scan)
+        if lever is None:  # motion-model scale of the surrogate (1 if absent)
+            sz = scale * sz
+        else:  # plus the head translation of the lever-arm model
+            sz = effective_sigma_z_ms(sz, u2, lever, scale)
+        p.deploy(mask, sz, tau0)
+        p.conv[mask] = f.converged and global_fit.converged
+        p.reasons[mask] = "; ".join([*f.failure_reasons, *p.global_reasons])
+
+
+def _draw(records, bin_fits, global_fit, hold, surrogate, settings, target, seed):
+    """:func:`draw_corrected_ti` with the sources of ``hold`` at their median."""
+    p = _Propagation(records, global_fit, settings, target, hold, seed)
+    lidar = settings.lidar
+    if surrogate is None and lidar is not None:
+        surrogate = get_surrogate(lidar)
+    surrogate = default_surrogate(surrogate)
+    scan = settings.scan_period_s
+    scan = get_lidar(lidar or "zephir300").scan_period_s if scan is None else scan
     if is_record_model(global_fit):
-        # record motion model: each record's sigma_Z from its own measured motion, with the
-        # global lever arm, motion scale and the record-level motion error kappa_z
-        lever = global_draws("lever_arm_m", "motion")
-        scale = global_draws("motion_scale", "motion")
-        kappa_z = global_draws("kappa_z", "motion")
-        hull = global_draws("hull_response", "motion")
-        gram = motion_gram(
-            records,
-            lidar=lidar,
-            surrogate=surrogate,
-            scan_period_s=scan,
-            translation=global_fit.info.get("hull_model") != "rotation_only",  # the kept model
-            hull=global_fit.info.get("hull_reference", "wave_follower"),
-        )
-        cols = [*GRAM_COLUMNS, "translation_measured"]
-        described = np.all(np.isfinite(gram[cols].to_numpy(dtype=float)), axis=1)
-        reasons[~described] = "no motion description (IMU columns missing)"
-        for start in range(0, n, _RECORD_CHUNK):
-            mask = np.zeros(n, dtype=bool)
-            mask[start : start + _RECORD_CHUNK] = True
-            mask &= described
-            if not mask.any():
-                continue
-            k = int(mask.sum())
-            sz = gram_sigma_z_ms(
-                {c: gram[c].to_numpy()[mask][None, :] for c in cols},
-                lever_arm_m=lever,
-                hull_response=hull,
-                motion_scale=scale,
-            )
-            err = rng.standard_normal((ndraws, k))
-            err *= kappa_z
-            sz *= np.exp(err, out=err)  # sz exp(kappa_z N(0, 1)), in place
-            del err
-            deploy(mask, sz, own_noise(mask))
-        conv[described] = global_fit.converged
-        reasons[described] = "; ".join(global_reasons)
+        _propagate_record_model(p, records, surrogate, lidar, scan)
     else:
-        tau0 = global_draws("tau0_ms", "noise_model")
-        lever = global_draws("lever_arm_m", "motion") if "lever_arm_m" in global_fit.draws else None
-        scale = (
-            global_draws("motion_scale", "motion") if "motion_scale" in global_fit.draws else 1.0
-        )
-        bins = records["bin_id"].to_numpy()
-        fits = {f.bin_id: f for f in bin_fits}
-        for b in pd.unique(bins):
-            mask = bins == b
-            f = fits.get(b)
-            if f is None:
-                reasons[mask] = "no fit for this bin"
-                continue
-            nb = int(f.flat("amplitude_deg").size)
-            idx = rng.choice(nb, size=ndraws, replace=ndraws > nb)
-            sz, u2 = f._motion_draws(m[mask], surrogate, idx, scan)
-            if lever is None:  # motion-model scale of the surrogate (1 if absent)
-                sz = scale * sz
-            else:  # plus the head translation of the lever-arm model
-                sz = effective_sigma_z_ms(sz, u2, lever, scale)
-            deploy(mask, sz, own_noise(mask), tau0)
-            conv[mask] = f.converged and global_fit.converged
-            reasons[mask] = "; ".join([*f.failure_reasons, *global_reasons])
+        _propagate_bin_model(p, records, bin_fits, surrogate, scan)
+    return p.result()
 
-    with np.errstate(invalid="ignore", divide="ignore"):
-        _, neg_point = corrected_std(s, np.where(np.isfinite(sz_med), sz_med, 0.0), rho_med)
 
-    sz_seed, rho_seed = (
-        baseline if baseline is not None else variance_law_baselines(records, surrogate)
+def draw_corrected_ti(
+    records: pd.DataFrame,
+    bin_fits,
+    global_fit,
+    *,
+    surrogate=None,
+    settings: PropagationSettings = PropagationSettings(),
+    target: PointTarget = PointTarget(),
+    seed,
+) -> CorrectedDraws:
+    """Corrected std and TI as posterior draws per record (steps 1-4 of the module docstring).
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records with ``bin_id``, ``hws_mean_ms`` (m/s), ``hws_std_ms`` (m/s) and IMU
+        statistics.
+    bin_fits : sequence of BinFit
+        The bin fits (bin motion model; ignored by the record motion model).
+    global_fit : GlobalFit
+    surrogate : SigmaZSurrogate, optional
+        Default ``get_surrogate(settings.lidar)``.
+    settings : PropagationSettings
+        Draws, credible mass, scan period, lidar.
+    target : PointTarget
+        The point target (default: none, the motionless lidar's std).
+    seed : int or numpy.random.SeedSequence
+
+    Returns
+    -------
+    CorrectedDraws
+        The float32 TI draws and the per-record quantiles (float64, from the draws before
+        rounding); :func:`record_summary` makes the per-record table of them.
+
+    Raises
+    ------
+    ValueError
+        If ``settings.credible_mass`` is not in (0, 1), a required column is missing or
+        ``target`` is inconsistent (:meth:`PointTarget.checked`).
+    """
+    return _draw(records, bin_fits, global_fit, (), surrogate, settings, target, seed)
+
+
+def draw_held_ti(
+    records: pd.DataFrame,
+    bin_fits,
+    global_fit,
+    hold: Collection[str],
+    *,
+    surrogate=None,
+    settings: PropagationSettings = PropagationSettings(),
+    target: PointTarget = PointTarget(),
+    seed,
+) -> CorrectedDraws:
+    """:func:`draw_corrected_ti` with uncertainty sources held at their median (one pass of
+    the uncertainty budget, :mod:`flidar_uq.correction.uncertainty_budget`).
+
+    ``hold`` (of :data:`UNCERTAINTY_SOURCES`): ``"motion"`` (the global motion parameters,
+    and each record's sigma_Z at its posterior median), ``"rho"``, ``"noise_model"``
+    (``kappa``, ``tau0``); the other global parameters are then conditioned on the held
+    ones (Gaussian approximation of the joint posterior), ``"reference_response"`` (the
+    point scatter ``e = 0``, and no systematic error of ``g``), ``"sampling"`` (``z = 0``:
+    the measured 10-min std taken as noise-free). The same random numbers are drawn
+    whatever is held (common random numbers: with the same ``seed`` the passes differ only
+    by the held source; an empty ``hold`` is :func:`draw_corrected_ti`). The other
+    parameters and the result are those of :func:`draw_corrected_ti`.
+
+    Raises
+    ------
+    ValueError
+        As :func:`draw_corrected_ti`, or if a source of ``hold`` is not one of
+        :data:`UNCERTAINTY_SOURCES`.
+    """
+    return _draw(records, bin_fits, global_fit, hold, surrogate, settings, target, seed)
+
+
+def record_summary(
+    records: pd.DataFrame, draws: CorrectedDraws, baseline: tuple[np.ndarray, float]
+) -> pd.DataFrame:
+    """The per-record table of the corrected std and TI, beside Gutiérrez-Antuñano et al.'s
+    (2018) U / C / PC laws.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        The records of ``draws`` (``bin_id``, ``hws_mean_ms``, ``hws_std_ms``; m/s).
+    draws : CorrectedDraws
+        :func:`draw_corrected_ti` (or :func:`draw_held_ti`) of ``records``.
+    baseline : (numpy.ndarray, float)
+        :func:`variance_law_baselines` of ``records`` with the surrogate of ``draws``:
+        sigma_Z per record (m/s) and rho (-); NaN for none.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Index of ``records``; columns ``bin_id``, ``hws_mean_ms``, ``ti_uncorrected``,
+        ``sigma_corrected_median_ms``, ``sigma_corrected_lo_ms``, ``sigma_corrected_hi_ms``,
+        ``ti_corrected_median``, ``ti_corrected_lo``, ``ti_corrected_hi`` (given the
+        reference's std ratio ``g``: the record's own uncertainty),
+        ``ti_corrected_lo_total``, ``ti_corrected_hi_total`` (with ``g``'s campaign-wide
+        error, ``PointTarget.lidar_std_ratio_log_sd``; equal to the former when it is 0),
+        ``discriminant_negative`` (the formula at the measured std, posterior-median sZ and
+        rho has no real root), ``discriminant_negative_frac`` (share of draws),
+        ``sigma_z_median_ms``, ``converged`` (bin and global fit both converged),
+        ``failure_reasons``, ``lidar_std_ratio`` (1 when not given), ``point_log_sd`` (0
+        when not given), and the baselines ``ti_u``, ``ti_c``, ``ti_pc``, ``rho_seed``
+        (Gutiérrez-Antuñano et al.'s (2018) laws, as published: they estimate the reference
+        instrument's std).
+    """
+    m = records["hws_mean_ms"].to_numpy(dtype=float)
+    s = records["hws_std_ms"].to_numpy(dtype=float)
+    sz_med, sq, tq, tq_total = (
+        draws.sigma_z_median_ms,
+        draws.sigma_quantiles,
+        draws.ti_quantiles,
+        draws.ti_quantiles_total,
     )
     with np.errstate(invalid="ignore", divide="ignore"):
-        ti_u = (
-            corrected_std(s, sz_seed, 0.0)[0] / m
-        )  # Eq. (16) of Gutiérrez-Antuñano et al. (2018) inverted
-        ti_c = (
-            corrected_std(s, sz_seed, 1.0)[0] / m
-        )  # Eq. (17) of Gutiérrez-Antuñano et al. (2018) inverted
+        sz_point = np.where(np.isfinite(sz_med), sz_med, 0.0)
+        _, neg_point = corrected_std(s, sz_point, draws.rho_median)
+    sz_seed, rho_seed = baseline
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # Eqs. (16), (17) of Gutiérrez-Antuñano et al. (2018) inverted, and Eq. (15)
+        ti_u = corrected_std(s, sz_seed, 0.0)[0] / m
+        ti_c = corrected_std(s, sz_seed, 1.0)[0] / m
         rho_pc = rho_seed if np.isfinite(rho_seed) else np.nan
-        ti_pc = (
-            corrected_std(s, sz_seed, np.clip(rho_pc, -1, 1))[0] / m
-        )  # Eq. (15) of Gutiérrez-Antuñano et al. (2018)
+        ti_pc = corrected_std(s, sz_seed, np.clip(rho_pc, -1, 1))[0] / m
         ti_unc = s / m
-
-    per_record = pd.DataFrame(
+    return pd.DataFrame(
         {
             "bin_id": records["bin_id"].to_numpy() if "bin_id" in records else np.nan,
             "hws_mean_ms": m,
@@ -921,12 +1083,12 @@ def corrected_ti(
             "ti_corrected_lo_total": tq_total[0],
             "ti_corrected_hi_total": tq_total[2],
             "discriminant_negative": neg_point & np.isfinite(sz_med),
-            "discriminant_negative_frac": neg_frac,
+            "discriminant_negative_frac": draws.discriminant_negative_frac,
             "sigma_z_median_ms": sz_med,
-            "converged": conv,
-            "failure_reasons": reasons,
-            "lidar_std_ratio": g_ratio,
-            "point_log_sd": log_sd,
+            "converged": draws.converged,
+            "failure_reasons": draws.failure_reasons,
+            "lidar_std_ratio": draws.lidar_std_ratio,
+            "point_log_sd": draws.point_log_sd,
             "ti_u": ti_u,
             "ti_c": ti_c,
             "ti_pc": ti_pc,
@@ -934,19 +1096,74 @@ def corrected_ti(
         },
         index=records.index,
     )
+
+
+def speed_bin_keys(records: pd.DataFrame, speed_bin_width_ms: float = 1.0) -> pd.DataFrame:
+    """Group keys per height and speed bin: ``height_m`` (m; 0 when the records have no
+    height) and ``hws_bin_ms`` (m/s, :func:`flidar_uq.data.binning.speed_bin_ms` of the
+    mean HWS at ``speed_bin_width_ms``), index of ``records``."""
+    n = len(records)
     heights = records["height_m"].to_numpy(dtype=float) if "height_m" in records else np.zeros(n)
-    keys = pd.DataFrame(
+    m = records["hws_mean_ms"].to_numpy(dtype=float)
+    return pd.DataFrame(
         {"height_m": heights, "hws_bin_ms": speed_bin_ms(m, speed_bin_width_ms)},
         index=records.index,
     )
-    per_bin = (
-        ti_group_statistics(ti, per_record, keys, credible_mass=credible_mass, min_count=2)
-        if group_statistics
-        else None
+
+
+def speed_bin_statistics(
+    ti_draws,
+    per_record: pd.DataFrame,
+    records: pd.DataFrame,
+    settings: PropagationSettings = PropagationSettings(),
+    *,
+    min_count: int = 2,
+) -> pd.DataFrame:
+    """The TI statistics per height and speed bin (:func:`speed_bin_keys` at
+    ``settings.speed_bin_width_ms``; :func:`ti_group_statistics` at
+    ``settings.credible_mass``): mean, representative TI (mean + 1.28 std), 90th percentile
+    and std of the corrected TI with credible intervals of the statistic, beside the
+    uncorrected and Gutiérrez-Antuñano et al. (2018) values. ``ti_draws`` (ndraws,
+    n_records) are :attr:`CorrectedDraws.ti` (-), ``per_record`` the
+    :func:`record_summary` of ``records``."""
+    keys = speed_bin_keys(records, settings.speed_bin_width_ms)
+    return ti_group_statistics(
+        ti_draws, per_record, keys, credible_mass=settings.credible_mass, min_count=min_count
     )
-    if return_draws:
-        return per_record, per_bin, ti
-    return per_record, per_bin
+
+
+def corrected_ti(
+    records: pd.DataFrame,
+    bin_fits,
+    global_fit,
+    *,
+    surrogate=None,
+    settings: PropagationSettings = PropagationSettings(),
+    target: PointTarget = PointTarget(),
+    seed,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Corrected std and TI summarised per record and per speed bin: :func:`draw_corrected_ti`,
+    :func:`record_summary` (baselines of :func:`variance_law_baselines` with the same
+    surrogate) and :func:`speed_bin_statistics` (at least 2 records per bin).
+
+    The parameters are those of :func:`draw_corrected_ti`.
+
+    Returns
+    -------
+    per_record : pandas.DataFrame
+        :func:`record_summary`.
+    per_bin : pandas.DataFrame
+        :func:`speed_bin_statistics`.
+    """
+    if surrogate is None and settings.lidar is not None:
+        surrogate = get_surrogate(settings.lidar)
+    surrogate = default_surrogate(surrogate)
+    draws = draw_corrected_ti(
+        records, bin_fits, global_fit, surrogate=surrogate, settings=settings, target=target,
+        seed=seed,
+    )  # fmt: skip
+    per_record = record_summary(records, draws, variance_law_baselines(records, surrogate))
+    return per_record, speed_bin_statistics(draws.ti, per_record, records, settings)
 
 
 def ti_group_statistics(
@@ -963,7 +1180,7 @@ def ti_group_statistics(
     For every posterior draw ``d`` the statistic is computed over the group's records
     (mean, sample std, representative TI ``mean + 1.28 std`` of IEC 61400-1, 90th
     percentile); because draw ``d`` of every record comes from the same global posterior
-    draw (:func:`corrected_ti`), these are draws of the statistic's posterior, and its
+    draw (:func:`draw_corrected_ti`), these are draws of the statistic's posterior, and its
     median and equal-tailed interval are reported. This is the uncertainty of the
     statistic over the measured records (motion, correlation, noise, reference response),
     not the sampling uncertainty of the site's climate. The average of per-record
@@ -973,10 +1190,10 @@ def ti_group_statistics(
     ----------
     ti_draws : numpy.ndarray, shape (ndraws, n_records)
         Corrected TI draws (-), columns in the order of ``per_record``; float32 (as
-        :func:`corrected_ti` returns them) or float64, the statistics are computed in
+        :attr:`CorrectedDraws.ti` holds them) or float64, the statistics are computed in
         float64.
     per_record : pandas.DataFrame
-        :func:`corrected_ti`'s per-record table: ``converged``, ``ti_uncorrected``,
+        :func:`record_summary`'s per-record table: ``converged``, ``ti_uncorrected``,
         ``ti_u``, ``ti_c``, ``ti_pc`` (the last three optional).
     keys : pandas.DataFrame
         Group key columns, one row per record (same order); rows with a NaN key are left out.
@@ -1013,7 +1230,7 @@ def ti_group_statistics(
     q = [(1.0 - credible_mass) / 2.0, 0.5, (1.0 + credible_mass) / 2.0]
     key_cols = list(keys.columns)
     conv = per_record["converged"].to_numpy(dtype=bool)
-    finite = np.all(np.isfinite(ti_draws), axis=0) if ti_draws.shape[0] else conv
+    finite = finite_records(ti_draws) if ti_draws.shape[0] else conv
     usable = conv & finite
     kv = keys.reset_index(drop=True)
     valid = kv.notna().all(axis=1).to_numpy()
@@ -1054,6 +1271,18 @@ def ti_group_statistics(
 
 #: Draw values (float64) held at once by the group statistics (bounds their memory).
 _BLOCK_VALUES = 4_000_000
+
+
+def finite_records(ti_draws) -> np.ndarray:
+    """Records whose draws are all finite: ``np.all(np.isfinite(ti_draws), axis=0)`` for
+    ``ti_draws`` of shape (ndraws, n_records), computed on blocks of records (no
+    ndraws x n_records temporary); a bool array of shape (n_records,)."""
+    ti_draws = np.asarray(ti_draws)
+    out = np.empty(ti_draws.shape[1], dtype=bool)
+    step = max(1, _BLOCK_VALUES // max(ti_draws.shape[0], 1))
+    for j in range(0, ti_draws.shape[1], step):
+        out[j : j + step] = np.all(np.isfinite(ti_draws[:, j : j + step]), axis=0)
+    return out
 
 
 def _draw_statistics(ti_draws: np.ndarray, columns: np.ndarray):

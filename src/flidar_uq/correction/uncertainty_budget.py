@@ -2,8 +2,8 @@
 
 Method ("hold one source at its median", a one-at-a-time variance reduction): the
 posterior draws are propagated once with every source free
-(:func:`flidar_uq.correction.propagation.corrected_ti`) and once per source with that
-source held at its posterior median (``hold=``), with the same random numbers (common
+(:func:`flidar_uq.correction.propagation.draw_corrected_ti`) and once per source with that
+source held at its posterior median (:func:`~flidar_uq.correction.propagation.draw_held_ti`), with the same random numbers (common
 random numbers: the runs differ only by the held source). For a statistic ``Y`` (the mean
 corrected TI of a height over the campaign, or of one speed bin) the share of source ``k``
 is
@@ -67,11 +67,11 @@ def uncertainty_budget(
     ----------
     draws_for : callable
         ``draws_for(hold)`` returns the corrected TI draws (-), shape (ndraws, n_records),
-        float32 (as ``corrected_ti`` returns them; the group means are summed in float64)
+        float32 (as ``CorrectedDraws.ti`` holds them; the group means are summed in float64)
         or float64,
         with the sources in ``hold`` held at their median and the same random numbers for
-        every ``hold`` (e.g. :func:`flidar_uq.correction.propagation.corrected_ti` with
-        ``return_draws=True`` and a fixed seed). Called once with ``()`` and once per
+        every ``hold`` (e.g. ``.ti`` of :func:`flidar_uq.correction.propagation.draw_held_ti`
+        with a fixed seed). Called once with ``()`` and once per
         source; each result is reduced to group means at once (memory of one draw matrix).
     keys : mapping of str -> pandas.DataFrame
         Groupings: name -> group key columns, one row per record (e.g. ``"campaign"``:

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 __all__ = [
     "Column",
+    "CORRECTED_TI_COLUMNS",
     "RECORD_COLUMNS",
     "IMU_COLUMNS",
     "LOS_COLUMNS",
@@ -642,6 +643,17 @@ RECORD_COLUMNS: tuple[Column, ...] = (
         True,
         "Directional spread of the waves.",
     ),
+)
+
+#: The corrected TI of a record (-) in results/ti/records.csv: posterior median, the
+#: equal-tailed interval given the reference's std ratio, and that interval with the ratio's
+#: campaign-wide error (``_total``; docs/data-format.md).
+CORRECTED_TI_COLUMNS = (
+    "ti_corrected_median",
+    "ti_corrected_lo",
+    "ti_corrected_hi",
+    "ti_corrected_lo_total",
+    "ti_corrected_hi_total",
 )
 
 #: Motion columns that are required unless the motion statistics come from a raw IMU series.

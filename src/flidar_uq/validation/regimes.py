@@ -23,13 +23,17 @@ from flidar_uq.correction.propagation import (
     LIDAR_STD_RATIO_LOG_SD,
     REFERENCE_SAMPLING_CORRELATION,
     SYNCHRONIZED,
-    corrected_ti,
+    PointTarget,
+    PropagationSettings,
+    draw_corrected_ti,
     pair_sampling_correlation,
+    record_summary,
     reference_pair_log_sd,
     reference_target,
 )
 from flidar_uq.data.calibration import calibration_by_group, speed_group_label
 from flidar_uq.data.qc import QCConfig, run_qc
+from flidar_uq.data.schema import CORRECTED_TI_COLUMNS
 from flidar_uq.inference import SamplerSettings, fit_record_model_selecting_hull
 from flidar_uq.physics.surrogate import get_surrogate
 from flidar_uq.seeding import as_seedsequence
@@ -198,30 +202,24 @@ def scenario_records(
         lever_arm_prior=lever_arm_prior,
         pair_log_sd=pair_log_sd,
     )
-    per_record, _ = corrected_ti(
-        kept,
-        [],
-        fit,
-        surrogate=surrogate,
-        lidar=lidar,
-        credible_mass=credible_mass,
-        ndraws=ndraws,
+    target = PointTarget(
         lidar_std_ratio=g,
         point_log_sd=sd,
         lidar_std_ratio_log_sd=lidar_std_ratio_log_sd if g is not None else 0.0,
         reference_sampling_correlation=REFERENCE_SAMPLING_CORRELATION,
-        baseline=(np.full(len(kept), np.nan), np.nan),
+    )
+    draws = draw_corrected_ti(
+        kept,
+        [],
+        fit,
+        surrogate=surrogate,
+        settings=PropagationSettings(ndraws=ndraws, credible_mass=credible_mass, lidar=lidar),
+        target=target,
         seed=ss_prop,
     )
+    per_record = record_summary(kept, draws, (np.full(len(kept), np.nan), np.nan))
     out = kept.copy()
-    for c in (
-        "ti_corrected_median",
-        "ti_corrected_lo",
-        "ti_corrected_hi",
-        "ti_corrected_lo_total",
-        "ti_corrected_hi_total",
-        "ti_uncorrected",
-    ):
+    for c in (*CORRECTED_TI_COLUMNS, "ti_uncorrected"):
         out[c] = per_record[c].to_numpy()
     out["ti_true"] = kept["true_ti"].to_numpy(dtype=float)
     out["has_reference"] = np.isfinite(kept["ref_hws_std_ms"].to_numpy(dtype=float))

@@ -14,7 +14,11 @@ import pandas as pd
 from scipy import stats
 
 from flidar_uq.campaign.statistical_mode import draw_true_params, generate_statistical_campaign
-from flidar_uq.correction.propagation import corrected_ti
+from flidar_uq.correction.propagation import (
+    PropagationSettings,
+    draw_corrected_ti,
+    record_summary,
+)
 from flidar_uq.data.imu import follower_translation_columns
 from flidar_uq.inference import (
     Priors,
@@ -391,7 +395,7 @@ def propagation_ranks(
 
     The records come from the record model (:func:`draw_record_campaign`), so each one's
     true point std is its ``ref_hws_std_ms`` (a point reference, no sampling scatter of
-    its own). :func:`~flidar_uq.correction.propagation.corrected_ti` draws
+    its own). :func:`~flidar_uq.correction.propagation.draw_corrected_ti` draws
     ``n_rank_draws`` corrected TIs of each record from the fit's posterior; the rank of the
     true TI ``ref_hws_std_ms / hws_mean_ms`` among them is uniform on ``0 .. n_rank_draws``
     when the propagation is calibrated. ``n_check`` records are drawn at random (without
@@ -418,10 +422,13 @@ def propagation_ranks(
         90 % interval holds the true TI, -).
     """
     ss_prop, ss_pick = as_seedsequence(seed).spawn(2)
-    per_record, _, ti = corrected_ti(
-        records.assign(bin_id=0), [], fit, surrogate=surrogate, ndraws=n_rank_draws,
-        return_draws=True, group_statistics=False, seed=ss_prop,
+    rec = records.assign(bin_id=0)
+    draws = draw_corrected_ti(
+        rec, [], fit, surrogate=surrogate, settings=PropagationSettings(ndraws=n_rank_draws),
+        seed=ss_prop,
     )  # fmt: skip
+    no_baseline = (np.full(len(rec), np.nan), np.nan)  # the intervals only
+    per_record, ti = record_summary(rec, draws, no_baseline), draws.ti
     true_ti = (records["ref_hws_std_ms"] / records["hws_mean_ms"]).to_numpy()
     finite = np.flatnonzero(np.all(np.isfinite(ti), axis=0))
     pick = np.random.default_rng(ss_pick).choice(
