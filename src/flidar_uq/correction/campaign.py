@@ -329,43 +329,103 @@ def correct_campaign(
     -------
     CorrectionResult
     """
-    from flidar_uq import inference as inf
-    from flidar_uq.correction.uncertainty_budget import uncertainty_budget
-    from flidar_uq.data import metrics
     from flidar_uq.physics.surrogate import get_surrogate
 
-    rec = records.reset_index(drop=True).copy()
-    n = len(rec)
-    if flags is None:
-        reasons = pd.Series([""] * n)
-        timestamp = rec["timestamp"] if "timestamp" in rec else pd.Series(np.arange(n))
-    else:
-        reasons = flags["reasons"].fillna("").reset_index(drop=True)
-        timestamp = flags["timestamp"].reset_index(drop=True)
-    record_model = inf.is_record_model(fit)
-    if not record_model and (bins is None or bins.status is None):
-        raise ValueError(
-            "correct_campaign: a bin motion model needs the bins and their fits "
-            "(bins=BinTables(..., status=, fits=))"
-        )
-    rid = np.arange(n)
-    if bins is None:
-        rec["bin_id"] = np.nan
-        fitted = pd.Series(dtype=bool)
-        sz_table = pd.DataFrame({"sigma_z_ms": pd.Series(dtype=float)})
-    else:
-        rec["bin_id"] = bins.assignments.set_index("record_id")["bin_id"].reindex(rid).to_numpy()
-        fitted = bins.table.set_index("bin_id")["fitted"]
-        sz_table = bins.sigma_z.set_index("bin_id")
-    fits = {} if record_model or bins is None else dict(bins.fits)
+    c = _CorrectedSubset.of(records, fit, flags, bins)
+    sub = c.rec[c.use] if c.record_model else c.rec[c.use].astype({"bin_id": int})
     surrogate = get_surrogate(settings.lidar)
-    binned = rec["bin_id"].notna().to_numpy()
-    if record_model:  # every QC-kept record, binned or not: its sigma_Z is its own
-        use = reasons.eq("").to_numpy()
-        sub = rec[use]
-    else:
-        use = binned
-        sub = rec[use].astype({"bin_id": int})
+    target = _point_target(sub, c.rec, reference, settings)
+    baseline = prop.variance_law_baselines(sub, surrogate)
+    converged_fits = [f for f in c.fits.values() if f.converged]
+
+    def correct(hold=(), ndraws=settings.ndraws):
+        return prop.draw_held_ti(
+            sub,
+            converged_fits,
+            fit,
+            hold,
+            surrogate=surrogate,
+            settings=settings.propagation(ndraws),
+            target=target,
+            seed=child_seed(settings.seed, 2),
+        )
+
+    main = correct()
+    per_record = prop.record_summary(sub, main, baseline)
+    speed_keys, speed_bins, groups = _group_tables(main.ti, per_record, sub, settings)
+    # its own passes at budget_ndraws (common random numbers: the same seed and draws
+    # for every hold), the main pass's draws when it has no more
+    nb = min(int(settings.budget_ndraws), int(settings.ndraws))
+    if nb == settings.ndraws:
+        free = main.ti
+    else:  # the main pass's draws are done with: freed before the budget's passes
+        del main
+        free = correct((), nb).ti
+    budget = _budget(correct, free, nb, per_record, speed_keys, settings)
+    out = _output_records(c, fit, per_record, baseline[0], settings)
+    return CorrectionResult(
+        records=out,
+        speed_bins=speed_bins,
+        groups=groups,
+        budget=budget,
+        metrics=_scores(out, c.rec, reference, baseline[1], settings.credible_mass),
+    )
+
+
+@dataclass
+class _CorrectedSubset:
+    """The records of :func:`correct_campaign` and which of them are corrected: every
+    QC-kept record (record motion model) or the binned ones (bin motion model)."""
+
+    rec: pd.DataFrame
+    timestamp: pd.Series
+    reasons: pd.Series
+    use: np.ndarray
+    binned: np.ndarray
+    record_model: bool
+    fitted: pd.Series
+    sz_table: pd.DataFrame
+    fits: dict
+    bins: BinTables | None
+
+    @classmethod
+    def of(cls, records, fit, flags, bins) -> _CorrectedSubset:
+        from flidar_uq import inference as inf
+
+        rec = records.reset_index(drop=True).copy()
+        n = len(rec)
+        if flags is None:
+            reasons = pd.Series([""] * n)
+            timestamp = rec["timestamp"] if "timestamp" in rec else pd.Series(np.arange(n))
+        else:
+            reasons = flags["reasons"].fillna("").reset_index(drop=True)
+            timestamp = flags["timestamp"].reset_index(drop=True)
+        record_model = inf.is_record_model(fit)
+        if not record_model and (bins is None or bins.status is None):
+            raise ValueError(
+                "correct_campaign: a bin motion model needs the bins and their fits "
+                "(bins=BinTables(..., status=, fits=))"
+            )
+        if bins is None:
+            rec["bin_id"] = np.nan
+            fitted = pd.Series(dtype=bool)
+            sz_table = pd.DataFrame({"sigma_z_ms": pd.Series(dtype=float)})
+        else:
+            assigned = bins.assignments.set_index("record_id")["bin_id"]
+            rec["bin_id"] = assigned.reindex(np.arange(n)).to_numpy()
+            fitted = bins.table.set_index("bin_id")["fitted"]
+            sz_table = bins.sigma_z.set_index("bin_id")
+        fits = {} if record_model or bins is None else dict(bins.fits)
+        binned = rec["bin_id"].notna().to_numpy()
+        # record model: every QC-kept record, binned or not (its sigma_Z is its own)
+        use = reasons.eq("").to_numpy() if record_model else binned
+        return cls(rec, timestamp, reasons, use, binned, record_model, fitted, sz_table, fits, bins)
+
+
+def _point_target(sub, rec, reference: Reference, settings: CorrectionSettings):
+    """The point target of the corrected records (:class:`~flidar_uq.correction.
+    propagation.PointTarget`): the reference lidar's std ratio, its scatter and sampling
+    correlation (:meth:`CorrectionSettings.reference_noise`), logged."""
     heights = settings.heights_in_turn(rec)
     g_ratio, log_sd, pair_corr, _ = settings.reference_noise(sub, reference, heights=heights)
     g_log_sd = float(reference.lidar_std_ratio_log_sd)
@@ -382,27 +442,13 @@ def correct_campaign(
             "reference lidar sampling: correlation with the floating lidar's %s, c = %.3f-%.3f",
             reference.sampling_correlation, np.nanmin(pair_corr), np.nanmax(pair_corr),
         )  # fmt: skip
-    baseline = prop.variance_law_baselines(sub, surrogate)
-    ndraws, credible_mass, min_count = settings.ndraws, settings.credible_mass, settings.min_count
+    return prop.PointTarget(g_ratio, log_sd, g_log_sd, pair_corr)
 
-    target = prop.PointTarget(g_ratio, log_sd, g_log_sd, pair_corr)
-    converged_fits = [f for f in fits.values() if f.converged]
 
-    def correct(hold=(), ndraws=ndraws):
-        return prop.draw_held_ti(
-            sub,
-            converged_fits,
-            fit,
-            hold,
-            surrogate=surrogate,
-            settings=settings.propagation(ndraws),
-            target=target,
-            seed=child_seed(settings.seed, 2),
-        )
-
-    main = correct()
-    per_record, ti_draws = prop.record_summary(sub, main, baseline), main.ti
-    sz_seed, rho_seed = baseline
+def _group_tables(ti_draws, per_record, sub, settings: CorrectionSettings):
+    """Speed-bin keys, the speed-bin table (height x 1-m/s bin) and the group table
+    (campaign, direction sector, sea state) of the corrected records."""
+    credible_mass, min_count = settings.credible_mass, settings.min_count
     sub_heights = sub["height_m"].to_numpy(dtype=float)
     speed_keys = pd.DataFrame(
         {
@@ -427,45 +473,50 @@ def correct_campaign(
         )
         t.insert(0, "grouping", grouping)
         tables.append(t)
-    groups = pd.concat(tables, ignore_index=True)
+    return speed_keys, speed_bins, pd.concat(tables, ignore_index=True)
 
-    # its own passes at budget_ndraws (common random numbers: the same seed and draws
-    # for every hold), the main pass's draws when it has no more
-    nb = min(int(settings.budget_ndraws), int(ndraws))
-    if nb == ndraws:
-        free = ti_draws
-    else:  # the main pass's draws are done with: freed before the budget's passes
-        del main, ti_draws
-        free = correct((), nb).ti
+
+def _budget(correct, free, nb, per_record, speed_keys, settings: CorrectionSettings):
+    """The uncertainty budget per campaign and speed bin from the passes at ``nb`` draws
+    (``free``: the pass that holds nothing; ``correct(hold, nb)``: one that holds)."""
+    from flidar_uq.correction.uncertainty_budget import uncertainty_budget
+
     usable = per_record["converged"].to_numpy(dtype=bool) & prop.finite_records(free)
-    budget = uncertainty_budget(
+    return uncertainty_budget(
         lambda hold: free if not hold else correct(hold, nb).ti,
         {"campaign": speed_keys[["height_m"]], "speed bin": speed_keys},
         usable,
-        credible_mass=credible_mass,
-        min_count=min_count,
+        credible_mass=settings.credible_mass,
+        min_count=settings.min_count,
     )
 
-    out = _records_table(rec, rid, timestamp, use, per_record, sz_seed, sz_table)
-    if record_model:  # which motion description gave each record's sigma_Z
+
+def _output_records(c: _CorrectedSubset, fit, per_record, sz_seed, settings) -> pd.DataFrame:
+    """One row per input record: the corrected values, flags, references, truth and the
+    carried columns (:data:`RECORD_COLUMNS` first)."""
+    rec, use = c.rec, c.use
+    out = _records_table(
+        rec, np.arange(len(rec)), c.timestamp, use, per_record, sz_seed, c.sz_table
+    )
+    if c.record_model:  # which motion description gave each record's sigma_Z
         desc = describe_motion(rec, hull_model=fit.info.get("hull_model"), lidar=settings.lidar)
         for col in desc:
             out[col] = np.where(use, desc[col].to_numpy(), "")
     neg = _scatter(per_record["discriminant_negative"].to_numpy(dtype=bool), use, bool, False)
     described = (
         _scatter(np.isfinite(per_record["sigma_z_median_ms"].to_numpy()), use, bool, False)
-        if record_model
+        if c.record_model
         else None
     )
     out["flags"] = prop.record_flags(
-        reasons,
+        c.reasons,
         out["bin_id"].to_numpy(),
-        binned,
+        c.binned,
         neg,
-        fitted=fitted,
+        fitted=c.fitted,
         status=pd.Series(dtype=object)
-        if record_model
-        else bins.status.set_index("bin_id")["status"],
+        if c.record_model
+        else c.bins.status.set_index("bin_id")["status"],
         global_converged=fit.converged,
         motion_described=described,
     )
@@ -483,19 +534,22 @@ def correct_campaign(
     for col in carried_columns(rec.columns):  # buoy-logger and extra columns, unchanged
         if col not in out.columns:
             out[col] = rec[col].to_numpy()
-    out = out[RECORD_COLUMNS + [c for c in out.columns if c not in RECORD_COLUMNS]]
+    return out[RECORD_COLUMNS + [c for c in out.columns if c not in RECORD_COLUMNS]]
 
-    # MD / RMSE of std and TI (Tables 2-3 style) against the truth (virtual campaigns)
-    # and against the reference instrument, where present, over the same records.
+
+def _scores(out, rec, reference: Reference, rho_seed, credible_mass) -> pd.DataFrame:
+    """MD / RMSE of std and TI (Gutiérrez-Antuñano et al., 2018, Tables 2-3 style) against
+    the truth (virtual campaigns) and against the reference instrument, where present,
+    over the same records."""
+    from flidar_uq.data import metrics
+
     scores = metrics.score_estimates(out, metrics.reference_values(rec, kind=reference.kind))
     scores["rho_bin_correlation"] = rho_seed
     scores["credible_mass"] = credible_mass
     scores["reference_kind"] = reference.kind
     scores["reference_height_m"] = reference.height_label()
     scores["reference_separation_m"] = float(reference.separation_m)
-    return CorrectionResult(
-        records=out, speed_bins=speed_bins, groups=groups, budget=budget, metrics=scores
-    )
+    return scores
 
 
 def record_groups(records: pd.DataFrame, *, sector_width_deg: float = 30.0) -> pd.DataFrame:
