@@ -317,8 +317,12 @@ def band_cos_psi_from_heave(
     idx = np.where(per == edges[-1], n_bands - 1, idx)
     out = np.full((co.shape[0], n_bands), np.nan)
     for b in range(n_bands):
-        k = idx == b
-        cb, wb, tb = co[:, k].sum(-1), p_w[:, k].sum(-1), p_tilt[:, k].sum(-1)
+        # a band's bins are contiguous: sums over a slice view, row by row (a boolean
+        # index's contiguous copy is reduced with other last bits for one row than for
+        # several, and a record's value would depend on its chunk)
+        k = np.flatnonzero(idx == b)
+        sl = slice(int(k[0]), int(k[-1]) + 1) if k.size else slice(0, 0)
+        cb, wb, tb = co[:, sl].sum(-1), p_w[:, sl].sum(-1), p_tilt[:, sl].sum(-1)
         with np.errstate(invalid="ignore", divide="ignore"):
             out[:, b] = np.where((wb > 0) & (tb > 0), -cb / np.sqrt(wb * tb), np.nan)
     out[no_heave] = np.nan
