@@ -325,7 +325,7 @@ def main(records_path: str | None = None) -> None:
         records = io.read_records(records_path)
         source = records_path
     else:
-        scen = load_scenario(ROOT / "config" / "scenarios" / "default.yaml")
+        scen = load_scenario("default")
         records = generate_campaign(scen, CONFIG["campaign"]["seed"], n_workers=2).records
         source = "generated (default scenario, config seed)"
     rec = prepare(records)

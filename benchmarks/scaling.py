@@ -309,7 +309,9 @@ def run_size(
     if wd.exists():
         shutil.rmtree(wd)
     wd.mkdir(parents=True)
-    scenario = yaml.safe_load((REPO / "config" / "scenarios" / "default.yaml").read_text())
+    scenario = yaml.safe_load(
+        (REPO / "src" / "flidar_uq" / "resources" / "scenarios" / "default.yaml").read_text()
+    )
     scenario["name"] = f"scaling_{label}"
     scenario["n_records"] = n_records
     (wd / "scenario.yaml").write_text(yaml.safe_dump(scenario, sort_keys=False))
