@@ -554,3 +554,53 @@ def test_swell_band_of_unknown_side_has_no_heave_cross_term():
     assert gram["gram_k_kh"].iloc[0] == 0.0  # swell at 4 m/s: side unknown
     assert gram["gram_k_kh"].iloc[1] < 0.0  # wind sea at 15 m/s: heave against the tilt
     assert (gram["gram_kh_kh"] > 0).all()
+
+
+def test_fit_subsample_keeps_each_strata_share_evenly_through_time():
+    rng = np.random.default_rng(11)
+    n = 9_000
+    rec = pd.DataFrame(
+        {
+            "hws_mean_ms": rng.gamma(4.0, 2.5, n),
+            "height_m": rng.choice([40.0, 80.0, 120.0], n, p=[0.5, 0.3, 0.2]),
+        }
+    )
+    keep = rf.fit_subsample(rec, 1_000)
+    assert keep.dtype == bool and keep.sum() == 1_000
+    np.testing.assert_array_equal(keep, rf.fit_subsample(rec, 1_000))  # deterministic
+    assert rf.fit_subsample(rec, n).all()
+    strata = pd.MultiIndex.from_arrays([rec["height_m"], np.floor(rec["hws_mean_ms"])])
+    full = pd.Series(1, index=strata).groupby(level=[0, 1]).size()
+    kept = pd.Series(1, index=strata[keep]).groupby(level=[0, 1]).size()
+    kept = kept.reindex(full.index, fill_value=0)
+    # largest remainder: every stratum within one record of its proportional share
+    assert np.all(np.abs(kept - full * 1_000 / n) < 1.0)
+    # evenly spaced through time: the kept half of each large stratum sits in its
+    # first half of the campaign as often as in its second
+    first_half = np.arange(n) < n / 2
+    assert abs(keep[first_half].sum() - keep[~first_half].sum()) <= 0.05 * 1_000
+
+
+def test_record_model_on_a_subsample_fits_the_stated_number_and_agrees_with_the_whole():
+    truth = {
+        "rho": 0.1,
+        "kappa": 0.03,
+        "kappa_z": 0.15,
+        "lever_arm_m": 2.5,
+        "motion_scale": 1.0,
+        "hull_response": 0.6,
+    }
+    rec = _draw_records(np.random.default_rng(5), 2400, truth)
+    quick = {"nsteps": 150, "nburn": 100}
+    whole = fit_record_model(rec, seed=5, settings=SamplerSettings(**quick))
+    sub = fit_record_model(
+        rec, seed=5, settings=SamplerSettings(**quick, record_fit_max_records=800)
+    )
+    assert whole.info["n_records"] == whole.info["n_records_usable"] == 2400
+    assert sub.info["n_records"] == 800 and sub.info["n_records_usable"] == 2400
+    assert len(sub.info["constant"]["record_index"]) == 800
+    for name in ("lever_arm_m", "motion_scale", "hull_response", "rho"):
+        a, b = whole.flat(name), sub.flat(name)
+        # the subsample's posterior holds the whole fit's median and is wider (fewer data)
+        assert np.quantile(b, 0.005) <= np.median(a) <= np.quantile(b, 0.995), name
+        assert np.std(b) > np.std(a), name

@@ -86,3 +86,12 @@ def test_developer_report_holds_the_benchmarks(tmp_path):
     assert html.count("<img ") == len(pngs) and "los_comparison.csv" in html
     with pytest.raises(ValueError, match="is not a directory"):
         build_developer_report(out_path=tmp_path / "x.html", benchmarks_dir=tmp_path / "none")
+
+
+def test_fitted_records_words_say_when_the_fit_was_a_subsample():
+    from flidar_uq.workflow.report_step import fitted_records_words
+
+    assert fitted_records_words(24522, 24522) == "24522 records fitted"
+    words = fitted_records_words(30000, 157680)
+    assert "subsample of the 157680 usable" in words
+    assert "record_fit_max_records" in words

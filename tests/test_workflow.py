@@ -209,6 +209,25 @@ def test_config_keys_match_library_dataclasses():
     Priors(**cfg["priors"])
 
 
+def test_shipped_config_defaults_equal_the_library_dataclass_defaults():
+    """A key of qc / priors / inference that a library dataclass also holds has one default:
+    the notebook user (dataclass) and the pipeline user (config, schema) get the same run."""
+    import dataclasses
+
+    from flidar_uq.data.qc import QCConfig
+    from flidar_uq.inference import Priors, SamplerSettings
+
+    cfg = load_yaml(CONFIG)
+    for section, cls in (("qc", QCConfig), ("priors", Priors), ("inference", SamplerSettings)):
+        defaults = {f.name: f.default for f in dataclasses.fields(cls)}
+        differ = {
+            k: (v, defaults[k])
+            for k, v in cfg[section].items()
+            if k in defaults and defaults[k] != v
+        }
+        assert not differ, f"{section}: config vs {cls.__name__} defaults {differ}"
+
+
 # --------------------------------------------------------------------------- glue units
 
 

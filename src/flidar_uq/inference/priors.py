@@ -135,6 +135,13 @@ class SamplerSettings:
     rhat_max, ess_min, n_autocorr : float
         Convergence thresholds (docs/inference.md, "Convergence policy") (rank R-hat, bulk and tail ESS, chain length
         in integrated autocorrelation times).
+    record_fit_max_records : int
+        Most records the record model is fitted on (records): a longer campaign is fitted
+        on a subsample stratified by height and 1-m/s wind-speed bin, evenly spaced in
+        time within each stratum (:func:`~flidar_uq.inference.record_fit.fit_subsample`).
+        Its six parameters are campaign constants, so their posterior from 30,000 records
+        is already narrow, while the sampler's cost grows with records times steps. Every
+        record is still corrected with the posterior.
     """
 
     nwalkers: int = 16
@@ -155,6 +162,7 @@ class SamplerSettings:
     ess_min: float = 400.0
     n_autocorr: float = 50.0
     n_sz_draws: int = 200
+    record_fit_max_records: int = 30_000
 
     def for_global_fit(self) -> SamplerSettings:
         """These settings as a global fit runs them: ``global_step_factor`` times the steps
@@ -177,6 +185,10 @@ class SamplerSettings:
         if not 0.0 < self.two_period_min_share <= 1.0:
             raise ValueError(
                 f"SamplerSettings: two_period_min_share={self.two_period_min_share} not in (0, 1]"
+            )
+        if self.record_fit_max_records < 100:
+            raise ValueError(
+                f"SamplerSettings: record_fit_max_records={self.record_fit_max_records} < 100"
             )
         if self.nsteps < 10 or self.nburn < 0 or self.nwalkers < 8:
             raise ValueError(

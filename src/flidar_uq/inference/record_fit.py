@@ -58,6 +58,7 @@ from flidar_uq.threads import single_threaded
 __all__ = [
     "RECORD_MODEL_NAMES",
     "fit_record_model",
+    "fit_subsample",
     "HULL_MODELS",
     "LEVER_ARM_PLAUSIBLE_MAX_M",
     "is_record_model",
@@ -319,6 +320,45 @@ def _record_observations(
     return (s[use], r[use], np.ascontiguousarray(gram[:, use])), use, kinds
 
 
+def fit_subsample(records: pd.DataFrame, max_records: int) -> np.ndarray:
+    """Which records a fit on at most ``max_records`` uses: a stratified subsample.
+
+    The strata are the heights (column ``height_m``, if present) crossed with 1-m/s bins
+    of ``hws_mean_ms`` (m/s). Each stratum gets its share of ``max_records`` in proportion
+    to its size (largest remainder), taken evenly spaced through the stratum in the table's
+    order (in time, for a campaign), so that the subsample keeps the campaign's mix of
+    heights, wind speeds and seasons. Deterministic: no random numbers.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        The usable records, in time order.
+    max_records : int
+        Most records to keep (records).
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (len(records),)
+        All True when ``len(records) <= max_records``.
+    """
+    n = len(records)
+    if n <= max_records:
+        return np.ones(n, dtype=bool)
+    speed = np.floor(records["hws_mean_ms"].to_numpy(dtype=float))
+    height = records["height_m"].to_numpy(dtype=float) if "height_m" in records else np.zeros(n)
+    strata = pd.MultiIndex.from_arrays([height, speed]).factorize()[0]
+    sizes = np.bincount(strata)
+    share = sizes * (max_records / n)
+    quota = np.floor(share).astype(int)
+    spare = max_records - int(quota.sum())
+    quota[np.argsort(-(share - quota), kind="stable")[:spare]] += 1
+    keep = np.zeros(n, dtype=bool)
+    for k in np.flatnonzero(quota):
+        members = np.flatnonzero(strata == k)
+        keep[members[((np.arange(quota[k]) + 0.5) * sizes[k] / quota[k]).astype(int)]] = True
+    return keep
+
+
 #: Largest relative change of any record's sigma_Z between the hull response's lower end (0)
 #: and its posterior's 95 % quantile below which the hull response is left out of the
 #: convergence check (-): its draws then change no corrected TI by more than this share of
@@ -376,7 +416,8 @@ def fit_record_model(
 
     Every record with a finite floating-lidar std, reference std and motion description
     is used, whatever its bin (bins are for reporting; a record's sigma_Z comes from its
-    own motion).
+    own motion), up to ``settings.record_fit_max_records``: beyond, a stratified
+    subsample of them (:func:`fit_subsample`).
 
     Parameters
     ----------
@@ -413,7 +454,8 @@ def fit_record_model(
     Returns
     -------
     GlobalFit
-        Draws of the five parameters; ``info["loo"]`` holds ``model="record"`` and the
+        Draws of the six parameters; ``info["n_records"]`` the records fitted and
+        ``info["n_records_usable"]`` those that could have been; ``info["loo"]`` holds ``model="record"`` and the
         PSIS-LOO elpd; ``pointwise_loo`` (:meth:`~GlobalFit.loo`) the PSIS-LOO per record,
         computed in blocks of records from the thinned draws (``log_lik`` is None: the
         (draws x records) pointwise log-likelihood is never held whole, and
@@ -444,6 +486,12 @@ def fit_record_model(
     (s, r, gram), use, kinds = _record_observations(
         records, surrogate, scan_period_s, lidar, hull, translation
     )
+    n_usable = int(s.size)
+    keep = fit_subsample(records.loc[use], settings.record_fit_max_records)
+    if not keep.all():
+        s, r, gram = s[keep], r[keep], np.ascontiguousarray(gram[:, keep])
+        use = use.copy()
+        use[np.flatnonzero(use)[~keep]] = False
     pair = None
     if pair_log_sd is not None:
         pair_all = np.asarray(pair_log_sd, dtype=float)
@@ -488,6 +536,7 @@ def fit_record_model(
     k_med = float(np.median(draws["motion_scale"]))
     info = {
         "n_records": int(s.size),
+        "n_records_usable": n_usable,
         "prior_only": prior_only,
         "hull_response_identified": h_used,
         "hull_response_negligible": bool(negligible and negligible[-1]),

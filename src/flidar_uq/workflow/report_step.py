@@ -153,6 +153,17 @@ def file_provenance(paths: dict[str, str | os.PathLike]) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["file", "sha256", "bytes", "data rows"])
 
 
+def fitted_records_words(n_fitted: int, n_usable: int) -> str:
+    """How many records the global fit used (records), and whether they were a subsample
+    (:func:`flidar_uq.inference.record_fit.fit_subsample`)."""
+    if n_usable > n_fitted:
+        return (
+            f"{n_fitted} records fitted, a subsample of the {n_usable} usable stratified by "
+            "height and wind speed (inference.record_fit_max_records)"
+        )
+    return f"{n_fitted} records fitted"
+
+
 def loo_statement(global_summary: pd.DataFrame) -> str:
     """The global model's PSIS-LOO comparisons (global.csv) in words; "" without any."""
     if not len(global_summary):
@@ -576,9 +587,10 @@ def _diagnostics_section(ctx: dict) -> rep.Section:
              "nsteps_over_tau": "steps / autocorr. time"}  # fmt: skip
     status = "converged" if gfit.converged else "NOT converged: " + "; ".join(gfit.failure_reasons)
     n_fit = int(gs["n_records"].iloc[0]) if "n_records" in gs and len(gs) else 0
+    fitted = fitted_records_words(n_fit, int(gfit.info.get("n_records_usable", n_fit)))
     body += rep.table_html(
         gs[cols].rename(columns=names),
-        caption=f"{rep.caption('global_summary')}: {n_fit} records fitted, {status}",
+        caption=f"{rep.caption('global_summary')}: {fitted}, {status}",
     )
     if ctx["motion_model"] == "bin":
         ok = bin_fits.loc[bin_fits["status"] == "ok", "bin_id"].astype(int).head(1).tolist()
