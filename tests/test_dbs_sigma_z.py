@@ -325,3 +325,60 @@ def test_record_terms_quadratic_form_equals_the_sum(known):
         gram, lever_arm_m=np.array([[0.0], [2.0]]), hull_response=np.array([[0.0], [1.0]])
     )
     assert q.shape == (2, 3)
+
+
+@pytest.mark.parametrize("known", [True, False])
+def test_band_terms_quadratic_form_equals_the_moment_sum(known):
+    """dbs_band_terms' quadratic form is the harmonic sum over bands with their direction
+    moments relative to the wind turned into the body frame (and averaged over headings,
+    the sea turning with the wind, where the heading is unknown)."""
+    hws = np.array([6.0, 11.0, 16.0])
+    amp = np.array([[2.0, 1.0], [3.0, 0.5], [1.0, 2.0]])
+    per = np.array([[3.5, 8.0], [4.5, 9.0], [5.0, 7.0]])
+    mom = dbs.band_moments_to_wind(
+        np.array([[0.8, 0.0], [-0.3, 0.1], [0.6, 0.0]]),
+        np.array([[0.85, 0.4], [0.5, 0.6], [0.7, 0.3]]),
+    )
+    beta = np.array([0.0, 70.0, 200.0]) if known else None
+    gram = dbs.dbs_band_terms(hws, amp, per, mom, wind_body_deg=beta)
+    for hull, h in (("rotation_only", 0.0), ("wave_follower", 1.0)):
+        for lever in (0.0, 2.5):
+            q = dbs.dbs_sigma_z_from_terms(gram, lever_arm_m=lever, hull_response=h)
+            kw = dict(lever_arm_m=lever, hull=hull, dwell_average=True, cross_wind=False)
+            if known:
+                s = dbs.dbs_harmonic_sigma_z_ms(
+                    amp, per, hws_ms=hws, wind_body_deg=beta,
+                    direction_moments_=dbs.rotate_moments(mom, beta[:, None]), **kw,
+                )  # fmt: skip
+            else:
+                s = dbs.dbs_heading_average_sigma_z_ms(
+                    amp, per, hws_ms=hws, moments_to_wind=mom, **kw
+                )[0]
+            np.testing.assert_allclose(q, s, rtol=1e-9)
+
+
+@pytest.mark.parametrize("beta", [0.0, 45.0, 110.0])
+def test_band_of_a_wave_follower_knows_the_side_its_waves_run_on(beta):
+    """A wind sea running downwind on a wave follower: its heave cancels part of the tilt's
+    apparent vertical wind, (U cos psi - c). The band terms with <cos psi> = +1 give the
+    replay's sigma_Z of that wave; the same band taken as running upwind gives several
+    times more."""
+    period, hws, lever, amp = 3.5, 8.0, 2.0, 3.0
+    rep = _harmonic_replay(amp, period, beta, hws, beta, "windcube_v2", "wave_follower", lever)
+    g_down, g_up = (
+        dbs.dbs_band_terms(
+            np.array([hws]),
+            np.array([[amp]]),
+            np.array([[period]]),
+            dbs.band_moments_to_wind(np.array([[c]]), np.array([[1.0]])),
+            wind_body_deg=np.array([beta]),
+            dwell_average=False,
+        )  # fmt: skip
+        for c in (1.0, -1.0)
+    )
+    down, up = (
+        float(dbs.dbs_sigma_z_from_terms(g, lever_arm_m=lever, hull_response=1.0)[0])
+        for g in (g_down, g_up)
+    )
+    assert down == pytest.approx(rep, rel=0.05)
+    assert up > 2.0 * rep  # the heave adds to the tilt's vertical wind upwind

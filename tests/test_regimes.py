@@ -321,26 +321,32 @@ def test_measured_translation_campaign_is_calibrated_in_every_regime(seed):
 DBS_SEEDS = (476586, 428726)
 
 
+@functools.cache
+def _run_dbs(scenario: str, seed: int):
+    return scenario_records(scenario, seed, lidar="windcube_v2")
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "seed",
     [
         pytest.param(
-            DBS_SEEDS[0],
+            seed,
             marks=pytest.mark.xfail(
                 strict=True,
-                reason="measured: coverage 0.953 in 6-9 m/s (918 records) and 0.952 in the "
-                "wind sea (1402), above 0.95; errors within +-1.1 %; fit motion_scale 0.83, "
-                "lever arm 1.08 m against the scenario's 2 m",
+                reason="measured with the tilt-band description: coverage 0.952 in 3-6 m/s "
+                "on both seeds (557 and 767 records), 0.936 / 0.941 over all records; every "
+                "group's error within +-1 %. The DBS intervals are wider than the errors "
+                "need; the cause is not found",
             ),
-        ),
-        DBS_SEEDS[1],
+        )
+        for seed in DBS_SEEDS
     ],
 )
 def test_dbs_tilt_only_record_model_calibrated_in_every_group(seed):
     """A WindCube v2 on a buoy that only tilts (scenario ``dbs_tilt_only``): the record fit
     and the propagation with the DBS lidar's own sigma_Z (record_motion.motion_gram)."""
-    records, fit = scenario_records("dbs_tilt_only", seed, lidar="windcube_v2")
+    records, fit = _run_dbs("dbs_tilt_only", seed)
     assert fit.converged, fit.failure_reasons
     assert records["ti_corrected_median"].notna().mean() >= 0.99
     groups = _groups(records)
@@ -348,3 +354,21 @@ def test_dbs_tilt_only_record_model_calibrated_in_every_group(seed):
     shown = groups[["grouping", "group", "n", "coverage", "mean_rel_error"]].to_string()
     assert groups["coverage"].between(0.85, 0.95).all(), f"coverage\n{shown}"
     assert (groups["mean_rel_error"].abs() <= 0.015).all(), f"error\n{shown}"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", DBS_SEEDS)
+def test_dbs_tilt_only_fit_recovers_motion_scale_and_lever_arm(seed):
+    """The DBS record fit on its tilt bands recovers the scenario's motion (``k`` = 1, the
+    lever arm 2 m): ``k`` within [0.9, 1.1] and ``L`` within 0.5 m, the bounds of the
+    physics-mode acceptance (measured k 0.96-0.98, L 2.2-2.4 m; on roll and pitch alone it
+    was k 0.90, L 1.25 m)."""
+    _, fit = _run_dbs("dbs_tilt_only", seed)
+    assert fit.converged, fit.failure_reasons
+    counts = fit.info["motion_description_counts"]
+    assert counts.get("tilt_bands", 0) >= 0.99 * sum(counts.values()), counts
+    k = float(np.median(fit.flat("motion_scale")))
+    lever = float(np.median(fit.flat("lever_arm_m")))
+    assert 0.9 <= k <= 1.1, k
+    assert abs(lever - 2.0) <= 0.5, lever
+    assert "motion_scale_warning" not in fit.info and "lever_arm_warning" not in fit.info

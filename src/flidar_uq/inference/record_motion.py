@@ -34,6 +34,7 @@ from flidar_uq.physics.surrogate import default_surrogate, get_surrogate
 
 __all__ = [
     "ALONG_WIND_COLUMNS",
+    "band_cos_psi",
     "GRAM_COLUMNS",
     "MEASURED_TRANSLATION_COLUMNS",
     "MOTION_DESCRIPTIONS",
@@ -106,40 +107,62 @@ def _tilt_description(records: pd.DataFrame):
     return amp, per, along, rp
 
 
+def band_cos_psi(bands: dict, hws_ms, use, hull="wave_follower") -> np.ndarray:
+    """Each tilt band's signed ``<cos psi>`` (-, + downwind) the record model uses.
+
+    The measured one where the record has it (``tilt_band{b}_cos_psi``,
+    :func:`flidar_uq.data.imu.band_cos_psi_from_heave`), else that of waves running
+    downwind (:func:`flidar_uq.data.imu.band_direction_moments`) where the band's wave age
+    says wind sea (:func:`flidar_uq.physics.seastate.downwind_side_known`), else 0 (a swell
+    of unknown side: its mean cosine to the wind is 0 whatever its along-wind share).
+
+    Parameters
+    ----------
+    bands : dict
+        :func:`flidar_uq.data.imu.tilt_bands_from_records` of the records.
+    hws_ms : array_like, shape (n,)
+        Mean HWS of every record, m/s.
+    use : array_like of bool, shape (n,)
+        The records wanted.
+    hull : str or HullResponse
+        The reference hull: where it is not the wave follower, the measured value (which
+        holds the cosine of the hull's heave phase against its tilt) is divided by that
+        phase's cosine, which the hull's response applies again.
+
+    Returns
+    -------
+    numpy.ndarray, shape (use.sum(), n_bands)
+    """
+    hws = np.asarray(hws_ms, float)
+    wind_sea = downwind_side_known(bands["period_s"][use], hws[use, None])
+    assumed = np.where(wind_sea, bands["cos_psi"][use], 0.0)
+    measured = bands["cos_psi_measured"][use]
+    ref = get_hull(hull)
+    if ref.name != "wave_follower" and np.isfinite(measured).any():
+        _, r_z = ref.relative_responses(np.clip(bands["period_s"][use], 1.0, 20.0))
+        phase = np.cos(np.angle(r_z))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            measured = np.where(np.abs(phase) > 0.1, np.clip(measured / phase, -1.0, 1.0), measured)
+    return np.where(np.isfinite(measured), measured, assumed)
+
+
 def _band_terms(records: pd.DataFrame, surrogate, scan_period_s: float, hull="wave_follower"):
     """Mask of the records described by tilt bands (all band values finite, a finite mean
     speed, every band inside the surrogate's range) and their band-sum terms
     (:func:`flidar_uq.physics.six_dof_sigma_z.six_dof_band_terms`, the wave follower's
     translation scaled by the hull response), and the bands themselves
-    (:func:`flidar_uq.data.imu.tilt_bands_from_records`, None without band columns). A
-    band's ``<cos psi>`` is the measured one where the record has it
-    (``tilt_band{b}_cos_psi``, :func:`flidar_uq.data.imu.band_cos_psi_from_heave`), else
-    that of waves running downwind (:func:`flidar_uq.data.imu.band_direction_moments`)
-    where its wave age says wind sea, else 0 (swell of unknown side,
-    :func:`flidar_uq.physics.seastate.downwind_side_known`)."""
+    (:func:`flidar_uq.data.imu.tilt_bands_from_records`, None without band columns); each
+    band's ``<cos psi>`` from :func:`band_cos_psi`."""
     bands = tilt_bands_from_records(records)
     if bands is None:
         return np.zeros(len(records), dtype=bool), None, None
     hws = _col(records, "hws_mean_ms")
     use = bands["complete"] & np.isfinite(hws)
-    # the side a band's waves travel on is known for wind sea only (downwind); for swell
-    # its mean cosine to the wind is 0 whatever its along-wind share
-    wind_sea = downwind_side_known(bands["period_s"][use], hws[use, None])
-    assumed = np.where(wind_sea, bands["cos_psi"][use], 0.0)
-    measured = bands["cos_psi_measured"][use]  # from the heave, where the series had one
-    ref = get_hull(hull)
-    if ref.name != "wave_follower" and np.isfinite(measured).any():
-        # the heave-tilt co-spectrum holds cos(psi) times the cosine of the hull's heave
-        # phase against its tilt, which the reference hull's response applies again
-        _, r_z = ref.relative_responses(np.clip(bands["period_s"][use], 1.0, 20.0))
-        phase = np.cos(np.angle(r_z))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            measured = np.where(np.abs(phase) > 0.1, np.clip(measured / phase, -1.0, 1.0), measured)
     terms = six_dof_band_terms(
         hws[use],
         bands["amplitude_deg"][use],
         bands["period_s"][use],
-        band_cos_psi=np.where(np.isfinite(measured), measured, assumed),
+        band_cos_psi=band_cos_psi(bands, hws, use, hull),
         band_cos_sq_psi=bands["cos_sq_psi"][use],
         surrogate=surrogate,
         scan_period_s=scan_period_s,
@@ -413,7 +436,8 @@ def describe_motion(
         describes no record's translation, whatever its columns.
     lidar : str, LidarGeometry or mapping, optional
         The floating lidar (config ``campaign.lidar``; default the ZephIR 300). A DBS
-        lidar's tilt is always the roll/pitch description (:func:`motion_gram`).
+        lidar's tilt is its tilt bands where complete, else its roll and pitch
+        (:func:`motion_gram`).
 
     Returns
     -------
@@ -422,14 +446,16 @@ def describe_motion(
         :data:`MOTION_DESCRIPTIONS`, as :func:`motion_gram` gives it) and
         ``translation_description`` (one of :data:`TRANSLATION_DESCRIPTIONS`;
         ``"tilt_spectrum"`` only where the tilt is described along the wind (by bands or
-        moments), or for a DBS lidar by its roll and pitch).
+        moments), or for a DBS lidar by its bands or its roll and pitch with the follower
+        columns).
     """
     amp, per, along, rp = _tilt_description(records)
     hws_ok = np.isfinite(_col(records, "hws_mean_ms"))
     if _is_dbs(lidar):
         ok = _dbs_motion(records)[-1] & hws_ok
-        tilt = np.where(ok, "roll_pitch", "none")
-        follower = ok & _follower_complete(records)
+        banded = _dbs_banded(records, _col(records, "hws_mean_ms"))[0]
+        tilt = np.where(banded, "tilt_bands", np.where(ok, "roll_pitch", "none"))
+        follower = banded | (ok & _follower_complete(records))
     else:
         ok = np.isfinite(amp) & np.isfinite(per) & hws_ok
         tilt = np.where(along & ok, "along_wind", np.where(rp & ok, "roll_pitch", "none"))
@@ -520,17 +546,50 @@ def _dbs_motion(records: pd.DataFrame):
     return (*cols, ok)
 
 
+def _dbs_banded(records: pd.DataFrame, hws_ms):
+    """Records a DBS lidar's record model describes by their tilt bands (every band value
+    and the mean speed finite), and the bands (:func:`tilt_bands_from_records`)."""
+    bands = tilt_bands_from_records(records)
+    if bands is None:
+        return np.zeros(len(records), dtype=bool), None
+    return bands["complete"] & np.isfinite(np.asarray(hws_ms, float)), bands
+
+
 def _dbs_gram(records, g, n_headings, translation):
     """(10, n) Gram entries, measured flag and description of a DBS lidar (:func:`motion_gram`)."""
-    from flidar_uq.physics.dbs_sigma_z import dbs_record_terms, wind_to_body_deg
+    from flidar_uq.physics.dbs_sigma_z import (
+        band_moments_to_wind,
+        dbs_band_terms,
+        dbs_record_terms,
+        wind_to_body_deg,
+    )
 
     a_r, a_p, t_r, t_p, ok = _dbs_motion(records)
     hws = _col(records, "hws_mean_ms")
     ok &= np.isfinite(hws)
+    banded, bands = _dbs_banded(records, hws)
     beta = wind_to_body_deg(_col(records, "wd_mean_deg"), _col(records, "heading_mean_deg"))
     known = np.isfinite(beta)
     out = np.full((10, len(records)), np.nan)
-    for sel, wb in ((ok & known, beta), (ok & ~known, None)):
+    if np.any(banded):
+        mom = band_moments_to_wind(band_cos_psi(bands, hws, banded), bands["cos_sq_psi"][banded])
+        amp, per = bands["amplitude_deg"][banded], bands["period_s"][banded]
+        for sel, wb in ((known[banded], beta[banded]), (~known[banded], None)):
+            if np.any(sel):
+                rows = np.flatnonzero(banded)[sel]
+                out[:, rows] = _gram_entries(
+                    dbs_band_terms(
+                        hws[rows],
+                        amp[sel],
+                        per[sel],
+                        mom[sel],
+                        wind_body_deg=None if wb is None else wb[sel],
+                        lidar=g,
+                        n_headings=n_headings,
+                    )
+                )
+    rp = ok & ~banded
+    for sel, wb in ((rp & known, beta), (rp & ~known, None)):
         if np.any(sel):
             out[:, sel] = _gram_entries(
                 dbs_record_terms(
@@ -544,7 +603,9 @@ def _dbs_gram(records, g, n_headings, translation):
                     n_headings=n_headings,
                 )
             )
-    follower = ok & _follower_complete(records) & translation
+    ok |= banded
+    # a record described by its tilt bands has the wave follower's translation through them
+    follower = ok & (_follower_complete(records) | banded) & translation
     hull = list(_HULL_ENTRIES)
     out[np.ix_(hull, ok & ~follower)] = 0.0  # rotation only: no heave, no orbital motion
     r_z, r_x = measured_response(records)
@@ -553,7 +614,7 @@ def _dbs_gram(records, g, n_headings, translation):
         scale = np.stack([np.ones(len(records)), r_z, np.ones(len(records)), r_x])
         for n, (i, j) in enumerate(_GRAM_IJ):
             out[n, meas] *= scale[i, meas] * scale[j, meas]
-    return out, meas, np.where(ok, "roll_pitch", "none")
+    return out, meas, np.where(banded, "tilt_bands", np.where(ok, "roll_pitch", "none"))
 
 
 def motion_gram(
@@ -576,17 +637,20 @@ def motion_gram(
       (Gutiérrez-Antuñano et al. 2018 and the six-degree-of-freedom terms) through
       :func:`gram_from_cw_terms`: the same sigma_Z as those terms. A conical scan is
       azimuth symmetric: the heading does not enter.
-    * A pulsed DBS lidar (``kind == "dbs"``): :func:`flidar_uq.physics.dbs_sigma_z.dbs_record_terms`
-      (the beam-pair retrieval of Yamaguchi & Ishihara 2016, Eqs. 3-4) with the record's
-      roll and pitch amplitudes and periods (the core IMU columns; the along-wind
-      description drops the cross-wind tilt, whose heave and translation a DBS lidar
-      sees, and the body axes the heading needs), the lidar's own beam timing and the
-      wind's direction relative to the beams,
+    * A pulsed DBS lidar (``kind == "dbs"``): the beam-pair retrieval of Yamaguchi &
+      Ishihara 2016, Eqs. 3-4, with the record's tilt bands where complete
+      (:func:`flidar_uq.physics.dbs_sigma_z.dbs_band_terms`: each band's amplitude,
+      period and direction moments relative to the wind, its signed ``<cos psi>`` from
+      :func:`band_cos_psi`), else its roll and pitch amplitudes and periods
+      (:func:`flidar_uq.physics.dbs_sigma_z.dbs_record_terms`, the core IMU columns; the
+      along-wind description drops the cross-wind tilt, whose heave and translation a DBS
+      lidar sees), the lidar's own beam timing and the wind's direction relative to the
+      beams,
       ``wind_to_body_deg(wd_mean_deg, heading_mean_deg)`` (the heading column is the yaw of
       docs/conventions.md, the convention ``wind_to_body_deg`` takes). Where the heading or
       the wind direction is NaN or absent: averaged over ``n_headings`` headings. The
-      hull's heave and orbital phasors are those of a wave follower with the record's roll
-      and pitch; they are kept only where the record has the follower columns
+      hull's heave and orbital phasors are those of a wave follower with the record's
+      bands, or its roll and pitch where the record has the follower columns
       (:data:`FOLLOWER_COLUMNS`, as for a CW lidar; else rotation only). A measured
       translation (:func:`measured_response`) scales the heave phasor by ``R_z`` and the
       orbital one by ``R_x``, with ``h = 1`` (``translation_measured``), as for a CW lidar.

@@ -68,6 +68,8 @@ __all__ = [
     "dbs_heading_average_sigma_z_ms",
     "dbs_record_sigma_z_ms",
     "dbs_record_terms",
+    "band_moments_to_wind",
+    "dbs_band_terms",
     "dbs_sigma_z_from_terms",
     "TERM_BASIS",
     "dbs_replay_sigma_z_ms",
@@ -208,14 +210,19 @@ def dbs_error_coefficients(
     return cb * a[..., 0, :] + sb * a[..., 1, :], -sb * a[..., 0, :] + cb * a[..., 1, :]
 
 
-def _mean_sq(a, mom):
-    """``<|a . f|^2>`` for direction moments ``mom`` (..., 5) (:func:`direction_moments`)."""
-    c, s, cc, sc, ss = (mom[..., i] for i in range(5))
+def _moment_matrix(mom):
+    """``<f f^T>`` (..., 3, 3) of ``f = (1, cos theta, sin theta)`` from direction moments
+    ``mom`` (..., 5) (:func:`direction_moments`)."""
+    c, s, cc, sc, ss = (np.asarray(mom, float)[..., i] for i in range(5))
     one = np.ones_like(c)
-    m = np.stack(
+    return np.stack(
         [np.stack([one, c, s], -1), np.stack([c, cc, sc], -1), np.stack([s, sc, ss], -1)], -2
     )
-    return np.einsum("...i,...ij,...j->...", a, m, np.conj(a)).real
+
+
+def _mean_sq(a, mom):
+    """``<|a . f|^2>`` for direction moments ``mom`` (..., 5) (:func:`direction_moments`)."""
+    return np.einsum("...i,...ij,...j->...", a, _moment_matrix(mom), np.conj(a)).real
 
 
 def dbs_harmonic_sigma_z_ms(
@@ -334,7 +341,7 @@ def dbs_heading_average_sigma_z_ms(
         The root-mean-square sigma_Z over the headings and the std of sigma_Z over them
         (the uncertainty an unknown heading leaves), m/s.
     """
-    beta = np.arange(int(n_headings)) * 360.0 / int(n_headings)
+    beta = _heading_grid(n_headings)
     hws = np.asarray(hws_ms, float)
     if moments_to_wind is None:
         mom = direction_moments(np.asarray(direction_to_wind_deg, float))
@@ -405,7 +412,8 @@ def dbs_record_sigma_z_ms(
     amp = np.stack(np.broadcast_arrays(roll_amplitude_deg, pitch_amplitude_deg), -1)
     per = np.stack(np.broadcast_arrays(p_roll, p_pitch), -1)
     kw = dict(lever_arm_m=lever_arm_m, hull=hull, lidar=lidar, dwell_average=dwell_average)
-    # roll leans the hull along -y or +y, pitch along +x (the sign does not change sigma_Z)
+    # roll leans the hull along +y, pitch along +x: the side the waves run on is not in a
+    # record's amplitudes (for a hull that heaves it sets the heave-tilt cross term's sign)
     body_dir = np.array([90.0, 0.0])
     amp, per = np.broadcast_arrays(amp, per)
     if heading_deg is not None and wd_deg is not None:
@@ -414,7 +422,7 @@ def dbs_record_sigma_z_ms(
             amp, per, np.broadcast_to(body_dir, amp.shape), hws_ms=hws, wind_body_deg=beta, **kw
         )
         return s, np.zeros_like(s)
-    beta = np.arange(int(n_headings)) * 360.0 / int(n_headings)
+    beta = _heading_grid(n_headings)
     s = np.stack(
         [
             dbs_harmonic_sigma_z_ms(
@@ -467,6 +475,51 @@ def dbs_replay_sigma_z_ms(
 TERM_BASIS = ("tilt", "heave", "lever", "orbital")
 
 
+def _basis_gram(amp, per, hws, wind_body_deg, mom_body, lidar, dwell_average):
+    """Gram matrices (..., 4, 4) of the :data:`TERM_BASIS` phasors at one wind direction.
+
+    ``amp``, ``per`` (..., nc) lean amplitudes (deg) and periods (s) of the components or
+    bands, ``hws`` (...) m/s, ``wind_body_deg`` (...) deg, ``mom_body`` (..., nc, 5) their
+    direction moments in the body frame: ``G_ij = sum_c a_i M_c a_j^* / 2`` with
+    ``M_c = <f f^T>`` (:func:`dbs_error_coefficients`' linear forms in ``f``).
+    """
+    from flidar_uq.physics.hull import DofResponse, HullResponse
+
+    one, zero = DofResponse(gain=1.0), DofResponse(gain=0.0)
+    follower = HullResponse("follower", one, one, one)
+    still = HullResponse("still", one, zero, zero)
+    basis = (  # (mechanisms, hull, lever arm) of each basis phasor
+        (("tilt", "beam_timing"), still, 0.0),
+        (("heave", "beam_timing"), follower, 0.0),
+        (("translation", "beam_timing"), still, 1.0),
+        (("translation", "beam_timing"), follower, 0.0),
+    )
+    a = np.stack(
+        [
+            dbs_error_coefficients(
+                amp,
+                per,
+                hws_ms=hws,
+                wind_body_deg=wind_body_deg,
+                lever_arm_m=lever,
+                hull=hull,
+                lidar=lidar,
+                mechanisms=mech,
+                dwell_average=dwell_average,
+            )[0]
+            for mech, hull, lever in basis
+        ],
+        axis=-3,
+    )  # (..., 4, nc, 3)
+    m = _moment_matrix(mom_body)  # (..., nc, 3, 3)
+    return 0.5 * np.einsum("...icf,...cfg,...jcg->...ij", a, m, np.conj(a)).real
+
+
+def _heading_grid(n_headings: int) -> np.ndarray:
+    """Wind directions relative to the body (deg) averaged over where the heading is unknown."""
+    return np.arange(int(n_headings)) * 360.0 / int(n_headings)
+
+
 def dbs_record_terms(
     hws_ms,
     roll_amplitude_deg,
@@ -486,7 +539,11 @@ def dbs_record_terms(
     The phasor of the along-wind error is linear in ``(k, k h, L, h)`` (:data:`TERM_BASIS`),
     so ``sigma_Z^2 = v^T G v`` with ``G_ij = sum_components Re(a_i conj(a_j)) / 2`` (averaged
     over ``n_headings`` headings when ``wind_body_deg`` is None). The cross-wind
-    second-order term is left out (below 1 % of sigma_Z^2 on the benchmark seas).
+    second-order term is left out (below 1 % of sigma_Z^2 on the benchmark seas). The
+    harmonics' directions of travel are the body axes, +y and +x: a record of roll and
+    pitch amplitudes does not say on which side its waves run, which for a hull that heaves
+    sets the sign of the heave-tilt cross term (:func:`dbs_band_terms`, from a record's
+    tilt bands, knows it).
 
     Parameters
     ----------
@@ -502,47 +559,89 @@ def dbs_record_terms(
     ndarray, shape (n, 4, 4)
         ``G`` in (m/s)^2 (per m and m^2 for the lever-arm rows).
     """
-    from flidar_uq.physics.hull import DofResponse, HullResponse
-
     hws = np.asarray(hws_ms, float)
     p_pitch = np.asarray(period_s, float)
     p_roll = p_pitch if roll_period_s is None else np.asarray(roll_period_s, float)
     amp = np.stack(np.broadcast_arrays(roll_amplitude_deg, pitch_amplitude_deg), -1)
     per = np.stack(np.broadcast_arrays(p_roll, p_pitch), -1)
     amp, per = np.broadcast_arrays(amp, per)
-    f = np.stack([np.ones(2), np.cos(np.deg2rad([90.0, 0.0])), np.sin(np.deg2rad([90.0, 0.0]))], -1)
-    one, zero = DofResponse(gain=1.0), DofResponse(gain=0.0)
-    follower = HullResponse("follower", one, one, one)
-    still = HullResponse("still", one, zero, zero)
-    basis = (  # (mechanisms, hull, lever arm) of each basis phasor
-        (("tilt", "beam_timing"), still, 0.0),
-        (("heave", "beam_timing"), follower, 0.0),
-        (("translation", "beam_timing"), still, 1.0),
-        (("translation", "beam_timing"), follower, 0.0),
-    )
+    mom = np.broadcast_to(direction_moments(np.array([90.0, 0.0])), amp.shape + (5,))
     betas = (
         [np.asarray(wind_body_deg, float)]
         if wind_body_deg is not None
-        else [np.full(hws.shape, b) for b in np.arange(int(n_headings)) * 360.0 / int(n_headings)]
+        else [np.full(hws.shape, b) for b in _heading_grid(n_headings)]
     )
-    gram = np.zeros(hws.shape + (4, 4))
-    for beta in betas:
-        ph = []
-        for mech, hull, lever in basis:
-            a_par, _ = dbs_error_coefficients(
-                amp,
-                per,
-                hws_ms=hws,
-                wind_body_deg=beta,
-                lever_arm_m=lever,
-                hull=hull,
-                lidar=lidar,
-                mechanisms=mech,
-                dwell_average=dwell_average,
-            )
-            ph.append(np.einsum("...cf,cf->...c", a_par, f))  # (n, 2 components)
-        ph = np.stack(ph, -2)  # (n, 4, 2)
-        gram += 0.5 * np.einsum("...ic,...jc->...ij", ph, np.conj(ph)).real
+    gram = sum(_basis_gram(amp, per, hws, b, mom, lidar, dwell_average) for b in betas)
+    return gram / len(betas)
+
+
+def band_moments_to_wind(cos_psi, cos_sq_psi) -> np.ndarray:
+    """Direction moments (..., 5) of tilt bands relative to the wind's direction of travel.
+
+    A band's ``<cos psi>`` (signed: + downwind) and ``<cos^2 psi>`` (its along-wind share of
+    the tilt variance), :func:`flidar_uq.data.imu.tilt_bands_from_records`. A record's
+    tilt does not say on which side of the wind its waves run, so ``<sin psi>`` and
+    ``<sin psi cos psi>`` are 0 (either side alike).
+    """
+    c, cc = np.broadcast_arrays(np.asarray(cos_psi, float), np.asarray(cos_sq_psi, float))
+    zero = np.zeros_like(c)
+    return np.stack([c, zero, cc, zero, 1.0 - cc], -1)
+
+
+def dbs_band_terms(
+    hws_ms,
+    amplitude_deg,
+    period_s,
+    moments_to_wind,
+    *,
+    wind_body_deg=None,
+    lidar: str | LidarGeometry | Mapping = "windcube_v2",
+    n_headings: int = 24,
+    dwell_average: bool = True,
+) -> np.ndarray:
+    """Per-record Gram matrix of a DBS lidar's error phasors from the record's tilt bands.
+
+    As :func:`dbs_record_terms`, with each band of the tilt spectrum a component of the
+    harmonic sum (the six-degree-of-freedom band sum of
+    :mod:`flidar_uq.physics.six_dof_sigma_z` for a CW lidar; Yamaguchi & Ishihara 2016,
+    Eqs. 3-4, for the beams): its lean amplitude along its direction of travel, its period
+    and its direction moments relative to the wind (:func:`band_moments_to_wind`), turned
+    into the body frame by the wind's direction relative to the beams
+    (:func:`rotate_moments`). A band's signed ``<cos psi>`` sets the sign of the heave-tilt
+    cross term, ``(U cos psi - c)`` for a wave follower. Where the heading is unknown the
+    sea turns with the wind over ``n_headings`` directions.
+
+    Parameters
+    ----------
+    hws_ms : array_like, shape (n,)
+        Mean HWS, m/s.
+    amplitude_deg, period_s : array_like, shape (n, nb)
+        Each band's lean amplitude (deg, ``sqrt(2)`` x its tilt std) and period (s).
+    moments_to_wind : array_like, shape (n, nb, 5)
+        Each band's direction moments relative to the wind's direction of travel.
+    wind_body_deg : array_like, shape (n,), optional
+        The wind's direction relative to the body (:func:`wind_to_body_deg`), deg; None:
+        unknown, averaged.
+    lidar, n_headings, dwell_average
+        As :func:`dbs_record_terms`.
+
+    Returns
+    -------
+    ndarray, shape (n, 4, 4)
+        ``G`` in (m/s)^2 (per m and m^2 for the lever-arm rows).
+    """
+    hws = np.asarray(hws_ms, float)
+    amp, per = np.broadcast_arrays(np.asarray(amplitude_deg, float), np.asarray(period_s, float))
+    mom = np.asarray(moments_to_wind, float)
+    betas = (
+        [np.asarray(wind_body_deg, float)]
+        if wind_body_deg is not None
+        else [np.full(hws.shape, b) for b in _heading_grid(n_headings)]
+    )
+    gram = sum(
+        _basis_gram(amp, per, hws, b, rotate_moments(mom, b[..., None]), lidar, dwell_average)
+        for b in betas
+    )
     return gram / len(betas)
 
 
