@@ -267,7 +267,7 @@ def plot(df: pd.DataFrame) -> None:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--base", type=Path, default=Path("/work/main/results"))
+    p.add_argument("--base", type=Path, default=Path("results"))
     p.add_argument("--sizes", default="1m,3m,1y")
     p.add_argument("--codes", default="new,old")
     p.add_argument("--old-commit", default="619c380")

@@ -392,7 +392,7 @@ class _CorrectedSubset:
     def of(cls, records, fit, flags, bins) -> _CorrectedSubset:
         from flidar_uq import inference as inf
 
-        rec = records.reset_index(drop=True).copy()
+        rec = records.reset_index(drop=True)  # a new frame (copy on write)
         n = len(rec)
         if flags is None:
             reasons = pd.Series([""] * n)

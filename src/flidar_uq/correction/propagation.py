@@ -864,35 +864,38 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan) ->
     scale = p.global_draws("motion_scale")
     kappa_z = p.global_draws("kappa_z")
     hull = p.global_draws("hull_response")
-    gram = motion_gram(
-        records,
-        lidar=lidar,
-        surrogate=surrogate,
-        scan_period_s=scan,
-        translation=global_fit.info.get("hull_model") != "rotation_only",  # the kept model
-        hull=global_fit.info.get("hull_reference", "wave_follower"),
-    )
     cols = [*GRAM_COLUMNS, "translation_measured"]
-    described = np.all(np.isfinite(gram[cols].to_numpy(dtype=float)), axis=1)
-    p.reasons[~described] = "no motion description (IMU columns missing)"
+    described = np.zeros(n, dtype=bool)
     for start in range(0, n, _RECORD_CHUNK):
-        mask = np.zeros(n, dtype=bool)
-        mask[start : start + _RECORD_CHUNK] = True
-        mask &= described
-        if not mask.any():
+        # each record's Gram is its own: computed chunk by chunk (bounds the temporaries
+        # of the band sums, ~2.5 kB a record)
+        chunk = slice(start, start + _RECORD_CHUNK)
+        gram = motion_gram(
+            records.iloc[chunk],
+            lidar=lidar,
+            surrogate=surrogate,
+            scan_period_s=scan,
+            translation=global_fit.info.get("hull_model") != "rotation_only",  # the kept model
+            hull=global_fit.info.get("hull_reference", "wave_follower"),
+        )
+        ok = np.all(np.isfinite(gram[cols].to_numpy(dtype=float)), axis=1)
+        described[chunk] = ok
+        if not ok.any():
             continue
-        k = int(mask.sum())
+        mask = np.zeros(n, dtype=bool)
+        mask[chunk] = ok
         sz = gram_sigma_z_ms(
-            {c: gram[c].to_numpy()[mask][None, :] for c in cols},
+            {c: gram[c].to_numpy()[ok][None, :] for c in cols},
             lever_arm_m=lever,
             hull_response=hull,
             motion_scale=scale,
         )
-        err = p.rng.standard_normal((p.ndraws, k))
+        err = p.rng.standard_normal((p.ndraws, int(ok.sum())))
         err *= kappa_z
         sz *= np.exp(err, out=err)  # sz exp(kappa_z N(0, 1)), in place
         del err
         p.deploy(mask, sz)
+    p.reasons[~described] = "no motion description (IMU columns missing)"
     p.conv[described] = global_fit.converged
     p.reasons[described] = "; ".join(p.global_reasons)
 

@@ -50,7 +50,7 @@ def propagate(
     from flidar_uq.correction.campaign import BinTables, CorrectionSettings, correct_campaign
     from flidar_uq.correction.reference import Reference
 
-    flags = read_csv(flags_path)
+    flags = read_csv(flags_path, ["record_id", "timestamp", "reasons"])
     fit = inf.load_fit(global_path)
     if inf.is_record_model(fit):
         status, fits = None, {}
@@ -60,13 +60,13 @@ def propagate(
         status = read_csv(bin_fits_path)
         fits = load_bin_fits(batch_dirs, status)
     bins = BinTables(
-        assignments=read_csv(assignments_path),
+        assignments=read_csv(assignments_path, ["record_id", "bin_id"]),
         table=read_csv(table_path),
         sigma_z=read_csv(sigma_z_path),
         status=status,
         fits=fits,
     )
-    records = read_csv(records_path).iloc[flags["record_id"].to_numpy()]
+    records = read_csv(records_path, chunk_rows=50_000).iloc[flags["record_id"].to_numpy()]
     result = correct_campaign(
         records,
         fit,
