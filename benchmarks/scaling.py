@@ -83,7 +83,6 @@ REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "benchmarks" / "results"
 CSV = RESULTS / "scaling.csv"
 PNG = RESULTS / "scaling.png"
-TIMELINE_PNG = RESULTS / "scaling_timeline.png"
 RECORDS_PER_DAY = 144  # 10-min records
 SIZES_DAYS = {"1w": 7, "1m": 30, "3m": 91, "1y": 365, "3y": 1095}
 HEIGHTS = 3  # default scenario's heights (27, 58, 85 m)
@@ -407,7 +406,7 @@ def dominant(g: pd.DataFrame) -> pd.Series:
     return m.loc[m["cpu_s"].idxmax()]
 
 
-def plot(df: pd.DataFrame) -> None:
+def plot(df: pd.DataFrame, path: Path = PNG) -> None:
     """Log-log CPU time, wall time and memory per step vs rows; exponents; dominant step named."""
     fig, axes = plt.subplots(1, 3, figsize=(18, 8.5))
     steps = [s for s in STEP_ORDER if s in set(df["step"])]
@@ -453,7 +452,7 @@ def plot(df: pd.DataFrame) -> None:
         fontsize=9,
     )
     fig.tight_layout()
-    fig.savefig(PNG, dpi=110)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
@@ -583,12 +582,12 @@ def main() -> None:
         df = df.sort_values(["n_rows", "step"], kind="stable").reset_index(drop=True)
         df = extrapolate_campaign(df[df["measured"]].reset_index(drop=True))
         df.to_csv(args.out, index=False)
-        if args.out == CSV:
-            plot(df)
+        plot(df, args.out.with_suffix(".png"))  # scaling.png for scaling.csv
         if args.timeline:
             tl = pd.concat([pd.read_csv(p) for p in args.timeline], ignore_index=True)
-            tl.to_csv(RESULTS / "scaling_timeline.csv", index=False)
-            plot_timeline(tl, TIMELINE_PNG)
+            timeline_csv = args.out.with_name(f"{args.out.stem}_timeline.csv")
+            tl.to_csv(timeline_csv, index=False)
+            plot_timeline(tl, timeline_csv.with_suffix(".png"))
         summarise(df)
         return
     labels = sorted(args.sizes.split(","), key=lambda s: SIZES_DAYS[s])
@@ -610,9 +609,8 @@ def main() -> None:
         )
         RESULTS.mkdir(parents=True, exist_ok=True)
         df.to_csv(args.out, index=False)
-        if args.out == CSV:
-            plot(df)
-            plot_timeline(all_timelines, TIMELINE_PNG)
+        plot(df, args.out.with_suffix(".png"))
+        plot_timeline(all_timelines, timeline_csv.with_suffix(".png"))
     summarise(df)
 
 

@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from flidar_uq.data import io as fio
 from flidar_uq.data.io import (
     DataValidationError,
     read_imu_series,
@@ -455,3 +456,24 @@ def test_virtual_campaign_passes_validation_qc_and_binning(tmp_path):
     assert qc.n_in == qc.n_kept + qc.n_flagged == len(rec)
     _, table = bin_records(qc.kept)
     assert table["count"].sum() + table.attrs["n_unbinned"] == qc.n_kept
+
+
+def test_result_table_read_in_chunks_equals_one_pass(tmp_path):
+    """read_csv(chunk_rows=): the types of one pass, whatever a chunk holds (an integer
+    column missing in a later chunk, a text column empty in the first, booleans), and
+    only the asked columns."""
+    df = pd.DataFrame(
+        {
+            "i": [1, 2, 3, 4, 5, 6, 7, 8, np.nan, 10],
+            "s": [None] * 5 + ["a", "b", None, "c", "d"],
+            "t": ["x"] * 5 + [None] * 5,
+            "b": [True, False] * 5,
+            "f": np.linspace(0.0, 1.0, 10),
+        }
+    )
+    path = tmp_path / "t.csv"
+    fio.write_csv(df, path)
+    one = fio.read_csv(path)
+    for rows in (1, 3, 5, 100):
+        pd.testing.assert_frame_equal(fio.read_csv(path, chunk_rows=rows), one)
+    pd.testing.assert_frame_equal(fio.read_csv(path, ["s", "f"], chunk_rows=4), one[["s", "f"]])

@@ -1298,12 +1298,24 @@ def read_csv(
 
     ``chunk_rows``: parse that many rows at a time and concatenate, for a long campaign's
     record table (the parser's buffers of a 3-year, 92-column table reach 3 GB at once;
-    a chunk's are a few tens of MB). A column's type is inferred per chunk and unified
-    by the concatenation (integers with a missing value in another chunk become floats,
-    as in one pass).
+    a chunk's are a few tens of MB). A column's type is inferred per chunk; the
+    concatenation gives the types of one pass (integers with a missing value in another
+    chunk become floats; a text column that is empty in a chunk stays text).
     """
     usecols = None if columns is None else list(columns)
     if chunk_rows is None:
         return pd.read_csv(path, keep_default_na=True, usecols=usecols)
-    chunks = pd.read_csv(path, keep_default_na=True, usecols=usecols, chunksize=int(chunk_rows))
-    return pd.concat(list(chunks), ignore_index=True)
+    chunks = list(
+        pd.read_csv(path, keep_default_na=True, usecols=usecols, chunksize=int(chunk_rows))
+    )
+    text = {
+        c: ch[c].dtype
+        for ch in chunks
+        for c in ch.columns
+        if isinstance(ch[c].dtype, pd.StringDtype)
+    }
+    out = pd.concat(chunks, ignore_index=True)
+    for col, dtype in text.items():  # text + an all-missing (float) chunk concatenate to object
+        if out[col].dtype == object:
+            out[col] = out[col].astype(dtype)
+    return out
