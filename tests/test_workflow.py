@@ -724,3 +724,44 @@ def test_default_campaign_meets_the_corrected_ti_acceptance(tmp_path):
     # the calibration is not bought with wider intervals: median width <= 1.2 x the bin
     # model's 20 % of TI
     assert (groups["median_rel_width"] <= 0.24).all(), groups.to_string()
+    _library_path_gives_the_pipelines_tables(tmp_path)
+
+
+def _library_path_gives_the_pipelines_tables(run_dir: Path) -> None:
+    """flidar_uq.correct_campaign on the default run's records, QC flags, bins and record
+    fit, with the reference and settings built from the shipped config by the library,
+    writes the pipeline's records.csv, speed_bins.csv and groups.csv byte for byte."""
+    import filecmp
+
+    import flidar_uq as fu
+    from flidar_uq.campaign.scenarios import reference_sampling, scenario_dir
+    from flidar_uq.data.io import read_csv
+
+    cfg = yaml.safe_load(CONFIG.read_text())
+    res = run_dir / "results"
+    virtual = reference_sampling(scenario_dir() / f"{cfg['campaign']['scenario']}.yaml")
+    propagation = dict(cfg["propagation"])
+    for key, value in (
+        ("scan_heights_in_turn", virtual["heights_in_turn"]),
+        ("scan_refocus_delay_s", list(virtual["refocus_delay_s"])),
+        ("turbulence_dt_s", virtual["turbulence_dt_s"]),
+    ):
+        if propagation[key] == "auto":
+            propagation[key] = value
+    reference = fu.Reference.from_config(
+        cfg["reference"], lidar=cfg["campaign"]["lidar"], virtual_kind=virtual["reference_kind"]
+    )
+    settings = fu.CorrectionSettings.from_config(cfg | {"propagation": propagation})
+    flags = read_csv(res / "qc" / "flags.csv")
+    records = read_csv(res / "data" / "records.csv").iloc[flags["record_id"].to_numpy()]
+    bins = fu.BinTables(
+        assignments=read_csv(res / "bins" / "assignments.csv"),
+        table=read_csv(res / "bins" / "table.csv"),
+        sigma_z=read_csv(res / "bins" / "sigma_z.csv"),
+    )
+    fit = fu.load_fit(res / "posterior" / "global.nc")
+    result = fu.correct_campaign(records, fit, reference, settings, flags=flags, bins=bins)
+    written = result.to_files(run_dir / "library")
+    for name in ("records.csv", "speed_bins.csv", "groups.csv"):
+        assert filecmp.cmp(run_dir / "library" / name, res / "ti" / name, shallow=False), name
+    assert len(written) == 5
