@@ -65,6 +65,29 @@ def test_correction_settings_from_the_config_sections():
     assert s.scan_heights_in_turn is None and s.scan_refocus_delay_s == (0.2, 0.6)
 
 
+def test_correction_inputs_resolve_the_auto_keys_from_the_virtual_scenario():
+    """The shipped config's "auto" scan keys and reference kind come from its virtual
+    scenario; the same config on the user's files takes the data-driven defaults."""
+    import yaml
+
+    from flidar_uq.campaign.scenarios import reference_sampling
+    from flidar_uq.workflow.inputs import check_config, correction_inputs, scenario_path
+
+    cfg = check_config(yaml.safe_load((REPO / "config" / "config.yaml").read_text()))
+    assert cfg["propagation"]["scan_heights_in_turn"] == "auto"
+    virtual = reference_sampling(scenario_path(cfg["campaign"]))
+    reference, settings = correction_inputs(cfg)
+    assert reference.kind == virtual["reference_kind"]
+    assert settings.scan_heights_in_turn == virtual["heights_in_turn"]
+    assert settings.scan_refocus_delay_s == tuple(virtual["refocus_delay_s"])
+    assert settings.turbulence_dt_s == virtual["turbulence_dt_s"]
+    files = {**cfg, "campaign": {**cfg["campaign"], "source": "files"}}
+    assert scenario_path(files["campaign"]) is None
+    _, defaults = correction_inputs(files)
+    assert defaults.scan_heights_in_turn is None and defaults.turbulence_dt_s is None
+    assert defaults.scan_refocus_delay_s == CorrectionSettings().scan_refocus_delay_s
+
+
 def _campaign_files(tmp_path: Path) -> dict:
     """A two-bin campaign of the bin motion model written as the pipeline's inputs of the
     propagation (one record flagged by QC, one unbinned), the fits kept in memory."""

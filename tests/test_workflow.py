@@ -734,24 +734,12 @@ def _library_path_gives_the_pipelines_tables(run_dir: Path) -> None:
     import filecmp
 
     import flidar_uq as fu
-    from flidar_uq.campaign.scenarios import reference_sampling, scenario_dir
     from flidar_uq.data.io import read_csv
+    from flidar_uq.workflow.inputs import check_config, correction_inputs
 
-    cfg = yaml.safe_load(CONFIG.read_text())
+    cfg = check_config(yaml.safe_load(CONFIG.read_text()))
     res = run_dir / "results"
-    virtual = reference_sampling(scenario_dir() / f"{cfg['campaign']['scenario']}.yaml")
-    propagation = dict(cfg["propagation"])
-    for key, value in (
-        ("scan_heights_in_turn", virtual["heights_in_turn"]),
-        ("scan_refocus_delay_s", list(virtual["refocus_delay_s"])),
-        ("turbulence_dt_s", virtual["turbulence_dt_s"]),
-    ):
-        if propagation[key] == "auto":
-            propagation[key] = value
-    reference = fu.Reference.from_config(
-        cfg["reference"], lidar=cfg["campaign"]["lidar"], virtual_kind=virtual["reference_kind"]
-    )
-    settings = fu.CorrectionSettings.from_config(cfg | {"propagation": propagation})
+    reference, settings = correction_inputs(cfg)
     flags = read_csv(res / "qc" / "flags.csv")
     records = read_csv(res / "data" / "records.csv").iloc[flags["record_id"].to_numpy()]
     bins = fu.BinTables(

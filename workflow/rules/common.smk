@@ -2,7 +2,6 @@
 import os
 import sys
 
-from flidar_uq.campaign.scenarios import scenario_dir
 from flidar_uq.workflow.inputs import pipeline_preflight
 
 
@@ -63,12 +62,10 @@ PROPAGATION_FITS = (
 def scenario_file(wildcards):
     """Scenario YAML of the virtual campaign (a path, or a name shipped with the package:
     flidar_uq/resources/scenarios/<name>.yaml, read from the installed package)."""
-    if config["campaign"]["source"] != "virtual":
-        return []
-    scenario = config["campaign"]["scenario"]
-    if scenario.endswith((".yaml", ".yml")):
-        return scenario  # a path (relative to the working directory)
-    return str(scenario_dir() / f"{scenario}.yaml")  # shipped with the package
+    from flidar_uq.workflow.inputs import scenario_path
+
+    path = scenario_path(config["campaign"])
+    return [] if path is None else str(path)
 
 
 def user_records(wildcards):
@@ -87,20 +84,13 @@ def user_part_files(wildcards):
 
 
 def reference_params():
-    """config["reference"] resolved (flidar_uq.correction.reference.Reference.from_config),
-    as plain values: its kind from the virtual campaign's scenario; for the user's files
-    the config's kind, checked against the records' ref_* columns by pipeline_preflight at
+    """config["reference"] resolved (flidar_uq.workflow.inputs.check_reference), as plain
+    values: its kind from the virtual campaign's scenario; for the user's files the
+    config's kind, checked against the records' ref_* columns by pipeline_preflight at
     parse time (one line, exit status 2)."""
-    from flidar_uq.correction.reference import Reference
+    from flidar_uq.workflow.inputs import check_reference
 
-    virtual_kind = None
-    if config["campaign"]["source"] == "virtual":
-        from flidar_uq.campaign.scenarios import reference_sampling
-
-        virtual_kind = reference_sampling(scenario_file(None))["reference_kind"]
-    return Reference.from_config(
-        config["reference"], lidar=config["campaign"]["lidar"], virtual_kind=virtual_kind
-    ).to_config()
+    return check_reference(config).to_config()
 
 
 def bin_ids():
@@ -125,38 +115,22 @@ def batch_of_bin(wildcards):
 
 
 def propagation_params():
-    """config["propagation"] with the "auto" sampling keys resolved: from the virtual
-    campaign's scenario (source virtual), else the data-driven defaults of
-    flidar_uq.correction.campaign.CorrectionSettings (heights counted in the records, continuous spectrum)."""
-    params = dict(config["propagation"])
-    sampling = {
-        "scan_heights_in_turn": None,
-        "scan_refocus_delay_s": [0.3, 0.7],
-        "turbulence_dt_s": None,
-    }
-    if config["campaign"]["source"] == "virtual":
-        from flidar_uq.campaign.scenarios import reference_sampling
+    """config["propagation"] with the "auto" sampling keys resolved
+    (flidar_uq.workflow.inputs.resolve_propagation)."""
+    from flidar_uq.workflow.inputs import resolve_propagation
 
-        virtual = reference_sampling(scenario_file(None))
-        sampling = {
-            "scan_heights_in_turn": virtual["heights_in_turn"],
-            "scan_refocus_delay_s": list(virtual["refocus_delay_s"]),
-            "turbulence_dt_s": virtual["turbulence_dt_s"],
-        }
-    for key, value in sampling.items():
-        if params[key] == "auto":
-            params[key] = value
-    return params
+    return resolve_propagation(config)
 
 
 def correction_settings():
-    """The propagation's options (flidar_uq.correction.campaign.CorrectionSettings, built
-    from the config with the "auto" sampling keys resolved), as plain values."""
+    """The propagation's options (flidar_uq.correction.campaign.CorrectionSettings of the
+    config, "auto" keys resolved: flidar_uq.workflow.inputs.correction_inputs), as plain
+    values."""
     from dataclasses import asdict
 
-    from flidar_uq.correction.campaign import CorrectionSettings
+    from flidar_uq.workflow.inputs import correction_inputs
 
-    return asdict(CorrectionSettings.from_config(config | {"propagation": propagation_params()}))
+    return asdict(correction_inputs(config)[1])
 
 
 def _series_paths():

@@ -147,8 +147,9 @@ class CorrectionSettings:
     def from_config(cls, config: Mapping) -> CorrectionSettings:
         """The settings of a whole config (``propagation``, ``report``, ``inference``,
         ``campaign`` sections; missing keys keep their defaults). The ``propagation``
-        section's "auto" scan keys must be resolved first (the workflow's
-        ``propagation_params``); a remaining "auto" is read as its data-driven default
+        section's "auto" scan keys must be resolved first
+        (:func:`flidar_uq.workflow.inputs.correction_inputs` does it for a virtual
+        campaign, from its scenario); a remaining "auto" is read as its data-driven default
         (heights counted in the records, refocus delays (0.3, 0.7) s, the continuous
         spectrum)."""
         p = dict(config.get("propagation") or {})

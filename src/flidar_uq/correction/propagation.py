@@ -798,14 +798,13 @@ class _Propagation:
             return self.kappa
         return split_noise(self.kappa, self.log_sd[cols][None, :], self.corr[cols][None, :])
 
-    def deploy(self, mask, sz, tau0=0.0):
-        """Steps 2-4 of the module docstring for the records of ``mask`` (sZ draws given;
-        the floating lidar's relative sampling sd about its motionless-lidar std from
+    def deploy(self, cols, sz, tau0=0.0):
+        """Steps 2-4 of the module docstring for the records at the indices ``cols`` (sZ
+        draws given; the floating lidar's relative sampling sd about its motionless-lidar std from
         :meth:`own_noise`, ``tau0`` an absolute one, m/s). The random numbers are drawn for
         all of them (z, then e: the stream does not depend on the blocks); the rest runs on
         blocks of records to bound the temporaries."""
         hold, s, m = self.hold, self.s, self.m
-        cols = np.flatnonzero(mask)
         z = self.rng.standard_normal((self.ndraws, cols.size))
         e = self.rng.standard_normal((self.ndraws, cols.size))
         if "sampling" in hold:
@@ -864,6 +863,8 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan) ->
     scale = p.global_draws("motion_scale")
     kappa_z = p.global_draws("kappa_z")
     hull = p.global_draws("hull_response")
+    translation = global_fit.info.get("hull_model") != "rotation_only"  # the kept model
+    hull_reference = global_fit.info.get("hull_reference", "wave_follower")
     cols = [*GRAM_COLUMNS, "translation_measured"]
     described = np.zeros(n, dtype=bool)
     for start in range(0, n, _RECORD_CHUNK):
@@ -875,15 +876,13 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan) ->
             lidar=lidar,
             surrogate=surrogate,
             scan_period_s=scan,
-            translation=global_fit.info.get("hull_model") != "rotation_only",  # the kept model
-            hull=global_fit.info.get("hull_reference", "wave_follower"),
+            translation=translation,
+            hull=hull_reference,
         )
         ok = np.all(np.isfinite(gram[cols].to_numpy(dtype=float)), axis=1)
         described[chunk] = ok
         if not ok.any():
             continue
-        mask = np.zeros(n, dtype=bool)
-        mask[chunk] = ok
         sz = gram_sigma_z_ms(
             {c: gram[c].to_numpy()[ok][None, :] for c in cols},
             lever_arm_m=lever,
@@ -894,7 +893,7 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan) ->
         err *= kappa_z
         sz *= np.exp(err, out=err)  # sz exp(kappa_z N(0, 1)), in place
         del err
-        p.deploy(mask, sz)
+        p.deploy(start + np.flatnonzero(ok), sz)
     p.reasons[~described] = "no motion description (IMU columns missing)"
     p.conv[described] = global_fit.converged
     p.reasons[described] = "; ".join(p.global_reasons)
@@ -923,7 +922,7 @@ def _propagate_bin_model(p: _Propagation, records, bin_fits, surrogate, scan) ->
             sz = scale * sz
         else:  # plus the head translation of the lever-arm model
             sz = effective_sigma_z_ms(sz, u2, lever, scale)
-        p.deploy(mask, sz, tau0)
+        p.deploy(np.flatnonzero(mask), sz, tau0)
         p.conv[mask] = f.converged and global_fit.converged
         p.reasons[mask] = "; ".join([*f.failure_reasons, *p.global_reasons])
 

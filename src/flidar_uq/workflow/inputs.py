@@ -47,11 +47,14 @@ __all__ = [
     "check_config",
     "check_reference",
     "check_series",
+    "correction_inputs",
     "exit_status",
     "inspect_records",
     "load_config_file",
     "pipeline_preflight",
     "read_campaign_records",
+    "resolve_propagation",
+    "scenario_path",
     "step_errors_exit",
 ]
 
@@ -587,6 +590,56 @@ def exit_status(exc: BaseException) -> int | None:
     return None
 
 
+def scenario_path(campaign: Mapping) -> Path | None:
+    """The virtual campaign's scenario YAML (``campaign.scenario``: a path ending in .yaml,
+    or the name of one shipped with the package), ``None`` when ``campaign.source`` is not
+    ``virtual``."""
+    if campaign["source"] != "virtual":
+        return None
+    from flidar_uq.campaign.scenarios import scenario_dir
+
+    scenario = campaign["scenario"]
+    if scenario.endswith((".yaml", ".yml")):
+        return Path(scenario)  # relative to the working directory
+    return scenario_dir() / f"{scenario}.yaml"
+
+
+def _virtual_sampling(campaign: Mapping) -> dict | None:
+    """How the virtual campaign's lidar and reference sample the wind
+    (:func:`flidar_uq.campaign.scenarios.reference_sampling`), ``None`` for the user's files."""
+    path = scenario_path(campaign)
+    if path is None:
+        return None
+    from flidar_uq.campaign.scenarios import reference_sampling
+
+    return reference_sampling(path)
+
+
+def resolve_propagation(config: Mapping) -> dict:
+    """``config["propagation"]`` with its "auto" scan keys resolved: from the virtual
+    campaign's scenario (heights scanned in turn, refocus delays in s, the turbulence time
+    step in s), else the data-driven defaults of
+    :class:`flidar_uq.correction.campaign.CorrectionSettings` (heights counted in the
+    records, refocus delays (0.3, 0.7) s, the continuous spectrum)."""
+    params = dict(config["propagation"])
+    virtual = _virtual_sampling(config["campaign"])
+    sampling = {
+        "scan_heights_in_turn": None,
+        "scan_refocus_delay_s": [0.3, 0.7],
+        "turbulence_dt_s": None,
+    }
+    if virtual is not None:
+        sampling = {
+            "scan_heights_in_turn": virtual["heights_in_turn"],
+            "scan_refocus_delay_s": list(virtual["refocus_delay_s"]),
+            "turbulence_dt_s": virtual["turbulence_dt_s"],
+        }
+    for key, value in sampling.items():
+        if params.get(key) == "auto":
+            params[key] = value
+    return params
+
+
 def check_reference(config: dict, record_columns=None):
     """``config["reference"]`` resolved for the user's records (``record_columns``: their
     columns after the column map) or the virtual campaign's scenario:
@@ -595,26 +648,30 @@ def check_reference(config: dict, record_columns=None):
     from flidar_uq.correction.reference import Reference
 
     camp = config["campaign"]
-    virtual_kind = None
-    if camp["source"] == "virtual":
-        from flidar_uq.campaign.scenarios import reference_sampling, scenario_dir
-
-        scenario = camp["scenario"]
-        path = (
-            scenario
-            if scenario.endswith((".yaml", ".yml"))
-            else scenario_dir() / f"{scenario}.yaml"
-        )
-        virtual_kind = reference_sampling(path)["reference_kind"]
+    virtual = _virtual_sampling(camp)
     try:
         return Reference.from_config(
             config.get("reference"),
             lidar=camp["lidar"],
-            virtual_kind=virtual_kind,
+            virtual_kind=None if virtual is None else virtual["reference_kind"],
             record_columns=record_columns,
         )
     except ValueError as err:
         raise ConfigError("reference", str(err), message=str(err)) from None
+
+
+def correction_inputs(config: dict, record_columns=None):
+    """The reference and the propagation's settings of a whole (checked) config, as the
+    pipeline's ``propagate`` step gets them: ``(Reference, CorrectionSettings)`` for
+    :func:`flidar_uq.correct_campaign`, "auto" keys resolved (:func:`check_reference`,
+    :func:`resolve_propagation`)."""
+    from flidar_uq.correction.campaign import CorrectionSettings
+
+    reference = check_reference(config, record_columns)
+    settings = CorrectionSettings.from_config(
+        {**config, "propagation": resolve_propagation(config)}
+    )
+    return reference, settings
 
 
 def check_series(campaign: Mapping) -> None:
