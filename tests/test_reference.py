@@ -443,6 +443,17 @@ def test_two_lidars_sampling_errors_decorrelate_with_azimuth_offset_and_own_sche
         lidar_pair_correlation(0.0, n_records=4)
 
 
+def test_a_dbs_lidar_turned_by_the_heading_samples_other_beams():
+    """A DBS lidar's beams are fixed to its body: turned by 45 deg against a twin on the
+    same schedule it measures other radial speeds, and the two sampling errors
+    decorrelate (the DBS scan has no random phase for the offset to add to)."""
+    from flidar_uq.physics.lidar_response import lidar_pair_correlation
+
+    c = lidar_pair_correlation([0.0, 45.0], "windcube_v2", turbulence_dt_s=0.1, n_records=80)
+    assert c[0] > 0.97  # the same beams at the same instants
+    assert c[1] < 0.8  # measured 0.50 on 300 records
+
+
 def test_pair_sampling_correlation_per_record_from_the_config_and_the_heading():
     from flidar_uq.correction.propagation import SYNCHRONIZED, pair_sampling_correlation
 

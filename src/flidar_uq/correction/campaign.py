@@ -529,7 +529,7 @@ def _output_records(c: _CorrectedSubset, fit, per_record, sz_seed, settings) -> 
         out["ti_true"] = rec["true_ti"].to_numpy(dtype=float)
     if "true_hws_std_ms" in rec:
         out["true_hws_std_ms"] = rec["true_hws_std_ms"].to_numpy(dtype=float)
-    for col in ("true_swell_present", "true_weathervane"):  # regime truth, for the report
+    for col in ("true_swell_present", "true_weathervane", "true_period_s"):  # regime truth
         if col in rec:
             out[col] = rec[col].to_numpy(dtype=float)
     for col in carried_columns(rec.columns):  # buoy-logger and extra columns, unchanged

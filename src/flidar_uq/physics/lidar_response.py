@@ -242,13 +242,16 @@ class _ScanSimulation(NamedTuple):
         starts = starts[rng.integers(self.heights_in_turn) :: self.heights_in_turn]
         return starts, rng.uniform(0.0, 2.0 * np.pi, size=(starts.size, 1))
 
-    def log_ratio(self, wind, starts, phase, point_std):
-        """``log(lidar 10-min HWS std / point_std)`` of the scans at ``starts``."""
+    def log_ratio(self, wind, starts, phase, point_std, heading_rad=0.0):
+        """``log(lidar 10-min HWS std / point_std)`` of the scans at ``starts``, the lidar
+        turned by ``heading_rad`` in the body frame (rad). A VAD scan starts at its random
+        azimuth ``phase`` (rad); a DBS lidar's beams are fixed to its body, so only the
+        heading turns them."""
         g = self.geometry
         if g.kind == "dbs":
-            az = np.broadcast_to(self.az0, (starts.size, self.lag.size))
+            az = np.broadcast_to(self.az0 + heading_rad, (starts.size, self.lag.size))
         else:
-            az = self.az0[None, :] + phase
+            az = self.az0[None, :] + (phase + heading_rad)
         d = _lidar.beam_unit_vectors_body(g, az)  # (J, K, 3)
         v_r = np.einsum("jkc,jkc->jk", d, wind[starts[:, None] + self.lag[None, :]])
         uvw = np.einsum("jck,jk->jc", _lidar.vad_pseudo_inverse(d), v_r)
@@ -421,7 +424,9 @@ def lidar_pair_correlation(
     offset does not matter). Simulated as :func:`lidar_point_log_sd` (IEC Kaimal ``u', v',
     w'``, TI 0.1, least-squares scans, random wind direction) at one ``Lambda_1(z) / U``;
     the synchronized correlation is computed at offsets 0-180 deg every 30 deg and smoothed
-    by a cosine series of order 3 in the offset (``c(-d) = c(d)``).
+    by a cosine series of order 3 in the offset (``c(-d) = c(d)``); for a DBS lidar, whose
+    beams are fixed to its body and turn with the offset (the VAD's random scan phase does
+    not), every 15 deg and order 6.
 
     Parameters
     ----------
@@ -465,7 +470,11 @@ def lidar_pair_correlation(
             f"got {hws_ms!r}, {height_m!r}, {n_records!r}"
         )
     offsets = np.asarray(azimuth_offset_deg, dtype=float)
-    grid = np.arange(0.0, 181.0, 30.0) if synchronized else np.array([0.0])
+    # a DBS lidar's beams are fixed to its body and taken one after the other: its
+    # correlation changes faster with the offset than a VAD scan's (cosine order 6)
+    dbs = sim.geometry.kind == "dbs"
+    step_deg, order = (15.0, 6) if dbs else (30.0, 3)
+    grid = np.arange(0.0, 180.0 + step_deg / 2, step_deg) if synchronized else np.array([0.0])
     rng = np.random.default_rng(as_seedsequence(seed))
     x_t = sim.held_turbulence(rng, n_records, hws_ms, height_m)
     e1 = np.empty(int(n_records))
@@ -478,11 +487,11 @@ def lidar_pair_correlation(
         if not synchronized:
             starts, phase = sim.schedule(rng)
         for k, d in enumerate(grid):
-            e2[k, r] = sim.log_ratio(wind, starts, phase + np.deg2rad(d), point_std)
+            e2[k, r] = sim.log_ratio(wind, starts, phase, point_std, np.deg2rad(d))
     c = np.array([np.corrcoef(e1, e2[k])[0, 1] for k in range(grid.size)])
     if not synchronized:
         return np.full(offsets.shape, float(c[0]))
-    basis = np.cos(np.deg2rad(grid)[:, None] * np.arange(4)[None, :])
+    basis = np.cos(np.deg2rad(grid)[:, None] * np.arange(order + 1)[None, :])
     coef = np.linalg.lstsq(basis, c, rcond=None)[0]
-    out = np.cos(np.deg2rad(offsets)[..., None] * np.arange(4)) @ coef
+    out = np.cos(np.deg2rad(offsets)[..., None] * np.arange(order + 1)) @ coef
     return np.clip(out, -1.0, 1.0)

@@ -41,7 +41,13 @@ from flidar_uq.seeding import as_seedsequence
 __all__ = ["REGIME_COLUMNS", "regime_labels", "scenario_calibration", "scenario_records"]
 
 #: Grouping columns of :func:`scenario_calibration`'s tables.
-REGIME_COLUMNS = ("speed_group", "sea_state", "heading", "sea_state_heading")
+REGIME_COLUMNS = ("speed_group", "sea_state", "heading", "sea_state_heading", "wave_period")
+
+#: Edges of the wave-period groups (s, the record's dominant sea period): a short wind
+#: sea below 4 s, whose orbital translation is smaller than the lever arm's; a long swell
+#: above 7 s, whose translation is several times larger (``g T^2 / (4 pi^2)`` 2.5 m
+#: against 12 m).
+WAVE_PERIOD_EDGES_S = (4.0, 7.0)
 
 
 def regime_labels(records: pd.DataFrame) -> pd.DataFrame:
@@ -52,7 +58,9 @@ def regime_labels(records: pd.DataFrame) -> pd.DataFrame:
     pandas.DataFrame
         ``speed_group`` (3-m/s groups from 3 m/s, on the measured mean HWS), ``sea_state``
         (``"swell"`` if the record's sea has a swell, else ``"wind sea"``), ``heading``
-        (``"weathervaning"`` / ``"fixed heading"``) and their crossing ``sea_state_heading``.
+        (``"weathervaning"`` / ``"fixed heading"``), their crossing ``sea_state_heading``
+        and ``wave_period`` (the dominant sea period ``true_period_s`` in the groups of
+        :data:`WAVE_PERIOD_EDGES_S`; ``""`` without one).
     """
     out = pd.DataFrame(index=records.index)
     out["speed_group"] = speed_group_label(records["hws_mean_ms"].to_numpy(dtype=float))
@@ -61,6 +69,12 @@ def regime_labels(records: pd.DataFrame) -> pd.DataFrame:
     out["sea_state"] = np.where(swell.to_numpy(dtype=float) > 0.5, "swell", "wind sea")
     out["heading"] = np.where(vane.to_numpy(dtype=float) > 0.5, "weathervaning", "fixed heading")
     out["sea_state_heading"] = out["sea_state"] + " / " + out["heading"]
+    period = records.get("true_period_s", pd.Series(np.nan, index=records.index))
+    p = period.to_numpy(dtype=float)
+    lo, hi = WAVE_PERIOD_EDGES_S
+    out["wave_period"] = np.select(
+        [p < lo, p <= hi, p > hi], [f"< {lo:g} s", f"{lo:g}-{hi:g} s", f"> {hi:g} s"], ""
+    )
     return out
 
 

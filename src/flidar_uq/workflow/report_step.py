@@ -49,9 +49,9 @@ def regime_calibration_table(records: pd.DataFrame) -> pd.DataFrame:
     """Calibration of the corrected TI per regime of a records.csv table with ``ti_true``.
 
     The QC-kept records (no QC reason in ``flags``) in 3-20 m/s, grouped as
-    :func:`flidar_uq.validation.regimes.scenario_calibration` does (speed group; sea state
-    and heading where the truth columns ``true_swell_present`` / ``true_weathervane``
-    exist). With a reference lidar's campaign-wide error of ``g`` in the total interval
+    :func:`flidar_uq.validation.regimes.scenario_calibration` does (speed group; sea state,
+    heading and wave period where the truth columns ``true_swell_present`` /
+    ``true_weathervane`` / ``true_period_s`` exist). With a reference lidar's campaign-wide error of ``g`` in the total interval
     (``ti_corrected_lo_total`` differs from ``ti_corrected_lo``), also the coverage and
     median width of the total interval (``coverage_total``, ``median_rel_width_total``).
     """
@@ -71,6 +71,8 @@ def regime_calibration_table(records: pd.DataFrame) -> pd.DataFrame:
         tab = tab[~tab["grouping"].isin(["sea_state", "sea_state_heading"])]
     if "true_weathervane" not in records:
         tab = tab[~tab["grouping"].isin(["heading", "sea_state_heading"])]
+    if "true_period_s" not in records:
+        tab = tab[tab["grouping"] != "wave_period"]
     cols = ["grouping", "group", "n", "answered_share", "coverage", "coverage_lo"]
     cols += ["coverage_hi", "mean_rel_error", "median_rel_width"]
     total = ("ti_corrected_lo_total", "ti_corrected_hi_total")
