@@ -297,10 +297,12 @@ def _follower_sea(direction_deg, spread_deg, hull="wave_follower", seed=1, fs=5.
 @pytest.mark.parametrize("hull", ["wave_follower", "discus_buoy"])
 @pytest.mark.parametrize("direction_deg", [0.0, 60.0, 90.0, 180.0, 240.0])
 def test_heave_gives_each_bands_signed_direction_of_travel(direction_deg, hull):
-    """The heave-tilt co-spectrum gives <cos psi> of a narrow sea with its sign: waves
-    running downwind (wind from the west, waves towards east) +1, upwind -1, across 0.
-    For a wrapped-normal spread s, <cos psi> = cos(psi) exp(-s^2 / 2); a hull whose heave
-    lags its tilt by phi (its response amplitude operators) gives that times cos(phi)."""
+    """The heave-tilt co-spectra give <cos psi> and <sin psi> of a narrow sea with their
+    signs: waves running downwind (wind from the west, waves towards east) cos +1, upwind
+    -1; waves running north, to the left of the wind, sin +1, south -1. For a
+    wrapped-normal spread s, <cos psi> = cos(psi) exp(-s^2 / 2) and <sin psi> = sin(psi)
+    exp(-s^2 / 2); a hull whose heave lags its tilt by phi (its response amplitude
+    operators) gives those times cos(phi)."""
     from flidar_uq.data.imu import tilt_band_statistics
     from flidar_uq.physics.hull import get_hull
 
@@ -309,12 +311,14 @@ def test_heave_gives_each_bands_signed_direction_of_travel(direction_deg, hull):
     spec = tilt_band_statistics(roll, pitch, 0.0, 270.0, 5.0, velocity_up_ms=w)
     var = spec.var_along_deg2[0] + spec.var_across_deg2[0]
     strong = var > 0.05 * var.max()  # the bands that carry the sea
-    expect = np.cos(np.deg2rad(direction_deg)) * np.exp(-0.5 * np.deg2rad(spread) ** 2)
     _, r_z = get_hull(hull).relative_responses(spec.period_s[0])
-    expect = expect * np.cos(np.angle(r_z))
-    np.testing.assert_allclose(spec.cos_psi[0][strong], expect[strong], atol=0.08)
+    scale = np.exp(-0.5 * np.deg2rad(spread) ** 2) * np.cos(np.angle(r_z))
+    psi = np.deg2rad(direction_deg)
+    np.testing.assert_allclose(spec.cos_psi[0][strong], (np.cos(psi) * scale)[strong], atol=0.08)
+    np.testing.assert_allclose(spec.sin_psi[0][strong], (np.sin(psi) * scale)[strong], atol=0.08)
     # the tilt alone cannot tell the side: without the heave there is no measured direction
-    assert tilt_band_statistics(roll, pitch, 0.0, 270.0, 5.0).cos_psi is None
+    alone = tilt_band_statistics(roll, pitch, 0.0, 270.0, 5.0)
+    assert alone.cos_psi is None and alone.sin_psi is None
 
 
 def test_measured_direction_reaches_the_record_columns_and_the_record_model():
@@ -334,8 +338,10 @@ def test_measured_direction_reaches_the_record_columns_and_the_record_model():
         spec = tilt_band_statistics(roll, pitch, 0.0, 270.0, 5.0, velocity_up_ms=w)
         rec = pd.DataFrame(tilt_spectrum_columns(spec)).assign(hws_mean_ms=8.0)
         assert {f"tilt_band{b}_cos_psi" for b in range(1, 9)} <= set(rec.columns)
+        assert {f"tilt_band{b}_sin_psi" for b in range(1, 9)} <= set(rec.columns)
         bands = tilt_bands_from_records(rec)
         np.testing.assert_array_equal(bands["cos_psi_measured"][0], spec.cos_psi[0])
+        np.testing.assert_array_equal(bands["sin_psi_measured"][0], spec.sin_psi[0])
         grams[d] = motion_gram(rec)
         # without the measured direction the wave-age rule takes the wind sea downwind
         grams[d, "rule"] = motion_gram(

@@ -312,3 +312,28 @@ def test_record_sigma_z_picks_best_description_per_record():
     # the same single harmonic along the wind, described three ways
     assert sig[0] == pytest.approx(sig[1], rel=5e-3) and sig[1] == pytest.approx(sig[2], rel=1e-3)
     assert np.isnan(sig[3])
+
+
+@pytest.mark.parametrize("n_nodes", [1, 3, 4])
+def test_sub_band_nodes_keep_each_bands_variance_and_centroid(n_nodes):
+    """The nodes of a band lie inside it, their variance shares sum to 1 and their
+    variance-weighted mean frequency is the band's centroid (tilt_band_spectrum's period),
+    for centroids across the band, the ramp near its edges included."""
+    from flidar_uq.physics.motion_spectrum import band_edges_s, expand_bands, sub_band_nodes
+
+    edges = band_edges_s(8)
+    f_hi, f_lo = 1.0 / edges[:-1], 1.0 / edges[1:]
+    for x in (-0.95, -0.5, -0.2, 0.0, 0.3, 0.34, 0.9):  # centroid in band units
+        per = 1.0 / (0.5 * (f_hi + f_lo) + x * 0.5 * (f_hi - f_lo))
+        p, w = sub_band_nodes(per[None, :], edges, n_nodes)
+        assert p.shape == w.shape == (1, 8, n_nodes)
+        assert np.all(w >= 0)
+        np.testing.assert_allclose(w.sum(-1), 1.0, rtol=1e-12)
+        np.testing.assert_allclose((w / p).sum(-1), 1.0 / per[None, :], rtol=1e-12)
+        assert np.all((p >= edges[:-1, None] * (1 - 1e-12)) & (p <= edges[1:, None] * (1 + 1e-12)))
+    amp = np.arange(1.0, 9.0)[None, :]
+    a, p, m = expand_bands(amp, per[None, :], edges, np.arange(8.0)[None, :], n_nodes=n_nodes)
+    np.testing.assert_allclose((a**2).reshape(1, 8, n_nodes).sum(-1), amp**2)  # variance kept
+    np.testing.assert_array_equal(m, np.repeat(np.arange(8.0), n_nodes)[None, :])
+    if n_nodes == 1:
+        np.testing.assert_allclose(p, per[None, :])  # one node: the centroid itself

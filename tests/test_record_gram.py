@@ -251,6 +251,8 @@ def test_reference_hull_with_tilt_bands_is_that_hulls_band_sum():
     gives the band sum of that hull (six_dof_band_sigma_z_ms), here a spar's and a discus
     buoy's, different from the wave follower's."""
     from flidar_uq.data.schema import tilt_band_column_names
+    from flidar_uq.inference.record_motion import BAND_NODES
+    from flidar_uq.physics.motion_spectrum import band_edges_s, expand_bands
     from flidar_uq.physics.seastate import downwind_side_known
     from flidar_uq.physics.six_dof_sigma_z import six_dof_band_sigma_z_ms
 
@@ -267,12 +269,14 @@ def test_reference_hull_with_tilt_bands_is_that_hulls_band_sum():
     cos = np.where(share > 0.5, np.abs(2 * share - 1) ** 0.25, 0.0)
     cos = np.where(downwind_side_known(per, hws[:, None]), cos, 0.0)
     amp = np.sqrt(2 * (va + vc))
+    bands = expand_bands(amp, per, band_edges_s(8), cos, share, n_nodes=BAND_NODES)
     got = {}
     for hull in ("wave_follower", "discus_buoy", "spar"):
         got[hull] = gram_sigma_z_ms(motion_gram(rec, hull=hull), lever_arm_m=1.5, hull_response=1.0)
         want = six_dof_band_sigma_z_ms(
-            hws, amp, per, band_cos_psi=cos, band_cos_sq_psi=share, lever_arm_m=1.5, hull=hull
-        )
+            hws, *bands[:2], band_cos_psi=bands[2], band_cos_sq_psi=bands[3],
+            lever_arm_m=1.5, hull=hull,
+        )  # fmt: skip
         np.testing.assert_allclose(got[hull], want, rtol=1e-10)
     assert not np.allclose(got["discus_buoy"], got["wave_follower"])
     assert not np.allclose(got["spar"], got["wave_follower"])

@@ -93,7 +93,8 @@ def test_band_description_is_the_six_dof_band_sum():
     response is the band sum of :func:`six_dof_band_sigma_z_ms` (h = 0 rotation only, 1
     wave follower), whatever the moments columns say; swell bands (wave age > 1.2) enter
     with the side of their travel unknown."""
-    from flidar_uq.inference.record_motion import gram_sigma_z_ms, motion_gram
+    from flidar_uq.inference.record_motion import BAND_NODES, gram_sigma_z_ms, motion_gram
+    from flidar_uq.physics.motion_spectrum import band_edges_s, expand_bands
     from flidar_uq.physics.seastate import downwind_side_known
     from flidar_uq.physics.six_dof_sigma_z import six_dof_band_sigma_z_ms
 
@@ -110,22 +111,25 @@ def test_band_description_is_the_six_dof_band_sum():
         }
         | _band_columns(per, va, vc)
     )
-    gram = motion_gram(rec)
-    assert (gram["motion_description"] == "tilt_bands").all()
     share = va / (va + vc)
     cos = np.where(share > 0.5, np.abs(2 * share - 1) ** 0.25, 0.0)
     cos = np.where(downwind_side_known(per, hws[:, None]), cos, 0.0)  # swell: side unknown
     amp = np.sqrt(2 * (va + vc))
-    for lever, h, hull in (
-        (0.0, 0.0, "rotation_only"),
-        (2.5, 0.0, "rotation_only"),
-        (2.5, 1.0, "wave_follower"),
-    ):
-        got = gram_sigma_z_ms(gram, lever_arm_m=lever, hull_response=h)
-        want = six_dof_band_sigma_z_ms(
-            hws, amp, per, band_cos_psi=cos, band_cos_sq_psi=share, lever_arm_m=lever, hull=hull
-        )
-        np.testing.assert_allclose(got, want, rtol=1e-10)
+    for nodes in (1, BAND_NODES):  # each band as `nodes` harmonics spread over it
+        gram = motion_gram(rec, band_nodes=nodes)
+        assert (gram["motion_description"] == "tilt_bands").all()
+        bands = expand_bands(amp, per, band_edges_s(8), cos, share, n_nodes=nodes)
+        for lever, h, hull in (
+            (0.0, 0.0, "rotation_only"),
+            (2.5, 0.0, "rotation_only"),
+            (2.5, 1.0, "wave_follower"),
+        ):
+            got = gram_sigma_z_ms(gram, lever_arm_m=lever, hull_response=h)
+            want = six_dof_band_sigma_z_ms(
+                hws, *bands[:2], band_cos_psi=bands[2], band_cos_sq_psi=bands[3],
+                lever_arm_m=lever, hull=hull,
+            )  # fmt: skip
+            np.testing.assert_allclose(got, want, rtol=1e-10)
 
 
 def test_describe_motion_agrees_with_the_terms_the_model_uses():

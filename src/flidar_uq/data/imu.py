@@ -48,6 +48,7 @@ from flidar_uq.data.schema import (
     TILT_SPECTRUM_COLUMNS,
     tilt_band_column_names,
     tilt_band_cos_psi_column,
+    tilt_band_sin_psi_column,
 )
 from flidar_uq.physics.hull import G_MS2
 from flidar_uq.physics.motion_spectrum import (
@@ -64,7 +65,7 @@ if TYPE_CHECKING:  # pandas is imported where a function builds or reads a DataF
 
 __all__ = [
     "AMPLITUDE_METHODS",
-    "band_cos_psi_from_heave",
+    "band_direction_from_heave",
     "grid_rate_hz",
     "PERIOD_METHODS",
     "amplitude_std_deg",
@@ -240,7 +241,7 @@ def _welch_hann(x: np.ndarray, fs_hz: float, nperseg: int) -> tuple[np.ndarray, 
     return _fft.rfftfreq(nperseg, 1.0 / fs_hz), p
 
 
-def band_cos_psi_from_heave(
+def band_direction_from_heave(
     velocity_up_ms,
     along_deg,
     across_deg,
@@ -250,21 +251,25 @@ def band_cos_psi_from_heave(
     n_bands: int = 8,
     period_min_s: float = 1.0,
     period_max_s: float = 20.0,
-) -> np.ndarray:
-    """Signed mean cosine of each band's directions of travel against the wind, from heave.
+) -> tuple[np.ndarray, np.ndarray]:
+    """Signed mean cosine and sine of each band's directions of travel against the wind.
 
-    A buoy that follows a wave ``eta = a cos(k x cos psi - omega t)`` (``x`` downwind)
-    rises with the vertical velocity ``w = a omega sin(.)`` while its mast leans with the
-    surface normal, upwind by ``a k cos psi sin(.)``: the two are in phase, with the sign
-    of ``cos psi``. Minus the band's co-spectrum of ``w`` and the along-wind tilt (positive
-    where the mast leans upwind, :func:`flidar_uq.physics.motion_spectrum.project_tilt_on_wind_deg`),
-    normalised by the band's power of ``w`` and of the whole tilt (along + across), is then
-    ``<cos psi>`` of its waves, the
-    first directional moment a pitch-roll buoy measures (Longuet-Higgins, Cartwright and
-    Smith, 1963): +1 for waves running downwind, -1 upwind, 0 across or for a sea split
-    evenly between the two. A hull that responds less than a follower, in phase, gives
-    the same ratio. Welch estimate as :func:`motion_spectrum` (gaps linearly filled,
-    detrended, periodic Hann segments with 50 % overlap).
+    A buoy that follows a wave ``eta = a cos(k x cos psi + k y sin psi - omega t)`` (``x``
+    downwind, ``y`` to its left) rises with the vertical velocity ``w = a omega sin(.)``
+    while its mast leans with the surface normal, towards the waves' direction of travel by
+    ``a k sin(.)``: upwind by ``-a k cos psi sin(.)`` and to the left of the wind by
+    ``a k sin psi sin(.)``, both in phase with ``w``. Minus the band's co-spectrum of ``w``
+    and the along-wind tilt (positive where the mast leans upwind,
+    :func:`flidar_uq.physics.motion_spectrum.project_tilt_on_wind_deg`), normalised by the
+    band's power of ``w`` and of the whole tilt (along + across), is then ``<cos psi>`` of
+    its waves; the co-spectrum with the across-wind tilt (positive to the left of the
+    wind's direction of travel) likewise gives ``<sin psi>``. These are the first
+    directional moments a pitch-roll buoy measures (Longuet-Higgins, Cartwright and Smith,
+    1963): ``<cos psi>`` +1 for waves running downwind, -1 upwind; ``<sin psi>`` +1 for
+    waves running to the left of the wind, -1 to its right; both 0 for a sea split evenly
+    between opposite directions. A hull that responds less than a follower, in phase,
+    gives the same ratios. Welch estimate as :func:`motion_spectrum` (gaps linearly
+    filled, detrended, periodic Hann segments with 50 % overlap).
 
     Parameters
     ----------
@@ -280,9 +285,9 @@ def band_cos_psi_from_heave(
 
     Returns
     -------
-    numpy.ndarray, shape (nwin, n_bands)
-        ``<cos psi>`` per band (-, in [-1, 1]); NaN for a band without heave or tilt power
-        or a window without a finite vertical velocity.
+    cos_psi, sin_psi : numpy.ndarray, shape (nwin, n_bands)
+        ``<cos psi>`` and ``<sin psi>`` per band (-, in [-1, 1]); NaN for a band without
+        heave or tilt power or a window without a finite vertical velocity.
     """
     from flidar_uq.data import imu_kernels  # numba: imported where an estimator runs
 
@@ -306,7 +311,10 @@ def band_cos_psi_from_heave(
         for x in rows
     ]
     w, a, c = spectra
-    co = np.mean((np.conj(w) * a).real, axis=1)  # (nwin, nf), common scale cancels below
+    # (nwin, nf): co-spectra of the heave with the along- and across-wind tilt; the common
+    # scale cancels below
+    co_along = np.mean((np.conj(w) * a).real, axis=1)
+    co_across = np.mean((np.conj(w) * c).real, axis=1)
     p_w = np.mean(np.abs(w) ** 2, axis=1)
     p_tilt = np.mean(np.abs(a) ** 2 + np.abs(c) ** 2, axis=1)
     f = _fft.rfftfreq(nperseg, 1.0 / fs_hz)
@@ -315,18 +323,23 @@ def band_cos_psi_from_heave(
     edges = band_edges_s(n_bands, period_min_s, period_max_s)
     idx = np.searchsorted(edges, per, side="right") - 1
     idx = np.where(per == edges[-1], n_bands - 1, idx)
-    out = np.full((co.shape[0], n_bands), np.nan)
+    cos_psi = np.full((co_along.shape[0], n_bands), np.nan)
+    sin_psi = np.full_like(cos_psi, np.nan)
     for b in range(n_bands):
         # a band's bins are contiguous: sums over a slice view, row by row (a boolean
         # index's contiguous copy is reduced with other last bits for one row than for
         # several, and a record's value would depend on its chunk)
         k = np.flatnonzero(idx == b)
         sl = slice(int(k[0]), int(k[-1]) + 1) if k.size else slice(0, 0)
-        cb, wb, tb = co[:, sl].sum(-1), p_w[:, sl].sum(-1), p_tilt[:, sl].sum(-1)
+        wb, tb = p_w[:, sl].sum(-1), p_tilt[:, sl].sum(-1)
+        ok = (wb > 0) & (tb > 0)
         with np.errstate(invalid="ignore", divide="ignore"):
-            out[:, b] = np.where((wb > 0) & (tb > 0), -cb / np.sqrt(wb * tb), np.nan)
-    out[no_heave] = np.nan
-    return np.clip(out, -1.0, 1.0)
+            norm = np.where(ok, np.sqrt(wb * tb), np.nan)
+            cos_psi[:, b] = -co_along[:, sl].sum(-1) / norm
+            sin_psi[:, b] = co_across[:, sl].sum(-1) / norm
+    cos_psi[no_heave] = np.nan
+    sin_psi[no_heave] = np.nan
+    return np.clip(cos_psi, -1.0, 1.0), np.clip(sin_psi, -1.0, 1.0)
 
 
 def _band(f: np.ndarray, period_min_s: float, period_max_s: float) -> np.ndarray:
@@ -896,7 +909,8 @@ def tilt_band_statistics(
         Welch segment length (s) and the bands.
     velocity_up_ms : array_like, shape like roll_deg, optional
         Vertical velocity of the buoy, positive up, m/s: then each band's signed
-        ``<cos psi>`` (:func:`band_cos_psi_from_heave`) is in ``cos_psi``.
+        ``<cos psi>`` and ``<sin psi>`` (:func:`band_direction_from_heave`) are in
+        ``cos_psi`` and ``sin_psi``.
 
     Returns
     -------
@@ -963,10 +977,10 @@ def _projected_band_spectrum(
     spec = tilt_band_spectrum(f, pa, pc, **bands)
     if velocity_up_ms is None:
         return spec
-    cos_psi = band_cos_psi_from_heave(
+    cos_psi, sin_psi = band_direction_from_heave(
         velocity_up_ms, along, across, fs_hz, segment_s=segment_s, **bands
     )
-    return replace(spec, cos_psi=cos_psi)
+    return replace(spec, cos_psi=cos_psi, sin_psi=sin_psi)
 
 
 def tilt_spectrum_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
@@ -989,6 +1003,8 @@ def tilt_spectrum_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
         bands[across] = np.asarray(spec.var_across_deg2[:, b], float)
         if spec.cos_psi is not None:
             bands[tilt_band_cos_psi_column(b + 1)] = np.asarray(spec.cos_psi[:, b], float)
+        if spec.sin_psi is not None:
+            bands[tilt_band_sin_psi_column(b + 1)] = np.asarray(spec.sin_psi[:, b], float)
     return (
         {
             "tilt_along_wind_std_deg": spec.along_std_deg,
@@ -1037,9 +1053,11 @@ def tilt_bands_from_records(records: pd.DataFrame):
     dict or None
         ``amplitude_deg`` (the lean amplitude of each band along its direction of travel,
         ``sqrt(2 (var_along + var_across))``, deg), ``period_s`` (s), ``cos_sq_psi`` and
-        ``cos_psi`` (-, :func:`band_direction_moments`), ``cos_psi_measured`` (-, the
-        optional ``tilt_band{b}_cos_psi`` columns of :func:`band_cos_psi_from_heave`, NaN
-        where absent), each of shape (n_records, n_bands), and ``complete`` (n_records,)
+        ``cos_psi`` (-, :func:`band_direction_moments`), ``cos_psi_measured`` and
+        ``sin_psi_measured`` (-, the optional ``tilt_band{b}_cos_psi`` and
+        ``tilt_band{b}_sin_psi`` columns of :func:`band_direction_from_heave`, NaN where
+        absent), each of shape (n_records, n_bands), ``edges_s`` (the bands' edges, s,
+        shape (n_bands + 1,): log-spaced over 1-20 s) and ``complete`` (n_records,)
         True where every band value is finite; None when the table lacks a band column.
     """
     names = [tilt_band_column_names(b + 1) for b in range(N_TILT_BANDS)]
@@ -1052,17 +1070,22 @@ def tilt_bands_from_records(records: pd.DataFrame):
     per, va, vc = stack(0), stack(1), stack(2)
     complete = np.all(np.isfinite(per) & np.isfinite(va) & np.isfinite(vc), axis=-1)
     cos_sq, cos_mean = band_direction_moments(va, vc)
-    measured = np.full(per.shape, np.nan)
-    for b in range(N_TILT_BANDS):
-        col = tilt_band_cos_psi_column(b + 1)
-        if col in records:
-            measured[:, b] = records[col].to_numpy(dtype=float)
+
+    def measured(column):
+        out = np.full(per.shape, np.nan)
+        for b in range(N_TILT_BANDS):
+            if column(b + 1) in records:
+                out[:, b] = records[column(b + 1)].to_numpy(dtype=float)
+        return out
+
     return {
         "amplitude_deg": np.sqrt(2.0 * (va + vc)),
         "period_s": per,
         "cos_sq_psi": cos_sq,
         "cos_psi": cos_mean,
-        "cos_psi_measured": measured,
+        "cos_psi_measured": measured(tilt_band_cos_psi_column),
+        "sin_psi_measured": measured(tilt_band_sin_psi_column),
+        "edges_s": band_edges_s(N_TILT_BANDS, *PERIOD_RANGE_S),
         "complete": complete,
     }
 

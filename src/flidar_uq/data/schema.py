@@ -28,6 +28,7 @@ __all__ = [
     "TILT_SPECTRUM_COLUMNS",
     "tilt_band_column_names",
     "tilt_band_cos_psi_column",
+    "tilt_band_sin_psi_column",
     "RADIAN_SUSPECT_MAX_DEG",
     "RADIAN_SUSPECT_MIN_COUNT",
     "IMU_RATE_RANGE_HZ",
@@ -136,6 +137,13 @@ def tilt_band_cos_psi_column(b: int) -> str:
     """Name of the optional record column of tilt band ``b`` (1-based): the signed mean
     cosine of its waves' directions of travel against the wind, from the heave."""
     return f"tilt_band{b}_cos_psi"
+
+
+def tilt_band_sin_psi_column(b: int) -> str:
+    """Name of the optional record column of tilt band ``b`` (1-based): the signed mean
+    sine of its waves' directions of travel against the wind (+ to the left of the wind,
+    counter-clockwise from above), from the heave."""
+    return f"tilt_band{b}_sin_psi"
 
 
 def tilt_band_column_names(b: int) -> tuple[str, str, str]:
@@ -414,6 +422,21 @@ RECORD_COLUMNS: tuple[Column, ...] = (
                 "vertical velocity and the along-wind tilt (Longuet-Higgins et al., 1963); "
                 "absent without a vertical velocity: then wind sea is taken to run downwind "
                 "and swell to have no known side.",
+            ),
+            Column(
+                f"tilt_band{b}_sin_psi",
+                "float",
+                "-",
+                False,
+                -1.0,
+                1.0,
+                True,
+                f"Signed mean sine of the directions of travel of band {b}'s waves against "
+                "the wind (+1 to the left of the wind's direction of travel, seen from above; "
+                "-1 to the right), from the co-spectrum of the IMU series' vertical velocity "
+                "and the across-wind tilt (Longuet-Higgins et al., 1963); absent without a "
+                "vertical velocity: then either side is taken alike (0). A DBS lidar's "
+                "beams tell the sides apart; a conical scan does not use it.",
             ),
         )
     ),

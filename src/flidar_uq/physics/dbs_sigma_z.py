@@ -446,13 +446,16 @@ def dbs_replay_sigma_z_ms(
     lever_arm_m: float = 0.0,
     translation_m=None,
     lidar: str | LidarGeometry | Mapping = "windcube_v2",
+    dwell_samples: int = 1,
 ) -> float:
     """sigma_Z (m/s) of a record by LOS-level replay of its motion through a DBS lidar.
 
     Back-to-back cycles over the series, every line of sight at its own time
     (:func:`flidar_uq.physics.motion_spectrum.replay_sigma_z` with the DBS geometry): the
     reference for :func:`dbs_harmonic_sigma_z_ms`, and the method where the harmonic sum
-    does not hold (module docstring).
+    does not hold (module docstring). ``dwell_samples > 1``: each beam's radial speed is
+    its mean over that many instants of its dwell (the pulse accumulation; compare with
+    ``dwell_average=True``); default 1, each beam at one instant.
     """
     from flidar_uq.physics.motion_spectrum import replay_sigma_z
 
@@ -466,6 +469,7 @@ def dbs_replay_sigma_z_ms(
         lever_arm_m=lever_arm_m,
         lidar=get_lidar(lidar),
         translation_m=translation_m,
+        dwell_samples=dwell_samples,
     ).sigma_z_ms
 
 
@@ -575,17 +579,22 @@ def dbs_record_terms(
     return gram / len(betas)
 
 
-def band_moments_to_wind(cos_psi, cos_sq_psi) -> np.ndarray:
+def band_moments_to_wind(cos_psi, cos_sq_psi, sin_psi=0.0) -> np.ndarray:
     """Direction moments (..., 5) of tilt bands relative to the wind's direction of travel.
 
-    A band's ``<cos psi>`` (signed: + downwind) and ``<cos^2 psi>`` (its along-wind share of
-    the tilt variance), :func:`flidar_uq.data.imu.tilt_bands_from_records`. A record's
-    tilt does not say on which side of the wind its waves run, so ``<sin psi>`` and
-    ``<sin psi cos psi>`` are 0 (either side alike).
+    A band's ``<cos psi>`` (signed: + downwind), ``<cos^2 psi>`` (its along-wind share of
+    the tilt variance) and ``<sin psi>`` (signed: + to the left of the wind's direction of
+    travel, counter-clockwise; :func:`flidar_uq.data.imu.tilt_bands_from_records`). The
+    heave tells the side a band's waves run on (``<sin psi>``,
+    :func:`flidar_uq.data.imu.band_direction_from_heave`); a record's tilt alone does not,
+    and then ``sin_psi = 0`` (either side alike). ``<sin psi cos psi>`` is taken as 0: a
+    band's waves spread evenly about their mean direction relative to the wind's axes (on
+    directional seas it changed sigma_Z by less than 1 %, ``benchmarks/dbs_sigma_z.py``).
     """
-    c, cc = np.broadcast_arrays(np.asarray(cos_psi, float), np.asarray(cos_sq_psi, float))
-    zero = np.zeros_like(c)
-    return np.stack([c, zero, cc, zero, 1.0 - cc], -1)
+    c, cc, s = np.broadcast_arrays(
+        np.asarray(cos_psi, float), np.asarray(cos_sq_psi, float), np.asarray(sin_psi, float)
+    )
+    return np.stack([c, s, cc, np.zeros_like(c), 1.0 - cc], -1)
 
 
 def dbs_band_terms(

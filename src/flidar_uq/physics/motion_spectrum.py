@@ -60,6 +60,8 @@ __all__ = [
     "tilt_vector_en",
     "project_tilt_on_wind_deg",
     "band_edges_s",
+    "sub_band_nodes",
+    "expand_bands",
     "tilt_band_spectrum",
     "spectral_sigma_z_ms",
     "moments_sigma_z_ms",
@@ -153,6 +155,92 @@ def band_edges_s(n_bands: int = 8, period_min_s: float = 1.0, period_max_s: floa
     return np.geomspace(period_min_s, period_max_s, int(n_bands) + 1)
 
 
+def sub_band_nodes(period_s, edges_s, n_nodes: int = 3):
+    """Quadrature nodes inside period bands: where in each band its variance lies.
+
+    A band's sigma_Z terms change across the band, most for a DBS lidar, whose beams a
+    second apart turn each component's phase by ``omega`` per second, and for a hull whose
+    heave cancels the tilt's vertical wind (``U cos psi`` near the phase speed
+    ``g / omega``, which changes by 45 % across a band of the record table). One period per
+    band (its centroid) then misses the sum over the band's components. Each band's
+    variance is spread linearly in frequency over the band, ``p(f) ~ 1 + a (f - f_mid)``,
+    with the slope ``a`` that gives the band's centroid frequency ``1 / period_s`` (the
+    variance-weighted mean frequency, :func:`tilt_band_spectrum`); a centroid too near an
+    edge for a linear density that stays positive takes a ramp that vanishes inside the
+    band instead. The band's terms are then the ``n_nodes``-point Gauss-Legendre sum over
+    that density (exact for terms up to degree ``2 n_nodes - 2`` in frequency).
+
+    Parameters
+    ----------
+    period_s : array_like, shape (..., nb)
+        Band centroid periods, s (NaN: no node).
+    edges_s : array_like, shape (nb + 1,)
+        The bands' edges, s, increasing (:func:`band_edges_s`).
+    n_nodes : int
+        Nodes per band.
+
+    Returns
+    -------
+    node_period_s, node_weight : numpy.ndarray, shape (..., nb, n_nodes)
+        The nodes' periods (s) and their shares of the band's variance (-, summing to 1).
+    """
+    edges = np.asarray(edges_s, float)
+    if int(n_nodes) == 1:  # the centroid itself
+        per = np.asarray(period_s, float)[..., None]
+        return per, np.ones_like(per)
+    f_hi, f_lo = 1.0 / edges[:-1], 1.0 / edges[1:]
+    f_c = 1.0 / np.asarray(period_s, float)
+    half = 0.5 * (f_hi - f_lo)
+    # the centroid in band units, x in [-1, 1] (f = f_mid + x half)
+    m = np.clip((f_c - 0.5 * (f_hi + f_lo)) / half, -1.0 + 1e-9, 1.0 - 1e-9)[..., None]
+    xi, wi = np.polynomial.legendre.leggauss(int(n_nodes))
+    # linear density (1 + 3 m x) / 2 on [-1, 1], positive for |m| <= 1/3
+    x_lin, w_lin = xi, 0.5 * wi * (1.0 + 3.0 * m * xi)
+    # beyond: the ramp 2 (y - y0) / (1 - y0)^2 on [y0, 1] (mean (1 + 2 y0) / 3 = |m|), mirrored
+    y0 = 3.0 * np.abs(m) - 2.0
+    y = y0 + 0.5 * (1.0 - y0) * (xi + 1.0)
+    x_ramp, w_ramp = np.sign(m) * y, 0.5 * wi * (xi + 1.0)
+    ramp = np.abs(m) > 1.0 / 3.0
+    x = np.where(ramp, x_ramp, x_lin)
+    w = np.where(ramp, w_ramp, w_lin)
+    f = 0.5 * (f_hi + f_lo)[..., None] + x * half[..., None]
+    return 1.0 / f, np.broadcast_to(w, f.shape)
+
+
+def expand_bands(amplitude_deg, period_s, edges_s, *per_band, n_nodes: int = 3):
+    """Period bands as ``n_nodes`` harmonics each (:func:`sub_band_nodes`).
+
+    Parameters
+    ----------
+    amplitude_deg, period_s : array_like, shape (..., nb)
+        Each band's amplitude (deg; ``sqrt(2)`` x its std) and centroid period (s).
+    edges_s : array_like, shape (nb + 1,)
+        The bands' edges, s.
+    *per_band : array_like, shape (..., nb) or (..., nb, k)
+        Other per-band values (direction moments, ...), repeated for each node.
+    n_nodes : int
+
+    Returns
+    -------
+    tuple
+        ``(amplitude_deg, period_s, *per_band)`` with ``nb * n_nodes`` bands: each node's
+        amplitude is the band's times the square root of its variance share.
+    """
+    amp = np.asarray(amplitude_deg, float)
+    per, w = sub_band_nodes(period_s, edges_s, n_nodes)
+    lead = amp.shape[:-1]
+    nb = amp.shape[-1]
+    out = [
+        (amp[..., None] * np.sqrt(w)).reshape(*lead, nb * n_nodes),
+        per.reshape(*lead, nb * n_nodes),
+    ]
+    for x in per_band:
+        x = np.asarray(x, float)
+        axis = amp.ndim - 1  # the band axis
+        out.append(np.repeat(x, int(n_nodes), axis=axis))
+    return tuple(out)
+
+
 @dataclass(frozen=True)
 class TiltBandSpectrum:
     """Tilt spectrum of records reduced to period bands (all arrays lead with ``nrec``).
@@ -176,8 +264,12 @@ class TiltBandSpectrum:
     cos_psi : ndarray, shape (nrec, nb), or None
         Signed mean cosine of each band's directions of travel against the wind, measured
         from the co-spectrum of the vertical velocity and the along-wind tilt
-        (:func:`flidar_uq.data.imu.band_cos_psi_from_heave`); None without a vertical
+        (:func:`flidar_uq.data.imu.band_direction_from_heave`); None without a vertical
         velocity.
+    sin_psi : ndarray, shape (nrec, nb), or None
+        Signed mean sine of the same directions (+ to the left of the wind's direction of
+        travel, counter-clockwise seen from above), from the co-spectrum of the vertical
+        velocity and the across-wind tilt; None without a vertical velocity.
     """
 
     edges_s: np.ndarray
@@ -190,6 +282,7 @@ class TiltBandSpectrum:
     m2_deg2_hz2: np.ndarray
     tp_s: np.ndarray
     cos_psi: np.ndarray | None = None
+    sin_psi: np.ndarray | None = None
 
     _RECORD_FIELDS = (
         "period_s",
@@ -207,7 +300,8 @@ class TiltBandSpectrum:
         return replace(self, **{k: getattr(self, k)[index] for k in self._fields()})
 
     def _fields(self) -> tuple[str, ...]:
-        return self._RECORD_FIELDS + (("cos_psi",) if self.cos_psi is not None else ())
+        measured = tuple(k for k in ("cos_psi", "sin_psi") if getattr(self, k) is not None)
+        return self._RECORD_FIELDS + measured
 
     def masked(self, keep) -> TiltBandSpectrum:
         """A copy with NaN in every record where the boolean ``keep`` (nrec,) is False."""
@@ -646,6 +740,7 @@ def replay_sigma_z(
     scan_interval_s: float | None = None,
     sign_ambiguity: bool = False,
     translation_m=None,
+    dwell_samples: int = 1,
 ) -> ReplayResult:
     """Realised sigma_Z of a record: its attitude series replayed through the scan simulator.
 
@@ -678,12 +773,24 @@ def replay_sigma_z(
     translation_m : array_like, shape (m, 3), optional
         Earth-frame (east, north, up) displacement of the rotation centre (surge, sway,
         heave), m: the six-degree-of-freedom replay (head velocity by central differences).
+    dwell_samples : int
+        Default 1: each line of sight at one instant. ``n > 1``: its radial speed is the
+        mean over ``n`` instants spread evenly over the line of sight's dwell (the pulse
+        accumulation of a pulsed lidar, Désert, Knapp & Aubrun 2021; what the virtual
+        campaign simulates). The retrieval is linear in the radial speeds for a signed
+        lidar, so the mean of the ``n`` retrieved winds is the retrieval of the mean speeds.
 
     Returns
     -------
     ReplayResult
     """
     g = get_lidar(lidar)
+    n_dwell = int(dwell_samples)
+    if n_dwell < 1 or (n_dwell > 1 and not g.signed):
+        raise ValueError(
+            f"replay_sigma_z: dwell_samples={dwell_samples!r} needs to be 1, or > 1 for a "
+            "lidar that measures signed speeds (pulsed)"
+        )
     t = np.asarray(time_s, float)
     arm = (
         (0.0, 0.0, float(lever_arm_m))
@@ -702,25 +809,31 @@ def replay_sigma_z(
     motion = SampledMotion(t, roll_deg, pitch_deg, yaw_deg, lever_arm_m=arm, **trans)
     dt_scan = g.scan_period_s if scan_interval_s is None else float(scan_interval_s)
     t_los, az0 = scan_times_azimuths(g, 0.0)
-    starts = np.arange(t[0], t[-1] - g.scan_period_s, dt_scan)
+    last = t[-1] - g.scan_period_s - (g.los_duration_s if n_dwell > 1 else 0.0)
+    starts = np.arange(t[0], last, dt_scan)
     if starts.size < 2:
         raise ValueError("replay_sigma_z: the series is shorter than two scans")
-    tt = starts[:, None] + t_los[None, :]
     golden = 2.0 * np.pi * (np.sqrt(5.0) - 1.0) / 2.0
     phase = (golden * np.arange(starts.size)) % (2.0 * np.pi)
     az = az0[None, :] + (phase[:, None] if g.kind == "vad" else 0.0)
-    roll, pitch, yaw = motion.attitude_rad(tt)
     moving = any(a != 0 for a in arm) or translation_m is not None
-    head = motion.head_velocity_ms(tt) if moving else None
-    _, ret = simulate_scans(
-        g,
-        wind_vector_ms(hws_ms, wd_deg),
-        roll,
-        pitch,
-        yaw_rad=yaw,
-        head_velocity_ms=head,
-        azimuth_rad=az,
-        sign_ambiguity=sign_ambiguity,
-    )
-    z = np.asarray(ret.hws_ms) - float(hws_ms)  # Eq. (1) of Gutiérrez-Antuñano et al. (2018)
+    # instants within a line of sight's dwell (its time is the dwell's start): midpoints
+    offsets = (np.arange(n_dwell) + 0.5) / n_dwell * g.los_duration_s if n_dwell > 1 else [0.0]
+    u = v = 0.0
+    for off in offsets:
+        tt = starts[:, None] + t_los[None, :] + off
+        roll, pitch, yaw = motion.attitude_rad(tt)
+        _, ret = simulate_scans(
+            g,
+            wind_vector_ms(hws_ms, wd_deg),
+            roll,
+            pitch,
+            yaw_rad=yaw,
+            head_velocity_ms=motion.head_velocity_ms(tt) if moving else None,
+            azimuth_rad=az,
+            sign_ambiguity=sign_ambiguity,
+        )
+        u, v = u + np.asarray(ret.u_ms), v + np.asarray(ret.v_ms)
+    hws = np.hypot(u, v) / len(offsets) if n_dwell > 1 else np.asarray(ret.hws_ms)
+    z = hws - float(hws_ms)  # Eq. (1) of Gutiérrez-Antuñano et al. (2018)
     return ReplayResult(float(np.std(z)), float(np.mean(z)), z)
