@@ -37,6 +37,7 @@ import numpy as np
 
 from flidar_uq.physics.lidar import (
     LidarGeometry,
+    beam_index,
     beam_unit_vectors_body,
     get_lidar,
     scan_times_azimuths,
@@ -438,12 +439,8 @@ def correct_least_squares(
 
 def _beam_ids(geom: LidarGeometry, az: np.ndarray, where: str) -> np.ndarray:
     """Index of each LOS in the lidar's scan pattern, matched by body azimuth."""
-    _, az_pattern = scan_times_azimuths(geom)
-    diff = np.abs(np.angle(np.exp(1j * (az[:, None] - az_pattern[None, :]))))
-    both_vertical = np.isnan(az)[:, None] & np.isnan(az_pattern)[None, :]
-    diff = np.where(both_vertical, 0.0, np.nan_to_num(diff, nan=np.inf))
-    ids = np.argmin(diff, axis=1)
-    bad = diff[np.arange(az.size), ids] > 1e-6
+    ids = beam_index(geom, az)
+    bad = ids < 0
     if np.any(bad):
         i = int(np.argmax(bad))
         raise ValueError(
@@ -455,14 +452,15 @@ def _beam_ids(geom: LidarGeometry, az: np.ndarray, where: str) -> np.ndarray:
 def _interp_along_beam(vr, range_m, target_range_m):
     """Linear interpolation of LOS speeds from range gates to target ranges.
 
-    vr (nwin, k, nlev); range_m (nlev,) increasing; target (nwin, k, nh). NaN outside.
+    vr (nwin, k, nlev); range_m (nlev,) increasing; target (nwin, k, nh). NaN outside. A
+    target on a gate takes that gate's speed, so a missing neighbouring gate does not spoil it.
     """
     j = np.clip(np.searchsorted(range_m, target_range_m) - 1, 0, range_m.size - 2)
     r0, r1 = range_m[j], range_m[j + 1]
     f = (target_range_m - r0) / (r1 - r0)
     v0 = np.take_along_axis(vr, j, axis=-1)
     v1 = np.take_along_axis(vr, j + 1, axis=-1)
-    out = v0 + f * (v1 - v0)
+    out = np.where(f == 0.0, v0, np.where(f == 1.0, v1, v0 + f * (v1 - v0)))
     inside = (target_range_m >= range_m[0] - 1e-9) & (target_range_m <= range_m[-1] + 1e-9)
     return np.where(inside, out, np.nan)
 
