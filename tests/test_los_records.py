@@ -162,12 +162,13 @@ def test_cw_negative_speed_is_an_error(campaign):
         )
 
 
-def dbs_record(rng, *, n_cycles=150, gates=(40.0, 60.0, 80.0, 100.0, 120.0)):
+def dbs_record(rng, *, n_cycles=150, gates=(40.0, 60.0, 80.0, 100.0, 120.0), lidar="windcube_v1"):
     """A pulsed-DBS record in the LOS format with a wind that is uniform in space and
-    constant within each 4-s cycle (so each cycle's wind is retrievable exactly), on a buoy
+    constant within each cycle (so each cycle's wind is retrievable exactly), on a buoy
     pitching and rolling 5 deg with its head 2.5 m above the rotation centre (no heave: the
-    IMU format carries the attitude only), and its IMU series at 20 Hz."""
-    geom = L.get_lidar("windcube_v1")
+    IMU format carries the attitude only), and its IMU series at 20 Hz. A lidar with a
+    vertical beam writes ``elevation_deg`` (90 for that beam, azimuth 0)."""
+    geom = L.get_lidar(lidar)
     motion = M.PlatformMotion(
         roll=(M.Harmonic(5.0, 6.0, 0.3),),
         pitch=(M.Harmonic(5.0, 6.5, 1.2),),
@@ -187,11 +188,14 @@ def dbs_record(rng, *, n_cycles=150, gates=(40.0, 60.0, 80.0, 100.0, 120.0)):
         {
             "timestamp": np.repeat(stamps, len(gates)),
             "height_m": np.tile(gates, t.size),
-            "azimuth_deg": np.repeat(np.degrees(az), len(gates)),
+            "azimuth_deg": np.repeat(np.degrees(np.nan_to_num(az)), len(gates)),
             "radial_speed_ms": np.repeat(vr, len(gates)),
             "cnr_db": -10.0,
         }
     )
+    if geom.vertical_beam:
+        elev = np.where(np.isnan(az), 90.0, 90.0 - geom.half_cone_angle_deg)
+        los["elevation_deg"] = np.repeat(elev, len(gates))
     t_imu = np.arange(-5.0, 605.0, 0.05)
     roll, pitch, yaw = (np.degrees(a) for a in motion.attitude_rad(t_imu))
     imu = pd.DataFrame(
@@ -234,16 +238,51 @@ def test_dbs_lidar_malekmohammadi2024_and_dbs_new_recover_the_ti(rng):
     assert ((conv - ti_true).abs() < (out["ti_los_uncorrected"] - ti_true).abs()).all()
 
 
-def test_dbs_with_a_vertical_beam_is_refused(rng):
-    los, imu, _ = dbs_record(rng, n_cycles=2)
-    with pytest.raises(ValueError, match="vertical beam"):
+def test_dbs_with_a_vertical_beam_marked_by_its_elevation(rng):
+    """The WindCube v2's fifth, vertical beam (elevation_deg 90) is carried through the cycles;
+    the beam pairs of Yamaguchi and Ishihara (2016) and the least squares of Malekmohammadi
+    et al. (2024) (which uses it for w) recover the TI of a wind known cycle by cycle."""
+    los, imu, ti_true = dbs_record(rng, n_cycles=110, lidar="windcube_v2")  # 5-s cycles
+    assert (los["elevation_deg"] == 90.0).sum() == 110 * 5  # one beam in five, at every gate
+    out = los_record_ti(
+        los,
+        imu,
+        start=T0,
+        heights_m=[60.0, 100.0],
+        wd_deg=[np.nan, np.nan],
+        lidar="windcube_v2",
+        lever_arm_m=(0.0, 0.0, 2.5),
+    )
+    assert (out["los_flags"] == "").all() and (out["n_scans_used"] == 110).all()
+    for m in ("least_squares", "dbs_new"):
+        np.testing.assert_allclose(out[f"ti_los_{m}"], ti_true, rtol=0.01, err_msg=m)
+
+
+@pytest.mark.parametrize(
+    ("change", "lidar", "pattern"),
+    [
+        ("drop", "windcube_v2", r"'windcube_v2' has a vertical beam, but .* no elevation_deg"),
+        ("tilt", "windcube_v2", r"elevation_deg 45 at 2015-04-01T00:00:00.5.* on neither the cone"),
+        ("none", "windcube_v1", r"elevation_deg 62 .* on neither the cone of 'windcube_v1' \(60"),
+        ("cone", "windcube_v1", r"elevation_deg 90 .* vertical beam, which 'windcube_v1' does not"),
+    ],
+)
+def test_los_elevations_that_do_not_fit_the_lidar_are_one_line(rng, change, lidar, pattern):
+    los, imu, _ = dbs_record(rng, n_cycles=2, lidar="windcube_v2")
+    if change == "drop":
+        los = los.drop(columns="elevation_deg")
+    elif change == "tilt":
+        los.loc[0, "elevation_deg"] = 45.0
+    elif change == "cone":  # the inclined beams on the v1's 30-deg cone, the vertical kept
+        los.loc[los["elevation_deg"] < 90.0, "elevation_deg"] = 60.0
+    with pytest.raises(ValueError, match=pattern):
         los_record_ti(
             los,
             imu,
             start=T0,
             heights_m=[60.0],
             wd_deg=[np.nan],
-            lidar="windcube_v1_5beam",
+            lidar=lidar,
             lever_arm_m=(0, 0, 2.5),
         )
 
