@@ -22,8 +22,8 @@ methods are implemented, all in the project's ENU frame (``docs/conventions.md``
 Frame conversions at the edge: Malekmohammadi et al. (2024) uses x south, y west, z down
 (:func:`rotation_from_swd_frame`, :func:`velocity_from_swd_frame`); Yamaguchi and Ishihara's (2016)
 Eq. (3) read with its Table 1 beam order gives ``u`` from ``V_W - V_E`` but ``v`` from
-``V_N - V_S`` (inconsistent signs as printed; here both from speeds positive away); seed
-003 uses ENU with our rotation order (its Eq. 4 has a typo, ``R[0, 1] = 1``, read as 0).
+``V_N - V_S`` (inconsistent signs as printed; here both from speeds positive away); Nassif
+et al. (2020) use ENU with our rotation order (its Eq. 4 has a typo, ``R[0, 1] = 1``, read as 0).
 
 Radial speeds are positive away from the lidar, ``v_r = d_earth . (u - v_head)``, so the
 corrected LOS speed entering every solver is ``v_r + d_earth . v_head``.
@@ -483,8 +483,8 @@ def correct_dbs_motion(
     point at the target height; (2) horizontal wind in the planes of the opposite beams
     (E-W and N-S), with the head velocity added back to each LOS speed; (3) horizontal
     wind vector from the two in-plane horizontal components. ``method="conventional"``
-    freezes attitude and velocity at the reference LOS of the window (Table 2 of seed
-    002: the third of four), ``"new"`` uses them at each LOS time (Table 3),
+    freezes attitude and velocity at the reference LOS of the window (Yamaguchi and
+    Ishihara, 2016, Table 2: the third of four), ``"new"`` uses them at each LOS time (Table 3),
     ``"none"`` is the fixed-lidar DBS formula (Yamaguchi and Ishihara, 2016, Eq. 3) with no motion data.
 
     Windows are ``lidar.n_los`` consecutive LOS (one DBS cycle; a vertical beam is carried

@@ -1,8 +1,8 @@
 """LOS-level motion-corrected TI of one 10-min record, from its LOS data and the IMU series.
 
 The scan-by-scan corrections of :mod:`flidar_uq.correction.los` (Malekmohammadi et al., 2024, Eq. 7,
-:func:`~flidar_uq.correction.los.correct_least_squares`; for a pulsed DBS lidar also seed
-002's conventional and new algorithms, :func:`~flidar_uq.correction.los.correct_dbs_motion`)
+:func:`~flidar_uq.correction.los.correct_least_squares`; for a pulsed DBS lidar also
+Yamaguchi and Ishihara's (2016) conventional and new algorithms, :func:`~flidar_uq.correction.los.correct_dbs_motion`)
 applied to a record as a user has it: LOS rows in the format of ``docs/data-format.md``
 (CNR-filtered with :func:`flidar_uq.data.qc.run_los_qc`) and the raw IMU series as a
 :class:`flidar_uq.physics.motion.SampledMotion` with the lidar head's lever arm (head
