@@ -6,6 +6,7 @@ from __future__ import annotations
 import io
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from flidar_uq.physics import dbs_sigma_z as dbs
@@ -207,8 +208,50 @@ def test_virtual_dbs_campaign_scans_every_height_each_cycle():
     # 5-s cycles of the WindCube v2: 120 a 10-min record, each at every height
     assert out["true_n_scans"].max() <= 120 and out["true_n_scans"].median() >= 110
     assert (out["true_sigma_z_ms"] > 0).all()
-    with pytest.raises(ValueError, match="VAD lidars only"):
-        generate_campaign(sc, seed=11, return_los=True)
+
+
+@pytest.mark.parametrize("name", ["windcube_v1", "windcube_v2", "windcube_v2_1"])
+def test_virtual_dbs_los_frame_follows_the_lidar_geometry_and_timing(name):
+    """The virtual DBS LOS series: back-to-back cycles from the record's start, the beams in
+    the order and at the times of scan_times_azimuths, each at the mean time of its dwell's
+    sub-slots (the pulse accumulation), its body azimuth and cone elevation; the vertical
+    beam marked by elevation 90; every gate at each beam's time; the LOS data contract."""
+    from flidar_uq.campaign.physics_mode import generate_campaign
+    from flidar_uq.campaign.scenarios import campaign_clock_s, load_scenario
+    from flidar_uq.data.io import validate_los_series
+    from flidar_uq.physics.lidar import beam_index, get_lidar, scan_times_azimuths
+
+    g = get_lidar(name)
+    sc = load_scenario("dbs_tilt_only")
+    sc["n_records"] = 2
+    sc["lidar"]["name"] = name
+    out = generate_campaign(sc, seed=5, return_los=True)
+    los = validate_los_series(out.los, "virtual DBS LOS")
+    assert list(los.columns)[-1] == "elevation_deg"
+    heights = np.asarray(sc["heights_m"])
+    t_beam, az = scan_times_azimuths(g)
+    dt = campaign_clock_s(g)
+    m = round(g.los_duration_s / dt)
+    n_cyc = int(600.0 // g.cycle_s)  # whole cycles in a 10-min record
+    for start in out.records["timestamp"].unique():
+        end = start + pd.Timedelta(600, "s")
+        rows = los[(los["timestamp"] >= start) & (los["timestamp"] < end)]
+        assert len(rows) == n_cyc * g.n_los * heights.size
+        shape = (n_cyc, g.n_los, heights.size)
+        t = (rows["timestamp"] - start).dt.total_seconds().to_numpy().reshape(shape)
+        want = np.arange(n_cyc)[:, None] * g.cycle_s + t_beam[None, :] + 0.5 * (m - 1) * dt
+        np.testing.assert_allclose(t, np.broadcast_to(want[..., None], shape), atol=1e-6)
+        np.testing.assert_array_equal(rows["height_m"].to_numpy().reshape(shape)[0, 0], heights)
+        elev = rows["elevation_deg"].to_numpy().reshape(shape)
+        vertical = np.isnan(az)
+        np.testing.assert_array_equal(elev[:, vertical], 90.0)
+        np.testing.assert_array_equal(elev[:, ~vertical], 90.0 - g.half_cone_angle_deg)
+        body_az = np.radians(rows["azimuth_deg"].to_numpy().reshape(shape))
+        body_az[:, vertical] = np.nan  # the contract's vertical beam: elevation 90
+        ids = beam_index(g, body_az.ravel()).reshape(shape)
+        beams = np.broadcast_to(np.arange(g.n_los)[None, :, None], shape)
+        np.testing.assert_array_equal(ids, beams)
+        assert np.isfinite(rows["radial_speed_ms"]).mean() > 0.9  # dropouts only
 
 
 def test_dbs_layout_is_the_pair_retrieval():

@@ -14,6 +14,7 @@ from flidar_uq.physics.lidar import (
     WINDCUBE_V1_5BEAM,
     ZEPHIR300,
     LidarGeometry,
+    beam_index,
     beam_unit_vectors_body,
     get_lidar,
     retrieve_wind,
@@ -47,6 +48,14 @@ def test_windcube_v1_geometry_four_beams_one_second_each():
     t5, az5 = scan_times_azimuths(WINDCUBE_V1_5BEAM)
     assert t5.shape == (5,) and np.isnan(az5[-1])
     np.testing.assert_allclose(beam_unit_vectors_body(WINDCUBE_V1_5BEAM, az5)[-1], [0, 0, 1])
+
+
+def test_beam_index_matches_azimuths_and_the_vertical_beam_to_the_scan_pattern():
+    az = np.radians([270.0, 0.0, 360.0 - 1e-9, 90.0, 45.0, np.nan])
+    assert beam_index(WINDCUBE_V1_5BEAM, az).tolist() == [3, 0, 0, 1, -1, 4]
+    assert beam_index(WINDCUBE_V1, az).tolist() == [3, 0, 0, 1, -1, -1]  # no vertical beam
+    assert beam_index(WINDCUBE_V1, np.radians([90.05]), tol_rad=1e-3).tolist() == [1]
+    assert beam_index(WINDCUBE_V1, np.radians([90.1]), tol_rad=1e-3).tolist() == [-1]
 
 
 def test_get_lidar_unknown_name_lists_known():

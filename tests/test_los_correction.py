@@ -309,6 +309,21 @@ def test_yamaguchi2016_none_on_level_lidar_is_eq3():
     np.testing.assert_allclose(est.v_ms, ref.v_ms, atol=1e-12)
 
 
+def test_yamaguchi2016_target_on_a_gate_ignores_a_missing_neighbour_gate():
+    """A target height on a gate takes that gate's speed: a NaN at the gate below (a low-CNR
+    measurement) leaves the level lidar's estimate there unchanged, and spoils only the
+    estimates that interpolate across it."""
+    still = M.PlatformMotion()
+    t, az, vr = _los_levels(L.WINDCUBE_V1, still, _linear_shear, 5, GATES_M)
+    kw = dict(range_height_m=GATES_M, target_height_m=[60.0, 70.0, 80.0], step=4)
+    ref = correct_dbs_motion("windcube_v1", t, az, vr, method="none", **kw)
+    holed = vr.copy()
+    holed[:, 1] = np.nan  # the 60-m gate of every line of sight
+    got = correct_dbs_motion("windcube_v1", t, az, holed, method="none", **kw)
+    np.testing.assert_array_equal(got.hws_ms[:, 2], ref.hws_ms[:, 2])  # on the 80-m gate
+    assert np.isnan(got.hws_ms[:, :2]).all()  # on the missing gate, and across it
+
+
 # --- Nassif et al. (2020) -----------------------------------------------------------------------------
 
 

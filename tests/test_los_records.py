@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from flidar_uq.campaign.physics_mode import generate_campaign
-from flidar_uq.campaign.scenarios import DEFAULT_SCENARIO
+from flidar_uq.campaign.scenarios import DEFAULT_SCENARIO, load_scenario
 from flidar_uq.correction.los import earth_beam_vectors, imu_rotation_velocity
 from flidar_uq.correction.los_records import (
     AGREEMENT_COLUMNS,
@@ -35,6 +35,15 @@ def campaign():
     sc.update(name="los_records_test", n_records=8, heights_m=[58.0, 85.0])
     sc["imu"]["gap_probability"] = 0.0
     return generate_campaign(sc, 5, return_imu=True, return_los=True, n_workers=1)
+
+
+@pytest.fixture(scope="module")
+def dbs_campaign():
+    """A WindCube v2 on a buoy that only tilts, its head 2 m above the rotation centre
+    (dbs_tilt_only: gates 40, 80, 120 m, wind sea and swell of 2.5-6 s), 8 records."""
+    sc = load_scenario("dbs_tilt_only")
+    sc["n_records"] = 8
+    return generate_campaign(sc, 11, return_imu=True, return_los=True, n_workers=1)
 
 
 def record_inputs(out, k: int):
@@ -97,6 +106,61 @@ def test_cw_vad_on_the_virtual_campaign_matches_the_lidar_and_removes_the_motion
     err_unc = (res["ti_los_uncorrected"] - ti_ref).abs().mean()
     err_ls = (res["ti_los_least_squares"] - ti_ref).abs().mean()
     assert err_ls < 0.3 * err_unc
+
+
+def test_virtual_dbs_los_series_round_trips_through_the_los_branch(dbs_campaign):
+    """The virtual WindCube v2's LOS series through the LOS branch, against the record's truth
+    (the same lidar on a motionless platform, true_ref_*, which sees the same air).
+
+    Uncorrected, the beam pairs of the LOS rows are the campaign's own retrieval (the beams'
+    dwell averages, Yamaguchi and Ishihara, 2016, Eq. 3): the record's TI exactly. Corrected
+    at the interior gate (80 m: the new and conventional algorithms interpolate along each
+    tilted beam, and at 40 and 120 m a tilted beam's point leaves the gates), the new
+    algorithm leaves two errors: the attitude at the dwell's mean time instead of its
+    average (a share (1 - sinc(1 s / T))^2 < 6 % of the excess variance at T > 2.5 s) and
+    the interpolation between gates whose turbulence the campaign draws independently (it
+    lowers the TI by its weight on the other gate, E|f| = h tan(28 deg) E|tilt| / 40 m,
+    about 3 % of the TI at 2-3 deg of tilt), against an excess of 10-25 % of the TI: so it
+    removes most of the error (bound: half). The conventional algorithm freezes the
+    attitude of the third beam over the 5-s cycle, one to two periods of this sea: the
+    other beams keep a tilt error of the order of the tilt itself, so it removes less than
+    the new one (Yamaguchi and Ishihara, 2016, Fig. 8)."""
+    rows = []
+    for k in range(8):
+        start, los, imu, rec = record_inputs(dbs_campaign, k)
+        out = los_record_ti(
+            los,
+            imu,
+            start=start,
+            heights_m=rec["height_m"].to_numpy(),
+            wd_deg=rec["wd_mean_deg"].to_numpy(),
+            lidar="windcube_v2",
+            lever_arm_m=(0.0, 0.0, 2.0),
+        )
+        rows.append(out.assign(**{c: rec[c].to_numpy() for c in rec.columns if c != "height_m"}))
+    res = pd.concat(rows, ignore_index=True)
+    assert (res["los_flags"] == "").all() and (res["n_scans"] == 120).all()
+    whole = res["n_scans_used"] == res["n_scans"]  # no IMU gap: the record's own cycles
+    assert whole.sum() >= 12
+    np.testing.assert_allclose(
+        res.loc[whole, "ti_los_uncorrected"],
+        res.loc[whole, "hws_std_ms"] / res.loc[whole, "hws_mean_ms"],
+        rtol=1e-9,
+    )
+    np.testing.assert_array_equal(
+        res.loc[whole, "n_hws_uncorrected"], res.loc[whole, "true_n_scans"]
+    )
+    # a cycle has a point to interpolate on every beam at the lowest gate only when no beam
+    # is closer to the vertical than on a level platform, at the highest when none is
+    # further from it: with opposite beams tilted opposite ways, rarely
+    edge = res[res["height_m"] != 80.0]
+    assert (edge["n_hws_dbs_new"] < 30).all() and edge["ti_los_dbs_new"].isna().all()
+    mid = res[res["height_m"] == 80.0]
+    ti_ref = mid["true_ref_hws_std_ms"] / mid["true_ref_hws_mean_ms"]
+    err = {m: (mid[f"ti_los_{m}"] - ti_ref).abs().mean() for m in los_methods("windcube_v2")}
+    assert (mid["ti_los_uncorrected"] > ti_ref).mean() >= 0.75  # the motion inflates the TI
+    assert err["dbs_new"] < 0.5 * err["uncorrected"]
+    assert err["dbs_new"] < err["dbs_conventional"]
 
 
 def test_imu_gaps_remove_scans_and_no_imu_flags_the_record(campaign):
@@ -162,12 +226,13 @@ def test_cw_negative_speed_is_an_error(campaign):
         )
 
 
-def dbs_record(rng, *, n_cycles=150, gates=(40.0, 60.0, 80.0, 100.0, 120.0)):
+def dbs_record(rng, *, n_cycles=150, gates=(40.0, 60.0, 80.0, 100.0, 120.0), lidar="windcube_v1"):
     """A pulsed-DBS record in the LOS format with a wind that is uniform in space and
-    constant within each 4-s cycle (so each cycle's wind is retrievable exactly), on a buoy
+    constant within each cycle (so each cycle's wind is retrievable exactly), on a buoy
     pitching and rolling 5 deg with its head 2.5 m above the rotation centre (no heave: the
-    IMU format carries the attitude only), and its IMU series at 20 Hz."""
-    geom = L.get_lidar("windcube_v1")
+    IMU format carries the attitude only), and its IMU series at 20 Hz. A lidar with a
+    vertical beam writes ``elevation_deg`` (90 for that beam, azimuth 0)."""
+    geom = L.get_lidar(lidar)
     motion = M.PlatformMotion(
         roll=(M.Harmonic(5.0, 6.0, 0.3),),
         pitch=(M.Harmonic(5.0, 6.5, 1.2),),
@@ -187,11 +252,14 @@ def dbs_record(rng, *, n_cycles=150, gates=(40.0, 60.0, 80.0, 100.0, 120.0)):
         {
             "timestamp": np.repeat(stamps, len(gates)),
             "height_m": np.tile(gates, t.size),
-            "azimuth_deg": np.repeat(np.degrees(az), len(gates)),
+            "azimuth_deg": np.repeat(np.degrees(np.nan_to_num(az)), len(gates)),
             "radial_speed_ms": np.repeat(vr, len(gates)),
             "cnr_db": -10.0,
         }
     )
+    if geom.vertical_beam:
+        elev = np.where(np.isnan(az), 90.0, 90.0 - geom.half_cone_angle_deg)
+        los["elevation_deg"] = np.repeat(elev, len(gates))
     t_imu = np.arange(-5.0, 605.0, 0.05)
     roll, pitch, yaw = (np.degrees(a) for a in motion.attitude_rad(t_imu))
     imu = pd.DataFrame(
@@ -234,16 +302,51 @@ def test_dbs_lidar_malekmohammadi2024_and_dbs_new_recover_the_ti(rng):
     assert ((conv - ti_true).abs() < (out["ti_los_uncorrected"] - ti_true).abs()).all()
 
 
-def test_dbs_with_a_vertical_beam_is_refused(rng):
-    los, imu, _ = dbs_record(rng, n_cycles=2)
-    with pytest.raises(ValueError, match="vertical beam"):
+def test_dbs_with_a_vertical_beam_marked_by_its_elevation(rng):
+    """The WindCube v2's fifth, vertical beam (elevation_deg 90) is carried through the cycles;
+    the beam pairs of Yamaguchi and Ishihara (2016) and the least squares of Malekmohammadi
+    et al. (2024) (which uses it for w) recover the TI of a wind known cycle by cycle."""
+    los, imu, ti_true = dbs_record(rng, n_cycles=110, lidar="windcube_v2")  # 5-s cycles
+    assert (los["elevation_deg"] == 90.0).sum() == 110 * 5  # one beam in five, at every gate
+    out = los_record_ti(
+        los,
+        imu,
+        start=T0,
+        heights_m=[60.0, 100.0],
+        wd_deg=[np.nan, np.nan],
+        lidar="windcube_v2",
+        lever_arm_m=(0.0, 0.0, 2.5),
+    )
+    assert (out["los_flags"] == "").all() and (out["n_scans_used"] == 110).all()
+    for m in ("least_squares", "dbs_new"):
+        np.testing.assert_allclose(out[f"ti_los_{m}"], ti_true, rtol=0.01, err_msg=m)
+
+
+@pytest.mark.parametrize(
+    ("change", "lidar", "pattern"),
+    [
+        ("drop", "windcube_v2", r"'windcube_v2' has a vertical beam, but .* no elevation_deg"),
+        ("tilt", "windcube_v2", r"elevation_deg 45 at 2015-04-01T00:00:00.5.* on neither the cone"),
+        ("none", "windcube_v1", r"elevation_deg 62 .* on neither the cone of 'windcube_v1' \(60"),
+        ("cone", "windcube_v1", r"elevation_deg 90 .* vertical beam, which 'windcube_v1' does not"),
+    ],
+)
+def test_los_elevations_that_do_not_fit_the_lidar_are_one_line(rng, change, lidar, pattern):
+    los, imu, _ = dbs_record(rng, n_cycles=2, lidar="windcube_v2")
+    if change == "drop":
+        los = los.drop(columns="elevation_deg")
+    elif change == "tilt":
+        los.loc[0, "elevation_deg"] = 45.0
+    elif change == "cone":  # the inclined beams on the v1's 30-deg cone, the vertical kept
+        los.loc[los["elevation_deg"] < 90.0, "elevation_deg"] = 60.0
+    with pytest.raises(ValueError, match=pattern):
         los_record_ti(
             los,
             imu,
             start=T0,
             heights_m=[60.0],
             wd_deg=[np.nan],
-            lidar="windcube_v1_5beam",
+            lidar=lidar,
             lever_arm_m=(0, 0, 2.5),
         )
 

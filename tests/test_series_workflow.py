@@ -331,6 +331,50 @@ def test_virtual_campaign_as_raw_series_gives_the_same_corrected_ti_and_runs_the
 
 
 @pytest.mark.slow
+def test_virtual_dbs_campaign_runs_the_los_branch(tmp_path):
+    """The LOS branch on a virtual WindCube v2 (dbs_tilt_only, 24 records at 40, 80 and 120
+    m): the campaign writes its DBS LOS series (the vertical beam marked by elevation_deg),
+    the uncorrected LOS TI is the record's own, and at the interior gate the new algorithm
+    of Yamaguchi and Ishihara (2016) removes most of the motion error against the fixed
+    reference lidar (why half: test_los_records.py, the round trip of the same series)."""
+    from flidar_uq.campaign.scenarios import load_scenario
+
+    scenario = load_scenario("dbs_tilt_only")
+    scenario.update(name="tiny_dbs", n_records=24, chunk_records=8)
+    path = tmp_path / "tiny_dbs.yaml"
+    path.write_text(yaml.safe_dump(scenario))
+    cfg = with_campaign(
+        tiny_config(tmp_path), scenario=str(path), lidar="windcube_v2", virtual_series="imu_los"
+    )
+    snakemake(tmp_path, cfg, "--cores", "2")
+    records = check_outputs(tmp_path, truth=True)
+    res = tmp_path / "results"
+    series = io.read_los_series(res / "campaign" / "los.parquet")
+    assert (series["elevation_deg"] == 90.0).mean() == pytest.approx(1 / 5)
+    los = pd.read_csv(res / "los" / "records.csv")
+    assert len(los) == len(records) and los["los_flags"].isna().all()  # "" is read as NaN
+    corrected = pd.read_csv(res / "los" / "corrected.csv")
+    whole = corrected["n_scans_used"] == corrected["n_scans"]
+    np.testing.assert_allclose(
+        los.loc[whole, "ti_los_uncorrected"], los.loc[whole, "ti_uncorrected"], rtol=1e-6
+    )
+    mid = los["height_m"] == 80.0
+    assert los.loc[~mid, "ti_los_dbs_new"].isna().all()  # edge gates: nothing to interpolate
+    ti_ref = pd.read_csv(res / "ti" / "records.csv")["ti_ref"][mid]
+    err = {
+        m: (los.loc[mid, f"ti_los_{m}"] - ti_ref).abs().mean() for m in ("uncorrected", "dbs_new")
+    }
+    assert err["dbs_new"] < 0.5 * err["uncorrected"]
+    agreement = pd.read_csv(res / "los" / "agreement.csv").set_index("method")
+    both = los["ti_los_dbs_new"].notna() & los["ti_corrected_median"].notna()
+    assert agreement.loc["dbs_new", "n_records"] == both.sum() > 0.8 * mid.sum()
+    assert (
+        "LOS-level correction beside the Bayesian one"
+        in (res / "report" / "report.html").read_text()
+    )
+
+
+@pytest.mark.slow
 def test_readme_series_example_runs(tmp_path):
     """docs/user-guide.md, "Run on your own data": the example files and tests/data/user_series_config.yaml."""
     readme = (REPO / "docs" / "user-guide.md").read_text()

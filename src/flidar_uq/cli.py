@@ -255,7 +255,8 @@ def _add_validate(p: argparse.ArgumentParser) -> None:
 
 
 def _run_validate(args: argparse.Namespace) -> dict:
-    from flidar_uq.data.io import los_imu_match, read_imu_series, read_los_series
+    from flidar_uq.data.formats import read_los_file
+    from flidar_uq.data.io import los_imu_match, read_imu_series
     from flidar_uq.workflow.inputs import (
         check_config,
         inspect_records,
@@ -292,10 +293,11 @@ def _run_validate(args: argparse.Namespace) -> dict:
         imu = read_imu_series(args.imu_series, allow_small_angles=small)
         out["imu_series"] = {"path": args.imu_series, "n_samples": len(imu)}
         if args.los_series:
-            los = read_los_series(args.los_series)
+            los, facts = read_los_file(args.los_series, utc_offset_h=campaign.get("utc_offset_h"))
             ok = los_imu_match(los, imu, los_source=args.los_series, imu_source=args.imu_series)
             out["los_series"] = {
                 "path": args.los_series,
+                "format": facts["format"],
                 "n_measurements": len(los),
                 "share_with_imu": round(float(ok.mean()), 4) if len(ok) else 0.0,
             }

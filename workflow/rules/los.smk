@@ -23,6 +23,7 @@ if LOS_SERIES:
             qc=config["qc"],
             chunk_rows=config["campaign"]["series_chunk_rows"],
             allow_small_angles=config["campaign"]["allow_small_angles"],
+            utc_offset_h=config["campaign"]["utc_offset_h"],
         conda:
             "../envs/flidar_uq.yaml"
         log:

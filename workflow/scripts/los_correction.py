@@ -17,4 +17,5 @@ with step_errors_exit():
         qc_params=dict(snakemake.params.qc),
         chunk_rows=snakemake.params.chunk_rows,
         allow_small_angles=snakemake.params.allow_small_angles,
+        utc_offset_h=snakemake.params.utc_offset_h,
     )

@@ -121,7 +121,7 @@ class CampaignOutput:
         Raw IMU series (``timestamp, roll_deg, pitch_deg, yaw_deg``) if requested.
     los : pandas.DataFrame or None
         LOS-level data (``timestamp, height_m, azimuth_deg, radial_speed_ms,
-        cnr_db``) of the floating lidar if requested.
+        cnr_db``; a DBS lidar's also ``elevation_deg``) of the floating lidar if requested.
     config : CampaignConfig
         The validated scenario.
     """
@@ -661,11 +661,6 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     """
     geo = _lidar.get_lidar(settings["lidar"]["name"])
     lay = _scan_layout(geo)
-    if lay.dbs and want_los:
-        raise ValueError(
-            f"campaign: virtual LOS series are written for VAD lidars only, not {geo.name!r} "
-            "(set campaign.virtual_series to none or imu)"
-        )
     clk = _chunk_clocks(settings, lay)
     wd = np.deg2rad(par["wd_deg"])
     e_wind = np.stack([-np.sin(wd), -np.cos(wd), np.zeros_like(wd)], -1)  # (C,3)
@@ -966,7 +961,9 @@ def _record_statistics(settings, par, rec_idx, starts_ns, sc, fl_truth, trans_tr
 def _los_frames(sc, settings, starts_ns, geo, lay, clk):
     """The floating lidar's lines of sight of the chunk's complete scans (one frame):
     time, height (m), azimuth (deg), radial speed (m/s; ``|v_r|`` for a CW lidar, NaN for
-    a scan not counted) and CNR (dB)."""
+    a scan not counted) and CNR (dB); a DBS lidar's: :func:`_dbs_los_frames`."""
+    if lay.dbs:
+        return _dbs_los_frames(sc, settings, starts_ns, geo, lay, clk)
     import pandas as pd  # the series' frames (the records go back as arrays)
 
     heights = np.asarray(settings["heights_m"], float)
@@ -989,6 +986,52 @@ def _los_frames(sc, settings, starts_ns, geo, lay, clk):
                     # a valid CW measurement reports a good CNR; dropped scans
                     # carry NaN speed and CNR (flagged by qc.run_los_qc)
                     "cnr_db": np.where(np.isfinite(vr.ravel()), GOOD_CNR_DB, np.nan),
+                }
+            )
+        )
+    return _concat_frames(frames)
+
+
+def _dbs_los_frames(sc, settings, starts_ns, geo, lay, clk):
+    """A pulsed DBS lidar's lines of sight of the chunk's complete cycles (one frame).
+
+    One row per beam and range gate (every height of a cycle from the same beams, all at
+    the beam's time): the beam's radial speed (m/s, signed) is the mean of its dwell's
+    sub-slots (the pulse accumulation of :func:`_scan_layout`), written at the mean time of
+    those sub-slots, ``t_cycle + t_beam + (m - 1) dt_s / 2`` (s; ``t_beam`` from
+    :func:`flidar_uq.physics.lidar.scan_times_azimuths`, ``m`` sub-slots of ``dt_s``);
+    ``azimuth_deg`` is the beam's body-frame azimuth (deg, clockwise from the body y axis)
+    and ``elevation_deg`` 90 deg minus the half-cone angle, or 90 deg (azimuth 0) for the
+    vertical beam. A (cycle, height) not counted (dropout, outage) has NaN speed and CNR.
+    Rows in time order, a beam's gates by increasing height.
+    """
+    import pandas as pd  # the series' frames (the records go back as arrays)
+
+    heights = np.asarray(settings["heights_m"], float)
+    n_h, n_beam = heights.size, geo.n_los
+    m = lay.n_los // n_beam  # sub-slots a beam
+    t_beam, az = _lidar.scan_times_azimuths(geo)
+    t_beam = t_beam + 0.5 * (m - 1) * clk.dt_s  # the mean time of the beam's sub-slots
+    vertical = np.isnan(az)
+    az_deg = np.where(vertical, 0.0, np.rad2deg(np.nan_to_num(az)) % 360.0)
+    elev = np.where(vertical, 90.0, 90.0 - geo.half_cone_angle_deg)
+    frames = []
+    for c, ts in enumerate(starts_ns.tolist()):
+        jj = np.nonzero(sc.valid[c])[0]  # whole cycles: a cycle's heights share its start
+        n_cyc = jj.size // n_h
+        vr = sc.v_r[c][jj].reshape(n_cyc, n_h, n_beam, m).mean(axis=-1)  # pulse accumulation
+        vr = np.where(sc.ok[c][jj].reshape(n_cyc, n_h, 1), vr, np.nan).transpose(0, 2, 1)
+        t = (sc.starts[c][jj[::n_h]] * clk.dt_s)[:, None] + t_beam[None, :]  # (cycles, beams)
+        vr = vr.ravel()  # (cycle, beam, height) order: time order
+        frames.append(
+            pd.DataFrame(
+                {
+                    "timestamp": _utc_index(np.repeat(_utc_ns(ts, t.ravel()), n_h)),
+                    "height_m": np.tile(heights, n_cyc * n_beam),
+                    "azimuth_deg": np.tile(np.repeat(az_deg, n_h), n_cyc),
+                    "radial_speed_ms": vr,
+                    "cnr_db": np.where(np.isfinite(vr), GOOD_CNR_DB, np.nan),
+                    "elevation_deg": np.tile(np.repeat(elev, n_h), n_cyc),
                 }
             )
         )
@@ -1120,7 +1163,9 @@ def generate_campaign(
         (:class:`flidar_uq.progress.ProgressLog`; a rule's log shows them).
     return_imu, return_los : bool
         Also return the raw IMU series / the floating lidar's LOS-level data
-        (LOS data are large: ~19,000 rows per record; use for small scenarios).
+        (LOS data are large: ~19,000 rows per record of a CW VAD lidar at 3 heights, one
+        row per beam and height of a DBS lidar, 1,800 for a WindCube v2 at 3 heights; use for
+        small scenarios).
     n_workers : int, optional
         Worker processes (default: scenario ``n_workers``); 1 runs in-process.
     chunk_records : int, optional

@@ -22,8 +22,8 @@ methods are implemented, all in the project's ENU frame (``docs/conventions.md``
 Frame conversions at the edge: Malekmohammadi et al. (2024) uses x south, y west, z down
 (:func:`rotation_from_swd_frame`, :func:`velocity_from_swd_frame`); Yamaguchi and Ishihara's (2016)
 Eq. (3) read with its Table 1 beam order gives ``u`` from ``V_W - V_E`` but ``v`` from
-``V_N - V_S`` (inconsistent signs as printed; here both from speeds positive away); seed
-003 uses ENU with our rotation order (its Eq. 4 has a typo, ``R[0, 1] = 1``, read as 0).
+``V_N - V_S`` (inconsistent signs as printed; here both from speeds positive away); Nassif
+et al. (2020) use ENU with our rotation order (its Eq. 4 has a typo, ``R[0, 1] = 1``, read as 0).
 
 Radial speeds are positive away from the lidar, ``v_r = d_earth . (u - v_head)``, so the
 corrected LOS speed entering every solver is ``v_r + d_earth . v_head``.
@@ -37,6 +37,7 @@ import numpy as np
 
 from flidar_uq.physics.lidar import (
     LidarGeometry,
+    beam_index,
     beam_unit_vectors_body,
     get_lidar,
     scan_times_azimuths,
@@ -438,12 +439,8 @@ def correct_least_squares(
 
 def _beam_ids(geom: LidarGeometry, az: np.ndarray, where: str) -> np.ndarray:
     """Index of each LOS in the lidar's scan pattern, matched by body azimuth."""
-    _, az_pattern = scan_times_azimuths(geom)
-    diff = np.abs(np.angle(np.exp(1j * (az[:, None] - az_pattern[None, :]))))
-    both_vertical = np.isnan(az)[:, None] & np.isnan(az_pattern)[None, :]
-    diff = np.where(both_vertical, 0.0, np.nan_to_num(diff, nan=np.inf))
-    ids = np.argmin(diff, axis=1)
-    bad = diff[np.arange(az.size), ids] > 1e-6
+    ids = beam_index(geom, az)
+    bad = ids < 0
     if np.any(bad):
         i = int(np.argmax(bad))
         raise ValueError(
@@ -455,14 +452,15 @@ def _beam_ids(geom: LidarGeometry, az: np.ndarray, where: str) -> np.ndarray:
 def _interp_along_beam(vr, range_m, target_range_m):
     """Linear interpolation of LOS speeds from range gates to target ranges.
 
-    vr (nwin, k, nlev); range_m (nlev,) increasing; target (nwin, k, nh). NaN outside.
+    vr (nwin, k, nlev); range_m (nlev,) increasing; target (nwin, k, nh). NaN outside. A
+    target on a gate takes that gate's speed, so a missing neighbouring gate does not spoil it.
     """
     j = np.clip(np.searchsorted(range_m, target_range_m) - 1, 0, range_m.size - 2)
     r0, r1 = range_m[j], range_m[j + 1]
     f = (target_range_m - r0) / (r1 - r0)
     v0 = np.take_along_axis(vr, j, axis=-1)
     v1 = np.take_along_axis(vr, j + 1, axis=-1)
-    out = v0 + f * (v1 - v0)
+    out = np.where(f == 0.0, v0, np.where(f == 1.0, v1, v0 + f * (v1 - v0)))
     inside = (target_range_m >= range_m[0] - 1e-9) & (target_range_m <= range_m[-1] + 1e-9)
     return np.where(inside, out, np.nan)
 
@@ -485,8 +483,8 @@ def correct_dbs_motion(
     point at the target height; (2) horizontal wind in the planes of the opposite beams
     (E-W and N-S), with the head velocity added back to each LOS speed; (3) horizontal
     wind vector from the two in-plane horizontal components. ``method="conventional"``
-    freezes attitude and velocity at the reference LOS of the window (Table 2 of seed
-    002: the third of four), ``"new"`` uses them at each LOS time (Table 3),
+    freezes attitude and velocity at the reference LOS of the window (Yamaguchi and
+    Ishihara, 2016, Table 2: the third of four), ``"new"`` uses them at each LOS time (Table 3),
     ``"none"`` is the fixed-lidar DBS formula (Yamaguchi and Ishihara, 2016, Eq. 3) with no motion data.
 
     Windows are ``lidar.n_los`` consecutive LOS (one DBS cycle; a vertical beam is carried

@@ -1,8 +1,8 @@
 """LOS-level motion-corrected TI of one 10-min record, from its LOS data and the IMU series.
 
 The scan-by-scan corrections of :mod:`flidar_uq.correction.los` (Malekmohammadi et al., 2024, Eq. 7,
-:func:`~flidar_uq.correction.los.correct_least_squares`; for a pulsed DBS lidar also seed
-002's conventional and new algorithms, :func:`~flidar_uq.correction.los.correct_dbs_motion`)
+:func:`~flidar_uq.correction.los.correct_least_squares`; for a pulsed DBS lidar also
+Yamaguchi and Ishihara's (2016) conventional and new algorithms, :func:`~flidar_uq.correction.los.correct_dbs_motion`)
 applied to a record as a user has it: LOS rows in the format of ``docs/data-format.md``
 (CNR-filtered with :func:`flidar_uq.data.qc.run_los_qc`) and the raw IMU series as a
 :class:`flidar_uq.physics.motion.SampledMotion` with the lidar head's lever arm (head
@@ -27,7 +27,7 @@ import pandas as pd
 from flidar_uq.correction.los import correct_dbs_motion, correct_least_squares
 from flidar_uq.data.metrics import pearson_r
 from flidar_uq.data.qc import QCConfig, run_los_qc
-from flidar_uq.physics.lidar import LidarGeometry, get_lidar, scan_times_azimuths
+from flidar_uq.physics.lidar import LidarGeometry, beam_index, get_lidar
 from flidar_uq.physics.motion import SampledMotion
 
 __all__ = [
@@ -62,6 +62,10 @@ LOS_RECORD_REASONS = {
 #: Margin of IMU samples read around a record window (head-velocity differences), s.
 IMU_MARGIN_S = 5.0
 
+#: Largest difference between a row's ``elevation_deg`` and the lidar's cone
+#: (90 deg - half-cone angle) or the vertical beam (90 deg), deg.
+ELEVATION_TOL_DEG = 0.5
+
 
 def los_methods(lidar: str | LidarGeometry) -> tuple[str, ...]:
     """Method names of the LOS branch for a lidar: ``uncorrected``, ``least_squares`` and, for a
@@ -80,7 +84,7 @@ def complete_scans(t_s: np.ndarray, azimuth_rad: np.ndarray, lidar) -> np.ndarra
     t_s : numpy.ndarray, shape (n,)
         LOS times, s, strictly increasing.
     azimuth_rad : numpy.ndarray, shape (n,)
-        Body-frame beam azimuths, rad.
+        Body-frame beam azimuths, rad; ``NaN`` marks a DBS lidar's vertical beam.
     lidar : str or LidarGeometry
         VAD: a scan is ``n_los`` consecutive LOS without a pause (longer runs are cut into
         scans of ``n_los``); DBS: ``n_los`` consecutive LOS holding the beams in the
@@ -98,10 +102,7 @@ def complete_scans(t_s: np.ndarray, azimuth_rad: np.ndarray, lidar) -> np.ndarra
         return np.empty((0, n), dtype=int)
     brk = np.flatnonzero(np.diff(t) > 1.5 * geom.los_duration_s) + 1
     if geom.kind == "dbs":
-        _, pattern = scan_times_azimuths(geom)
-        diff = np.abs(np.angle(np.exp(1j * (np.asarray(azimuth_rad)[:, None] - pattern[None]))))
-        ids = np.argmin(diff, axis=1)
-        ids = np.where(diff[np.arange(t.size), ids] < 1e-3, ids, -1)
+        ids = beam_index(geom, azimuth_rad, tol_rad=1e-3)
         start = np.flatnonzero(ids[: t.size - n + 1] == 0)
         idx = start[:, None] + np.arange(n)
         ok = (ids[idx] == np.arange(n)).all(axis=1)
@@ -113,6 +114,58 @@ def complete_scans(t_s: np.ndarray, azimuth_rad: np.ndarray, lidar) -> np.ndarra
         if k:
             scans.append(a + np.arange(k * n).reshape(k, n))
     return np.concatenate(scans) if scans else np.empty((0, n), dtype=int)
+
+
+def _los_azimuth_rad(los: pd.DataFrame, lidar: str | LidarGeometry) -> np.ndarray:
+    """Body-frame azimuth of each LOS row, rad, ``NaN`` for a DBS lidar's vertical beam.
+
+    Rows with ``elevation_deg`` = 90 are the vertical beam (their ``azimuth_deg`` is not
+    used); every other row must lie on the lidar's cone (elevation 90 deg - half-cone angle,
+    within :data:`ELEVATION_TOL_DEG`). Without the column every row is on the cone.
+
+    Parameters
+    ----------
+    los : pandas.DataFrame
+        Validated LOS rows (``azimuth_deg``, deg; optional ``elevation_deg``, deg).
+    lidar : str or LidarGeometry
+        The lidar that wrote them.
+
+    Returns
+    -------
+    numpy.ndarray, shape (len(los),)
+        Azimuth clockwise from the body y axis, rad.
+
+    Raises
+    ------
+    ValueError
+        A row off the cone; vertical-beam rows for a lidar without vertical beam; or a
+        lidar with a vertical beam and no ``elevation_deg`` column to mark it.
+    """
+    geom = get_lidar(lidar)
+    az = np.radians(los["azimuth_deg"].to_numpy(dtype=float))
+    if "elevation_deg" not in los.columns:
+        if geom.kind == "dbs" and geom.vertical_beam and len(los):
+            raise ValueError(
+                f"LOS series: {geom.name!r} has a vertical beam, but the LOS rows have no "
+                "elevation_deg column to mark it (90 deg: the vertical beam)"
+            )
+        return az
+    elev = los["elevation_deg"].to_numpy(dtype=float)
+    vertical = np.abs(elev - 90.0) <= ELEVATION_TOL_DEG
+    cone = 90.0 - geom.half_cone_angle_deg
+    off = ~vertical & (np.abs(elev - cone) > ELEVATION_TOL_DEG)
+    if off.any() or (vertical.any() and not (geom.kind == "dbs" and geom.vertical_beam)):
+        i = int(np.argmax(off)) if off.any() else int(np.argmax(vertical))
+        what = (
+            f"on neither the cone of {geom.name!r} ({cone:g} deg) nor the vertical beam (90 deg)"
+            if off.any()
+            else f"the vertical beam, which {geom.name!r} does not have"
+        )
+        raise ValueError(
+            f"LOS series: elevation_deg {elev[i]:g} at {los['timestamp'].iloc[i].isoformat()} "
+            f"is {what}"
+        )
+    return np.where(vertical, np.nan, az)
 
 
 def _imu_motion(
@@ -155,10 +208,11 @@ def _imu_covered(t_imu: np.ndarray, t_start: np.ndarray, t_end: np.ndarray, max_
     return inside & ~overlap
 
 
-def _ti(hws: np.ndarray | None) -> tuple[int, float, float, float]:
-    """Scans with a finite HWS, their mean and std (m/s) and TI (-)."""
+def _ti(hws: np.ndarray | None, min_scans: int) -> tuple[int, float, float, float]:
+    """Scans with a finite HWS, their mean and std (m/s) and TI (-); NaN statistics from
+    fewer than ``min_scans`` (at least 2) of them."""
     h = np.empty(0) if hws is None else hws[np.isfinite(hws)]
-    if h.size < 2:
+    if h.size < max(min_scans, 2):
         return h.size, np.nan, np.nan, np.nan
     m, s = float(h.mean()), float(h.std(ddof=1))
     return h.size, m, s, s / m
@@ -183,8 +237,9 @@ def los_record_ti(
     ----------
     los : pandas.DataFrame
         The record window's LOS rows (validated LOS format, time-ordered): ``timestamp,
-        height_m, azimuth_deg, radial_speed_ms, cnr_db``. A DBS lidar writes one row per
-        range gate (``height_m``) and LOS time.
+        height_m, azimuth_deg, radial_speed_ms, cnr_db`` and, for a lidar with a vertical
+        beam, ``elevation_deg`` (deg; :func:`_los_azimuth_rad`). A DBS lidar writes one row
+        per range gate (``height_m``) and LOS time.
     imu : pandas.DataFrame
         IMU rows covering the window (with :data:`IMU_MARGIN_S` on both sides).
     start : pandas.Timestamp
@@ -196,7 +251,9 @@ def los_record_ti(
         180-deg branch of a CW lidar's scans (``reference_wd_deg`` of
         :func:`~flidar_uq.correction.los.correct_least_squares`); NaN: the method's default.
     lidar : str or LidarGeometry
-        ``"zephir300"`` (CW VAD) or a pulsed DBS lidar without vertical beam (``"windcube_v1"``).
+        ``"zephir300"`` (CW VAD) or a pulsed DBS lidar (``"windcube_v1"``, or
+        ``"windcube_v2"`` with its vertical beam, carried and not used by the corrections of
+        Yamaguchi and Ishihara, 2016).
     lever_arm_m : sequence of 3 float
         Lidar head position from the buoy's rotation centre, body frame, m.
     qc : QCConfig, optional
@@ -204,8 +261,8 @@ def los_record_ti(
     imu_max_gap_s : float
         Longest IMU pause tolerated during a scan, s.
     min_scans : int
-        Fewer usable scans give NaN (a 10-min std from 30 scans has a relative sampling
-        error of about 1 / sqrt(2 * 30) = 13 %).
+        Fewer usable scans give NaN, and so do fewer retrieved HWS of a method (a 10-min
+        std from 30 scans has a relative sampling error of about 1 / sqrt(2 * 30) = 13 %).
 
     Returns
     -------
@@ -213,23 +270,20 @@ def los_record_ti(
         One row per height: ``height_m``, ``n_los``, ``n_scans`` (complete), ``n_scans_used``
         (with IMU), ``los_flags`` (:data:`LOS_RECORD_REASONS`, ``;``-separated), and per
         method ``m`` of :func:`los_methods`: ``n_hws_<m>`` (scans with a retrieved HWS; a
-        Yamaguchi and Ishihara (2016) target above the top gate or a singular scan gives none),
-        ``hws_mean_ms_<m>``, ``hws_std_ms_<m>`` (m/s, over those scans' HWS) and
-        ``ti_los_<m>`` (-).
+        Yamaguchi and Ishihara (2016) target whose point on a tilted beam lies beyond the
+        lowest or highest gate, or a singular scan, gives none), ``hws_mean_ms_<m>``,
+        ``hws_std_ms_<m>`` (m/s, over those scans' HWS) and ``ti_los_<m>`` (-), NaN from
+        fewer than ``min_scans`` HWS.
 
     Raises
     ------
     ValueError
-        A CW lidar with negative radial speeds, or a DBS lidar with a vertical beam (the
-        LOS format has no vertical-beam azimuth).
+        A CW lidar with negative radial speeds, or rows whose ``elevation_deg`` does not
+        fit the lidar (:func:`_los_azimuth_rad`).
     """
     geom = get_lidar(lidar)
-    if geom.kind == "dbs" and geom.vertical_beam:
-        raise ValueError(
-            f"los_record_ti: {geom.name!r} has a vertical beam, which the LOS format cannot "
-            "hold (azimuth_deg must be finite); use its four-beam variant"
-        )
     methods = los_methods(geom)
+    az_all = _los_azimuth_rad(los, geom)
     vr_all = los["radial_speed_ms"].to_numpy(dtype=float).copy()
     if len(los):
         vr_all[~run_los_qc(los, qc).flags["kept"].to_numpy(dtype=bool)] = np.nan
@@ -250,9 +304,9 @@ def los_record_ti(
             .pivot_table(index="t", columns="h", values="vr", aggfunc="first", dropna=False)
             .reindex(columns=gates)
         )
-        az_t = pd.Series(los["azimuth_deg"].to_numpy(), index=t_los).groupby(level=0).first()
+        az_t = pd.Series(az_all, index=t_los).groupby(level=0).first()
         t_d = wide.index.to_numpy(dtype=float)
-        az_d = np.radians(az_t.reindex(wide.index).to_numpy(dtype=float))
+        az_d = az_t.reindex(wide.index).to_numpy(dtype=float)
         vr_d = wide.to_numpy(dtype=float)
     for h, wd in zip(heights_m, wd_deg, strict=True):
         row: dict = {"height_m": float(h)}
@@ -261,7 +315,7 @@ def los_record_ti(
             n_here = int((los["height_m"] == h).sum()) if len(los) else 0
         else:
             sel = los["height_m"].to_numpy() == h if len(los) else np.zeros(0, bool)
-            t, az, vr = t_los[sel], np.radians(los["azimuth_deg"].to_numpy()[sel]), vr_all[sel]
+            t, az, vr = t_los[sel], az_all[sel], vr_all[sel]
             n_here = int(sel.sum())
         scans = complete_scans(t, az, geom) if n_here else np.empty((0, geom.n_los), int)
         covered = _imu_covered(t_imu, t[scans[:, 0]], t[scans[:, -1]], imu_max_gap_s)
@@ -301,7 +355,7 @@ def los_record_ti(
                     geom, t[li], az[li], vr[li], motion, reference_wd_deg=ref
                 ).hws_ms
         for m in methods:
-            n, mean, std, ti = _ti(hws[m])
+            n, mean, std, ti = _ti(hws[m], min_scans)
             row.update(
                 {
                     f"n_hws_{m}": n,

@@ -29,6 +29,7 @@ import pandas as pd
 
 from flidar_uq.data import imu as _imu
 from flidar_uq.data import io
+from flidar_uq.data.formats import detect_los_format, read_los_file
 from flidar_uq.data.schema import (
     RADIAN_SUSPECT_MAX_DEG,
     RADIAN_SUSPECT_MIN_COUNT,
@@ -246,26 +247,37 @@ def iter_imu_series(
 
 
 def iter_los_series(
-    path: str | Path, *, chunk_rows: int = DEFAULT_CHUNK_ROWS
+    path: str | Path, *, chunk_rows: int = DEFAULT_CHUNK_ROWS, utc_offset_h: float | None = None
 ) -> Iterator[pd.DataFrame]:
-    """Read LOS-level data (CSV or Parquet) chunk by chunk, validated and in time order.
+    """Read LOS-level data (CSV, Parquet or WindCube ``.rtd``) chunk by chunk, in time order.
 
     Each chunk passes :func:`flidar_uq.data.io.validate_los_series`; the stream needs
     the rows sorted by time across heights (non-decreasing timestamps), which is stricter
-    than the contract's per-height order: an unsorted file is an error that says so.
+    than the contract's per-height order: an unsorted file is an error that says so. A
+    WindCube v2 real-time file (``.rtd``, :func:`flidar_uq.data.formats.read_los_file`: a
+    day of lines of sight at most) is read whole, then served in chunks.
 
     Parameters
     ----------
     path : str or pathlib.Path
-        ``.csv``, ``.csv.gz``, ``.parquet`` or ``.pq`` file.
+        ``.csv``, ``.csv.gz``, ``.parquet``, ``.pq`` or ``.rtd`` file.
     chunk_rows : int
         Rows per chunk (>= 2).
+    utc_offset_h : float, optional
+        A ``.rtd`` without ``timezone`` line: offset of its stamps from UTC, h.
 
     Yields
     ------
     pandas.DataFrame
         Normalised chunks.
     """
+    if detect_los_format(path) == "windcube_rtd":
+        if chunk_rows < 2:
+            raise ValueError(f"chunk_rows must be >= 2, got {chunk_rows}")
+        los, _ = read_los_file(path, utc_offset_h=utc_offset_h)
+        for k in range(0, len(los), chunk_rows):
+            yield los.iloc[k : k + chunk_rows].reset_index(drop=True)
+        return
     for _, df, _ in _validated_chunks(
         path,
         lambda d, s, csv: io.validate_los_series(d, s, csv=csv),
@@ -304,7 +316,11 @@ def _last_timestamp(path: Path, csv: bool, validate: Callable[..., pd.DataFrame]
 
 
 def series_span(
-    path: str | Path, *, what: str = "imu", head_rows: int = 20_000
+    path: str | Path,
+    *,
+    what: str = "imu",
+    head_rows: int = 20_000,
+    utc_offset_h: float | None = None,
 ) -> tuple[pd.Timestamp, pd.Timestamp]:
     """First and last timestamp of a series file, its head validated, in bounded time.
 
@@ -318,9 +334,11 @@ def series_span(
     path : str or pathlib.Path
         The IMU or LOS series (CSV or Parquet).
     what : {"imu", "los"}
-        Which series (its validation).
+        Which series (its validation). A LOS ``.rtd`` is read whole.
     head_rows : int
         Rows validated at the head of the file (>= 2).
+    utc_offset_h : float, optional
+        A ``.rtd`` without ``timezone`` line: offset of its stamps from UTC, h.
 
     Returns
     -------
@@ -337,6 +355,9 @@ def series_span(
 
         def validate(d, s, csv):
             return io.validate_imu_series(d, s, allow_small_angles=True, csv=csv)
+    elif detect_los_format(path) == "windcube_rtd":
+        los, _ = read_los_file(path, utc_offset_h=utc_offset_h)
+        return pd.Timestamp(los["timestamp"].iloc[0]), pd.Timestamp(los["timestamp"].iloc[-1])
     else:
         head = next(iter_los_series(path, chunk_rows=head_rows))
         validate = io.validate_los_series

@@ -1182,7 +1182,7 @@ def validate_los_series(
 ) -> pd.DataFrame:
     """Validate LOS-level data (``timestamp, height_m, azimuth_deg, radial_speed_ms, cnr_db``).
 
-    Timestamps must be non-decreasing within each height.
+    The optional ``elevation_deg`` (deg) marks a DBS lidar's vertical beam. Timestamps must be non-decreasing within each height.
 
     Returns
     -------
@@ -1197,7 +1197,7 @@ def validate_los_series(
     for name in out.columns:
         _check_values(out, known[name], source, csv)
     _check_time_order(out, source, csv, by="height_m", strict=False)
-    return out[[c.name for c in LOS_COLUMNS]]
+    return out[[c.name for c in LOS_COLUMNS if c.name in out.columns]]
 
 
 def read_los_series(path: str | Path) -> pd.DataFrame:

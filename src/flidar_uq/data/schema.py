@@ -817,6 +817,17 @@ LOS_COLUMNS: tuple[Column, ...] = (
         True,
         "Carrier-to-noise ratio of the LOS measurement.",
     ),
+    Column(
+        "elevation_deg",
+        "float",
+        "deg",
+        False,
+        0.0,
+        90.0,
+        False,
+        "Beam elevation above the body x-y plane: 90 marks the vertical beam of a DBS lidar "
+        "(its azimuth_deg is not used); absent: every beam on the lidar's cone.",
+    ),
 )
 
 

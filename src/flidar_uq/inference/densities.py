@@ -302,8 +302,8 @@ def log_prob_two_period(theta, log_amp, log_per, log_p1, log_p2, share1, priors=
 def _global_loglik_pointwise(theta, s, r, sz_med, sz_var, u2=None):
     """(n_walkers, n_obs) pointwise log-likelihood of the observation model.
 
-    ``s_i ~ N(mu_i, tau_i)``, ``mu_i^2 = r_i^2 + sZ_i^2 + 2 rho r_i sZ_i`` (Eq. (15) of seed
-    000), ``tau_i^2 = kappa^2 mu_i^2 + tau0^2 + (dmu_i/dsZ_i)^2 Var(sZ_i)`` with
+    ``s_i ~ N(mu_i, tau_i)``, ``mu_i^2 = r_i^2 + sZ_i^2 + 2 rho r_i sZ_i`` (Gutiérrez-Antuñano
+    et al., 2018, Eq. 15), ``tau_i^2 = kappa^2 mu_i^2 + tau0^2 + (dmu_i/dsZ_i)^2 Var(sZ_i)`` with
     ``dmu/dsZ = (sZ + rho r) / mu``. With a 4th column (lever arm ``L``) and ``u2``:
     ``sZ^2 = sZ_rot^2 + L^2 u^2`` and ``Var(sZ)`` scaled by ``(sZ_rot / sZ)^2``; with a 5th
     column ``log k`` the surrogate's rotational sigma_Z is scaled first, ``sZ_rot = k sZ``.

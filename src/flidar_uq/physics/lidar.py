@@ -36,6 +36,7 @@ __all__ = [
     "dbs_retrieval_operator",
     "get_lidar",
     "scan_times_azimuths",
+    "beam_index",
     "beam_unit_vectors_body",
     "vad_pseudo_inverse",
     "vad_sign_unfolding",
@@ -386,6 +387,35 @@ def scan_times_azimuths(
         az = np.append(az, np.nan)
     start = int(np.floor(g.n_los * (scan_phase_rad % (2.0 * np.pi)) / (2.0 * np.pi))) % g.n_los
     return t_s, np.roll(az, -start)
+
+
+def beam_index(
+    lidar: str | LidarGeometry, azimuth_rad: np.ndarray, tol_rad: float = 1e-6
+) -> np.ndarray:
+    """Position of each line of sight in a DBS lidar's scan pattern, matched by azimuth.
+
+    Parameters
+    ----------
+    lidar : str or LidarGeometry
+        A DBS geometry (its pattern: :func:`scan_times_azimuths` at phase 0).
+    azimuth_rad : array_like, shape (n,)
+        Body-frame beam azimuths, rad; ``NaN`` marks the vertical beam.
+    tol_rad : float
+        Largest angle between a line of sight and its pattern beam, rad.
+
+    Returns
+    -------
+    ndarray of int, shape (n,)
+        Index into the pattern (0 = the first beam of a cycle); -1 where no beam of the
+        lidar lies within ``tol_rad`` (a ``NaN`` azimuth of a lidar without vertical beam).
+    """
+    _, pattern = scan_times_azimuths(lidar)
+    az = np.atleast_1d(np.asarray(azimuth_rad, dtype=float))
+    diff = np.abs(np.angle(np.exp(1j * (az[:, None] - pattern[None, :]))))
+    both_vertical = np.isnan(az)[:, None] & np.isnan(pattern)[None, :]
+    diff = np.where(both_vertical, 0.0, np.nan_to_num(diff, nan=np.inf))
+    ids = np.argmin(diff, axis=1)
+    return np.where(diff[np.arange(az.size), ids] <= tol_rad, ids, -1)
 
 
 def beam_unit_vectors_body(lidar: str | LidarGeometry, azimuth_rad: np.ndarray) -> np.ndarray:

@@ -700,7 +700,7 @@ def check_series(campaign: Mapping) -> None:
     imu = series_span(campaign["imu_series"], what="imu")
     if not campaign.get("los_series"):
         return
-    los = series_span(campaign["los_series"], what="los")
+    los = series_span(campaign["los_series"], what="los", utc_offset_h=campaign.get("utc_offset_h"))
     if los[1] < imu[0] or los[0] > imu[1]:
         raise DataValidationError(
             str(campaign["los_series"]),

@@ -31,6 +31,7 @@ def los_correction(
     chunk_rows: int = 250_000,
     allow_small_angles: bool = False,
     window_s: float = 600.0,
+    utc_offset_h: float | None = None,
 ) -> pd.DataFrame:
     """LOS-level corrected TI of every record (Malekmohammadi et al. (2024) LS; Yamaguchi and Ishihara (2016) for a DBS lidar).
 
@@ -46,8 +47,9 @@ def los_correction(
         The validated record table (results/data/records.csv): timestamps, heights,
         ``wd_mean_deg``.
     los_path, imu_path : path
-        LOS series and IMU series (CSV or Parquet, docs/data-format.md); the LOS rows sorted
-        by time.
+        LOS series and IMU series (CSV or Parquet, docs/data-format.md; the LOS series also
+        a WindCube v2 ``.rtd``, :func:`flidar_uq.data.formats.read_los_file`); the LOS rows
+        sorted by time.
     out_path : path
         results/los/corrected.csv: ``timestamp`` and the columns of ``los_record_ti``.
     lidar : str
@@ -62,6 +64,9 @@ def los_correction(
         Skip the radians check of the IMU series.
     window_s : float
         Record length, s.
+    utc_offset_h : float, optional
+        A ``.rtd`` without ``timezone`` line: offset of its stamps from UTC, h (config
+        ``campaign.utc_offset_h``).
 
     Returns
     -------
@@ -94,7 +99,9 @@ def los_correction(
     n_los_outside = n_los_other_height = 0
     dbs = get_lidar(lidar).kind == "dbs"
     for batch in window_batches(
-        iter_los_series(los_path, chunk_rows=chunk_rows), window_s=window_s, offset_s=offset_s
+        iter_los_series(los_path, chunk_rows=chunk_rows, utc_offset_h=utc_offset_h),
+        window_s=window_s,
+        offset_s=offset_s,
     ):
         shift = pd.Timedelta(offset_s, "s")
         starts = (batch["timestamp"] - shift).dt.floor(window) + shift

@@ -1,5 +1,7 @@
 """Readers of the instruments' own files: WindCube v2 ``.sta``, ZephIR 300 / ZX300 CSV and
-the IEA Wind Task 43 data model (``docs/data-format.md``, "Instrument formats").
+the IEA Wind Task 43 data model (``docs/data-format.md``, "Instrument formats"); and of
+LOS series: the documented table or a WindCube v2 real-time file ``.rtd``
+(:func:`read_los_file`).
 
 :func:`read_instrument` reads such a file with no column map: the heights and
 quantities come from the instrument's column names, the time conventions from its
@@ -30,6 +32,9 @@ __all__ = [
     "read_instrument",
     "read_any",
     "complete_motion",
+    "LOS_FORMATS",
+    "detect_los_format",
+    "read_los_file",
     "heading_ccw_deg",
     "check_alignment",
     "INTERVAL_MIN",
@@ -38,6 +43,9 @@ __all__ = [
 #: Values of config ``campaign.format`` (``table``: the documented record table).
 FORMATS = ("auto", "table", "windcube_sta", "zephir_csv", "iea43")
 INSTRUMENT_FORMATS = {"windcube_sta": windcube, "zephir_csv": zephir, "iea43": iea43}
+#: Formats of a LOS series (config ``campaign.los_series``): the documented table (CSV or
+#: Parquet) or a WindCube v2 real-time file.
+LOS_FORMATS = ("table", "windcube_rtd")
 
 
 @dataclass
@@ -72,12 +80,8 @@ def detect_format(path: str | Path) -> str:
     name), else ``table``.
     """
     path = Path(path)
-    if path.suffix.lower() in (".parquet", ".pq") or path.name.lower().endswith(".gz"):
-        return "table"
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(4096).decode("latin-1").split("\n", 1)[0]
-    except OSError:
+    head = _first_line(path)
+    if head is None:
         return "table"
     if windcube.looks_like(head) or path.suffix.lower() == ".sta":
         return "windcube_sta"
@@ -88,6 +92,66 @@ def detect_format(path: str | Path) -> str:
     if path.with_suffix(".json").exists():
         return "iea43"
     return "table"
+
+
+def _first_line(path: Path) -> str | None:
+    """The file's first line (latin-1), or None for a binary table or an unreadable file."""
+    if path.suffix.lower() in (".parquet", ".pq") or path.name.lower().endswith(".gz"):
+        return None
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(4096).decode("latin-1").split("\n", 1)[0]
+    except OSError:
+        return None
+
+
+def detect_los_format(path: str | Path) -> str:
+    """The format of a LOS series, one of :data:`LOS_FORMATS`.
+
+    ``windcube_rtd`` for a ``.rtd`` file or a WindCube header (``HeaderSize=`` on line 1),
+    else ``table``.
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".rtd" or windcube.looks_like(_first_line(path) or ""):
+        return "windcube_rtd"
+    return "table"
+
+
+def read_los_file(
+    path: str | Path, *, utc_offset_h: float | None = None
+) -> tuple[pd.DataFrame, dict]:
+    """Read a LOS series in any of :data:`LOS_FORMATS` (:func:`detect_los_format`).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The documented LOS table (CSV or Parquet, docs/data-format.md) or a WindCube v2
+        ``.rtd`` (:func:`flidar_uq.data.formats.windcube.read_rtd`: speeds turned positive
+        away from the lidar, ``Position`` into ``azimuth_deg`` and ``elevation_deg``, stamps
+        into UTC).
+    utc_offset_h : float, optional
+        A ``.rtd`` without ``timezone`` line: offset of its stamps from UTC, h (config
+        ``campaign.utc_offset_h``). A table's stamps carry their zone.
+
+    Returns
+    -------
+    los : pandas.DataFrame
+        The validated LOS series.
+    facts : dict
+        ``format`` and what a ``.rtd``'s header states (scan angle, heights, UTC offset).
+
+    Raises
+    ------
+    flidar_uq.data.io.DataValidationError
+        Naming the file, the row and the column.
+    """
+    from flidar_uq.data import io
+
+    path = Path(path)
+    if detect_los_format(path) == "table":
+        return io.read_los_series(path), {"format": "table"}
+    los, facts = windcube.read_rtd(path, utc_offset_h=utc_offset_h)
+    return los, {"format": "windcube_rtd", **facts}
 
 
 def _long(parsed, source: str) -> tuple[pd.DataFrame, np.ndarray, list[dict]]:
