@@ -68,6 +68,7 @@ __all__ = [
     "dbs_heading_average_sigma_z_ms",
     "dbs_record_sigma_z_ms",
     "dbs_record_terms",
+    "dbs_tilt_lever_terms",
     "band_moments_to_wind",
     "dbs_band_terms",
     "dbs_sigma_z_from_terms",
@@ -573,6 +574,111 @@ def dbs_record_terms(
     )
     gram = sum(_basis_gram(amp, per, hws, b, mom, lidar, dwell_average) for b in betas)
     return gram / len(betas)
+
+
+#: Highest harmonic of the wind's direction relative to the body, ``beta``, in a Gram matrix
+#: of :func:`dbs_record_terms`: the tilt's phasor along the wind is quadratic in
+#: ``(cos beta, sin beta)`` (the mean wind rotated into the beams' vertical, ``U cos(beta -
+#: theta)``, projected on the wind) and the lever arm's linear, so their products hold
+#: harmonics up to 4, and ``2 * 4 + 1`` wind directions determine the Gram matrix at every
+#: other (tested against :func:`dbs_record_terms`).
+_BETA_HARMONICS = 4
+
+
+def _beta_basis(wind_body_deg) -> np.ndarray:
+    """Fourier basis ``(1, cos b, sin b, ..., cos 4b, sin 4b)`` (..., 9) of the wind's body
+    direction (deg); where it is NaN (the heading unknown) ``(1, 0, ..., 0)``: the mean
+    over headings."""
+    b = np.deg2rad(np.asarray(wind_body_deg, float))
+    known = np.isfinite(b)
+    b = np.where(known, b, 0.0)
+    cols = [np.ones(b.shape)]
+    for m in range(1, _BETA_HARMONICS + 1):
+        cols += [np.where(known, np.cos(m * b), 0.0), np.where(known, np.sin(m * b), 0.0)]
+    return np.stack(cols, -1)
+
+
+def _unit_tilt_lever_series(period_s, lidar, dwell_average) -> np.ndarray:
+    """Fourier coefficients over the wind's body direction (:func:`_beta_basis`) of the
+    ``(k, k)``, ``(k, L)`` and ``(L, L)`` entries of :func:`dbs_record_terms` for roll and
+    pitch of 1 deg at ``period_s`` (n,) and a wind of 1 m/s: shape (n, 3, 9)."""
+    n_beta = 2 * _BETA_HARMONICS + 1
+    nodes = np.arange(n_beta) * 360.0 / n_beta
+    per = np.repeat(np.asarray(period_s, float), n_beta)
+    ones = np.ones(per.shape)
+    gram = dbs_record_terms(
+        ones,
+        ones,
+        ones,
+        per,
+        wind_body_deg=np.tile(nodes, per.size // n_beta),
+        lidar=lidar,
+        dwell_average=dwell_average,
+    )
+    entries = np.stack([gram[:, 0, 0], gram[:, 0, 2], gram[:, 2, 2]], -1)  # (n * 9, 3)
+    values = entries.reshape(-1, n_beta, 3)
+    return np.einsum("fj,njc->ncf", np.linalg.inv(_beta_basis(nodes)), values)
+
+
+def dbs_tilt_lever_terms(
+    hws_ms,
+    amplitude_deg,
+    period_s,
+    *,
+    wind_body_deg=None,
+    lidar: str | LidarGeometry | Mapping = "windcube_v2",
+    dwell_average: bool = True,
+):
+    """A DBS lidar's tilt and lever-arm Gram entries for the bin model's roll and pitch.
+
+    The ``(k, k)``, ``(k, L)`` and ``(L, L)`` entries of :func:`dbs_record_terms` for the
+    bin motion model's harmonic roll and pitch of equal amplitude and period
+    (Gutiérrez-Antuñano et al. 2018, Sec. 2), fast over posterior draws x records.
+    The bin model has no hull response (``h = 0``), so its sigma_Z is
+    ``sqrt(k^2 G_kk + 2 k L G_kL + L^2 G_LL)`` (:data:`TERM_BASIS`; the beam-pair phasors of
+    Yamaguchi & Ishihara 2016, Eqs. 3-4). The phasors are linear in the amplitude and the
+    tilt's also in the wind speed, so ``G_kk = U^2 A^2 g_kk``, ``G_kL = U A^2 g_kL`` and
+    ``G_LL = A^2 g_LL`` with ``g`` a function of the period and of the wind's direction
+    relative to the beams only, a trigonometric polynomial of degree 4 in it
+    (:data:`_BETA_HARMONICS`): ``g`` is computed once per distinct period at 9 directions
+    and evaluated at each record's. Where the direction is unknown it is the mean over
+    headings, the average :func:`dbs_record_terms` takes.
+
+    Parameters
+    ----------
+    hws_ms : array_like
+        Mean HWS ``U``, m/s.
+    amplitude_deg : array_like
+        Roll and pitch amplitude ``A`` (each), deg.
+    period_s : array_like
+        Roll and pitch period, s.
+    wind_body_deg : array_like, optional
+        The wind's direction relative to the body (:func:`wind_to_body_deg`), deg; NaN or
+        None: unknown, averaged over headings.
+    lidar : str, LidarGeometry or mapping
+    dwell_average : bool
+        As :func:`dbs_record_terms` (on: the pulse accumulation over each beam).
+
+    Returns
+    -------
+    gram_kk, gram_kl, gram_ll : numpy.ndarray
+        The broadcast shape of the arguments: (m/s)^2, (m/s)^2 per m and (m/s)^2 per m^2;
+        NaN where the wind speed or the amplitude is negative or the period not positive.
+    """
+    g = get_lidar(lidar)
+    hws = np.asarray(hws_ms, float)
+    amp = np.asarray(amplitude_deg, float)
+    per = np.asarray(period_s, float)
+    beta = np.full(hws.shape, np.nan) if wind_body_deg is None else wind_body_deg
+    basis = _beta_basis(beta)
+    ok = (per > 0) & np.isfinite(per)
+    distinct, inverse = np.unique(np.where(ok, per, 1.0), return_inverse=True)
+    coef = _unit_tilt_lever_series(distinct, g, dwell_average)[inverse.reshape(per.shape)]
+    unit = np.einsum("...cf,...f->...c", coef, basis, optimize=True)
+    with np.errstate(invalid="ignore"):
+        valid = ok & (hws >= 0) & (amp >= 0)
+    amp_sq = np.where(valid, amp**2, np.nan)
+    return unit[..., 0] * hws**2 * amp_sq, unit[..., 1] * hws * amp_sq, unit[..., 2] * amp_sq
 
 
 def band_moments_to_wind(cos_psi, cos_sq_psi) -> np.ndarray:
