@@ -4,6 +4,8 @@ leak and the head translation, in the bin draws, the global fit and the propagat
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -29,6 +31,7 @@ from flidar_uq.physics.dbs_sigma_z import (
 )
 from flidar_uq.physics.lidar import get_lidar
 from flidar_uq.physics.surrogate import get_surrogate
+from flidar_uq.validation.regimes import scenario_records
 
 LIDAR = "windcube_v2"
 SHAPE = (4, 25)
@@ -271,3 +274,58 @@ def test_global_fit_of_a_dbs_lidar_recovers_the_lever_arm_of_its_beam_pair_form(
     assert gf.converged, gf.failure_reasons
     lo, hi = np.quantile(gf.flat("lever_arm_m"), [0.005, 0.995])
     assert lo < 2.0 < hi, (lo, hi)
+
+
+def test_scenario_bins_are_the_configs_default_bins():
+    """validation.regimes' bin model bins the records as the pipeline's default config does."""
+    import yaml
+
+    from flidar_uq.validation.regimes import DEFAULT_BINNING
+    from flidar_uq.workflow.inputs import SCHEMA_PATH
+
+    schema = yaml.safe_load(SCHEMA_PATH.read_text(encoding="utf-8"))
+    binning = schema["properties"]["binning"]["properties"]
+    assert DEFAULT_BINNING == {k: v["default"] for k, v in binning.items()}
+
+
+def test_scenario_records_refuses_an_unknown_motion_model():
+    with pytest.raises(ValueError, match="motion_model='bins' is not 'record' or 'bin'"):
+        scenario_records("tiny", 1, motion_model="bins")
+
+
+#: Two seeds drawn fresh (secrets.randbelow(10**6)) for this test, not chosen after the result.
+SCENARIO_SEEDS = (527423, 854725)
+
+
+@functools.cache
+def _scenario(seed):
+    return scenario_records("dbs_tilt_only", seed, lidar=LIDAR, motion_model="bin")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", SCENARIO_SEEDS)
+def test_bin_model_finds_the_lever_arm_of_a_dbs_buoy_and_corrects_its_ti(seed):
+    """The bin model on ``dbs_tilt_only`` (a WindCube v2 2 m above the centre of a buoy that
+    only tilts, fixed heading; 7 days x 3 heights; the records of the bins with >= 30
+    records, about 45 %, are corrected) with the DBS lidar's own terms: PSIS-LOO keeps a
+    lever arm by more than 2 se, the lever arm is within half of the true 2 m and the mean
+    relative error of the corrected TI against the point truth is within +-1.5 %.
+
+    Measured: L 1.84 m [1.58, 2.10] and 2.79 m [2.45, 3.12] (90 %), elpd over rho only
+    +63 +- 16 and +86 +- 15; mean error +0.4 % and +0.3 % (uncorrected +13 %, +17 %).
+    The bin model's harmonic roll and pitch at the bin's peak period carry the
+    description's error into ``L`` (the record model's roll-and-pitch description is
+    0.75 m off, docs/dbs-lidars.md): hence half the lever arm, not its 90 % interval. The
+    VAD form the bin model used before on the same seeds: L 7.95 m [5.4, 10.0] and the
+    lever arm not kept (elpd +1.8 +- 1.3); mean error +0.2 % for both: the aggregate is
+    corrected either way, what changes is that the lever arm is the buoy's."""
+    records, fit = _scenario(seed)
+    assert fit.converged, fit.failure_reasons
+    loo = fit.info["loo"]
+    assert loo["model"] in ("lever_arm", "lever_arm_scale"), loo
+    assert loo["lever_arm_elpd_diff"] > 2.0 * loo["lever_arm_elpd_diff_se"], loo
+    lever = float(np.median(fit.flat("lever_arm_m")))
+    assert abs(lever - 2.0) <= 1.0, lever
+    answered = records[records["ti_corrected_median"].notna() & (records["ti_true"] > 0)]
+    err = float(np.mean(answered["ti_corrected_median"] / answered["ti_true"] - 1.0))
+    assert abs(err) <= 0.015, err
