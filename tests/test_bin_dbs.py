@@ -79,30 +79,34 @@ def _record_sigma_z(hws, amp, per, lever, beta, scale=1.0):
 
 def test_dbs_tilt_lever_terms_are_dbs_record_terms_with_equal_roll_and_pitch():
     """The bin model's fast form is dbs_record_terms at roll = pitch amplitude and period:
-    at known wind directions and averaged over headings (NaN), for two lidars; the cross
-    term averages to 0 over headings and is not small at a known one."""
+    sigma_Z within 1e-4 at any lever arm (its table's accuracy, 3e-5 measured next to the
+    zeros at 1 and 2 beam dwells), at known wind directions and averaged over headings
+    (NaN), for two lidars, periods over the whole 1-20 s range; the cross term averages
+    to 0 over headings and is not small at a known direction."""
     rng = np.random.default_rng(np.random.SeedSequence(3))
-    n = 40
+    n = 400
     hws, amp = rng.uniform(3.0, 20.0, n), rng.uniform(0.3, 9.0, n)
-    per, beta = rng.uniform(1.5, 15.0, n), rng.uniform(0.0, 360.0, n)
+    per, beta = np.exp(rng.uniform(0.0, np.log(20.0), n)), rng.uniform(0.0, 360.0, n)
     for lidar in (LIDAR, "windcube_v2_1"):
         for b in (beta, None):
             want = dbs_record_terms(hws, amp, amp, per, wind_body_deg=b, lidar=lidar)
             kk, kl, ll = dbs_tilt_lever_terms(hws, amp, per, wind_body_deg=b, lidar=lidar)
-            np.testing.assert_allclose(kk, want[:, 0, 0], rtol=1e-12)
-            np.testing.assert_allclose(ll, want[:, 2, 2], rtol=1e-12)
-            scale = np.sqrt(kk * ll)
-            np.testing.assert_allclose(kl / scale, want[:, 0, 2] / scale, rtol=0, atol=1e-12)
-        assert np.max(np.abs(kl) / scale) < 1e-12  # heading-averaged: no cross term
+            for lever in (0.0, 2.0, 5.0):
+                np.testing.assert_allclose(
+                    np.sqrt(kk + 2.0 * lever * kl + lever**2 * ll),
+                    dbs_sigma_z_from_terms(want, lever_arm_m=lever, hull_response=0.0),
+                    rtol=1e-4,
+                )
+        assert np.max(np.abs(kl) / np.sqrt(kk * ll)) < 1e-9  # heading-averaged: no cross term
     kk, kl, ll = dbs_tilt_lever_terms(hws, amp, per, wind_body_deg=beta)
     assert np.max(np.abs(kl) / np.sqrt(kk * ll)) > 0.5
-    # draws x records in one call; NaN outside the domain
+    # draws x records in one call; NaN outside the domain (negative speed, period < 1 s)
     kk = dbs_tilt_lever_terms(
         hws[None, :5], amp[:3, None], per[:3, None], wind_body_deg=beta[None, :5]
     )[0]
     assert kk.shape == (3, 5)
     bad = dbs_tilt_lever_terms(
-        np.array([8.0, -1.0, 8.0]), np.array([2.0, 2.0, 2.0]), np.array([4.0, 4.0, 0.0])
+        np.array([8.0, -1.0, 8.0]), np.array([2.0, 2.0, 2.0]), np.array([4.0, 4.0, 0.5])
     )
     assert np.isfinite(bad[0][0]) and np.all(np.isnan([b[1:] for b in bad]))
 
@@ -121,9 +125,9 @@ def test_bin_model_sigma_z_of_a_dbs_lidar_is_its_beam_pair_form_not_the_vad_form
     got = fit.sigma_z_draws(hws, surrogate, lever_arm_m=lever, wind_body_deg=beta)
     a, t = amp.ravel(), per.ravel()
     want = _record_sigma_z(hws[:3], a, t, lever, beta[None, :3])
-    np.testing.assert_allclose(got[:, :3], want, rtol=1e-10)
+    np.testing.assert_allclose(got[:, :3], want, rtol=1e-6)
     np.testing.assert_allclose(
-        got[:, 3], _record_sigma_z(hws[3:], a, t, lever, np.full((1, 1), np.nan))[:, 0], rtol=1e-10
+        got[:, 3], _record_sigma_z(hws[3:], a, t, lever, np.full((1, 1), np.nan))[:, 0], rtol=1e-6
     )
     vad = effective_sigma_z_ms(
         surrogate.sigma_z_ms(hws[None, :], a[:, None], t[:, None]),
@@ -133,7 +137,7 @@ def test_bin_model_sigma_z_of_a_dbs_lidar_is_its_beam_pair_form_not_the_vad_form
     assert np.median(np.abs(got / vad - 1.0)) > 0.05
     # without a lever arm: the DBS tilt leak alone
     rot = fit.sigma_z_draws(hws[:3], surrogate, wind_body_deg=beta[:3])
-    np.testing.assert_allclose(rot, _record_sigma_z(hws[:3], a, t, 0.0, beta[None, :3]), rtol=1e-10)
+    np.testing.assert_allclose(rot, _record_sigma_z(hws[:3], a, t, 0.0, beta[None, :3]), rtol=1e-6)
 
 
 def test_two_period_bin_adds_its_components_gram_matrices(surrogate):
@@ -159,11 +163,11 @@ def test_two_period_bin_adds_its_components_gram_matrices(surrogate):
         for sh, t in ((ww, t1), (1.0 - ww, t2))
     ]  # fmt: skip
     kk, kl, ll = (p1 + p2 for p1, p2 in zip(*parts, strict=True))
-    np.testing.assert_allclose(got, np.sqrt(kk + 2.0 * lever * kl + lever**2 * ll), rtol=1e-10)
+    np.testing.assert_allclose(got, np.sqrt(kk + 2.0 * lever * kl + lever**2 * ll), rtol=1e-6)
     # each component alone is the record model's form at its own amplitude and period
     one = _record_sigma_z(hws, (a * np.sqrt(ww)).ravel(), t1.ravel(), lever, beta[None, :])
     np.testing.assert_allclose(
-        np.sqrt(parts[0][0] + 2 * lever * parts[0][1] + lever**2 * parts[0][2]), one, rtol=1e-10
+        np.sqrt(parts[0][0] + 2 * lever * parts[0][1] + lever**2 * parts[0][2]), one, rtol=1e-6
     )
     assert np.all(got > one)
 
@@ -214,7 +218,7 @@ def test_propagation_bin_path_uses_the_dbs_terms_at_each_records_heading(surroga
         hws[known], np.array([3.0]), np.array([3.2]), lever, beta[None, known], k
     )[0]
     want[~known] = _record_sigma_z(hws[~known], np.array([3.0]), np.array([3.2]), lever, np.full((1, 1), np.nan), k)[0]  # fmt: skip
-    np.testing.assert_allclose(d.sigma_z_median_ms, want, rtol=1e-10)
+    np.testing.assert_allclose(d.sigma_z_median_ms, want, rtol=1e-6)
 
 
 def test_global_likelihood_of_a_dbs_lidar_has_the_cross_term():
@@ -265,9 +269,7 @@ def test_global_fit_of_a_dbs_lidar_recovers_the_lever_arm_of_its_beam_pair_form(
     rec["hws_std_ms"] = np.sqrt(r**2 + sz**2) * (1.0 + 0.02 * rng.standard_normal(n))
     szm, szv, u2m, corr = record_sigma_z_moments(rec, [fit], surrogate=surrogate, seed=1)
     assert corr.min() < -0.5 and corr.max() > 0.5
-    np.testing.assert_allclose(
-        effective_sigma_z_ms(szm, u2m, 2.0, correlation=corr), sz, rtol=1e-10
-    )
+    np.testing.assert_allclose(effective_sigma_z_ms(szm, u2m, 2.0, correlation=corr), sz, rtol=1e-6)
     settings = SamplerSettings(nwalkers=16, nsteps=200, nburn=100, ndraws=100, ess_min=100.0,
                                n_autocorr=10.0)  # fmt: skip
     gf = fit_global(rec, [fit], surrogate=surrogate, settings=settings, seed=3, lever_arm=True)
