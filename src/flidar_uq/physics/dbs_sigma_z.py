@@ -654,7 +654,7 @@ def dbs_tilt_lever_terms(
 
     The ``(k, k)``, ``(k, L)`` and ``(L, L)`` entries of :func:`dbs_record_terms` for the
     bin motion model's harmonic roll and pitch of equal amplitude and period
-    (Gutiérrez-Antuñano et al. 2018, Sec. 2), fast over posterior draws x records.
+    (Gutiérrez-Antuñano et al. 2018, Sec. 2.4), fast over posterior draws x records.
     The bin model has no hull response (``h = 0``), so its sigma_Z is
     ``sqrt(k^2 G_kk + 2 k L G_kL + L^2 G_LL)`` (:data:`TERM_BASIS`; the beam-pair phasors of
     Yamaguchi & Ishihara 2016, Eqs. 3-4). The phasors are linear in the amplitude and the
