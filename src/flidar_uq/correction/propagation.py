@@ -4,7 +4,8 @@ For every record ``i`` and posterior draw ``d`` (docs/inference.md, "Propagation
 
 1. ``sZ_id`` from the record's bin posterior (surrogate at the record's mean HWS, times
    the global ``motion_scale_d`` and plus the head translation ``L_d^2 u^2`` if the global
-   fit chose a model with them);
+   fit chose a model with them; a pulsed DBS lidar's own beam-pair terms with their cross
+   term, :meth:`flidar_uq.inference.BinFit.sigma_z_draws`);
    ``rho_d, tau0_d, kappa_d[, L_d]`` from the global posterior (independent pairing: cut);
 2. the record's own sampling noise, the observation model read backwards: the likelihood
    has ``s_i = mu_i (1 + kappa z)`` (relative noise, sd ``kappa mu`` about the noise-free
@@ -47,7 +48,12 @@ import pandas as pd
 
 from flidar_uq.data.binning import speed_bin_ms
 from flidar_uq.data.metrics import REPRESENTATIVE_TI_FACTOR, representative_ti
-from flidar_uq.inference import effective_sigma_z_ms, imu_observations, is_record_model
+from flidar_uq.inference import (
+    effective_sigma_z_ms,
+    imu_observations,
+    is_record_model,
+    records_wind_body_deg,
+)
 from flidar_uq.inference.record_motion import GRAM_COLUMNS, gram_sigma_z_ms, motion_gram
 from flidar_uq.physics.lidar import get_lidar
 from flidar_uq.physics.surrogate import default_surrogate, get_surrogate
@@ -902,12 +908,15 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan) ->
 def _propagate_bin_model(p: _Propagation, records, bin_fits, surrogate, scan) -> None:
     """Bin motion model: each record's sigma_Z from its bin's posterior (surrogate at the
     record's mean HWS, times the motion scale, plus the head translation of the lever-arm
-    model), bin by bin in the order of first appearance."""
+    model; a DBS lidar's own beam-pair terms at the record's wind direction relative to
+    the beams, :meth:`flidar_uq.inference.BinFit.sigma_z_draws`), bin by bin in the order
+    of first appearance."""
     global_fit = p.global_fit
     tau0 = p.global_draws("tau0_ms")
     lever = p.global_draws("lever_arm_m") if "lever_arm_m" in global_fit.draws else None
     scale = p.global_draws("motion_scale") if "motion_scale" in global_fit.draws else 1.0
     bins = records["bin_id"].to_numpy()
+    beta = records_wind_body_deg(records)
     fits = {f.bin_id: f for f in bin_fits}
     for b in pd.unique(bins):
         mask = bins == b
@@ -917,11 +926,11 @@ def _propagate_bin_model(p: _Propagation, records, bin_fits, surrogate, scan) ->
             continue
         nb = int(f.flat("amplitude_deg").size)
         idx = p.rng.choice(nb, size=p.ndraws, replace=p.ndraws > nb)
-        sz, u2 = f._motion_draws(p.m[mask], surrogate, idx, scan)
+        sz, u2, corr = f._motion_draws(p.m[mask], surrogate, idx, scan, beta[mask])
         if lever is None:  # motion-model scale of the surrogate (1 if absent)
             sz = scale * sz
         else:  # plus the head translation of the lever-arm model
-            sz = effective_sigma_z_ms(sz, u2, lever, scale)
+            sz = effective_sigma_z_ms(sz, u2, lever, scale, corr)
         p.deploy(np.flatnonzero(mask), sz, tau0)
         p.conv[mask] = f.converged and global_fit.converged
         p.reasons[mask] = "; ".join([*f.failure_reasons, *p.global_reasons])

@@ -54,6 +54,7 @@ from flidar_uq.inference.observations import (
     effective_sigma_z_ms,
     imu_observations,
     record_sigma_z_moments,
+    records_wind_body_deg,
     two_peak_observations,
 )
 from flidar_uq.inference.predictive import prior_predictive
@@ -102,4 +103,5 @@ __all__ = [
     "record_sigma_z_moments",
     "translation_unit_sq",
     "effective_sigma_z_ms",
+    "records_wind_body_deg",
 ]

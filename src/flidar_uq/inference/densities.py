@@ -299,14 +299,18 @@ def log_prob_two_period(theta, log_amp, log_per, log_p1, log_p2, share1, priors=
     )
 
 
-def _global_loglik_pointwise(theta, s, r, sz_med, sz_var, u2=None):
+def _global_loglik_pointwise(theta, s, r, sz_med, sz_var, u2=None, corr=None):
     """(n_walkers, n_obs) pointwise log-likelihood of the observation model.
 
     ``s_i ~ N(mu_i, tau_i)``, ``mu_i^2 = r_i^2 + sZ_i^2 + 2 rho r_i sZ_i`` (Gutiérrez-Antuñano
-    et al., 2018, Eq. 15), ``tau_i^2 = kappa^2 mu_i^2 + tau0^2 + (dmu_i/dsZ_i)^2 Var(sZ_i)`` with
-    ``dmu/dsZ = (sZ + rho r) / mu``. With a 4th column (lever arm ``L``) and ``u2``:
-    ``sZ^2 = sZ_rot^2 + L^2 u^2`` and ``Var(sZ)`` scaled by ``(sZ_rot / sZ)^2``; with a 5th
-    column ``log k`` the surrogate's rotational sigma_Z is scaled first, ``sZ_rot = k sZ``.
+    et al., 2018, Eq. 15), ``tau_i^2 = kappa^2 mu_i^2 + tau0^2 + (dmu_i/dsZ_i)^2
+    Var(sZ_i)`` with ``dmu/dsZ = (sZ + rho r) / mu``. With a 4th column (lever arm ``L``)
+    and ``u2``: ``sZ^2 = sZ_rot^2 + L^2 u^2`` and ``Var(sZ)`` scaled by ``(sZ_rot / sZ)^2``;
+    with a 5th column ``log k`` the surrogate's rotational sigma_Z is scaled first,
+    ``sZ_rot = k sZ``. With ``corr`` (a DBS lidar's correlation ``c`` of the tilt leak and
+    the head translation, :func:`flidar_uq.inference.observations.bin_motion_terms`):
+    ``sZ^2 = sZ_rot^2 + 2 c sZ_rot L u + L^2 u^2`` and ``Var(sZ)`` scaled by
+    ``((sZ_rot + c L u) / sZ)^2``, the derivative through the rotational part as above.
     Written with in-place operations: this is the global fit's inner loop.
     """
     rho = theta[:, 0:1]
@@ -320,8 +324,17 @@ def _global_loglik_pointwise(theta, s, r, sz_med, sz_var, u2=None):
             sz_var = k_sq * sz_var
         # effective_sigma_z_ms written in place (this is the global fit's inner loop)
         sz_sq = sz_rot_sq + theta[:, 3:4] ** 2 * u2  # translation of the head
-        sz = np.sqrt(sz_sq)
-        sz_var = sz_var * sz_rot_sq / np.maximum(sz_sq, 1e-24)
+        if corr is None:
+            sz = np.sqrt(sz_sq)
+            sz_var = sz_var * sz_rot_sq / np.maximum(sz_sq, 1e-24)
+        else:  # the DBS cross term 2 c sZ_rot L u
+            sz_rot = np.sqrt(sz_rot_sq)
+            cross = corr * np.sqrt(u2) * theta[:, 3:4]
+            sz_sq += 2.0 * sz_rot * cross
+            np.maximum(sz_sq, 0.0, out=sz_sq)
+            sz = np.sqrt(sz_sq)
+            cross += sz_rot
+            sz_var = sz_var * cross**2 / np.maximum(sz_sq, 1e-24)
         var = rho * r * sz
         var *= 2.0
         var += sz_sq
@@ -348,7 +361,7 @@ def _global_loglik_pointwise(theta, s, r, sz_med, sz_var, u2=None):
     return z
 
 
-def log_prob_global(theta, s, r, sz_med, sz_var, priors=Priors(), u2=None):
+def log_prob_global(theta, s, r, sz_med, sz_var, priors=Priors(), u2=None, corr=None):
     """Log posterior of the global observation model, vectorised over walkers.
 
     Parameters
@@ -364,6 +377,9 @@ def log_prob_global(theta, s, r, sz_med, sz_var, priors=Priors(), u2=None):
     u2 : numpy.ndarray, shape (n_obs,), optional
         Squared translational error per metre of lever arm ((m/s)^2 / m^2), see
         :func:`translation_unit_sq`; enables the lever-arm model.
+    corr : numpy.ndarray, shape (n_obs,), optional
+        A pulsed DBS lidar's correlation (-) of the tilt leak and the head translation per
+        record (:func:`flidar_uq.inference.record_sigma_z_moments`); None: 0 (a CW lidar).
 
     Returns
     -------
@@ -388,6 +404,6 @@ def log_prob_global(theta, s, r, sz_med, sz_var, priors=Priors(), u2=None):
             lp = lp + _norm_logpdf(theta[:, 4], 0.0, priors.motion_scale_log_sd)
         out = np.full(theta.shape[0], -np.inf)
         if np.any(ok):  # the likelihood only where the prior is positive
-            ll = _global_loglik_pointwise(theta[ok], s, r, sz_med, sz_var, u2).sum(axis=1)
+            ll = _global_loglik_pointwise(theta[ok], s, r, sz_med, sz_var, u2, corr).sum(axis=1)
             out[ok] = lp[ok] + ll
     return np.where(np.isfinite(out), out, -np.inf)

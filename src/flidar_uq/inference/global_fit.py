@@ -40,7 +40,7 @@ def _per_bin_rho_loo(s, r, szm, szv, bins, tau0, kappa, rng, ndraws, priors):
     return ll_all[None, :, :]
 
 
-def _global_init_fn(s, r, szm, szv, u2, priors, ndim):
+def _global_init_fn(s, r, szm, szv, u2, priors, ndim, corr=None):
     """Overdispersed start of the global fit (:func:`laplace_init` on its log posterior)."""
 
     def broad(rng, n):
@@ -54,13 +54,13 @@ def _global_init_fn(s, r, szm, szv, u2, priors, ndim):
         return np.column_stack(cols[:ndim])
 
     x0 = np.array([0.0, np.log(0.05), np.log(0.1), 2.0, 0.0][:ndim])
-    return laplace_init(log_prob_global, (s, r, szm, szv, priors, u2), x0, broad)
+    return laplace_init(log_prob_global, (s, r, szm, szv, priors, u2, corr), x0, broad)
 
 
-def _sample_global(s, r, szm, szv, u2, settings, seedseq, priors, ndim):
-    """emcee run of the global model: 3 parameters, 4 with the lever arm (``u2``), 5 with
-    the motion-model scale too."""
-    init = _global_init_fn(s, r, szm, szv, u2, priors, ndim)
+def _sample_global(s, r, szm, szv, u2, settings, seedseq, priors, ndim, corr=None):
+    """emcee run of the global model: 3 parameters, 4 with the lever arm (``u2``; a DBS
+    lidar's cross term ``corr``), 5 with the motion-model scale too."""
+    init = _global_init_fn(s, r, szm, szv, u2, priors, ndim, corr)
     names = (_GLOBAL_NAMES + ["lever_arm_m", "motion_scale"])[:ndim]
     logs = [k for k in (1, 2, 4) if k < ndim]  # sampled as logs, reported natural
 
@@ -70,10 +70,10 @@ def _sample_global(s, r, szm, szv, u2, settings, seedseq, priors, ndim):
         return _diagnostics(nat, names, settings)
 
     chains, diag, reasons = _run_ensembles(
-        log_prob_global, (s, r, szm, szv, priors, u2), init, ndim, settings, seedseq, check
+        log_prob_global, (s, r, szm, szv, priors, u2, corr), init, ndim, settings, seedseq, check
     )
     thin = _thin(chains, settings.ndraws)
-    ll = _global_loglik_pointwise(thin.reshape(-1, ndim), s, r, szm, szv, u2)
+    ll = _global_loglik_pointwise(thin.reshape(-1, ndim), s, r, szm, szv, u2, corr)
     ll = ll.reshape(thin.shape[0], thin.shape[1], -1)
     draws = {n: (np.exp(thin[..., k]) if k in logs else thin[..., k]) for k, n in enumerate(names)}
     return draws, ll, diag, reasons
@@ -129,7 +129,10 @@ def fit_global(
         as separate jobs and :func:`select_global_model` give the same result as
         ``"auto"``.
     scan_period_s : float
-        VAD scan duration (s) for the translation term (1 s for the ZephIR 300).
+        VAD scan duration (s) for the translation term (1 s for the ZephIR 300). A pulsed
+        DBS lidar (``surrogate.lidar``) has its own terms instead: its beam-pair phasors
+        with the cross term between the tilt leak and the head translation, at each
+        record's wind direction relative to the beams (:func:`record_sigma_z_moments`).
 
     Returns
     -------
@@ -159,7 +162,7 @@ def fit_global(
     bin_fits = list(bin_fits)
     good = [f for f in bin_fits if f.converged or use_unconverged_bins]
     excluded = [f.bin_id for f in bin_fits if not (f.converged or use_unconverged_bins)]
-    szm, szv, u2m = record_sigma_z_moments(
+    szm, szv, u2m, corr = record_sigma_z_moments(
         records,
         good,
         surrogate=surrogate,
@@ -175,12 +178,15 @@ def fit_global(
     )
     use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.isfinite(szm) & (szm > 0)
     use &= np.isfinite(u2m)
+    if corr is not None:
+        use &= np.isfinite(corr)
     data = {
         "s": s[use],
         "r": r[use],
         "szm": szm[use],
         "szv": szv[use],
         "u2": u2m[use],
+        "corr": None if corr is None else corr[use],
         "bins": records["bin_id"].to_numpy()[use],
     }
     gs = settings.for_global_fit()
@@ -205,9 +211,10 @@ def _fit_global_model(name, data, settings, ss_mc, ss_loo, priors, loo_threshold
     """One global model on prepared data; returns (GlobalFit, its PSIS-LOO dict or None)."""
     s, r, szm, szv, bins = data["s"], data["r"], data["szm"], data["szv"], data["bins"]
     u2 = None if name == "rho_only" else data["u2"]
+    corr = None if name == "rho_only" else data.get("corr")  # None: a CW lidar
     prior_only = s.size == 0
     draws, ll, diag, reasons = _sample_global(
-        s, r, szm, szv, u2, settings, ss_mc, priors, _GLOBAL_NDIM[name]
+        s, r, szm, szv, u2, settings, ss_mc, priors, _GLOBAL_NDIM[name], corr
     )
     reasons = list(reasons)
     if prior_only:
@@ -219,8 +226,9 @@ def _fit_global_model(name, data, settings, ss_mc, ss_loo, priors, loo_threshold
     if name != "rho_only":  # per-bin rho comparison at the median lever arm (and scale)
         lev = float(np.median(draws["lever_arm_m"]))
         k = float(np.median(draws["motion_scale"])) if "motion_scale" in draws else 1.0
-        sz_eff = effective_sigma_z_ms(szm, u2, lev, k)
-        szv = k**2 * szv * (k * szm / np.maximum(sz_eff, 1e-12)) ** 2
+        sz_eff = effective_sigma_z_ms(szm, u2, lev, k, corr)
+        rot = k * szm if corr is None else k * szm + corr * lev * np.sqrt(u2)
+        szv = k**2 * szv * (rot / np.maximum(sz_eff, 1e-12)) ** 2
         szm = sz_eff
     if not prior_only and np.unique(bins).size > 1:
         llb = _per_bin_rho_loo(

@@ -5,36 +5,79 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from flidar_uq.physics.dbs_sigma_z import wind_to_body_deg
 from flidar_uq.physics.surrogate import default_surrogate
 from flidar_uq.seeding import as_seedsequence
 from flidar_uq.threads import single_threaded
 
 
-def effective_sigma_z_ms(sz_rot_ms, unit_sq, lever_arm_m, motion_scale=1.0):
+def effective_sigma_z_ms(sz_rot_ms, unit_sq, lever_arm_m, motion_scale=1.0, correlation=None):
     """Effective sigma_Z (m/s) of the lever-arm model: rotation plus head translation.
 
     ``sZ = sqrt((k sZ_rot)^2 + L^2 u^2)``: the surrogate's rotational sigma_Z scaled by the
     motion-model scale ``k``, and the translation of a head ``L`` above the centre of
     rotation, ``u^2`` from
     :func:`flidar_uq.physics.six_dof_sigma_z.translation_unit_sq` (docs/motion_spectrum.md).
+    A pulsed DBS lidar's tilt leak and head translation enter through the same beam pairs
+    (Yamaguchi & Ishihara 2016, Eqs. 3-4): with their correlation ``c``,
+    ``sZ^2 = (k sZ_rot)^2 + 2 c k sZ_rot L u + L^2 u^2``, which is ``v^T G v`` of
+    :func:`flidar_uq.physics.dbs_sigma_z.dbs_tilt_lever_terms` for ``v = (k, L)``.
 
     Parameters
     ----------
     sz_rot_ms : array_like
-        Rotational sigma_Z of the surrogate (m/s).
+        Rotational sigma_Z (m/s).
     unit_sq : array_like
         Squared translational error per metre of lever arm ((m/s)^2 / m^2).
     lever_arm_m : float or array_like
         Effective lever arm ``L`` (m), broadcastable (e.g. one per draw).
     motion_scale : float or array_like
         Motion-model scale ``k`` (1: the surrogate as is).
+    correlation : array_like, optional
+        Correlation ``c`` in [-1, 1] (-) of the rotational and the translational error
+        phasors (:func:`bin_motion_terms`); None: uncorrelated (a CW lidar's VAD form).
 
     Returns
     -------
     numpy.ndarray
     """
     sz = motion_scale * np.asarray(sz_rot_ms, dtype=float)
-    return np.sqrt(sz**2 + np.asarray(lever_arm_m, dtype=float) ** 2 * unit_sq)
+    if correlation is None:
+        return np.sqrt(sz**2 + np.asarray(lever_arm_m, dtype=float) ** 2 * unit_sq)
+    trans = np.asarray(lever_arm_m, dtype=float) * np.sqrt(unit_sq)
+    return np.sqrt(np.maximum(sz**2 + 2.0 * correlation * sz * trans + trans**2, 0.0))
+
+
+def bin_motion_terms(gram_kk, gram_kl, gram_ll):
+    """A DBS lidar's Gram entries as the arguments of :func:`effective_sigma_z_ms`.
+
+    From :func:`flidar_uq.physics.dbs_sigma_z.dbs_tilt_lever_terms`: the bin model's
+    rotational sigma_Z ``sqrt(G_kk)`` (m/s), translation unit ``u^2 = G_LL`` ((m/s)^2 per
+    m^2) and their correlation ``G_kL / sqrt(G_kk G_LL)`` (-, 0 where either part is 0).
+    """
+    kk, kl, ll = (np.asarray(x, dtype=float) for x in (gram_kk, gram_kl, gram_ll))
+    norm = np.sqrt(kk * ll)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = np.where(norm > 0, kl / np.where(norm > 0, norm, 1.0), 0.0)
+    return np.sqrt(kk), ll, np.clip(corr, -1.0, 1.0)
+
+
+def records_wind_body_deg(records: pd.DataFrame) -> np.ndarray:
+    """The wind's direction relative to a DBS lidar's beams per record (deg).
+
+    :func:`flidar_uq.physics.dbs_sigma_z.wind_to_body_deg` of ``wd_mean_deg`` and
+    ``heading_mean_deg`` (the heading column is the yaw it takes, docs/conventions.md); NaN
+    where either is missing or NaN (the heading unknown).
+    """
+
+    def col(name):
+        return (
+            records[name].to_numpy(dtype=float)
+            if name in records
+            else np.full(len(records), np.nan)
+        )
+
+    return wind_to_body_deg(col("wd_mean_deg"), col("heading_mean_deg"))
 
 
 def imu_observations(records: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
@@ -135,11 +178,19 @@ def record_sigma_z_moments(
 ):
     """Posterior median and variance of sigma_Z (m/s) for every record, from its bin's fit.
 
+    The lidar is the surrogate's (``surrogate.lidar``): for a pulsed DBS lidar the terms
+    are its own beam-pair phasors at each record's wind direction relative to the beams
+    (:func:`records_wind_body_deg`; :meth:`flidar_uq.inference.BinFit.sigma_z_draws`).
+
     Returns
     -------
     sz_med, sz_var, u2_med : numpy.ndarray, shape (n_records,)
         Rotational sigma_Z median (m/s) and variance, and the median translation unit
-        ``u^2`` (:func:`flidar_uq.physics.six_dof_sigma_z.translation_unit_sq`); NaN for records whose bin has no fit.
+        ``u^2`` (:func:`flidar_uq.physics.six_dof_sigma_z.translation_unit_sq`; a DBS
+        lidar's ``G_LL``); NaN for records whose bin has no fit.
+    corr_med : numpy.ndarray, shape (n_records,), or None
+        A DBS lidar's median correlation of the two (:func:`bin_motion_terms`); None for a
+        CW lidar (no cross term).
     """
     surrogate = _default_surrogate(surrogate)
     fits = {f.bin_id: f for f in bin_fits}
@@ -147,18 +198,26 @@ def record_sigma_z_moments(
     med = np.full(len(records), np.nan)
     var = np.full(len(records), np.nan)
     u2m = np.full(len(records), np.nan)
+    dbs = surrogate.lidar.kind == "dbs"
+    corr_m = np.full(len(records), np.nan) if dbs else None
+    beta = records_wind_body_deg(records)
     bins = records["bin_id"].to_numpy()
     for b, f in fits.items():
         m = bins == b
         if not np.any(m):
             continue
-        sz, u2 = f._motion_draws(
+        sz, u2, corr = f._motion_draws(
             records["hws_mean_ms"].to_numpy(dtype=float)[m],
             surrogate,
             f._draw_index(ndraws, rng),
             scan_period_s,
+            beta[m],
         )
         med[m] = np.median(sz, axis=0)
         var[m] = np.var(sz, axis=0)
-        u2m[m] = np.median(u2)
-    return med, var, u2m
+        if corr is None:
+            u2m[m] = np.median(u2)
+        else:
+            u2m[m] = np.median(u2, axis=0)
+            corr_m[m] = np.median(corr, axis=0)
+    return med, var, u2m, corr_m

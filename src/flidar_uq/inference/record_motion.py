@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from flidar_uq.data.imu import tilt_bands_from_records
+from flidar_uq.inference.observations import records_wind_body_deg
 from flidar_uq.physics.hull import G_MS2, get_hull
 from flidar_uq.physics.lidar import get_lidar
 from flidar_uq.physics.motion_spectrum import expand_bands
@@ -598,18 +599,13 @@ def _dbs_banded(records: pd.DataFrame, hws_ms):
 
 def _dbs_gram(records, g, n_headings, translation, nodes):
     """(10, n) Gram entries, measured flag and description of a DBS lidar (:func:`motion_gram`)."""
-    from flidar_uq.physics.dbs_sigma_z import (
-        band_moments_to_wind,
-        dbs_band_terms,
-        dbs_record_terms,
-        wind_to_body_deg,
-    )
+    from flidar_uq.physics.dbs_sigma_z import band_moments_to_wind, dbs_band_terms, dbs_record_terms
 
     a_r, a_p, t_r, t_p, ok = _dbs_motion(records)
     hws = _col(records, "hws_mean_ms")
     ok &= np.isfinite(hws)
     banded, bands = _dbs_banded(records, hws)
-    beta = wind_to_body_deg(_col(records, "wd_mean_deg"), _col(records, "heading_mean_deg"))
+    beta = records_wind_body_deg(records)
     known = np.isfinite(beta)
     out = np.full((10, len(records)), np.nan)
     if np.any(banded):

@@ -12,7 +12,12 @@ import pandas as pd
 import xarray as xr
 
 from flidar_uq.inference.loo import _loo
-from flidar_uq.inference.observations import _default_surrogate, effective_sigma_z_ms
+from flidar_uq.inference.observations import (
+    _default_surrogate,
+    bin_motion_terms,
+    effective_sigma_z_ms,
+)
+from flidar_uq.physics.dbs_sigma_z import dbs_tilt_lever_terms
 from flidar_uq.physics.six_dof_sigma_z import translation_unit_sq
 
 
@@ -144,9 +149,27 @@ class BinFit(_FitBase):
         return self.info["model"]
 
     def sigma_z_draws(
-        self, hws_ms, surrogate=None, *, ndraws=None, rng=None, lever_arm_m=None, scan_period_s=1.0
+        self,
+        hws_ms,
+        surrogate=None,
+        *,
+        ndraws=None,
+        rng=None,
+        lever_arm_m=None,
+        scan_period_s=1.0,
+        wind_body_deg=None,
     ) -> np.ndarray:
         """Draws of sigma_Z (m/s) for records at mean HWS ``hws_ms``.
+
+        The lidar is the surrogate's (``surrogate.lidar``). A CW VAD lidar's sigma_Z is the
+        surrogate's (Gutiérrez-Antuñano et al. 2018) with the VAD form of the head
+        translation (:func:`translation_unit_sq`). A pulsed DBS lidar's is the quadratic
+        form of its own beam-pair phasors (Yamaguchi & Ishihara 2016, Eqs. 3-4;
+        :func:`flidar_uq.physics.dbs_sigma_z.dbs_tilt_lever_terms`) at the draw's
+        amplitude (roll and pitch alike) and period, with the cross term between the
+        tilt leak and the head translation, at the record's wind direction relative to
+        the beams; a two-period draw adds its two components' Gram matrices (weights
+        ``w`` and ``1 - w`` of the tilt variance).
 
         Parameters
         ----------
@@ -163,19 +186,28 @@ class BinFit(_FitBase):
             Effective lever arm (m) per draw; adds the head translation,
             ``sZ^2 = sZ_rot^2 + L^2 u^2`` (:func:`effective_sigma_z_ms`).
         scan_period_s : float
-            VAD scan duration (s) for the translation term.
+            A CW lidar's VAD scan duration (s) for the translation term (a DBS lidar uses
+            its own beam timing).
+        wind_body_deg : array_like, shape (n,), optional
+            A DBS lidar's wind direction relative to the body per record
+            (:func:`flidar_uq.physics.dbs_sigma_z.wind_to_body_deg`), deg; NaN or None:
+            averaged over headings.
 
         Returns
         -------
         numpy.ndarray, shape (ndraws, n)
         """
-        sz, u2 = self._motion_draws(hws_ms, surrogate, self._draw_index(ndraws, rng), scan_period_s)
+        sz, u2, corr = self._motion_draws(
+            hws_ms, surrogate, self._draw_index(ndraws, rng), scan_period_s, wind_body_deg
+        )
         if lever_arm_m is None:
             return sz
-        return effective_sigma_z_ms(sz, u2, lever_arm_m)
+        return effective_sigma_z_ms(sz, u2, lever_arm_m, correlation=corr)
 
-    def _motion_draws(self, hws_ms, surrogate, idx, scan_period_s=1.0):
-        """Rotational sigma_Z draws (ndraws, n) and translation units u^2 (ndraws, 1)."""
+    def _motion_draws(self, hws_ms, surrogate, idx, scan_period_s=1.0, wind_body_deg=None):
+        """Rotational sigma_Z draws (ndraws, n), translation units u^2 ((ndraws, 1); a DBS
+        lidar's (ndraws, n)) and their correlation (a DBS lidar's (ndraws, n); None for a
+        CW lidar), :meth:`sigma_z_draws`."""
         surrogate = _default_surrogate(surrogate)
         hws = np.asarray(hws_ms, dtype=float)[None, :]
         a = self.flat("amplitude_deg")[idx][:, None]
@@ -183,6 +215,18 @@ class BinFit(_FitBase):
             t1 = self.flat("period1_s")[idx][:, None]
             t2 = self.flat("period2_s")[idx][:, None]
             w = self.flat("weight1")[idx][:, None]
+        if surrogate.lidar.kind == "dbs":
+            beta = None if wind_body_deg is None else np.asarray(wind_body_deg, float)[None, :]
+            if self.model == "two_period":  # the variances of independent components add
+                parts = ((a * np.sqrt(w), t1), (a * np.sqrt(1.0 - w), t2))
+            else:
+                parts = ((a, self.flat("period_s")[idx][:, None]),)
+            gram = [
+                dbs_tilt_lever_terms(hws, amp, per, wind_body_deg=beta, lidar=surrogate.lidar)
+                for amp, per in parts
+            ]
+            return bin_motion_terms(*(sum(entry) for entry in zip(*gram, strict=True)))
+        if self.model == "two_period":
             sz = surrogate.sigma_z_two_period_ms(hws, a, t1, t2, w)
             u2 = w * translation_unit_sq(a, t1, scan_period_s) + (1 - w) * translation_unit_sq(
                 a, t2, scan_period_s
@@ -191,7 +235,7 @@ class BinFit(_FitBase):
             t = self.flat("period_s")[idx][:, None]
             sz = surrogate.sigma_z_ms(hws, a, t)
             u2 = translation_unit_sq(a, t, scan_period_s)
-        return np.asarray(sz, dtype=float), np.asarray(u2, dtype=float)
+        return np.asarray(sz, dtype=float), np.asarray(u2, dtype=float), None
 
     def _draw_index(self, ndraws, rng):
         n = self.flat("amplitude_deg").size

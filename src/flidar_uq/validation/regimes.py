@@ -3,7 +3,9 @@
 A virtual scenario (``flidar_uq/resources/scenarios/*.yaml``) is generated, QC-filtered,
 calibrated with the record motion model on the records that carry a reference, and every
 QC-kept record is corrected to the point TI, exactly as the pipeline does (without the per-bin
-fits, which only serve the bin table). The corrected TI is then scored against the
+fits, which only serve the bin table); or, with ``motion_model="bin"``, binned and fitted
+bin by bin and globally as the pipeline's bin motion model does (Gutiérrez-Antuñano et al.
+2018), every record of a converged bin corrected. The corrected TI is then scored against the
 campaign's truth per regime: wind-speed group (3 m/s), sea state (wind sea only / with
 swell), heading (weathervaning / fixed), and their crossings
 (:func:`flidar_uq.data.calibration.calibration_by_group`).
@@ -31,17 +33,39 @@ from flidar_uq.correction.propagation import (
     reference_pair_log_sd,
     reference_target,
 )
+from flidar_uq.data.binning import add_harmonic_motion, bins_for_fitting
 from flidar_uq.data.calibration import calibration_by_group, speed_group_label
 from flidar_uq.data.qc import QCConfig, run_qc
 from flidar_uq.data.schema import CORRECTED_TI_COLUMNS
-from flidar_uq.inference import SamplerSettings, fit_record_model_selecting_hull
+from flidar_uq.inference import (
+    SamplerSettings,
+    fit_bin,
+    fit_global,
+    fit_record_model_selecting_hull,
+)
 from flidar_uq.physics.surrogate import get_surrogate
 from flidar_uq.seeding import as_seedsequence
 
-__all__ = ["REGIME_COLUMNS", "regime_labels", "scenario_calibration", "scenario_records"]
+__all__ = [
+    "DEFAULT_BINNING",
+    "REGIME_COLUMNS",
+    "bin_model_fit",
+    "regime_labels",
+    "scenario_calibration",
+    "scenario_records",
+]
 
 #: Grouping columns of :func:`scenario_calibration`'s tables.
 REGIME_COLUMNS = ("speed_group", "sea_state", "heading", "sea_state_heading", "wave_period")
+
+#: The bins of :func:`bin_model_fit`: the config's ``binning`` defaults (m/s, deg, s and
+#: records; Gutiérrez-Antuñano et al., 2018, Sec. 3.1).
+DEFAULT_BINNING = {
+    "hws_width_ms": 1.0,
+    "amplitude_width_deg": 1.0,
+    "period_width_s": 1.0,
+    "min_count": 30,
+}
 
 #: Edges of the wave-period groups (s, the record's dominant sea period): a short wind
 #: sea below 4 s, whose orbital translation is smaller than the lever arm's; a long swell
@@ -94,6 +118,7 @@ def scenario_records(
     reference_pair: bool = True,
     hull_model: str = "translating",
     hull_reference: str = "wave_follower",
+    motion_model: str = "record",
 ) -> tuple[pd.DataFrame, object]:
     """Generate a scenario and correct every QC-kept record in 3-20 m/s (the pipeline's steps).
 
@@ -137,6 +162,13 @@ def scenario_records(
     hull_reference : str
         The hull whose translation the hull response scales (config
         ``inference.hull_reference``).
+    motion_model : {"record", "bin"}
+        Config ``inference.motion_model``: the record model, or the bin model
+        (:func:`bin_model_fit`: the config's default bins, the per-bin fits and the global
+        model PSIS-LOO picks; records outside a converged bin are not corrected). The bin
+        model's fit has no pair term: with ``reference_pair`` the propagation takes the
+        reference lidar's share out of ``kappa`` with the synchronised correlation above
+        (the pipeline's ``reference.sampling_correlation: auto``), else with ``c = 0``.
 
     The point target follows the scenario's ``reference_instrument`` as the pipeline's
     ``reference.kind`` does (:func:`flidar_uq.correction.propagation.reference_target`).
@@ -150,8 +182,12 @@ def scenario_records(
         ``ti_corrected_hi_total``), ``ti_true``
         and the regime labels of :func:`regime_labels`.
     fit : GlobalFit
-        The record model's global posterior.
+        The record model's (or the bin model's) global posterior.
     """
+    if motion_model not in ("record", "bin"):
+        raise ValueError(
+            f"scenario_records: motion_model={motion_model!r} is not 'record' or 'bin'"
+        )
     cfg = dict(load_scenario(scenario)) if not isinstance(scenario, Mapping) else dict(scenario)
     if n_records is not None:
         cfg["n_records"] = int(n_records)
@@ -205,26 +241,31 @@ def scenario_records(
         calib = kept[in_calib]
         if pair_log_sd is not None:
             pair_log_sd = pair_log_sd[in_calib]
-    fit = fit_record_model_selecting_hull(
-        calib,
-        hull_model=hull_model,
-        hull=hull_reference,
-        surrogate=surrogate,
-        lidar=lidar,
-        settings=settings,
-        seed=ss_fit,
-        lever_arm_prior=lever_arm_prior,
-        pair_log_sd=pair_log_sd,
-    )
+    bin_fits, correlation = [], REFERENCE_SAMPLING_CORRELATION
+    if motion_model == "bin":
+        kept["bin_id"], bin_fits, fit = bin_model_fit(calib, kept, surrogate, settings, ss_fit)
+        correlation = corr if pair else REFERENCE_SAMPLING_CORRELATION
+    else:
+        fit = fit_record_model_selecting_hull(
+            calib,
+            hull_model=hull_model,
+            hull=hull_reference,
+            surrogate=surrogate,
+            lidar=lidar,
+            settings=settings,
+            seed=ss_fit,
+            lever_arm_prior=lever_arm_prior,
+            pair_log_sd=pair_log_sd,
+        )
     target = PointTarget(
         lidar_std_ratio=g,
         point_log_sd=sd,
         lidar_std_ratio_log_sd=lidar_std_ratio_log_sd if g is not None else 0.0,
-        reference_sampling_correlation=REFERENCE_SAMPLING_CORRELATION,
+        reference_sampling_correlation=correlation,
     )
     draws = draw_corrected_ti(
         kept,
-        [],
+        bin_fits,
         fit,
         surrogate=surrogate,
         settings=PropagationSettings(ndraws=ndraws, credible_mass=credible_mass, lidar=lidar),
@@ -239,6 +280,69 @@ def scenario_records(
     out["has_reference"] = np.isfinite(kept["ref_hws_std_ms"].to_numpy(dtype=float))
     out["in_calibration"] = out["has_reference"] & kept.index.isin(calib.index)
     return pd.concat([out, regime_labels(out)], axis=1), fit
+
+
+def bin_model_fit(
+    calibration: pd.DataFrame, records: pd.DataFrame, surrogate, settings: SamplerSettings, seed
+) -> tuple[np.ndarray, list, object]:
+    """The bin motion model on a scenario's records, as the pipeline runs it.
+
+    The records are binned with the config's defaults (:data:`DEFAULT_BINNING`: 1 m/s x 1
+    deg x 1 s, at least 30 records a fitted bin;
+    :func:`flidar_uq.data.binning.bins_for_fitting`), every fitted bin
+    is fitted (:func:`flidar_uq.inference.fit_bin`, seeded by its bin id) and the global
+    model PSIS-LOO picks among rho only, lever arm and lever arm with the motion scale
+    (:func:`flidar_uq.inference.fit_global`) on the calibration records of converged
+    bins.
+
+    Parameters
+    ----------
+    calibration : pandas.DataFrame
+        The records whose reference enters the global fit (a subset of ``records``).
+    records : pandas.DataFrame
+        Every record to correct (``hws_mean_ms`` and the IMU statistics).
+    surrogate : SigmaZSurrogate
+        The lidar's surrogate (its ``lidar`` chooses the sigma_Z terms).
+    settings : SamplerSettings
+    seed : numpy.random.SeedSequence
+        Its first child seeds the global fit, its second the bins (child ``bin_id``).
+
+    Returns
+    -------
+    bin_id : numpy.ndarray, shape (len(records),)
+        Each record's bin (NaN: not binned).
+    bin_fits : list of BinFit
+        The converged bins' fits.
+    fit : GlobalFit
+    """
+    ss_global, ss_bins = seed.spawn(2)
+    binned = add_harmonic_motion(records.reset_index(drop=True)).assign(row=np.arange(len(records)))
+    assigned, table = bins_for_fitting(binned, **DEFAULT_BINNING, nbatches=1)
+    bin_id = np.full(len(records), np.nan)
+    bin_id[assigned["row"].to_numpy()] = assigned["bin_id"].to_numpy(dtype=float)
+    fitted = assigned[assigned["bin_id"].isin(table.loc[table["fitted"], "bin_id"])]
+    fits = [
+        fit_bin(
+            group,
+            settings=settings,
+            seed=np.random.SeedSequence(ss_bins.entropy, spawn_key=(*ss_bins.spawn_key, int(b))),
+            bin_id=int(b),
+        )
+        for b, group in fitted.groupby("bin_id")
+    ]
+    converged = [f for f in fits if f.converged]
+    in_calibration = records.index.isin(calibration.index)
+    calib = records.assign(bin_id=bin_id)[in_calibration]
+    calib = calib[calib["bin_id"].isin([f.bin_id for f in converged])]
+    fit = fit_global(
+        calib,
+        converged,
+        surrogate=surrogate,
+        settings=settings,
+        seed=ss_global,
+        scan_period_s=surrogate.lidar.scan_period_s,
+    )
+    return bin_id, converged, fit
 
 
 def scenario_calibration(records: pd.DataFrame, *, min_count: int = 1) -> pd.DataFrame:
