@@ -16,20 +16,20 @@ is harmless to a tilt-only model), each hull (``wave_follower``, ``discus_buoy``
   ``<cos psi>`` and ``<cos^2 psi>`` of its components (a directional description);
 - ``tilt_only``: the rotation-only model of the same components (what the model without
   translation predicts on that sea);
-- ``record``: what the record model computes for these records: the series cut into
+- ``record_model``: what the record model computes for these records: the series cut into
   10-min records, reduced by the data layer to the record table's 8 tilt bands with each
   band's measured ``<cos psi>`` (the IMU series' heave velocity,
   :func:`flidar_uq.data.imu.tilt_band_statistics`), and
   :func:`flidar_uq.inference.record_motion.motion_gram` at the truth's motion scale 1,
   lever arm and hull response (1 for the wave follower, 0 for the buoy that only rotates;
   the discus buoy's period-dependent response is not the record model's, so it has no
-  ``record`` value); ``record_one_node`` the same with each band at its centroid period
+  ``record_model`` value); ``record_model_one_node`` the same with each band at its centroid period
   alone.
 
 Ratios are ``sqrt(mean(s_method^2) / mean(s_replay^2))`` over the records of a case. The band
 sum's speed (records/s, 8 bands) and the record model's (8 bands x 3 nodes, from the
 record table) are measured in the same run. ``--check``: exit status 1 unless every
-``record`` ratio of the wind seas, the two-peak sea and the swells (broadband,
+``record_model`` ratio of the wind seas, the two-peak sea and the swells (broadband,
 misaligned, heaving) is within 3 % where sigma_Z is at least 0.05 m/s.
 
 Run:  PYTHONPATH=src OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/six_dof_sigma_z.py
@@ -65,8 +65,8 @@ METHODS = (
     "components",
     *(f"bands_{nb}" for nb in N_BANDS),
     "tilt_only",
-    "record",
-    "record_one_node",
+    "record_model",
+    "record_model_one_node",
 )
 HULL_RESPONSE = {"wave_follower": 1.0, "rotation_only": 0.0}
 RECORD_S = 600.0
@@ -197,8 +197,8 @@ def main(argv=None) -> int:
                             tilt_only=float(tilt_sz),
                         )
                         if hull in HULL_RESPONSE:
-                            row["record"] = record_sigma_z(rec_table, hws, lever, hull, sur)
-                            row["record_one_node"] = record_sigma_z(
+                            row["record_model"] = record_sigma_z(rec_table, hws, lever, hull, sur)
+                            row["record_model_one_node"] = record_sigma_z(
                                 rec_table, hws, lever, hull, sur, nodes=1
                             )
                         for nb, (ba, bp, bc1, bc2) in bands.items():
@@ -272,7 +272,7 @@ def main(argv=None) -> int:
             f"{six[col].min():.3f}-{six[col].max():.3f} (translating hulls)"
         )
     judged = summary[(summary.sea != "windsea_short") & (summary.replay_ms >= SIGMA_Z_FLOOR_MS)]
-    rec = judged["record"].dropna()
+    rec = judged["record_model"].dropna()
     within = float(np.mean(np.abs(rec - 1.0) <= TOLERANCE))
     print(
         f"record model, judged cases (sigma_Z >= {SIGMA_Z_FLOOR_MS} m/s, no short wind sea): "

@@ -587,3 +587,52 @@ def test_record_model_sbc_with_a_known_reference_pair_scatter():
         for name in SBC_RECORD_PARAMS
     }
     assert all(p > 0.01 for p in pvalues.values()), pvalues
+
+
+def test_reference_noise_turns_a_dbs_lidars_response_with_each_lidars_heading():
+    """Reference.noise: the point target is the floating lidar's own g and sd at the
+    record's wind direction against its beams, the reference lidar's std is g_r / g_f
+    times the floating lidar's motionless std, and the pair scatter is
+    sd_f^2 + sd_r^2 - 2 c sd_f sd_r. Two ZephIRs: g_r / g_f = 1 exactly and the pair term
+    sqrt(2 (1 - c)) sd; two WindCubes whose headings differ by 90 deg: the ratio and the
+    scatters follow each lidar's direction (lidar_std_ratio, lidar_point_log_sd)."""
+    from flidar_uq.correction.reference import Reference
+    from flidar_uq.physics.dbs_sigma_z import wind_to_body_deg
+    from flidar_uq.physics.lidar_response import lidar_point_log_sd, lidar_std_ratio
+
+    n = 6
+    rec = pd.DataFrame(
+        {
+            "hws_mean_ms": np.linspace(5.0, 15.0, n),
+            "height_m": 80.0,
+            "wd_mean_deg": np.linspace(0.0, 300.0, n),
+            "heading_mean_deg": 90.0,
+            "ref_hws_std_ms": 1.0,
+        }
+    )
+    scan = dict(heights_in_turn=1, refocus_delay_s=(0.0, 0.0), point_sample_interval_s=1.0)
+    zephir = Reference("fixed_lidar", "zephir300", sampling_correlation=0.3, heading_deg=0.0)
+    noise = zephir.noise(rec, **scan, turbulence_dt_s=None, seed=4, lidar="zephir300")
+    np.testing.assert_array_equal(noise.reference_std_ratio, 1.0)
+    np.testing.assert_allclose(noise.pair_log_sd, np.sqrt(2 * 0.7) * noise.point_log_sd)
+    pd.testing.assert_frame_equal(noise.floating_reference(rec), rec)
+
+    wc = Reference("fixed_lidar", "windcube_v2", sampling_correlation=0.0, heading_deg=0.0)
+    noise = wc.noise(rec, **scan, turbulence_dt_s=0.25, seed=4, lidar="windcube_v2")
+    hws = rec["hws_mean_ms"].to_numpy()
+    beta_f = wind_to_body_deg(rec["wd_mean_deg"].to_numpy(), 90.0)
+    beta_r = wind_to_body_deg(rec["wd_mean_deg"].to_numpy(), 0.0)
+    kw = dict(turbulence_max_frequency_hz=2.0)
+    g_f = lidar_std_ratio(hws, 80.0, "windcube_v2", wind_body_deg=beta_f, **kw)
+    g_r = lidar_std_ratio(hws, 80.0, "windcube_v2", wind_body_deg=beta_r, **kw)
+    np.testing.assert_allclose(noise.lidar_std_ratio, g_f)
+    np.testing.assert_allclose(noise.reference_std_ratio, g_r / g_f)
+    assert np.ptp(noise.reference_std_ratio) > 0.03  # the lidars see the wind differently
+    sd = lidar_point_log_sd(
+        np.concatenate([hws, hws]), 80.0, "windcube_v2", turbulence_dt_s=0.25, seed=4,
+        wind_body_deg=np.concatenate([beta_f, beta_r]), **scan,
+    )  # fmt: skip
+    np.testing.assert_allclose(noise.point_log_sd, sd[:n])
+    np.testing.assert_allclose(noise.pair_log_sd, np.hypot(sd[:n], sd[n:]))  # c = 0
+    r = noise.floating_reference(rec)["ref_hws_std_ms"].to_numpy()
+    np.testing.assert_allclose(r, g_f / g_r)

@@ -192,7 +192,8 @@ class CorrectionSettings:
         return self.scan_heights_in_turn or int(records["height_m"].nunique())
 
     def reference_noise(self, records: pd.DataFrame, reference: Reference, *, heights: int):
-        """:meth:`Reference.noise` with these scan settings (``heights`` heights in turn)."""
+        """:meth:`Reference.noise` with these scan settings (``heights`` heights in turn)
+        and this floating lidar."""
         return reference.noise(
             records,
             heights_in_turn=heights,
@@ -200,6 +201,7 @@ class CorrectionSettings:
             point_sample_interval_s=self.point_sample_interval_s,
             turbulence_dt_s=self.turbulence_dt_s,
             seed=self.seed,
+            lidar=self.lidar,
         )
 
 
@@ -428,7 +430,8 @@ def _point_target(sub, rec, reference: Reference, settings: CorrectionSettings):
     propagation.PointTarget`): the reference lidar's std ratio, its scatter and sampling
     correlation (:meth:`CorrectionSettings.reference_noise`), logged."""
     heights = settings.heights_in_turn(rec)
-    g_ratio, log_sd, pair_corr, _ = settings.reference_noise(sub, reference, heights=heights)
+    noise = settings.reference_noise(sub, reference, heights=heights)
+    g_ratio, log_sd, pair_corr = noise.lidar_std_ratio, noise.point_log_sd, noise.correlation
     g_log_sd = float(reference.lidar_std_ratio_log_sd)
     if g_ratio is None:
         log.info("point target: reference %s, calibrated to the point wind", reference.kind)

@@ -306,6 +306,7 @@ def point_target(
     point_sample_interval_s: float = 1.0,
     turbulence_dt_s: float | None = None,
     seed: int,
+    wind_body_deg=None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Motionless lidar's std ratio to the point std and its log scatter, per record.
 
@@ -329,6 +330,10 @@ def point_target(
         ``1 / (2 turbulence_dt_s)`` Hz; None: the atmosphere (continuous spectrum).
     seed : int
         Seed of :func:`flidar_uq.physics.lidar_response.lidar_point_log_sd`.
+    wind_body_deg : array_like, shape (n_records,), optional
+        The wind's direction against the lidar's body (deg,
+        :func:`flidar_uq.physics.dbs_sigma_z.wind_to_body_deg`; NaN: unknown): a DBS
+        lidar's ratio and scatter depend on it. None: averaged over directions.
 
     Returns
     -------
@@ -346,6 +351,7 @@ def point_target(
         height_m,
         lidar,
         turbulence_max_frequency_hz=None if turbulence_dt_s is None else 0.5 / turbulence_dt_s,
+        wind_body_deg=wind_body_deg,
     )
     log_sd = lidar_response.lidar_point_log_sd(
         hws_ms,
@@ -356,6 +362,7 @@ def point_target(
         point_sample_interval_s=point_sample_interval_s,
         turbulence_dt_s=turbulence_dt_s,
         seed=int(seed),
+        wind_body_deg=wind_body_deg,
     )
     return g_ratio, log_sd
 

@@ -6,15 +6,17 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
 
 from flidar_uq.correction import propagation as prop
+from flidar_uq.physics.dbs_sigma_z import wind_to_body_deg
 from flidar_uq.physics.lidar import get_lidar
 from flidar_uq.seeding import child_seed
 
-__all__ = ["REFERENCE_KINDS", "Reference"]
+__all__ = ["REFERENCE_KINDS", "Reference", "ReferenceNoise"]
 
 #: The reference kinds (config ``reference.kind``).
 REFERENCE_KINDS = ("cup", "sonic", "fixed_lidar", "none")
@@ -46,6 +48,11 @@ class Reference:
         Reference height(s) (m); None: the lidar's heights.
     separation_m : float
         Horizontal distance of the reference from the buoy (m).
+    heading_deg : float or None
+        The fixed lidar's heading, the yaw of its body x axis (deg, counter-clockwise from
+        east, as the record column ``heading_mean_deg``; docs/conventions.md): a DBS
+        lidar's response to turbulence depends on the wind's direction against its beams.
+        None: unknown (averaged over directions).
     """
 
     kind: str = "fixed_lidar"
@@ -54,6 +61,7 @@ class Reference:
     sampling_correlation: str | float = prop.REFERENCE_SAMPLING_CORRELATION
     height_m: float | tuple[float, ...] | None = None
     separation_m: float = 0.0
+    heading_deg: float | None = None
 
     @classmethod
     def from_config(
@@ -73,7 +81,9 @@ class Reference:
             ``config["reference"]``: ``kind`` (None when not set), ``lidar`` (None: the
             floating lidar's type), ``height_m`` (m), ``separation_m`` (m),
             ``lidar_std_ratio_log_sd`` (-), ``sampling_correlation`` ("auto",
-            "synchronized" or a number in [-1, 1], -). None: an empty section.
+            "synchronized" or a number in [-1, 1], -), ``heading_deg`` (deg; None:
+            unknown, or 0 for the virtual campaign's reference lidar, whose beams are those
+            of a buoy heading of 0). None: an empty section.
         lidar : str
             The floating lidar's geometry name (config ``campaign.lidar``).
         virtual_kind : str or None
@@ -142,6 +152,9 @@ class Reference:
                 else prop.REFERENCE_SAMPLING_CORRELATION
             )
         height = section.get("height_m")
+        heading = section.get("heading_deg")
+        if heading is None and virtual_kind is not None:
+            heading = 0.0  # the virtual reference lidar: the beams of a buoy heading of 0
         return cls(
             kind=kind or "none",
             lidar=ref_lidar,
@@ -151,6 +164,7 @@ class Reference:
             sampling_correlation=corr,
             height_m=tuple(height) if isinstance(height, list | tuple) else height,
             separation_m=float(section.get("separation_m") or 0.0),
+            heading_deg=None if heading is None else float(heading),
         )
 
     def to_config(self) -> dict:
@@ -170,34 +184,45 @@ class Reference:
         point_sample_interval_s: float,
         turbulence_dt_s: float | None,
         seed: int,
-    ):
-        """The reference's point target and the two lidars' sampling pair term, per record.
+        lidar: str | None = None,
+    ) -> ReferenceNoise:
+        """The point target and the two lidars' sampling terms, per record.
 
         One method for the record fit (``fit_global_model``, model "record") and the
         propagation, so both see the same numbers for a record.
 
+        A motionless lidar's 10-min std is ``g`` times the point std
+        (:func:`flidar_uq.physics.lidar_response.lidar_std_ratio`), scattered by its
+        sampling (``sd``, :func:`~flidar_uq.physics.lidar_response.lidar_point_log_sd`).
+        A DBS lidar's ``g`` and ``sd`` depend on the wind's direction against its beams:
+        the floating lidar's from the record's ``wd_mean_deg`` and ``heading_mean_deg``,
+        the fixed lidar's from ``wd_mean_deg`` and :attr:`heading_deg`
+        (:func:`flidar_uq.physics.dbs_sigma_z.wind_to_body_deg`); unknown: averaged. The
+        corrected std is the floating lidar's motionless one, so the point target is the
+        floating lidar's ``g_f`` and ``sd_f``; the reference's std is ``g_r / g_f`` times
+        the floating lidar's motionless std in expectation, and the pair's sampling
+        scatter is ``sd_f^2 + sd_r^2 - 2 c sd_f sd_r`` (``c`` the two lidars' sampling
+        correlation). For one conical-scan type ``g_f = g_r``, ``sd_f = sd_r``.
+
         Parameters
         ----------
         records : pandas.DataFrame
-            Records with ``hws_mean_ms`` (m/s), ``height_m`` (m) and, for a synchronised
-            reference lidar, ``heading_mean_deg`` (deg).
+            Records with ``hws_mean_ms`` (m/s), ``height_m`` (m) and, where known,
+            ``wd_mean_deg`` and ``heading_mean_deg`` (deg).
         heights_in_turn, refocus_delay_s, point_sample_interval_s, turbulence_dt_s
             The lidar's scan settings (-, s, s, s;
             :func:`flidar_uq.correction.propagation.point_target`).
         seed : int
             Config ``inference.seed``.
+        lidar : str, optional
+            The floating lidar's geometry name (config ``campaign.lidar``); default
+            :attr:`lidar` (the same type).
 
         Returns
         -------
-        lidar_std_ratio, point_log_sd : numpy.ndarray or None
-            :func:`flidar_uq.correction.propagation.reference_target` (None for a cup or
-            sonic).
-        correlation, pair_log_sd : numpy.ndarray or None
-            For a fixed reference lidar: ``c`` of
-            :func:`flidar_uq.correction.propagation.pair_sampling_correlation` (-) and the
-            pair term ``sqrt(2 (1 - c)) sd`` (-) of
-            :func:`flidar_uq.correction.propagation.reference_pair_log_sd`; else None.
+        ReferenceNoise
         """
+        floating = self.lidar if lidar is None else lidar
         hws = records["hws_mean_ms"].to_numpy(dtype=float)
         height = records["height_m"].to_numpy(dtype=float)
         scan = {
@@ -206,16 +231,26 @@ class Reference:
             "point_sample_interval_s": point_sample_interval_s,
             "turbulence_dt_s": turbulence_dt_s,
         }
-        g_ratio, log_sd = prop.reference_target(
-            self.kind, hws, height, self.lidar, **scan, seed=seed
+        if self.kind in ("cup", "sonic"):
+            return ReferenceNoise(None, None, None, None, None)
+        wd = _column(records, "wd_mean_deg")
+        beta_f = wind_to_body_deg(wd, _column(records, "heading_mean_deg"))
+        if self.kind == "none":
+            g_f, sd_f = prop.point_target(
+                hws, height, floating, **scan, seed=seed, wind_body_deg=beta_f
+            )
+            return ReferenceNoise(g_f, sd_f, None, None, None)
+        beta_r = wind_to_body_deg(wd, np.nan if self.heading_deg is None else self.heading_deg)
+        (g_f, sd_f), (g_r, sd_r) = _two_lidar_targets(
+            (floating, beta_f), (self.lidar, beta_r), hws, height, scan, seed
         )
-        if self.kind != "fixed_lidar":
-            return g_ratio, log_sd, None, None
         heading = (
             records["heading_mean_deg"].to_numpy(dtype=float)
             if "heading_mean_deg" in records
             else None
         )
+        if heading is not None and self.heading_deg is not None:
+            heading = heading - self.heading_deg  # the beams' offset between the lidars
         corr = prop.pair_sampling_correlation(
             self.sampling_correlation,
             heading,
@@ -225,7 +260,8 @@ class Reference:
             seed=int(child_seed(seed, 3).generate_state(1)[0]),
             **scan,
         )
-        return g_ratio, log_sd, corr, prop.reference_pair_log_sd(log_sd, corr)
+        pair = np.sqrt(np.maximum(sd_f**2 + sd_r**2 - 2.0 * corr * sd_f * sd_r, 0.0))
+        return ReferenceNoise(g_f, sd_f, corr, pair, g_r / g_f)
 
     def height_label(self) -> str:
         """The reference height(s) as results/ti/metrics.csv writes them: ``;``-joined
@@ -233,3 +269,70 @@ class Reference:
         if self.height_m is None:
             return "lidar"
         return ";".join(f"{h:g}" for h in np.atleast_1d(self.height_m))
+
+
+class ReferenceNoise(NamedTuple):
+    """:meth:`Reference.noise` of records (arrays of shape (n_records,), or None).
+
+    Attributes
+    ----------
+    lidar_std_ratio, point_log_sd : numpy.ndarray or None
+        The point target (:class:`flidar_uq.correction.propagation.PointTarget`): the
+        floating lidar's motionless std over the point std ``g_f`` (-) and the std of its
+        log ``sd_f`` (-), at each record's wind direction against its beams; None for a
+        cup or sonic (the model is calibrated to the point wind directly).
+    correlation : numpy.ndarray or None
+        A fixed reference lidar's sampling correlation with the floating lidar ``c`` (-).
+    pair_log_sd : numpy.ndarray or None
+        The std of ``log(floating lidar's motionless std / reference lidar's std)`` their
+        sampling gives (-): the record fit's known pair term
+        (``fit_record_model(pair_log_sd=...)``).
+    reference_std_ratio : numpy.ndarray or None
+        The reference lidar's std over the floating lidar's motionless std in expectation,
+        ``g_r / g_f`` (-; 1 for two lidars of one conical-scan type):
+        :meth:`floating_reference` divides the reference std by it for the record fit.
+    """
+
+    lidar_std_ratio: np.ndarray | None
+    point_log_sd: np.ndarray | None
+    correlation: np.ndarray | None
+    pair_log_sd: np.ndarray | None
+    reference_std_ratio: np.ndarray | None
+
+    def floating_reference(self, records: pd.DataFrame) -> pd.DataFrame:
+        """``records`` with ``ref_hws_std_ms`` (m/s) divided by :attr:`reference_std_ratio`:
+        what the floating lidar would measure motionless where the reference measured, the
+        ``r`` of the record fit; the records themselves without a reference lidar."""
+        if self.reference_std_ratio is None or "ref_hws_std_ms" not in records:
+            return records
+        r = records["ref_hws_std_ms"].to_numpy(dtype=float)
+        return records.assign(ref_hws_std_ms=r / self.reference_std_ratio)
+
+
+def _column(records: pd.DataFrame, name: str) -> np.ndarray:
+    """A record column as floats, NaN where the table lacks it."""
+    if name in records:
+        return records[name].to_numpy(dtype=float)
+    return np.full(len(records), np.nan)
+
+
+def _two_lidar_targets(first, second, hws_ms, height_m, scan, seed):
+    """:func:`flidar_uq.correction.propagation.point_target` of two lidars, each
+    ``(geometry name, wind body directions (deg))``, at the same records: one simulation
+    when the two are of one type (same random numbers for both)."""
+    (lid_a, beta_a), (lid_b, beta_b) = first, second
+    if lid_a == lid_b:
+        g, sd = prop.point_target(
+            np.concatenate([hws_ms, hws_ms]),
+            np.concatenate([height_m, height_m]),
+            lid_a,
+            **scan,
+            seed=seed,
+            wind_body_deg=np.concatenate([beta_a, beta_b]),
+        )
+        n = len(hws_ms)
+        return (g[:n], sd[:n]), (g[n:], sd[n:])
+    return tuple(
+        prop.point_target(hws_ms, height_m, lid, **scan, seed=seed, wind_body_deg=beta)
+        for lid, beta in (first, second)
+    )

@@ -55,14 +55,18 @@ def _time_scale_s(hws_ms, height_m):
     return x, np.isfinite(x), np.full(u.shape, np.nan)
 
 
-@lru_cache(maxsize=8)
-def _response_cached(lidar_name_or_geom, f_key, n_dir):
+@lru_cache(maxsize=16)
+def _response_cached(lidar_name_or_geom, f_key, n_dir, beta_deg=None):
     f = np.asarray(f_key)
     g = _lidar.get_lidar(lidar_name_or_geom)
     t_s, az = _lidar.scan_times_azimuths(g, 0.0)
     d = _lidar.beam_unit_vectors_body(g, az)  # (K, 3)
     p = _lidar.vad_pseudo_inverse(d)  # (3, K)
-    beta = 2.0 * np.pi * (np.arange(n_dir) + 0.5) / n_dir  # wind direction vs body axes
+    if beta_deg is None:  # wind direction vs body axes, uniform
+        beta = 2.0 * np.pi * (np.arange(n_dir) + 0.5) / n_dir
+    else:
+        beta = np.deg2rad(np.atleast_1d(float(beta_deg)))
+        n_dir = 1
     e_u = np.stack([np.cos(beta), np.sin(beta), np.zeros(n_dir)], -1)  # along-wind
     e_v = np.stack([-np.sin(beta), np.cos(beta), np.zeros(n_dir)], -1)  # cross-wind
     e_w = np.broadcast_to([0.0, 0.0, 1.0], (n_dir, 3))
@@ -77,7 +81,7 @@ def _response_cached(lidar_name_or_geom, f_key, n_dir):
     return np.stack(out)  # (3, F)
 
 
-def scan_response(f_hz, lidar="zephir300", *, n_dir: int = 72):
+def scan_response(f_hz, lidar="zephir300", *, n_dir: int = 72, wind_body_deg=None):
     """Direction-averaged power transfer ``<|H_j(f)|^2>`` of one scan for u', v', w'.
 
     Parameters
@@ -88,6 +92,10 @@ def scan_response(f_hz, lidar="zephir300", *, n_dir: int = 72):
         Scan geometry (:func:`flidar_uq.physics.lidar.get_lidar`).
     n_dir : int
         Wind directions relative to the scan averaged over (uniform).
+    wind_body_deg : float, optional
+        The one direction the wind blows towards, deg counter-clockwise from the body x
+        axis (a DBS lidar's beams are fixed to its body: its transfer depends on it);
+        default None, the average over ``n_dir`` directions.
 
     Returns
     -------
@@ -98,7 +106,8 @@ def scan_response(f_hz, lidar="zephir300", *, n_dir: int = 72):
     f = tuple(np.atleast_1d(np.asarray(f_hz, dtype=float)).tolist())
     if int(n_dir) < 4:
         raise ValueError(f"scan_response: n_dir={n_dir} must be >= 4")
-    return _response_cached(lidar, f, int(n_dir))
+    beta = None if wind_body_deg is None else float(wind_body_deg)
+    return _response_cached(lidar, f, int(n_dir), beta)
 
 
 def _frequency_grid(lidar, record_length_s, n_per_decade=400):
@@ -117,6 +126,7 @@ def lidar_std_ratio(
     sigma_ratios=IEC_SIGMA_RATIOS,
     record_length_s: float = 600.0,
     turbulence_max_frequency_hz: float | None = None,
+    wind_body_deg=None,
 ):
     """HWS std measured by a motionless lidar over the point HWS std (>= 0, typically ~1.03).
 
@@ -144,6 +154,15 @@ def lidar_std_ratio(
         Highest frequency of the turbulence, Hz: for a band-limited synthetic series (its
         Nyquist frequency) whose spectrum is scaled to ``sigma_j^2`` below it. Default
         None: the continuous spectrum of the atmosphere.
+    wind_body_deg : array_like, optional
+        The direction the wind blows towards relative to the lidar's body, deg
+        counter-clockwise from its x axis (:func:`flidar_uq.physics.dbs_sigma_z.wind_to_body_deg`),
+        broadcast with ``hws_ms``. A DBS lidar's beams are fixed to its body: its ``g``
+        then depends on it (a half-turn periodic function, :func:`_direction_nodes`:
+        for the WindCube v2 at 8 m/s and 80 m, 1.008 with the wind blowing between its
+        second and third beams to 1.071 between its first and second, 1.040 averaged over
+        directions); NaN (the heading unknown) or None: the average. A conical scan's ``g``
+        does not depend on it.
 
     Returns
     -------
@@ -171,9 +190,62 @@ def lidar_std_ratio(
     if not ok.any():
         return out
     f = _frequency_grid(lidar, record_length_s)
-    h = scan_response(f, lidar)  # (3, F)
     lo, hi = np.log(np.min(x[ok])), np.log(np.max(x[ok]))
     grid = np.exp(np.linspace(lo, hi, 2 if hi - lo < 1e-12 else 96))
+    kw = dict(r=r, record_length_s=record_length_s, f_max=turbulence_max_frequency_hz)
+    beta = _body_directions(lidar, wind_body_deg, x.shape)
+    ratio = _std_ratio_on_grid(f, scan_response(f, lidar), grid, **kw)
+    out[ok] = np.interp(np.log(x[ok]), np.log(grid), ratio)
+    if beta is not None:  # a DBS lidar at known wind directions
+        nodes = _direction_nodes(7.5)
+        at = np.stack(
+            [
+                _std_ratio_on_grid(f, scan_response(f, lidar, wind_body_deg=b), grid, **kw)
+                for b in nodes
+            ]
+        )  # (B, G)
+        sel = ok & np.isfinite(beta)
+        per_node = np.stack([np.interp(np.log(x[sel]), np.log(grid), a) for a in at])
+        out[sel] = _periodic_interp(beta[sel], nodes, per_node)
+    return out
+
+
+#: Period (deg) of a DBS lidar's responses in the wind's direction relative to its body:
+#: a wind turned by half a turn is the same wind for the retrieval (opposite beams swap
+#: roles, the HWS is even in the fluctuations' sign), while a quarter turn changes which
+#: beam pair, taken at which instants, sees the along-wind component (tested).
+DIRECTION_PERIOD_DEG = 180.0
+
+
+def _direction_nodes(step_deg: float) -> np.ndarray:
+    """Wind directions relative to a DBS lidar's body (deg) on which its direction-dependent
+    responses are computed: a half turn (:data:`DIRECTION_PERIOD_DEG`) in ``step_deg``."""
+    return np.arange(0.0, DIRECTION_PERIOD_DEG, float(step_deg))
+
+
+def _body_directions(lidar, wind_body_deg, shape):
+    """The wind's body directions folded into a half turn (deg, NaN where unknown),
+    broadcast to ``shape``; None when they do not matter (not given, or a conical scan)."""
+    if wind_body_deg is None or _lidar.get_lidar(lidar).kind != "dbs":
+        return None
+    return np.broadcast_to(np.asarray(wind_body_deg, float) % DIRECTION_PERIOD_DEG, shape)
+
+
+def _periodic_interp(beta_deg, nodes_deg, values):
+    """Linear interpolation over a half turn of ``values`` (B, n) given at ``nodes_deg``
+    (B,) for each of the n points at ``beta_deg`` (n,) (deg in [0, 180))."""
+    period = DIRECTION_PERIOD_DEG
+    xp = np.concatenate([nodes_deg, [nodes_deg[0] + period]])
+    vals = np.concatenate([values, values[:1]], axis=0)
+    k = np.clip(np.searchsorted(xp, beta_deg, side="right") - 1, 0, len(nodes_deg) - 1)
+    w = (beta_deg - xp[k]) / (xp[k + 1] - xp[k])
+    col = np.arange(values.shape[1])
+    return (1.0 - w) * vals[k, col] + w * vals[k + 1, col]
+
+
+def _std_ratio_on_grid(f, h, grid, *, r, record_length_s, f_max):
+    """``g`` (G,) on a grid of ``Lambda_1 / U`` (s) for the scan transfer ``h`` (3, F) at the
+    frequencies ``f`` (Hz); the integrals of :func:`lidar_std_ratio`."""
     tau = grid[:, None] * KAIMAL_LENGTH_PER_LAMBDA1[None, :]  # (G, 3) L_j / U, s
     # E[sample variance of a record of length T] = int S(f) (1 - sinc^2(f T)) df (the
     # record mean removed), for the point series and, to the same approximation, for the
@@ -182,15 +254,13 @@ def lidar_std_ratio(
     # int over f as int over ln f: the integrand times f.
     spec = kaimal_psd(f[None, None, :], 1.0, 1.0, tau[..., None])  # (G, 3, F) shapes
     w = (1.0 - np.sinc(f * record_length_s) ** 2) * f
-    if turbulence_max_frequency_hz is not None:
-        w = np.where(f <= turbulence_max_frequency_hz, w, 0.0)
+    if f_max is not None:
+        w = np.where(f <= f_max, w, 0.0)
     lnf = np.log(f)
     band = np.trapezoid(spec * w, lnf, axis=-1)  # (G, 3)
     through = np.trapezoid(spec * h[None] * w, lnf, axis=-1)  # (G, 3)
     num = (r**2 * through / band).sum(axis=-1)
-    ratio = np.sqrt(num)  # the point variance of u' over the band is sigma_u^2
-    out[ok] = np.interp(np.log(x[ok]), np.log(grid), ratio)
-    return out
+    return np.sqrt(num)  # the point variance of u' over the band is sigma_u^2
 
 
 class _ScanSimulation(NamedTuple):
@@ -307,6 +377,7 @@ def lidar_point_log_sd(
     record_length_s: float = 600.0,
     n_records: int = 96,
     seed: int = 0,
+    wind_body_deg=None,
 ):
     """Record-to-record std of ``log(lidar 10-min std / point 10-min std)``, by simulation.
 
@@ -344,6 +415,15 @@ def lidar_point_log_sd(
         Simulated records per value of ``Lambda_1 / U``.
     seed : int
         Seed of the simulation (numpy SeedSequence entropy): the result is deterministic.
+    wind_body_deg : array_like, optional
+        The direction the wind blows towards relative to the lidar's body (deg, as
+        :func:`lidar_std_ratio`), broadcast with ``hws_ms``: a DBS lidar's scatter depends
+        on it (WindCube v2 at 5 m/s: 0.036 with the wind between its second and third
+        beams, 0.046 between its first and second); it is then simulated at every 15 deg
+        of a half turn (twice ``n_records`` each) and smoothed over the directions by the
+        least-squares cosine series of order 2 in the half-turn angle
+        (:func:`_direction_series`). NaN or None: the wind at random directions. A conical
+        scan does not depend on it.
 
     Returns
     -------
@@ -371,6 +451,38 @@ def lidar_point_log_sd(
         return out
     lo, hi = np.log(np.min(x[ok])), np.log(np.max(x[ok]))
     grid = np.linspace(lo, hi, 5) if hi - lo > 1e-6 else np.array([lo])
+    lx = np.clip(np.log(x[ok]), grid[0], grid[-1])
+    out[ok] = _point_log_sd_fit(sim, grid, int(n_records), seed, None)(lx)
+    beta = _body_directions(lidar, wind_body_deg, x.shape)
+    if beta is not None:  # a DBS lidar at known wind directions
+        nodes = _direction_nodes(15.0)
+        sel = ok & np.isfinite(beta)
+        lx = np.clip(np.log(x[sel]), grid[0], grid[-1])
+        per_node = np.stack(
+            [
+                _point_log_sd_fit(sim, grid, 2 * int(n_records), child, np.deg2rad(b))(lx)
+                for b, child in zip(nodes, as_seedsequence(seed).spawn(nodes.size), strict=True)
+            ]
+        )
+        basis = _direction_series(nodes)  # (B, 5)
+        coef = np.linalg.lstsq(basis, per_node, rcond=None)[0]  # (5, n)
+        out[sel] = np.einsum("nk,kn->n", _direction_series(beta[sel]), coef)
+    return out
+
+
+def _direction_series(beta_deg) -> np.ndarray:
+    """``(1, cos 2b, sin 2b, cos 4b, sin 4b)`` (..., 5) of wind directions ``b`` (deg): the
+    half-turn periodic series of order 2 (:data:`DIRECTION_PERIOD_DEG`)."""
+    b = np.deg2rad(np.asarray(beta_deg, float))
+    return np.stack(
+        [np.ones_like(b), np.cos(2 * b), np.sin(2 * b), np.cos(4 * b), np.sin(4 * b)], -1
+    )
+
+
+def _point_log_sd_fit(sim, grid, n_records, seed, beta_rad):
+    """The simulated sd of :func:`lidar_point_log_sd` on the ``log(Lambda_1 / U)`` grid,
+    smoothed by a straight line in it; the wind at ``beta_rad`` from the body x axis, or at
+    random directions (None). Returns the line as a function of ``log(Lambda_1 / U)``."""
     sds = []
     for k, child in enumerate(as_seedsequence(seed).spawn(grid.size)):
         rng = np.random.default_rng(child)
@@ -379,17 +491,15 @@ def lidar_point_log_sd(
         logs = []
         for r in range(n_records):
             starts, phase = sim.schedule(rng)
-            wind = sim.wind(hws, x_t[r], rng.uniform(0.0, 2.0 * np.pi))
+            direction = rng.uniform(0.0, 2.0 * np.pi)
+            wind = sim.wind(hws, x_t[r], direction if beta_rad is None else beta_rad)
             logs.append(sim.log_ratio(wind, starts, phase, sim.point_std(wind)))
         sds.append(np.std(logs, ddof=1))
     sds = np.asarray(sds)
-    lx = np.clip(np.log(x[ok]), grid[0], grid[-1])
     if grid.size >= 3:
         slope, icpt = np.polyfit(grid, sds, 1)  # smooths the simulation noise of the sds
-        out[ok] = icpt + slope * lx
-    else:
-        out[ok] = sds.mean()
-    return out
+        return lambda lx: icpt + slope * lx
+    return lambda lx: np.full(np.shape(lx), sds.mean())
 
 
 def lidar_pair_correlation(

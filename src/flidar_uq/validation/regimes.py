@@ -28,11 +28,9 @@ from flidar_uq.correction.propagation import (
     PointTarget,
     PropagationSettings,
     draw_corrected_ti,
-    pair_sampling_correlation,
     record_summary,
-    reference_pair_log_sd,
-    reference_target,
 )
+from flidar_uq.correction.reference import Reference
 from flidar_uq.data.binning import add_harmonic_motion, bins_for_fitting
 from flidar_uq.data.calibration import calibration_by_group, speed_group_label
 from flidar_uq.data.qc import QCConfig, run_qc
@@ -171,7 +169,10 @@ def scenario_records(
         (the pipeline's ``reference.sampling_correlation: auto``), else with ``c = 0``.
 
     The point target follows the scenario's ``reference_instrument`` as the pipeline's
-    ``reference.kind`` does (:func:`flidar_uq.correction.propagation.reference_target`).
+    ``reference.kind`` does, through the pipeline's
+    :meth:`flidar_uq.correction.reference.Reference.noise` (each lidar's response at the
+    wind's direction against its beams; the record fit on the reference std in the
+    floating lidar's response, :meth:`~flidar_uq.correction.reference.ReferenceNoise.floating_reference`).
 
     Returns
     -------
@@ -209,28 +210,17 @@ def scenario_records(
         "point_sample_interval_s": sampling["point_sample_interval_s"],
         "turbulence_dt_s": sampling["turbulence_dt_s"],
     }
-    point_seed, pair_seed = (int(x) for x in ss_point.generate_state(2))
-    g, sd = reference_target(
-        kind,
-        kept["hws_mean_ms"].to_numpy(dtype=float),
-        kept["height_m"].to_numpy(dtype=float),
-        lidar,
-        **scan,
-        seed=point_seed,
+    # the pipeline's reference: the virtual reference lidar (the floating lidar's twin at
+    # the beams of a buoy heading of 0, on its scan schedule), a cup or sonic
+    reference = Reference.from_config(
+        {"sampling_correlation": SYNCHRONIZED if pair else REFERENCE_SAMPLING_CORRELATION},
+        lidar=lidar,
+        virtual_kind=kind,
     )
-    pair_log_sd = None
-    if pair:
-        corr = pair_sampling_correlation(
-            SYNCHRONIZED,
-            kept["heading_mean_deg"].to_numpy(dtype=float),
-            kept["hws_mean_ms"].to_numpy(dtype=float),
-            kept["height_m"].to_numpy(dtype=float),
-            lidar,
-            seed=pair_seed,
-            **scan,
-        )
-        pair_log_sd = reference_pair_log_sd(sd, corr)
-    calib = kept
+    noise = reference.noise(kept, **scan, seed=int(ss_point.generate_state(1)[0]), lidar=lidar)
+    g, sd = noise.lidar_std_ratio, noise.point_log_sd
+    pair_log_sd, corr = (noise.pair_log_sd, noise.correlation) if pair else (None, None)
+    calib = noise.floating_reference(kept)  # the reference std in the floating lidar's response
     if calibrate_on_sea_state is not None:
         if calibrate_on_sea_state not in ("wind sea", "swell"):
             raise ValueError(
@@ -238,7 +228,7 @@ def scenario_records(
                 "'wind sea' or 'swell'"
             )
         in_calib = (regime_labels(kept)["sea_state"] == calibrate_on_sea_state).to_numpy()
-        calib = kept[in_calib]
+        calib = calib[in_calib]
         if pair_log_sd is not None:
             pair_log_sd = pair_log_sd[in_calib]
     bin_fits, correlation = [], REFERENCE_SAMPLING_CORRELATION

@@ -206,9 +206,13 @@ def fit_global_model(
                     "campaign": {"lidar": lidar},
                 }
             )
-            *_, corr, pair_log_sd = settings.reference_noise(
+            noise = settings.reference_noise(
                 assigned, ref, heights=settings.heights_in_turn(assigned)
             )
+            corr, pair_log_sd = noise.correlation, noise.pair_log_sd
+            # the reference std in the floating lidar's response (a DBS lidar's depends on
+            # the wind's direction against its beams)
+            assigned = noise.floating_reference(assigned)
             log.info(
                 "record model: reference lidar's sampling correlation (%s) %.3f-%.3f, "
                 "pair log-sd %.4f-%.4f taken as known",
