@@ -664,3 +664,40 @@ def test_mru_translation_columns_are_the_hulls_velocity_stds():
     assert (recs["surge_velocity_std_ms"] != recs["sway_velocity_std_ms"]).all()
     plain = generate_campaign(load_scenario("wave_follower") | {"n_records": 4}, 5, n_workers=1)
     assert "heave_velocity_std_ms" not in plain.records
+
+
+def test_horizontal_velocity_is_the_rotation_centres_and_changes_nothing_else():
+    """imu.horizontal_velocity writes the hull's east and north velocity (the rotation
+    centre's, earth frame) beside the vertical one: its noise is drawn last, so the records,
+    the LOS series and the other IMU columns are those of the same scenario without it.
+    Noise-free, its std along the wind and the vertical one's are the translation truth
+    of the LOS clock (the 5-Hz samples of the same series: within 2 %); the head's velocity
+    would add the 2-m lever arm's rotation (2 m x the tilt rate, about half the orbital
+    velocity), and a body-frame velocity would put the 30-deg heading into the projection."""
+    sc = load_scenario("dbs_wave_follower") | {"n_records": 3}
+    sc["imu"] = sc["imu"] | {"gap_probability": 0.0, "vertical_velocity_noise_ms": 0.0}
+    plain = generate_campaign(sc, 3, return_imu=True, return_los=True, n_workers=1)
+    sc["imu"] |= {"horizontal_velocity": True, "horizontal_velocity_noise_ms": 0.0}
+    both = generate_campaign(sc, 3, return_imu=True, return_los=True, n_workers=1)
+    pd.testing.assert_frame_equal(plain.records, both.records, check_exact=True)
+    pd.testing.assert_frame_equal(plain.los, both.los, check_exact=True)
+    cols = ["timestamp", "roll_deg", "pitch_deg", "yaw_deg"]
+    pd.testing.assert_frame_equal(plain.imu[cols], both.imu[cols], check_exact=True)
+    assert list(both.imu.columns) == [
+        *cols,
+        "velocity_east_ms",
+        "velocity_north_ms",
+        "velocity_up_ms",
+    ]
+    validate_imu_series(both.imu, "campaign imu")
+    rec = both.records.groupby("timestamp").first()
+    starts = both.imu["timestamp"].dt.floor("600s")
+    for start, imu in both.imu.groupby(starts):
+        r = rec.loc[start]
+        wd = np.deg2rad(r["true_wd_deg"])
+        down = np.array([-np.sin(wd), -np.cos(wd)])  # the direction the wind blows to
+        along = imu[["velocity_east_ms", "velocity_north_ms"]].to_numpy() @ down
+        assert np.std(along) == pytest.approx(r["true_velocity_along_wind_std_ms"], rel=0.02)
+        assert np.std(imu["velocity_up_ms"]) == pytest.approx(
+            r["true_heave_velocity_std_ms"], rel=0.02
+        )

@@ -187,6 +187,32 @@ def test_sampled_motion_reproduces_harmonic_motion():
     np.testing.assert_allclose(s.head_velocity_ms(t), ref.head_velocity_ms(t), atol=1e-4)
 
 
+def test_sampled_motion_takes_a_measured_translation_velocity_axis_by_axis():
+    """Yamaguchi and Ishihara (2016), Eq. 4 differentiated: ``v_head = v_trans + omega x
+    (R r)``. A measured velocity of the rotation centre (ENU) is that axis's ``v_trans``,
+    interpolated linearly, in place of its displacement's rate; the other axes and the
+    head displacement are unchanged."""
+    ts = np.linspace(0.0, 10.0, 101)
+    base = dict(
+        roll_deg=2.0 + 1.5 * ts,
+        pitch_deg=-3.0 + 0.8 * ts,
+        yaw_deg=10.0 - 2.0 * ts,
+        surge_m=0.1 * ts,  # east at 0.1 m/s, not measured
+        lever_arm_m=(0.5, -0.3, 4.0),
+    )
+    rotating = SampledMotion(ts, **base)
+    up = 0.3 * np.sin(ts)
+    m = SampledMotion(ts, **base, velocity_north_ms=np.full_like(ts, -0.2), velocity_up_ms=up)
+    t = np.array([0.37, 2.5, 5.91, 9.2])
+    added = np.stack([0.0 * t, np.full_like(t, -0.2), np.interp(t, ts, up)], axis=-1)
+    np.testing.assert_allclose(
+        m.head_velocity_ms(t), rotating.head_velocity_ms(t) + added, atol=1e-12
+    )
+    np.testing.assert_array_equal(m.head_displacement_m(t), rotating.head_displacement_m(t))
+    with pytest.raises(ValueError, match="velocity_up_ms has shape"):
+        SampledMotion(ts, ts, ts, velocity_up_ms=np.zeros(3))
+
+
 def test_sampled_motion_rejects_bad_series():
     with pytest.raises(ValueError, match="strictly increasing"):
         SampledMotion(np.array([0.0, 0.0, 1.0]), np.zeros(3), np.zeros(3))

@@ -121,7 +121,9 @@ def test_merge_replaces_the_tables_motion_columns_and_counts_them(tmp_path):
 
 def test_los_correction_streams_every_record_row(tmp_path):
     """The LOS step over files read in small chunks: every record row appears, a record
-    without LOS rows is flagged no_los, LOS rows of a window without records are skipped."""
+    without LOS rows is flagged no_los, LOS rows of a window without records are skipped;
+    the IMU series' translational velocities (a wave follower's) reach the corrections, and
+    the column translation says so."""
     import copy
 
     from flidar_uq.campaign.physics_mode import generate_campaign
@@ -130,6 +132,8 @@ def test_los_correction_streams_every_record_row(tmp_path):
 
     sc = copy.deepcopy(DEFAULT_SCENARIO)
     sc.update(name="los_step_test", n_records=5, heights_m=[58.0, 85.0])
+    sc["motion"]["sea_state"]["hull"] = "wave_follower"
+    sc["imu"] |= {"vertical_velocity": True, "horizontal_velocity": True}
     out = generate_campaign(sc, 4, return_imu=True, return_los=True, n_workers=1)
     starts = out.records["timestamp"].unique()
     los = out.los[(out.los["timestamp"] < starts[2]) | (out.los["timestamp"] >= starts[3])]
@@ -153,6 +157,8 @@ def test_los_correction_streams_every_record_row(tmp_path):
     assert table.loc[no_los, "ti_los_least_squares"].isna().all()
     assert (table.loc[~no_los, "los_flags"] == "").all()
     assert table.loc[~no_los, "ti_los_least_squares"].notna().all()
+    assert (table.loc[~no_los, "translation"] == "east+north+up").all()
+    assert table.loc[no_los, "translation"].isna().all()
     # the same numbers as the record function on each whole window
     from flidar_uq.correction.los_records import los_record_ti
 
@@ -195,6 +201,7 @@ def write_agreement_inputs(tmp_path: Path) -> tuple[Path, Path]:
             "timestamp": ts,
             "height_m": 58.0,
             "los_flags": "",
+            "translation": ["east+north+up"] * 3 + ["rotation_only"],
             # on the target: 0.1155/1.05 = 0.110 (inside), 0.0945/1.05 = 0.09, 0.126/1.05 = 0.12
             "ti_los_uncorrected": [0.13, 0.13, 0.13, 0.13],
             "ti_los_least_squares": [0.1155, 0.0945, 0.126, 0.1],
@@ -284,6 +291,7 @@ def test_report_section_shows_the_override_gaps_and_agreement(tmp_path):
     assert "data/&lt;buoy&gt;.csv" in html  # text escaped, tables and figure not
     assert "<table>" in html and "&lt;table" not in html and "data:image/png;base64," in html
     assert "least_squares" in html and "1 of 4 record rows" in html
+    assert "rows: east+north+up in 3, rotation_only in 1" in html
     assert series_sections() == []
 
 

@@ -43,7 +43,8 @@ Per 10-min record (``record_length_s``) and for every measurement height:
    lidar with the same schedule sees the same wind without motion, or a cup / sonic
    records the point HWS series (the truth series, 1 Hz) (``ref_hws_*``; only in the
    first ``reference_days`` if set, always in ``true_ref_hws_*``); IMU roll/pitch/yaw sampled at ``imu.rate_hz`` with noise
-   and gaps; 10-min statistics in the record format of ``docs/data-format.md``
+   and gaps (and the rotation centre's translational velocity with ``imu.vertical_velocity``
+   and ``imu.horizontal_velocity``); 10-min statistics in the record format of ``docs/data-format.md``
    plus ``true_*`` columns.
 
 Randomness: the scenario-level draws (all records at once) use one child of the
@@ -517,10 +518,15 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
     n_h = len(settings["heights_m"])
     k0, phase_slots, starts, dropped, outage = _lidar_schedule(settings, rng, lay, n_slots, n_h)
     noise, gap = _imu_errors(settings["imu"], rng, t_len)
-    w_noise = None  # the vertical velocity's noise (m/s), drawn last: the rest unchanged
+    # the translational velocities' noise (m/s), drawn last: the rest unchanged
+    w_noise = h_noise = None
     if settings["imu"].get("vertical_velocity") and trans is not None:
         w_noise = float(settings["imu"]["vertical_velocity_noise_ms"]) * rng.standard_normal(
             noise.shape[1]
+        )
+    if settings["imu"].get("horizontal_velocity") and trans is not None:
+        h_noise = float(settings["imu"]["horizontal_velocity_noise_ms"]) * rng.standard_normal(
+            (2, noise.shape[1])
         )
     return dict(
         hws_h=hws_h,
@@ -536,6 +542,7 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
         outage=outage,
         imu_noise=noise,
         imu_w_noise=w_noise,
+        imu_h_noise=h_noise,
         imu_gap=gap,
     )
 
@@ -678,7 +685,15 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         imu_ns.append(ns)
         fl_truth.append(s["fluct_uvw"][..., :: clk.k_truth].copy())  # the 1-Hz samples
         trans_truth.append(_translation_truth(s["trans"], clk.dt_s, e_wind[c, :2], yaw_c[0]))
-        for key in ("roll", "pitch", "fluct_uvw", "trans", "imu_noise", "imu_w_noise"):
+        for key in (
+            "roll",
+            "pitch",
+            "fluct_uvw",
+            "trans",
+            "imu_noise",
+            "imu_w_noise",
+            "imu_h_noise",
+        ):
             del s[key]  # the record's long series: done with
         series.append(s)
     sc = _chunk_scans(series, scans, par, lay.n_los, clk.n_slots, want_los)
@@ -760,11 +775,14 @@ def _imu_series(s, yaw_c, ts_ns, clk):
     """IMU: the record's roll, pitch and yaw (deg) as its IMU reports them.
 
     The true attitude at the IMU's sample times ``k / imu_rate_hz`` (s;
-    :func:`_on_imu_clock`), plus the record's white noise (deg), NaN within its gap; with
-    ``imu.vertical_velocity``, a fourth series: the hull's vertical velocity (m/s, the
-    rotation centre's, positive up) plus white noise of ``imu.vertical_velocity_noise_ms``.
-    Returns the series (n_imu,) and their times, integer ns since the epoch (``ts_ns``:
-    the record's start, ns).
+    :func:`_on_imu_clock`), plus the record's white noise (deg), NaN within its gap. With
+    ``imu.horizontal_velocity`` and ``imu.vertical_velocity``, the rotation centre's
+    translational velocity (m/s, east-north-up: the central difference of its
+    translation on the LOS clock, the one the lines of sight are simulated with) plus white
+    noise of ``imu.horizontal_velocity_noise_ms`` and ``imu.vertical_velocity_noise_ms``,
+    as a motion reference unit or GNSS reports it. Returns the series (n_imu,) by column
+    name of the IMU data contract, in its order, and their times, integer ns since the
+    epoch (``ts_ns``: the record's start, ns).
     """
     rate, dt = clk.imu_rate_hz, clk.dt_s
     n_imu = s["imu_noise"].shape[1]
@@ -775,15 +793,20 @@ def _imu_series(s, yaw_c, ts_ns, clk):
         if yaw_c.shape[1] > 1
         else np.full(n_imu, yaw_c[0, 0])
     )
-    att = [a + nz for a, nz in zip(att, s["imu_noise"], strict=True)]
+    names = ["roll_deg", "pitch_deg", "yaw_deg"]
+    out = {k: a + nz for k, a, nz in zip(names, att, s["imu_noise"], strict=True)}
+    if s["imu_h_noise"] is not None:  # the horizontal velocity of the rotation centre, m/s
+        for j, name in enumerate(("velocity_east_ms", "velocity_north_ms")):
+            v = np.gradient(s["trans"][:, j], dt)
+            out[name] = _on_imu_clock(v, n_imu, rate, dt) + s["imu_h_noise"][j]
     if s["imu_w_noise"] is not None:  # the vertical velocity of the rotation centre, m/s
         w = np.gradient(s["trans"][:, 2], dt)
-        att.append(_on_imu_clock(w, n_imu, rate, dt) + s["imu_w_noise"])
+        out["velocity_up_ms"] = _on_imu_clock(w, n_imu, rate, dt) + s["imu_w_noise"]
     if s["imu_gap"] is not None:
         g = (t_imu >= s["imu_gap"][0]) & (t_imu < s["imu_gap"][1])
-        for a in att:
+        for a in out.values():
             a[g] = np.nan
-    return att, _utc_ns(ts_ns, t_imu)
+    return out, _utc_ns(ts_ns, t_imu)
 
 
 def _chunk_scans(series, scans, par, n_los, n_slots, want_los) -> SimpleNamespace:
@@ -1046,16 +1069,18 @@ def _imu_statistics(cols, settings, imu_att, imu_ns, wd_mean, clk):
     peaks in ``imu.period_range_s``, s); the tilt along and across each row's measured wind
     direction ``wd_mean`` (deg) and its spectral moments and periods
     (:func:`flidar_uq.data.imu.tilt_band_statistics`); the mean heading (deg) as a compass
-    reports it. Returns the chunk's roll, pitch and yaw (C, n_imu), deg.
+    reports it. Returns the chunk's IMU series (C, n_imu) by column name: roll, pitch and
+    yaw (deg) and the velocities (m/s) where the IMU has them.
     """
     n_h = len(settings["heights_m"])
     rate = clk.imu_rate_hz
-    # roll, pitch, yaw (C, n), deg, and the vertical velocity (m/s) where the IMU has it
-    att = [np.stack([a[k] for a in imu_att]) for k in range(len(imu_att[0]))]
+    # roll, pitch, yaw (C, n), deg, and the velocities (m/s) where the IMU has them
+    att = {k: np.stack([a[k] for a in imu_att]) for k in imu_att[0]}
+    roll, pitch, yaw = att["roll_deg"], att["pitch_deg"], att["yaw_deg"]
     p_lo, p_hi = settings["imu"]["period_range_s"]
     start_ns, stats, present = _imu.motion_statistics_arrays(
         np.concatenate(imu_ns),
-        np.stack([att[0].ravel(), att[1].ravel()], axis=-1),
+        np.stack([roll.ravel(), pitch.ravel()], axis=-1),
         window_s=clk.t_len_s,
         period_min_s=float(p_lo),
         period_max_s=float(p_hi),
@@ -1072,24 +1097,24 @@ def _imu_statistics(cols, settings, imu_att, imu_ns, wd_mean, clk):
     # tilt along and across the wind (each row's own measured wind direction), its
     # spectral moments and periods: the per-record motion description (docs/data-format.md);
     # the attitude's trigonometry once per record for all its heights
-    w_up = att[3] if len(att) > 3 else None
-    spec = _imu.tilt_band_statistics(*att[:3], wd_mean, rate, velocity_up_ms=w_up)
+    w_up = att.get("velocity_up_ms")
+    spec = _imu.tilt_band_statistics(roll, pitch, yaw, wd_mean, rate, velocity_up_ms=w_up)
     for key, col in _imu.tilt_spectrum_columns(spec).items():
         cols[key] = np.asarray(col, float)
     # the buoy's mean heading over each record, as a compass would report it
-    cols["heading_mean_deg"] = np.repeat(_imu.heading_mean_deg(att[2]), n_h).astype(float)
+    cols["heading_mean_deg"] = np.repeat(_imu.heading_mean_deg(yaw), n_h).astype(float)
     return att
 
 
 def _imu_frame(att, imu_ns):
     """The chunk's raw IMU series as a frame: time, roll, pitch, yaw (deg) and, where
-    the IMU has it, the vertical velocity (m/s)."""
+    the IMU has them, the translational velocities (m/s); ``att``: the series (C, n) by
+    column name."""
     import pandas as pd
 
-    names = ("roll_deg", "pitch_deg", "yaw_deg", "velocity_up_ms")
     return pd.DataFrame(
         {"timestamp": _utc_index(np.concatenate(imu_ns))}
-        | {name: a.ravel() for name, a in zip(names, att, strict=False)}
+        | {name: a.ravel() for name, a in att.items()}
     )
 
 

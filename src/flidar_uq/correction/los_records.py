@@ -5,8 +5,10 @@ The scan-by-scan corrections of :mod:`flidar_uq.correction.los` (Malekmohammadi 
 Yamaguchi and Ishihara's (2016) conventional and new algorithms, :func:`~flidar_uq.correction.los.correct_dbs_motion`)
 applied to a record as a user has it: LOS rows in the format of ``docs/data-format.md``
 (CNR-filtered with :func:`flidar_uq.data.qc.run_los_qc`) and the raw IMU series as a
-:class:`flidar_uq.physics.motion.SampledMotion` with the lidar head's lever arm (head
-velocity from the angle rates). Every method retrieves the HWS of each complete scan (VAD)
+:class:`flidar_uq.physics.motion.SampledMotion` with the lidar head's lever arm: the head
+velocity is the rotation's, from the angle rates, plus the buoy's measured translation where
+the series has it (:data:`TRANSLATION_COLUMNS`; Yamaguchi and Ishihara, 2016, Eqs. 3-4).
+Every method retrieves the HWS of each complete scan (VAD)
 or DBS cycle; the record's TI is the std over mean of those HWS, over the same scans for
 every method (the uncorrected retrieval included), so the methods differ only in how they
 treat the motion.
@@ -14,7 +16,9 @@ treat the motion.
 Scans are the runs of ``lidar.n_los`` lines of sight at one height without a pause longer
 than 1.5 LOS durations (a DBS cycle must also hold the beams in the lidar's order, from its
 first beam); a scan during which the IMU pauses for more than ``imu_max_gap_s`` is not
-used (its motion is unknown), and is counted.
+used (its motion is unknown), and is counted. A translation column enters a record's
+correction when it has a valid sample in the record's IMU rows; a NaN sample of it is then a
+missing IMU sample, like a NaN angle.
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ from flidar_uq.physics.motion import SampledMotion
 __all__ = [
     "AGREEMENT_COLUMNS",
     "LOS_RECORD_REASONS",
+    "TRANSLATION_COLUMNS",
     "agreement_with_bayesian",
     "los_methods",
     "los_record_ti",
@@ -57,6 +62,15 @@ LOS_RECORD_REASONS = {
     "no_los": "no LOS rows in the record's window at this height",
     "imu_gap": "fewer than min_scans scans with IMU coverage",
     "few_scans": "fewer than min_scans complete scans",
+}
+
+#: The IMU series' translational velocities of the buoy's rotation centre (m/s, ENU earth
+#: frame; docs/data-format.md, section 2) and the axis each one gives (column ``translation``
+#: of :func:`los_record_ti`).
+TRANSLATION_COLUMNS = {
+    "velocity_east_ms": "east",
+    "velocity_north_ms": "north",
+    "velocity_up_ms": "up",
 }
 
 #: Margin of IMU samples read around a record window (head-velocity differences), s.
@@ -170,16 +184,29 @@ def _los_azimuth_rad(los: pd.DataFrame, lidar: str | LidarGeometry) -> np.ndarra
 
 def _imu_motion(
     imu: pd.DataFrame, t0: pd.Timestamp, lever_arm_m: Sequence[float]
-) -> tuple[SampledMotion | None, np.ndarray]:
-    """The IMU samples (valid roll and pitch) as a motion model, times in s from ``t0``."""
+) -> tuple[SampledMotion | None, np.ndarray, str]:
+    """The IMU samples as a motion model, times in s from ``t0``, and the translation used.
+
+    The translation columns (:data:`TRANSLATION_COLUMNS`) with a finite sample in ``imu``
+    give the rotation centre's velocity on their axes; the samples kept are those with
+    valid angles and valid used translation. The third value names the measured axes
+    (``"east+north+up"``, ``"up"``, ...), or ``"rotation_only"``: the head velocity from
+    the attitude rates and the lever arm alone.
+    """
+    used = [
+        c
+        for c in TRANSLATION_COLUMNS
+        if c in imu.columns and np.isfinite(imu[c].to_numpy(dtype=float)).any()
+    ]
+    translation = "+".join(TRANSLATION_COLUMNS[c] for c in used) or "rotation_only"
     if len(imu) == 0:
-        return None, np.empty(0)
+        return None, np.empty(0), translation
     ang = ["roll_deg", "pitch_deg"] + (["yaw_deg"] if "yaw_deg" in imu.columns else [])
-    ok = np.isfinite(imu[ang].to_numpy(dtype=float)).all(axis=1)
+    ok = np.isfinite(imu[ang + used].to_numpy(dtype=float)).all(axis=1)
     sub = imu.loc[ok]
     t = (sub["timestamp"] - t0).dt.total_seconds().to_numpy()
     if t.size < 2:
-        return None, t
+        return None, t, translation
     yaw = None
     if "yaw_deg" in sub.columns:  # a heading crossing +-180 deg must not look like a fast turn
         yaw = np.degrees(np.unwrap(np.radians(sub["yaw_deg"].to_numpy(dtype=float))))
@@ -189,8 +216,9 @@ def _imu_motion(
         sub["pitch_deg"].to_numpy(dtype=float),
         yaw,
         lever_arm_m=tuple(float(x) for x in lever_arm_m),
+        **{c: sub[c].to_numpy(dtype=float) for c in used},
     )
-    return motion, t
+    return motion, t, translation
 
 
 def _imu_covered(t_imu: np.ndarray, t_start: np.ndarray, t_end: np.ndarray, max_gap_s: float):
@@ -241,7 +269,10 @@ def los_record_ti(
         beam, ``elevation_deg`` (deg; :func:`_los_azimuth_rad`). A DBS lidar writes one row
         per range gate (``height_m``) and LOS time.
     imu : pandas.DataFrame
-        IMU rows covering the window (with :data:`IMU_MARGIN_S` on both sides).
+        IMU rows covering the window (with :data:`IMU_MARGIN_S` on both sides):
+        ``timestamp``, ``roll_deg``, ``pitch_deg`` and optionally ``yaw_deg`` (deg) and the
+        rotation centre's translational velocity (:data:`TRANSLATION_COLUMNS`, m/s, ENU),
+        which every correction adds to the head velocity of the lever arm's rotation.
     start : pandas.Timestamp
         Start of the record window (UTC).
     heights_m : sequence of float
@@ -268,7 +299,9 @@ def los_record_ti(
     -------
     pandas.DataFrame
         One row per height: ``height_m``, ``n_los``, ``n_scans`` (complete), ``n_scans_used``
-        (with IMU), ``los_flags`` (:data:`LOS_RECORD_REASONS`, ``;``-separated), and per
+        (with IMU), ``los_flags`` (:data:`LOS_RECORD_REASONS`, ``;``-separated),
+        ``translation`` (the measured axes in the head velocity, e.g. ``east+north+up`` or
+        ``up``, or ``rotation_only``: :func:`_imu_motion`), and per
         method ``m`` of :func:`los_methods`: ``n_hws_<m>`` (scans with a retrieved HWS; a
         Yamaguchi and Ishihara (2016) target whose point on a tilted beam lies beyond the
         lowest or highest gate, or a singular scan, gives none), ``hws_mean_ms_<m>``,
@@ -294,7 +327,7 @@ def los_record_ti(
             f"{geom.name!r}, which reports |v_r|"
         )
     t_los = (los["timestamp"] - start).dt.total_seconds().to_numpy() if len(los) else np.empty(0)
-    motion, t_imu = _imu_motion(imu, start, lever_arm_m)
+    motion, t_imu, translation = _imu_motion(imu, start, lever_arm_m)
     rows = []
     if geom.kind == "dbs":
         # one row per LOS time, one column per range gate
@@ -329,6 +362,7 @@ def los_record_ti(
         elif len(used) < min_scans:
             flags.append("imu_gap")
         row["los_flags"] = ";".join(flags)
+        row["translation"] = translation
         hws = dict.fromkeys(methods)
         if not flags:
             li = used.ravel()

@@ -750,7 +750,9 @@ IMU_COLUMNS: tuple[Column, ...] = (
         -20.0,
         20.0,
         True,
-        "Velocity of the lidar towards east (ENU earth frame; NaN: missing sample).",
+        "Translational velocity of the buoy towards east at its rotation centre, the point the "
+        "lever arm is measured from (ENU earth frame; NaN: missing sample); the LOS-level "
+        "corrections add it to the head velocity of the rotation.",
     ),
     Column(
         "velocity_north_ms",
@@ -760,7 +762,8 @@ IMU_COLUMNS: tuple[Column, ...] = (
         -20.0,
         20.0,
         True,
-        "Velocity of the lidar towards north (ENU earth frame).",
+        "Translational velocity of the buoy towards north at its rotation centre (ENU earth "
+        "frame).",
     ),
     Column(
         "velocity_up_ms",
@@ -770,8 +773,9 @@ IMU_COLUMNS: tuple[Column, ...] = (
         -20.0,
         20.0,
         True,
-        "Vertical velocity of the lidar, positive up (ENU earth frame); with it the record "
-        "table gets each tilt band's measured direction of travel (tilt_band{b}_cos_psi).",
+        "Vertical (heave) velocity of the buoy at its rotation centre, positive up (ENU earth "
+        "frame); with it the record table gets each tilt band's measured direction of travel "
+        "(tilt_band{b}_cos_psi).",
     ),
 )
 

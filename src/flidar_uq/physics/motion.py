@@ -349,6 +349,10 @@ def harmonic_motion(
     )
 
 
+#: The measured translational velocities of :class:`SampledMotion`, east, north, up (m/s).
+_VELOCITY_NAMES = ("velocity_east_ms", "velocity_north_ms", "velocity_up_ms")
+
+
 @dataclass(frozen=True)
 class SampledMotion(_MotionMethods):
     """Motion given as sampled series (e.g. an IMU record), linearly interpolated.
@@ -365,12 +369,18 @@ class SampledMotion(_MotionMethods):
         Earth-frame displacements, m (zero if omitted).
     lever_arm_m : tuple of 3 floats
         Lidar head position relative to the rotation centre, body frame, m.
+    velocity_east_ms, velocity_north_ms, velocity_up_ms : ndarray, shape (m,), optional
+        Measured translational velocity of the rotation centre, m/s, east, north and up
+        (ENU earth frame; e.g. from a motion reference unit or GNSS). An axis given here
+        takes it for the head velocity, ``v = omega x (R r) + v_trans`` (Yamaguchi and
+        Ishihara, 2016, Eq. 4 differentiated), instead of the rate of its displacement.
 
     Notes
     -----
     Rates (for the head velocity) are ``numpy.gradient`` of the series (second-order
-    central differences), interpolated linearly. Outside ``time_s`` the series are
-    held at their end values (``numpy.interp``).
+    central differences), interpolated linearly; measured velocities are interpolated
+    linearly. Outside ``time_s`` the series are held at their end values
+    (``numpy.interp``). A NaN sample gives NaN between its neighbours.
     """
 
     time_s: np.ndarray
@@ -381,6 +391,9 @@ class SampledMotion(_MotionMethods):
     sway_m: np.ndarray | None = None
     heave_m: np.ndarray | None = None
     lever_arm_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    velocity_east_ms: np.ndarray | None = None
+    velocity_north_ms: np.ndarray | None = None
+    velocity_up_ms: np.ndarray | None = None
     _rates: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -388,15 +401,28 @@ class SampledMotion(_MotionMethods):
         if t.ndim != 1 or t.size < 2 or not np.all(np.diff(t) > 0):
             raise ValueError("SampledMotion: time_s must be 1-D, strictly increasing, >= 2 samples")
         for name in ("roll_deg", "pitch_deg", "yaw_deg", "surge_m", "sway_m", "heave_m"):
-            val = getattr(self, name)
-            arr = np.zeros_like(t) if val is None else np.asarray(val, float)
-            if arr.shape != t.shape:
-                raise ValueError(
-                    f"SampledMotion: {name} has shape {arr.shape}, expected {t.shape} like time_s"
-                )
+            arr = self._checked(name, t, np.zeros_like(t))
             object.__setattr__(self, name, arr)
             self._rates[name] = np.gradient(arr, t)
+        # the translation's rate on each axis: measured, else that of the displacement
+        for disp, vel in zip(("surge_m", "sway_m", "heave_m"), _VELOCITY_NAMES, strict=True):
+            arr = self._checked(vel, t, None)
+            object.__setattr__(self, vel, arr)
+            if arr is not None:
+                self._rates[disp] = arr
         object.__setattr__(self, "time_s", t)
+
+    def _checked(self, name, t, default):
+        """The series ``name`` as floats shaped like ``t`` (``default`` if omitted)."""
+        val = getattr(self, name)
+        if val is None:
+            return default
+        arr = np.asarray(val, float)
+        if arr.shape != t.shape:
+            raise ValueError(
+                f"SampledMotion: {name} has shape {arr.shape}, expected {t.shape} like time_s"
+            )
+        return arr
 
     def _interp(self, t, name, rate=False):
         return np.interp(t, self.time_s, self._rates[name] if rate else getattr(self, name))

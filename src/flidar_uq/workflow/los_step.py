@@ -51,7 +51,9 @@ def los_correction(
         a WindCube v2 ``.rtd``, :func:`flidar_uq.data.formats.read_los_file`); the LOS rows
         sorted by time.
     out_path : path
-        results/los/corrected.csv: ``timestamp`` and the columns of ``los_record_ti``.
+        results/los/corrected.csv: ``timestamp`` and the columns of ``los_record_ti``
+        (``translation``: the IMU series' translational velocities each record's head
+        velocity took; empty for a record without LOS rows).
     lidar : str
         Lidar geometry (config ``campaign.lidar``).
     lever_arm_m : sequence of 3 float
@@ -125,7 +127,7 @@ def los_correction(
             )
             out.insert(0, "timestamp", start)
             rows.append(out)
-    columns = ["n_los", "n_scans", "n_scans_used", "los_flags"]
+    columns = ["n_los", "n_scans", "n_scans_used", "los_flags", "translation"]
     columns += [
         f"{q}_{m}" for m in methods for q in ("n_hws", "hws_mean_ms", "hws_std_ms", "ti_los")
     ]
@@ -140,13 +142,15 @@ def los_correction(
         table[col] = table[col].fillna(0).astype(int)
     log.info(
         "LOS branch (%s): %d record rows, %d with a Malekmohammadi et al. (2024) TI; %d record windows without "
-        "LOS rows; %d LOS rows outside every record window, %d at heights without a record row",
+        "LOS rows; %d LOS rows outside every record window, %d at heights without a record row; "
+        "measured translation in the head velocity (record rows): %s",
         lidar,
         len(table),
         int(table["ti_los_least_squares"].notna().sum()),
         len(by_start) - len(seen),
         n_los_outside,
         n_los_other_height,
+        ", ".join(f"{k} {v}" for k, v in table["translation"].value_counts().items()) or "none",
     )
     write_csv(table, out_path)
     return table

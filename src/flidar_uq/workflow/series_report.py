@@ -76,13 +76,16 @@ def series_context(
         methods = [m for m in agreement["method"] if m != "bayesian"]
         cols = ["timestamp", "height_m", "ti_corrected_median", "ti_corrected_lo"]
         cols += ["ti_corrected_hi", *[f"ti_los_{m}_target" for m in methods], "los_flags"]
-        cols += ["ti_true"] if "ti_true" in records else []
+        cols += [c for c in ("translation", "ti_true") if c in records]
+        # the measured translation each record row's head velocity took, as counts
+        kinds = records["translation"].value_counts() if "translation" in records else {}
         with open(los_figure, "rb") as fh:
             png = fh.read()
         los = {
             "methods": ", ".join(methods),
             "n": int(agreement["n_records"].max()),
             "n_flagged": int(records["los_flags"].notna().sum()),  # "" is read as NaN
+            "translation": ", ".join(f"{k} in {v}" for k, v in kinds.items()),
             "agreement_table": Markup(
                 rep.table_html(
                     agreement,
