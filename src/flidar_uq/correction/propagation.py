@@ -40,6 +40,7 @@ rho (correlation over bins of reference HWS and E(Z), Sec. 3.2).
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Collection
 from dataclasses import dataclass
 
@@ -867,6 +868,30 @@ class _Propagation:
         )
 
 
+class _GramMemo:
+    """The record Gram matrices of the last records propagated, kept while that table lives.
+
+    The uncertainty budget propagates the same records in several passes (every source
+    free, then each held): their Gram matrices (:func:`motion_gram`, ~80 bytes a record)
+    are computed in the first and read in the others. The table is held by a weak
+    reference and its contents by a hash (a table changed in place, or a new table at the
+    same address, is computed afresh)."""
+
+    def __init__(self):
+        self._ref, self._key, self._grams = None, None, {}
+
+    def of(self, records, key) -> dict:
+        """The chunk-start -> Gram table dict of ``records`` under ``key`` (emptied when
+        the table, its contents or the key are new)."""
+        key = (*key, int(pd.util.hash_pandas_object(records).sum()))
+        if self._ref is None or self._ref() is not records or self._key != key:
+            self._ref, self._key, self._grams = weakref.ref(records), key, {}
+        return self._grams
+
+
+_GRAMS = _GramMemo()
+
+
 def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan) -> None:
     """Record motion model: each record's sigma_Z from its own measured motion, with the
     global lever arm, motion scale and the record-level motion error kappa_z, record
@@ -880,18 +905,21 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan) ->
     hull_reference = global_fit.info.get("hull_reference", "wave_follower")
     cols = [*GRAM_COLUMNS, "translation_measured"]
     described = np.zeros(n, dtype=bool)
+    grams = _GRAMS.of(records, (lidar, surrogate, scan, translation, hull_reference))
     for start in range(0, n, _RECORD_CHUNK):
         # each record's Gram is its own: computed chunk by chunk (bounds the temporaries
-        # of the band sums, ~2.5 kB a record)
+        # of the band sums, ~2.5 kB a record), once for the passes over the same records
         chunk = slice(start, start + _RECORD_CHUNK)
-        gram = motion_gram(
-            records.iloc[chunk],
-            lidar=lidar,
-            surrogate=surrogate,
-            scan_period_s=scan,
-            translation=translation,
-            hull=hull_reference,
-        )
+        if start not in grams:
+            grams[start] = motion_gram(
+                records.iloc[chunk],
+                lidar=lidar,
+                surrogate=surrogate,
+                scan_period_s=scan,
+                translation=translation,
+                hull=hull_reference,
+            )[cols]
+        gram = grams[start]
         ok = np.all(np.isfinite(gram[cols].to_numpy(dtype=float)), axis=1)
         described[chunk] = ok
         if not ok.any():
