@@ -177,6 +177,16 @@ def band_sin_psi(bands: dict, use, hull="wave_follower") -> np.ndarray:
     return np.where(np.isfinite(measured), measured, 0.0)
 
 
+#: Records whose band sums are evaluated at once: bounds the temporaries of the nodes'
+#: surrogate evaluations (about 25 kB a record) whatever the table's length.
+_BAND_CHUNK = 20_000
+
+
+def _row_chunks(n: int) -> list[slice]:
+    """Consecutive slices of at most :data:`_BAND_CHUNK` of ``n`` rows (one, empty, for 0)."""
+    return [slice(a, a + _BAND_CHUNK) for a in range(0, max(n, 1), _BAND_CHUNK)]
+
+
 def _band_terms(
     records: pd.DataFrame, surrogate, scan_period_s: float, hull="wave_follower", nodes=None
 ):
@@ -192,24 +202,30 @@ def _band_terms(
         return np.zeros(len(records), dtype=bool), None, None
     hws = _col(records, "hws_mean_ms")
     use = bands["complete"] & np.isfinite(hws)
-    amp, per, cos1, cos2 = expand_bands(
-        bands["amplitude_deg"][use],
-        bands["period_s"][use],
-        bands["edges_s"],
-        band_cos_psi(bands, hws, use, hull),
-        bands["cos_sq_psi"][use],
-        n_nodes=BAND_NODES if nodes is None else nodes,
-    )
-    terms = six_dof_band_terms(
-        hws[use],
-        amp,
-        per,
-        band_cos_psi=cos1,
-        band_cos_sq_psi=cos2,
-        surrogate=surrogate,
-        scan_period_s=scan_period_s,
-        hull=hull,
-    )
+    cos1 = band_cos_psi(bands, hws, use, hull)
+
+    def chunk_terms(sel):  # the band sums of the used records ``sel``
+        amp, per, c1, c2 = expand_bands(
+            bands["amplitude_deg"][use][sel],
+            bands["period_s"][use][sel],
+            bands["edges_s"],
+            cos1[sel],
+            bands["cos_sq_psi"][use][sel],
+            n_nodes=BAND_NODES if nodes is None else nodes,
+        )
+        return six_dof_band_terms(
+            hws[use][sel],
+            amp,
+            per,
+            band_cos_psi=c1,
+            band_cos_sq_psi=c2,
+            surrogate=surrogate,
+            scan_period_s=scan_period_s,
+            hull=hull,
+        )
+
+    parts = [chunk_terms(sel) for sel in _row_chunks(int(use.sum()))]
+    terms = {k: np.concatenate([t[k] for t in parts]) for k in parts[0]}
     finite = np.all(np.stack([np.isfinite(v) for v in terms.values()]), axis=0)
     use[use] = finite
     return use, {k: v[finite] for k, v in terms.items()}, bands
@@ -627,15 +643,17 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
             n_nodes=nodes,
         )
         for sel, wb in ((known[banded], beta[banded]), (~known[banded], None)):
-            if np.any(sel):
-                rows = np.flatnonzero(banded)[sel]
+            idx = np.flatnonzero(sel)
+            for part in _row_chunks(idx.size) if idx.size else []:
+                i = idx[part]
+                rows = np.flatnonzero(banded)[i]
                 out[:, rows] = _gram_entries(
                     dbs_band_terms(
                         hws[rows],
-                        amp[sel],
-                        per[sel],
-                        mom[sel],
-                        wind_body_deg=None if wb is None else wb[sel],
+                        amp[i],
+                        per[i],
+                        mom[i],
+                        wind_body_deg=None if wb is None else wb[i],
                         lidar=g,
                         n_headings=n_headings,
                     )
