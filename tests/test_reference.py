@@ -547,7 +547,7 @@ def test_pipeline_record_fit_takes_the_reference_lidars_pair_term(tmp_path, monk
     if kind == "cup":
         assert seen["pair_log_sd"] is None and not spied
         return
-    ((g, sd, c, pair),) = spied
+    ((g, sd, c, pair, _ratio),) = spied
     assert seen["pair_log_sd"] is pair
     np.testing.assert_allclose(pair, np.sqrt(2.0 * (1.0 - c)) * sd)
     assert pair[0] < 0.35 * sd[0] and pair[2] > 1.2 * sd[2]  # same azimuths vs opposite

@@ -21,6 +21,7 @@ from flidar_uq.data.io import write_csv
 from flidar_uq.data.schema import CORRECTED_TI_COLUMNS
 from flidar_uq.inference.record_motion import describe_motion
 from flidar_uq.seeding import child_seed
+from flidar_uq.threads import single_threaded
 
 log = logging.getLogger(__name__)
 
@@ -270,6 +271,7 @@ class CorrectionResult:
         return paths
 
 
+@single_threaded
 def correct_campaign(
     records: pd.DataFrame,
     fit,
