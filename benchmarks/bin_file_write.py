@@ -1,7 +1,7 @@
-"""Benchmark: writing a bin's posterior file as session 8 did and as it is now, side by side
-in one run (issue 13 items 2 and 6; docs/performance.md).
+"""Benchmark: writing a bin's posterior file the old way (pointwise log-likelihood) and as it
+is now (pointwise LOO), side by side in one run (docs/performance.md).
 
-Session 8 ("old", ``_old_save`` below, a copy of its encoding): the ArviZ DataTree with the
+Old (``_old_save`` below, a copy of the earlier encoding): the ArviZ DataTree with the
 bin's (chain, draw, record) pointwise log-likelihood in float32 (11 MB for a bin of 2,700
 records before compression). Now: :func:`flidar_uq.inference.save_fit`, which keeps the
 PSIS-LOO the fit computed when it chose its motion model (``elpd_i``, ``pareto_k`` per
@@ -42,7 +42,7 @@ OUT = REPO / "benchmarks" / "results" / "bin_file_write"
 
 
 def _old_save(fit, path) -> None:
-    """Session 8's save_fit of a BinFit: the pointwise log-likelihood kept in float32."""
+    """The earlier save_fit of a BinFit: the pointwise log-likelihood kept in float32."""
     dt = dataclasses.replace(fit, pointwise_loo=None).to_datatree()
     for node in dt.subtree:
         for a in results._VOLATILE_ATTRS:
@@ -131,7 +131,7 @@ def main() -> None:
         [("old_cpu_s", "new_cpu_s", "CPU per file (s)"), ("old_mb", "new_mb", "file (MB)")],
         strict=True,
     ):
-        ax.scatter(t.n_records, t[old], label="session 8 (log-likelihood, float32)")
+        ax.scatter(t.n_records, t[old], label="old (log-likelihood, float32)")
         ax.scatter(t.n_records, t[new], label="now (pointwise LOO)")
         ax.set_xlabel("records in the bin")
         ax.set_ylabel(unit)

@@ -1,11 +1,11 @@
 """Benchmark: wall time, CPU time and peak memory of the virtual-campaign generator.
 
-Issue 13 item 7: the shipped ``default`` scenario (8640 10-min records x 3 heights,
+Target: the shipped ``default`` scenario (8640 10-min records x 3 heights,
 60 days) in <= 25 s on 2 cores, results unchanged. Three generators run side by side,
 alternating, on the same records, each in a fresh subprocess with its own source tree on
 ``PYTHONPATH`` (old trees extracted from the git history into a temporary directory, so
 no old code lives in ``src``): the reference of :data:`REFERENCE_COMMIT` (before the
-issue-13 work), the previous round of :data:`PREVIOUS_COMMIT`, and the current ``src``.
+speed work), the previous round of :data:`PREVIOUS_COMMIT`, and the current ``src``.
 1 worker on ``--small`` records (CPU per record, robust to other jobs) and 2 workers on
 the whole default campaign (the wall time of the pipeline's ``campaign`` rule,
 ``threads: 2``). Each old generator's output is compared with the current one column by
@@ -23,7 +23,7 @@ fresh Python process as the rule runs it), N times for the previous and the curr
 alternating; the wall times and whether the two CSV files are the same bytes go to
 ``benchmarks/results/campaign_generation_step.csv``.
 
-``--scenarios [N]``: CPU seconds per record of each shipped scenario of issue 11
+``--scenarios [N]``: CPU seconds per record of each shipped scenario
 (misaligned swell, weathervane/fixed heading, broadband/narrow seas, short reference,
 sparse 30 days), from its first N records (default 96) in one process, and the
 full scenario's estimated wall time on 1 and 2 dedicated cores; writes
@@ -59,12 +59,12 @@ from flidar_uq.data.io import validate_records  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 REPO = Path(__file__).resolve().parents[1]
-TARGET_S = 25.0  # issue 13 item 7: the default campaign on 2 cores
-#: The generator before the issue-13 speed work (the reference of "results unchanged").
+TARGET_S = 25.0  # target: the default campaign generated in 25 s on 2 cores
+#: The generator before the speed work (the reference of "results unchanged").
 REFERENCE_COMMIT = "38465224c0a642f774a011f0cd7d14cf413d6d04"
-#: The generator before the latest round (session 15: compiled normal draws, a record's
-#: kernel call right after its series; main at the end of session 14; the rounds before
-#: it: 997d9ac, e1e35a3, 619c380, cb8877e).
+#: The generator before the latest round (the one that added compiled normal draws and
+#: moved a record's kernel call right after its series; the rounds before it: 997d9ac,
+#: e1e35a3, 619c380, cb8877e).
 PREVIOUS_COMMIT = "b01d024fdc3a82542b2358130bc46b02d05b8f6e"
 IMPLEMENTATIONS = ("reference", "previous", "current")
 SEED = 20181122  # config/config.yaml campaign.seed
@@ -227,7 +227,7 @@ def run(gen, impl: str, n_records: int, n_workers: int) -> tuple[dict, pd.DataFr
 def compare(ref: pd.DataFrame, new: pd.DataFrame, n_records: int, baseline: str) -> pd.DataFrame:
     """Max absolute / relative difference of every column the two campaigns share.
 
-    Columns added since ``ref`` (e.g. ``heading_mean_deg``, issue 12) are not compared;
+    Columns added since ``ref`` (e.g. ``heading_mean_deg``) are not compared;
     the printout names them.
     """
     if len(ref) != len(new):
@@ -377,7 +377,7 @@ def main() -> None:
         const=96,
         default=None,
         metavar="N",
-        help="speed of the issue-11 scenarios from their first N records (default 96)",
+        help="speed of the shipped scenarios from their first N records (default 96)",
     )
     ap.add_argument(
         "--step",

@@ -1,6 +1,6 @@
 """Data-layer throughput: validation + QC + binning of 1e4..1e6 records on one core.
 
-Acceptance (issue #3): 1 million records in <= 10 s on one core, peak memory stated.
+Acceptance: 1 million records in <= 10 s on one core, peak memory stated.
 Also measured: IMU motion statistics (flidar_uq.data.imu.motion_statistics) per 10-min
 window for one day of a bimodal roll/pitch series at 5, 10 and 20 Hz.
 Times are measured without tracing; peak memory in a second run under tracemalloc

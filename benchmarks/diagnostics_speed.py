@@ -1,7 +1,7 @@
-"""Benchmark: the convergence diagnostics of a fit as session 9 computed them and as they
-are computed now, side by side in one run (issue 13 item 2; docs/performance.md).
+"""Benchmark: the convergence diagnostics of a fit as the library calls computed them and as
+they are computed now, side by side in one run (docs/performance.md).
 
-Session 9 ("library", ``_library_diagnostics`` below): arviz-stats' ``rhat(method="rank")``,
+Library calls ("library", ``_library_diagnostics`` below): arviz-stats' ``rhat(method="rank")``,
 ``ess(method="bulk")`` and ``ess(method="tail")`` on the pooled chains, and emcee's
 ``integrated_time`` per ensemble. Now: :func:`flidar_uq.inference.diagnostics._diagnostics`
 (one ranking of the split chains shared by the rank R-hat and the bulk ESS, a table of
@@ -47,7 +47,7 @@ SHAPES = {  # name: (ensembles, steps, walkers, parameters)
 
 
 def _library_diagnostics(chains):
-    """Session 9's calls: rank R-hat, bulk and tail ESS (arviz-stats), tau (emcee)."""
+    """The library calls: rank R-hat, bulk and tail ESS (arviz-stats), tau (emcee)."""
     nens, nsteps, nwalk, ndim = chains.shape
     pooled = np.transpose(chains, (3, 0, 2, 1)).reshape(ndim, nens, nwalk * nsteps)
     rhat = array_stats.rhat(pooled, chain_axis=-2, draw_axis=-1, method="rank")
@@ -124,7 +124,7 @@ def main() -> None:
     df.to_csv(args.out, index=False)
     fig, ax = plt.subplots(figsize=(7.5, 3.6), layout="constrained")
     y = np.arange(len(df))
-    ax.barh(y + 0.2, df["library_ms"], height=0.4, label="session 9: arviz-stats + emcee calls")
+    ax.barh(y + 0.2, df["library_ms"], height=0.4, label="library: arviz-stats + emcee calls")
     ax.barh(y - 0.2, df["current_ms"], height=0.4, label="now: shared ranks, one FFT")
     for yi, r in zip(y, df.itertuples(), strict=True):
         ax.text(r.library_ms, yi + 0.2, f" {r.speedup:.2f}x", va="center", fontsize=8)

@@ -9,7 +9,7 @@ tones, noise, a 2-min gap per day) of growing length, Parquet and CSV, with a re
 three heights per 10-min window (the default campaign's). Each measurement runs in a fresh
 process, which reports its peak resident memory (``VmHWM``) and wall time.
 
-Target (issue 12): a year at 20 Hz processed in memory bounded by the chunk (default
+Target: a year at 20 Hz processed in memory bounded by the chunk (default
 2.5e5 rows), not by the series; time is reported per month of data; the 365-day case is the
 year itself. Measured (2 cores, shared): the year in 1,021 s (84 s per month) at 800 MB peak,
 against 352 MB for one day and 397 MB for 30 days: the series is never held; most likely (not

@@ -151,7 +151,7 @@ def _timing(n_bins_all, workers, sur) -> pd.DataFrame:
             rows,
             f"one unimodal bin x 30 records, default settings (rep {rep})",
             lambda rep=rep: fit_bin(rec, settings=default, seed=200 + rep),
-            target_s=2.0,  # issue 5
+            target_s=2.0,  # target: one bin of 30 records in 2 s
         )
     rec2, _ = generate_statistical_campaign(1, 30, seed=4, surrogate=sur, two_period_bins=1)
     f2 = _timed(
@@ -201,7 +201,7 @@ def _timing_default_campaign(rows, default, workers) -> None:
         rows,
         f"default campaign: {len(jobs)} bins, {len(recs)} records, {workers} processes",
         lambda: _fit_all(jobs, workers),
-        target_s=60.0,  # issue 5: all bins of the default campaign on 2 cores
+        target_s=60.0,  # target: all bins of the default campaign in 60 s on 2 cores
     )
     rows.append(
         {

@@ -10,13 +10,14 @@ real IMU allows.
 
 Part A - motion classes x speed bins, for a ZephIR-like CW VAD (50 LOS/s, one height) and a
 WindCube-V1-like pulsed DBS (4 beams, 1 s each, range gates 40-200 m). Methods: uncorrected;
-Malekmohammadi et al. (2024) LS (Eq. 7); Yamaguchi and Ishihara (2016) conventional and new (DBS only); statistical (issue 5:
-``correction.corrected_std`` with ``simulator.sigma_z`` for the record's roll/pitch amplitude,
-period and lever arm, U law rho = 0 because wind and motion are independent here).
+Malekmohammadi et al. (2024) LS (Eq. 7); Yamaguchi and Ishihara (2016) conventional and new
+(DBS only); statistical (``correction.corrected_std`` with ``simulator.sigma_z`` for the
+record's roll/pitch amplitude, period and lever arm, U law rho = 0 because wind and motion
+are independent here).
 References: the same lidar on a fixed platform (motion-induced error) and the point truth at
 the cone centre (10-Hz samples).
 
-Part C - the virtual campaign of issue 4 (``campaign.generate_campaign`` with LOS-level and
+Part C - the virtual campaign (``campaign.generate_campaign`` with LOS-level and
 raw IMU output, default sea-state scenario): the LOS-level correction from the LOS and IMU
 tables alone (5-Hz noisy IMU with gaps, and a noise-free 20-Hz IMU) vs the statistical one with
 the record's IMU amplitude and period; references: the campaign's fixed lidar and truth.
@@ -187,7 +188,7 @@ def record_rows(lidar, motion, wind, statistical_motion, meta):
         c, flag = corrected_std(s_u, sz, 0.0)
         rows.append(
             dict(
-                method="statistical U (issue 5)",
+                method="statistical U",
                 mean_ms=mean_u,
                 ti=float(c) / mean_u,
                 ts_err_std_ms=np.nan,
@@ -269,7 +270,7 @@ IMU_VARIANTS = {
 
 
 def part_c(ss):
-    """The virtual campaign of issue 4 with its LOS-level and raw IMU output.
+    """The virtual campaign with its LOS-level and raw IMU output.
 
     Default scenario (sea-state roll/pitch, periods ~2-6 s, ZephIR scanning 27, 58, 85 m in
     turn, head 2.5 m above the rotation centre). The LOS-level correction uses only what a
@@ -324,7 +325,7 @@ def part_c(ss):
             c, flag = corrected_std(rec.hws_std_ms, sz, 0.0)
             out_rows.append(
                 dict(
-                    method="statistical U (issue 5)",
+                    method="statistical U",
                     mean_ms=rec.hws_mean_ms,
                     ti=float(c) / rec.hws_mean_ms,
                     discriminant_negative=bool(flag),
@@ -421,7 +422,7 @@ def plot(rec, table):
         ax.axhline(0, color="k", lw=0.8)
         ax.set_xticks(np.arange(len(classes)) + 0.4 - w / 2, classes, rotation=12, fontsize=7)
         ax.set_ylabel("TI error vs fixed lidar (percentage points)")
-        title = "campaign (issue 4)" if part == "C" else "harmonic classes, mean over speeds"
+        title = "campaign" if part == "C" else "harmonic classes, mean over speeds"
         ax.set_title(f"{lidar}, {title}", fontsize=9)
         ax.legend(fontsize=7)
     fig.tight_layout()
@@ -526,7 +527,7 @@ def main():
             cols
         ].to_string(index=False, float_format="%.3f")
     )
-    print("\nPart C, virtual campaign (issue 4) LOS + IMU output, ZephIR, 27/58/85 m:")
+    print("\nPart C, virtual campaign LOS + IMU output, ZephIR, 27/58/85 m:")
     print(table[(table.part == "C")][cols].to_string(index=False, float_format="%.3f"))
     print(
         f"\nrecords: {rec[['part', 'lidar', 'motion_class', 'speed_bin_ms', 'rep']].drop_duplicates().shape[0]}"

@@ -1,6 +1,6 @@
 """Speed of the LOS-level motion correction on a 10-min record of 50-Hz LOS data.
 
-Target (issue 7): correcting a 10-min record of 50-Hz LOS data (30,000 LOS, ZephIR-like
+Target: correcting a 10-min record of 50-Hz LOS data (30,000 LOS, ZephIR-like
 CW VAD, 600 scans) in <= 50 ms on one core. Timed: the whole call of
 ``correct_least_squares`` (IMU interpolation at the LOS times, rotations, CW sign
 resolution, least squares), for a 20-Hz sampled IMU and for harmonic motion; the

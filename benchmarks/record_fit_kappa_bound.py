@@ -1,10 +1,10 @@
-"""Benchmark: the record fit's sampler against the lower bound of kappa (session 8, issue 13).
+"""Benchmark: the record fit's sampler against the lower bound of kappa.
 
 With a fixed reference lidar the pair term explains the floating lidar's scatter and the
 record model's ``kappa`` (its own noise beyond it) goes to 0: the log-kappa posterior is the
 half-normal prior's ``exp(log kappa)`` tail, cut above where the records resolve ``kappa``.
 The more records, the lower that cut. ``Priors.kappa_min`` bounds ``log kappa`` from below;
-at 1e-4 (the bound before session 8) a year of records puts the posterior's peak next to
+at 1e-4 (the shipped bound is 1e-8) a year of records puts the posterior's peak next to
 it, and the sampler slows down (DE proposals across the wall are rejected, the Student-t
 independence proposal fits the truncated shape worse).
 

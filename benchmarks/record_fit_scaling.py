@@ -1,5 +1,5 @@
 """Benchmark: the global record fit (``fit_global_record``) at 1 month, 3 months and 1 year,
-old code against new, side by side in one run (issue 13 items 1-2, docs/performance.md).
+old code against new, side by side in one run (docs/performance.md).
 
 Each case runs the pipeline's step function
 :func:`flidar_uq.workflow.inference_steps.fit_global_model` (``model="record"``, the repo's
@@ -9,7 +9,7 @@ extracted with ``git archive`` into the work directory and put first on ``PYTHON
 once with the NEW code (this checkout's ``src``). Measured per case: wall time of the
 subprocess, its CPU time (user + system, ``getrusage``), peak RSS (``VmHWM`` of
 ``/proc/self/status``) and the 1-minute load average before and after (2 cores shared with
-other sessions: wall times are inflated by the load, CPU time is the comparable cost).
+other jobs: wall times are inflated by the load, CPU time is the comparable cost).
 A watchdog polls the subprocess's ``VmRSS`` and stops it above ``--max-rss-gb`` or after
 ``--max-minutes`` (status ``stopped``; its peak is then the last polled RSS, a lower bound).
 
@@ -19,7 +19,7 @@ independence move proposes all of them at once) over all records; the peak RSS a
 RSS before the call is the memory of its (walkers x records) temporaries.
 
 Input: the default run's record table after QC and binning
-(``/work/main/results/bins/assignments.csv``, the file the step reads; read only) tiled in
+(``results/bins/assignments.csv``, the file the step reads; read only) tiled in
 time to the size (``scaling.tile_records``: copies shifted by the table's 60-day span). The
 size's "campaign rows" are 10-min slots x 3 heights; the kept rows (after QC) are ~95 % of
 them.
@@ -62,7 +62,7 @@ REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "benchmarks" / "results"
 CSV = RESULTS / "record_fit_scaling.csv"
 PNG = RESULTS / "record_fit_scaling.png"
-ASSIGNMENTS = Path("/work/main/results/bins/assignments.csv")
+ASSIGNMENTS = REPO / "results" / "bins" / "assignments.csv"
 N_WALKERS = 64  # 4 ensembles x 16 walkers (config/config.yaml)
 
 

@@ -3,7 +3,7 @@
 Each replication draws (rho, kappa, kappa_z, lever_arm_m, motion_scale) from the record
 model's prior, a campaign of records from its likelihood as written, fits it with
 fit_record_model (fixed-length chains) and records the rank of each true value among 99
-posterior draws. Uniform ranks <=> calibrated (issue 11: >= 100 replications, chi-square
+posterior draws. Uniform ranks <=> calibrated (target: >= 100 replications, chi-square
 p > 0.01 per parameter).
 Writes benchmarks/results/sbc_record_ranks.csv, sbc_record_summary.csv and
 sbc_record_ranks.png.

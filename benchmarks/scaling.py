@@ -1,4 +1,4 @@
-"""Benchmark: wall time and peak memory of every pipeline step vs campaign length (issue 13).
+"""Benchmark: wall time and peak memory of every pipeline step vs campaign length.
 
 Runs the whole Snakemake pipeline (``snakemake --cores 2``, the repo's ``config/config.yaml``
 with only the campaign replaced) on virtual campaigns of 1 week, 1 month, 3 months, 1 year
@@ -38,7 +38,7 @@ cut-off run finished.
 
 What grows faster than linearly, and why (docs/performance.md has the numbers): nothing in CPU
 time -- every step is linear or sublinear in the number of records (read from the code, and
-every fitted exponent is <= 1.02 from a year to three years, session 10). The steps that
+every fitted exponent is <= 1.02 from a year to three years). The steps that
 grow, all linear:
 
 - ``fit_global_record`` (flidar_uq.inference.record_fit.fit_record_model): the likelihood
@@ -86,7 +86,7 @@ PNG = RESULTS / "scaling.png"
 RECORDS_PER_DAY = 144  # 10-min records
 SIZES_DAYS = {"1w": 7, "1m": 30, "3m": 91, "1y": 365, "3y": 1095}
 HEIGHTS = 3  # default scenario's heights (27, 58, 85 m)
-TARGET_1Y_S = 300.0  # issue 13: a 1-year, 3-height campaign in <= 5 min ...
+TARGET_1Y_S = 300.0  # target: a 1-year, 3-height campaign in <= 5 min ...
 TARGET_1Y_MB = 4096.0  # ... with peak memory <= 4 GB
 # Rule benchmark files -> step names in DAG order.
 STEP_ORDER = [
@@ -185,7 +185,7 @@ def job_timeline(results: Path, t0_unix: float) -> pd.DataFrame:
 def plot_timeline(tl: pd.DataFrame, path: Path) -> None:
     """One panel per size: every job as a bar on the core it ran on (jobs packed greedily
     into as few lanes as overlap needs), coloured by step; the pipeline's end and the
-    issue-13 target (a year: 5 min, three years: 15 min) marked."""
+    target (a year: 5 min, three years: 15 min) marked."""
     sizes = [s for s in SIZES_DAYS if s in set(tl["size"])]
     fig, axes = plt.subplots(len(sizes), 1, figsize=(12, 1.2 + 1.3 * len(sizes)), squeeze=False)
     colours = {s: plt.get_cmap("tab20")(i) for i, s in enumerate(STEP_ORDER)}
@@ -448,7 +448,7 @@ def plot(df: pd.DataFrame, path: Path = PNG) -> None:
     axes[2].axhline(TARGET_1Y_MB, color="k", ls=":", lw=1)
     fig.suptitle(
         "Pipeline steps vs campaign length, snakemake --cores 2 on a shared machine "
-        "(x: campaign extrapolated from generated sizes; dotted: issue-13 target for 1 year)",
+        "(x: campaign extrapolated from generated sizes; dotted: target for 1 year)",
         fontsize=9,
     )
     fig.tight_layout()
