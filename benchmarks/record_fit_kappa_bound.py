@@ -56,14 +56,14 @@ def main() -> None:
         cfg["reference"], lidar="zephir300", virtual_kind=virtual["reference_kind"]
     )
     records = read_csv(args.assignments)
-    *_, pair = ref.noise(
+    pair = ref.noise(
         records,
         heights_in_turn=virtual["heights_in_turn"],
         refocus_delay_s=virtual["refocus_delay_s"],
         point_sample_interval_s=1.0,
         turbulence_dt_s=virtual["turbulence_dt_s"],
         seed=cfg["inference"]["seed"],
-    )
+    ).pair_log_sd
     fields = SamplerSettings.__dataclass_fields__
     settings = SamplerSettings(
         **{k: v for k, v in cfg["inference"].items() if k in fields},

@@ -18,7 +18,7 @@ sigma_Z with the scenario's true lever arm and a motion scale of 1:
   travel assumed by its wave age;
 - ``follower_bands_heave``: the same with each band's direction measured from the heave
   (the campaigns' IMU carries the vertical velocity, ``imu.vertical_velocity``: columns
-  ``tilt_band{b}_cos_psi``, :func:`flidar_uq.data.imu.band_cos_psi_from_heave`).
+  ``tilt_band{b}_cos_psi``, :func:`flidar_uq.data.imu.band_direction_from_heave`).
 
 What matters for a campaign-wide calibration is that the ratio predicted / realised is the
 same in every regime (a single motion scale then fits all of them): the table gives the pooled

@@ -290,6 +290,43 @@ def test_scenario_bins_are_the_configs_default_bins():
     assert DEFAULT_BINNING == {k: v["default"] for k, v in binning.items()}
 
 
+def test_scenario_bin_model_fits_the_calibration_records_as_given(monkeypatch):
+    """bin_model_fit's global fit reads the calibration table it is given (its reference
+    std in the floating lidar's response), not the records' raw reference std."""
+    from types import SimpleNamespace
+
+    from flidar_uq.validation import regimes
+
+    rec = _dbs_records(300, 5).assign(
+        hws_mean_ms=np.linspace(8.1, 8.9, 300),
+        hws_std_ms=0.9,
+        ref_hws_std_ms=np.linspace(0.5, 1.5, 300),
+        wd_mean_deg=0.0,
+    )
+    calibration = rec.iloc[::2].assign(ref_hws_std_ms=rec["ref_hws_std_ms"].iloc[::2] / 1.05)
+    seen = {}
+    monkeypatch.setattr(
+        regimes, "fit_bin", lambda group, **kw: SimpleNamespace(converged=True, bin_id=kw["bin_id"])
+    )
+
+    def fake_global(calib, fits, **kw):
+        seen["calib"] = calib
+        return "fit"
+
+    monkeypatch.setattr(regimes, "fit_global", fake_global)
+    settings = SamplerSettings(nwalkers=8, nsteps=10, nburn=5, ndraws=10)
+    bin_id, fits, fit = regimes.bin_model_fit(
+        calibration, rec, get_surrogate("windcube_v2"), settings, np.random.SeedSequence(3)
+    )
+    assert fit == "fit" and fits
+    calib = seen["calib"]
+    assert len(calib) > 0 and calib.index.isin(calibration.index).all()
+    np.testing.assert_allclose(
+        calib["ref_hws_std_ms"], calibration.loc[calib.index, "ref_hws_std_ms"]
+    )
+    np.testing.assert_array_equal(calib["bin_id"], bin_id[calib.index])
+
+
 def test_scenario_records_refuses_an_unknown_motion_model():
     with pytest.raises(ValueError, match="motion_model='bins' is not 'record' or 'bin'"):
         scenario_records("tiny", 1, motion_model="bins")

@@ -349,3 +349,11 @@ def test_record_grams_are_reused_across_passes_only_for_the_same_unchanged_table
     rec.loc[2, "a"] = -1.0  # changed in place
     assert memo.of(rec, key) == {}
     assert memo.of(rec, (*key[:3], False, key[4])) == {}  # another key
+    grams = memo.of(rec, key)
+    grams[0] = "computed"
+    rec.sort_values("a", inplace=True)  # reordered in place: the same rows, another order
+    assert memo.of(rec, key) == {}
+    grams = memo.of(rec, key)
+    grams[0] = "computed"
+    rec.rename(columns={"a": "b"}, inplace=True)  # renamed in place
+    assert memo.of(rec, key) == {}

@@ -19,7 +19,6 @@ from flidar_uq.correction.propagation import (
     corrected_ti,
     draw_corrected_ti,
     record_summary,
-    reference_target,
     variance_law_baselines,
 )
 from flidar_uq.correction.reference import Reference
@@ -115,29 +114,6 @@ def test_virtual_campaign_sets_the_reference_kind_itself():
 
 
 # --------------------------------------------------------------------------- target
-
-
-def test_cup_and_sonic_need_no_lidar_ratio_a_fixed_lidar_does(monkeypatch):
-    from flidar_uq.correction import propagation as prop
-
-    hws, z = np.array([6.0, 12.0]), np.array([85.0, 27.0])
-    sampling = dict(heights_in_turn=3, refocus_delay_s=(0.3, 0.7), seed=1)
-    for kind in ("cup", "sonic"):
-        assert reference_target(kind, hws, z, "zephir300", **sampling) == (None, None)
-    calls = []
-
-    def fake_point_target(hws_ms, height_m, lidar, **kw):  # the slow scan simulation
-        calls.append((lidar, kw))
-        return np.full(2, 1.03), np.full(2, 0.02)
-
-    monkeypatch.setattr(prop, "point_target", fake_point_target)
-    for kind in ("fixed_lidar", "none"):
-        g, sd = reference_target(kind, hws, z, "windcube_v2", **sampling)
-        np.testing.assert_allclose(g, 1.03)
-        np.testing.assert_allclose(sd, 0.02)
-    assert calls == [("windcube_v2", sampling)] * 2
-    with pytest.raises(ValueError, match="kind='mast' must be one of"):
-        reference_target("mast", hws, z, "zephir300", **sampling)
 
 
 def _records(s_ms, hws=8.0):
@@ -551,6 +527,60 @@ def test_pipeline_record_fit_takes_the_reference_lidars_pair_term(tmp_path, monk
     assert seen["pair_log_sd"] is pair
     np.testing.assert_allclose(pair, np.sqrt(2.0 * (1.0 - c)) * sd)
     assert pair[0] < 0.35 * sd[0] and pair[2] > 1.2 * sd[2]  # same azimuths vs opposite
+
+
+@pytest.mark.parametrize("model", ["record", "rho_only"])
+def test_every_global_model_is_fitted_on_the_reference_in_the_floating_lidars_response(
+    tmp_path, monkeypatch, model
+):
+    """fit_global_model divides the reference std by the reference lidar's std over the
+    floating lidar's motionless std (ReferenceNoise.floating_reference) for the record
+    model and for the bin models alike: the propagation corrects both to the floating
+    lidar's point target."""
+    from flidar_uq import inference
+    from flidar_uq.correction.reference import ReferenceNoise
+    from flidar_uq.workflow import inference_steps
+
+    ratio = np.array([1.05, 0.98, 1.02])
+
+    def fake_noise(self, records, **kwargs):
+        n = len(records)
+        return ReferenceNoise(np.ones(n), np.full(n, 0.02), np.full(n, 0.5), np.full(n, 0.02),
+                              ratio[:n])  # fmt: skip
+
+    monkeypatch.setattr(Reference, "noise", fake_noise)
+    fitted = {}
+
+    class _Fit:
+        converged, failure_reasons, info = True, [], {"hull_model": "rotation_only"}
+
+    def fake_fit(records, *args, **kwargs):
+        fitted["records"] = records
+        return _Fit()
+
+    monkeypatch.setattr(inference, "fit_record_model_selecting_hull", fake_fit)
+    monkeypatch.setattr(inference, "fit_global", fake_fit)
+    monkeypatch.setattr(inference, "save_fit", lambda fit, path: None)
+    monkeypatch.setattr(inference_steps, "gather_bin_summaries", lambda dirs: None)
+    monkeypatch.setattr(inference_steps, "load_bin_fits", lambda dirs, s: {1: None, 2: None})
+    ref_std = np.array([0.8, 1.1, 1.3])
+    rec = pd.DataFrame(
+        {"record_id": [0, 1, 2], "bin_id": [1, 1, 2], "hws_mean_ms": [6.0, 9.0, 12.0],
+         "height_m": [85.0, 85.0, 85.0], "heading_mean_deg": [0.0, 90.0, 180.0],
+         "ref_hws_std_ms": ref_std}
+    )  # fmt: skip
+    cfg = _yaml(CONFIG)
+    ref = Reference.from_config(
+        {"kind": "fixed_lidar", "sampling_correlation": "synchronized"}, virtual_kind=None,
+        record_columns=None, lidar="windcube_v2",
+    )  # fmt: skip
+    scan = {"scan_heights_in_turn": 3, "scan_refocus_delay_s": [0.3, 0.7],
+            "point_sample_interval_s": 1.0, "turbulence_dt_s": 0.1}  # fmt: skip
+    inference_steps.fit_global_model(
+        [], rec, tmp_path / "global.nc", model=model, inference=cfg["inference"],
+        priors=cfg["priors"], lidar="windcube_v2", reference=ref.to_config(), propagation=scan,
+    )  # fmt: skip
+    np.testing.assert_allclose(fitted["records"]["ref_hws_std_ms"], ref_std / ratio)
 
 
 def test_record_sbc_replication_with_a_reference_lidar_pair_term():

@@ -20,7 +20,7 @@ For every record ``i`` and posterior draw ``d`` (docs/inference.md, "Propagation
    (:func:`flidar_uq.physics.variance_laws.corrected_std`, Eq. 15 of Gutiérrez-Antuñano et al. (2018) inverted) and
    ``TI = c / m_i``. Draws with a negative discriminant give ``c = 0`` and are counted.
 4. the point (cup-like) std, according to the reference the model is calibrated against
-   (:func:`reference_target`): a cup or sonic -> ``c`` is the point std already (the noise
+   (:meth:`flidar_uq.correction.reference.Reference.noise`): a cup or sonic -> ``c`` is the point std already (the noise
    term ``kappa`` has absorbed the floating-lidar-vs-point scatter); a fixed (motionless)
    lidar -> ``c`` is the std that lidar would measure and the point std is
    ``c exp(e_id - b_d) / g_i``, with ``g_i`` that lidar's mean std ratio to the point wind
@@ -40,6 +40,7 @@ rho (correlation over bins of reference HWS and E(Z), Sec. 3.2).
 
 from __future__ import annotations
 
+import hashlib
 import weakref
 from collections.abc import Collection
 from dataclasses import dataclass
@@ -81,7 +82,6 @@ __all__ = [
     "pair_sampling_correlation",
     "reference_pair_log_sd",
     "SYNCHRONIZED",
-    "reference_target",
     "split_noise",
     "ti_group_statistics",
     "variance_law_baselines",
@@ -407,47 +407,6 @@ def _held_global_draws(global_fit, g_idx: np.ndarray, hold) -> dict[str, np.ndar
     return {n: x[:, k] for k, n in enumerate(names)}
 
 
-def reference_target(
-    kind: str,
-    hws_ms,
-    height_m,
-    lidar: str,
-    **sampling,
-) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """The point-target inputs (:class:`PointTarget`) for a reference instrument.
-
-    Parameters
-    ----------
-    kind : {"cup", "sonic", "fixed_lidar", "none"}
-        The reference the model is calibrated against (:data:`REFERENCE_KINDS`).
-    hws_ms, height_m : array_like, shape (n_records,)
-        Record mean HWS (m/s) and measurement height (m).
-    lidar : str
-        Geometry name of the lidar whose std is turned into the point std: the fixed
-        reference lidar (``fixed_lidar``) or the floating lidar itself (``none``: the
-        deployment formula then gives the std a motionless lidar of its type measures).
-    **sampling
-        Keyword arguments of :func:`point_target` (``heights_in_turn``,
-        ``refocus_delay_s``, ``point_sample_interval_s``, ``turbulence_dt_s``, ``seed``).
-
-    Returns
-    -------
-    lidar_std_ratio, point_log_sd : numpy.ndarray or None
-        None for a cup or sonic (the corrected std is the point std already, and the noise
-        term kappa has absorbed the floating-lidar-vs-point scatter); else :func:`point_target`.
-
-    Raises
-    ------
-    ValueError
-        If ``kind`` is not one of :data:`REFERENCE_KINDS`.
-    """
-    if kind not in REFERENCE_KINDS:
-        raise ValueError(f"reference_target: kind={kind!r} must be one of {REFERENCE_KINDS}")
-    if kind in ("cup", "sonic"):
-        return None, None
-    return point_target(hws_ms, height_m, lidar, **sampling)
-
-
 #: ``reference.sampling_correlation`` value of a reference lidar that scans on the floating
 #: lidar's own schedule (the virtual campaign's twin): ``c`` then follows the azimuth
 #: offset between the two, i.e. the buoy's heading (:func:`pair_sampling_correlation`).
@@ -635,7 +594,7 @@ class PropagationSettings:
 @dataclass(frozen=True)
 class PointTarget:
     """What turns the deployment formula's std into the point std (step 4 of the module
-    docstring; :func:`reference_target` gives the first two).
+    docstring; :meth:`flidar_uq.correction.reference.Reference.noise` gives the first two).
 
     Attributes
     ----------
@@ -883,7 +842,12 @@ class _GramMemo:
     def of(self, records, key) -> dict:
         """The chunk-start -> Gram table dict of ``records`` under ``key`` (emptied when
         the table, its contents or the key are new)."""
-        key = (*key, int(pd.util.hash_pandas_object(records).sum()))
+        digest = hashlib.blake2b(
+            pd.util.hash_pandas_object(records, index=True).to_numpy().tobytes(),
+            digest_size=16,
+        )  # row hashes in order: a reordered table is a new one
+        digest.update(repr([(str(c), str(t)) for c, t in records.dtypes.items()]).encode())
+        key = (*key, digest.hexdigest())
         if self._ref is None or self._ref() is not records or self._key != key:
             self._ref, self._key, self._grams = weakref.ref(records), key, {}
         return self._grams

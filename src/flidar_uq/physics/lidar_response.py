@@ -55,7 +55,8 @@ def _time_scale_s(hws_ms, height_m):
     return x, np.isfinite(x), np.full(u.shape, np.nan)
 
 
-@lru_cache(maxsize=16)
+#: a direction-dependent call reads 24 direction nodes and the direction average
+@lru_cache(maxsize=64)
 def _response_cached(lidar_name_or_geom, f_key, n_dir, beta_deg=None):
     f = np.asarray(f_key)
     g = _lidar.get_lidar(lidar_name_or_geom)
@@ -159,9 +160,10 @@ def lidar_std_ratio(
         counter-clockwise from its x axis (:func:`flidar_uq.physics.dbs_sigma_z.wind_to_body_deg`),
         broadcast with ``hws_ms``. A DBS lidar's beams are fixed to its body: its ``g``
         then depends on it (a half-turn periodic function, :func:`_direction_nodes`:
-        for the WindCube v2 at 8 m/s and 80 m, 1.008 with the wind blowing between its
-        second and third beams to 1.071 between its first and second, 1.040 averaged over
-        directions); NaN (the heading unknown) or None: the average. A conical scan's ``g``
+        for the WindCube v2 at 8 m/s and 80 m, with turbulence up to 2 Hz, 1.008 with the
+        wind blowing between its second and third beams to 1.071 between its first and
+        second, 1.040 averaged over directions; 0.998 to 1.058, 1.028 averaged, for the
+        continuous spectrum); NaN (the heading unknown) or None: the average. A conical scan's ``g``
         does not depend on it.
 
     Returns

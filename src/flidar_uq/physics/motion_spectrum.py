@@ -173,7 +173,7 @@ def sub_band_nodes(period_s, edges_s, n_nodes: int = 3):
     Parameters
     ----------
     period_s : array_like, shape (..., nb)
-        Band centroid periods, s (NaN: no node).
+        Band centroid periods, s (NaN: the band's node weights are NaN).
     edges_s : array_like, shape (nb + 1,)
         The bands' edges, s, increasing (:func:`band_edges_s`).
     n_nodes : int
@@ -196,7 +196,7 @@ def sub_band_nodes(period_s, edges_s, n_nodes: int = 3):
     xi, wi = np.polynomial.legendre.leggauss(int(n_nodes))
     # linear density (1 + 3 m x) / 2 on [-1, 1], positive for |m| <= 1/3
     x_lin, w_lin = xi, 0.5 * wi * (1.0 + 3.0 * m * xi)
-    # beyond: the ramp 2 (y - y0) / (1 - y0)^2 on [y0, 1] (mean (1 + 2 y0) / 3 = |m|), mirrored
+    # beyond: the ramp 2 (y - y0) / (1 - y0)^2 on [y0, 1] (mean (2 + y0) / 3 = |m|), mirrored
     y0 = 3.0 * np.abs(m) - 2.0
     y = y0 + 0.5 * (1.0 - y0) * (xi + 1.0)
     x_ramp, w_ramp = np.sign(m) * y, 0.5 * wi * (xi + 1.0)
@@ -219,6 +219,7 @@ def expand_bands(amplitude_deg, period_s, edges_s, *per_band, n_nodes: int = 3):
     *per_band : array_like, shape (..., nb) or (..., nb, k)
         Other per-band values (direction moments, ...), repeated for each node.
     n_nodes : int
+        Nodes per band (:func:`sub_band_nodes`); 1 keeps each band at its centroid.
 
     Returns
     -------

@@ -31,6 +31,7 @@ from numpy.polynomial import chebyshev
 
 from flidar_uq.physics.lidar import LidarGeometry, get_lidar
 from flidar_uq.physics.simulator import sigma_z_direction_average, sigma_z_grid
+from flidar_uq.threads import single_threaded
 
 __all__ = [
     "SigmaZSurrogate",
@@ -344,6 +345,7 @@ class SigmaZSurrogate:
 
 
 @functools.lru_cache(maxsize=8)
+@single_threaded  # its fits' last bits follow the BLAS thread count; cached once per process
 def _build(lidar: LidarGeometry) -> SigmaZSurrogate:
     return SigmaZSurrogate(lidar)
 

@@ -43,6 +43,7 @@ from flidar_uq.inference import (
 )
 from flidar_uq.physics.surrogate import get_surrogate
 from flidar_uq.seeding import as_seedsequence
+from flidar_uq.threads import single_threaded
 
 __all__ = [
     "DEFAULT_BINNING",
@@ -100,6 +101,7 @@ def regime_labels(records: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
+@single_threaded
 def scenario_records(
     scenario: str | Path | Mapping,
     seed: int,
@@ -321,8 +323,11 @@ def bin_model_fit(
         for b, group in fitted.groupby("bin_id")
     ]
     converged = [f for f in fits if f.converged]
-    in_calibration = records.index.isin(calibration.index)
-    calib = records.assign(bin_id=bin_id)[in_calibration]
+    # the calibration records as given (their reference std in the floating lidar's
+    # response), with their bins
+    calib = calibration.assign(
+        bin_id=pd.Series(bin_id, index=records.index).reindex(calibration.index).to_numpy()
+    )
     calib = calib[calib["bin_id"].isin([f.bin_id for f in converged])]
     fit = fit_global(
         calib,

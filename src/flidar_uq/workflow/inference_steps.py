@@ -171,7 +171,11 @@ def fit_global_model(
     the pair term of :meth:`flidar_uq.correction.reference.Reference.noise` with the
     :class:`flidar_uq.correction.campaign.CorrectionSettings` of the config, the same
     numbers the propagation uses), so that ``kappa`` is the floating lidar's own noise.
-    None: no pair term (``kappa`` holds both lidars' sampling).
+    None: no pair term (``kappa`` holds both lidars' sampling). Every model, record or
+    bin, is fitted on the reference std divided by the reference lidar's std over the
+    floating lidar's motionless std
+    (:meth:`~flidar_uq.correction.reference.ReferenceNoise.floating_reference`), the
+    target the propagation corrects to.
 
     The three models run as parallel jobs; :func:`fit_global` then picks one by PSIS-LOO.
     Each model's draws depend only on the seed (``inference.fit_global`` seeds each model
@@ -191,34 +195,13 @@ def fit_global_model(
         if isinstance(assignments_path, pd.DataFrame)
         else read_csv(assignments_path)
     )
+    noise = _reference_noise(assigned, reference, propagation, inference, lidar)
+    # the reference std in the floating lidar's response (a DBS lidar's depends on the
+    # wind's direction against its beams): the r of every global model
+    assigned = assigned if noise is None else noise.floating_reference(assigned)
     if model == "record":
         lever = inference.get("lever_arm_m")
-        pair_log_sd = None
-        if reference is not None and reference["kind"] == "fixed_lidar":
-            from flidar_uq.correction.campaign import CorrectionSettings
-            from flidar_uq.correction.reference import Reference
-
-            ref = Reference.from_config(reference, lidar=reference["lidar"])
-            settings = CorrectionSettings.from_config(
-                {
-                    "propagation": propagation or {},
-                    "inference": inference,
-                    "campaign": {"lidar": lidar},
-                }
-            )
-            noise = settings.reference_noise(
-                assigned, ref, heights=settings.heights_in_turn(assigned)
-            )
-            corr, pair_log_sd = noise.correlation, noise.pair_log_sd
-            # the reference std in the floating lidar's response (a DBS lidar's depends on
-            # the wind's direction against its beams)
-            assigned = noise.floating_reference(assigned)
-            log.info(
-                "record model: reference lidar's sampling correlation (%s) %.3f-%.3f, "
-                "pair log-sd %.4f-%.4f taken as known",
-                ref.sampling_correlation, np.nanmin(corr), np.nanmax(corr),
-                np.nanmin(pair_log_sd), np.nanmax(pair_log_sd),
-            )  # fmt: skip
+        pair_log_sd = None if noise is None else noise.pair_log_sd
         fit = inf.fit_record_model_selecting_hull(
             assigned,
             hull_model=inference.get("hull_model", "auto"),
@@ -263,6 +246,30 @@ def fit_global_model(
     log.info(
         "global model %s: converged=%s %s", model, fit.converged, "; ".join(fit.failure_reasons)
     )
+
+
+def _reference_noise(assigned, reference, propagation, inference, lidar):
+    """:meth:`flidar_uq.correction.reference.Reference.noise` of the fit's records with a
+    fixed reference lidar (the :class:`flidar_uq.correction.campaign.CorrectionSettings`
+    of the config: the numbers the propagation uses); None for any other reference."""
+    if reference is None or reference["kind"] != "fixed_lidar":
+        return None
+    from flidar_uq.correction.campaign import CorrectionSettings
+    from flidar_uq.correction.reference import Reference
+
+    ref = Reference.from_config(reference, lidar=reference["lidar"])
+    settings = CorrectionSettings.from_config(
+        {"propagation": propagation or {}, "inference": inference, "campaign": {"lidar": lidar}}
+    )
+    noise = settings.reference_noise(assigned, ref, heights=settings.heights_in_turn(assigned))
+    log.info(
+        "reference lidar's sampling correlation (%s) %.3f-%.3f, pair log-sd %.4f-%.4f "
+        "taken as known; its std over the floating lidar's motionless std %.4f-%.4f",
+        ref.sampling_correlation, np.nanmin(noise.correlation), np.nanmax(noise.correlation),
+        np.nanmin(noise.pair_log_sd), np.nanmax(noise.pair_log_sd),
+        np.nanmin(noise.reference_std_ratio), np.nanmax(noise.reference_std_ratio),
+    )  # fmt: skip
+    return noise
 
 
 def fit_input(assignments_path: str | os.PathLike, holdout: dict | None = None) -> pd.DataFrame:
