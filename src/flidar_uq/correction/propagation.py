@@ -884,7 +884,7 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan) ->
                 hull=hull_reference,
             )[cols]
         gram = grams[start]
-        ok = np.all(np.isfinite(gram[cols].to_numpy(dtype=float)), axis=1)
+        ok = np.all(np.isfinite(gram.to_numpy(dtype=float)), axis=1)
         described[chunk] = ok
         if not ok.any():
             continue
