@@ -330,30 +330,3 @@ def test_per_record_quantiles_are_those_of_the_returned_draws(surrogate):
     pd.testing.assert_frame_equal(pr2, pr)
     pd.testing.assert_frame_equal(pb2, speed_bin_statistics(draws, pr, rec))
     assert len(pb2) == 1
-
-
-def test_record_grams_are_reused_across_passes_only_for_the_same_unchanged_table():
-    """The uncertainty budget's passes over the same records read the Gram matrices the
-    first pass computed; a changed table (in place) or another table gets its own."""
-    from flidar_uq.correction import propagation as prop
-
-    memo = prop._GramMemo()
-    rec = pd.DataFrame({"a": np.arange(5.0)})
-    key = ("zephir300", None, 1.0, True, "wave_follower")
-    grams = memo.of(rec, key)
-    grams[0] = "computed"
-    assert memo.of(rec, key) is grams  # the same table, unchanged: reused
-    assert memo.of(rec.copy(), key) is not grams  # another table
-    grams = memo.of(rec, key)
-    grams[0] = "computed"
-    rec.loc[2, "a"] = -1.0  # changed in place
-    assert memo.of(rec, key) == {}
-    assert memo.of(rec, (*key[:3], False, key[4])) == {}  # another key
-    grams = memo.of(rec, key)
-    grams[0] = "computed"
-    rec.sort_values("a", inplace=True)  # reordered in place: the same rows, another order
-    assert memo.of(rec, key) == {}
-    grams = memo.of(rec, key)
-    grams[0] = "computed"
-    rec.rename(columns={"a": "b"}, inplace=True)  # renamed in place
-    assert memo.of(rec, key) == {}

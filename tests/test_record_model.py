@@ -529,6 +529,45 @@ def test_propagation_of_a_rotation_only_hull_model_ignores_the_translation_colum
     assert np.mean(np.abs(sz(rec, "translating") / sz(plain, "translating") - 1)) > 0.05
 
 
+def test_record_grams_kept_by_the_caller_are_computed_once_and_read_in_later_passes():
+    """The uncertainty budget's passes share one dict of Gram matrices: the first pass
+    fills it, the later ones read it (a changed entry changes their sigma_Z), a pass of
+    another hull model adds its own; without the dict every call computes its own and the
+    draws are the same."""
+    from flidar_uq.correction.propagation import (
+        PropagationSettings,
+        draw_corrected_ti,
+        draw_held_ti,
+    )
+
+    truth = {"rho": 0.0, "kappa": 0.03, "kappa_z": 0.1, "lever_arm_m": 2.0,
+             "motion_scale": 1.0, "hull_response": 0.8}  # fmt: skip
+    rec = _draw_records(np.random.default_rng(13), 120, truth).assign(bin_id=0)
+    fit = fit_record_model(rec, seed=13, settings=SamplerSettings(nsteps=60, nburn=30))
+    fit.info["hull_model"] = "translating"
+    settings = PropagationSettings(ndraws=40)
+    grams: dict = {}
+
+    def held(hold=()):
+        return draw_held_ti(rec, [], fit, hold, settings=settings, seed=3, record_grams=grams)
+
+    first = held()
+    assert len(grams) == 1 and len(next(iter(grams.values()))) == len(rec)
+    alone = draw_corrected_ti(rec, [], fit, settings=settings, seed=3)
+    np.testing.assert_array_equal(first.ti, alone.ti)
+    assert not np.array_equal(held({"motion"}).ti, alone.ti)  # another pass, same grams
+    assert len(grams) == 1
+    (key,) = grams
+    grams[key] = grams[key] * 4.0  # the variance form x 4: sigma_Z x 2 if read
+    np.testing.assert_allclose(held().sigma_z_median_ms, 2.0 * first.sigma_z_median_ms)
+    fit.info["hull_model"] = "rotation_only"
+    rotation = held()
+    assert len(grams) == 2
+    np.testing.assert_array_equal(
+        rotation.ti, draw_corrected_ti(rec, [], fit, settings=settings, seed=3).ti
+    )
+
+
 def test_swell_band_of_unknown_side_has_no_heave_cross_term():
     """A tilt record cannot tell waves running downwind from waves running upwind: a band
     older than a fully developed wind sea (c / U > 1.2, Pierson & Moskowitz 1964) enters

@@ -342,6 +342,7 @@ def correct_campaign(
     target = _point_target(sub, c.rec, reference, settings)
     baseline = prop.variance_law_baselines(sub, surrogate)
     converged_fits = [f for f in c.fits.values() if f.converged]
+    grams: dict = {}  # the record model's Gram matrices, computed once for every pass
 
     def correct(hold=(), ndraws=settings.ndraws):
         return prop.draw_held_ti(
@@ -353,6 +354,7 @@ def correct_campaign(
             settings=settings.propagation(ndraws),
             target=target,
             seed=child_seed(settings.seed, 2),
+            record_grams=grams,
         )
 
     main = correct()

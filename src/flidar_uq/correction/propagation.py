@@ -40,8 +40,6 @@ rho (correlation over bins of reference HWS and E(Z), Sec. 3.2).
 
 from __future__ import annotations
 
-import hashlib
-import weakref
 from collections.abc import Collection
 from dataclasses import dataclass
 
@@ -827,39 +825,11 @@ class _Propagation:
         )
 
 
-class _GramMemo:
-    """The record Gram matrices of the last records propagated, kept while that table lives.
-
-    The uncertainty budget propagates the same records in several passes (every source
-    free, then each held): their Gram matrices (:func:`motion_gram`, ~80 bytes a record)
-    are computed in the first and read in the others. The table is held by a weak
-    reference and its contents by a hash (a table changed in place, or a new table at the
-    same address, is computed afresh)."""
-
-    def __init__(self):
-        self._ref, self._key, self._grams = None, None, {}
-
-    def of(self, records, key) -> dict:
-        """The chunk-start -> Gram table dict of ``records`` under ``key`` (emptied when
-        the table, its contents or the key are new)."""
-        digest = hashlib.blake2b(
-            pd.util.hash_pandas_object(records, index=True).to_numpy().tobytes(),
-            digest_size=16,
-        )  # row hashes in order: a reordered table is a new one
-        digest.update(repr([(str(c), str(t)) for c, t in records.dtypes.items()]).encode())
-        key = (*key, digest.hexdigest())
-        if self._ref is None or self._ref() is not records or self._key != key:
-            self._ref, self._key, self._grams = weakref.ref(records), key, {}
-        return self._grams
-
-
-_GRAMS = _GramMemo()
-
-
-def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan) -> None:
+def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan, grams) -> None:
     """Record motion model: each record's sigma_Z from its own measured motion, with the
     global lever arm, motion scale and the record-level motion error kappa_z, record
-    chunk by record chunk (:data:`_RECORD_CHUNK`)."""
+    chunk by record chunk (:data:`_RECORD_CHUNK`). ``grams``: the chunks' Gram tables
+    by (description, chunk start), filled here and read where already there."""
     global_fit, n = p.global_fit, len(records)
     lever = p.global_draws("lever_arm_m")
     scale = p.global_draws("motion_scale")
@@ -869,13 +839,13 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan) ->
     hull_reference = global_fit.info.get("hull_reference", "wave_follower")
     cols = [*GRAM_COLUMNS, "translation_measured"]
     described = np.zeros(n, dtype=bool)
-    grams = _GRAMS.of(records, (lidar, surrogate, scan, translation, hull_reference))
+    described_by = (lidar, scan, translation, hull_reference)
     for start in range(0, n, _RECORD_CHUNK):
         # each record's Gram is its own: computed chunk by chunk (bounds the temporaries
         # of the band sums, ~2.5 kB a record), once for the passes over the same records
-        chunk = slice(start, start + _RECORD_CHUNK)
-        if start not in grams:
-            grams[start] = motion_gram(
+        chunk, key = slice(start, start + _RECORD_CHUNK), (*described_by, start)
+        if key not in grams:
+            grams[key] = motion_gram(
                 records.iloc[chunk],
                 lidar=lidar,
                 surrogate=surrogate,
@@ -883,7 +853,7 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan) ->
                 translation=translation,
                 hull=hull_reference,
             )[cols]
-        gram = grams[start]
+        gram = grams[key]
         ok = np.all(np.isfinite(gram.to_numpy(dtype=float)), axis=1)
         described[chunk] = ok
         if not ok.any():
@@ -935,7 +905,7 @@ def _propagate_bin_model(p: _Propagation, records, bin_fits, surrogate, scan) ->
         p.reasons[mask] = "; ".join([*f.failure_reasons, *p.global_reasons])
 
 
-def _draw(records, bin_fits, global_fit, hold, surrogate, settings, target, seed):
+def _draw(records, bin_fits, global_fit, hold, surrogate, settings, target, seed, grams=None):
     """:func:`draw_corrected_ti` with the sources of ``hold`` at their median."""
     p = _Propagation(records, global_fit, settings, target, hold, seed)
     lidar = settings.lidar
@@ -945,7 +915,7 @@ def _draw(records, bin_fits, global_fit, hold, surrogate, settings, target, seed
     scan = settings.scan_period_s
     scan = get_lidar(lidar or "zephir300").scan_period_s if scan is None else scan
     if is_record_model(global_fit):
-        _propagate_record_model(p, records, surrogate, lidar, scan)
+        _propagate_record_model(p, records, surrogate, lidar, scan, {} if grams is None else grams)
     else:
         _propagate_bin_model(p, records, bin_fits, surrogate, scan)
     return p.result()
@@ -1004,6 +974,7 @@ def draw_held_ti(
     settings: PropagationSettings = PropagationSettings(),
     target: PointTarget = PointTarget(),
     seed,
+    record_grams: dict | None = None,
 ) -> CorrectedDraws:
     """:func:`draw_corrected_ti` with uncertainty sources held at their median (one pass of
     the uncertainty budget, :mod:`flidar_uq.correction.uncertainty_budget`).
@@ -1018,13 +989,21 @@ def draw_held_ti(
     by the held source; an empty ``hold`` is :func:`draw_corrected_ti`). The other
     parameters and the result are those of :func:`draw_corrected_ti`.
 
+    ``record_grams``: a dict the caller keeps over its passes of the same ``records`` and
+    ``global_fit`` (unchanged): the record motion model's Gram matrices
+    (:func:`~flidar_uq.inference.record_motion.motion_gram`, ~80 bytes a record) are
+    computed in the first pass and read in the others. Default None: computed for this
+    call alone.
+
     Raises
     ------
     ValueError
         As :func:`draw_corrected_ti`, or if a source of ``hold`` is not one of
         :data:`UNCERTAINTY_SOURCES`.
     """
-    return _draw(records, bin_fits, global_fit, hold, surrogate, settings, target, seed)
+    return _draw(
+        records, bin_fits, global_fit, hold, surrogate, settings, target, seed, record_grams
+    )
 
 
 def record_summary(
