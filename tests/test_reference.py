@@ -513,12 +513,13 @@ def test_pipeline_record_fit_takes_the_reference_lidars_pair_term(tmp_path, monk
         {"kind": kind, "sampling_correlation": "synchronized"}, virtual_kind=None,
         record_columns=None, lidar="zephir300",
     )  # fmt: skip
-    scan = {"scan_heights_in_turn": 3, "scan_refocus_delay_s": [0.3, 0.7],
+    # the propagate rule's settings (the workflow's correction_settings: plain values)
+    scan = {"lidar": "zephir300", "scan_heights_in_turn": 3, "scan_refocus_delay_s": [0.3, 0.7],
             "point_sample_interval_s": 1.0, "turbulence_dt_s": 0.1}  # fmt: skip
     inference_steps.fit_global_model(
         [], tmp_path / "assign.csv", tmp_path / "global.nc", model="record",
         inference=cfg["inference"], priors=cfg["priors"], lidar="zephir300",
-        reference=ref.to_config(), propagation=scan,
+        reference=ref.to_config(), correction=scan,
     )  # fmt: skip
     if kind == "cup":
         assert seen["pair_log_sd"] is None and not spied
@@ -574,13 +575,17 @@ def test_every_global_model_is_fitted_on_the_reference_in_the_floating_lidars_re
         {"kind": "fixed_lidar", "sampling_correlation": "synchronized"}, virtual_kind=None,
         record_columns=None, lidar="windcube_v2",
     )  # fmt: skip
-    scan = {"scan_heights_in_turn": 3, "scan_refocus_delay_s": [0.3, 0.7],
-            "point_sample_interval_s": 1.0, "turbulence_dt_s": 0.1}  # fmt: skip
-    inference_steps.fit_global_model(
-        [], rec, tmp_path / "global.nc", model=model, inference=cfg["inference"],
-        priors=cfg["priors"], lidar="windcube_v2", reference=ref.to_config(), propagation=scan,
-    )  # fmt: skip
+    scan = {"lidar": "windcube_v2", "scan_heights_in_turn": 3,
+            "scan_refocus_delay_s": [0.3, 0.7], "point_sample_interval_s": 1.0,
+            "turbulence_dt_s": 0.1}  # fmt: skip
+    kw = dict(inference=cfg["inference"], priors=cfg["priors"], lidar="windcube_v2",
+              reference=ref.to_config())  # fmt: skip
+    inference_steps.fit_global_model([], rec, tmp_path / "global.nc", model=model,
+                                     correction=scan, **kw)  # fmt: skip
     np.testing.assert_allclose(fitted["records"]["ref_hws_std_ms"], ref_std / ratio)
+    # a fixed reference lidar without the propagation's settings: refused, not guessed
+    with pytest.raises(ValueError, match="needs the correction settings"):
+        inference_steps.fit_global_model([], rec, tmp_path / "global.nc", model=model, **kw)
 
 
 def test_record_sbc_replication_with_a_reference_lidar_pair_term():

@@ -654,6 +654,9 @@ def test_fit_global_model_uses_the_configured_lidars_surrogate(tmp_path, monkeyp
     )
     assert seen["surrogate"] is get_surrogate(lidar)
     assert re.search(r'lidar=config\["campaign"\]\["lidar"\]', _rule_text("fit_global_model"))
+    # the fit's reference noise and the propagation are computed with the same settings
+    assert "correction=correction_settings()" in _rule_text("fit_global_model")
+    assert "settings=correction_settings()" in _rule_text("propagate")
     script = (REPO / "workflow/scripts/fit_global_model.py").read_text()
     assert "lidar=snakemake.params.lidar" in script
 

@@ -114,14 +114,6 @@ def batch_of_bin(wildcards):
     return f"results/inference/batch_{int(table.loc[int(wildcards.bin), 'batch']):03d}"
 
 
-def propagation_params():
-    """config["propagation"] with the "auto" sampling keys resolved
-    (flidar_uq.workflow.inputs.resolve_propagation)."""
-    from flidar_uq.workflow.inputs import resolve_propagation
-
-    return resolve_propagation(config)
-
-
 def correction_settings():
     """The propagation's options (flidar_uq.correction.campaign.CorrectionSettings of the
     config, "auto" keys resolved: flidar_uq.workflow.inputs.correction_inputs), as plain

@@ -62,7 +62,8 @@ rule fit_global_model:
         priors=config["priors"],
         lidar=config["campaign"]["lidar"],
         reference=reference_params(),
-        propagation=propagation_params(),
+        # the propagate rule's settings: the reference noise of the fit is the propagation's
+        correction=correction_settings(),
         # validation.holdout: the reference of the held-out records is not fitted
         holdout=config["validation"]["holdout"],
     conda:

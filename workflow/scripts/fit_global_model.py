@@ -18,5 +18,5 @@ fit_global_model(
     priors=dict(snakemake.params.priors),
     lidar=snakemake.params.lidar,
     reference=dict(snakemake.params.reference),
-    propagation=dict(snakemake.params.propagation),
+    correction=dict(snakemake.params.correction),
 )

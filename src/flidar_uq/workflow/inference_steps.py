@@ -156,7 +156,7 @@ def fit_global_model(
     priors: dict,
     lidar: str,
     reference: dict | None = None,
-    propagation: dict | None = None,
+    correction: dict | None = None,
 ) -> None:
     """Fit one global model (rho only / lever arm / lever arm + motion scale) on the gathered
     per-bin fits and write its posterior (NetCDF) to ``out_path``.
@@ -165,11 +165,12 @@ def fit_global_model(
     :func:`flidar_uq.correction.campaign.correct_campaign` uses.
 
     ``reference`` (:meth:`flidar_uq.correction.reference.Reference.to_config` of the
-    resolved reference) and ``propagation`` (config ``propagation`` with its scan keys
-    resolved): with a fixed reference lidar, the record model takes the two lidars'
-    sampling scatter against each other as known (``fit_record_model(pair_log_sd=...)``,
-    the pair term of :meth:`flidar_uq.correction.reference.Reference.noise` with the
-    :class:`flidar_uq.correction.campaign.CorrectionSettings` of the config, the same
+    resolved reference) and ``correction`` (the fields of
+    :class:`flidar_uq.correction.campaign.CorrectionSettings`: the workflow's
+    ``correction_settings``, the very values the ``propagate`` step gets): with a fixed
+    reference lidar, the record model takes the two lidars' sampling scatter against each
+    other as known (``fit_record_model(pair_log_sd=...)``, the pair term of
+    :meth:`flidar_uq.correction.reference.Reference.noise` with those settings, the same
     numbers the propagation uses), so that ``kappa`` is the floating lidar's own noise.
     None: no pair term (``kappa`` holds both lidars' sampling). Every model, record or
     bin, is fitted on the reference std divided by the reference lidar's std over the
@@ -195,7 +196,7 @@ def fit_global_model(
         if isinstance(assignments_path, pd.DataFrame)
         else read_csv(assignments_path)
     )
-    noise = _reference_noise(assigned, reference, propagation, inference, lidar)
+    noise = _reference_noise(assigned, reference, correction)
     # the reference std in the floating lidar's response (a DBS lidar's depends on the
     # wind's direction against its beams): the r of every global model
     assigned = assigned if noise is None else noise.floating_reference(assigned)
@@ -248,19 +249,23 @@ def fit_global_model(
     )
 
 
-def _reference_noise(assigned, reference, propagation, inference, lidar):
+def _reference_noise(assigned, reference, correction):
     """:meth:`flidar_uq.correction.reference.Reference.noise` of the fit's records with a
-    fixed reference lidar (the :class:`flidar_uq.correction.campaign.CorrectionSettings`
-    of the config: the numbers the propagation uses); None for any other reference."""
+    fixed reference lidar (``correction``: the fields of
+    :class:`flidar_uq.correction.campaign.CorrectionSettings`, the ones the propagation
+    gets); None for any other reference."""
     if reference is None or reference["kind"] != "fixed_lidar":
         return None
+    if correction is None:
+        raise ValueError(
+            "fit_global_model: a fixed reference lidar needs the correction settings "
+            "(correction=, the fields of CorrectionSettings the propagation uses)"
+        )
     from flidar_uq.correction.campaign import CorrectionSettings
     from flidar_uq.correction.reference import Reference
 
     ref = Reference.from_config(reference, lidar=reference["lidar"])
-    settings = CorrectionSettings.from_config(
-        {"propagation": propagation or {}, "inference": inference, "campaign": {"lidar": lidar}}
-    )
+    settings = CorrectionSettings(**correction)
     noise = settings.reference_noise(assigned, ref, heights=settings.heights_in_turn(assigned))
     log.info(
         "reference lidar's sampling correlation (%s) %.3f-%.3f, pair log-sd %.4f-%.4f "
