@@ -132,6 +132,44 @@ def test_band_description_is_the_six_dof_band_sum():
             np.testing.assert_allclose(got, want, rtol=1e-10)
 
 
+@pytest.mark.parametrize("lidar", ["zephir300", "windcube_v2"])
+def test_band_sums_chunk_by_chunk_equal_the_whole_and_a_table_without_bands_falls_back(
+    monkeypatch, lidar
+):
+    """The band sums run a chunk of records at a time: with chunks of 3 the Gram matrices
+    are those of one pass; a table whose bands are all incomplete gets the next
+    description (along-wind tilt for a CW lidar, roll and pitch for a DBS lidar) for every
+    record: no chunk of bands, no error."""
+    from flidar_uq.inference import record_motion
+    from flidar_uq.inference.record_motion import motion_gram
+
+    rng = np.random.default_rng(5)
+    n = 8
+    per = np.geomspace(1.3, 17.0, 8)[None, :] * rng.uniform(0.95, 1.05, (n, 8))
+    va, vc = rng.uniform(0, 1.5, (n, 8)), rng.uniform(0, 1.5, (n, 8))
+    va[2, 4] = np.nan  # one record's bands incomplete
+    rec = pd.DataFrame(
+        {"hws_mean_ms": rng.uniform(4, 18, n), "wd_mean_deg": rng.uniform(0, 360, n),
+         "heading_mean_deg": rng.uniform(-180, 180, n), "tilt_along_wind_std_deg": 1.5,
+         "tilt_period_zero_crossing_s": 4.0, "roll_amplitude_deg": 2.0,
+         "pitch_amplitude_deg": 3.0, "roll_period_s": 4.0, "pitch_period_s": 5.0}
+        | _band_columns(per, va, vc)
+    )  # fmt: skip
+    whole = motion_gram(rec, lidar=lidar)
+    monkeypatch.setattr(record_motion, "_BAND_CHUNK", 3)
+    assert record_motion._row_chunks(0) == []
+    assert [c.indices(7) for c in record_motion._row_chunks(7)] == [(0, 3, 1), (3, 6, 1), (6, 7, 1)]
+    pd.testing.assert_frame_equal(motion_gram(rec, lidar=lidar), whole)
+    described = whole["motion_description"].to_numpy()
+    assert described[2] != "tilt_bands" and (np.delete(described, 2) == "tilt_bands").all()
+    no_bands = rec.assign(**{c: np.nan for c in rec if c.startswith("tilt_band")})
+    gram = motion_gram(no_bands, lidar=lidar)
+    assert (gram["motion_description"] == described[2]).all()
+    assert np.isfinite(gram[list(record_motion.GRAM_COLUMNS)].to_numpy()).all()
+    # ... the description record 2 got within the whole table
+    pd.testing.assert_series_equal(gram.iloc[2], whole.iloc[2])
+
+
 def test_describe_motion_agrees_with_the_terms_the_model_uses():
     from flidar_uq.inference.record_motion import FOLLOWER_COLUMNS, describe_motion, six_dof_terms
 

@@ -183,8 +183,8 @@ _BAND_CHUNK = 20_000
 
 
 def _row_chunks(n: int) -> list[slice]:
-    """Consecutive slices of at most :data:`_BAND_CHUNK` of ``n`` rows (one, empty, for 0)."""
-    return [slice(a, a + _BAND_CHUNK) for a in range(0, max(n, 1), _BAND_CHUNK)]
+    """Consecutive slices of at most :data:`_BAND_CHUNK` of ``n`` rows (none for 0)."""
+    return [slice(a, a + _BAND_CHUNK) for a in range(0, n, _BAND_CHUNK)]
 
 
 def _band_terms(
@@ -224,7 +224,8 @@ def _band_terms(
             hull=hull,
         )
 
-    parts = [chunk_terms(sel) for sel in _row_chunks(int(use.sum()))]
+    # no record described: the terms of none (their keys), as a chunk of no rows
+    parts = [chunk_terms(sel) for sel in _row_chunks(int(use.sum()))] or [chunk_terms(slice(0))]
     terms = {k: np.concatenate([t[k] for t in parts]) for k in parts[0]}
     finite = np.all(np.stack([np.isfinite(v) for v in terms.values()]), axis=0)
     use[use] = finite
@@ -644,7 +645,7 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
         )
         for sel, wb in ((known[banded], beta[banded]), (~known[banded], None)):
             idx = np.flatnonzero(sel)
-            for part in _row_chunks(idx.size) if idx.size else []:
+            for part in _row_chunks(idx.size):
                 i = idx[part]
                 rows = np.flatnonzero(banded)[i]
                 out[:, rows] = _gram_entries(
