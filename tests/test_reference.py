@@ -363,12 +363,13 @@ def test_record_likelihood_without_motion_adds_the_pair_scatter_to_kappa_in_quad
     np.testing.assert_allclose(with_pair - merged, dprior, rtol=1e-9)
 
 
-def _interval_log_width(glob, reference_sampling_correlation=None):
+def _interval_log_width(glob, reference_sampling_correlation=None, pair=None):
     rec = _records([1.0, 1.1, 1.2, 0.9] * 50)
     bins, _ = _fits()
     target = PointTarget(
         np.full(len(rec), 1.03), np.full(len(rec), 0.03),
         reference_sampling_correlation=reference_sampling_correlation,
+        reference_pair_log_sd=None if pair is None else np.full(len(rec), pair),
     )  # fmt: skip
     out = draw_corrected_ti(
         rec, bins, glob, surrogate=get_surrogate("zephir300"), seed=5,
@@ -396,6 +397,14 @@ def test_reference_sampling_is_propagated_once():
     assert split == pytest.approx(width * np.hypot(eta, 0.03), rel=0.08)
     assert same_scans == pytest.approx(width * np.hypot(0.05, 0.03), rel=0.08)
     assert _interval_log_width(fit) == pytest.approx(same_scans, rel=0.02)  # default: whole
+    # a reference lidar of another type: the pair term as given (sd_f^2 + sd_r^2 - 2 c sd_f
+    # sd_r, here with sd_r = 0.01), not the same-type 2 (1 - c) sd^2
+    pair = np.hypot(0.03, 0.01)
+    mixed = _interval_log_width(fit, reference_sampling_correlation=0.0, pair=pair)
+    assert mixed == pytest.approx(width * np.hypot(np.sqrt(0.05**2 - pair**2), 0.03), rel=0.08)
+    assert mixed > 1.15 * split  # eta 0.0387 against 0.0245
+    with pytest.raises(ValueError, match="reference_pair_log_sd must be"):
+        _interval_log_width(fit, pair=pair)  # a pair term without the correlation
     fit.info["pair_log_sd_median"] = 0.04  # kappa of a fit with the pair term: as is
     assert _interval_log_width(fit) == pytest.approx(same_scans, rel=0.02)
     with pytest.raises(ValueError, match="reference_sampling_correlation must be in"):

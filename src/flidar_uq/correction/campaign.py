@@ -450,7 +450,7 @@ def _point_target(sub, rec, reference: Reference, settings: CorrectionSettings):
             "reference lidar sampling: correlation with the floating lidar's %s, c = %.3f-%.3f",
             reference.sampling_correlation, np.nanmin(pair_corr), np.nanmax(pair_corr),
         )  # fmt: skip
-    return prop.PointTarget(g_ratio, log_sd, g_log_sd, pair_corr)
+    return prop.PointTarget(g_ratio, log_sd, g_log_sd, pair_corr, noise.pair_log_sd)
 
 
 def _group_tables(ti_draws, per_record, sub, settings: CorrectionSettings):

@@ -255,8 +255,12 @@ def split_noise(kappa, point_log_sd, correlation=REFERENCE_SAMPLING_CORRELATION)
     numpy.ndarray
         ``eta`` (-), broadcast shape.
     """
-    pair = reference_pair_log_sd(point_log_sd, correlation)
-    return np.sqrt(np.maximum(np.asarray(kappa, dtype=float) ** 2 - pair**2, 0.0))
+    return _own_noise(kappa, reference_pair_log_sd(point_log_sd, correlation))
+
+
+def _own_noise(kappa, pair_log_sd):
+    """``eta = sqrt(max(kappa^2 - pair^2, 0))`` (:func:`split_noise` for a given pair term)."""
+    return np.sqrt(np.maximum(np.asarray(kappa, dtype=float) ** 2 - pair_log_sd**2, 0.0))
 
 
 def variance_law_baselines(records: pd.DataFrame, surrogate) -> tuple[np.ndarray, float]:
@@ -621,12 +625,20 @@ class PointTarget:
         for a lidar on its own scan schedule). None: ``kappa`` propagated whole, as
         ``c = 1`` (never narrower; the reference's sampling counted twice when the
         lidars' scans differ).
+    reference_pair_log_sd : array_like of shape (n_records,), or None
+        With ``reference_sampling_correlation``: the std of ``log(floating lidar's
+        motionless std / reference lidar's std)`` their sampling gives (-), the part of
+        ``kappa^2`` not propagated (:attr:`flidar_uq.correction.reference.ReferenceNoise.pair_log_sd`:
+        ``sd_f^2 + sd_r^2 - 2 c sd_f sd_r``, for lidars of two types). None:
+        :func:`reference_pair_log_sd` of ``point_log_sd`` and the correlation (two lidars
+        of one type).
     """
 
     lidar_std_ratio: object = None
     point_log_sd: object = None
     lidar_std_ratio_log_sd: float = 0.0
     reference_sampling_correlation: object = None
+    reference_pair_log_sd: object = None
 
     def checked(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """``(g, sd, c)`` for ``n`` records: ``g`` 1 and ``sd`` 0 when not given, ``c`` None.
@@ -655,6 +667,13 @@ class PointTarget:
             corr = np.broadcast_to(c, (n,))
             if np.any(~((corr >= -1.0) & (corr <= 1.0))):
                 raise ValueError("PointTarget: reference_sampling_correlation must be in [-1, 1]")
+        if self.reference_pair_log_sd is not None:
+            pair = np.asarray(self.reference_pair_log_sd, dtype=float)
+            if corr is None or pair.shape not in ((), (n,)) or np.any(~(pair >= 0)):
+                raise ValueError(
+                    f"PointTarget: reference_pair_log_sd must be {n} values >= 0, with "
+                    "reference_sampling_correlation"
+                )
         if self.lidar_std_ratio_log_sd > 0.0 and self.lidar_std_ratio is None:
             raise ValueError("PointTarget: lidar_std_ratio_log_sd needs lidar_std_ratio")
         if self.lidar_std_ratio is not None:
@@ -730,6 +749,14 @@ class _Propagation:
         self.q = np.asarray(settings.quantile_levels(), dtype=float)
         self.g_ratio, self.log_sd, self.corr = target.checked(n)
         self.with_scatter = target.point_log_sd is not None
+        self.pair = None  # the reference's share of a kappa fitted without the pair term
+        if self.with_scatter and self.corr is not None:
+            given = target.reference_pair_log_sd
+            self.pair = (
+                reference_pair_log_sd(self.log_sd, self.corr)
+                if given is None
+                else np.broadcast_to(np.asarray(given, dtype=float), (n,))
+            )
         self.ndraws = ndraws = settings.ndraws
         self.rng = np.random.default_rng(as_seedsequence(seed))
         self.m = records["hws_mean_ms"].to_numpy(dtype=float)
@@ -765,9 +792,9 @@ class _Propagation:
     def own_noise(self, cols):
         """The floating lidar's relative noise on s for the records ``cols`` (indices),
         (ndraws, cols.size) or (ndraws, 1)."""
-        if self.pair_known or not self.with_scatter or self.corr is None:
+        if self.pair_known or self.pair is None:
             return self.kappa
-        return split_noise(self.kappa, self.log_sd[cols][None, :], self.corr[cols][None, :])
+        return _own_noise(self.kappa, self.pair[cols][None, :])
 
     def deploy(self, cols, sz, tau0=0.0):
         """Steps 2-4 of the module docstring for the records at the indices ``cols`` (sZ
@@ -905,22 +932,6 @@ def _propagate_bin_model(p: _Propagation, records, bin_fits, surrogate, scan) ->
         p.reasons[mask] = "; ".join([*f.failure_reasons, *p.global_reasons])
 
 
-def _draw(records, bin_fits, global_fit, hold, surrogate, settings, target, seed, grams=None):
-    """:func:`draw_corrected_ti` with the sources of ``hold`` at their median."""
-    p = _Propagation(records, global_fit, settings, target, hold, seed)
-    lidar = settings.lidar
-    if surrogate is None and lidar is not None:
-        surrogate = get_surrogate(lidar)
-    surrogate = default_surrogate(surrogate)
-    scan = settings.scan_period_s
-    scan = get_lidar(lidar or "zephir300").scan_period_s if scan is None else scan
-    if is_record_model(global_fit):
-        _propagate_record_model(p, records, surrogate, lidar, scan, {} if grams is None else grams)
-    else:
-        _propagate_bin_model(p, records, bin_fits, surrogate, scan)
-    return p.result()
-
-
 def draw_corrected_ti(
     records: pd.DataFrame,
     bin_fits,
@@ -961,7 +972,10 @@ def draw_corrected_ti(
         If ``settings.credible_mass`` is not in (0, 1), a required column is missing or
         ``target`` is inconsistent (:meth:`PointTarget.checked`).
     """
-    return _draw(records, bin_fits, global_fit, (), surrogate, settings, target, seed)
+    return draw_held_ti(
+        records, bin_fits, global_fit, (), surrogate=surrogate, settings=settings,
+        target=target, seed=seed,
+    )  # fmt: skip
 
 
 def draw_held_ti(
@@ -1001,9 +1015,19 @@ def draw_held_ti(
         As :func:`draw_corrected_ti`, or if a source of ``hold`` is not one of
         :data:`UNCERTAINTY_SOURCES`.
     """
-    return _draw(
-        records, bin_fits, global_fit, hold, surrogate, settings, target, seed, record_grams
-    )
+    p = _Propagation(records, global_fit, settings, target, hold, seed)
+    lidar = settings.lidar
+    if surrogate is None and lidar is not None:
+        surrogate = get_surrogate(lidar)
+    surrogate = default_surrogate(surrogate)
+    scan = settings.scan_period_s
+    scan = get_lidar(lidar or "zephir300").scan_period_s if scan is None else scan
+    if is_record_model(global_fit):
+        grams = {} if record_grams is None else record_grams
+        _propagate_record_model(p, records, surrogate, lidar, scan, grams)
+    else:
+        _propagate_bin_model(p, records, bin_fits, surrogate, scan)
+    return p.result()
 
 
 def record_summary(

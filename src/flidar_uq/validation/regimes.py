@@ -222,6 +222,7 @@ def scenario_records(
     noise = reference.noise(kept, **scan, seed=int(ss_point.generate_state(1)[0]), lidar=lidar)
     g, sd = noise.lidar_std_ratio, noise.point_log_sd
     pair_log_sd, corr = (noise.pair_log_sd, noise.correlation) if pair else (None, None)
+    pair_all = pair_log_sd  # every kept record's (the fit's is the calibration records')
     calib = noise.floating_reference(kept)  # the reference std in the floating lidar's response
     if calibrate_on_sea_state is not None:
         if calibrate_on_sea_state not in ("wind sea", "swell"):
@@ -254,6 +255,7 @@ def scenario_records(
         point_log_sd=sd,
         lidar_std_ratio_log_sd=lidar_std_ratio_log_sd if g is not None else 0.0,
         reference_sampling_correlation=correlation,
+        reference_pair_log_sd=pair_all if motion_model == "bin" else None,
     )
     draws = draw_corrected_ti(
         kept,
