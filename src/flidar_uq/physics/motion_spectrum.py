@@ -721,11 +721,15 @@ class ReplayResult:
         Mean of Z, m/s.
     z_ms : ndarray, shape (nscan,)
         Z of every scan, m/s.
+    wind_ms : ndarray, shape (nscan, 2)
+        The retrieved horizontal wind (east, north) of every scan, m/s: with the true wind,
+        the motion's error along and across it.
     """
 
     sigma_z_ms: float
     mean_z_ms: float
     z_ms: np.ndarray
+    wind_ms: np.ndarray
 
 
 def replay_sigma_z(
@@ -837,4 +841,5 @@ def replay_sigma_z(
         u, v = u + np.asarray(ret.u_ms), v + np.asarray(ret.v_ms)
     hws = np.hypot(u, v) / len(offsets) if n_dwell > 1 else np.asarray(ret.hws_ms)
     z = hws - float(hws_ms)  # Eq. (1) of Gutiérrez-Antuñano et al. (2018)
-    return ReplayResult(float(np.std(z)), float(np.mean(z)), z)
+    wind = np.stack(np.broadcast_arrays(u, v), axis=-1).reshape(-1, 2) / len(offsets)
+    return ReplayResult(float(np.std(z)), float(np.mean(z)), z, wind)
