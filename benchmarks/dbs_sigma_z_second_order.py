@@ -1,7 +1,10 @@
 """sigma_Z of a DBS lidar on a wave follower: what the first-order harmonic sum leaves out.
 
-The record model's DBS sigma_Z is the first-order harmonic sum of the along-wind error
-(:func:`flidar_uq.physics.dbs_sigma_z.dbs_harmonic_sigma_z_ms`, ``cross_wind=False``). The
+The first-order harmonic sum of the along-wind error
+(:func:`flidar_uq.physics.dbs_sigma_z.dbs_harmonic_sigma_z_ms`, ``cross_wind=False``)
+against the LOS-level replay: how much of the difference is the HWS's nonlinearity in the
+cross-wind error (in the record model to fourth order,
+:func:`flidar_uq.physics.dbs_sigma_z.hws_error_moments`) and how much the rest. The
 LOS-level replay (:func:`flidar_uq.physics.motion_spectrum.replay_sigma_z` with the DBS geometry, as
 :func:`flidar_uq.physics.dbs_sigma_z.dbs_replay_sigma_z_ms`, each beam the mean over its
 dwell) holds every order. This benchmark separates the two differences
@@ -15,13 +18,14 @@ centre, 8 headings, 5 / 10 / 15 m/s, ``N_REC`` ten-minute records a case):
   much the replay's sigma_Z grows less (> 1) or more (< 1) than linearly;
 - ``hws_factor``: the replay's sigma_Z over the std of its along-wind error ``a`` at the
   true motion, the HWS's own nonlinearity: ``Z = |U + a, b| - U``;
-- ``hws_factor_4th``: its fourth-order value from the replay's ``a`` and cross-wind ``b``:
-  ``sqrt(1 + (s_b^4 / 2 - s_a^2 s_b^2 - 2 c_ab^2) / (U^2 s_a^2))`` (the expansion of
-  ``Var |U + a, b|`` for Gaussian ``a, b``: ``Z = a + b^2 / (2U) - a b^2 / (2 U^2)``);
+- ``hws_factor_4th``: its fourth-order value from the replay's ``a`` and cross-wind ``b``
+  (:func:`flidar_uq.physics.dbs_sigma_z.hws_error_moments`:
+  ``sqrt(1 + (s_b^4 / 2 - s_a^2 s_b^2 - 2 c_ab^2) / (U^2 s_a^2))``);
 - ``along_drift``: the growth of ``s_a`` itself over linear (second-order along-wind terms:
   tilt times heave, tilt squared times U);
 - ``mean_z_rel``: the replay's mean Z over U (the motion's bias of the mean HWS, in the TI's
-  denominator), and ``mean_z_cross_rel``, its cross-wind part ``s_b^2 / (2 U^2)``.
+  denominator), and ``mean_z_cross_rel``, its cross-wind part ``s_b^2 / (2 U^2)`` (the
+  record model's).
 
 Run:  PYTHONPATH=src OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/dbs_sigma_z_second_order.py
 Writes benchmarks/results/dbs_sigma_z_second_order.csv and .png.
@@ -127,8 +131,8 @@ def _cases(rng) -> pd.DataFrame:
                 for hws in HWS:
                     lo, hi = (_replay(m, s, hws, wd, beta, lidar) for s in (SMALL, 1.0))
                     f_lo, f_hi = (_first_order(comp, s, hws, beta, lidar) for s in (SMALL, 1.0))
-                    u2, sa2, sb2 = hws**2, hi["a2"], hi["b2"]
-                    fourth = 1.0 + (sb2**2 / 2 - sa2 * sb2 - 2 * hi["ab"] ** 2) / (u2 * sa2)
+                    sa2, sb2 = hi["a2"], hi["b2"]
+                    var4, mean4 = dbs.hws_error_moments(sa2, sb2, hi["ab"], hws)
                     rows.append(
                         dict(
                             lidar=lidar,
@@ -139,11 +143,11 @@ def _cases(rng) -> pd.DataFrame:
                             linear_ratio=f_lo / np.sqrt(lo["z2"]),
                             nonlinear_drift=(f_hi / np.sqrt(hi["z2"])) / (f_lo / np.sqrt(lo["z2"])),
                             hws_factor=np.sqrt(hi["z2"] / sa2),
-                            hws_factor_4th=np.sqrt(max(fourth, 0.0)),
+                            hws_factor_4th=np.sqrt(var4 / sa2),
                             along_drift=np.sqrt(sa2 / lo["a2"]) * SMALL,
                             cross_over_u=np.sqrt(sb2) / hws,
                             mean_z_rel=hi["mz"] / hws,
-                            mean_z_cross_rel=sb2 / (2 * u2),
+                            mean_z_cross_rel=mean4 / hws,
                         )  # fmt: skip
                     )
         print(f"{sea}: done", flush=True)

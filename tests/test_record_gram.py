@@ -8,10 +8,12 @@ import pytest
 
 from flidar_uq.inference.record_fit import _record_loglik_pointwise, _record_observations
 from flidar_uq.inference.record_motion import (
+    CROSS_WIND_COLUMNS,
     FOLLOWER_COLUMNS,
     GRAM_COLUMNS,
     describe_motion,
     gram_from_cw_terms,
+    gram_mean_z_ms,
     gram_sigma_z_ms,
     motion_gram,
     per_record_motion,
@@ -21,6 +23,7 @@ from flidar_uq.inference.results import GlobalFit
 from flidar_uq.physics.dbs_sigma_z import (
     dbs_record_terms,
     dbs_sigma_z_from_terms,
+    hws_error_moments,
     wind_to_body_deg,
 )
 
@@ -117,9 +120,32 @@ def test_dbs_gram_is_dbs_record_terms_with_the_records_heading():
     )
     lever, h, k = _draws()
     want = dbs_sigma_z_from_terms(g4, lever_arm_m=lever, hull_response=h, motion_scale=k)
-    got = gram_sigma_z_ms(gram, lever_arm_m=lever, hull_response=h, motion_scale=k)
+    along = gram[[*GRAM_COLUMNS, "translation_measured"]]  # the along-wind error alone
+    got = gram_sigma_z_ms(along, lever_arm_m=lever, hull_response=h, motion_scale=k)
     np.testing.assert_allclose(got, want, rtol=1e-12)
     assert (gram["motion_description"] == "roll_pitch").all()
+    # with the cross-wind error: sigma_Z and the mean to fourth order in it
+    g3 = dbs_record_terms(
+        rec["hws_mean_ms"], rec["roll_amplitude_deg"], rec["pitch_amplitude_deg"],
+        rec["pitch_period_s"], wind_body_deg=beta, roll_period_s=rec["roll_period_s"],
+        lidar="windcube_v2", cross_wind=True,
+    )  # fmt: skip
+    np.testing.assert_array_equal(g3[:, 0], g4)
+    forms = [
+        dbs_sigma_z_from_terms(g3[:, p], lever_arm_m=lever, hull_response=h, motion_scale=k) ** 2
+        for p in (0, 1)
+    ]
+    v = np.stack(np.broadcast_arrays(k, k * h, lever, h))[..., 0]  # (4, n_draws)
+    cov = np.einsum("id,nij,jd->dn", v, g3[:, 2], v)
+    var, mean = hws_error_moments(*forms, cov, rec["hws_mean_ms"].to_numpy())
+    full = gram_sigma_z_ms(gram, lever_arm_m=lever, hull_response=h, motion_scale=k)
+    np.testing.assert_allclose(full, np.sqrt(var), rtol=1e-10)
+    mean_z = gram_mean_z_ms(gram, lever_arm_m=lever, hull_response=h, motion_scale=k)
+    np.testing.assert_allclose(mean_z, mean, rtol=1e-10)
+    assert np.all(mean_z > 0) and np.any(np.abs(full / got - 1) > 1e-3)
+    np.testing.assert_array_equal(
+        gram_mean_z_ms(motion_gram(rec), lever_arm_m=2.0, hull_response=0.5), 0.0
+    )  # a CW lidar: none
     # heading unknown: the average over headings
     blind = motion_gram(rec.drop(columns="heading_mean_deg"), lidar="windcube_v2")
     g_avg = dbs_record_terms(
@@ -132,7 +158,9 @@ def test_dbs_gram_is_dbs_record_terms_with_the_records_heading():
         n_headings=24,
     )
     want_avg = dbs_sigma_z_from_terms(g_avg, lever_arm_m=lever, hull_response=h, motion_scale=k)
-    got_avg = gram_sigma_z_ms(blind, lever_arm_m=lever, hull_response=h, motion_scale=k)
+    got_avg = gram_sigma_z_ms(
+        blind[along.columns], lever_arm_m=lever, hull_response=h, motion_scale=k
+    )
     np.testing.assert_allclose(got_avg, want_avg, rtol=1e-12)
     assert not np.allclose(got_avg, got, rtol=1e-3)
 
@@ -197,6 +225,14 @@ def test_propagation_uses_the_configured_lidars_sigma_z():
         want = gram_sigma_z_ms(motion_gram(rec, lidar=lidar), lever_arm_m=2.0, hull_response=0.3)
         np.testing.assert_allclose(draws.sigma_z_median_ms, want, rtol=1e-4)
         out[lidar] = draws.ti_quantiles[1]
+        # the TI's denominator: the mean HWS less the motion's mean error (a DBS lidar's
+        # cross-wind error; none for a CW lidar)
+        mean_z = gram_mean_z_ms(motion_gram(rec, lidar=lidar), lever_arm_m=2.0, hull_response=0.3)
+        np.testing.assert_allclose(
+            draws.ti_quantiles[1] * (rec["hws_mean_ms"] - mean_z), draws.sigma_quantiles[1],
+            rtol=1e-9,
+        )  # fmt: skip
+        assert (mean_z > 0).all() if lidar == "windcube_v2" else (mean_z == 0).all()
     ok = np.isfinite(out["zephir300"]) & np.isfinite(out["windcube_v2"])
     assert ok.sum() > 20
     assert np.median(np.abs(out["windcube_v2"][ok] / out["zephir300"][ok] - 1.0)) > 0.01
@@ -208,7 +244,8 @@ def test_record_observations_hold_the_gram_of_the_configured_lidar(lidar):
     (s, r, g), use, kinds = _record_observations(rec, None, None, lidar)
     gram = motion_gram(rec, lidar=lidar)
     np.testing.assert_array_equal(g[:10], gram[list(GRAM_COLUMNS)].to_numpy().T[:, use])
-    assert g.shape == (11, use.sum()) and set(FOLLOWER_COLUMNS) <= set(rec)
+    rows = 11 if lidar == "zephir300" else 11 + len(CROSS_WIND_COLUMNS)  # + the cross-wind error
+    assert g.shape == (rows, use.sum()) and set(FOLLOWER_COLUMNS) <= set(rec)
 
 
 def test_reference_hull_scales_the_translation_by_its_response_and_the_propagation_follows():

@@ -54,7 +54,13 @@ from flidar_uq.inference import (
     is_record_model,
     records_wind_body_deg,
 )
-from flidar_uq.inference.record_motion import GRAM_COLUMNS, gram_sigma_z_ms, motion_gram
+from flidar_uq.inference.record_motion import (
+    CROSS_WIND_COLUMNS,
+    GRAM_COLUMNS,
+    gram_mean_z_ms,
+    gram_sigma_z_ms,
+    motion_gram,
+)
 from flidar_uq.physics.lidar import get_lidar
 from flidar_uq.physics.surrogate import default_surrogate, get_surrogate
 from flidar_uq.physics.variance_laws import corrected_std, rho_bin_correlation
@@ -760,6 +766,8 @@ class _Propagation:
         self.ndraws = ndraws = settings.ndraws
         self.rng = np.random.default_rng(as_seedsequence(seed))
         self.m = records["hws_mean_ms"].to_numpy(dtype=float)
+        # the TI's denominator (m/s): the mean HWS less the motion's mean error where known
+        self.m_ti = self.m.copy()
         self.s = records["hws_std_ms"].to_numpy(dtype=float)
         self.global_fit = global_fit
         self.g_idx = self.rng.choice(global_fit.flat("rho").size, size=ndraws, replace=True)
@@ -802,7 +810,7 @@ class _Propagation:
         :meth:`own_noise`, ``tau0`` an absolute one, m/s). The random numbers are drawn for
         all of them (z, then e: the stream does not depend on the blocks); the rest runs on
         blocks of records to bound the temporaries."""
-        hold, s, m = self.hold, self.s, self.m
+        hold, s, m = self.hold, self.s, self.m_ti
         z = self.rng.standard_normal((self.ndraws, cols.size))
         e = self.rng.standard_normal((self.ndraws, cols.size))
         if "sampling" in hold:
@@ -864,7 +872,7 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan, gr
     hull = p.global_draws("hull_response")
     translation = global_fit.info.get("hull_model") != "rotation_only"  # the kept model
     hull_reference = global_fit.info.get("hull_reference", "wave_follower")
-    cols = [*GRAM_COLUMNS, "translation_measured"]
+    cols = [*GRAM_COLUMNS, "translation_measured", *CROSS_WIND_COLUMNS]
     described = np.zeros(n, dtype=bool)
     described_by = (lidar, scan, translation, hull_reference)
     for start in range(0, n, _RECORD_CHUNK):
@@ -879,23 +887,24 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan, gr
                 scan_period_s=scan,
                 translation=translation,
                 hull=hull_reference,
-            )[cols]
+            )
+            grams[key] = grams[key][[c for c in cols if c in grams[key]]]
         gram = grams[key]
         ok = np.all(np.isfinite(gram.to_numpy(dtype=float)), axis=1)
         described[chunk] = ok
         if not ok.any():
             continue
-        sz = gram_sigma_z_ms(
-            {c: gram[c].to_numpy()[ok][None, :] for c in cols},
-            lever_arm_m=lever,
-            hull_response=hull,
-            motion_scale=scale,
-        )
+        g = {c: gram[c].to_numpy()[ok][None, :] for c in gram.columns}
+        sz = gram_sigma_z_ms(g, lever_arm_m=lever, hull_response=hull, motion_scale=scale)
         err = p.rng.standard_normal((p.ndraws, int(ok.sum())))
         err *= kappa_z
         sz *= np.exp(err, out=err)  # sz exp(kappa_z N(0, 1)), in place
         del err
-        p.deploy(start + np.flatnonzero(ok), sz)
+        rows = start + np.flatnonzero(ok)
+        if CROSS_WIND_COLUMNS[0] in g:  # a DBS lidar's mean HWS error (its posterior median)
+            mean_z = gram_mean_z_ms(g, lever_arm_m=lever, hull_response=hull, motion_scale=scale)
+            p.m_ti[rows] = p.m[rows] - np.median(mean_z, axis=0)
+        p.deploy(rows, sz)
     p.reasons[~described] = "no motion description (IMU columns missing)"
     p.conv[described] = global_fit.converged
     p.reasons[described] = "; ".join(p.global_reasons)

@@ -43,6 +43,7 @@ from flidar_uq.inference.diagnostics import _diagnostics, _thin
 from flidar_uq.inference.loo import _loo_chunked, _loo_compare
 from flidar_uq.inference.priors import Priors, SamplerSettings
 from flidar_uq.inference.record_motion import (
+    CROSS_WIND_COLUMNS,
     GRAM_COLUMNS,
     describe_motion,
     gram_coefficients,
@@ -51,6 +52,7 @@ from flidar_uq.inference.record_motion import (
 )
 from flidar_uq.inference.results import GlobalFit
 from flidar_uq.inference.sampler import _run_ensembles, laplace_init
+from flidar_uq.physics.dbs_sigma_z import hws_error_moments
 from flidar_uq.physics.hull import get_hull
 from flidar_uq.seeding import as_seedsequence
 from flidar_uq.threads import single_threaded
@@ -99,7 +101,9 @@ def _record_z2_tau2(theta, s, r, gram, pair_sq):
     entries :data:`~flidar_uq.inference.record_motion.GRAM_COLUMNS` of
     :func:`~flidar_uq.inference.record_motion.motion_gram` and the measured-translation
     flag (``h = 1`` there; 10 rows: none measured); ``sZ^2`` is one (walkers x 10) by
-    (10 x records) product.
+    (10 x records) product. A DBS lidar's 32 rows add its
+    :data:`~flidar_uq.inference.record_motion.CROSS_WIND_COLUMNS` (sZ to fourth order in
+    the cross-wind error, :func:`~flidar_uq.physics.dbs_sigma_z.hws_error_moments`).
     """
     rho = theta[:, 0:1]
     kappa_sq = np.exp(2.0 * theta[:, 1:2])
@@ -108,12 +112,20 @@ def _record_z2_tau2(theta, s, r, gram, pair_sq):
     h = np.exp(theta[:, 5])
     lever = theta[:, 3]
     coef = gram_coefficients(k, h, lever)  # (n_walkers, 10)
-    g = gram[:10]
-    sz_sq = coef @ g
-    if gram.shape[0] > 10 and np.any(
-        gram[10]
-    ):  # measured translation: the response is known (h = 1)
-        sz_sq += (gram_coefficients(k, 1.0, lever) - coef) @ (g * gram[10])
+    # measured translation: the response is known (h = 1)
+    meas = gram[10] if gram.shape[0] > 10 and np.any(gram[10]) else None
+    coef_meas = None if meas is None else gram_coefficients(k, 1.0, lever) - coef
+
+    def form(g):  # v^T G v of one Gram part, (n_walkers, n_obs)
+        q = coef @ g
+        if meas is not None:
+            q += coef_meas @ (g * meas)
+        return q
+
+    sz_sq = form(gram[:10])
+    if gram.shape[0] > 11:  # a DBS lidar's cross-wind error, to fourth order
+        across, cov = form(gram[11:21]), form(gram[21:31])
+        sz_sq = hws_error_moments(sz_sq, across, cov, gram[31] ** -0.5)[0]
     np.maximum(sz_sq, 0.0, out=sz_sq)
     # the realised motion error is sZ exp(kappa_z N(0, 1)) (median sZ, as the propagation
     # draws it): the data's mean sees its mean, sZ exp(kappa_z^2 / 2) (module docstring)
@@ -288,6 +300,13 @@ def _broad(lever_arm_prior):
     return broad
 
 
+def _gram_rows(mot) -> list[str]:
+    """The rows of the observations' ``gram`` (:func:`_record_observations`): the columns
+    of :func:`motion_gram` ``mot`` used, or of a ``gram`` of that many rows."""
+    dbs = CROSS_WIND_COLUMNS[0] in mot if not isinstance(mot, int) else mot > 11
+    return [*GRAM_COLUMNS, "translation_measured", *(CROSS_WIND_COLUMNS if dbs else ())]
+
+
 @single_threaded
 def _record_observations(
     records, surrogate, scan_period_s, lidar=None, hull="wave_follower", translation=True
@@ -296,7 +315,8 @@ def _record_observations(
 
     Returns ``((s, r, gram), use, kinds)``: measured std ``s`` (m/s), reference std ``r``
     (m/s) and the motion error ``gram`` (11, n) (:func:`motion_gram`'s
-    :data:`GRAM_COLUMNS` and ``translation_measured``) of the usable records (all finite
+    :data:`GRAM_COLUMNS` and ``translation_measured``; a DBS lidar's 32 rows with its
+    :data:`CROSS_WIND_COLUMNS`, :func:`_gram_rows`) of the usable records (all finite
     and ``s, r > 0``), the mask ``use`` over ``records`` and every record's motion
     description kind.
     """
@@ -315,7 +335,7 @@ def _record_observations(
         else np.full(len(records), np.nan)
     )
     kinds = mot["motion_description"].to_numpy()
-    gram = mot[[*GRAM_COLUMNS, "translation_measured"]].to_numpy(dtype=float).T  # (11, n)
+    gram = mot[_gram_rows(mot)].to_numpy(dtype=float).T  # (11, n), a DBS lidar's (32, n)
     use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.all(np.isfinite(gram), axis=0)
     return (s[use], r[use], np.ascontiguousarray(gram[:, use])), use, kinds
 
@@ -372,7 +392,7 @@ def _hull_response_negligible(nat: dict[str, np.ndarray], gram: np.ndarray) -> b
     arm and motion scale; ``gram`` (11, n) as :func:`_record_observations` returns it."""
     if not gram.shape[1]:
         return True
-    g = dict(zip((*GRAM_COLUMNS, "translation_measured"), gram, strict=True))
+    g = dict(zip(_gram_rows(gram.shape[0]), gram, strict=True))
     lever = float(np.median(nat["lever_arm_m"]))
     scale = float(np.median(nat["motion_scale"]))
     h95 = float(np.quantile(nat["hull_response"], 0.95))

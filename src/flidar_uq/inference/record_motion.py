@@ -27,6 +27,7 @@ import pandas as pd
 
 from flidar_uq.data.imu import tilt_bands_from_records
 from flidar_uq.inference.observations import records_wind_body_deg
+from flidar_uq.physics.dbs_sigma_z import hws_error_moments
 from flidar_uq.physics.hull import G_MS2, get_hull
 from flidar_uq.physics.lidar import get_lidar
 from flidar_uq.physics.motion_spectrum import expand_bands
@@ -39,6 +40,8 @@ __all__ = [
     "band_cos_psi",
     "band_sin_psi",
     "GRAM_COLUMNS",
+    "CROSS_WIND_COLUMNS",
+    "gram_mean_z_ms",
     "MEASURED_TRANSLATION_COLUMNS",
     "MOTION_DESCRIPTIONS",
     "TRANSLATION_DESCRIPTIONS",
@@ -554,6 +557,15 @@ GRAM_COLUMNS = (
     "gram_l_h",
     "gram_hh",
 )
+#: A DBS lidar's further columns (:func:`motion_gram`): the Gram entries of its cross-wind
+#: error (``gram_across_*``) and of the along-/cross-wind covariance (``gram_cov_*``), same
+#: units as :data:`GRAM_COLUMNS`, and ``gram_inv_hws_sq``, ``1 / U^2`` (s^2/m^2): sigma_Z
+#: and the mean of Z to fourth order (:func:`flidar_uq.physics.dbs_sigma_z.hws_error_moments`).
+CROSS_WIND_COLUMNS = (
+    *(c.replace("gram_", "gram_across_") for c in GRAM_COLUMNS),
+    *(c.replace("gram_", "gram_cov_") for c in GRAM_COLUMNS),
+    "gram_inv_hws_sq",
+)
 _GRAM_IJ = tuple((i, j) for i in range(4) for j in range(i, 4))
 #: entries of GRAM_COLUMNS that carry the hull response (a row or column 1 or 3)
 _HULL_ENTRIES = tuple(n for n, (i, j) in enumerate(_GRAM_IJ) if {i, j} & {1, 3})
@@ -586,7 +598,10 @@ def gram_from_cw_terms(
 
 
 def _gram_entries(gram4: np.ndarray) -> np.ndarray:
-    """(10, n) entries of :data:`GRAM_COLUMNS` from Gram matrices (n, 4, 4)."""
+    """(10, n) entries of :data:`GRAM_COLUMNS` from Gram matrices (n, 4, 4); (30, n) of
+    the along-wind, cross-wind and covariance parts from (n, 3, 4, 4)."""
+    if gram4.ndim == 4:
+        return np.concatenate([_gram_entries(gram4[:, p]) for p in range(gram4.shape[1])])
     return np.stack([gram4[..., i, j] for i, j in _GRAM_IJ])
 
 
@@ -618,7 +633,8 @@ def _dbs_banded(records: pd.DataFrame, hws_ms):
 
 
 def _dbs_gram(records, g, n_headings, translation, nodes):
-    """(10, n) Gram entries, measured flag and description of a DBS lidar (:func:`motion_gram`)."""
+    """(31, n) Gram entries (:data:`GRAM_COLUMNS` and :data:`CROSS_WIND_COLUMNS`), measured
+    flag and description of a DBS lidar (:func:`motion_gram`)."""
     from flidar_uq.physics.dbs_sigma_z import band_moments_to_wind, dbs_band_terms, dbs_record_terms
 
     a_r, a_p, t_r, t_p, ok = _dbs_motion(records)
@@ -627,7 +643,7 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
     banded, bands = _dbs_banded(records, hws)
     beta = records_wind_body_deg(records)
     known = np.isfinite(beta)
-    out = np.full((10, len(records)), np.nan)
+    out = np.full((31, len(records)), np.nan)
     if np.any(banded):
         mom = band_moments_to_wind(
             band_cos_psi(bands, hws, banded),
@@ -648,7 +664,7 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
             for part in _row_chunks(idx.size):
                 i = idx[part]
                 rows = np.flatnonzero(banded)[i]
-                out[:, rows] = _gram_entries(
+                out[:30, rows] = _gram_entries(
                     dbs_band_terms(
                         hws[rows],
                         amp[i],
@@ -657,12 +673,13 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
                         wind_body_deg=None if wb is None else wb[i],
                         lidar=g,
                         n_headings=n_headings,
+                        cross_wind=True,
                     )
                 )
     rp = ok & ~banded
     for sel, wb in ((rp & known, beta), (rp & ~known, None)):
         if np.any(sel):
-            out[:, sel] = _gram_entries(
+            out[:30, sel] = _gram_entries(
                 dbs_record_terms(
                     hws[sel],
                     a_r[sel],
@@ -672,19 +689,23 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
                     roll_period_s=t_r[sel],
                     lidar=g,
                     n_headings=n_headings,
+                    cross_wind=True,
                 )
             )
     ok |= banded
+    with np.errstate(divide="ignore"):
+        out[30, ok] = 1.0 / hws[ok] ** 2
     # a record described by its tilt bands has the wave follower's translation through them
     follower = ok & (_follower_complete(records) | banded) & translation
-    hull = list(_HULL_ENTRIES)
+    hull = [n + part for part in (0, 10, 20) for n in _HULL_ENTRIES]
     out[np.ix_(hull, ok & ~follower)] = 0.0  # rotation only: no heave, no orbital motion
     r_z, r_x = measured_response(records)
     meas = follower & np.isfinite(r_z) & np.isfinite(r_x)
     if np.any(meas):  # the heave phasor scales with R_z, the orbital one with R_x
         scale = np.stack([np.ones(len(records)), r_z, np.ones(len(records)), r_x])
         for n, (i, j) in enumerate(_GRAM_IJ):
-            out[n, meas] *= scale[i, meas] * scale[j, meas]
+            for part in (0, 10, 20):
+                out[n + part, meas] *= scale[i, meas] * scale[j, meas]
     return out, meas, np.where(banded, "tilt_bands", np.where(ok, "roll_pitch", "none"))
 
 
@@ -776,7 +797,8 @@ def motion_gram(
             *(terms[c].to_numpy() for c in terms.columns[:4]),
         )
         meas, kind = terms["translation_measured"].to_numpy() > 0, mot["motion_description"]
-    out = pd.DataFrame(dict(zip(GRAM_COLUMNS, gram, strict=True)), index=records.index)
+    names = GRAM_COLUMNS if len(gram) == len(GRAM_COLUMNS) else GRAM_COLUMNS + CROSS_WIND_COLUMNS
+    out = pd.DataFrame(dict(zip(names, gram, strict=True)), index=records.index)
     out["translation_measured"] = np.asarray(meas, float)
     out["motion_description"] = np.asarray(kind)
     return out
@@ -792,13 +814,9 @@ def gram_coefficients(motion_scale, hull_response, lever_arm_m):
     return np.stack([v[i] * v[j] * (1.0 if i == j else 2.0) for i, j in _GRAM_IJ], -1)
 
 
-def gram_sigma_z_ms(gram, *, lever_arm_m, hull_response, motion_scale=1.0):
-    """sigma_Z (m/s) of records from :func:`motion_gram` for a lever arm ``L`` (m), a hull
-    response ``h`` (-: 0 rotates about a fixed centre, 1 follows the waves) and a motion
-    scale ``k`` (-): ``sqrt(v^T G v)``, ``v = (k, k h, L, h)``, ``h = 1`` where the
-    translation is measured. Broadcasts over draws of ``L, h, k`` given as arrays of shape
-    (n_draws, 1); ``gram`` a DataFrame or mapping of :data:`GRAM_COLUMNS` (and optionally
-    ``translation_measured``) with arrays of shape (n,) or (1, n)."""
+def _quadratic_forms(gram, lever_arm_m, hull_response, motion_scale):
+    """``v^T G v`` of each Gram part of ``gram`` (:func:`gram_sigma_z_ms`): the along-wind
+    one, and with :data:`CROSS_WIND_COLUMNS` the cross-wind and covariance ones (else None)."""
     k = np.asarray(motion_scale, float)
     h = np.asarray(hull_response, float)
     lev = np.asarray(lever_arm_m, float)
@@ -807,8 +825,42 @@ def gram_sigma_z_ms(gram, *, lever_arm_m, hull_response, motion_scale=1.0):
         h = h + meas * (1.0 - h)
     k, h, lev = np.broadcast_arrays(k, h, lev)
     v = (k, k * h, lev, h)
-    var = 0.0
-    for n, (i, j) in enumerate(_GRAM_IJ):
-        w = 1.0 if i == j else 2.0
-        var = var + w * v[i] * v[j] * np.asarray(gram[GRAM_COLUMNS[n]], float)
-    return np.sqrt(np.maximum(var, 0.0))
+
+    def form(columns):
+        var = 0.0
+        for n, (i, j) in enumerate(_GRAM_IJ):
+            w = 1.0 if i == j else 2.0
+            var = var + w * v[i] * v[j] * np.asarray(gram[columns[n]], float)
+        return var
+
+    if CROSS_WIND_COLUMNS[0] not in gram:
+        return form(GRAM_COLUMNS), None, None
+    return form(GRAM_COLUMNS), form(CROSS_WIND_COLUMNS[:10]), form(CROSS_WIND_COLUMNS[10:20])
+
+
+def gram_sigma_z_ms(gram, *, lever_arm_m, hull_response, motion_scale=1.0):
+    """sigma_Z (m/s) of records from :func:`motion_gram` for a lever arm ``L`` (m), a hull
+    response ``h`` (-: 0 rotates about a fixed centre, 1 follows the waves) and a motion
+    scale ``k`` (-): ``sqrt(v^T G v)``, ``v = (k, k h, L, h)``, ``h = 1`` where the
+    translation is measured; a DBS lidar's with its cross-wind error to fourth order
+    (:data:`CROSS_WIND_COLUMNS`, :func:`flidar_uq.physics.dbs_sigma_z.hws_error_moments`).
+    Broadcasts over draws of ``L, h, k`` given as arrays of shape (n_draws, 1); ``gram`` a
+    DataFrame or mapping of :data:`GRAM_COLUMNS` (and optionally ``translation_measured``
+    and :data:`CROSS_WIND_COLUMNS`) with arrays of shape (n,) or (1, n)."""
+    along, across, cov = _quadratic_forms(gram, lever_arm_m, hull_response, motion_scale)
+    if across is None:
+        return np.sqrt(np.maximum(along, 0.0))
+    hws = np.asarray(gram["gram_inv_hws_sq"], float) ** -0.5
+    return np.sqrt(hws_error_moments(along, across, cov, hws)[0])
+
+
+def gram_mean_z_ms(gram, *, lever_arm_m, hull_response, motion_scale=1.0):
+    """The motion's mean HWS error ``E Z`` (m/s) of records from :func:`motion_gram`,
+    arguments as :func:`gram_sigma_z_ms`: a DBS lidar's cross-wind error's
+    ``s_b^2 / (2 U)`` (:func:`flidar_uq.physics.dbs_sigma_z.hws_error_moments`); 0 where
+    the Gram has no cross-wind part (a CW lidar)."""
+    along, across, cov = _quadratic_forms(gram, lever_arm_m, hull_response, motion_scale)
+    if across is None:
+        return np.zeros(np.shape(along))
+    hws = np.asarray(gram["gram_inv_hws_sq"], float) ** -0.5
+    return hws_error_moments(along, np.maximum(across, 0.0), cov, hws)[1]

@@ -33,11 +33,15 @@ sigma_Z (std of ``Z = retrieved HWS - HWS`` over the cycles of a record) is then
 ``delta_par`` and ``delta_perp`` the phasors along and across the wind and the components
 independent (random phases),
 
-``sigma_Z^2 = sum_j |delta_par,j|^2 / 2 + sigma_perp^4 / (2 U^2)``,
-``sigma_perp^2 = sum_j |delta_perp,j|^2 / 2``
+``sigma_Z^2 = s_a^2 + (s_b^4 / 2 - s_a^2 s_b^2 - 2 c_ab^2) / U^2``,
+``s_a^2 = sum_j |delta_par,j|^2 / 2``, ``s_b^2 = sum_j |delta_perp,j|^2 / 2``,
+``c_ab = sum_j Re(delta_par,j conj(delta_perp,j)) / 2``
 
-(the second term: the cross-wind error's ``delta_perp^2 / (2 U)``). Checked against the LOS
-replay of the scan simulator (:func:`dbs_replay_sigma_z_ms`; ``benchmarks/dbs_sigma_z.py``).
+(the HWS ``|(U + a, b)|`` to fourth order in the errors, :func:`hws_error_moments`: the
+cross-wind error, as large as the along-wind one where heave leaks into both beam pairs,
+lowers sigma_Z and raises the mean HWS by ``s_b^2 / (2 U)``). Checked against the LOS
+replay of the scan simulator (:func:`dbs_replay_sigma_z_ms`; ``benchmarks/dbs_sigma_z.py``,
+``benchmarks/dbs_sigma_z_second_order.py``).
 Where it does not hold: second-order tilt terms (``U phi^2``) are left out, which matters
 only where the first-order leak cancels (a period equal to the opposite-beam lag, or a wave
 follower whose heave cancels the tilt's vertical wind, ``U cos(psi) = c``); yaw within a
@@ -76,6 +80,8 @@ __all__ = [
     "dbs_band_terms",
     "dbs_sigma_z_from_terms",
     "TERM_BASIS",
+    "GRAM_PARTS",
+    "hws_error_moments",
     "dbs_replay_sigma_z_ms",
     "wind_to_body_deg",
 ]
@@ -270,7 +276,8 @@ def dbs_harmonic_sigma_z_ms(
     mechanisms : sequence of str
         The mechanisms kept (:data:`DBS_MECHANISMS`; default all).
     cross_wind : bool
-        Add the cross-wind error's second-order term ``sigma_perp^4 / (2 U^2)``.
+        The cross-wind error's fourth-order terms in the HWS (:func:`hws_error_moments`);
+        False: the along-wind error's variance alone.
     dwell_average : bool
         Each beam's radial speed is the mean over its dwell (the pulse accumulation; Desert,
         Knapp & Aubrun 2021): every component's error is multiplied by
@@ -301,10 +308,13 @@ def dbs_harmonic_sigma_z_ms(
         dwell_average=dwell_average,
     )
     var = 0.5 * np.sum(_mean_sq(a_par, mom), axis=-1)
-    if cross_wind:
+    if cross_wind:  # the HWS's own nonlinearity, to fourth order (hws_error_moments)
         s_perp2 = 0.5 * np.sum(_mean_sq(a_perp, mom), axis=-1)
+        m = _moment_matrix(mom)
+        cov = 0.5 * np.einsum("...ci,...cij,...cj->...", a_par, m, np.conj(a_perp)).real
         hws = np.asarray(hws_ms, float)
-        var = var + np.where(hws > 0, s_perp2**2 / (2.0 * np.maximum(hws, 1e-9) ** 2), 0.0)
+        full = hws_error_moments(var, s_perp2, cov, np.maximum(hws, 1e-9))[0]
+        var = np.where(hws > 0, full, var)
     return np.sqrt(var)
 
 
@@ -482,14 +492,57 @@ def dbs_replay_sigma_z_ms(
 #: response ``h`` (0 rotates about a fixed centre, 1 follows the waves) and a lever arm ``L``.
 TERM_BASIS = ("tilt", "heave", "lever", "orbital")
 
+#: The Gram matrices of :func:`dbs_record_terms` and :func:`dbs_band_terms` with
+#: ``cross_wind``: of the error along the wind ``a``, across it ``b``, and of their
+#: covariance (symmetric part), each a quadratic form in ``v = (k, k h, L, h)``:
+#: ``s_a^2 = v^T G_a v``, ``s_b^2 = v^T G_b v``, ``c_ab = v^T G_ab v``
+#: (:func:`hws_error_moments`).
+GRAM_PARTS = ("along", "across", "covariance")
 
-def _basis_gram(amp, per, hws, wind_body_deg, mom_body, lidar, dwell_average):
+
+def hws_error_moments(var_along, var_across, cov, hws_ms):
+    """Variance and mean of the HWS error ``Z = |(U + a, b)| - U`` (m/s) of Gaussian along-
+    and cross-wind errors ``a, b`` of the retrieved wind, to fourth order in ``a, b / U``.
+
+    ``Z = a + b^2 / (2 U) - a b^2 / (2 U^2) + ...``, so
+    ``Var Z = s_a^2 + s_b^4 / (2 U^2) - (s_a^2 s_b^2 + 2 c_ab^2) / U^2`` and
+    ``E Z = s_b^2 / (2 U)``: the cross-wind error (a DBS lidar's heave leaks into both beam
+    pairs) lowers sigma_Z below ``s_a`` and raises the mean HWS. Against the LOS-level
+    replay (``benchmarks/dbs_sigma_z_second_order.py``) the fourth-order variance gives
+    80 % of the replay's reduction; the mean leaves out the along-wind error's own
+    second-order mean (the tilt times the heave velocity), which brings the replay's mean
+    0.1-0.2 % of U below ``s_b^2 / (2 U)`` with a swell against the wind at 10-15 m/s and
+    up to 0.5 % at 5 m/s.
+
+    Parameters
+    ----------
+    var_along, var_across : array_like
+        ``s_a^2``, ``s_b^2``, (m/s)^2.
+    cov : array_like
+        ``c_ab``, (m/s)^2.
+    hws_ms : array_like
+        ``U``, m/s (> 0).
+
+    Returns
+    -------
+    var_z, mean_z : numpy.ndarray
+        (m/s)^2 (>= 0) and m/s, broadcast shape.
+    """
+    sa2, sb2, c = (np.asarray(x, float) for x in (var_along, var_across, cov))
+    inv_u2 = 1.0 / np.asarray(hws_ms, float) ** 2
+    var = sa2 + inv_u2 * (0.5 * sb2 * sb2 - sa2 * sb2 - 2.0 * c * c)
+    return np.maximum(var, 0.0), 0.5 * sb2 * np.sqrt(inv_u2)
+
+
+def _basis_gram(amp, per, hws, wind_body_deg, mom_body, lidar, dwell_average, cross_wind=False):
     """Gram matrices (..., 4, 4) of the :data:`TERM_BASIS` phasors at one wind direction.
 
     ``amp``, ``per`` (..., nc) lean amplitudes (deg) and periods (s) of the components or
     bands, ``hws`` (...) m/s, ``wind_body_deg`` (...) deg, ``mom_body`` (..., nc, 5) their
     direction moments in the body frame: ``G_ij = sum_c a_i M_c a_j^* / 2`` with
     ``M_c = <f f^T>`` (:func:`dbs_error_coefficients`' linear forms in ``f``).
+    ``cross_wind``: (..., 3, 4, 4), the along-wind error's, the cross-wind error's and
+    their covariance's (symmetric part) Gram matrices (:data:`GRAM_PARTS`).
     """
     from flidar_uq.physics.hull import DofResponse, HullResponse
 
@@ -502,25 +555,31 @@ def _basis_gram(amp, per, hws, wind_body_deg, mom_body, lidar, dwell_average):
         (("translation", "beam_timing"), still, 1.0),
         (("translation", "beam_timing"), follower, 0.0),
     )
-    a = np.stack(
-        [
-            dbs_error_coefficients(
-                amp,
-                per,
-                hws_ms=hws,
-                wind_body_deg=wind_body_deg,
-                lever_arm_m=lever,
-                hull=hull,
-                lidar=lidar,
-                mechanisms=mech,
-                dwell_average=dwell_average,
-            )[0]
-            for mech, hull, lever in basis
-        ],
-        axis=-3,
-    )  # (..., 4, nc, 3)
+    coef = [
+        dbs_error_coefficients(
+            amp,
+            per,
+            hws_ms=hws,
+            wind_body_deg=wind_body_deg,
+            lever_arm_m=lever,
+            hull=hull,
+            lidar=lidar,
+            mechanisms=mech,
+            dwell_average=dwell_average,
+        )
+        for mech, hull, lever in basis
+    ]
+    a = np.stack([c[0] for c in coef], axis=-3)  # (..., 4, nc, 3): along the wind
     m = _moment_matrix(mom_body)  # (..., nc, 3, 3)
-    return 0.5 * np.einsum("...icf,...cfg,...jcg->...ij", a, m, np.conj(a)).real
+
+    def gram(x, y):
+        return 0.5 * np.einsum("...icf,...cfg,...jcg->...ij", x, m, np.conj(y)).real
+
+    if not cross_wind:
+        return gram(a, a)
+    b = np.stack([c[1] for c in coef], axis=-3)  # across the wind
+    cov = gram(a, b)
+    return np.stack([gram(a, a), gram(b, b), 0.5 * (cov + np.swapaxes(cov, -1, -2))], axis=-3)
 
 
 def _heading_grid(n_headings: int) -> np.ndarray:
@@ -539,6 +598,7 @@ def dbs_record_terms(
     lidar: str | LidarGeometry | Mapping = "windcube_v2",
     n_headings: int = 24,
     dwell_average: bool = True,
+    cross_wind: bool = False,
 ) -> np.ndarray:
     """Per-record Gram matrix of a DBS lidar's error phasors: sigma_Z for any lever arm,
     hull response and motion scale by a 4 x 4 quadratic form (:func:`dbs_sigma_z_from_terms`).
@@ -561,10 +621,12 @@ def dbs_record_terms(
         wind direction and heading); None: unknown, averaged.
     roll_period_s, lidar, dwell_average
         As :func:`dbs_record_sigma_z_ms`.
+    cross_wind : bool
+        Also the cross-wind error's Gram matrix and the covariance's (:data:`GRAM_PARTS`).
 
     Returns
     -------
-    ndarray, shape (n, 4, 4)
+    ndarray, shape (n, 4, 4), or (n, 3, 4, 4) with ``cross_wind``
         ``G`` in (m/s)^2 (per m and m^2 for the lever-arm rows).
     """
     hws = np.asarray(hws_ms, float)
@@ -579,7 +641,7 @@ def dbs_record_terms(
         if wind_body_deg is not None
         else [np.full(hws.shape, b) for b in _heading_grid(n_headings)]
     )
-    gram = sum(_basis_gram(amp, per, hws, b, mom, lidar, dwell_average) for b in betas)
+    gram = sum(_basis_gram(amp, per, hws, b, mom, lidar, dwell_average, cross_wind) for b in betas)
     return gram / len(betas)
 
 
@@ -736,6 +798,7 @@ def dbs_band_terms(
     lidar: str | LidarGeometry | Mapping = "windcube_v2",
     n_headings: int = 24,
     dwell_average: bool = True,
+    cross_wind: bool = False,
 ) -> np.ndarray:
     """Per-record Gram matrix of a DBS lidar's error phasors from the record's tilt bands.
 
@@ -760,12 +823,12 @@ def dbs_band_terms(
     wind_body_deg : array_like, shape (n,), optional
         The wind's direction relative to the body (:func:`wind_to_body_deg`), deg; None:
         unknown, averaged.
-    lidar, n_headings, dwell_average
+    lidar, n_headings, dwell_average, cross_wind
         As :func:`dbs_record_terms`.
 
     Returns
     -------
-    ndarray, shape (n, 4, 4)
+    ndarray, shape (n, 4, 4), or (n, 3, 4, 4) with ``cross_wind``
         ``G`` in (m/s)^2 (per m and m^2 for the lever-arm rows).
     """
     hws = np.asarray(hws_ms, float)
@@ -777,7 +840,9 @@ def dbs_band_terms(
         else [np.full(hws.shape, b) for b in _heading_grid(n_headings)]
     )
     gram = sum(
-        _basis_gram(amp, per, hws, b, rotate_moments(mom, b[..., None]), lidar, dwell_average)
+        _basis_gram(
+            amp, per, hws, b, rotate_moments(mom, b[..., None]), lidar, dwell_average, cross_wind
+        )
         for b in betas
     )
     return gram / len(betas)
