@@ -13,7 +13,7 @@ from flidar_uq.inference.record_motion import (
     GRAM_COLUMNS,
     describe_motion,
     gram_from_cw_terms,
-    gram_mean_z_ms,
+    gram_hws_error_ms,
     gram_sigma_z_ms,
     motion_gram,
     per_record_motion,
@@ -140,11 +140,13 @@ def test_dbs_gram_is_dbs_record_terms_with_the_records_heading():
     var, mean = hws_error_moments(*forms, cov, rec["hws_mean_ms"].to_numpy())
     full = gram_sigma_z_ms(gram, lever_arm_m=lever, hull_response=h, motion_scale=k)
     np.testing.assert_allclose(full, np.sqrt(var), rtol=1e-10)
-    mean_z = gram_mean_z_ms(gram, lever_arm_m=lever, hull_response=h, motion_scale=k)
+    both = gram_hws_error_ms(gram, lever_arm_m=lever, hull_response=h, motion_scale=k)
+    np.testing.assert_array_equal(both[0], full)  # one evaluation gives both
+    mean_z = both[1]
     np.testing.assert_allclose(mean_z, mean, rtol=1e-10)
     assert np.all(mean_z > 0) and np.any(np.abs(full / got - 1) > 1e-3)
     np.testing.assert_array_equal(
-        gram_mean_z_ms(motion_gram(rec), lever_arm_m=2.0, hull_response=0.5), 0.0
+        gram_hws_error_ms(motion_gram(rec), lever_arm_m=2.0, hull_response=0.5)[1], 0.0
     )  # a CW lidar: none
     # heading unknown: the average over headings
     blind = motion_gram(rec.drop(columns="heading_mean_deg"), lidar="windcube_v2")
@@ -163,6 +165,38 @@ def test_dbs_gram_is_dbs_record_terms_with_the_records_heading():
     )
     np.testing.assert_allclose(got_avg, want_avg, rtol=1e-12)
     assert not np.allclose(got_avg, got, rtol=1e-3)
+
+
+def test_a_negative_cross_wind_form_is_zero_in_the_likelihood_and_the_propagation():
+    # band direction moments that no spread of directions has (a narrow band oblique to the
+    # wind with <sin psi cos psi> = 0) can make the cross-wind form s_b^2 negative: the
+    # likelihood and the propagation both take it as 0, so they keep the same sigma_Z
+    rec = _records(80)
+    (s, r, g), use, _ = _record_observations(rec, None, None, "windcube_v2")
+    assert use.all() and g.shape[0] == 32
+    flipped, zeroed = g.copy(), g.copy()
+    flipped[11:21] *= -1.0  # the cross-wind Gram negated: s_b^2 <= 0
+    zeroed[11:21] = 0.0
+    lever, h, k = _draws()
+    theta = np.array(
+        [[0.2, np.log(0.04), np.log(0.12), lever[0, 0], np.log(k[0, 0]), np.log(h[0, 0])]]
+    )
+    np.testing.assert_array_equal(
+        _record_loglik_pointwise(theta, s, r, flipped),
+        _record_loglik_pointwise(theta, s, r, zeroed),
+    )
+    assert np.all(
+        _record_loglik_pointwise(theta, s, r, flipped) != _record_loglik_pointwise(theta, s, r, g)
+    )
+    names = [*GRAM_COLUMNS, "translation_measured", *CROSS_WIND_COLUMNS]
+    sz = {}
+    for key, rows in (("flipped", flipped), ("zeroed", zeroed)):
+        gram = dict(zip(names, rows, strict=True))
+        sz[key], mean_z = gram_hws_error_ms(
+            gram, lever_arm_m=lever, hull_response=h, motion_scale=k
+        )
+        np.testing.assert_array_equal(mean_z, 0.0)
+    np.testing.assert_array_equal(sz["flipped"], sz["zeroed"])
 
 
 def test_dbs_gram_without_follower_columns_is_rotation_only():
@@ -227,7 +261,9 @@ def test_propagation_uses_the_configured_lidars_sigma_z():
         out[lidar] = draws.ti_quantiles[1]
         # the TI's denominator: the mean HWS less the motion's mean error (a DBS lidar's
         # cross-wind error; none for a CW lidar)
-        mean_z = gram_mean_z_ms(motion_gram(rec, lidar=lidar), lever_arm_m=2.0, hull_response=0.3)
+        mean_z = gram_hws_error_ms(
+            motion_gram(rec, lidar=lidar), lever_arm_m=2.0, hull_response=0.3
+        )[1]
         np.testing.assert_allclose(
             draws.ti_quantiles[1] * (rec["hws_mean_ms"] - mean_z), draws.sigma_quantiles[1],
             rtol=1e-9,

@@ -57,8 +57,7 @@ from flidar_uq.inference import (
 from flidar_uq.inference.record_motion import (
     CROSS_WIND_COLUMNS,
     GRAM_COLUMNS,
-    gram_mean_z_ms,
-    gram_sigma_z_ms,
+    gram_hws_error_ms,
     motion_gram,
 )
 from flidar_uq.physics.lidar import get_lidar
@@ -895,15 +894,15 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan, gr
         if not ok.any():
             continue
         g = {c: gram[c].to_numpy()[ok][None, :] for c in gram.columns}
-        sz = gram_sigma_z_ms(g, lever_arm_m=lever, hull_response=hull, motion_scale=scale)
+        sz, mean_z = gram_hws_error_ms(g, lever_arm_m=lever, hull_response=hull, motion_scale=scale)
         err = p.rng.standard_normal((p.ndraws, int(ok.sum())))
         err *= kappa_z
         sz *= np.exp(err, out=err)  # sz exp(kappa_z N(0, 1)), in place
         del err
         rows = start + np.flatnonzero(ok)
         if CROSS_WIND_COLUMNS[0] in g:  # a DBS lidar's mean HWS error (its posterior median)
-            mean_z = gram_mean_z_ms(g, lever_arm_m=lever, hull_response=hull, motion_scale=scale)
             p.m_ti[rows] = p.m[rows] - np.median(mean_z, axis=0)
+        del mean_z
         p.deploy(rows, sz)
     p.reasons[~described] = "no motion description (IMU columns missing)"
     p.conv[described] = global_fit.converged

@@ -124,7 +124,7 @@ def _record_z2_tau2(theta, s, r, gram, pair_sq):
 
     sz_sq = form(gram[:10])
     if gram.shape[0] > 11:  # a DBS lidar's cross-wind error, to fourth order
-        across, cov = form(gram[11:21]), form(gram[21:31])
+        across, cov = np.maximum(form(gram[11:21]), 0.0), form(gram[21:31])
         sz_sq = hws_error_moments(sz_sq, across, cov, gram[31] ** -0.5)[0]
     np.maximum(sz_sq, 0.0, out=sz_sq)
     # the realised motion error is sZ exp(kappa_z N(0, 1)) (median sZ, as the propagation
@@ -300,11 +300,11 @@ def _broad(lever_arm_prior):
     return broad
 
 
-def _gram_rows(mot) -> list[str]:
-    """The rows of the observations' ``gram`` (:func:`_record_observations`): the columns
-    of :func:`motion_gram` ``mot`` used, or of a ``gram`` of that many rows."""
-    dbs = CROSS_WIND_COLUMNS[0] in mot if not isinstance(mot, int) else mot > 11
-    return [*GRAM_COLUMNS, "translation_measured", *(CROSS_WIND_COLUMNS if dbs else ())]
+def _gram_rows(cross_wind: bool) -> list[str]:
+    """The rows of the observations' ``gram`` (:func:`_record_observations`), the columns
+    of :func:`motion_gram` it holds: :data:`GRAM_COLUMNS` and ``translation_measured``,
+    with ``cross_wind`` (a DBS lidar's) :data:`CROSS_WIND_COLUMNS`."""
+    return [*GRAM_COLUMNS, "translation_measured", *(CROSS_WIND_COLUMNS if cross_wind else ())]
 
 
 @single_threaded
@@ -335,7 +335,9 @@ def _record_observations(
         else np.full(len(records), np.nan)
     )
     kinds = mot["motion_description"].to_numpy()
-    gram = mot[_gram_rows(mot)].to_numpy(dtype=float).T  # (11, n), a DBS lidar's (32, n)
+    gram = (
+        mot[_gram_rows(CROSS_WIND_COLUMNS[0] in mot)].to_numpy(dtype=float).T
+    )  # (11, n), a DBS lidar's (32, n)
     use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.all(np.isfinite(gram), axis=0)
     return (s[use], r[use], np.ascontiguousarray(gram[:, use])), use, kinds
 
@@ -392,7 +394,7 @@ def _hull_response_negligible(nat: dict[str, np.ndarray], gram: np.ndarray) -> b
     arm and motion scale; ``gram`` (11, n) as :func:`_record_observations` returns it."""
     if not gram.shape[1]:
         return True
-    g = dict(zip(_gram_rows(gram.shape[0]), gram, strict=True))
+    g = dict(zip(_gram_rows(gram.shape[0] > len(_gram_rows(False))), gram, strict=True))
     lever = float(np.median(nat["lever_arm_m"]))
     scale = float(np.median(nat["motion_scale"]))
     h95 = float(np.quantile(nat["hull_response"], 0.95))

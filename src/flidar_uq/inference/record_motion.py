@@ -41,7 +41,7 @@ __all__ = [
     "band_sin_psi",
     "GRAM_COLUMNS",
     "CROSS_WIND_COLUMNS",
-    "gram_mean_z_ms",
+    "gram_hws_error_ms",
     "MEASURED_TRANSLATION_COLUMNS",
     "MOTION_DESCRIPTIONS",
     "TRANSLATION_DESCRIPTIONS",
@@ -847,20 +847,23 @@ def gram_sigma_z_ms(gram, *, lever_arm_m, hull_response, motion_scale=1.0):
     Broadcasts over draws of ``L, h, k`` given as arrays of shape (n_draws, 1); ``gram`` a
     DataFrame or mapping of :data:`GRAM_COLUMNS` (and optionally ``translation_measured``
     and :data:`CROSS_WIND_COLUMNS`) with arrays of shape (n,) or (1, n)."""
-    along, across, cov = _quadratic_forms(gram, lever_arm_m, hull_response, motion_scale)
-    if across is None:
-        return np.sqrt(np.maximum(along, 0.0))
-    hws = np.asarray(gram["gram_inv_hws_sq"], float) ** -0.5
-    return np.sqrt(hws_error_moments(along, across, cov, hws)[0])
+    return gram_hws_error_ms(
+        gram, lever_arm_m=lever_arm_m, hull_response=hull_response, motion_scale=motion_scale
+    )[0]
 
 
-def gram_mean_z_ms(gram, *, lever_arm_m, hull_response, motion_scale=1.0):
-    """The motion's mean HWS error ``E Z`` (m/s) of records from :func:`motion_gram`,
-    arguments as :func:`gram_sigma_z_ms`: a DBS lidar's cross-wind error's
-    ``s_b^2 / (2 U)`` (:func:`flidar_uq.physics.dbs_sigma_z.hws_error_moments`); 0 where
-    the Gram has no cross-wind part (a CW lidar)."""
+def gram_hws_error_ms(gram, *, lever_arm_m, hull_response, motion_scale=1.0):
+    """sigma_Z and the mean HWS error ``E Z`` (both m/s) of records from
+    :func:`motion_gram`, arguments as :func:`gram_sigma_z_ms`, from one evaluation of the
+    quadratic forms: ``E Z`` is a DBS lidar's cross-wind error's ``s_b^2 / (2 U)``
+    (:func:`flidar_uq.physics.dbs_sigma_z.hws_error_moments`), 0 where the Gram has no
+    cross-wind part (a CW lidar). ``s_b^2`` is taken as at least 0, as the likelihood
+    takes it: it can come out negative where the record table's band direction moments
+    are not those of any spread of directions
+    (:func:`flidar_uq.physics.dbs_sigma_z.band_moments_to_wind`)."""
     along, across, cov = _quadratic_forms(gram, lever_arm_m, hull_response, motion_scale)
     if across is None:
-        return np.zeros(np.shape(along))
+        return np.sqrt(np.maximum(along, 0.0)), np.zeros(np.shape(along))
     hws = np.asarray(gram["gram_inv_hws_sq"], float) ** -0.5
-    return hws_error_moments(along, np.maximum(across, 0.0), cov, hws)[1]
+    var, mean = hws_error_moments(along, np.maximum(across, 0.0), cov, hws)
+    return np.sqrt(var), mean

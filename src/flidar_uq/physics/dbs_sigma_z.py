@@ -781,6 +781,11 @@ def band_moments_to_wind(cos_psi, cos_sq_psi, sin_psi=0.0) -> np.ndarray:
     :func:`flidar_uq.data.imu.band_direction_from_heave`); a record's tilt alone does not,
     and then ``sin_psi = 0`` (either side alike). ``<sin psi cos psi>`` is taken as 0 (a
     band's spread symmetric about the wind's axes); the record table does not carry it.
+    With a measured side that is not the moment of any spread of directions for a band
+    running obliquely to the wind (a narrow band at 45 deg has ``<cos>^2 / <cos^2> +
+    <sin>^2 / <sin^2> = 2``, where any spread has at most 1): its Gram matrix is then not
+    positive semi-definite, and the record model takes a negative cross-wind variance as 0
+    (:func:`flidar_uq.inference.record_motion.gram_hws_error_ms`).
     """
     c, cc, s = np.broadcast_arrays(
         np.asarray(cos_psi, float), np.asarray(cos_sq_psi, float), np.asarray(sin_psi, float)
