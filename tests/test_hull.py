@@ -316,9 +316,58 @@ def test_heave_gives_each_bands_signed_direction_of_travel(direction_deg, hull):
     psi = np.deg2rad(direction_deg)
     np.testing.assert_allclose(spec.cos_psi[0][strong], (np.cos(psi) * scale)[strong], atol=0.08)
     np.testing.assert_allclose(spec.sin_psi[0][strong], (np.sin(psi) * scale)[strong], atol=0.08)
+    # <sin psi cos psi> = sin(2 psi) exp(-2 s^2) / 2, from the tilt alone (no hull phase)
+    sincos = 0.5 * np.sin(2.0 * psi) * np.exp(-2.0 * np.deg2rad(spread) ** 2)
+    np.testing.assert_allclose(spec.sincos_psi[0][strong], sincos, atol=0.04)
     # the tilt alone cannot tell the side: without the heave there is no measured direction
     alone = tilt_band_statistics(roll, pitch, 0.0, 270.0, 5.0)
-    assert alone.cos_psi is None and alone.sin_psi is None
+    assert alone.cos_psi is None and alone.sin_psi is None and alone.sincos_psi is None
+
+
+@pytest.mark.parametrize("direction_deg", [45.0, 130.0])
+def test_measured_band_moments_keep_a_dbs_lidars_cross_wind_variance_non_negative(direction_deg):
+    """The heave-tilt and tilt-tilt co-spectra of one band make a moment matrix of
+    (1, cos psi, sin psi) that is positive semi-definite, as that of any spread of
+    directions is: the DBS record model's cross-wind error variance is then >= 0 for every
+    lever arm, hull response and motion scale. With <sin psi cos psi> taken as 0 instead
+    (the record without its tilt_band{b}_sincos_psi columns), a narrow sea oblique to the
+    wind has a matrix that no spread of directions has (a negative eigenvalue)."""
+    from flidar_uq.data.imu import (
+        tilt_band_statistics,
+        tilt_bands_from_records,
+        tilt_spectrum_columns,
+    )
+    from flidar_uq.inference.record_motion import _quadratic_forms, motion_gram
+    from flidar_uq.physics.dbs_sigma_z import band_moments_to_wind
+
+    roll, pitch, w = _follower_sea(direction_deg, 10.0)
+    spec = tilt_band_statistics(roll, pitch, 0.0, 270.0, 5.0, velocity_up_ms=w)
+    rec = pd.DataFrame(tilt_spectrum_columns(spec)).assign(
+        hws_mean_ms=8.0, wd_mean_deg=270.0, heading_mean_deg=0.0
+    )
+    sincos = [f"tilt_band{b}_sincos_psi" for b in range(1, 9)]
+    assert set(sincos) <= set(rec.columns)
+    bands = tilt_bands_from_records(rec)
+    var = spec.var_along_deg2[0] + spec.var_across_deg2[0]
+    strong = var > 0.05 * var.max()
+
+    def min_eigenvalue(sc):
+        c, s, cc, sc_, ss = np.moveaxis(
+            band_moments_to_wind(
+                bands["cos_psi_measured"][0], bands["cos_sq_psi"][0],
+                bands["sin_psi_measured"][0], sc,
+            ),
+            -1, 0,
+        )  # fmt: skip
+        m = np.stack([[np.ones_like(c), c, s], [c, cc, sc_], [s, sc_, ss]])
+        return np.linalg.eigvalsh(np.moveaxis(m, -1, 0)[strong]).min()
+
+    assert min_eigenvalue(bands["sincos_psi_measured"][0]) > -0.01
+    assert min_eigenvalue(0.0) < -0.1
+    rng = np.random.default_rng(2)
+    draws = [rng.uniform(lo, hi, (200, 1)) for lo, hi in ((0.0, 6.0), (0.0, 2.0), (0.5, 2.0))]
+    across = _quadratic_forms(motion_gram(rec, lidar="windcube_v2"), *draws)[1]
+    assert np.min(across) >= -1e-9 * np.max(np.abs(across))
 
 
 def test_measured_direction_reaches_the_record_columns_and_the_record_model():
@@ -342,6 +391,7 @@ def test_measured_direction_reaches_the_record_columns_and_the_record_model():
         bands = tilt_bands_from_records(rec)
         np.testing.assert_array_equal(bands["cos_psi_measured"][0], spec.cos_psi[0])
         np.testing.assert_array_equal(bands["sin_psi_measured"][0], spec.sin_psi[0])
+        np.testing.assert_array_equal(bands["sincos_psi_measured"][0], spec.sincos_psi[0])
         grams[d] = motion_gram(rec)
         # without the measured direction the wave-age rule takes the wind sea downwind
         grams[d, "rule"] = motion_gram(

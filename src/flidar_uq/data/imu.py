@@ -49,6 +49,7 @@ from flidar_uq.data.schema import (
     tilt_band_column_names,
     tilt_band_cos_psi_column,
     tilt_band_sin_psi_column,
+    tilt_band_sincos_psi_column,
 )
 from flidar_uq.physics.hull import G_MS2
 from flidar_uq.physics.motion_spectrum import (
@@ -251,7 +252,7 @@ def band_direction_from_heave(
     n_bands: int = 8,
     period_min_s: float = 1.0,
     period_max_s: float = 20.0,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Signed mean cosine and sine of each band's directions of travel against the wind.
 
     A buoy that follows a wave ``eta = a cos(k x cos psi + k y sin psi - omega t)`` (``x``
@@ -267,7 +268,11 @@ def band_direction_from_heave(
     directional moments a pitch-roll buoy measures (Longuet-Higgins, Cartwright and Smith,
     1963): ``<cos psi>`` +1 for waves running downwind, -1 upwind; ``<sin psi>`` +1 for
     waves running to the left of the wind, -1 to its right; both 0 for a sea split evenly
-    between opposite directions. A hull that responds less than a follower, in phase,
+    between opposite directions. Minus the co-spectrum of the along- and across-wind tilt,
+    normalised by the band's tilt power, is the second moment ``<sin psi cos psi>`` (the
+    same authors' ``b2 / 2``); with the first ones and ``<cos^2 psi>`` from the same
+    spectra it makes a moment matrix of ``(1, cos psi, sin psi)`` that is positive
+    semi-definite, as that of any spread of directions is. A hull that responds less than a follower, in phase,
     gives the same ratios. Welch estimate as :func:`motion_spectrum` (gaps linearly
     filled, detrended, periodic Hann segments with 50 % overlap).
 
@@ -288,6 +293,8 @@ def band_direction_from_heave(
     cos_psi, sin_psi : numpy.ndarray, shape (nwin, n_bands)
         ``<cos psi>`` and ``<sin psi>`` per band (-, in [-1, 1]); NaN for a band without
         heave or tilt power or a window without a finite vertical velocity.
+    sincos_psi : numpy.ndarray, shape (nwin, n_bands)
+        ``<sin psi cos psi>`` per band (-, in [-1/2, 1/2]), NaN where ``sin_psi`` is.
     """
     from flidar_uq.data import imu_kernels  # numba: imported where an estimator runs
 
@@ -315,6 +322,7 @@ def band_direction_from_heave(
     # scale cancels below
     co_along = np.mean((np.conj(w) * a).real, axis=1)
     co_across = np.mean((np.conj(w) * c).real, axis=1)
+    co_tilt = np.mean((np.conj(a) * c).real, axis=1)
     p_w = np.mean(np.abs(w) ** 2, axis=1)
     p_tilt = np.mean(np.abs(a) ** 2 + np.abs(c) ** 2, axis=1)
     f = _fft.rfftfreq(nperseg, 1.0 / fs_hz)
@@ -325,6 +333,7 @@ def band_direction_from_heave(
     idx = np.where(per == edges[-1], n_bands - 1, idx)
     cos_psi = np.full((co_along.shape[0], n_bands), np.nan)
     sin_psi = np.full_like(cos_psi, np.nan)
+    sincos_psi = np.full_like(cos_psi, np.nan)
     for b in range(n_bands):
         # a band's bins are contiguous: sums over a slice view, row by row (a boolean
         # index's contiguous copy is reduced with other last bits for one row than for
@@ -337,9 +346,14 @@ def band_direction_from_heave(
             norm = np.where(ok, np.sqrt(wb * tb), np.nan)
             cos_psi[:, b] = -co_along[:, sl].sum(-1) / norm
             sin_psi[:, b] = co_across[:, sl].sum(-1) / norm
-    cos_psi[no_heave] = np.nan
-    sin_psi[no_heave] = np.nan
-    return np.clip(cos_psi, -1.0, 1.0), np.clip(sin_psi, -1.0, 1.0)
+            sincos_psi[:, b] = -co_tilt[:, sl].sum(-1) / np.where(ok, tb, np.nan)
+    for x in (cos_psi, sin_psi, sincos_psi):
+        x[no_heave] = np.nan
+    return (
+        np.clip(cos_psi, -1.0, 1.0),
+        np.clip(sin_psi, -1.0, 1.0),
+        np.clip(sincos_psi, -0.5, 0.5),
+    )
 
 
 def _band(f: np.ndarray, period_min_s: float, period_max_s: float) -> np.ndarray:
@@ -977,10 +991,10 @@ def _projected_band_spectrum(
     spec = tilt_band_spectrum(f, pa, pc, **bands)
     if velocity_up_ms is None:
         return spec
-    cos_psi, sin_psi = band_direction_from_heave(
+    cos_psi, sin_psi, sincos_psi = band_direction_from_heave(
         velocity_up_ms, along, across, fs_hz, segment_s=segment_s, **bands
     )
-    return replace(spec, cos_psi=cos_psi, sin_psi=sin_psi)
+    return replace(spec, cos_psi=cos_psi, sin_psi=sin_psi, sincos_psi=sincos_psi)
 
 
 def tilt_spectrum_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
@@ -1005,6 +1019,8 @@ def tilt_spectrum_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
             bands[tilt_band_cos_psi_column(b + 1)] = np.asarray(spec.cos_psi[:, b], float)
         if spec.sin_psi is not None:
             bands[tilt_band_sin_psi_column(b + 1)] = np.asarray(spec.sin_psi[:, b], float)
+        if spec.sincos_psi is not None:
+            bands[tilt_band_sincos_psi_column(b + 1)] = np.asarray(spec.sincos_psi[:, b], float)
     return (
         {
             "tilt_along_wind_std_deg": spec.along_std_deg,
@@ -1054,9 +1070,9 @@ def tilt_bands_from_records(records: pd.DataFrame):
         ``amplitude_deg`` (the lean amplitude of each band along its direction of travel,
         ``sqrt(2 (var_along + var_across))``, deg), ``period_s`` (s), ``cos_sq_psi`` and
         ``cos_psi`` (-, :func:`band_direction_moments`), ``cos_psi_measured`` and
-        ``sin_psi_measured`` (-, the optional ``tilt_band{b}_cos_psi`` and
-        ``tilt_band{b}_sin_psi`` columns of :func:`band_direction_from_heave`, NaN where
-        absent), each of shape (n_records, n_bands), ``edges_s`` (the bands' edges, s,
+        ``sin_psi_measured`` and ``sincos_psi_measured`` (-, the optional
+        ``tilt_band{b}_cos_psi``, ``tilt_band{b}_sin_psi`` and ``tilt_band{b}_sincos_psi``
+        columns of :func:`band_direction_from_heave`, NaN where absent), each of shape (n_records, n_bands), ``edges_s`` (the bands' edges, s,
         shape (n_bands + 1,): log-spaced over 1-20 s) and ``complete`` (n_records,)
         True where every band value is finite; None when the table lacks a band column.
     """
@@ -1085,6 +1101,7 @@ def tilt_bands_from_records(records: pd.DataFrame):
         "cos_psi": cos_mean,
         "cos_psi_measured": measured(tilt_band_cos_psi_column),
         "sin_psi_measured": measured(tilt_band_sin_psi_column),
+        "sincos_psi_measured": measured(tilt_band_sincos_psi_column),
         "edges_s": band_edges_s(N_TILT_BANDS, *PERIOD_RANGE_S),
         "complete": complete,
     }

@@ -743,9 +743,10 @@ def series_overrides(records: pd.DataFrame) -> tuple[list[str], int]:
 
 
 def _measured_direction_columns(table: pd.DataFrame) -> list[str]:
-    """The bands' measured directions (``tilt_band{b}_cos_psi``, ``tilt_band{b}_sin_psi``)
-    a table carries."""
-    return [c for c in table if c.startswith("tilt_band") and c.endswith(("_cos_psi", "_sin_psi"))]
+    """The bands' measured directions (``tilt_band{b}_cos_psi``, ``tilt_band{b}_sin_psi``,
+    ``tilt_band{b}_sincos_psi``) a table carries."""
+    ends = ("_cos_psi", "_sin_psi", "_sincos_psi")
+    return [c for c in table if c.startswith("tilt_band") and c.endswith(ends)]
 
 
 def merge_series_motion(

@@ -29,6 +29,7 @@ __all__ = [
     "tilt_band_column_names",
     "tilt_band_cos_psi_column",
     "tilt_band_sin_psi_column",
+    "tilt_band_sincos_psi_column",
     "RADIAN_SUSPECT_MAX_DEG",
     "RADIAN_SUSPECT_MIN_COUNT",
     "IMU_RATE_RANGE_HZ",
@@ -144,6 +145,13 @@ def tilt_band_sin_psi_column(b: int) -> str:
     sine of its waves' directions of travel against the wind (+ to the left of the wind,
     counter-clockwise from above), from the heave."""
     return f"tilt_band{b}_sin_psi"
+
+
+def tilt_band_sincos_psi_column(b: int) -> str:
+    """Name of the optional record column of tilt band ``b`` (1-based): the mean of
+    ``sin psi cos psi`` over its waves' directions of travel against the wind, from the
+    co-spectrum of the along- and across-wind tilt (written with the heave's columns)."""
+    return f"tilt_band{b}_sincos_psi"
 
 
 def tilt_band_column_names(b: int) -> tuple[str, str, str]:
@@ -437,6 +445,21 @@ RECORD_COLUMNS: tuple[Column, ...] = (
                 "and the across-wind tilt (Longuet-Higgins et al., 1963); absent without a "
                 "vertical velocity: then either side is taken alike (0). A DBS lidar's "
                 "beams tell the sides apart; a conical scan does not use it.",
+            ),
+            Column(
+                f"tilt_band{b}_sincos_psi",
+                "float",
+                "-",
+                False,
+                -0.5,
+                0.5,
+                True,
+                f"Mean of sin(psi) cos(psi) over the directions of travel of band {b}'s waves "
+                f"against the wind (psi as in tilt_band{b}_sin_psi), from the co-spectrum of "
+                "the along- and across-wind tilt (Longuet-Higgins et al., 1963), written "
+                "with the measured side: a DBS lidar's beams see a band oblique to the wind "
+                "through it; absent: 0 (a spread symmetric about the wind's axes). A conical "
+                "scan does not use it.",
             ),
         )
     ),

@@ -39,6 +39,7 @@ __all__ = [
     "ALONG_WIND_COLUMNS",
     "band_cos_psi",
     "band_sin_psi",
+    "band_sincos_psi",
     "GRAM_COLUMNS",
     "CROSS_WIND_COLUMNS",
     "gram_hws_error_ms",
@@ -116,8 +117,8 @@ def _tilt_description(records: pd.DataFrame):
 #: Harmonics each tilt band of the record table is evaluated as (Gauss-Legendre nodes over
 #: the band, :func:`flidar_uq.physics.motion_spectrum.sub_band_nodes`). Against LOS-level
 #: replay the record model's sigma_Z of WindCube records (``benchmarks/dbs_sigma_z.py``, 720
-#: cases) was within 5 % in 95.7 % of the cases with one node a band (0.875-1.065) and in
-#: 98.8 % with three (0.903-1.072); of ZephIR records on broadband, two-peak,
+#: cases) was within 5 % in 95.8 % of the cases with one node a band (0.875-1.065) and in
+#: 98.8 % with three (0.961-1.070); of ZephIR records on broadband, two-peak,
 #: misaligned-swell and heaving seas (``benchmarks/six_dof_sigma_z.py``, 54 cases with
 #: sigma_Z >= 0.05 m/s) within 3 % in 92.6 % with one (0.940-1.003) and in all with three
 #: (0.975-1.004).
@@ -178,6 +179,18 @@ def band_sin_psi(bands: dict, use, hull="wave_follower") -> np.ndarray:
     side alike). Arguments as :func:`band_cos_psi`; shape (use.sum(), n_bands)."""
     measured = _without_hull_phase(bands["sin_psi_measured"][use], bands["period_s"][use], hull)
     return np.where(np.isfinite(measured), measured, 0.0)
+
+
+def band_sincos_psi(bands: dict, use) -> np.ndarray:
+    """Each tilt band's ``<sin psi cos psi>`` (-) the record model uses: the measured one
+    (``tilt_band{b}_sincos_psi``, :func:`flidar_uq.data.imu.band_direction_from_heave`;
+    from the tilt alone, so no hull phase to divide out) where the record also has the
+    band's side (:func:`band_sin_psi`), else 0 (a spread symmetric about the wind's axes,
+    as either side alike makes it). Arguments as :func:`band_cos_psi`; shape
+    (use.sum(), n_bands)."""
+    measured = bands["sincos_psi_measured"][use]
+    side = np.isfinite(bands["sin_psi_measured"][use])
+    return np.where(side & np.isfinite(measured), measured, 0.0)
 
 
 #: Records whose band sums are evaluated at once: bounds the temporaries of the nodes'
@@ -649,6 +662,7 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
             band_cos_psi(bands, hws, banded),
             bands["cos_sq_psi"][banded],
             band_sin_psi(bands, banded),
+            band_sincos_psi(bands, banded),
         )
         # each band as three harmonics spread over it (a DBS lidar's beam-time phases and
         # a heave that cancels the tilt's vertical wind change across a band)

@@ -771,26 +771,29 @@ def dbs_tilt_lever_terms(
     return unit[..., 0] * hws**2 * amp_sq, unit[..., 1] * hws * amp_sq, unit[..., 2] * amp_sq
 
 
-def band_moments_to_wind(cos_psi, cos_sq_psi, sin_psi=0.0) -> np.ndarray:
+def band_moments_to_wind(cos_psi, cos_sq_psi, sin_psi=0.0, sincos_psi=0.0) -> np.ndarray:
     """Direction moments (..., 5) of tilt bands relative to the wind's direction of travel.
 
     A band's ``<cos psi>`` (signed: + downwind), ``<cos^2 psi>`` (its along-wind share of
-    the tilt variance) and ``<sin psi>`` (signed: + to the left of the wind's direction of
-    travel, counter-clockwise; :func:`flidar_uq.data.imu.tilt_bands_from_records`). The
-    heave tells the side a band's waves run on (``<sin psi>``,
-    :func:`flidar_uq.data.imu.band_direction_from_heave`); a record's tilt alone does not,
-    and then ``sin_psi = 0`` (either side alike). ``<sin psi cos psi>`` is taken as 0 (a
-    band's spread symmetric about the wind's axes); the record table does not carry it.
-    With a measured side that is not the moment of any spread of directions for a band
-    running obliquely to the wind (a narrow band at 45 deg has ``<cos>^2 / <cos^2> +
-    <sin>^2 / <sin^2> = 2``, where any spread has at most 1): its Gram matrix is then not
-    positive semi-definite, and the record model takes a negative cross-wind variance as 0
-    (:func:`flidar_uq.inference.record_motion.gram_hws_error_ms`).
+    the tilt variance), ``<sin psi>`` (signed: + to the left of the wind's direction of
+    travel, counter-clockwise) and ``<sin psi cos psi>``
+    (:func:`flidar_uq.data.imu.tilt_bands_from_records`). The heave tells the side a band's
+    waves run on (``<sin psi>``, :func:`flidar_uq.data.imu.band_direction_from_heave`); a
+    record's tilt alone does not, and then ``sin_psi = 0`` and ``sincos_psi = 0`` (either
+    side alike: a spread symmetric about the wind's axes). With the side, a band running
+    obliquely to the wind needs its measured ``<sin psi cos psi>``: a narrow band at 45 deg
+    with 0 there has ``<cos>^2 / <cos^2> + <sin>^2 / <sin^2> = 2``, where any spread of
+    directions has at most 1, and its Gram matrix is not positive semi-definite (the record
+    model takes a negative cross-wind variance as 0,
+    :func:`flidar_uq.inference.record_motion.gram_hws_error_ms`).
     """
-    c, cc, s = np.broadcast_arrays(
-        np.asarray(cos_psi, float), np.asarray(cos_sq_psi, float), np.asarray(sin_psi, float)
+    c, cc, s, sc = np.broadcast_arrays(
+        np.asarray(cos_psi, float),
+        np.asarray(cos_sq_psi, float),
+        np.asarray(sin_psi, float),
+        np.asarray(sincos_psi, float),
     )
-    return np.stack([c, s, cc, np.zeros_like(c), 1.0 - cc], -1)
+    return np.stack([c, s, cc, sc, 1.0 - cc], -1)
 
 
 def dbs_band_terms(

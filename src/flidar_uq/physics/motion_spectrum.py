@@ -271,6 +271,9 @@ class TiltBandSpectrum:
         Signed mean sine of the same directions (+ to the left of the wind's direction of
         travel, counter-clockwise seen from above), from the co-spectrum of the vertical
         velocity and the across-wind tilt; None without a vertical velocity.
+    sincos_psi : ndarray, shape (nrec, nb), or None
+        Mean ``sin psi cos psi`` of the same directions, from the co-spectrum of the along-
+        and across-wind tilt; given with ``sin_psi``.
     """
 
     edges_s: np.ndarray
@@ -284,6 +287,7 @@ class TiltBandSpectrum:
     tp_s: np.ndarray
     cos_psi: np.ndarray | None = None
     sin_psi: np.ndarray | None = None
+    sincos_psi: np.ndarray | None = None
 
     _RECORD_FIELDS = (
         "period_s",
@@ -301,7 +305,9 @@ class TiltBandSpectrum:
         return replace(self, **{k: getattr(self, k)[index] for k in self._fields()})
 
     def _fields(self) -> tuple[str, ...]:
-        measured = tuple(k for k in ("cos_psi", "sin_psi") if getattr(self, k) is not None)
+        measured = tuple(
+            k for k in ("cos_psi", "sin_psi", "sincos_psi") if getattr(self, k) is not None
+        )
         return self._RECORD_FIELDS + measured
 
     def masked(self, keep) -> TiltBandSpectrum:
