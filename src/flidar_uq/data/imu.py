@@ -272,9 +272,9 @@ def band_direction_from_heave(
     normalised by the band's tilt power, is the second moment ``<sin psi cos psi>`` (the
     same authors' ``b2 / 2``); with the first ones and ``<cos^2 psi>`` from the same
     spectra it makes a moment matrix of ``(1, cos psi, sin psi)`` that is positive
-    semi-definite, as that of any spread of directions is. A hull that responds less than a follower, in phase,
-    gives the same ratios. Welch estimate as :func:`motion_spectrum` (gaps linearly
-    filled, detrended, periodic Hann segments with 50 % overlap).
+    semi-definite, as that of any spread of directions is. A hull that responds less than
+    a follower, in phase, gives the same ratios. Welch estimate as :func:`motion_spectrum`
+    (gaps linearly filled, detrended, periodic Hann segments with 50 % overlap).
 
     Parameters
     ----------
@@ -1072,9 +1072,10 @@ def tilt_bands_from_records(records: pd.DataFrame):
         ``cos_psi`` (-, :func:`band_direction_moments`), ``cos_psi_measured`` and
         ``sin_psi_measured`` and ``sincos_psi_measured`` (-, the optional
         ``tilt_band{b}_cos_psi``, ``tilt_band{b}_sin_psi`` and ``tilt_band{b}_sincos_psi``
-        columns of :func:`band_direction_from_heave`, NaN where absent), each of shape (n_records, n_bands), ``edges_s`` (the bands' edges, s,
-        shape (n_bands + 1,): log-spaced over 1-20 s) and ``complete`` (n_records,)
-        True where every band value is finite; None when the table lacks a band column.
+        columns of :func:`band_direction_from_heave`, NaN where absent), each of shape
+        (n_records, n_bands), ``edges_s`` (the bands' edges, s, shape (n_bands + 1,):
+        log-spaced over 1-20 s) and ``complete`` (n_records,) True where every band value
+        is finite; None when the table lacks a band column.
     """
     names = [tilt_band_column_names(b + 1) for b in range(N_TILT_BANDS)]
     if any(c not in records for cols in names for c in cols):

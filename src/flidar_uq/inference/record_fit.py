@@ -335,9 +335,8 @@ def _record_observations(
         else np.full(len(records), np.nan)
     )
     kinds = mot["motion_description"].to_numpy()
-    gram = (
-        mot[_gram_rows(CROSS_WIND_COLUMNS[0] in mot)].to_numpy(dtype=float).T
-    )  # (11, n), a DBS lidar's (32, n)
+    # (11, n), a DBS lidar's (32, n)
+    gram = mot[_gram_rows(CROSS_WIND_COLUMNS[0] in mot)].to_numpy(dtype=float).T
     use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.all(np.isfinite(gram), axis=0)
     return (s[use], r[use], np.ascontiguousarray(gram[:, use])), use, kinds
 
