@@ -253,7 +253,8 @@ def band_direction_from_heave(
     period_min_s: float = 1.0,
     period_max_s: float = 20.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Signed mean cosine and sine of each band's directions of travel against the wind.
+    """Signed mean cosine and sine, and the mean of their product, of each band's
+    directions of travel against the wind.
 
     A buoy that follows a wave ``eta = a cos(k x cos psi + k y sin psi - omega t)`` (``x``
     downwind, ``y`` to its left) rises with the vertical velocity ``w = a omega sin(.)``
@@ -923,8 +924,9 @@ def tilt_band_statistics(
         Welch segment length (s) and the bands.
     velocity_up_ms : array_like, shape like roll_deg, optional
         Vertical velocity of the buoy, positive up, m/s: then each band's signed
-        ``<cos psi>`` and ``<sin psi>`` (:func:`band_direction_from_heave`) are in
-        ``cos_psi`` and ``sin_psi``.
+        ``<cos psi>`` and ``<sin psi>`` and its ``<sin psi cos psi>``
+        (:func:`band_direction_from_heave`) are in ``cos_psi``, ``sin_psi`` and
+        ``sincos_psi``.
 
     Returns
     -------

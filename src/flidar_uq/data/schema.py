@@ -797,8 +797,8 @@ IMU_COLUMNS: tuple[Column, ...] = (
         20.0,
         True,
         "Vertical (heave) velocity of the buoy at its rotation centre, positive up (ENU earth "
-        "frame); with it the record table gets each tilt band's measured direction of travel "
-        "(tilt_band{b}_cos_psi).",
+        "frame); with it the record table gets each tilt band's measured directions of travel "
+        "(tilt_band{b}_cos_psi, tilt_band{b}_sin_psi, tilt_band{b}_sincos_psi).",
     ),
 )
 

@@ -390,10 +390,11 @@ HULL_NEGLIGIBLE_SIGMA_Z_SHARE = 0.01
 def _hull_response_negligible(nat: dict[str, np.ndarray], gram: np.ndarray) -> bool:
     """True when the hull response's posterior (95 % quantile against 0) changes no
     record's sigma_Z by more than :data:`HULL_NEGLIGIBLE_SIGMA_Z_SHARE`, at the median lever
-    arm and motion scale; ``gram`` (11, n) as :func:`_record_observations` returns it."""
+    arm and motion scale; ``gram`` (11, n), a DBS lidar's (32, n), as
+    :func:`_record_observations` returns it."""
     if not gram.shape[1]:
         return True
-    g = dict(zip(_gram_rows(gram.shape[0] > len(_gram_rows(False))), gram, strict=True))
+    g = dict(zip(_gram_rows(gram.shape[0] > 11), gram, strict=True))
     lever = float(np.median(nat["lever_arm_m"]))
     scale = float(np.median(nat["motion_scale"]))
     h95 = float(np.quantile(nat["hull_response"], 0.95))

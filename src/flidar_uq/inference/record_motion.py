@@ -877,7 +877,7 @@ def gram_hws_error_ms(gram, *, lever_arm_m, hull_response, motion_scale=1.0):
     (:func:`flidar_uq.physics.dbs_sigma_z.band_moments_to_wind`)."""
     along, across, cov = _quadratic_forms(gram, lever_arm_m, hull_response, motion_scale)
     if across is None:
-        return np.sqrt(np.maximum(along, 0.0)), np.zeros(np.shape(along))
+        return np.sqrt(np.maximum(along, 0.0)), np.broadcast_to(0.0, np.shape(along))
     hws = np.asarray(gram["gram_inv_hws_sq"], float) ** -0.5
     var, mean = hws_error_moments(along, np.maximum(across, 0.0), cov, hws)
     return np.sqrt(var), mean

@@ -781,11 +781,11 @@ def band_moments_to_wind(cos_psi, cos_sq_psi, sin_psi=0.0, sincos_psi=0.0) -> np
     waves run on (``<sin psi>``, :func:`flidar_uq.data.imu.band_direction_from_heave`); a
     record's tilt alone does not, and then ``sin_psi = 0`` and ``sincos_psi = 0`` (either
     side alike: a spread symmetric about the wind's axes). With the side, a band running
-    obliquely to the wind needs its measured ``<sin psi cos psi>``: a narrow band at 45 deg
-    with 0 there has ``<cos>^2 / <cos^2> + <sin>^2 / <sin^2> = 2``, where any spread of
-    directions has at most 1, and its Gram matrix is not positive semi-definite (the record
-    model takes a negative cross-wind variance as 0,
-    :func:`flidar_uq.inference.record_motion.gram_hws_error_ms`).
+    obliquely to the wind needs its measured ``<sin psi cos psi>``: moments of directions
+    with a cross moment of 0 have ``<cos>^2 / <cos^2> + <sin>^2 / <sin^2> <= 1`` (their
+    matrix positive semi-definite), and a narrow band at 45 deg has 2, so with 0 there its
+    Gram matrix is not positive semi-definite (the record model takes a negative
+    cross-wind variance as 0, :func:`flidar_uq.inference.record_motion.gram_hws_error_ms`).
     """
     c, cc, s, sc = np.broadcast_arrays(
         np.asarray(cos_psi, float),
