@@ -340,6 +340,7 @@ def test_measured_band_moments_are_a_spread_of_directions_and_reach_the_dbs_sigm
     )
     from flidar_uq.inference.record_motion import gram_sigma_z_ms, motion_gram
     from flidar_uq.physics.dbs_sigma_z import (
+        _moment_matrix,
         band_moments_to_wind,
         dbs_harmonic_sigma_z_ms,
         rotate_moments,
@@ -357,15 +358,11 @@ def test_measured_band_moments_are_a_spread_of_directions_and_reach_the_dbs_sigm
     strong = var > 0.05 * var.max()
 
     def min_eigenvalue(sc):
-        c, s, cc, sc_, ss = np.moveaxis(
-            band_moments_to_wind(
-                bands["cos_psi_measured"][0], bands["cos_sq_psi"][0],
-                bands["sin_psi_measured"][0], sc,
-            ),
-            -1, 0,
+        mom = band_moments_to_wind(
+            bands["cos_psi_measured"][0], bands["cos_sq_psi"][0],
+            bands["sin_psi_measured"][0], sc,
         )  # fmt: skip
-        m = np.stack([[np.ones_like(c), c, s], [c, cc, sc_], [s, sc_, ss]])
-        return np.linalg.eigvalsh(np.moveaxis(m, -1, 0)[strong]).min()
+        return np.linalg.eigvalsh(_moment_matrix(mom)[strong]).min()
 
     assert min_eigenvalue(bands["sincos_psi_measured"][0]) > -0.01
     assert min_eigenvalue(0.0) < -0.1
