@@ -58,7 +58,7 @@ from flidar_uq.physics.seastate import WaveSystem, hull_motion_series
 OUT = Path(__file__).resolve().parent / "results"
 DT_S = 0.05
 RECORD_S = 600.0
-N_REC = 18  # three hours a case: the replay's own sampling noise ~2 %
+N_REC = 36  # six hours a case: the replay's own sampling noise ~1.5 %
 DWELL_SAMPLES = 10
 LEVER_M = 2.0
 LIDARS = ("windcube_v2", "windcube_v1", "windcube_v2_1")

@@ -324,6 +324,37 @@ def test_heave_gives_each_bands_signed_direction_of_travel(direction_deg, hull):
     assert alone.cos_psi is None and alone.sin_psi is None and alone.sincos_psi is None
 
 
+@pytest.mark.parametrize("direction_deg", [60.0, 200.0])
+def test_heave_direction_of_a_band_is_weighted_by_its_tilt_power_not_its_frequencies(
+    direction_deg,
+):
+    """Two follower waves in one band (periods 6.25 and 4.55 s, both inside the 4.47-6.50 s
+    band, equal tilt amplitude, running ``direction_deg`` against the wind): the band's
+    <cos psi> and <sin psi> are those of the direction. The heave velocity is ``g / omega``
+    times the tilt, so the band's co-spectrum over the root of its summed heave and tilt
+    powers falls short by sum(1/omega) / sqrt(2 sum(1/omega^2)) = 0.988 (0.494 for cos 60
+    deg); each frequency's own ratio sqrt(P_tilt / P_w) does not."""
+    from flidar_uq.data.imu import band_direction_from_heave
+    from flidar_uq.physics.hull import G_MS2
+
+    fs, t = 5.0, np.arange(3000) / 5.0
+    psi = np.deg2rad(direction_deg)
+    along = np.zeros_like(t)
+    across = np.zeros_like(t)
+    w = np.zeros_like(t)
+    for f_hz, phase in ((0.16, 0.3), (0.22, 2.1)):  # bins of the 200-s Welch segments
+        lean_deg = 2.0 * np.sin(2.0 * np.pi * f_hz * t + phase)
+        along -= np.cos(psi) * lean_deg  # positive where the mast leans upwind
+        across += np.sin(psi) * lean_deg
+        w += np.deg2rad(lean_deg) * G_MS2 / (2.0 * np.pi * f_hz)
+    cos_psi, sin_psi, _ = band_direction_from_heave(w[None], along[None], across[None], fs)
+    band = 4
+    edges = ms.band_edges_s(8, 1.0, 20.0)
+    assert edges[band] < 1 / 0.22 and 1 / 0.16 < edges[band + 1]  # 4.47-6.50 s
+    assert cos_psi[0, band] == pytest.approx(np.cos(psi), abs=0.002)
+    assert sin_psi[0, band] == pytest.approx(np.sin(psi), abs=0.002)
+
+
 @pytest.mark.parametrize("direction_deg", [45.0, 130.0])
 def test_measured_band_moments_are_a_spread_of_directions_and_reach_the_dbs_sigma_z(direction_deg):
     """The heave-tilt and tilt-tilt co-spectra of one band make a moment matrix of

@@ -356,3 +356,84 @@ def test_sub_band_nodes_keep_each_bands_variance_and_centroid(n_nodes):
     np.testing.assert_array_equal(m, np.repeat(np.arange(8.0), n_nodes)[None, :])
     if n_nodes == 1:
         np.testing.assert_allclose(p, per[None, :])  # one node: the centroid itself
+
+
+def _jonswap_bands(f_hz, tp_s, gamma, edges):
+    """A JONSWAP spectrum (any unit) on ``f_hz`` and its bands' variances and centroid
+    frequencies (Hz; an empty band's geometric centre, as tilt_band_spectrum)."""
+    fp = 1.0 / tp_s
+    s = np.where(f_hz <= fp, 0.07, 0.09)
+    spec = (
+        f_hz**-5
+        * np.exp(-1.25 * (fp / f_hz) ** 4)
+        * gamma ** np.exp(-((f_hz - fp) ** 2) / (2 * s**2 * fp**2))
+    )
+    band = np.searchsorted(edges, 1.0 / f_hz, side="right") - 1
+    df = f_hz[1] - f_hz[0]
+    var = np.array([spec[band == b].sum() * df for b in range(len(edges) - 1)])
+    f_c = np.array(
+        [
+            (spec[band == b] * f_hz[band == b]).sum() / spec[band == b].sum()
+            if var[b] > 0
+            else 1.0 / np.sqrt(edges[b] * edges[b + 1])
+            for b in range(len(edges) - 1)
+        ]
+    )
+    return spec, band, var, f_c
+
+
+def test_shaped_band_nodes_keep_the_centroid_and_sum_the_band_better_than_a_linear_density():
+    """Over JONSWAP seas (peak 2-14 s, gamma 1-7) the nodes shaped by the neighbouring bands
+    (``variance`` given) keep each band's variance share and centroid and lie inside it,
+    and the band sums of two terms that change across a band, a wave follower's vertical
+    wind ``(U - g / omega)^2`` (3-12 m/s) and a DBS beam pair's phase ``cos(omega 1 s)``,
+    are closer to the integral over the spectrum than with the density linear in frequency
+    from the centroid alone (rms 1.1 % against 1.9 % of the integral of the term's size;
+    95th percentile 2.1 % against 4.1 %)."""
+    edges = ms.band_edges_s(8)
+    f = np.linspace(0.03, 1.5, 20001)
+    err = {"linear": [], "shaped": []}
+    for gamma in (1.0, 3.3, 7.0):
+        for tp in np.arange(2.0, 14.0, 0.4):
+            spec, band, var, f_c = _jonswap_bands(f, tp, gamma, edges)
+            p, w = ms.sub_band_nodes(1.0 / f_c[None], edges, 3, variance=var[None])
+            assert np.all(w >= 0)
+            np.testing.assert_allclose(w.sum(-1), 1.0, rtol=1e-12)
+            np.testing.assert_allclose((w / p).sum(-1), f_c[None], rtol=1e-9)
+            assert np.all(
+                (p >= edges[:-1, None] * (1 - 1e-12)) & (p <= edges[1:, None] * (1 + 1e-12))
+            )
+            p_lin, w_lin = ms.sub_band_nodes(1.0 / f_c[None], edges, 3)
+            terms = [
+                lambda x, u=u: (u - 9.81 / (2 * np.pi * x)) ** 2 for u in (3.0, 5.0, 8.0, 12.0)
+            ]
+            terms.append(lambda x: np.cos(2 * np.pi * x))
+            for term in terms:
+                inside = band >= 0
+                exact = (spec * term(f))[inside].sum() * (f[1] - f[0])
+                size = (spec * np.abs(term(f)))[inside].sum() * (f[1] - f[0])
+                for name, (pp, ww) in (("linear", (p_lin, w_lin)), ("shaped", (p, w))):
+                    err[name].append(
+                        (var * (ww[0] * term(1.0 / pp[0])).sum(-1)).sum() / size - exact / size
+                    )
+    rms = {k: float(np.sqrt(np.mean(np.square(v)))) for k, v in err.items()}
+    p95 = {k: float(np.quantile(np.abs(v), 0.95)) for k, v in err.items()}
+    assert rms["shaped"] < 0.75 * rms["linear"], rms
+    assert p95["shaped"] < 0.75 * p95["linear"], p95
+
+
+def test_shaped_band_nodes_fall_back_to_the_linear_density_where_they_cannot_hold_the_centroid():
+    """A band without variance, or whose centroid lies beyond the outer nodes, takes the
+    density linear in frequency (its nodes and shares exactly); a NaN band stays NaN."""
+    edges = ms.band_edges_s(8)
+    f_hi, f_lo = 1.0 / edges[:-1], 1.0 / edges[1:]
+    per = 1.0 / (0.5 * (f_hi + f_lo) + np.array([0, 0, 0.97, 0, 0, 0, 0, 0]) * 0.5 * (f_hi - f_lo))
+    per[6] = np.nan
+    var = np.array([1.0, 2.0, 3.0, 0.0, 1.0, 1.0, 1.0, 1.0])
+    p, w = ms.sub_band_nodes(per[None], edges, 3, variance=var[None])
+    p_lin, w_lin = ms.sub_band_nodes(per[None], edges, 3)
+    for b in (2, 3):  # centroid near the edge; no variance
+        np.testing.assert_array_equal(p[0, b], p_lin[0, b])
+        np.testing.assert_array_equal(w[0, b], w_lin[0, b])
+    assert np.all(np.isnan(w[0, 6]))
+    assert not np.allclose(w[0, 1], w_lin[0, 1])  # the others are shaped

@@ -260,12 +260,19 @@ def band_direction_from_heave(
     downwind, ``y`` to its left) rises with the vertical velocity ``w = a omega sin(.)``
     while its mast leans with the surface normal, towards the waves' direction of travel by
     ``a k sin(.)``: upwind by ``-a k cos psi sin(.)`` and to the left of the wind by
-    ``a k sin psi sin(.)``, both in phase with ``w``. Minus the band's co-spectrum of ``w``
-    and the along-wind tilt (positive where the mast leans upwind,
-    :func:`flidar_uq.physics.motion_spectrum.project_tilt_on_wind_deg`), normalised by the
-    band's power of ``w`` and of the whole tilt (along + across), is then ``<cos psi>`` of
-    its waves; the co-spectrum with the across-wind tilt (positive to the left of the
-    wind's direction of travel) likewise gives ``<sin psi>``. These are the first
+    ``a k sin psi sin(.)``, both in phase with ``w``. At each frequency, minus the
+    co-spectrum of ``w`` and the along-wind tilt (positive where the mast leans upwind,
+    :func:`flidar_uq.physics.motion_spectrum.project_tilt_on_wind_deg`) times
+    ``sqrt(P_tilt / P_w)`` (the tilt's power, along + across, over that of ``w``: ``k /
+    omega`` for a follower, whatever the directions) is the tilt power of its waves
+    weighted by ``cos psi``; summed over the band and divided by the band's tilt power it
+    is the band's ``<cos psi>``, weighted as the band's variance is. The co-spectrum with
+    the across-wind tilt (positive to the left of the wind's direction of travel) likewise
+    gives ``<sin psi>``. (The band's co-spectrum over ``sqrt`` of its summed powers
+    instead falls short by the Cauchy-Schwarz ratio of ``omega^3`` to ``omega^2`` and
+    ``omega^4`` over the band, 1 % at 60 deg for two waves 1.4 apart in frequency, and
+    that 1 % is a 2-4 % error of sigma_Z where the heave cancels most of the tilt's
+    vertical wind.) These are the first
     directional moments a pitch-roll buoy measures (Longuet-Higgins, Cartwright and Smith,
     1963): ``<cos psi>`` +1 for waves running downwind, -1 upwind; ``<sin psi>`` +1 for
     waves running to the left of the wind, -1 to its right; both 0 for a sea split evenly
@@ -341,13 +348,16 @@ def band_direction_from_heave(
         # several, and a record's value would depend on its chunk)
         k = np.flatnonzero(idx == b)
         sl = slice(int(k[0]), int(k[-1]) + 1) if k.size else slice(0, 0)
-        wb, tb = p_w[:, sl].sum(-1), p_tilt[:, sl].sum(-1)
-        ok = (wb > 0) & (tb > 0)
+        pw, pt = p_w[:, sl], p_tilt[:, sl]
         with np.errstate(invalid="ignore", divide="ignore"):
-            norm = np.where(ok, np.sqrt(wb * tb), np.nan)
-            cos_psi[:, b] = -co_along[:, sl].sum(-1) / norm
-            sin_psi[:, b] = co_across[:, sl].sum(-1) / norm
-            sincos_psi[:, b] = -co_tilt[:, sl].sum(-1) / np.where(ok, tb, np.nan)
+            r = np.where(pw > 0, np.sqrt(pt / np.where(pw > 0, pw, 1.0)), 0.0)
+        tb = np.where(pw > 0, pt, 0.0).sum(-1)
+        ok = tb > 0
+        with np.errstate(invalid="ignore", divide="ignore"):
+            norm = np.where(ok, tb, np.nan)
+            cos_psi[:, b] = -(co_along[:, sl] * r).sum(-1) / norm
+            sin_psi[:, b] = (co_across[:, sl] * r).sum(-1) / norm
+            sincos_psi[:, b] = -co_tilt[:, sl].sum(-1) / np.where(ok, pt.sum(-1), np.nan)
     for x in (cos_psi, sin_psi, sincos_psi):
         x[no_heave] = np.nan
     return (
