@@ -359,15 +359,11 @@ def test_sub_band_nodes_keep_each_bands_variance_and_centroid(n_nodes):
 
 
 def _jonswap_bands(f_hz, tp_s, gamma, edges):
-    """A JONSWAP spectrum (any unit) on ``f_hz`` and its bands' variances and centroid
-    frequencies (Hz; an empty band's geometric centre, as tilt_band_spectrum)."""
-    fp = 1.0 / tp_s
-    s = np.where(f_hz <= fp, 0.07, 0.09)
-    spec = (
-        f_hz**-5
-        * np.exp(-1.25 * (fp / f_hz) ** 4)
-        * gamma ** np.exp(-((f_hz - fp) ** 2) / (2 * s**2 * fp**2))
-    )
+    """A JONSWAP spectrum (m^2/Hz, Hs 1 m) on ``f_hz`` and its bands' variances and
+    centroid frequencies (Hz; an empty band's geometric centre, as tilt_band_spectrum)."""
+    from flidar_uq.physics.seastate import jonswap_spectrum
+
+    spec = jonswap_spectrum(f_hz, 1.0, tp_s, gamma)
     band = np.searchsorted(edges, 1.0 / f_hz, side="right") - 1
     df = f_hz[1] - f_hz[0]
     var = np.array([spec[band == b].sum() * df for b in range(len(edges) - 1)])

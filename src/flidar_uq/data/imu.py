@@ -271,8 +271,8 @@ def band_direction_from_heave(
     gives ``<sin psi>``. (The band's co-spectrum over ``sqrt`` of its summed powers
     instead falls short by the Cauchy-Schwarz ratio of ``omega^3`` to ``omega^2`` and
     ``omega^4`` over the band, 1 % at 60 deg for two waves 1.4 apart in frequency, and
-    that 1 % is a 2-4 % error of sigma_Z where the heave cancels most of the tilt's
-    vertical wind.) These are the first
+    that 1 % is an error of sigma_Z of up to 5 % where the heave cancels most of the
+    tilt's vertical wind.) These are the first
     directional moments a pitch-roll buoy measures (Longuet-Higgins, Cartwright and Smith,
     1963): ``<cos psi>`` +1 for waves running downwind, -1 upwind; ``<sin psi>`` +1 for
     waves running to the left of the wind, -1 to its right; both 0 for a sea split evenly
@@ -349,11 +349,10 @@ def band_direction_from_heave(
         k = np.flatnonzero(idx == b)
         sl = slice(int(k[0]), int(k[-1]) + 1) if k.size else slice(0, 0)
         pw, pt = p_w[:, sl], p_tilt[:, sl]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            r = np.where(pw > 0, np.sqrt(pt / np.where(pw > 0, pw, 1.0)), 0.0)
         tb = np.where(pw > 0, pt, 0.0).sum(-1)
         ok = tb > 0
         with np.errstate(invalid="ignore", divide="ignore"):
+            r = np.where(pw > 0, np.sqrt(pt / np.where(pw > 0, pw, 1.0)), 0.0)
             norm = np.where(ok, tb, np.nan)
             cos_psi[:, b] = -(co_along[:, sl] * r).sum(-1) / norm
             sin_psi[:, b] = (co_across[:, sl] * r).sum(-1) / norm

@@ -266,7 +266,7 @@ def _shape_nodes(f_c, variance, f_hi, f_lo, xi, wi):
             step = np.where(var > 1e-12, (target - mean) / np.maximum(var, 1e-12), 0.0)
             a = np.clip(a + step, -_TILT_MAX, _TILT_MAX)
         kept = (np.abs(mean - target) < 1e-9) & (variance > 0)
-    return f + 0.0 * e, np.where(kept[..., None], e, np.nan)
+    return np.broadcast_to(f, e.shape), np.where(kept[..., None], e, np.nan)
 
 
 #: Newton steps and the largest exponent of the tilt in :func:`_shape_nodes`.
