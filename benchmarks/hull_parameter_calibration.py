@@ -13,17 +13,16 @@ on seeds drawn here (never used while developing the model), this benchmark asks
   of each lidar, by the sea's peak period (``true_period_s``) and by the motion's share
   of the measured std (``sigma_Z / s`` at the posterior medians, in octiles): a regime
   where the motion model errs shows as a dip below 0.90 or an offset that repeats across
-  seeds. The
-  binomial standard error counts the rows as independent (the heights of one record share
-  its motion; their coverage outcomes correlate by 0-0.16 within a record).
+  seeds (:func:`flidar_uq.data.calibration.calibration_by_group`). The binomial standard
+  error counts the rows as independent (the heights of one record share its motion; their
+  coverage outcomes correlate by 0-0.16 within a record).
 
 Scenarios: the wave followers with the heave in the IMU series, a ZephIR 300 (CW) and a
 WindCube v2 (DBS), at a fixed heading and weathervaning.
 
 Run:  PYTHONPATH=src OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/hull_parameter_calibration.py
-Writes benchmarks/results/hull_parameter_calibration.csv, _periods.csv, _share.csv
-and .png
-(about 10 minutes on 2 cores).
+Writes benchmarks/results/hull_parameter_calibration.csv, _periods.csv, _share.csv and .png
+(about 2 minutes on 2 cores).
 """
 
 from __future__ import annotations
@@ -36,6 +35,7 @@ import numpy as np
 import pandas as pd
 
 from flidar_uq.campaign.scenarios import load_scenario
+from flidar_uq.data.calibration import calibration_by_group
 from flidar_uq.inference.record_motion import gram_sigma_z_ms, motion_gram
 from flidar_uq.physics.lidar import get_lidar
 from flidar_uq.validation.regimes import scenario_records
@@ -106,11 +106,23 @@ def _run(case: tuple[str, int]) -> tuple[list[dict], pd.DataFrame]:
     r = r.assign(
         motion_share=np.asarray(sz, float) / r["hws_std_ms"].to_numpy(dtype=float),
         lidar=lidar,
-        inside=(r["ti_corrected_lo"] <= r["ti_true"]) & (r["ti_true"] <= r["ti_corrected_hi"]),
-        rel_error=r["ti_corrected_median"] / r["ti_true"] - 1.0,
     )
     print(f"{scenario} seed {seed}: {elapsed:.0f} s", flush=True)
-    return rows, r[["lidar", "true_period_s", "motion_share", "inside", "rel_error"]]
+    ti = ["ti_true", "ti_corrected_median", "ti_corrected_lo", "ti_corrected_hi"]
+    return rows, r[["lidar", "true_period_s", "motion_share", *ti]]
+
+
+def _pooled(rec: pd.DataFrame, key: str, **extra) -> pd.DataFrame:
+    """Coverage and mean relative error of the corrected TI per lidar and ``key``
+    (:func:`~flidar_uq.data.calibration.calibration_by_group`), with the ``extra``
+    aggregations of ``rec`` and the binomial standard error of a calibrated 90 % interval's
+    coverage (``se_if_calibrated``) and the coverage's distance from 0.90 in it."""
+    cal = calibration_by_group(rec, ["lidar", key])
+    cal = cal[["lidar", key, "n", "coverage", "mean_rel_error"]]
+    out = cal.merge(rec.groupby(["lidar", key]).agg(**extra).reset_index(), on=["lidar", key])
+    out["se_if_calibrated"] = np.sqrt(0.09 / out["n"])
+    out["z_coverage"] = (out["coverage"] - 0.9) / out["se_if_calibrated"]
+    return out
 
 
 def main() -> None:
@@ -122,39 +134,23 @@ def main() -> None:
     par.to_csv(OUT / "hull_parameter_calibration.csv", index=False, float_format="%.4f")
     rec = pd.concat([r for _, r in results], ignore_index=True)
     rec["period_bin_s"] = pd.cut(rec["true_period_s"], PERIOD_EDGES_S).astype(str)
-    per = (
-        rec.groupby(["lidar", "period_bin_s"], sort=False)
-        .agg(
-            n=("inside", "size"),
-            coverage=("inside", "mean"),
-            mean_rel_error=("rel_error", "mean"),
-            lo_period_s=("true_period_s", "min"),
-            mean_period_s=("true_period_s", "mean"),
-        )
-        .reset_index()
-        .sort_values(["lidar", "lo_period_s"])
+    per = _pooled(
+        rec,
+        "period_bin_s",
+        lo_period_s=("true_period_s", "min"),
+        mean_period_s=("true_period_s", "mean"),
     )
-    # binomial standard error of a calibrated 90 % interval's coverage in each bin
-    per["se_if_calibrated"] = np.sqrt(0.09 / per["n"])
-    per["z_coverage"] = (per["coverage"] - 0.9) / per["se_if_calibrated"]
-    per.drop(columns="lo_period_s").to_csv(
-        OUT / "hull_parameter_calibration_periods.csv", index=False, float_format="%.4f"
-    )
+    per = per.sort_values(["lidar", "lo_period_s"]).drop(columns="lo_period_s")
+    per.to_csv(OUT / "hull_parameter_calibration_periods.csv", index=False, float_format="%.4f")
     rec["share_octile"] = rec.groupby("lidar")["motion_share"].transform(
         lambda x: pd.qcut(x, 8, labels=False)
     )
-    share = (
-        rec.groupby(["lidar", "share_octile"])
-        .agg(
-            n=("inside", "size"),
-            share_lo=("motion_share", "min"),
-            share_hi=("motion_share", "max"),
-            coverage=("inside", "mean"),
-            mean_rel_error=("rel_error", "mean"),
-        )
-        .reset_index()
+    share = _pooled(
+        rec,
+        "share_octile",
+        share_lo=("motion_share", "min"),
+        share_hi=("motion_share", "max"),
     )
-    share["z_coverage"] = (share["coverage"] - 0.9) / np.sqrt(0.09 / share["n"])
     share.to_csv(OUT / "hull_parameter_calibration_share.csv", index=False, float_format="%.4f")
 
     pd.set_option("display.width", 200)
@@ -168,7 +164,7 @@ def main() -> None:
             f"{int(g['covered_90'].sum())}/{len(g)}"
         )
     print("\ncorrected TI by the sea's peak period, pooled: 90 % interval coverage, mean error")
-    print(per.drop(columns="lo_period_s").round(3).to_string(index=False))
+    print(per.round(3).to_string(index=False))
     print("\nthe same by the motion's share of the measured std, sigma_Z / s (octiles):")
     print(share.round(3).to_string(index=False))
     _plot(par, per, share)
@@ -208,7 +204,7 @@ def _plot(par: pd.DataFrame, per: pd.DataFrame, share: pd.DataFrame) -> None:
     b.legend(fontsize=7)
     for lidar, g in share.groupby("lidar"):
         mid = 0.5 * (g["share_lo"] + g["share_hi"])
-        c.errorbar(mid, g["coverage"], yerr=1.96 * np.sqrt(0.09 / g["n"]), fmt="o-", label=lidar)
+        c.errorbar(mid, g["coverage"], yerr=1.96 * g["se_if_calibrated"], fmt="o-", label=lidar)
     c.axhline(0.9, color="k", lw=0.8)
     c.axhspan(0.85, 0.95, color="0.9", label="acceptance 0.85-0.95")
     c.set_xlabel("motion's share of the measured std, sigma_Z / s (octiles)")
