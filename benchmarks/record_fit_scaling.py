@@ -114,8 +114,8 @@ def child_log_prob(assignments: Path, out_json: Path) -> None:
     rec = pd.read_csv(assignments)
     (s, r, gram), _, _ = _record_observations(rec, None, None, cfg["campaign"]["lidar"])
     rng = np.random.default_rng(0)
-    centre = np.array([0.0, np.log(0.05), np.log(0.15), 2.0, 0.0, np.log(0.3)])
-    theta = centre + 0.01 * rng.standard_normal((N_WALKERS, 6))
+    centre = np.array([0.0, np.log(0.05), np.log(0.15), 2.0, 0.0, np.log(0.3), np.log(0.1)])
+    theta = centre + 0.01 * rng.standard_normal((N_WALKERS, centre.size))
     log_prob_record_model(theta[:1], s, r, gram)  # warm-up: imports, small buffers
     base = _vm("VmRSS")
     t0 = time.perf_counter()

@@ -77,8 +77,8 @@ def main() -> None:
     pair_sq = np.full(s.size, 0.05**2)  # the default campaign's median pair log-sd ~0.051
     rng = np.random.default_rng(8)
     rows = []
-    # sampler coordinates: rho, log kappa, log kappa_z, L, log k, log h
-    centre = np.array([-0.012, np.log(1e-4), np.log(0.09), 2.44, 0.03, np.log(0.3)])
+    # sampler coordinates: rho, log kappa, log kappa_z, L, log k, log h, log rho_sd
+    centre = np.array([-0.012, np.log(1e-4), np.log(0.09), 2.44, 0.03, np.log(0.3), np.log(0.08)])
     for walkers in (1, 32, 64):
         theta = centre + 0.01 * rng.standard_normal((walkers, centre.size))
         inputs = (theta, s, r, gram, pair_sq)

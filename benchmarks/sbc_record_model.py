@@ -1,6 +1,6 @@
 """Simulation-based calibration of the record motion model (Talts et al. 2018).
 
-Each replication draws (rho, kappa, kappa_z, lever_arm_m, motion_scale) from the record
+Each replication draws the seven parameters (SBC_RECORD_PARAMS) from the record
 model's prior, a campaign of records from its likelihood as written, fits it with
 fit_record_model (fixed-length chains) and records the rank of each true value among 99
 posterior draws. Uniform ranks <=> calibrated (target: >= 100 replications, chi-square

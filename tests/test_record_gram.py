@@ -93,7 +93,7 @@ def test_zephir_gram_gives_the_former_sigma_z_and_likelihood():
     (s, r, g), use, _ = _record_observations(rec, None, None, "zephir300")
     assert use.all()
     theta = np.array(
-        [[0.2, np.log(0.04), np.log(0.12), lever[0, 0], np.log(k[0, 0]), np.log(h[0, 0])]]
+        [[0.2, np.log(0.04), np.log(0.12), lever[0, 0], np.log(k[0, 0]), np.log(h[0, 0]), -2.3]]
     )
     same = gram_from_cw_terms(want[0] / k[0, 0], np.zeros(len(rec)))
     np.testing.assert_allclose(
@@ -179,7 +179,7 @@ def test_a_negative_cross_wind_form_is_zero_in_the_likelihood_and_the_propagatio
     zeroed[11:21] = 0.0
     lever, h, k = _draws()
     theta = np.array(
-        [[0.2, np.log(0.04), np.log(0.12), lever[0, 0], np.log(k[0, 0]), np.log(h[0, 0])]]
+        [[0.2, np.log(0.04), np.log(0.12), lever[0, 0], np.log(k[0, 0]), np.log(h[0, 0]), -2.3]]
     )
     np.testing.assert_array_equal(
         _record_loglik_pointwise(theta, s, r, flipped),

@@ -348,8 +348,8 @@ def test_record_likelihood_without_motion_adds_the_pair_scatter_to_kappa_in_quad
     s, r = rng.uniform(0.5, 1.5, n), rng.uniform(0.5, 1.5, n)
     szr, u2 = np.zeros(n), np.zeros(n)
     kappa, pair = 0.02, 0.04
-    theta = np.array([[0.1, np.log(kappa), np.log(0.1), 2.0, 0.0, 0.0]])
-    both = np.array([[0.1, np.log(np.hypot(kappa, pair)), np.log(0.1), 2.0, 0.0, 0.0]])
+    theta = np.array([[0.1, np.log(kappa), np.log(0.1), 2.0, 0.0, 0.0, np.log(0.1)]])
+    both = np.array([[0.1, np.log(np.hypot(kappa, pair)), np.log(0.1), 2.0, 0.0, 0.0, np.log(0.1)]])
     g = gram_from_cw_terms(szr, u2)
     with_pair = log_prob_record_model(theta, s, r, g, pair_log_sd=np.full(n, pair))
     merged = log_prob_record_model(both, s, r, g)

@@ -217,8 +217,9 @@ def test_pipeline_is_calibrated_on_a_weathervaning_buoy_with_a_fixed_reference_l
 
 
 #: Seeds of the six-degree-of-freedom acceptance runs, drawn once (secrets.randbelow(2**31))
-#: after the hull model was written and never used while developing it.
-SIX_DOF_SEEDS = (1795579181, 760163393)
+#: after the record model took each record's correlation scatter (rho_sd), never used
+#: while developing it.
+SIX_DOF_SEEDS = (505516003, 809183192)
 
 
 @functools.cache
@@ -226,25 +227,11 @@ def _run_six_dof(scenario: str, seed: int):
     return scenario_records(scenario, seed)
 
 
-#: The one acceptance run that misses a group's bound: its 228 records with a dominant sea
-#: period of 4-7 s are +1.65 % off (bound 1.5 %, the standard error of such a group's mean
-#: about 0.5 %). On three development seeds that group was +0.2 to +0.5 %, and the > 7 s
-#: group +0.7 to +1.0 % on all of them: a small positive bias on long swell remains.
-_WAVE_PERIOD_MISS = pytest.mark.xfail(
-    strict=True,
-    reason="wave-period group 4-7 s: mean error +1.65 % on 228 records (bound 1.5 %)",
-)
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("scenario", "seed"),
     [
-        pytest.param(
-            scenario,
-            seed,
-            marks=_WAVE_PERIOD_MISS if (scenario, seed) == ("wave_follower", 1795579181) else (),
-        )
+        (scenario, seed)
         for scenario in ("wave_follower", "wave_follower_weathervane")
         for seed in SIX_DOF_SEEDS
     ],
@@ -255,7 +242,7 @@ def test_wave_follower_corrected_and_calibrated_in_every_regime(scenario, seed):
     the translation; calibrated in every group, intervals <= 25 % of the TI, the per-record
     RMSE against the truth below the uncorrected lidar's by more than a third, and the
     hull response found (h > 0.5). (The uncorrected error of these records is partly the
-    10-min sampling noise that no motion correction removes: 48-53 % of its RMSE is
+    10-min sampling noise that no motion correction removes: 45-49 % of its RMSE is
     removed here, short of the 70 % a small buoy's larger motion would allow.)"""
     records, fit = _run_six_dof(scenario, seed)
     assert fit.converged, fit.failure_reasons
@@ -283,8 +270,9 @@ def test_rotation_only_buoy_keeps_its_calibration_and_no_hull_response(seed):
 
 
 #: Seeds of the measured-direction acceptance runs, drawn once (secrets.randbelow(2**31))
-#: after the heave-tilt co-spectrum was written and never used while developing it.
-HEAVE_SEEDS = (1195941418, 1383144095)
+#: after the record model took each record's correlation scatter, never used while
+#: developing it.
+HEAVE_SEEDS = (125029014, 1100465239)
 
 
 @pytest.mark.slow
@@ -317,9 +305,10 @@ def test_wave_follower_with_heave_recovers_the_motion_scale_and_the_lever_arm(sc
     assert abs(lever - float(records["true_lever_arm_m"].iloc[0])) <= 0.5, lever
 
 
-#: Seeds of the measured-translation acceptance runs, drawn once (secrets.randbits(31))
-#: after the measured description was written and never used while developing it.
-MRU_SEEDS = (450359528, 197944438)
+#: Seeds of the measured-translation acceptance runs, drawn once (secrets.randbelow(2**31))
+#: after the record model took each record's correlation scatter, never used while
+#: developing it.
+MRU_SEEDS = (784494570, 2091837078)
 
 
 @pytest.mark.slow
@@ -338,9 +327,9 @@ def test_measured_translation_campaign_is_calibrated_in_every_regime(seed):
     assert ((r["ti_corrected_hi"] - r["ti_corrected_lo"]) / r["ti_true"]).median() <= 0.25
 
 
-#: Two seeds drawn fresh (secrets.randbelow(10**6)) for the DBS record model's test, not
-#: chosen after the result.
-DBS_SEEDS = (476586, 428726)
+#: Two seeds drawn fresh (secrets.randbelow(2**31)) for the DBS record model's test after
+#: it took each record's correlation scatter, not chosen after the result.
+DBS_SEEDS = (560921051, 1737837898)
 
 
 @functools.cache
@@ -386,35 +375,30 @@ def test_dbs_tilt_only_fit_recovers_motion_scale_and_lever_arm(seed):
 #: Seeds of the DBS wave-follower acceptance runs, drawn once (secrets.randbelow(2**31))
 #: after the DBS record model (each band's side of the wind and its measured
 #: <sin psi cos psi>, three nodes a band, each lidar's direction-dependent response to
-#: turbulence, the cross-wind error to fourth order and the motion's mean in the TI's
-#: denominator) was written, and never used while developing.
-DBS_WAVE_SEEDS = (1195351855, 1312625703)
+#: turbulence, the cross-wind error to fourth order, the motion's mean in the TI's
+#: denominator and each record's correlation scatter) was written, and never used while
+#: developing.
+DBS_WAVE_SEEDS = (268473979, 778780715)
 
-#: The DBS acceptance runs that miss a bound. ``dbs_wave_follower`` 1195351855: its 229
-#: records whose sea peaks at 4-7 s have a coverage of 0.834 (bound 0.85; mean error
-#: +0.3 %), where the waves' phase speed g / omega is near the wind speed and the heave
-#: cancels most of the tilt's apparent vertical wind; the other groups of the run cover
-#: 0.86-0.92. ``dbs_wave_follower_weathervane`` 1312625703: the lever arm's posterior
-#: median is 2.50 m (90 % interval 2.13-2.82 m) against the truth's 2 m; the weathervaning
-#: buoy's lever arm is the least well found (2.39 m on the other acceptance seed, 1.72 and
-#: 2.09 m on two development seeds).
-_DBS_MISSES = {
-    ("dbs_wave_follower", 1195351855): pytest.mark.xfail(
-        strict=True,
-        reason="wave-period group 4-7 s: coverage 0.834 on 229 records (bound 0.85)",
-    ),
-    ("dbs_wave_follower_weathervane", 1312625703): pytest.mark.xfail(
-        strict=True,
-        reason="lever arm 2.50 m against the truth's 2 m (bound 0.5 m)",
-    ),
-}
+#: The DBS acceptance run that misses a bound: ``dbs_wave_follower`` 268473979, whose 255
+#: records with a sea peaking above 7 s are +1.66 % off (bound 1.5 %; coverage 0.91). On
+#: four development seeds that group was -0.1 to +0.8 % (0.87-0.91 covered): the long
+#: swell leans high on the WindCube v2 by a few tenths of a per cent, more in this run.
+_DBS_MISS = pytest.mark.xfail(
+    strict=True,
+    reason="wave-period group > 7 s: mean error +1.66 % on 255 records (bound 1.5 %)",
+)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("scenario", "seed"),
     [
-        pytest.param(scenario, seed, marks=_DBS_MISSES.get((scenario, seed), ()))
+        pytest.param(
+            scenario,
+            seed,
+            marks=_DBS_MISS if (scenario, seed) == ("dbs_wave_follower", 268473979) else (),
+        )
         for scenario in ("dbs_wave_follower", "dbs_wave_follower_weathervane")
         for seed in DBS_WAVE_SEEDS
     ],

@@ -95,6 +95,7 @@ def test_record_prior_draws_lie_in_the_record_model_prior_support():
                 d["lever_arm_m"],
                 np.log(d["motion_scale"]),
                 np.log(d["hull_response"]),
+                np.log(d["rho_sd"]),
             ]
             for d in draws
         ]
@@ -103,6 +104,9 @@ def test_record_prior_draws_lie_in_the_record_model_prior_support():
     assert ok.all()
     # half-normal(0.3) on kappa_z: median 0.3 * 0.674
     assert np.median(theta[:, 2]) == pytest.approx(np.log(0.3 * 0.674), abs=0.15)
+    # log-normal on rho_sd: median and log-sd of the prior
+    assert np.median(theta[:, 6]) == pytest.approx(np.log(Priors().rho_sd_median), abs=0.1)
+    assert np.std(theta[:, 6]) == pytest.approx(Priors().rho_sd_log_sd, rel=0.1)
 
 
 def test_rank_uniformity_rejects_bins_that_do_not_divide_the_ranks():
@@ -111,7 +115,7 @@ def test_rank_uniformity_rejects_bins_that_do_not_divide_the_ranks():
 
 
 @pytest.mark.slow
-def test_record_model_sbc_ranks_uniform_at_1pct_for_all_five_parameters():
+def test_record_model_sbc_ranks_uniform_at_1pct_for_all_seven_parameters():
     """>= 100 replications, chi-square p > 0.01 per parameter (uncorrected), and the
     propagation: the true TI's ranks among the corrected-TI draws uniform at 1 %, the 90 %
     intervals' coverage as the number of draws gives it."""

@@ -384,6 +384,7 @@ _GLOBAL_SOURCES = {
     "motion_scale": "motion",
     "kappa_z": "motion",
     "hull_response": "motion",
+    "rho_sd": "rho",
 }
 
 
@@ -803,10 +804,11 @@ class _Propagation:
             return self.kappa
         return _own_noise(self.kappa, self.pair[cols][None, :])
 
-    def deploy(self, cols, sz, tau0=0.0):
+    def deploy(self, cols, sz, tau0=0.0, rho=None):
         """Steps 2-4 of the module docstring for the records at the indices ``cols`` (sZ
         draws given; the floating lidar's relative sampling sd about its motionless-lidar std from
-        :meth:`own_noise`, ``tau0`` an absolute one, m/s). The random numbers are drawn for
+        :meth:`own_noise`, ``tau0`` an absolute one, m/s; ``rho`` each record's correlation
+        draws (ndraws, cols.size), default the global ``rho``). The random numbers are drawn for
         all of them (z, then e: the stream does not depend on the blocks); the rest runs on
         blocks of records to bound the temporaries."""
         hold, s, m = self.hold, self.s, self.m_ti
@@ -827,7 +829,7 @@ class _Propagation:
             szb = sz[:, b]
             if "motion" in hold:
                 szb = np.broadcast_to(np.median(szb, axis=0), szb.shape)
-            c, neg = corrected_std(s_star, szb, self.rho)
+            c, neg = corrected_std(s_star, szb, self.rho if rho is None else rho[:, b])
             # point std (g = 1, sd = 0: the reference's own std, a cup's or sonic's point std)
             ref = 0.0 if "reference_response" in hold else e[:, b]
             sig = c * (np.exp(self.log_sd[cb] * ref) / self.g_ratio[cb])
@@ -861,7 +863,9 @@ class _Propagation:
 
 def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan, grams) -> None:
     """Record motion model: each record's sigma_Z from its own measured motion, with the
-    global lever arm, motion scale and the record-level motion error kappa_z, record
+    global lever arm, motion scale and the record-level motion error kappa_z, and each
+    record's correlation ``tanh(atanh(rho) + rho_sd N(0, 1))`` (the scatter of its
+    realised correlation, :mod:`flidar_uq.inference.record_fit`; held with ``rho``), record
     chunk by record chunk (:data:`_RECORD_CHUNK`). ``grams``: the chunks' Gram tables
     by (description, chunk start), filled here and read where already there."""
     global_fit, n = p.global_fit, len(records)
@@ -869,6 +873,8 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan, gr
     scale = p.global_draws("motion_scale")
     kappa_z = p.global_draws("kappa_z")
     hull = p.global_draws("hull_response")
+    rho_sd = p.global_draws("rho_sd") if "rho_sd" in global_fit.draws else None
+    rho_z = np.arctanh(p.rho)  # Fisher z of the campaign's correlation
     translation = global_fit.info.get("hull_model") != "rotation_only"  # the kept model
     hull_reference = global_fit.info.get("hull_reference", "wave_follower")
     cols = [*GRAM_COLUMNS, "translation_measured", *CROSS_WIND_COLUMNS]
@@ -899,11 +905,16 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan, gr
         err *= kappa_z
         sz *= np.exp(err, out=err)  # sz exp(kappa_z N(0, 1)), in place
         del err
+        rho = None
+        if rho_sd is not None:  # drawn whatever is held: the other draws do not move
+            rho = p.rng.standard_normal((p.ndraws, int(ok.sum())))
+            rho *= 0.0 if "rho" in p.hold else rho_sd
+            rho = np.tanh(rho_z + rho)
         rows = start + np.flatnonzero(ok)
         if CROSS_WIND_COLUMNS[0] in g:  # a DBS lidar's mean HWS error (its posterior median)
             p.m_ti[rows] = p.m[rows] - np.median(mean_z, axis=0)
         del mean_z
-        p.deploy(rows, sz)
+        p.deploy(rows, sz, rho=rho)
     p.reasons[~described] = "no motion description (IMU columns missing)"
     p.conv[described] = global_fit.converged
     p.reasons[described] = "; ".join(p.global_reasons)

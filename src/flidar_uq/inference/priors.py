@@ -30,7 +30,9 @@ class Priors:
     motion-model scale of the surrogate's rotational sigma_Z
     ``log k ~ Normal(0, motion_scale_log_sd)`` on ``|log k| < log 5``. Record motion model
     (:mod:`flidar_uq.inference.record_fit`): ``kappa_z ~ HalfNormal(kappa_z_scale)``,
-    ``log k ~ Normal(0, record_motion_scale_log_sd)``, the hull response
+    ``log k ~ Normal(0, record_motion_scale_log_sd)``, the scatter of a record's realised
+    correlation (the sd of its Fisher z) ``log rho_sd ~ Normal(log rho_sd_median,
+    rho_sd_log_sd)``, the hull response
     ``h ~ HalfNormal(hull_response_scale)`` on (0, ``hull_response_max``], sampled as
     ``log h`` (as ``kappa``: for a buoy that only rotates its posterior is the prior's
     ``exp(log h)`` tail, with no wall for the sampler).
@@ -69,6 +71,13 @@ class Priors:
     motion_scale_log_sd: float = 0.3
     kappa_z_scale: float = 0.3
     record_motion_scale_log_sd: float = 0.1
+    #: median of the log-normal prior of ``rho_sd`` (-): the sample correlation of two
+    #: series of ``N`` independent pairs has ``sd(atanh r) = 1 / sqrt(N - 3)`` (Fisher
+    #: 1921); a 10-min record holds ``N`` of 15 (the turbulence's integral time scale,
+    #: about 40 s) to 600 (1-Hz values), so 0.04-0.26, centred on ``N`` = 100
+    rho_sd_median: float = 0.1
+    #: log-sd of that prior (-): 0.5 spans 0.04-0.27 (95 %)
+    rho_sd_log_sd: float = 0.5
     #: upper end of the prior of the record model's hull response ``h`` (-): 0
     #: rotates about a fixed centre, 1 follows the waves; a hull near resonance responds
     #: more than the waves (docs/inference.md)
@@ -139,7 +148,7 @@ class SamplerSettings:
         Most records the record model is fitted on (records): a longer campaign is fitted
         on a subsample stratified by height and 1-m/s wind-speed bin, evenly spaced in
         time within each stratum (:func:`~flidar_uq.inference.record_fit.fit_subsample`).
-        Its six parameters are campaign constants, so their posterior from 30,000 records
+        Its seven parameters are campaign constants, so their posterior from 30,000 records
         is already narrow, while the sampler's cost grows with records times steps. Every
         record is still corrected with the posterior.
     """

@@ -13,15 +13,21 @@ phasors). The model (docs/inference.md):
   hull response (0 rotation only, 1 wave follower);
 * ``s_i ~ Normal(mu_i, tau_i)``, ``mu_i^2 = r_i^2 + sZ_i^2 + 2 rho r_i sZ_i`` (Eq. (15)
   of Gutiérrez-Antuñano et al. (2018));
-* ``tau_i^2 = (kappa mu_i)^2 + (kappa_z sZ_i dmu_i/dsZ_i)^2 + (p_i r_i dmu_i/dr_i)^2``:
+* ``tau_i^2 = (kappa mu_i)^2 + (kappa_z sZ_i dmu_i/dsZ_i)^2 + (s_rho (1 - rho^2) dmu_i/drho)^2
+  + (p_i r_i dmu_i/dr_i)^2``:
   ``kappa`` the relative sampling noise of a 10-min std, ``kappa_z`` the relative error of
   a record's sigma_Z (the realised motion error of 10 minutes scatters about the one its
-  motion spectrum predicts), ``p_i`` the known relative scatter of a reference lidar's std
+  motion spectrum predicts), ``s_rho`` (``rho_sd``) the scatter of a record's realised
+  correlation of the turbulence and the motion error about ``rho``, as the sd of its
+  Fisher z (``atanh``; Fisher 1921: the sample correlation of ``N`` pairs has
+  ``sd(atanh r) ~ 1 / sqrt(N - 3)``, so ``(1 - rho^2) s_rho`` on ``rho`` itself), through
+  ``dmu/drho = r_i sZ_i / mu_i``; ``p_i`` the known relative scatter of a reference lidar's std
   against the floating lidar's motionless std (``pair_log_sd``, 0 for a cup or sonic):
   it is a scatter of the turbulent part ``r_i`` only, so it enters through
   ``dmu/dr = (r + rho sZ) / mu``, not in proportion to ``mu`` (first-order propagation
-  through Eq. (15) for both errors). The propagation draws the same
-  ``exp(kappa_z N(0, 1))`` factor on each record's sigma_Z, so ``sZ_i`` is the median of
+  through Eq. (15) for these errors). The propagation draws the same
+  ``exp(kappa_z N(0, 1))`` factor on each record's sigma_Z and each record's correlation as
+  ``tanh(atanh(rho) + s_rho N(0, 1))``, so ``sZ_i`` is the median of
   the realised motion error; the mean and the variance above take its mean,
   ``sZ_i exp(kappa_z^2 / 2)`` (a likelihood at the median made the fit's ``sZ`` absorb the
   log-normal's mean and the propagation then over-correct: the corrected TI was
@@ -69,8 +75,16 @@ __all__ = [
 ]
 
 #: Parameters of the record model, in the order of its theta columns (natural scale names).
-RECORD_MODEL_NAMES = ("rho", "kappa", "kappa_z", "lever_arm_m", "motion_scale", "hull_response")
-_LOGS = (1, 2, 4, 5)  # sampled as logs, reported natural
+RECORD_MODEL_NAMES = (
+    "rho",
+    "kappa",
+    "kappa_z",
+    "lever_arm_m",
+    "motion_scale",
+    "hull_response",
+    "rho_sd",
+)
+_LOGS = (1, 2, 4, 5, 6)  # sampled as logs, reported natural
 #: lower end of the sampled log hull response: below what the data resolve its posterior
 #: is the half-normal prior's exp(log h) tail (as for kappa), proper without a wall
 _HULL_MIN = 1e-8
@@ -78,7 +92,7 @@ _HULL_MIN = 1e-8
 
 def natural_draws(theta: np.ndarray) -> dict[str, np.ndarray]:
     """The record model's parameters on their natural scale from sampler coordinates
-    ``(..., 6)`` (``exp`` of the logs)."""
+    ``(..., 7)`` (``exp`` of the logs)."""
     return {
         n: (np.exp(theta[..., k]) if k in _LOGS else theta[..., k])
         for k, n in enumerate(RECORD_MODEL_NAMES)
@@ -93,7 +107,7 @@ def is_record_model(fit) -> bool:
 def _record_z2_tau2(theta, s, r, gram, pair_sq):
     """``(z^2 / tau^2, tau^2)`` of the record model (module docstring), each of shape
     (n_walkers, n_obs), with ``z = s - mu``: ``-2 log p(s_i | theta) - log(2 pi)`` is
-    ``z^2 / tau^2 + log tau^2``. Computed in place (seven temporaries of the output's size).
+    ``z^2 / tau^2 + log tau^2``. Computed in place (eight temporaries of the output's size).
 
     ``pair_sq``: the known relative variance of the two instruments' sampling (-), a
     scatter of the turbulent part ``r`` (enters through ``(dmu/dr)^2``); a scalar 0 or an
@@ -111,6 +125,8 @@ def _record_z2_tau2(theta, s, r, gram, pair_sq):
     k = np.exp(theta[:, 4])
     h = np.exp(theta[:, 5])
     lever = theta[:, 3]
+    # the scatter of a record's correlation, sd of its Fisher z times d rho / d z = 1 - rho^2
+    rho_scatter_sq = (np.exp(theta[:, 6:7]) * (1.0 - rho * rho)) ** 2
     coef = gram_coefficients(k, h, lever)  # (n_walkers, 10)
     # measured translation: the response is known (h = 1)
     meas = gram[10] if gram.shape[0] > 10 and np.any(gram[10]) else None
@@ -139,8 +155,9 @@ def _record_z2_tau2(theta, s, r, gram, pair_sq):
     np.maximum(mu_sq, 1e-12, out=mu_sq)
     var = sz + rho_r  # (kappa_z sZ dmu/dsZ)^2 mu^2 = kappa_z^2 sZ^2 (sZ + rho r)^2
     var *= var
-    var *= sz_sq
     var *= kz_sq
+    var += rho_scatter_sq * r**2  # (s_rho (1 - rho^2) r sZ)^2: the correlation's scatter
+    var *= sz_sq
     if np.any(pair_sq):  # the reference's sampling scatter: (p r dmu/dr)^2 mu^2
         pair_r = rho * sz
         pair_r += r
@@ -227,6 +244,7 @@ def _log_prior(theta, priors: Priors, lever_arm_prior):
         ok &= (theta[:, 3] >= 0.0) & (theta[:, 3] < priors.lever_arm_max_m)
         ok &= np.abs(theta[:, 4]) < np.log(5.0)
         ok &= _in(theta[:, 5], np.log(_HULL_MIN), np.log(priors.hull_response_max))
+        ok &= _in(theta[:, 6], np.log(priors.kappa_min), np.log(2.0))
         lp = _log_halfnormal_logscale(theta[:, 1], priors.kappa_scale)
         lp = lp + _log_halfnormal_logscale(theta[:, 2], priors.kappa_z_scale)
         if lever_arm_prior is None:
@@ -235,6 +253,7 @@ def _log_prior(theta, priors: Priors, lever_arm_prior):
             lp = lp + _norm_logpdf(theta[:, 3], lever_arm_prior[0], lever_arm_prior[1])
         lp = lp + _norm_logpdf(theta[:, 4], 0.0, priors.record_motion_scale_log_sd)
         lp = lp + _log_halfnormal_logscale(theta[:, 5], priors.hull_response_scale)
+        lp = lp + _norm_logpdf(theta[:, 6], np.log(priors.rho_sd_median), priors.rho_sd_log_sd)
     return lp, ok
 
 
@@ -245,8 +264,9 @@ def log_prob_record_model(
 
     Parameters
     ----------
-    theta : array_like, shape (n_walkers, 6)
-        ``(rho, log kappa, log kappa_z, lever_arm_m, log motion_scale, log hull_response)``.
+    theta : array_like, shape (n_walkers, 7)
+        ``(rho, log kappa, log kappa_z, lever_arm_m, log motion_scale, log hull_response,
+        log rho_sd)``.
     s, r : numpy.ndarray, shape (n_obs,)
         Floating-lidar and reference 10-min HWS std (m/s).
     gram : numpy.ndarray, shape (11 or 10, n_obs)
@@ -294,6 +314,7 @@ def _broad(lever_arm_prior):
                 lev,
                 rng.uniform(-0.2, 0.2, n),
                 np.log(rng.uniform(0.01, 1.0, n)),
+                np.log(rng.uniform(0.03, 0.3, n)),
             ]
         )
 
@@ -407,7 +428,7 @@ def _hull_response_negligible(nat: dict[str, np.ndarray], gram: np.ndarray) -> b
 
 def _start(lever_arm_prior):
     """Starting point of the mode search (sampler coordinates: rho, log kappa, log kappa_z,
-    L, log k, log h)."""
+    L, log k, log h, log rho_sd)."""
     return np.array(
         [
             0.0,
@@ -416,6 +437,7 @@ def _start(lever_arm_prior):
             2.0 if lever_arm_prior is None else lever_arm_prior[0],
             0.0,
             np.log(0.3),
+            np.log(0.1),
         ]
     )
 
@@ -434,7 +456,7 @@ def fit_record_model(
     hull="wave_follower",
     translation: bool = True,
 ) -> GlobalFit:
-    """Posterior of ``rho``, ``kappa``, ``kappa_z``, ``lever_arm_m``, ``motion_scale`` (record model).
+    """Posterior of the record model's parameters (:data:`RECORD_MODEL_NAMES`).
 
     Every record with a finite floating-lidar std, reference std and motion description
     is used, whatever its bin (bins are for reporting; a record's sigma_Z comes from its
@@ -476,7 +498,7 @@ def fit_record_model(
     Returns
     -------
     GlobalFit
-        Draws of the six parameters; ``info["n_records"]`` the records fitted and
+        Draws of the seven parameters; ``info["n_records"]`` the records fitted and
         ``info["n_records_usable"]`` those that could have been; ``info["loo"]`` holds ``model="record"`` and the
         PSIS-LOO elpd; ``pointwise_loo`` (:meth:`~GlobalFit.loo`) the PSIS-LOO per record,
         computed in blocks of records from the thinned draws (``log_lik`` is None: the
@@ -638,7 +660,7 @@ def lever_arm_check(lever_arm_draws_m, lever_arm_prior=None) -> str:
 
 
 def _record_loo(theta, s, r, gram, pair):
-    """PSIS-LOO of the record model over the draws ``theta`` (n_draws, 5), computed in blocks
+    """PSIS-LOO of the record model over the draws ``theta`` (n_draws, 7), computed in blocks
     of records (:func:`~flidar_uq.inference.loo._loo_chunked`): the (draws x records)
     pointwise log-likelihood (1.26 GB in float64 for a year at 3 heights) is never held
     whole; the result equals PSIS-LOO on the whole matrix."""

@@ -158,7 +158,15 @@ def sbc_replication(
 # --- the record motion model (flidar_uq.inference.record_fit) -------------------------
 
 #: Parameters of the record motion model whose ranks :func:`sbc_record_replication` returns.
-SBC_RECORD_PARAMS = ("rho", "kappa", "kappa_z", "lever_arm_m", "motion_scale", "hull_response")
+SBC_RECORD_PARAMS = (
+    "rho",
+    "kappa",
+    "kappa_z",
+    "lever_arm_m",
+    "motion_scale",
+    "hull_response",
+    "rho_sd",
+)
 
 
 def _trunc_halfnormal(rng, scale, lo, hi):
@@ -177,7 +185,8 @@ def draw_record_prior(rng, *, priors: Priors = _PRIORS, lever_arm_prior=None) ->
     ``~ HalfNormal(lever_arm_scale_m)`` on [0, ``lever_arm_max_m``) or, with
     ``lever_arm_prior = (mean, sd)``, ``Normal(mean, sd)`` on the same interval;
     ``log motion_scale ~ N(0, record_motion_scale_log_sd)`` on ``|log k| < log 5``;
-    ``hull_response ~ HalfNormal(hull_response_scale)`` on (1e-8, ``hull_response_max``).
+    ``hull_response ~ HalfNormal(hull_response_scale)`` on (1e-8, ``hull_response_max``);
+    ``log rho_sd ~ N(log rho_sd_median, rho_sd_log_sd)`` on (``kappa_min``, 2).
 
     Parameters
     ----------
@@ -188,7 +197,7 @@ def draw_record_prior(rng, *, priors: Priors = _PRIORS, lever_arm_prior=None) ->
     Returns
     -------
     dict
-        The six parameters of :data:`SBC_RECORD_PARAMS` on their natural scale.
+        The seven parameters of :data:`SBC_RECORD_PARAMS` on their natural scale.
     """
     rho = float(rng.uniform(-1.0, 1.0))
     kappa = _trunc_halfnormal(rng, priors.kappa_scale, priors.kappa_min, 2.0)
@@ -204,6 +213,10 @@ def draw_record_prior(rng, *, priors: Priors = _PRIORS, lever_arm_prior=None) ->
         log_k = rng.normal(0.0, priors.record_motion_scale_log_sd)
         if abs(log_k) < np.log(5.0):
             break
+    while True:
+        rho_sd = float(np.exp(rng.normal(np.log(priors.rho_sd_median), priors.rho_sd_log_sd)))
+        if priors.kappa_min < rho_sd < 2.0:
+            break
     return {
         "rho": rho,
         "kappa": kappa,
@@ -213,6 +226,7 @@ def draw_record_prior(rng, *, priors: Priors = _PRIORS, lever_arm_prior=None) ->
         "hull_response": _trunc_halfnormal(
             rng, priors.hull_response_scale, 1e-8, priors.hull_response_max
         ),
+        "rho_sd": rho_sd,
     }
 
 
@@ -229,7 +243,8 @@ def draw_record_campaign(
     ``sZ`` of :func:`~flidar_uq.inference.record_motion.gram_sigma_z_ms` (lever arm, hull
     response, motion scale) times ``exp(kappa_z^2 / 2)`` (the realised error's mean),
     ``mu^2 = r^2 + sZ^2 + 2 rho r sZ`` (Eq. (15) of Gutiérrez-Antuñano et al. (2018)) and
-    ``tau^2 = (kappa mu)^2 + (kappa_z sZ dmu/dsZ)^2 + (pair_log_sd r dmu/dr)^2 + 1e-8``, the
+    ``tau^2 = (kappa mu)^2 + (kappa_z sZ dmu/dsZ)^2 + (rho_sd (1 - rho^2) r sZ / mu)^2
+    + (pair_log_sd r dmu/dr)^2 + 1e-8``, the
     floating-lidar std is
     ``s ~ Normal(mu, tau)`` (the record model's likelihood, not a different generative
     story: SBC ranks are uniform only for the model as written).
@@ -239,7 +254,7 @@ def draw_record_campaign(
     rng : numpy.random.Generator
     n_records : int
     truth : dict
-        The six parameters of :data:`SBC_RECORD_PARAMS`.
+        The seven parameters of :data:`SBC_RECORD_PARAMS`.
     surrogate : SigmaZSurrogate, optional
     pair_log_sd : float
         The known relative sampling scatter of a reference lidar pair (-), every record
@@ -290,6 +305,7 @@ def draw_record_campaign(
     tau = np.sqrt(
         truth["kappa"] ** 2 * mu_sq
         + truth["kappa_z"] ** 2 * sz_sq * dmu_sq
+        + (truth["rho_sd"] * (1.0 - truth["rho"] ** 2)) ** 2 * r**2 * sz_sq / mu_sq
         + float(pair_log_sd) ** 2 * r**2 * dmu_r_sq
         + 1e-8
     )
@@ -312,7 +328,7 @@ def sbc_record_replication(
 ) -> dict:
     """One simulation-based-calibration replication (Talts et al. 2018) of the record model.
 
-    Draws the five parameters from the record model's prior (:func:`draw_record_prior`),
+    Draws the seven parameters from the record model's prior (:func:`draw_record_prior`),
     a campaign from its likelihood (:func:`draw_record_campaign`), fits it with
     :func:`~flidar_uq.inference.record_fit.fit_record_model` and returns the rank of each
     true value among ``n_rank_draws`` posterior draws taken uniformly from the stored
