@@ -270,10 +270,17 @@ def test_lever_arm_prior_from_geometry_pulls_the_lever_arm(caplog):
     phases = [r.getMessage() for r in caplog.records if r.name == "flidar_uq.inference.sampler"]
     assert phases[0].startswith("record model: burn-in, first half,")
     assert phases[1].startswith("record model: burn-in done,")
-    assert phases[2].startswith("record model: main phase,")
+    # burn-in rounds refitting the independence proposal, at most three (sampler._ADAPT_ROUNDS)
+    rounds = sum(p.startswith("record model: burn-in extended (independence") for p in phases)
+    assert rounds <= 3 and all(
+        p.startswith("record model: burn-in extended") for p in phases[2 : 2 + rounds]
+    )
+    assert phases[2 + rounds].startswith("record model: main phase,")
     steps = [int(p.split(" steps per walker")[0].rsplit(" ", 1)[1]) for p in phases]
     nburn = SamplerSettings().nburn
-    assert steps[:3] == [nburn // 2, nburn, nburn + 150] and steps == sorted(steps)
+    burned = [nburn * (1 + i) for i in range(rounds + 1)]
+    assert steps[: 3 + rounds] == [nburn // 2, *burned, burned[-1] + 150]
+    assert steps == sorted(steps)
     with pytest.raises(ValueError, match="lever_arm_prior"):
         fit_record_model(rec, seed=5, lever_arm_prior=(2.5, 0.0))
 

@@ -34,6 +34,10 @@ _INIT_WIDENING = 3.0
 # uses the full independence_weight (below: proportionally less, the rest DE)
 _INDEPENDENCE_FULL_ACCEPTANCE = 0.5
 
+# burn-in rounds (nburn steps each) added at most while the independence move's expected
+# acceptance stays below _INDEPENDENCE_FULL_ACCEPTANCE
+_ADAPT_ROUNDS = 3
+
 
 # central-difference step of the Laplace Hessian (sampler coordinates): its stencil
 # reaches 2 steps from the mode
@@ -159,16 +163,33 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq, check, *, l
     burn2 = _sampler(log_prob, args, ndim, nens * nw, main_moves(prop, w_ind), random_state)
     state = burn2.run_mcmc(state, nburn - nburn // 2, skip_initial_state_check=True)
     phase_done("burn-in done", nburn)
+    last, burned = burn2, nburn
     if w_ind > 0:
         prop = _fit_proposal(burn2, nens, 0.0)
         # the independence move's share follows how well the fitted Student-t matches the
         # posterior (its expected acceptance rate, worst ensemble): a non-Gaussian posterior
         # (a boundary, a banana) is left mostly to DE
         acc = _independence_acceptance(prop, state, log_prob, args, nens, ss_check)
+        # a slowly mixing burn-in leaves a Student-t fitted to walkers that have not yet
+        # spread over the posterior: more burn-in rounds with the main kernel, each refitting
+        # the Student-t to the round before, while its acceptance falls short (all adaptation
+        # still ends before the main phase)
+        for ss_round in ss_check.spawn(_ADAPT_ROUNDS):
+            if acc >= _INDEPENDENCE_FULL_ACCEPTANCE:
+                break
+            w_round = w_ind * min(1.0, acc / _INDEPENDENCE_FULL_ACCEPTANCE)
+            last = _sampler(
+                log_prob, args, ndim, nens * nw, main_moves(prop, w_round), last.random_state
+            )
+            state = last.run_mcmc(state, nburn, skip_initial_state_check=True)
+            burned += nburn
+            prop = _fit_proposal(last, nens, 0.0)
+            acc = _independence_acceptance(prop, state, log_prob, args, nens, ss_round)
+            phase_done(f"burn-in extended (independence acceptance {acc:.2f})", burned)
         w_ind *= min(1.0, acc / _INDEPENDENCE_FULL_ACCEPTANCE)
-    main = _sampler(log_prob, args, ndim, nens * nw, main_moves(prop, w_ind), burn2.random_state)
+    main = _sampler(log_prob, args, ndim, nens * nw, main_moves(prop, w_ind), last.random_state)
     main.run_mcmc(state, settings.nsteps, skip_initial_state_check=True)
-    phase_done("main phase", nburn + settings.nsteps)
+    phase_done("main phase", burned + settings.nsteps)
 
     def chains():
         return np.moveaxis(main.get_chain().reshape(-1, nens, nw, ndim), 1, 0)
@@ -185,9 +206,10 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq, check, *, l
         if need <= nsteps:
             break
         extra = min(need, cap) - nsteps
+        why = "; ".join(reasons) or f"chain < {1.1 * settings.n_autocorr:g} tau"
         main.run_mcmc(None, extra, skip_initial_state_check=True)
         nsteps += extra
-        phase_done("main phase extended (convergence not yet shown)", nburn + nsteps)
+        phase_done(f"main phase extended ({why})", burned + nsteps)
         ch = chains()
         diag, reasons = check(ch)
     return ch, diag, reasons

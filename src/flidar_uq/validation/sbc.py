@@ -27,6 +27,7 @@ from flidar_uq.inference import (
     fit_global,
     fit_record_model,
 )
+from flidar_uq.inference.record_fit import RECORD_MODEL_NAMES
 from flidar_uq.inference.record_motion import gram_sigma_z_ms, motion_gram
 from flidar_uq.physics.motion_spectrum import TiltBandSpectrum
 from flidar_uq.physics.surrogate import default_surrogate
@@ -157,16 +158,9 @@ def sbc_replication(
 
 # --- the record motion model (flidar_uq.inference.record_fit) -------------------------
 
-#: Parameters of the record motion model whose ranks :func:`sbc_record_replication` returns.
-SBC_RECORD_PARAMS = (
-    "rho",
-    "kappa",
-    "kappa_z",
-    "lever_arm_m",
-    "motion_scale",
-    "hull_response",
-    "rho_sd",
-)
+#: Parameters of the record motion model whose ranks :func:`sbc_record_replication` returns
+#: (every parameter of the model).
+SBC_RECORD_PARAMS = RECORD_MODEL_NAMES
 
 
 def _trunc_halfnormal(rng, scale, lo, hi):

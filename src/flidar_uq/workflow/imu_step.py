@@ -86,8 +86,7 @@ def imu_statistics(
             info["record_rows_overridden"],
             len(records),
         )
-    # every bit kept: the statistics replace the record table's columns in later steps
-    write_csv(result.statistics, statistics_out, float_format="%.17g")
+    write_csv(result.statistics, statistics_out)  # every bit: they replace record columns
     gaps = result.gaps.copy()
     for col in ("start", "end"):  # sub-second times (write_csv keeps whole seconds)
         gaps[col] = gaps[col].dt.strftime("%Y-%m-%dT%H:%M:%S.%fZ")
