@@ -9,6 +9,9 @@ SHELL := /bin/bash
 VENV  ?= .venv
 PY     = $(VENV)/bin/python
 CORES ?= all
+# test processes of `make test` (pytest-xdist; a test file stays in one process, so that
+# its module fixtures, e.g. the SLURM cluster, start once)
+TEST_WORKERS ?= 2
 
 .PHONY: run test test-fast venv lint lock bench clean
 
@@ -31,7 +34,8 @@ run: venv
 test: venv
 	bash scripts/system-deps.sh
 	$(VENV)/bin/lint-imports --no-cache
-	$(VENV)/bin/python -m pytest -m "slow or not slow" -p no:cacheprovider
+	$(VENV)/bin/python -m pytest -m "slow or not slow" -p no:cacheprovider \
+	  -n $(TEST_WORKERS) --dist loadfile
 
 test-fast: venv
 	$(VENV)/bin/python -m pytest

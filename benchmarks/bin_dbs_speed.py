@@ -36,6 +36,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+from timing import best_time  # noqa: E402
 
 from flidar_uq.correction.propagation import PropagationSettings, draw_corrected_ti  # noqa: E402
 from flidar_uq.inference import (  # noqa: E402
@@ -104,15 +105,6 @@ def _campaign(n_bins, n_two, n_records, seed):
     return fits, records, gf
 
 
-def _best_wall(fn, repeats):
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
 def _steps(fits, records, gf, lidar):
     """The three timed calls of one lidar, as closures."""
     sur = get_surrogate(lidar)
@@ -154,7 +146,7 @@ def main() -> None:
         for case, lidar in CASES.items():
             rec = records.assign(heading_mean_deg=np.nan) if case.endswith("unknown") else records
             for step, fn in _steps(fits, rec, gf, lidar).items():
-                times[case, step] = _best_wall(fn, args.repeats)
+                times[case, step] = best_time(fn, repeats=args.repeats)[0]
         for step in ("moments", "likelihood", "propagation"):
             row = {"campaign": name, "n_bins": n_bins, "n_records": n_records, "step": step}
             row |= {f"{case}_s": times[case, step] for case in CASES}

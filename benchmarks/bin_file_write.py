@@ -30,6 +30,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 import yaml  # noqa: E402
+from timing import best_time  # noqa: E402
 
 from flidar_uq import inference as inf  # noqa: E402
 from flidar_uq.inference import results  # noqa: E402
@@ -51,15 +52,6 @@ def _old_save(fit, path) -> None:
     enc.setdefault("/log_likelihood", {}).setdefault("obs", dict(results._COMPRESSION))
     enc["/log_likelihood"]["obs"]["dtype"] = "float32"
     dt.to_netcdf(path, engine="h5netcdf", encoding=enc)
-
-
-def _best_cpu(fn, repeats):
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.process_time()
-        fn()
-        best = min(best, time.process_time() - t0)
-    return best
 
 
 @single_threaded
@@ -88,8 +80,16 @@ def main() -> None:
                 bin_id=int(b),
             )
             old_p, new_p = Path(tmp) / f"old_{b}.nc", Path(tmp) / f"new_{b}.nc"
-            t_old = _best_cpu(lambda: _old_save(fit, old_p), args.repeats)  # noqa: B023
-            t_new = _best_cpu(lambda: inf.save_fit(fit, new_p), args.repeats)  # noqa: B023
+            t_old = best_time(
+                lambda fit=fit, p=old_p: _old_save(fit, p),
+                repeats=args.repeats,
+                clock=time.process_time,
+            )[0]
+            t_new = best_time(
+                lambda fit=fit, p=new_p: inf.save_fit(fit, p),
+                repeats=args.repeats,
+                clock=time.process_time,
+            )[0]
             back = inf.load_fit(new_p)
             same_loo = all(
                 np.array_equal(np.asarray(back.loo()[k]), np.asarray(fit.loo()[k]))

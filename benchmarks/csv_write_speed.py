@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import tempfile
-import time
 from pathlib import Path
 
 import matplotlib
@@ -26,6 +25,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+from timing import best_time  # noqa: E402
 
 from flidar_uq.data.io import write_csv  # noqa: E402
 
@@ -49,15 +49,6 @@ def _synthetic(n_rows: int, seed: int = 11) -> pd.DataFrame:
     return pd.DataFrame(cols)
 
 
-def _best(fn, repeats: int) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--table", type=Path, default=None)
@@ -75,8 +66,8 @@ def main() -> None:
         old_p, new_p = Path(tmp) / "old.csv", Path(tmp) / "new.csv"
         for share in (0.01, 0.10, 0.35, 1.0):
             df = full.iloc[: max(1, int(round(share * len(full))))]
-            t_old = _best(lambda df=df: _old_write(df, old_p), args.repeats)
-            t_new = _best(lambda df=df: write_csv(df, new_p), args.repeats)
+            t_old = best_time(lambda df=df: _old_write(df, old_p), repeats=args.repeats)[0]
+            t_new = best_time(lambda df=df: write_csv(df, new_p), repeats=args.repeats)[0]
             back_new = pd.read_csv(new_p)[floats].to_numpy()
             back_old = pd.read_csv(old_p)[floats].to_numpy()
             x = df[floats].to_numpy()

@@ -29,6 +29,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from timing import best_time  # noqa: E402
 
 from flidar_uq.data.io import read_csv  # noqa: E402
 from flidar_uq.inference import record_fit  # noqa: E402
@@ -43,15 +44,6 @@ SEED = 20181122  # the default campaign's seed
 def _whole_rows(theta, s, r, gram, pair_sq):
     """The pointwise array of every walker and record, then its row sums."""
     return record_fit._record_loglik_pointwise(theta, s, r, gram, pair_sq).sum(axis=1)
-
-
-def _best_cpu(fn, args, repeats):
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.process_time()
-        value = fn(*args)
-        best = min(best, time.process_time() - t0)
-    return best, value
 
 
 def _records(args):
@@ -82,8 +74,12 @@ def main() -> None:
     for walkers in (1, 32, 64):
         theta = centre + 0.01 * rng.standard_normal((walkers, centre.size))
         inputs = (theta, s, r, gram, pair_sq)
-        t_rows, rows_sum = _best_cpu(_whole_rows, inputs, args.repeats)
-        t_lib, lib_sum = _best_cpu(record_fit._record_loglik_sum, inputs, args.repeats)
+        t_rows, rows_sum = best_time(
+            _whole_rows, *inputs, repeats=args.repeats, clock=time.process_time
+        )
+        t_lib, lib_sum = best_time(
+            record_fit._record_loglik_sum, *inputs, repeats=args.repeats, clock=time.process_time
+        )
         rel = float(np.max(np.abs(lib_sum - rows_sum) / np.abs(rows_sum)))
         rows.append(
             {

@@ -46,7 +46,29 @@ def test_calibration_by_group_hand_computed():
     assert out.loc["a", "mean_rel_error"] == pytest.approx(0.0)
     assert out.loc["b", "coverage"] == pytest.approx(0.5)
     assert out.loc["b", "mean_rel_error"] == pytest.approx(0.1)
+    # errors (0.1, -0.1) and (0.0, 0.2): sample sd 0.1414 over sqrt(2) = 0.1
+    assert out.loc["a", "mean_rel_error_se"] == pytest.approx(0.1)
+    assert out.loc["b", "mean_rel_error_se"] == pytest.approx(0.1)
     assert out.loc["b", "median_rel_width"] == pytest.approx(np.median([0.4, 0.25]))
+
+
+def test_mean_error_standard_error_shrinks_as_one_over_root_n_and_needs_two_records():
+    rng = np.random.default_rng(7)
+    n = 400
+    err = rng.normal(0.0, 0.1, n)
+    recs = pd.DataFrame(
+        {
+            "g": ["big"] * n + ["one"],
+            "ti_true": np.full(n + 1, 0.1),
+            "ti_corrected_median": 0.1 * (1.0 + np.append(err, 0.05)),
+            "ti_corrected_lo": np.full(n + 1, 0.05),
+            "ti_corrected_hi": np.full(n + 1, 0.2),
+        }
+    )
+    out = calibration_by_group(recs, "g").set_index("g")
+    assert out.loc["big", "mean_rel_error_se"] == pytest.approx(err.std(ddof=1) / 20.0)
+    assert 0.004 < out.loc["big", "mean_rel_error_se"] < 0.006  # 0.1 / sqrt(400) = 0.005
+    assert np.isnan(out.loc["one", "mean_rel_error_se"])
 
 
 def test_calibration_by_group_names_missing_column():

@@ -36,7 +36,9 @@ def _check_calibrated(records: pd.DataFrame, what: str) -> None:
     overall = tab[tab["grouping"] == "all"].iloc[0]
     groups = _groups(records)
     assert len(groups) >= 3, f"{what}: too few groups with >= {MIN_GROUP} records"
-    shown = groups[["grouping", "group", "n", "coverage", "mean_rel_error"]].to_string()
+    shown = groups[
+        ["grouping", "group", "n", "coverage", "mean_rel_error", "mean_rel_error_se"]
+    ].to_string()
     assert groups["coverage"].between(0.85, 0.95).all(), f"{what}: coverage\n{shown}"
     assert (groups["mean_rel_error"].abs() <= 0.015).all(), f"{what}: error\n{shown}"
     assert abs(overall["mean_rel_error"]) <= 0.01, f"{what}: aggregate error {overall}"
@@ -160,6 +162,8 @@ def test_report_regime_table_scores_qc_kept_records_only():
     assert tab.loc[("all", "all"), "n"] == 2
     assert tab.loc[("all", "all"), "coverage"] == pytest.approx(0.5)
     assert tab.loc[("sea_state", "swell"), "mean_rel_error"] == pytest.approx(0.2)
+    # errors 0 and 0.2: sample sd 0.1414 over sqrt(2)
+    assert tab.loc[("all", "all"), "mean_rel_error_se"] == pytest.approx(0.1)
     assert "heading" not in tab.index.get_level_values("grouping")  # no heading truth
     assert "coverage_total" not in tab  # no total interval: a cup's
     # a reference lidar's g error in the total interval: scored beside the record interval

@@ -127,7 +127,12 @@ def calibration_by_group(
         those, with a finite interval), ``answered_share``, ``coverage`` (share of
         answered records whose interval holds the known TI) with its 95 % Wilson
         interval ``coverage_lo``, ``coverage_hi``, ``mean_rel_error`` (mean of
-        median / known - 1), ``median_rel_width`` (median of (hi - lo) / median).
+        median / known - 1) with its standard error ``mean_rel_error_se`` (the sample
+        standard deviation over the square root of ``n_answered``, records taken as
+        independent; NaN below two answered records), ``median_rel_width`` (median of
+        (hi - lo) / median). The standard error says how far a group's mean error can
+        stray from zero by chance alone: with a per-record scatter of 10 %, 200 records
+        give 0.7 %.
     """
     by = [by] if isinstance(by, str) else list(by)
     for c in (*by, known, median, lo, hi):
@@ -165,6 +170,9 @@ def calibration_by_group(
                 "coverage_lo": float(c_lo),
                 "coverage_hi": float(c_hi),
                 "mean_rel_error": float(np.nanmean(g["_rel_err"])) if k else np.nan,
+                "mean_rel_error_se": (
+                    float(np.nanstd(g["_rel_err"], ddof=1) / np.sqrt(k)) if k >= 2 else np.nan
+                ),
                 "median_rel_width": float(np.nanmedian(g["_rel_width"])) if k else np.nan,
             }
         )

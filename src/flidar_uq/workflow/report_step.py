@@ -74,7 +74,7 @@ def regime_calibration_table(records: pd.DataFrame) -> pd.DataFrame:
     if "true_period_s" not in records:
         tab = tab[tab["grouping"] != "wave_period"]
     cols = ["grouping", "group", "n", "answered_share", "coverage", "coverage_lo"]
-    cols += ["coverage_hi", "mean_rel_error", "median_rel_width"]
+    cols += ["coverage_hi", "mean_rel_error", "mean_rel_error_se", "median_rel_width"]
     total = ("ti_corrected_lo_total", "ti_corrected_hi_total")
     if all(c in pool for c in total) and not pool[list(total)].equals(
         pool[["ti_corrected_lo", "ti_corrected_hi"]].set_axis(list(total), axis=1)
@@ -761,7 +761,8 @@ def _methods_section(ctx: dict) -> rep.Section:
 _REGIME_LABELS = {
     "grouping": "grouping", "group": "group", "n": "records", "answered_share": "answered",
     "coverage": "coverage", "coverage_lo": "coverage low", "coverage_hi": "coverage high",
-    "mean_rel_error": "mean rel. error", "median_rel_width": "median rel. width",
+    "mean_rel_error": "mean rel. error", "mean_rel_error_se": "its std. error",
+    "median_rel_width": "median rel. width",
     "coverage_total": "coverage (total)", "median_rel_width_total": "median rel. width (total)",
 }  # fmt: skip
 
