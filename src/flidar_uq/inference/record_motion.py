@@ -831,20 +831,16 @@ def gram_coefficients(motion_scale, hull_response, lever_arm_m):
 def _quadratic_forms(gram, lever_arm_m, hull_response, motion_scale):
     """``v^T G v`` of each Gram part of ``gram`` (:func:`gram_sigma_z_ms`): the along-wind
     one, and with :data:`CROSS_WIND_COLUMNS` the cross-wind and covariance ones (else None)."""
-    k = np.asarray(motion_scale, float)
     h = np.asarray(hull_response, float)
-    lev = np.asarray(lever_arm_m, float)
     if "translation_measured" in gram:  # measured translation: the response is known
         meas = np.asarray(gram["translation_measured"], float)
         h = h + meas * (1.0 - h)
-    k, h, lev = np.broadcast_arrays(k, h, lev)
-    v = (k, k * h, lev, h)
+    coef = gram_coefficients(motion_scale, h, np.asarray(lever_arm_m, float))
 
     def form(columns):
         var = 0.0
-        for n, (i, j) in enumerate(_GRAM_IJ):
-            w = 1.0 if i == j else 2.0
-            var = var + w * v[i] * v[j] * np.asarray(gram[columns[n]], float)
+        for n, c in enumerate(columns):
+            var = var + coef[..., n] * np.asarray(gram[c], float)
         return var
 
     if CROSS_WIND_COLUMNS[0] not in gram:
