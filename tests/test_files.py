@@ -6,9 +6,11 @@ from __future__ import annotations
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from flidar_uq.data.io import _write
 from flidar_uq.workflow.files import job_resources, write_csv
@@ -93,3 +95,25 @@ def test_a_rule_log_ends_with_the_jobs_cpu_time_and_peak_memory(tmp_path):
     assert job_resources(tmp_path / "missing.log") is None
     # arviz's import-time backend notes (INFO) stay out of the rule logs
     assert "arviz" not in log.read_text()
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="Linux /proc only")
+def test_a_rule_logs_its_own_peak_memory_not_its_large_parents(tmp_path):
+    """A job started by a parent with a large resident set (Snakemake, or a test worker
+    that ran big fits) logs its own peak: getrusage's ru_maxrss would report the parent's,
+    inherited through vfork and exec."""
+    log = tmp_path / "rule.log"
+    job = (
+        "import numpy as np\n"
+        "from flidar_uq.workflow.files import setup_logging\n"
+        f"setup_logging({str(log)!r})\n"
+        "a = np.ones(10_000_000)  # 76 MiB\n"
+    )
+    parent = (
+        "import subprocess, sys, numpy as np\n"
+        "big = np.ones(200_000_000)  # 1.5 GiB resident in the parent\n"
+        f"subprocess.run([sys.executable, '-c', {job!r}], check=True)\n"
+    )
+    subprocess.run([sys.executable, "-c", parent], check=True)
+    _, rss_mb, _ = job_resources(log)
+    assert 76 <= rss_mb < 800, rss_mb

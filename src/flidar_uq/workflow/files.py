@@ -8,6 +8,7 @@ import atexit
 import logging
 import os
 import re
+import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -33,18 +34,38 @@ class JobResources(NamedTuple):
     end_unix: float | None  #: wall-clock time of the exit, s since the Unix epoch
 
 
+def _peak_rss_mb() -> float:
+    """Peak resident memory of this process's own address space, MB (2^20 bytes).
+
+    On Linux ``VmHWM`` of ``/proc/self/status``: ``getrusage``'s ``ru_maxrss`` also keeps
+    the high-water mark of the address space the process had before its ``exec``, which
+    for a process started by ``vfork`` (Python's ``subprocess``, Snakemake's jobs) is its
+    parent's, so a small job of a large parent would report the parent's peak. Elsewhere
+    ``ru_maxrss`` (bytes on macOS, KiB on other systems)."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024  # kB
+    except (OSError, ValueError, IndexError):
+        pass
+    import resource
+
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return rss / 2**20 if sys.platform == "darwin" else rss / 1024
+
+
 def _log_job_resources() -> None:
     """Log this process's CPU time (user + system, its finished child processes included,
-    e.g. the campaign's workers), its own peak resident memory (``getrusage``) and the
-    wall-clock time of its exit."""
+    e.g. the campaign's workers), its own peak resident memory (:func:`_peak_rss_mb`) and
+    the wall-clock time of its exit."""
     import resource
 
     own = resource.getrusage(resource.RUSAGE_SELF)
     children = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
-    # Linux reports ru_maxrss in KiB
     logging.getLogger("flidar_uq.workflow").info(
-        _RESOURCES.format(cpu=cpu, rss=own.ru_maxrss / 1024, end=time.time())
+        _RESOURCES.format(cpu=cpu, rss=_peak_rss_mb(), end=time.time())
     )
 
 
