@@ -75,11 +75,7 @@ def one_campaign(scenario: str, seed: int) -> pd.DataFrame:
     t0 = time.perf_counter()
     records, fit = scenario_records(scenario, seed, n_workers=1, **RUNS[scenario])
     tab = scenario_calibration(records)
-    tab = tab[(tab["grouping"] == "all") | (tab["n"] >= MIN_GROUP)]
-    # one group under two names (a fixed heading's "heading" group is "all"; its
-    # "sea_state_heading" groups are the "sea_state" ones) counts once
-    same = ["n", "coverage", "mean_rel_error", "median_rel_width"]
-    tab = tab[~tab.duplicated(subset=same, keep="first")].copy()
+    tab = tab[(tab["grouping"] == "all") | (tab["n"] >= MIN_GROUP)].copy()
     hull = {
         f"{p}_median": float(np.median(fit.flat(p)))
         for p in ("lever_arm_m", "motion_scale", "hull_response")

@@ -701,3 +701,54 @@ def test_horizontal_velocity_is_the_rotation_centres_and_changes_nothing_else():
         assert np.std(imu["velocity_up_ms"]) == pytest.approx(
             r["true_heave_velocity_std_ms"], rel=0.02
         )
+
+
+def test_vertical_acceleration_gives_the_directions_of_the_vertical_velocity():
+    """imu.vertical_acceleration writes the hull's heave acceleration (m/s^2, the second
+    difference of the heave on the LOS clock) instead of its velocity: its noise is drawn
+    last, so every record column but the bands' measured directions is that of the same
+    scenario with the velocity, and noise-free those directions agree within 0.02 (rms
+    over the records) in every band that carries >= 4 % of the tilt variance (and so does
+    the heave-tilt correlation made of them). It is the rate of change of the other run's
+    velocity."""
+    base = load_scenario("wave_follower") | {"n_records": 24, "heights_m": [58.0]}
+    runs = {}
+    for option in ("vertical_velocity", "vertical_acceleration"):
+        sc = dict(base)
+        sc["imu"] = sc.get("imu", {}) | {
+            option: True,
+            "gap_probability": 0.0,
+            "vertical_velocity_noise_ms": 0.0,
+            "vertical_acceleration_noise_ms2": 0.0,
+        }
+        runs[option] = generate_campaign(sc, 8, return_imu=True, n_workers=1)
+    v, a = runs["vertical_velocity"], runs["vertical_acceleration"]
+    assert "acceleration_up_ms2" in a.imu and "velocity_up_ms" not in a.imu
+    measured = [c for c in v.records if c.startswith("tilt_band") and c.endswith("psi")]
+    assert len(measured) == 24
+    measured.append("follower_heave_tilt_correlation")  # from the bands' <cos psi>
+    pd.testing.assert_frame_equal(
+        v.records.drop(columns=measured), a.records.drop(columns=measured), check_exact=True
+    )
+    np.testing.assert_allclose(a.records[measured[-1]], v.records[measured[-1]], atol=0.01)
+    var = {
+        b: v.records[f"tilt_band{b}_along_wind_var_deg2"]
+        + v.records[f"tilt_band{b}_across_wind_var_deg2"]
+        for b in range(1, 9)
+    }
+    total = sum(x.sum() for x in var.values())
+    carried = [b for b in var if var[b].sum() >= 0.04 * total]
+    assert len(carried) >= 3
+    for b in carried:
+        for m in ("cos_psi", "sin_psi", "sincos_psi"):
+            d = a.records[f"tilt_band{b}_{m}"] - v.records[f"tilt_band{b}_{m}"]
+            assert np.sqrt(np.mean(d**2)) < 0.02, (b, m)
+    # the acceleration is the velocity's rate of change (here differenced on the 5-Hz clock)
+    rate = 1.0 / a.imu["timestamp"].diff().dt.total_seconds().median()
+    starts = a.imu["timestamp"].dt.floor("600s")
+    for _, imu in a.imu.groupby(starts):
+        dw = np.gradient(v.imu.loc[imu.index, "velocity_up_ms"].to_numpy(), 1.0 / rate)
+        acc = imu["acceleration_up_ms2"].to_numpy()
+        assert np.corrcoef(acc, dw)[0, 1] > 0.98
+        # the 5-Hz central difference damps the shortest waves' share a little
+        assert np.std(dw) <= np.std(acc) <= 1.15 * np.std(dw)

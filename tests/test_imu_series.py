@@ -279,23 +279,30 @@ def test_time_cursor_serves_overlapping_ranges_in_order():
     assert len(cursor.take(T0 + pd.Timedelta(seconds=2000), T0 + pd.Timedelta(seconds=2100))) == 0
 
 
-def test_vertical_velocity_gives_the_bands_measured_direction_as_in_the_campaign(tmp_path):
-    """A wave follower's IMU series with the vertical velocity (imu.vertical_velocity): the
-    streamed statistics carry tilt_band{b}_cos_psi, equal to the campaign's own, and a
-    series without the column gives none."""
+@pytest.mark.parametrize(
+    ("option", "column"),
+    [("vertical_velocity", "velocity_up_ms"), ("vertical_acceleration", "acceleration_up_ms2")],
+)
+def test_vertical_velocity_gives_the_bands_measured_direction_as_in_the_campaign(
+    tmp_path, option, column
+):
+    """A wave follower's IMU series with the vertical velocity (imu.vertical_velocity), or
+    with the vertical acceleration of an inertial unit without a velocity output
+    (imu.vertical_acceleration): the streamed statistics carry tilt_band{b}_cos_psi, equal
+    to the campaign's own, and a series without the column gives none."""
     from flidar_uq.campaign.scenarios import load_scenario
 
     sc = load_scenario("wave_follower") | {"n_records": 6, "heights_m": [58.0]}
-    sc["imu"] = sc.get("imu", {}) | {"vertical_velocity": True, "gap_probability": 0.0}
+    sc["imu"] = sc.get("imu", {}) | {option: True, "gap_probability": 0.0}
     camp = generate_campaign(sc, 5, return_imu=True, n_workers=1)
-    assert "velocity_up_ms" in camp.imu
+    assert column in camp.imu
     cols = [f"tilt_band{b}_cos_psi" for b in range(1, 9)]
     path = tmp_path / "imu.csv"
     io.write_imu_series(camp.imu, path)
     got = series_motion_statistics(path, camp.records, chunk_rows=4000).statistics
     np.testing.assert_allclose(got[cols], camp.records[cols], rtol=1e-9, atol=1e-9)
     assert np.isfinite(got[cols].to_numpy()).any()
-    io.write_imu_series(camp.imu.drop(columns="velocity_up_ms"), path)
+    io.write_imu_series(camp.imu.drop(columns=column), path)
     without = series_motion_statistics(path, camp.records, chunk_rows=4000).statistics
     assert not set(cols) & set(without.columns)
 

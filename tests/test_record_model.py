@@ -700,3 +700,30 @@ def test_record_model_on_a_subsample_fits_the_stated_number_and_agrees_with_the_
         # the subsample's posterior holds the whole fit's median and is wider (fewer data)
         assert np.quantile(b, 0.005) <= np.median(a) <= np.quantile(b, 0.995), name
         assert np.std(b) > np.std(a), name
+
+
+def test_describe_motion_says_whether_the_wave_directions_were_measured():
+    """Tilt bands with the translation from the tilt spectrum: the bands' directions of
+    travel are "measured" where the record has them from the heave
+    (tilt_band{b}_cos_psi), else "assumed"; "" where they do not enter (moments, or the
+    rotation-only hull)."""
+    from flidar_uq.inference.record_motion import FOLLOWER_COLUMNS, describe_motion
+
+    n = 3
+    cols = {"hws_mean_ms": np.full(n, 8.0)}
+    for b in range(1, 9):
+        cols[f"tilt_band{b}_period_s"] = np.full(n, 1.3 * 1.45 ** (b - 1))
+        cols[f"tilt_band{b}_along_wind_var_deg2"] = np.full(n, 1.0)
+        cols[f"tilt_band{b}_across_wind_var_deg2"] = np.full(n, 0.5)
+    rec = pd.DataFrame(cols)
+    for c in FOLLOWER_COLUMNS:
+        rec[c] = 0.5
+    assert describe_motion(rec)["motion_description"].eq("tilt_bands").all()
+    assert describe_motion(rec)["wave_direction_description"].eq("assumed").all()
+    heave = rec.assign(**{f"tilt_band{b}_cos_psi": [0.4, np.nan, 0.1] for b in range(1, 9)})
+    d = describe_motion(heave)
+    assert list(d["wave_direction_description"]) == ["measured", "assumed", "measured"]
+    rotation = describe_motion(heave, hull_model="rotation_only")
+    assert rotation["wave_direction_description"].eq("").all()
+    moments = describe_motion(rec.drop(columns=[c for c in rec if c.startswith("tilt_band")]))
+    assert moments["wave_direction_description"].eq("").all()

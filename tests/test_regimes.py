@@ -15,7 +15,12 @@ import pandas as pd
 import pytest
 
 from flidar_uq.data.calibration import calibration_by_group
-from flidar_uq.validation.regimes import regime_labels, scenario_calibration, scenario_records
+from flidar_uq.validation.regimes import (
+    REGIME_COLUMNS,
+    regime_labels,
+    scenario_calibration,
+    scenario_records,
+)
 
 MIN_GROUP = 200
 SEEDS = (1, 2)
@@ -141,6 +146,34 @@ def test_regime_labels_from_truth_columns():
         ti_true=0.1, ti_corrected_median=0.1, ti_corrected_lo=0.09, ti_corrected_hi=0.11
     )
     assert calibration_by_group(rec, "sea_state")["coverage"].tolist() == [1.0, 1.0]
+
+
+def test_calibration_table_counts_no_group_twice():
+    """At a fixed heading the heading grouping is the whole campaign and sea state x
+    heading is the sea state: neither is listed again; with both headings all are."""
+    rng = np.random.default_rng(7)
+    n = 40
+    rec = pd.DataFrame(
+        {
+            "hws_mean_ms": rng.uniform(3.0, 15.0, n),
+            "true_swell_present": (np.arange(n) % 2).astype(float),
+            "true_weathervane": np.zeros(n),
+            "true_period_s": rng.uniform(2.0, 10.0, n),
+            "ti_true": 0.1,
+            "ti_corrected_median": rng.normal(0.1, 0.01, n),
+        }
+    )
+    rec = rec.assign(
+        ti_corrected_lo=rec["ti_corrected_median"] - 0.01,
+        ti_corrected_hi=rec["ti_corrected_median"] + 0.01,
+    )
+    fixed = scenario_calibration(pd.concat([rec, regime_labels(rec)], axis=1))
+    assert set(fixed["grouping"]) == {"all", "speed_group", "sea_state", "wave_period"}
+    assert not fixed.duplicated(["n", "coverage", "mean_rel_error"]).any()
+    both = rec.assign(true_weathervane=(np.arange(n) % 3 == 0).astype(float))
+    mixed = scenario_calibration(pd.concat([both, regime_labels(both)], axis=1))
+    assert set(mixed["grouping"]) == {"all", *REGIME_COLUMNS}
+    assert (mixed["grouping"] == "sea_state_heading").sum() == 4
 
 
 def test_report_regime_table_scores_qc_kept_records_only():
@@ -326,6 +359,17 @@ def test_rotation_only_buoy_keeps_its_calibration_and_no_hull_response(seed):
 HEAVE_SEEDS = (125029014, 1100465239)
 
 
+@functools.cache
+def _run_heave(scenario: str, heave: str, seed: int):
+    """The scenario with the heave in its IMU series: ``heave`` is ``"vertical_velocity"``
+    or ``"vertical_acceleration"`` (the scenario's ``imu`` option)."""
+    from flidar_uq.campaign.scenarios import load_scenario
+
+    sc = load_scenario(scenario)
+    sc["imu"] = sc.get("imu", {}) | {heave: True}
+    return scenario_records(sc, seed)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", HEAVE_SEEDS)
 @pytest.mark.parametrize("scenario", ["wave_follower", "wave_follower_weathervane"])
@@ -338,11 +382,7 @@ def test_wave_follower_with_heave_recovers_the_motion_scale_and_the_lever_arm(sc
     (Without the heave, k came out 0.67-0.78 on these scenarios: the wave-age rule's
     assumed directions over-predict the vertical-wind leak of mixed wind-sea and swell
     bands.)"""
-    from flidar_uq.campaign.scenarios import load_scenario
-
-    sc = load_scenario(scenario)
-    sc["imu"] = sc.get("imu", {}) | {"vertical_velocity": True}
-    records, fit = scenario_records(sc, seed)
+    records, fit = _run_heave(scenario, "vertical_velocity", seed)
     assert fit.converged, fit.failure_reasons
     assert {f"tilt_band{b}_cos_psi" for b in range(1, 9)} <= set(records.columns)
     assert records["ti_corrected_median"].notna().mean() >= 0.99
@@ -354,6 +394,24 @@ def test_wave_follower_with_heave_recovers_the_motion_scale_and_the_lever_arm(sc
     assert 0.9 <= k <= 1.1, k
     assert 0.9 <= h <= 1.1, h
     assert abs(lever - float(records["true_lever_arm_m"].iloc[0])) <= 0.5, lever
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", HEAVE_SEEDS)
+def test_wave_follower_heave_acceleration_gives_the_fit_of_its_velocity(seed):
+    """The same wave follower whose inertial unit gives the heave acceleration instead of
+    its velocity (imu.vertical_acceleration): corrected and calibrated in every group, and
+    each hull parameter's posterior median within half its posterior sd of the fit with
+    the velocity (the integrated acceleration costs the fit nothing it can resolve)."""
+    records, fit = _run_heave("wave_follower", "vertical_acceleration", seed)
+    _, with_velocity = _run_heave("wave_follower", "vertical_velocity", seed)
+    assert fit.converged, fit.failure_reasons
+    assert records["ti_corrected_median"].notna().mean() >= 0.99
+    _check_calibrated(records, f"wave_follower with the heave acceleration, seed {seed}")
+    for p in ("motion_scale", "hull_response", "lever_arm_m"):
+        ref = np.asarray(with_velocity.flat(p), float)
+        got = float(np.median(fit.flat(p)))
+        assert abs(got - np.median(ref)) <= 0.5 * np.std(ref), (p, got, np.median(ref))
 
 
 #: Seeds of the measured-translation acceptance runs, drawn once (secrets.randbelow(2**31))

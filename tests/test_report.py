@@ -552,3 +552,18 @@ def test_first_screen_says_which_motion_description_each_record_got():
         ]
     )
     assert motion_description_summary(rec.drop(columns="translation_description")) == ""
+    # tilt bands: whether each band's direction of travel was measured from the heave
+    bands = pd.DataFrame(
+        {
+            "motion_description": ["tilt_bands"] * 4,
+            "translation_description": ["tilt_spectrum"] * 3 + ["none"],
+            "wave_direction_description": ["measured", "measured", "assumed", ""],
+        }
+    )
+    parts = motion_description_summary(bands).split(" · ")
+    assert len(parts) == 3
+    assert parts[0].startswith("2 records: tilt spectrum by period bands")
+    assert parts[0].endswith("each wave band's direction of travel measured from the heave")
+    rest = sorted(parts[1:], key=lambda p: "assumed" not in p)
+    assert rest[0].startswith("1 records") and "directions of travel assumed" in rest[0]
+    assert rest[1].endswith("no translation (rotation about a fixed centre)")

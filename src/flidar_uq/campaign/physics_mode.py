@@ -44,7 +44,8 @@ Per 10-min record (``record_length_s``) and for every measurement height:
    records the point HWS series (the truth series, 1 Hz) (``ref_hws_*``; only in the
    first ``reference_days`` if set, always in ``true_ref_hws_*``); IMU roll/pitch/yaw sampled at ``imu.rate_hz`` with noise
    and gaps (and the rotation centre's translational velocity with ``imu.vertical_velocity``
-   and ``imu.horizontal_velocity``); 10-min statistics in the record format of ``docs/data-format.md``
+   and ``imu.horizontal_velocity``, its vertical acceleration with
+   ``imu.vertical_acceleration``); 10-min statistics in the record format of ``docs/data-format.md``
    plus ``true_*`` columns.
 
 Randomness: the scenario-level draws (all records at once) use one child of the
@@ -528,6 +529,11 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
         h_noise = float(settings["imu"]["horizontal_velocity_noise_ms"]) * rng.standard_normal(
             (2, noise.shape[1])
         )
+    a_noise = None  # the vertical acceleration's noise (m/s^2), drawn after them
+    if settings["imu"].get("vertical_acceleration") and trans is not None:
+        a_noise = float(settings["imu"]["vertical_acceleration_noise_ms2"]) * rng.standard_normal(
+            noise.shape[1]
+        )
     return dict(
         hws_h=hws_h,
         fluct_uvw=fluct,
@@ -543,6 +549,7 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
         imu_noise=noise,
         imu_w_noise=w_noise,
         imu_h_noise=h_noise,
+        imu_a_noise=a_noise,
         imu_gap=gap,
     )
 
@@ -693,6 +700,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
             "imu_noise",
             "imu_w_noise",
             "imu_h_noise",
+            "imu_a_noise",
         ):
             del s[key]  # the record's long series: done with
         series.append(s)
@@ -780,7 +788,9 @@ def _imu_series(s, yaw_c, ts_ns, clk):
     translational velocity (m/s, east-north-up: the central difference of its
     translation on the LOS clock, the one the lines of sight are simulated with) plus white
     noise of ``imu.horizontal_velocity_noise_ms`` and ``imu.vertical_velocity_noise_ms``,
-    as a motion reference unit or GNSS reports it. Returns the series (n_imu,) by column
+    as a motion reference unit or GNSS reports it. With ``imu.vertical_acceleration``, its
+    vertical acceleration (m/s^2: the second central difference on the LOS clock) plus white
+    noise of ``imu.vertical_acceleration_noise_ms2``. Returns the series (n_imu,) by column
     name of the IMU data contract, in its order, and their times, integer ns since the
     epoch (``ts_ns``: the record's start, ns).
     """
@@ -802,6 +812,9 @@ def _imu_series(s, yaw_c, ts_ns, clk):
     if s["imu_w_noise"] is not None:  # the vertical velocity of the rotation centre, m/s
         w = np.gradient(s["trans"][:, 2], dt)
         out["velocity_up_ms"] = _on_imu_clock(w, n_imu, rate, dt) + s["imu_w_noise"]
+    if s["imu_a_noise"] is not None:  # the vertical acceleration of the rotation centre
+        acc = np.gradient(np.gradient(s["trans"][:, 2], dt), dt)  # m/s^2
+        out["acceleration_up_ms2"] = _on_imu_clock(acc, n_imu, rate, dt) + s["imu_a_noise"]
     if s["imu_gap"] is not None:
         g = (t_imu >= s["imu_gap"][0]) & (t_imu < s["imu_gap"][1])
         for a in out.values():
@@ -1097,8 +1110,15 @@ def _imu_statistics(cols, settings, imu_att, imu_ns, wd_mean, clk):
     # tilt along and across the wind (each row's own measured wind direction), its
     # spectral moments and periods: the per-record motion description (docs/data-format.md);
     # the attitude's trigonometry once per record for all its heights
-    w_up = att.get("velocity_up_ms")
-    spec = _imu.tilt_band_statistics(roll, pitch, yaw, wd_mean, rate, velocity_up_ms=w_up)
+    spec = _imu.tilt_band_statistics(
+        roll,
+        pitch,
+        yaw,
+        wd_mean,
+        rate,
+        velocity_up_ms=att.get("velocity_up_ms"),
+        acceleration_up_ms2=att.get("acceleration_up_ms2"),
+    )
     for key, col in _imu.tilt_spectrum_columns(spec).items():
         cols[key] = np.asarray(col, float)
     # the buoy's mean heading over each record, as a compass would report it

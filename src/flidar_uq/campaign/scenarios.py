@@ -151,6 +151,11 @@ DEFAULT_SCENARIO: dict = {
         # then carry each tilt band's measured direction (tilt_band{b}_cos_psi)
         "vertical_velocity": False,
         "vertical_velocity_noise_ms": 0.02,
+        # the hull's vertical acceleration instead (acceleration_up_ms2, m/s^2, gravity
+        # removed), as an inertial unit without a velocity output reports it, with white
+        # noise (m/s^2): the IMU step integrates it to the heave velocity
+        "vertical_acceleration": False,
+        "vertical_acceleration_noise_ms2": 0.01,
         # the hull's horizontal velocity in the IMU series (velocity_east_ms,
         # velocity_north_ms, m/s, earth frame), as a motion reference unit or GNSS reports
         # it, with white noise (m/s): the LOS branch adds it to the head velocity

@@ -248,6 +248,7 @@ def band_direction_from_heave(
     across_deg,
     fs_hz: float,
     *,
+    acceleration_up_ms2=None,
     segment_s: float = 200.0,
     n_bands: int = 8,
     period_min_s: float = 1.0,
@@ -284,15 +285,26 @@ def band_direction_from_heave(
     a follower, in phase, gives the same ratios. Welch estimate as :func:`motion_spectrum`
     (gaps linearly filled, detrended, periodic Hann segments with 50 % overlap).
 
+    An inertial unit without a velocity output gives the heave acceleration instead: each
+    segment's transform of it divided by ``i omega`` is that of the velocity, as wave
+    buoys integrate their heave (Tucker and Pitt, 2001, Sec. 7.3), only at the bands'
+    frequencies (no high-pass needed below them). Integrated per frequency, a gap filled
+    linearly costs the spectra what it costs the tilt's; integrated in time, the lost
+    velocity change across it would offset the rest of the window.
+
     Parameters
     ----------
-    velocity_up_ms : array_like, shape (nwin, n)
-        Vertical velocity of the buoy, positive up, m/s (NaN: missing sample).
+    velocity_up_ms : array_like, shape (nwin, n), or None
+        Vertical velocity of the buoy, positive up, m/s (NaN: missing sample); None with
+        ``acceleration_up_ms2``.
     along_deg, across_deg : array_like, shape (nwin, n)
         Tilt along and across the mean wind (:func:`tilt_band_statistics`'s projection),
         deg.
     fs_hz : float
         Sampling rate, Hz.
+    acceleration_up_ms2 : array_like, shape (nwin, n), optional
+        Vertical acceleration of the buoy, positive up, gravity removed, m/s^2 (NaN:
+        missing sample): the heave when ``velocity_up_ms`` is None.
     segment_s, n_bands, period_min_s, period_max_s
         Welch segment (s) and the period bands (s), those of :func:`tilt_band_statistics`.
 
@@ -306,7 +318,11 @@ def band_direction_from_heave(
     """
     from flidar_uq.data import imu_kernels  # numba: imported where an estimator runs
 
-    rows = [_as_2d(a)[0] for a in (velocity_up_ms, along_deg, across_deg)]
+    from_acc = velocity_up_ms is None
+    if from_acc and acceleration_up_ms2 is None:
+        raise ValueError("band_direction_from_heave: give velocity_up_ms or acceleration_up_ms2")
+    heave = acceleration_up_ms2 if from_acc else velocity_up_ms
+    rows = [_as_2d(a)[0] for a in (heave, along_deg, across_deg)]
     n = rows[0].shape[-1]
     nperseg = int(min(n, round(segment_s * fs_hz)))
     step = nperseg - nperseg // 2
@@ -326,6 +342,9 @@ def band_direction_from_heave(
         for x in rows
     ]
     w, a, c = spectra
+    f = _fft.rfftfreq(nperseg, 1.0 / fs_hz)
+    if from_acc:  # the velocity's transform: the acceleration's over i omega (0 at f = 0)
+        w = w / np.where(f > 0, 2j * np.pi * f, np.inf)
     # (nwin, nf): co-spectra of the heave with the along- and across-wind tilt; the common
     # scale cancels below
     co_along = np.mean((np.conj(w) * a).real, axis=1)
@@ -333,7 +352,6 @@ def band_direction_from_heave(
     co_tilt = np.mean((np.conj(a) * c).real, axis=1)
     p_w = np.mean(np.abs(w) ** 2, axis=1)
     p_tilt = np.mean(np.abs(a) ** 2 + np.abs(c) ** 2, axis=1)
-    f = _fft.rfftfreq(nperseg, 1.0 / fs_hz)
     with np.errstate(divide="ignore"):
         per = np.where(f > 0, 1.0 / f, np.inf)
     edges = band_edges_s(n_bands, period_min_s, period_max_s)
@@ -904,6 +922,7 @@ def tilt_band_statistics(
     period_min_s: float = 1.0,
     period_max_s: float = 20.0,
     velocity_up_ms=None,
+    acceleration_up_ms2=None,
 ) -> TiltBandSpectrum:
     """Per-record tilt spectrum along and across the wind, reduced to period bands.
 
@@ -936,6 +955,9 @@ def tilt_band_statistics(
         ``<cos psi>`` and ``<sin psi>`` and its ``<sin psi cos psi>``
         (:func:`band_direction_from_heave`) are in ``cos_psi``, ``sin_psi`` and
         ``sincos_psi``.
+    acceleration_up_ms2 : array_like, shape like roll_deg, optional
+        Vertical acceleration of the buoy, positive up, gravity removed, m/s^2: without
+        ``velocity_up_ms``, the heave (:func:`band_direction_from_heave`).
 
     Returns
     -------
@@ -944,7 +966,11 @@ def tilt_band_statistics(
         ``(nwin * k, ...)``.
     """
     east, north = _tilt_vector(roll_deg, pitch_deg, yaw_deg)  # (nwin, n)
-    w_up = None if velocity_up_ms is None else _as_2d(velocity_up_ms)[0]
+    heave = {}  # the heave: its velocity, else its acceleration
+    if velocity_up_ms is not None:
+        heave["velocity_up_ms"] = _as_2d(velocity_up_ms)[0]
+    elif acceleration_up_ms2 is not None:
+        heave["acceleration_up_ms2"] = _as_2d(acceleration_up_ms2)[0]
     if np.ndim(wd_deg) == 2:  # k directions per series: rows (series, direction)
         wd = np.asarray(wd_deg, np.float64)
         if wd.shape[0] != east.shape[0]:
@@ -954,7 +980,7 @@ def tilt_band_statistics(
             )
         # each series projected on its k directions by broadcasting (rows: series, direction)
         east, north, wd = east[:, None, :], north[:, None, :], wd[:, :, None]
-        w_up = None if w_up is None else np.repeat(w_up, wd.shape[1], axis=0)
+        heave = {k: np.repeat(v, wd.shape[1], axis=0) for k, v in heave.items()}
     else:
         wd = np.asarray(wd_deg, np.float64).reshape(-1, 1) if np.ndim(wd_deg) else float(wd_deg)
     return _projected_band_spectrum(
@@ -966,7 +992,7 @@ def tilt_band_statistics(
         n_bands=n_bands,
         period_min_s=period_min_s,
         period_max_s=period_max_s,
-        velocity_up_ms=w_up,
+        **heave,
     )
 
 
@@ -990,9 +1016,11 @@ def _projected_band_spectrum(
     period_min_s,
     period_max_s,
     velocity_up_ms=None,
+    acceleration_up_ms2=None,
 ) -> TiltBandSpectrum:
     """Band spectrum of the tilt vector projected on the wind (``wd_deg`` broadcast; s, Hz),
-    with each band's ``<cos psi>`` from the vertical velocity (m/s) where it is given."""
+    with each band's ``<cos psi>`` from the vertical velocity (m/s) or acceleration
+    (m/s^2) where one is given."""
     along, across = project_tilt_on_wind_deg(east, north, wd_deg)
     if along.ndim == 3:  # (series, direction, sample): one row a (series, direction)
         along, across = (a.reshape(-1, a.shape[-1]) for a in (along, across))
@@ -1000,10 +1028,16 @@ def _projected_band_spectrum(
     _, pc = motion_spectrum(across, fs_hz, segment_s=segment_s)
     bands = dict(n_bands=n_bands, period_min_s=period_min_s, period_max_s=period_max_s)
     spec = tilt_band_spectrum(f, pa, pc, **bands)
-    if velocity_up_ms is None:
+    if velocity_up_ms is None and acceleration_up_ms2 is None:
         return spec
     cos_psi, sin_psi, sincos_psi = band_direction_from_heave(
-        velocity_up_ms, along, across, fs_hz, segment_s=segment_s, **bands
+        velocity_up_ms,
+        along,
+        across,
+        fs_hz,
+        acceleration_up_ms2=acceleration_up_ms2,
+        segment_s=segment_s,
+        **bands,
     )
     return replace(spec, cos_psi=cos_psi, sin_psi=sin_psi, sincos_psi=sincos_psi)
 
@@ -1266,8 +1300,9 @@ def _tilt_spectrum_windows(
     window_ns = int(round(window_s * 1e9))
     t0_ns = (int(t_ns[0]) // window_ns) * window_ns
     names = ["roll_deg", "pitch_deg"] + (["yaw_deg"] if "yaw_deg" in imu.columns else [])
-    heave = "velocity_up_ms" in imu.columns
-    names += ["velocity_up_ms"] if heave else []
+    # the heave: its velocity, else its acceleration (integrated below)
+    heave = next((c for c in ("velocity_up_ms", "acceleration_up_ms2") if c in imu.columns), None)
+    names += [heave] if heave else []
     vals = imu[names].to_numpy(dtype=np.float64)
     start_s, grid, fs = window_series((t_ns - t0_ns) * 1e-9, vals, window_s=window_s, fs_hz=fs_hz)
     stamps = pd.to_datetime(t0_ns + np.rint(start_s * 1e9).astype(np.int64), utc=True)
@@ -1292,7 +1327,7 @@ def _tilt_spectrum_windows(
         if has_yaw
         else np.full(len(stamps), np.nan)
     )
-    w_up = grid[..., -1] if heave else None
+    heave_series = {heave: grid[..., -1]} if heave else {}
     keep = np.flatnonzero(present)
     out = []
     for j in range(wd.shape[1]):
@@ -1306,7 +1341,7 @@ def _tilt_spectrum_windows(
             n_bands=n_bands,
             period_min_s=PERIOD_RANGE_S[0],
             period_max_s=PERIOD_RANGE_S[1],
-            velocity_up_ms=w_up,
+            **heave_series,
         ).masked(good[:, j])
         table = pd.DataFrame(
             {"timestamp": stamps} | tilt_spectrum_columns(spec) | {"heading_mean_deg": heading}

@@ -800,6 +800,19 @@ IMU_COLUMNS: tuple[Column, ...] = (
         "frame); with it the record table gets each tilt band's measured directions of travel "
         "(tilt_band{b}_cos_psi, tilt_band{b}_sin_psi, tilt_band{b}_sincos_psi).",
     ),
+    Column(
+        "acceleration_up_ms2",
+        "float",
+        "m/s^2",
+        False,
+        -30.0,
+        30.0,
+        True,
+        "Vertical (heave) acceleration of the buoy at its rotation centre, positive up, "
+        "gravity removed (ENU earth frame: an inertial unit's free acceleration); without "
+        "velocity_up_ms it gives the same measured directions, integrated to the heave "
+        "velocity frequency by frequency.",
+    ),
 )
 
 LOS_COLUMNS: tuple[Column, ...] = (

@@ -525,10 +525,14 @@ def describe_motion(
         ``translation_description`` (one of :data:`TRANSLATION_DESCRIPTIONS`;
         ``"tilt_spectrum"`` only where the tilt is described along the wind (by bands or
         moments), or for a DBS lidar by its bands or its roll and pitch with the follower
-        columns).
+        columns); ``wave_direction_description``: for tilt bands with the translation from
+        the tilt spectrum, ``"measured"`` where the record has the bands' directions of
+        travel from the heave (``tilt_band{b}_cos_psi``), else ``"assumed"``
+        (:func:`band_cos_psi`); ``""`` where they do not enter.
     """
     amp, per, along, rp = _tilt_description(records)
     hws_ok = np.isfinite(_col(records, "hws_mean_ms"))
+    bands = tilt_bands_from_records(records)
     if _is_dbs(lidar):
         ok = _dbs_motion(records)[-1] & hws_ok
         banded = _dbs_banded(records, _col(records, "hws_mean_ms"))[0]
@@ -538,7 +542,6 @@ def describe_motion(
         ok = np.isfinite(amp) & np.isfinite(per) & hws_ok
         tilt = np.where(along & ok, "along_wind", np.where(rp & ok, "roll_pitch", "none"))
         follower = along & ok & _follower_complete(records)
-        bands = tilt_bands_from_records(records)
         if bands is not None:
             banded = bands["complete"] & hws_ok
             tilt = np.where(banded, "tilt_bands", tilt)
@@ -548,8 +551,20 @@ def describe_motion(
     trans = np.where(measured, "measured", np.where(follower, "tilt_spectrum", "none"))
     if hull_model == "rotation_only":
         trans = np.full(len(records), "none")
+    on_bands = (tilt == "tilt_bands") & (trans == "tilt_spectrum")
+    heave = (
+        np.isfinite(bands["cos_psi_measured"]).any(axis=-1)
+        if bands is not None
+        else np.zeros(len(records), bool)
+    )
+    directions = np.where(on_bands, np.where(heave, "measured", "assumed"), "")
     return pd.DataFrame(
-        {"motion_description": tilt, "translation_description": trans}, index=records.index
+        {
+            "motion_description": tilt,
+            "translation_description": trans,
+            "wave_direction_description": directions,
+        },
+        index=records.index,
     )
 
 

@@ -351,12 +351,20 @@ def scenario_calibration(records: pd.DataFrame, *, min_count: int = 1) -> pd.Dat
         One row per group of every grouping in :data:`REGIME_COLUMNS` plus the whole
         campaign (``grouping = "all"``): the columns of
         :func:`~flidar_uq.data.calibration.calibration_by_group` with ``grouping`` and
-        ``group``.
+        ``group``. A grouping that splits the records exactly as an earlier one does is
+        left out, so that no group is counted twice: at a fixed heading, ``heading`` (one
+        group, all the records) and ``sea_state_heading`` (the ``sea_state`` groups).
     """
     rec = records.assign(all="all")
-    tables = []
+    tables, partitions = [], set()
     for by in ("all", *REGIME_COLUMNS):
-        t = calibration_by_group(rec[rec[by] != ""], by, min_count=min_count)
+        keep = (rec[by] != "").to_numpy()
+        codes, _ = pd.factorize(rec.loc[keep, by])  # labelled in order of first appearance
+        partition = (np.flatnonzero(keep).tobytes(), codes.tobytes())
+        if partition in partitions:
+            continue
+        partitions.add(partition)
+        t = calibration_by_group(rec[keep], by, min_count=min_count)
         tables.append(t.rename(columns={by: "group"}).assign(grouping=by))
     out = pd.concat(tables, ignore_index=True)
     return out[["grouping", "group", *[c for c in out.columns if c not in ("grouping", "group")]]]

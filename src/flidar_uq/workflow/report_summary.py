@@ -369,18 +369,34 @@ _TRANSLATION_WORDS = {
 }
 
 
+#: How the tilt bands' directions of travel were found (records.csv column
+#: ``wave_direction_description``, for tilt bands with the translation from the tilt
+#: spectrum): measured from the heave, or assumed.
+_DIRECTION_WORDS = {
+    "measured": "each wave band's direction of travel measured from the heave",
+    "assumed": (
+        "the wave bands' directions of travel assumed (wind sea downwind, swell of either "
+        "side alike), so the motion scale and the lever arm are less certain: a heave "
+        "velocity or acceleration in the IMU series measures them"
+    ),
+}
+
+
 def motion_description_summary(records: pd.DataFrame) -> str:
-    """Which motion description the corrected records got, counted ("" without the columns)."""
+    """Which motion description the corrected records got, counted ("" without the columns),
+    with how the tilt bands' directions of travel were found where they enter."""
     if "translation_description" not in records:
         return ""
     used = records[records["motion_description"].isin(list(_TILT_WORDS))]
     if used.empty:
         return "none"
-    counts = used.groupby(["motion_description", "translation_description"]).size()
-    parts = [
-        f"{n:,} records: {_TILT_WORDS[t]}; {_TRANSLATION_WORDS.get(tr, tr)}"
-        for (t, tr), n in counts.sort_values(ascending=False).items()
-    ]
+    directions = used.get("wave_direction_description", pd.Series("", index=used.index))
+    keys = [used["motion_description"], used["translation_description"], directions.fillna("")]
+    counts = used.groupby(keys).size()
+    parts = []
+    for (t, tr, d), n in counts.sort_values(ascending=False).items():
+        words = f"{n:,} records: {_TILT_WORDS[t]}; {_TRANSLATION_WORDS.get(tr, tr)}"
+        parts.append(f"{words}, {_DIRECTION_WORDS[d]}" if d in _DIRECTION_WORDS else words)
     return " · ".join(parts)
 
 

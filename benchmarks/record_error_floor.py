@@ -1,0 +1,129 @@
+"""Benchmark: how much of a floating lidar's per-record TI error a motion correction can remove.
+
+A 10-min TI from a lidar scatters about the wind's own TI even on a fixed platform (its
+sampling of the scan and of the probe volume in 10 minutes), and its std is a few per
+cent above the point wind's (its response to turbulence). No correction that works from
+the floating lidar's 10-min statistics can take that scatter out of one record. This
+script measures, on the virtual campaigns' acceptance seeds (the same runs as
+``tests/test_regimes.py``, through ``validation.regimes.scenario_records``), the
+per-record RMSE of the TI against the point truth (``ti_true``) of:
+
+* the uncorrected floating lidar (``ti_uncorrected``);
+* the motionless lidar of the same type at the same place (the virtual reference lidar,
+  ``true_ref_hws_std_ms / true_ref_hws_mean_ms``), as it is and with the campaign's median
+  ratio of its TI to the truth divided out (its std ratio ``g``, which the correction's
+  point target divides out too): the floor of any motion correction;
+* the corrected TI (``ti_corrected_median``);
+* each record's realised motion error variance subtracted (``true_sigma_z_ms``, known only
+  in a virtual campaign) without the motion error's correlation with the wind, and the
+  median ``g`` divided out: what knowing the realised sigma_Z alone would give.
+
+and the share of the uncorrected RMSE each removes.
+
+Writes benchmarks/results/record_error_floor.csv and record_error_floor.png.
+
+Usage: python benchmarks/record_error_floor.py [--workers W]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from flidar_uq.threads import single_threaded  # noqa: E402
+from flidar_uq.validation.regimes import scenario_records  # noqa: E402
+
+OUT = Path(__file__).parent / "results" / "record_error_floor"
+#: The acceptance runs of tests/test_regimes.py: scenario, seed, scenario_records options.
+RUNS = [
+    *[
+        (scenario, seed, {})
+        for scenario in ("wave_follower", "wave_follower_weathervane")
+        for seed in (505516003, 809183192)
+    ],
+    *[("discus_buoy", seed, {"hull_reference": "discus_buoy"}) for seed in (1572108785, 93494952)],
+]
+ESTIMATES = ("uncorrected", "motionless", "motionless_over_g", "realised_sigma_z", "corrected")
+
+
+@single_threaded
+def one_run(scenario: str, seed: int, options: dict) -> dict:
+    """The per-record RMSE of each estimate on one campaign."""
+    t0 = time.perf_counter()
+    records, _ = scenario_records(scenario, seed, n_workers=1, **options)
+    r = records[records["ti_corrected_median"].notna() & records["ti_true"].notna()]
+    truth = r["ti_true"].to_numpy(dtype=float)
+    still = (r["true_ref_hws_std_ms"] / r["true_ref_hws_mean_ms"]).to_numpy(dtype=float)
+    g = float(np.median(still / truth))
+    s, m = r["hws_std_ms"].to_numpy(dtype=float), r["hws_mean_ms"].to_numpy(dtype=float)
+    sz = r["true_sigma_z_ms"].to_numpy(dtype=float)
+    est = {
+        "uncorrected": r["ti_uncorrected"].to_numpy(dtype=float),
+        "motionless": still,
+        "motionless_over_g": still / g,
+        "realised_sigma_z": np.sqrt(np.clip(s**2 - sz**2, 0.0, None)) / m / g,
+        "corrected": r["ti_corrected_median"].to_numpy(dtype=float),
+    }
+    rmse = {k: float(np.sqrt(np.nanmean((v - truth) ** 2))) for k, v in est.items()}
+    row = {"scenario": scenario, "seed": seed, "records": len(r), "motionless_g": g}
+    row |= {f"rmse_{k}": v for k, v in rmse.items()}
+    row |= {f"removed_{k}": 1.0 - v / rmse["uncorrected"] for k, v in rmse.items()}
+    row["wall_s"] = time.perf_counter() - t0
+    return row
+
+
+def plot(tab: pd.DataFrame, path: Path) -> None:
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    labels = [f"{s}\n{seed}" for s, seed in zip(tab["scenario"], tab["seed"], strict=True)]
+    x = np.arange(len(tab))
+    width = 0.8 / (len(ESTIMATES) - 1)
+    for j, k in enumerate(ESTIMATES[1:]):
+        ax.bar(x + (j - 1.5) * width, 100 * tab[f"removed_{k}"], width, label=k.replace("_", " "))
+    ax.axhline(70, color="k", ls="--", lw=0.8, label="70 % removal")
+    ax.set_xticks(x, labels, fontsize=7)
+    ax.set_ylabel("share of the uncorrected per-record RMSE removed, %")
+    ax.set_title("per-record TI error removed, against a motionless lidar at the same place")
+    ax.legend(fontsize=7, ncol=3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90, metadata={"Software": None})
+    plt.close(fig)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--workers", type=int, default=2, help="processes")
+    args = ap.parse_args()
+    OUT.parent.mkdir(exist_ok=True)
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        futures = [pool.submit(one_run, *run) for run in RUNS]
+        rows = []
+        for i, f in enumerate(futures, 1):
+            rows.append(f.result())
+            r = rows[-1]
+            print(
+                f"[{i}/{len(RUNS)}] {r['scenario']} seed {r['seed']}: removed "
+                + ", ".join(f"{k} {100 * r[f'removed_{k}']:.0f} %" for k in ESTIMATES[1:])
+                + f" ({r['wall_s']:.0f} s)",
+                flush=True,
+            )
+    tab = pd.DataFrame(rows)
+    tab.to_csv(f"{OUT}.csv", index=False)
+    plot(tab, Path(f"{OUT}.png"))
+    cols = ["scenario", "seed", *[f"rmse_{k}" for k in ESTIMATES]]
+    with pd.option_context("display.width", 200, "display.max_columns", 20):
+        print(tab[cols].round(5).to_string(index=False))
+    print(f"{time.perf_counter() - t0:.0f} s wall")
+
+
+if __name__ == "__main__":
+    main()
