@@ -16,12 +16,19 @@ on seeds drawn here (never used while developing the model), this benchmark asks
   seeds (:func:`flidar_uq.data.calibration.calibration_by_group`). The binomial standard
   error counts the rows as independent (the heights of one record share its motion; their
   coverage outcomes correlate by 0-0.16 within a record).
+- the same by ``sigma_Z / U`` (the motion's TI: the predicted sigma_Z over the mean
+  speed, in octiles). The share ``sigma_Z / s`` divides by the measured std, which holds
+  the record's own sampling error: its top octile gathers the records whose std fell low
+  by chance, where any correction from that std errs low. ``sigma_Z / U`` is made of the
+  motion and the mean wind alone, so its groups are a regime, as the speed and the sea
+  state are.
 
 Scenarios: the wave followers with the heave in the IMU series, a ZephIR 300 (CW) and a
 WindCube v2 (DBS), at a fixed heading and weathervaning.
 
 Run:  PYTHONPATH=src OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/hull_parameter_calibration.py
-Writes benchmarks/results/hull_parameter_calibration.csv, _periods.csv, _share.csv and .png
+Writes benchmarks/results/hull_parameter_calibration.csv, _periods.csv, _share.csv,
+_motion_ti.csv and .png
 (about 2 minutes on 2 cores).
 """
 
@@ -105,11 +112,12 @@ def _run(case: tuple[str, int]) -> tuple[list[dict], pd.DataFrame]:
     )
     r = r.assign(
         motion_share=np.asarray(sz, float) / r["hws_std_ms"].to_numpy(dtype=float),
+        motion_ti=np.asarray(sz, float) / r["hws_mean_ms"].to_numpy(dtype=float),
         lidar=lidar,
     )
     print(f"{scenario} seed {seed}: {elapsed:.0f} s", flush=True)
     ti = ["ti_true", "ti_corrected_median", "ti_corrected_lo", "ti_corrected_hi"]
-    return rows, r[["lidar", "true_period_s", "motion_share", *ti]]
+    return rows, r[["lidar", "true_period_s", "motion_share", "motion_ti", *ti]]
 
 
 def _pooled(rec: pd.DataFrame, key: str, **extra) -> pd.DataFrame:
@@ -118,7 +126,7 @@ def _pooled(rec: pd.DataFrame, key: str, **extra) -> pd.DataFrame:
     aggregations of ``rec`` and the binomial standard error of a calibrated 90 % interval's
     coverage (``se_if_calibrated``) and the coverage's distance from 0.90 in it."""
     cal = calibration_by_group(rec, ["lidar", key])
-    cal = cal[["lidar", key, "n", "coverage", "mean_rel_error"]]
+    cal = cal[["lidar", key, "n", "coverage", "mean_rel_error", "mean_rel_error_se"]]
     out = cal.merge(rec.groupby(["lidar", key]).agg(**extra).reset_index(), on=["lidar", key])
     out["se_if_calibrated"] = np.sqrt(0.09 / out["n"])
     out["z_coverage"] = (out["coverage"] - 0.9) / out["se_if_calibrated"]
@@ -152,6 +160,18 @@ def main() -> None:
         share_hi=("motion_share", "max"),
     )
     share.to_csv(OUT / "hull_parameter_calibration_share.csv", index=False, float_format="%.4f")
+    rec["motion_ti_octile"] = rec.groupby("lidar")["motion_ti"].transform(
+        lambda x: pd.qcut(x, 8, labels=False)
+    )
+    motion_ti = _pooled(
+        rec,
+        "motion_ti_octile",
+        motion_ti_lo=("motion_ti", "min"),
+        motion_ti_hi=("motion_ti", "max"),
+    )
+    motion_ti.to_csv(
+        OUT / "hull_parameter_calibration_motion_ti.csv", index=False, float_format="%.4f"
+    )
 
     pd.set_option("display.width", 200)
     show = ["scenario", "seed", "parameter", "truth", "q05", "median", "q95", "z", "covered_90"]
@@ -167,16 +187,20 @@ def main() -> None:
     print(per.round(3).to_string(index=False))
     print("\nthe same by the motion's share of the measured std, sigma_Z / s (octiles):")
     print(share.round(3).to_string(index=False))
-    _plot(par, per, share)
+    print("\nthe same by the motion's TI, sigma_Z / U (octiles; no measured std in it):")
+    print(motion_ti.round(4).to_string(index=False))
+    _plot(par, per, share, motion_ti)
 
 
-def _plot(par: pd.DataFrame, per: pd.DataFrame, share: pd.DataFrame) -> None:
+def _plot(
+    par: pd.DataFrame, per: pd.DataFrame, share: pd.DataFrame, motion_ti: pd.DataFrame
+) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (a, b, c) = plt.subplots(1, 3, figsize=(17, 4.5))
+    fig, (a, b, c, d) = plt.subplots(1, 4, figsize=(22, 4.5))
     labels = list(PARAMETERS)
     for j, (scenario, g) in enumerate(par.groupby("scenario", sort=False)):
         x = np.array([labels.index(p) for p in g["parameter"]], float) + 0.08 * (j - 1.5)
@@ -211,6 +235,23 @@ def _plot(par: pd.DataFrame, per: pd.DataFrame, share: pd.DataFrame) -> None:
     c.set_ylabel("coverage of the 90 % interval")
     c.set_title("corrected TI by the motion's share")
     c.legend(fontsize=7)
+    for label, tab, key in (
+        ("sigma_Z / s", share, "share_octile"),
+        ("sigma_Z / U", motion_ti, "motion_ti_octile"),
+    ):
+        for lidar, g in tab.groupby("lidar"):
+            d.errorbar(
+                g[key] + (0.1 if label.endswith("U") else -0.1),
+                100 * g["mean_rel_error"],
+                yerr=196 * g["mean_rel_error_se"],
+                fmt="o-" if label.endswith("U") else "s--",
+                label=f"{lidar}, by {label}",
+            )
+    d.axhline(0.0, color="k", lw=0.8)
+    d.set_xlabel("octile (0: least motion)")
+    d.set_ylabel("mean relative error of the corrected TI, % (bars: 95 %)")
+    d.set_title("grouped by the measured std's share, or by the motion's TI")
+    d.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(OUT / "hull_parameter_calibration.png", dpi=110)
 
