@@ -180,6 +180,47 @@ def test_los_correction_streams_every_record_row(tmp_path):
     )
 
 
+def test_los_correction_says_it_leaves_out_a_heave_given_as_an_acceleration(tmp_path, caplog):
+    """An IMU series with the heave as an acceleration only (imu.vertical_acceleration):
+    the LOS corrections add the measured horizontal velocities, not the heave, and the log
+    says so; with the heave velocity there is no such line."""
+    import copy
+    import logging
+
+    from flidar_uq.campaign.physics_mode import generate_campaign
+    from flidar_uq.campaign.scenarios import DEFAULT_SCENARIO
+    from flidar_uq.workflow.los_step import los_correction
+
+    sc = copy.deepcopy(DEFAULT_SCENARIO)
+    sc.update(name="los_acceleration_test", n_records=2, heights_m=[58.0])
+    sc["motion"]["sea_state"]["hull"] = "wave_follower"
+    sc["imu"] |= {"vertical_acceleration": True, "horizontal_velocity": True}
+    out = generate_campaign(sc, 4, return_imu=True, return_los=True, n_workers=1)
+    assert "acceleration_up_ms2" in out.imu and "velocity_up_ms" not in out.imu
+    io.write_records(out.records, tmp_path / "records.csv")
+    io.write_los_series(out.los, tmp_path / "los.csv")
+    kw = dict(
+        records_path=tmp_path / "records.csv",
+        los_path=tmp_path / "los.csv",
+        imu_path=tmp_path / "imu.csv",
+        out_path=tmp_path / "corrected.csv",
+        lidar="zephir300",
+        lever_arm_m=(0.0, 0.0, 2.5),
+    )
+    io.write_imu_series(out.imu, tmp_path / "imu.csv")
+    with caplog.at_level(logging.WARNING, logger="flidar_uq.workflow.los_step"):
+        table = los_correction(**kw)
+    assert (table["translation"] == "east+north").all()
+    assert "leaves the heave out" in caplog.text
+    caplog.clear()
+    still = out.imu.drop(columns="acceleration_up_ms2").assign(velocity_up_ms=0.0)
+    io.write_imu_series(still, tmp_path / "imu.csv")  # a measured heave velocity (of 0)
+    with caplog.at_level(logging.WARNING, logger="flidar_uq.workflow.los_step"):
+        table = los_correction(**kw)
+    assert (table["translation"] == "east+north+up").all()
+    assert "leaves the heave out" not in caplog.text
+
+
 def write_agreement_inputs(tmp_path: Path) -> tuple[Path, Path]:
     ts = pd.date_range("2015-04-01", periods=4, freq="10min", tz="UTC")
     ti = pd.DataFrame(

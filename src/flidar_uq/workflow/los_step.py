@@ -98,6 +98,7 @@ def los_correction(
     )
     methods = los_methods(lidar)
     rows, seen = [], set()
+    series_columns: set[str] = set()  # the IMU series' columns, as read
     n_los_outside = n_los_other_height = 0
     dbs = get_lidar(lidar).kind == "dbs"
     for batch in window_batches(
@@ -115,9 +116,11 @@ def los_correction(
             seen.add(start)
             if not dbs:  # a DBS lidar's other heights are range gates, used for interpolation
                 n_los_other_height += int((~los["height_m"].isin(rec["height_m"])).sum())
+            motion = imu.take(start - margin, start + window + margin)
+            series_columns.update(motion.columns)
             out = los_record_ti(
                 los.reset_index(drop=True),
-                imu.take(start - margin, start + window + margin),
+                motion,
                 start=start,
                 heights_m=rec["height_m"].to_numpy(dtype=float),
                 wd_deg=rec["wd_mean_deg"].to_numpy(dtype=float),
@@ -152,6 +155,13 @@ def los_correction(
         n_los_other_height,
         ", ".join(f"{k} {v}" for k, v in table["translation"].value_counts().items()) or "none",
     )
+    if "acceleration_up_ms2" in series_columns and "velocity_up_ms" not in series_columns:
+        log.warning(
+            "LOS branch: the IMU series gives the heave as an acceleration "
+            "(acceleration_up_ms2), which the LOS corrections do not integrate: their head "
+            "velocity leaves the heave out (the record model's tilt bands use it); give "
+            "velocity_up_ms to add it"
+        )
     write_csv(table, out_path)
     return table
 
