@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import argparse
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import matplotlib
@@ -38,6 +37,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+from acceptance_runs import SCENARIO_OPTIONS, campaign_seeds, run_campaigns  # noqa: E402
 from scipy import stats  # noqa: E402
 
 from flidar_uq.threads import single_threaded  # noqa: E402
@@ -49,31 +49,14 @@ OUT = RESULTS / "group_error_spread"
 MIN_GROUP = 200
 ERROR_BOUND = 0.015
 COVERAGE_BOUNDS = (0.85, 0.95)
-#: How the acceptance tests run each scenario (tests/test_regimes.py).
-RUNS = {
-    "wave_follower": {},
-    "wave_follower_weathervane": {},
-    "discus_buoy": {"hull_reference": "discus_buoy"},
-    "dbs_wave_follower": {"lidar": "windcube_v2"},
-    "dbs_wave_follower_weathervane": {"lidar": "windcube_v2"},
-    "dbs_tilt_only": {"lidar": "windcube_v2"},
-}
 DEFAULT_SCENARIOS = ("wave_follower", "discus_buoy", "dbs_wave_follower")
-
-
-def campaign_seeds(root: int, n: int) -> list[int]:
-    """``n`` campaign seeds (31-bit) spawned from ``SeedSequence(root)``."""
-    return [
-        int(c.generate_state(1, dtype=np.uint32)[0] >> 1)
-        for c in np.random.SeedSequence(root).spawn(n)
-    ]
 
 
 @single_threaded
 def one_campaign(scenario: str, seed: int) -> pd.DataFrame:
     """Every group's calibration on one campaign, with the fit's hull parameters."""
     t0 = time.perf_counter()
-    records, fit = scenario_records(scenario, seed, n_workers=1, **RUNS[scenario])
+    records, fit = scenario_records(scenario, seed, n_workers=1, **SCENARIO_OPTIONS[scenario])
     tab = scenario_calibration(records)
     tab = tab[(tab["grouping"] == "all") | (tab["n"] >= MIN_GROUP)].copy()
     hull = {
@@ -158,28 +141,28 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--campaigns", type=int, default=8, help="campaigns per scenario")
     ap.add_argument("--workers", type=int, default=2, help="processes")
-    ap.add_argument("--scenarios", nargs="+", default=list(DEFAULT_SCENARIOS), choices=RUNS)
+    ap.add_argument(
+        "--scenarios", nargs="+", default=list(DEFAULT_SCENARIOS), choices=SCENARIO_OPTIONS
+    )
     ap.add_argument("--seed", type=int, default=20261205, help="root of the campaign seeds")
     args = ap.parse_args()
     RESULTS.mkdir(exist_ok=True)
     seeds = campaign_seeds(args.seed, args.campaigns)
     jobs = [(s, seed) for s in args.scenarios for seed in seeds]
     t0 = time.perf_counter()
-    parts = []
-    with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        futures = [pool.submit(one_campaign, s, seed) for s, seed in jobs]
-        for i, f in enumerate(futures, 1):
-            part = f.result()
-            parts.append(part)
-            a = part[part["grouping"] == "all"].iloc[0]
-            print(
-                f"[{i}/{len(jobs)}] {a['scenario']} seed {a['seed']}: coverage "
-                f"{a['coverage']:.3f}, error {100 * a['mean_rel_error']:+.2f} % "
-                f"(se {100 * a['mean_rel_error_se']:.2f} %), lever arm "
-                f"{a['lever_arm_m_median']:.2f} m (truth {a['true_lever_arm_m']:.1f} m), "
-                f"{a['wall_s']:.0f} s",
-                flush=True,
-            )
+
+    def report(i: int, n: int, part: pd.DataFrame) -> None:
+        a = part[part["grouping"] == "all"].iloc[0]
+        print(
+            f"[{i}/{n}] {a['scenario']} seed {a['seed']}: coverage "
+            f"{a['coverage']:.3f}, error {100 * a['mean_rel_error']:+.2f} % "
+            f"(se {100 * a['mean_rel_error_se']:.2f} %), lever arm "
+            f"{a['lever_arm_m_median']:.2f} m (truth {a['true_lever_arm_m']:.1f} m), "
+            f"{a['wall_s']:.0f} s",
+            flush=True,
+        )
+
+    parts = run_campaigns(one_campaign, jobs, workers=args.workers, report=report)
     rows = pd.concat(parts, ignore_index=True)
     summary = summarise(rows[rows["grouping"] != "all"])
     rows.to_csv(f"{OUT}.csv", index=False)

@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import argparse
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import matplotlib
@@ -40,28 +39,29 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+from acceptance_runs import SCENARIO_OPTIONS, run_campaigns  # noqa: E402
 
 from flidar_uq.threads import single_threaded  # noqa: E402
 from flidar_uq.validation.regimes import scenario_records  # noqa: E402
 
 OUT = Path(__file__).parent / "results" / "record_error_floor"
-#: The acceptance runs of tests/test_regimes.py: scenario, seed, scenario_records options.
+#: The acceptance runs of tests/test_regimes.py: scenario and seed.
 RUNS = [
     *[
-        (scenario, seed, {})
+        (scenario, seed)
         for scenario in ("wave_follower", "wave_follower_weathervane")
         for seed in (505516003, 809183192)
     ],
-    *[("discus_buoy", seed, {"hull_reference": "discus_buoy"}) for seed in (1572108785, 93494952)],
+    *[("discus_buoy", seed) for seed in (1572108785, 93494952)],
 ]
 ESTIMATES = ("uncorrected", "motionless", "motionless_over_g", "realised_sigma_z", "corrected")
 
 
 @single_threaded
-def one_run(scenario: str, seed: int, options: dict) -> dict:
+def one_run(scenario: str, seed: int) -> dict:
     """The per-record RMSE of each estimate on one campaign."""
     t0 = time.perf_counter()
-    records, _ = scenario_records(scenario, seed, n_workers=1, **options)
+    records, _ = scenario_records(scenario, seed, n_workers=1, **SCENARIO_OPTIONS[scenario])
     r = records[records["ti_corrected_median"].notna() & records["ti_true"].notna()]
     truth = r["ti_true"].to_numpy(dtype=float)
     still = (r["true_ref_hws_std_ms"] / r["true_ref_hws_mean_ms"]).to_numpy(dtype=float)
@@ -109,19 +109,16 @@ def main() -> None:
     args = ap.parse_args()
     OUT.parent.mkdir(exist_ok=True)
     t0 = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        futures = [pool.submit(one_run, *run) for run in RUNS]
-        rows = []
-        for i, f in enumerate(futures, 1):
-            rows.append(f.result())
-            r = rows[-1]
-            print(
-                f"[{i}/{len(RUNS)}] {r['scenario']} seed {r['seed']}: removed "
-                + ", ".join(f"{k} {100 * r[f'removed_{k}']:.0f} %" for k in ESTIMATES[1:])
-                + f" ({r['wall_s']:.0f} s)",
-                flush=True,
-            )
-    tab = pd.DataFrame(rows)
+
+    def report(i: int, n: int, r: dict) -> None:
+        print(
+            f"[{i}/{n}] {r['scenario']} seed {r['seed']}: removed "
+            + ", ".join(f"{k} {100 * r[f'removed_{k}']:.0f} %" for k in ESTIMATES[1:])
+            + f" ({r['wall_s']:.0f} s)",
+            flush=True,
+        )
+
+    tab = pd.DataFrame(run_campaigns(one_run, RUNS, workers=args.workers, report=report))
     tab.to_csv(f"{OUT}.csv", index=False)
     plot(tab, Path(f"{OUT}.png"))
     cols = ["scenario", "seed", *[f"rmse_{k}" for k in ESTIMATES]]
