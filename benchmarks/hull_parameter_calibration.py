@@ -135,6 +135,16 @@ def _pooled(rec: pd.DataFrame, key: str, **extra) -> pd.DataFrame:
     return out
 
 
+def _by_octile(rec: pd.DataFrame, column: str, path: Path) -> pd.DataFrame:
+    """:func:`_pooled` by the octiles of ``column`` within each lidar (``{column}_octile``,
+    with its range ``{column}_lo`` / ``_hi``), written to ``path``."""
+    key = f"{column}_octile"
+    rec[key] = rec.groupby("lidar")[column].transform(lambda x: pd.qcut(x, 8, labels=False))
+    out = _pooled(rec, key, **{f"{column}_lo": (column, "min"), f"{column}_hi": (column, "max")})
+    out.to_csv(path, index=False, float_format="%.4f")
+    return out
+
+
 def main() -> None:
     OUT.mkdir(exist_ok=True)
     cases = [(s, seed) for s in CASES for seed in _seeds()]
@@ -151,27 +161,9 @@ def main() -> None:
     )
     per = per.sort_values(["lidar", "lo_period_s"]).drop(columns="lo_period_s")
     per.to_csv(OUT / "hull_parameter_calibration_periods.csv", index=False, float_format="%.4f")
-    rec["share_octile"] = rec.groupby("lidar")["motion_share"].transform(
-        lambda x: pd.qcut(x, 8, labels=False)
-    )
-    share = _pooled(
-        rec,
-        "share_octile",
-        share_lo=("motion_share", "min"),
-        share_hi=("motion_share", "max"),
-    )
-    share.to_csv(OUT / "hull_parameter_calibration_share.csv", index=False, float_format="%.4f")
-    rec["motion_ti_octile"] = rec.groupby("lidar")["motion_ti"].transform(
-        lambda x: pd.qcut(x, 8, labels=False)
-    )
-    motion_ti = _pooled(
-        rec,
-        "motion_ti_octile",
-        motion_ti_lo=("motion_ti", "min"),
-        motion_ti_hi=("motion_ti", "max"),
-    )
-    motion_ti.to_csv(
-        OUT / "hull_parameter_calibration_motion_ti.csv", index=False, float_format="%.4f"
+    share, motion_ti = (
+        _by_octile(rec, column, OUT / f"hull_parameter_calibration_{name}.csv")
+        for column, name in (("motion_share", "share"), ("motion_ti", "motion_ti"))
     )
 
     pd.set_option("display.width", 200)
@@ -228,7 +220,7 @@ def _plot(
     b.set_title("corrected TI, pooled over the runs")
     b.legend(fontsize=7)
     for lidar, g in share.groupby("lidar"):
-        mid = 0.5 * (g["share_lo"] + g["share_hi"])
+        mid = 0.5 * (g["motion_share_lo"] + g["motion_share_hi"])
         c.errorbar(mid, g["coverage"], yerr=1.96 * g["se_if_calibrated"], fmt="o-", label=lidar)
     c.axhline(0.9, color="k", lw=0.8)
     c.axhspan(0.85, 0.95, color="0.9", label="acceptance 0.85-0.95")
@@ -237,7 +229,7 @@ def _plot(
     c.set_title("corrected TI by the motion's share")
     c.legend(fontsize=7)
     for label, tab, key in (
-        ("sigma_Z / s", share, "share_octile"),
+        ("sigma_Z / s", share, "motion_share_octile"),
         ("sigma_Z / U", motion_ti, "motion_ti_octile"),
     ):
         for lidar, g in tab.groupby("lidar"):
