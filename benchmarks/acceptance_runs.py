@@ -17,9 +17,9 @@ import numpy as np
 #: ``validation.regimes.scenario_records`` (the lidar of the surrogate, the hull the
 #: analyst names).
 SCENARIO_OPTIONS: dict[str, dict] = {
-    "wave_follower": {},
-    "wave_follower_weathervane": {},
-    "discus_buoy": {"hull_reference": "discus_buoy"},
+    "wave_follower": {"hull_reference": "auto"},
+    "wave_follower_weathervane": {"hull_reference": "auto"},
+    "discus_buoy": {"hull_reference": "auto"},
     "dbs_wave_follower": {"lidar": "windcube_v2"},
     "dbs_wave_follower_weathervane": {"lidar": "windcube_v2"},
     "dbs_tilt_only": {"lidar": "windcube_v2"},

@@ -15,7 +15,8 @@ measures, per group:
 * how often the group misses the +-1.5 % bound, against the rate an unbiased model with
   that standard error would miss it by chance (``P(|N(0, se)| > 1.5 %)``);
 * how often the coverage leaves 85-95 %;
-* the hull parameters (lever arm, motion scale) against the scenario's truth.
+* the hull parameters (lever arm, motion scale) against the scenario's truth, and the
+  reference hull the record model kept (``inference.hull_reference: auto``).
 
 Writes benchmarks/results/group_error_spread.csv (one row per campaign and group),
 group_error_spread_summary.csv (one row per scenario and group) and
@@ -69,6 +70,7 @@ def one_campaign(scenario: str, seed: int) -> pd.DataFrame:
         converged=bool(fit.converged),
         answered_share_all=float(records["ti_corrected_median"].notna().mean()),
         true_lever_arm_m=float(records["true_lever_arm_m"].iloc[0]),
+        hull_reference=fit.info.get("hull_reference", ""),
         wall_s=time.perf_counter() - t0,
         **hull,
     )
@@ -158,7 +160,7 @@ def main() -> None:
             f"{a['coverage']:.3f}, error {100 * a['mean_rel_error']:+.2f} % "
             f"(se {100 * a['mean_rel_error_se']:.2f} %), lever arm "
             f"{a['lever_arm_m_median']:.2f} m (truth {a['true_lever_arm_m']:.1f} m), "
-            f"{a['wall_s']:.0f} s",
+            f"reference hull {a['hull_reference']}, {a['wall_s']:.0f} s",
             flush=True,
         )
 
@@ -180,7 +182,8 @@ def main() -> None:
             f"(truth {r['true_lever_arm_m'].iloc[0]:.1f} m; within 0.5 m on "
             f"{int((np.abs(lev - r['true_lever_arm_m']) <= 0.5).sum())} of {len(r)}), "
             f"motion scale {r['motion_scale_median'].mean():.3f} +- "
-            f"{r['motion_scale_median'].std():.3f}"
+            f"{r['motion_scale_median'].std():.3f}; reference hull "
+            f"{', '.join(f'{k} {v}' for k, v in r['hull_reference'].value_counts().items())}"
         )
     s = summary
     print(

@@ -287,8 +287,9 @@ def test_record_observations_hold_the_gram_of_the_configured_lidar(lidar):
 def test_reference_hull_scales_the_translation_by_its_response_and_the_propagation_follows():
     """inference.hull_reference: with moments the heave and orbital terms take the hull's
     relative responses at the heave's mean period (a discus buoy's differ from 1 below its
-    natural periods, a wave follower's are 1), measured records keep the measured ratios,
-    the rotational terms do not change; the propagation uses the fit's reference hull."""
+    natural periods, a wave follower's are 1); measured records keep the measured size
+    with the reference hull's phase; the rotational terms do not change; the propagation
+    uses the fit's reference hull."""
     from flidar_uq.correction.propagation import PropagationSettings, draw_corrected_ti
     from flidar_uq.physics.hull import get_hull
 
@@ -309,8 +310,21 @@ def test_reference_hull_scales_the_translation_by_its_response_and_the_propagati
     np.testing.assert_allclose(dis["gram_l_h"][free], fol["gram_l_h"][free] * rx.real[free])
     for col in ("gram_kk", "gram_ll"):
         np.testing.assert_array_equal(dis[col], fol[col])
-    for col in GRAM_COLUMNS:
-        np.testing.assert_array_equal(dis[col][meas], fol[col][meas])
+    # measured heave: the heave's size is the measurement's, its cross term takes the
+    # reference hull's phase; the horizontal motion (no sway measured) is taken at the
+    # heave's ratio to the reference hull's
+    for col in ("gram_kk", "gram_ll", "gram_kh_kh"):
+        np.testing.assert_allclose(dis[col][meas], fol[col][meas], rtol=1e-12)
+    np.testing.assert_allclose(
+        dis["gram_k_kh"][meas], fol["gram_k_kh"][meas] * (rz.real / np.abs(rz))[meas]
+    )
+    np.testing.assert_allclose(
+        dis["gram_hh"][meas], fol["gram_hh"][meas] * (np.abs(rx) / np.abs(rz))[meas] ** 2
+    )
+    np.testing.assert_allclose(
+        dis["gram_l_h"][meas], fol["gram_l_h"][meas] * (rx.real / np.abs(rz))[meas]
+    )
+    assert not np.allclose(dis["gram_k_kh"][meas], fol["gram_k_kh"][meas])
     assert not np.allclose(dis["gram_hh"][free], fol["gram_hh"][free])
     fit = _record_fit(hull=1.0)
     fit.info["hull_reference"] = "discus_buoy"
@@ -353,6 +367,31 @@ def test_reference_hull_with_tilt_bands_is_that_hulls_band_sum():
         np.testing.assert_allclose(got[hull], want, rtol=1e-10)
     assert not np.allclose(got["discus_buoy"], got["wave_follower"])
     assert not np.allclose(got["spar"], got["wave_follower"])
+    # a translation measured at the reference hull's own size gives that hull's band sum
+    # at h = 1, whatever the fitted response; at twice its size the translation terms x 2
+    from flidar_uq.inference.record_motion import reference_translation_ratio
+
+    rec = rec.assign(
+        follower_heave_velocity_std_ms=rng.uniform(0.2, 0.8, n), follower_heave_period_s=5.0,
+        follower_velocity_along_wind_std_ms=0.3, follower_heave_tilt_correlation=0.5,
+    )  # fmt: skip
+    for hull in ("discus_buoy", "spar"):
+        q_z, q_x = reference_translation_ratio(rec, hull)
+        assert np.all((q_z > 0) & (q_x > 0)) and not np.allclose(q_z, q_x)
+        sig = rec["follower_heave_velocity_std_ms"].to_numpy()
+        for size in (1.0, 2.0):
+            meas = rec.assign(
+                heave_velocity_std_ms=size * q_z * sig, surge_velocity_std_ms=size * q_x * sig
+            )
+            gram = motion_gram(meas, hull=hull)
+            assert gram["translation_measured"].eq(1.0).all()
+            free = motion_gram(rec, hull=hull)
+            for h in (0.2, 1.0):
+                np.testing.assert_allclose(
+                    gram_sigma_z_ms(gram, lever_arm_m=1.5, hull_response=h),
+                    gram_sigma_z_ms(free, lever_arm_m=1.5, hull_response=size),
+                    rtol=1e-9,
+                )
 
 
 def test_hull_response_at_its_lower_end_is_negligible_not_when_it_moves_sigma_z():

@@ -493,6 +493,37 @@ def test_hull_model_selection_keeps_the_simplest_description_the_data_support(hu
         fit_record_model_selecting_hull(rec, hull_model="follower", seed=1)
 
 
+@pytest.mark.parametrize("hull", ["wave_follower", "discus_buoy"])
+def test_reference_hull_selection_finds_the_hull_the_records_were_drawn_with(hull):
+    """hull="auto": records drawn with a wave follower's translation keep the wave follower
+    (the simpler reference); records drawn with a discus buoy's, whose response falls and
+    lags below its natural periods, keep the discus buoy, decisively; the propagation gets
+    the kept reference (info["hull_reference"]), and the report names it."""
+    from flidar_uq.inference import fit_record_model_selecting_hull
+    from flidar_uq.validation.sbc import draw_record_campaign
+    from flidar_uq.workflow.report_summary import hull_model_words
+
+    truth = {"rho": 0.0, "kappa": 0.03, "kappa_z": 0.1, "lever_arm_m": 2.0,
+             "motion_scale": 1.0, "hull_response": 1.0, "rho_sd": 0.1}  # fmt: skip
+    rec = draw_record_campaign(np.random.default_rng(31), 800, truth, hull=hull)
+    fit = fit_record_model_selecting_hull(
+        rec, hull_model="translating", hull="auto", seed=31,
+        settings=SamplerSettings(nsteps=200, nburn=100),
+    )  # fmt: skip
+    rc = fit.info["hull_reference_comparison"]
+    assert fit.info["hull_reference"] == rc["kept"] == hull, rc
+    (row,) = rc["candidates"][1:]
+    assert row["hull_reference"] == "discus_buoy" and row["against"] == "wave_follower"
+    margin = max(4.0, 2 * row["elpd_difference_se"])
+    if hull == "discus_buoy":
+        assert row["elpd_difference"] > margin, row
+    else:
+        assert row["elpd_difference"] < margin, row
+    assert f"Reference hull {hull}" in hull_model_words(fit.info)
+    lo, hi = np.quantile(fit.flat("lever_arm_m"), [0.001, 0.999])
+    assert lo <= truth["lever_arm_m"] <= hi
+
+
 def test_hull_model_words_state_the_comparison():
     from flidar_uq.workflow.report_summary import hull_model_words
 

@@ -60,6 +60,7 @@ from flidar_uq.inference.results import GlobalFit
 from flidar_uq.inference.sampler import _run_ensembles, laplace_init
 from flidar_uq.physics.dbs_sigma_z import hws_error_moments
 from flidar_uq.physics.hull import get_hull
+from flidar_uq.physics.lidar import get_lidar
 from flidar_uq.seeding import as_seedsequence
 from flidar_uq.threads import single_threaded
 
@@ -68,6 +69,7 @@ __all__ = [
     "fit_record_model",
     "fit_subsample",
     "HULL_MODELS",
+    "REFERENCE_HULL_CANDIDATES",
     "LEVER_ARM_PLAUSIBLE_MAX_M",
     "is_record_model",
     "lever_arm_check",
@@ -685,7 +687,26 @@ HULL_SE_MARGIN = 2.0
 HULL_ELPD_MIN = 4.0
 
 
-def fit_record_model_selecting_hull(records: pd.DataFrame, *, hull_model: str = "auto", **kw):
+#: Reference hulls that ``hull="auto"`` (config ``inference.hull_reference: auto``)
+#: compares, simplest first: the wave follower (the surface's orbital motion at every
+#: period) and a reduced response (a large discus buoy's oscillators, which respond less
+#: and lag below their natural periods; :data:`flidar_uq.physics.hull.HULLS`).
+REFERENCE_HULL_CANDIDATES = ("wave_follower", "discus_buoy")
+
+
+def _loo_keeps(more: GlobalFit, simpler: GlobalFit) -> tuple[bool, float, float]:
+    """Whether PSIS-LOO prefers ``more`` to ``simpler`` by more than ``max(HULL_ELPD_MIN,
+    HULL_SE_MARGIN se)``; the elpd difference and its se (NaN without a comparison)."""
+    a, b = more.pointwise_loo, simpler.pointwise_loo
+    if a is None or b is None or a["elpd_i"].shape != b["elpd_i"].shape:
+        return True, float("nan"), float("nan")  # no comparison possible: the fuller one
+    diff, se = _loo_compare(a, b)
+    return bool(diff > max(HULL_ELPD_MIN, HULL_SE_MARGIN * se)), diff, se
+
+
+def fit_record_model_selecting_hull(
+    records: pd.DataFrame, *, hull_model: str = "auto", hull: str = "auto", **kw
+):
     """The record model with the simplest hull description the data support.
 
     Two nested descriptions of the buoy (docs/inference.md, "The hull"):
@@ -694,54 +715,89 @@ def fit_record_model_selecting_hull(records: pd.DataFrame, *, hull_model: str = 
       terms of :func:`~flidar_uq.inference.record_motion.six_dof_terms` are 0, so the
       hull response ``h`` keeps its prior and has no effect);
     * ``"translating"``: surge, sway and heave from the record's tilt spectrum through the
-      fitted hull response ``h`` (0 rotation only, 1 wave follower).
+      fitted hull response ``h`` (0 rotation only, 1 the reference hull) times a reference
+      hull's translation (``hull``).
 
     ``"auto"`` fits both on the same records and keeps the translating one only when its
     PSIS-LOO elpd is better by more than ``max(HULL_ELPD_MIN, HULL_SE_MARGIN se)``; without
-    the translation columns it is the rotation-only model, unfitted twice.
+    the translation columns it is the rotation-only model, unfitted twice. With
+    ``hull="auto"`` the translating model's reference hull is chosen first, by the same
+    rule among :data:`REFERENCE_HULL_CANDIDATES` (a later, less simple one only when it
+    beats the one kept so far).
 
     Parameters
     ----------
     records : pandas.DataFrame
         As :func:`fit_record_model`.
     hull_model : {"auto", "rotation_only", "translating"}
+    hull : str
+        The reference hull (:data:`flidar_uq.physics.hull.HULLS`), or ``"auto"`` (the
+        default, as config ``inference.hull_reference``).
     **kw
         Passed to :func:`fit_record_model`.
 
     Returns
     -------
     GlobalFit
-        The kept model's fit; ``info["hull_model"]`` the kept description and
-        ``info["hull_model_comparison"]`` (with ``"auto"`` and both fitted) the elpd of
-        each, their difference and its standard error.
+        The kept model's fit; ``info["hull_model"]`` the kept description,
+        ``info["hull_reference"]`` its reference hull; ``info["hull_model_comparison"]``
+        (with ``"auto"`` and both fitted) the elpd of each, their difference and its
+        standard error; ``info["hull_reference_comparison"]`` (with ``hull="auto"`` and
+        translation columns) each candidate reference's elpd, the difference of each
+        later one against the one kept before it, its se and the kept reference.
     """
     if hull_model not in HULL_MODELS:
         raise ValueError(
             f"fit_record_model_selecting_hull: hull_model={hull_model!r}, expected one of "
             f"{', '.join(HULL_MODELS)}"
         )
+    lidar = kw.get("lidar")
+    dbs = lidar is not None and get_lidar(lidar).kind == "dbs"  # its reference: the follower
+    if hull == "auto":
+        refs = REFERENCE_HULL_CANDIDATES[:1] if dbs else REFERENCE_HULL_CANDIDATES
+    else:
+        refs = (get_hull(hull).name,)
     desc = describe_motion(records, lidar=kw.get("lidar"))
     has_translation = bool((desc["translation_description"] != "none").any())
     if hull_model == "rotation_only" or not has_translation:
-        fit = fit_record_model(records, translation=False, **kw)
+        fit = fit_record_model(records, translation=False, hull=refs[0], **kw)
         fit.info["hull_model"] = "rotation_only"
         return fit
-    full = fit_record_model(records, **kw)
+    full = fit_record_model(records, hull=refs[0], **kw)
+    rows = [{"hull_reference": refs[0], "elpd": _elpd(full)}]
+    for ref in refs[1:]:
+        other = fit_record_model(records, hull=ref, **kw)
+        better, diff, se = _loo_keeps(other, full)
+        rows.append(
+            {"hull_reference": ref, "elpd": _elpd(other), "elpd_difference": diff,
+             "elpd_difference_se": se, "against": full.info["hull_reference"]}
+        )  # fmt: skip
+        full = other if better else full
     full.info["hull_model"] = "translating"
+    if len(refs) > 1:
+        full.info["hull_reference_comparison"] = {
+            "candidates": rows,
+            "kept": full.info["hull_reference"],
+        }
     if hull_model == "translating":
         return full
-    rot = fit_record_model(records, translation=False, **kw)
+    rot = fit_record_model(records, translation=False, hull=full.info["hull_reference"], **kw)
     rot.info["hull_model"] = "rotation_only"
-    a, b = full.pointwise_loo, rot.pointwise_loo
-    if a is None or b is None or a["elpd_i"].shape != b["elpd_i"].shape:
+    if full.pointwise_loo is None or rot.pointwise_loo is None:
         return full  # no comparison possible: the fuller description
-    diff, se = _loo_compare(a, b)
-    keep = full if diff > max(HULL_ELPD_MIN, HULL_SE_MARGIN * se) else rot
+    better, diff, se = _loo_keeps(full, rot)
+    keep = full if better else rot
     keep.info["hull_model_comparison"] = {
-        "translating_elpd": a["elpd"],
-        "rotation_only_elpd": b["elpd"],
+        "translating_elpd": full.pointwise_loo["elpd"],
+        "rotation_only_elpd": rot.pointwise_loo["elpd"],
         "elpd_difference": diff,
         "elpd_difference_se": se,
         "kept": keep.info["hull_model"],
     }
+    if "hull_reference_comparison" in full.info:
+        keep.info["hull_reference_comparison"] = full.info["hull_reference_comparison"]
     return keep
+
+
+def _elpd(fit: GlobalFit) -> float:
+    return float("nan") if fit.pointwise_loo is None else float(fit.pointwise_loo["elpd"])

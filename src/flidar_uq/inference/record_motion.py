@@ -53,6 +53,7 @@ __all__ = [
     "measured_response",
     "motion_gram",
     "per_record_motion",
+    "reference_translation_ratio",
     "six_dof_terms",
 ]
 
@@ -342,8 +343,10 @@ MEASURED_TRANSLATION_COLUMNS = (
 )
 
 
-def measured_response(records: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
-    """The hull's measured vertical and horizontal responses relative to a wave follower.
+def measured_response(
+    records: pd.DataFrame, *, hull="wave_follower", nodes: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The hull's measured vertical and horizontal responses relative to a reference hull.
 
     A wave follower with the record's tilt spectrum heaves with the velocity std
     ``sigma_h`` (``follower_heave_velocity_std_ms``) and, deep-water orbital motion being
@@ -351,14 +354,23 @@ def measured_response(records: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     ratios ``R_z = sigma_heave / sigma_h`` and ``R_x = sqrt(sigma_surge^2 + sigma_sway^2) /
     sigma_h`` (velocity stds; a displacement std times ``2 pi / T_h``, ``T_h`` the
     follower's heave mean period). With only the heave, or only the horizontal motion,
-    measured the other ratio is taken equal to it. The phases stay the wave follower's (a
-    hull's response in phase with the waves, right well above its natural periods).
+    measured the other ratio is taken equal to it. For another reference hull (``hull``)
+    the ratios are to its translation with the same tilt, ``R_z / q_z`` and ``R_x / q_x``
+    (:func:`reference_translation_ratio`): the record's translation then keeps the
+    reference hull's response per band, phases included, at the measured size. The wave
+    follower's phases are right for a hull well above its natural periods (in phase with
+    the waves); a large buoy's lag near them.
 
     Parameters
     ----------
     records : pandas.DataFrame
         Records with :data:`FOLLOWER_COLUMNS` and any of
         :data:`MEASURED_TRANSLATION_COLUMNS`.
+    hull : str or HullResponse
+        The reference hull (:data:`flidar_uq.physics.hull.HULLS`; default the wave
+        follower).
+    nodes : int, optional
+        Harmonics per tilt band (:func:`reference_translation_ratio`).
 
     Returns
     -------
@@ -379,8 +391,67 @@ def measured_response(records: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     with np.errstate(invalid="ignore", divide="ignore"):
         r_z = np.where(sig_h > 0, heave / sig_h, np.nan)
         r_x = np.where(sig_h > 0, horiz / sig_h, np.nan)
+        if get_hull(hull).name != "wave_follower":
+            q_z, q_x = reference_translation_ratio(records, hull, nodes=nodes)
+            r_z, r_x = r_z / q_z, r_x / q_x
     r_z, r_x = np.where(np.isfinite(r_z), r_z, r_x), np.where(np.isfinite(r_x), r_x, r_z)
     return r_z, r_x
+
+
+def reference_translation_ratio(
+    records: pd.DataFrame, hull, *, nodes: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """How much a reference hull translates relative to a wave follower with the same tilt.
+
+    A wave follower whose tilt has the variance ``var_b`` (rad^2) at the period ``T_b``
+    heaves and moves horizontally with the velocity variance ``var_b c_b^2`` (``c_b = g /
+    omega_b``; :func:`flidar_uq.data.imu.follower_translation_columns`); a hull of relative
+    responses ``R_x(T), R_z(T)`` (:meth:`flidar_uq.physics.hull.HullResponse.relative_responses`)
+    with ``|R_z(T_b)|^2 var_b c_b^2`` and ``|R_x(T_b)|^2 var_b c_b^2``. Over the record's
+    tilt bands (each as ``nodes`` harmonics, :data:`BAND_NODES` by default), else at the
+    follower's heave mean period (``follower_heave_period_s``):
+
+    ``q_z = sqrt(sum_b |R_z(T_b)|^2 var_b c_b^2 / sum_b var_b c_b^2)``, ``q_x`` alike.
+
+    A measured translation's ratios to the wave follower (:func:`measured_response`)
+    divided by these are its ratios to the reference hull, which then keeps its own
+    response per band (phases included) at the measured size.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame
+        Records with the tilt bands (``tilt_band{b}_*``) or ``follower_heave_period_s``.
+    hull : str or HullResponse
+        The reference hull (:data:`flidar_uq.physics.hull.HULLS`).
+    nodes : int, optional
+        Harmonics per band.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        ``q_z``, ``q_x`` (-), NaN where neither the bands nor the heave period are given.
+    """
+    ref = get_hull(hull)
+    per_h = _col(records, FOLLOWER_COLUMNS[1])
+    fin = np.isfinite(per_h)
+    rx, rz = ref.relative_responses(np.clip(np.where(fin, per_h, 1.0), 1.0, 20.0))
+    q_z = np.where(fin, np.abs(rz), np.nan)
+    q_x = np.where(fin, np.abs(rx), np.nan)
+    bands = tilt_bands_from_records(records)
+    if bands is not None and bands["complete"].any():
+        use = bands["complete"]
+        amp, per = expand_bands(
+            bands["amplitude_deg"][use],
+            bands["period_s"][use],
+            bands["edges_s"],
+            n_nodes=BAND_NODES if nodes is None else nodes,
+        )
+        w = amp**2 * per**2  # var_b c_b^2 up to a constant
+        rx, rz = ref.relative_responses(per)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            q_z[use] = np.sqrt(np.sum(w * np.abs(rz) ** 2, axis=-1) / np.sum(w, axis=-1))
+            q_x[use] = np.sqrt(np.sum(w * np.abs(rx) ** 2, axis=-1) / np.sum(w, axis=-1))
+    return q_z, q_x
 
 
 def six_dof_terms(
@@ -407,10 +478,11 @@ def six_dof_terms(
     ``sZ^2 = k^2 (sZ_rot^2 - 2 h heave_cross_sq + h^2 heave_leak_sq)
     + L^2 u^2 - 2 L h orbital_cross_sq + h^2 orbital_sq``.
 
-    Where the record's translation is measured (:func:`measured_response`), the heave
-    terms are scaled by ``R_z`` (the cross term) and ``R_z^2``, the orbital ones by ``R_x``
-    and ``R_x^2``, and ``translation_measured`` is 1: the hull response is known there,
-    ``h = 1`` in :func:`gram_sigma_z_ms` and the likelihood.
+    Where the record's translation is measured (:func:`measured_response`, its ratios to
+    the reference hull's), the reference hull's heave terms are scaled by ``R_z`` (the
+    cross term) and ``R_z^2``, the orbital ones by ``R_x`` and ``R_x^2``, and
+    ``translation_measured`` is 1: the hull response is known there, ``h = 1`` in
+    :func:`gram_sigma_z_ms` and the likelihood.
 
     Parameters
     ----------
@@ -424,7 +496,7 @@ def six_dof_terms(
         The reference hull whose translation the hull response ``h`` scales
         (:data:`flidar_uq.physics.hull.HULLS`; default the wave follower). With tilt bands
         each band takes the hull's response at its period, with moments the response at
-        the heave's mean period; a measured translation replaces it.
+        the heave's mean period; a measured translation sets its size.
 
     Returns
     -------
@@ -466,24 +538,27 @@ def _translation_terms(records, motion, surrogate, scan_period_s, hull, band_ter
         ok = ok | banded
         for key in ("heave_cross_sq", "heave_leak_sq", "orbital_cross_sq", "orbital_sq"):
             out[key][banded] = bt[key]
+    ref = get_hull(hull)
     r_z, r_x = measured_response(records)
     meas = ok & np.isfinite(r_z) & np.isfinite(r_x)
-    ref = get_hull(hull)
-    if ref.name != "wave_follower":  # the reference hull's response where not measured
-        sel = ok & ~meas & ~banded  # moments: the responses at the heave's mean period
+    if ref.name != "wave_follower":  # the reference hull's response, each band's own
+        sel = ok & ~banded  # moments: the responses at the heave's mean period
         if np.any(sel):
             rx, rz = ref.relative_responses(np.clip(per_h[sel], 1.0, 20.0))
             out["heave_cross_sq"][sel] *= rz.real
             out["heave_leak_sq"][sel] *= np.abs(rz) ** 2
             out["orbital_cross_sq"][sel] *= rx.real
             out["orbital_sq"][sel] *= np.abs(rx) ** 2
-        sel = np.flatnonzero(banded & ~meas)
+        sel = np.flatnonzero(banded)
         if sel.size:  # bands: each band's own response
             hb, ht, _ = _band_terms(
                 records.iloc[sel], surrogate, scan_period_s, hull=ref, nodes=nodes
             )
             for key in ("heave_cross_sq", "heave_leak_sq", "orbital_cross_sq", "orbital_sq"):
                 out[key][sel[hb]] = ht[key]
+        # a measured translation relative to the reference hull's with the same tilt
+        r_z, r_x = measured_response(records, hull=ref, nodes=nodes)
+        meas &= np.isfinite(r_z) & np.isfinite(r_x)
     out["heave_cross_sq"][meas] *= r_z[meas]
     out["heave_leak_sq"][meas] *= r_z[meas] ** 2
     out["orbital_cross_sq"][meas] *= r_x[meas]

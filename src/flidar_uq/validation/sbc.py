@@ -225,7 +225,13 @@ def draw_record_prior(rng, *, priors: Priors = _PRIORS, lever_arm_prior=None) ->
 
 
 def draw_record_campaign(
-    rng, n_records: int, truth: dict, *, surrogate=None, pair_log_sd: float = 0.0
+    rng,
+    n_records: int,
+    truth: dict,
+    *,
+    surrogate=None,
+    pair_log_sd: float = 0.0,
+    hull="wave_follower",
 ) -> pd.DataFrame:
     """Records drawn from the record model's likelihood exactly as it is written.
 
@@ -253,6 +259,9 @@ def draw_record_campaign(
     pair_log_sd : float
         The known relative sampling scatter of a reference lidar pair (-), every record
         (``fit_record_model(pair_log_sd=...)``); 0: a point reference.
+    hull : str or HullResponse
+        The reference hull whose translation the hull response scales
+        (:func:`~flidar_uq.inference.record_motion.motion_gram`; default the wave follower).
 
     Returns
     -------
@@ -284,7 +293,7 @@ def draw_record_campaign(
     for col, val in follower_translation_columns(bands).items():
         rec[col] = val
     sz = gram_sigma_z_ms(
-        motion_gram(rec, surrogate=surrogate),
+        motion_gram(rec, surrogate=surrogate, hull=hull),
         lever_arm_m=truth["lever_arm_m"],
         hull_response=truth["hull_response"],
         motion_scale=truth["motion_scale"],

@@ -206,7 +206,7 @@ def fit_global_model(
         fit = inf.fit_record_model_selecting_hull(
             assigned,
             hull_model=inference.get("hull_model", "auto"),
-            hull=inference.get("hull_reference", "wave_follower"),
+            hull=inference.get("hull_reference", "auto"),
             surrogate=get_surrogate(lidar),
             lidar=lidar,
             settings=_settings(inference),

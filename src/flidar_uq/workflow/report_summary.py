@@ -400,20 +400,46 @@ def motion_description_summary(records: pd.DataFrame) -> str:
     return " · ".join(parts)
 
 
+#: The reference hulls in the report's words (:data:`flidar_uq.physics.hull.HULLS`).
+_HULL_WORDS = {
+    "wave_follower": "a wave follower's (the surface's orbital motion)",
+    "discus_buoy": "a large discus buoy's (a reduced response below its natural periods)",
+    "spar": "a spar's (natural periods above the waves')",
+}
+
+
 def hull_model_words(info: dict) -> str:
     """The record model's hull description and why, from the global fit's ``info``."""
     kept = info.get("hull_model")
     if not kept:
         return ""
+    ref = info.get("hull_reference", "wave_follower")
     name = {
         "rotation_only": "rotation about a fixed centre",
-        "translating": "surge, sway and heave from the tilt spectrum (fitted hull response)",
+        "translating": "surge, sway and heave from the tilt spectrum (fitted hull response "
+        f"times {_HULL_WORDS.get(ref, ref)} translation)",
     }[kept]
     cmp = info.get("hull_model_comparison")
+    rc = info.get("hull_reference_comparison") if kept == "translating" else None
+    if rc:
+        diffs = "; ".join(
+            f"{c['hull_reference']} minus {c['against']} {c['elpd_difference']:+.1f} ± "
+            f"{c['elpd_difference_se']:.1f}"
+            for c in rc["candidates"][1:]
+        )
+        name += (
+            f". Reference hull {rc['kept']}, by PSIS-LOO elpd ({diffs}; a hull with its own "
+            "response is kept only when it is better by more than max(4, 2 se))"
+        )
     if not cmp:
-        return f"{name} (configured, or no translation description in the records)"
+        why = (
+            "the hull model configured"
+            if rc
+            else "configured, or no translation description in the records"
+        )
+        return f"{name} ({why})"
     return (
-        f"{name}: the PSIS-LOO elpd of the translating model minus the rotation-only one is "
+        f"{name}. The PSIS-LOO elpd of the translating model minus the rotation-only one is "
         f"{cmp['elpd_difference']:+.1f} ± {cmp['elpd_difference_se']:.1f}; the translating "
         "model is kept only when it is better by more than max(4, 2 se)"
     )
