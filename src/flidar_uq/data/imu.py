@@ -1300,7 +1300,8 @@ def _tilt_spectrum_windows(
     window_ns = int(round(window_s * 1e9))
     t0_ns = (int(t_ns[0]) // window_ns) * window_ns
     names = ["roll_deg", "pitch_deg"] + (["yaw_deg"] if "yaw_deg" in imu.columns else [])
-    # the heave: its velocity, else its acceleration (integrated below)
+    # the heave: its velocity, else its acceleration (band_direction_from_heave divides its
+    # spectra by i omega)
     heave = next((c for c in ("velocity_up_ms", "acceleration_up_ms2") if c in imu.columns), None)
     names += [heave] if heave else []
     vals = imu[names].to_numpy(dtype=np.float64)

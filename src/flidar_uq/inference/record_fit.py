@@ -759,14 +759,24 @@ def fit_record_model_selecting_hull(
         refs = (get_hull(hull).name,)
     desc = describe_motion(records, lidar=kw.get("lidar"))
     has_translation = bool((desc["translation_description"] != "none").any())
+    # every candidate from the same random streams (common random numbers), whether
+    # ``seed`` is an int or a SeedSequence whose spawns the first fit would advance
+    ss = as_seedsequence(kw.pop("seed", None))
+    state = {"spawn_key": ss.spawn_key, "pool_size": ss.pool_size}
+    state["n_children_spawned"] = ss.n_children_spawned
+
+    def fit(**extra):
+        seed = np.random.SeedSequence(ss.entropy, **state)
+        return fit_record_model(records, seed=seed, **kw, **extra)
+
     if hull_model == "rotation_only" or not has_translation:
-        fit = fit_record_model(records, translation=False, hull=refs[0], **kw)
-        fit.info["hull_model"] = "rotation_only"
-        return fit
-    full = fit_record_model(records, hull=refs[0], **kw)
+        rot = fit(translation=False, hull=refs[0])
+        rot.info["hull_model"] = "rotation_only"
+        return rot
+    full = fit(hull=refs[0])
     rows = [{"hull_reference": refs[0], "elpd": _elpd(full)}]
     for ref in refs[1:]:
-        other = fit_record_model(records, hull=ref, **kw)
+        other = fit(hull=ref)
         better, diff, se = _loo_keeps(other, full)
         rows.append(
             {"hull_reference": ref, "elpd": _elpd(other), "elpd_difference": diff,
@@ -781,7 +791,7 @@ def fit_record_model_selecting_hull(
         }
     if hull_model == "translating":
         return full
-    rot = fit_record_model(records, translation=False, hull=full.info["hull_reference"], **kw)
+    rot = fit(translation=False, hull=full.info["hull_reference"])
     rot.info["hull_model"] = "rotation_only"
     if full.pointwise_loo is None or rot.pointwise_loo is None:
         return full  # no comparison possible: the fuller description

@@ -161,7 +161,8 @@ def scenario_records(
         translating one alone (one fit).
     hull_reference : str
         The hull whose translation the hull response scales (config
-        ``inference.hull_reference``).
+        ``inference.hull_reference``), or ``"auto"`` (the pipeline's default: the wave
+        follower or the discus buoy, whichever PSIS-LOO keeps).
     motion_model : {"record", "bin"}
         Config ``inference.motion_model``: the record model, or the bin model
         (:func:`bin_model_fit`: the config's default bins, the per-bin fits and the global

@@ -402,9 +402,9 @@ def motion_description_summary(records: pd.DataFrame) -> str:
 
 #: The reference hulls in the report's words (:data:`flidar_uq.physics.hull.HULLS`).
 _HULL_WORDS = {
-    "wave_follower": "a wave follower's (the surface's orbital motion)",
-    "discus_buoy": "a large discus buoy's (a reduced response below its natural periods)",
-    "spar": "a spar's (natural periods above the waves')",
+    "wave_follower": "a wave follower (the surface's orbital motion)",
+    "discus_buoy": "a large discus buoy (a reduced response below its natural periods)",
+    "spar": "a spar (natural periods above the waves')",
 }
 
 
@@ -416,19 +416,19 @@ def hull_model_words(info: dict) -> str:
     ref = info.get("hull_reference", "wave_follower")
     name = {
         "rotation_only": "rotation about a fixed centre",
-        "translating": "surge, sway and heave from the tilt spectrum (fitted hull response "
-        f"times {_HULL_WORDS.get(ref, ref)} translation)",
+        "translating": "surge, sway and heave from the tilt spectrum: a fitted hull response "
+        f"times the translation of {_HULL_WORDS.get(ref, ref)}",
     }[kept]
     cmp = info.get("hull_model_comparison")
     rc = info.get("hull_reference_comparison") if kept == "translating" else None
     if rc:
         diffs = "; ".join(
-            f"{c['hull_reference']} minus {c['against']} {c['elpd_difference']:+.1f} ± "
+            f"elpd of {c['hull_reference']} minus {c['against']} {c['elpd_difference']:+.1f} ± "
             f"{c['elpd_difference_se']:.1f}"
             for c in rc["candidates"][1:]
         )
         name += (
-            f". Reference hull {rc['kept']}, by PSIS-LOO elpd ({diffs}; a hull with its own "
+            f". Reference hull kept by PSIS-LOO: {rc['kept']} ({diffs}; a hull with its own "
             "response is kept only when it is better by more than max(4, 2 se))"
         )
     if not cmp:
