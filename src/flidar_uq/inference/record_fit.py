@@ -757,7 +757,7 @@ def fit_record_model_selecting_hull(
         refs = REFERENCE_HULL_CANDIDATES[:1] if dbs else REFERENCE_HULL_CANDIDATES
     else:
         refs = (get_hull(hull).name,)
-    desc = describe_motion(records, lidar=kw.get("lidar"))
+    desc = describe_motion(records, lidar=lidar)
     has_translation = bool((desc["translation_description"] != "none").any())
     # every candidate from the same random streams (common random numbers), whether
     # ``seed`` is an int or a SeedSequence whose spawns the first fit would advance

@@ -539,7 +539,8 @@ def _translation_terms(records, motion, surrogate, scan_period_s, hull, band_ter
         for key in ("heave_cross_sq", "heave_leak_sq", "orbital_cross_sq", "orbital_sq"):
             out[key][banded] = bt[key]
     ref = get_hull(hull)
-    r_z, r_x = measured_response(records)
+    # a measured translation relative to the reference hull's with the same tilt
+    r_z, r_x = measured_response(records, hull=ref, nodes=nodes)
     meas = ok & np.isfinite(r_z) & np.isfinite(r_x)
     if ref.name != "wave_follower":  # the reference hull's response, each band's own
         sel = ok & ~banded  # moments: the responses at the heave's mean period
@@ -556,9 +557,6 @@ def _translation_terms(records, motion, surrogate, scan_period_s, hull, band_ter
             )
             for key in ("heave_cross_sq", "heave_leak_sq", "orbital_cross_sq", "orbital_sq"):
                 out[key][sel[hb]] = ht[key]
-        # a measured translation relative to the reference hull's with the same tilt
-        r_z, r_x = measured_response(records, hull=ref, nodes=nodes)
-        meas &= np.isfinite(r_z) & np.isfinite(r_x)
     out["heave_cross_sq"][meas] *= r_z[meas]
     out["heave_leak_sq"][meas] *= r_z[meas] ** 2
     out["orbital_cross_sq"][meas] *= r_x[meas]

@@ -20,6 +20,7 @@ from markupsafe import Markup
 
 from flidar_uq.data.binning import speed_bin_ms
 from flidar_uq.data.metrics import representative_ti
+from flidar_uq.physics.hull import get_hull
 from flidar_uq.validation.reference import holdout_mask, iec_category, validation_tables
 from flidar_uq.workflow import report as rep
 
@@ -400,14 +401,6 @@ def motion_description_summary(records: pd.DataFrame) -> str:
     return " · ".join(parts)
 
 
-#: The reference hulls in the report's words (:data:`flidar_uq.physics.hull.HULLS`).
-_HULL_WORDS = {
-    "wave_follower": "a wave follower (the surface's orbital motion)",
-    "discus_buoy": "a large discus buoy (a reduced response below its natural periods)",
-    "spar": "a spar (natural periods above the waves')",
-}
-
-
 def hull_model_words(info: dict) -> str:
     """The record model's hull description and why, from the global fit's ``info``."""
     kept = info.get("hull_model")
@@ -417,7 +410,7 @@ def hull_model_words(info: dict) -> str:
     name = {
         "rotation_only": "rotation about a fixed centre",
         "translating": "surge, sway and heave from the tilt spectrum: a fitted hull response "
-        f"times the translation of {_HULL_WORDS.get(ref, ref)}",
+        f"times the translation of the {ref} hull ({get_hull(ref).description})",
     }[kept]
     cmp = info.get("hull_model_comparison")
     rc = info.get("hull_reference_comparison") if kept == "translating" else None
