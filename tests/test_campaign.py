@@ -668,7 +668,8 @@ def test_mru_translation_columns_are_the_hulls_velocity_stds():
 
 def test_horizontal_velocity_is_the_rotation_centres_and_changes_nothing_else():
     """imu.horizontal_velocity writes the hull's east and north velocity (the rotation
-    centre's, earth frame) beside the vertical one: its noise is drawn last, so the records,
+    centre's, earth frame) beside the vertical one: its noise is drawn last, so the records
+    (but the hull's horizontal response it measures, a wave follower's 1 within 0.03),
     the LOS series and the other IMU columns are those of the same scenario without it.
     Noise-free, its std along the wind and the vertical one's are the translation truth
     of the LOS clock (the 5-Hz samples of the same series: within 2 %); the head's velocity
@@ -679,6 +680,9 @@ def test_horizontal_velocity_is_the_rotation_centres_and_changes_nothing_else():
     plain = generate_campaign(sc, 3, return_imu=True, return_los=True, n_workers=1)
     sc["imu"] |= {"horizontal_velocity": True, "horizontal_velocity_noise_ms": 0.0}
     both = generate_campaign(sc, 3, return_imu=True, return_los=True, n_workers=1)
+    # the records gain the hull's horizontal response, a wave follower's: 1
+    measured = both.records.pop("horizontal_response_ratio")
+    np.testing.assert_allclose(measured, 1.0, atol=0.03)
     pd.testing.assert_frame_equal(plain.records, both.records, check_exact=True)
     pd.testing.assert_frame_equal(plain.los, both.los, check_exact=True)
     cols = ["timestamp", "roll_deg", "pitch_deg", "yaw_deg"]
@@ -708,9 +712,9 @@ def test_vertical_acceleration_gives_the_directions_of_the_vertical_velocity():
     difference of the heave on the LOS clock) instead of its velocity: its noise is drawn
     last, so every record column but the bands' measured directions is that of the same
     scenario with the velocity, and noise-free those directions agree within 0.02 (rms
-    over the records) in every band that carries >= 4 % of the tilt variance (and so does
-    the heave-tilt correlation made of them). It is the rate of change of the other run's
-    velocity."""
+    over the records) in every band that carries >= 4 % of the tilt variance (and so do
+    the heave-tilt correlation made of them and the heave's response, 1 within 0.03 on
+    this wave follower). It is the rate of change of the other run's velocity."""
     base = load_scenario("wave_follower") | {"n_records": 24, "heights_m": [58.0]}
     runs = {}
     for option in ("vertical_velocity", "vertical_acceleration"):
@@ -727,10 +731,14 @@ def test_vertical_acceleration_gives_the_directions_of_the_vertical_velocity():
     measured = [c for c in v.records if c.startswith("tilt_band") and c.endswith("psi")]
     assert len(measured) == 24
     measured.append("follower_heave_tilt_correlation")  # from the bands' <cos psi>
+    measured.append("heave_response_ratio")  # the heave's power against the follower's
     pd.testing.assert_frame_equal(
         v.records.drop(columns=measured), a.records.drop(columns=measured), check_exact=True
     )
-    np.testing.assert_allclose(a.records[measured[-1]], v.records[measured[-1]], atol=0.01)
+    for col in measured[-2:]:
+        np.testing.assert_allclose(a.records[col], v.records[col], atol=0.01, err_msg=col)
+    # a wave follower's heave is a wave follower's: its measured response is 1
+    np.testing.assert_allclose(v.records["heave_response_ratio"], 1.0, atol=0.03)
     var = {
         b: v.records[f"tilt_band{b}_along_wind_var_deg2"]
         + v.records[f"tilt_band{b}_across_wind_var_deg2"]

@@ -392,12 +392,86 @@ def test_heave_direction_of_a_band_is_weighted_by_its_tilt_power_not_its_frequen
         along -= np.cos(psi) * lean_deg  # positive where the mast leans upwind
         across += np.sin(psi) * lean_deg
         w += np.deg2rad(lean_deg) * G_MS2 / (2.0 * np.pi * f_hz)
-    cos_psi, sin_psi, _ = band_direction_from_heave(w[None], along[None], across[None], fs)
+    cos_psi, sin_psi, _, _ = band_direction_from_heave(w[None], along[None], across[None], fs)
     band = 4
     edges = ms.band_edges_s(8, 1.0, 20.0)
     assert edges[band] < 1 / 0.22 and 1 / 0.16 < edges[band + 1]  # 4.47-6.50 s
     assert cos_psi[0, band] == pytest.approx(np.cos(psi), abs=0.002)
     assert sin_psi[0, band] == pytest.approx(np.sin(psi), abs=0.002)
+
+
+@pytest.mark.parametrize("response", [1.0, 0.4, 0.0])
+def test_heave_response_is_the_heave_against_a_wave_follower_with_the_same_tilt(response):
+    """A hull whose heave is ``response`` times a wave follower's (``g / omega`` times its
+    tilt, frequency by frequency) at two periods of different bands (4 and 9 s), plus a
+    35-s heave (a mooring's surge of the water level) outside the tilt bands: the IMU
+    series' heave response is ``response``, the 35-s heave not counted; from the heave
+    acceleration the same; a series without a finite heave sample gives NaN."""
+    from flidar_uq.data.imu import band_direction_from_heave
+    from flidar_uq.physics.hull import G_MS2
+
+    fs, t = 5.0, np.arange(3000) / 5.0
+    along, w = np.zeros_like(t), np.zeros_like(t)
+    for f_hz, amp_deg, phase in ((0.25, 2.0, 0.3), (1.0 / 9.0, 1.0, 2.1)):
+        lean_deg = amp_deg * np.sin(2.0 * np.pi * f_hz * t + phase)
+        along -= lean_deg
+        w += response * np.deg2rad(lean_deg) * G_MS2 / (2.0 * np.pi * f_hz)
+    w += 0.3 * np.sin(2.0 * np.pi * t / 35.0)
+    across = np.zeros_like(t)
+    *_, got = band_direction_from_heave(w[None], along[None], across[None], fs)
+    assert got[0] == pytest.approx(response, abs=0.01)
+    acc = np.gradient(w, 1.0 / fs)
+    *_, from_acc = band_direction_from_heave(
+        None, along[None], across[None], fs, acceleration_up_ms2=acc[None]
+    )
+    assert from_acc[0] == pytest.approx(response, abs=0.02)
+    *_, none = band_direction_from_heave(
+        np.full((1, t.size), np.nan), along[None], across[None], fs
+    )
+    assert np.isnan(none[0])
+
+
+@pytest.mark.parametrize("hull", ["wave_follower", "discus_buoy", "spar"])
+def test_series_velocities_measure_the_hulls_heave_and_horizontal_response(hull):
+    """A 10-min sea under each named hull (yaw 0, so the body axes are east and north): the
+    IMU series' heave velocity and its east and north velocities give the hull's heave and
+    horizontal responses against a wave follower's with the same tilt
+    (``heave_response``, ``horizontal_response``): within 5 % of the hull's own
+    ``|R_z|``, ``|R_x|`` (relative to its tilt, :meth:`HullResponse.relative_responses`)
+    weighted over the bands by a follower's translation power ``var_b c_b^2``, and 1
+    within 2 % for the wave follower. The spar heaves more than a follower with its tilt
+    and moves sideways less (1.45 and 0.24 here): one campaign-wide hull response cannot be
+    both, the measurement is."""
+    from flidar_uq.data.imu import tilt_band_statistics
+    from flidar_uq.physics.hull import get_hull
+    from flidar_uq.physics.seastate import hull_motion_series
+
+    fs, n = 5.0, 3000
+    systems = {
+        "amplitude_deg": [[4.0]],
+        "tp_s": [[6.0]],
+        "gamma": [[3.3]],
+        "direction_deg": [[60.0]],
+        "spread_deg": [[10.0]],
+    }
+    h = hull_motion_series(n, 1.0 / fs, systems, np.random.default_rng(4), hull)
+    roll, pitch = h["roll_deg"][0], h["pitch_deg"][0]
+    w, ve, vn = (np.gradient(h[k][0], 1.0 / fs) for k in ("heave_m", "surge_m", "sway_m"))
+    spec = tilt_band_statistics(
+        roll, pitch, 0.0, 270.0, fs, velocity_up_ms=w, velocity_east_ms=ve, velocity_north_ms=vn
+    )
+    var = spec.var_along_deg2[0] + spec.var_across_deg2[0]
+    weight = var * spec.period_s[0] ** 2  # var_b c_b^2 up to a constant
+    r_x, r_z = get_hull(hull).relative_responses(spec.period_s[0])
+    want_z = np.sqrt(np.sum(weight * np.abs(r_z) ** 2) / weight.sum())
+    want_x = np.sqrt(np.sum(weight * np.abs(r_x) ** 2) / weight.sum())
+    assert spec.heave_response[0] == pytest.approx(want_z, rel=0.05)
+    assert spec.horizontal_response[0] == pytest.approx(want_x, rel=0.05)
+    if hull == "wave_follower":
+        assert spec.heave_response[0] == pytest.approx(1.0, abs=0.02)
+        assert spec.horizontal_response[0] == pytest.approx(1.0, abs=0.02)
+    if hull == "spar":
+        assert spec.heave_response[0] > 1.1 and spec.horizontal_response[0] < 0.5
 
 
 @pytest.mark.parametrize("direction_deg", [45.0, 130.0])
@@ -424,8 +498,12 @@ def test_measured_band_moments_are_a_spread_of_directions_and_reach_the_dbs_sigm
 
     roll, pitch, w = _follower_sea(direction_deg, 10.0)
     spec = tilt_band_statistics(roll, pitch, 0.0, 270.0, 5.0, velocity_up_ms=w)
-    rec = pd.DataFrame(tilt_spectrum_columns(spec)).assign(
-        hws_mean_ms=8.0, wd_mean_deg=270.0, heading_mean_deg=0.0
+    # the directions alone: the heave's measured size (0.99-1.00 of a follower's here)
+    # would set the translation instead of the hull response h = 1 below
+    rec = (
+        pd.DataFrame(tilt_spectrum_columns(spec))
+        .drop(columns="heave_response_ratio")
+        .assign(hws_mean_ms=8.0, wd_mean_deg=270.0, heading_mean_deg=0.0)
     )
     sincos = [f"tilt_band{b}_sincos_psi" for b in range(1, 9)]
     assert set(sincos) <= set(rec.columns)

@@ -288,15 +288,23 @@ def test_vertical_velocity_gives_the_bands_measured_direction_as_in_the_campaign
 ):
     """A wave follower's IMU series with the vertical velocity (imu.vertical_velocity), or
     with the vertical acceleration of an inertial unit without a velocity output
-    (imu.vertical_acceleration): the streamed statistics carry tilt_band{b}_cos_psi, equal
-    to the campaign's own, and a series without the column gives none."""
+    (imu.vertical_acceleration), and the horizontal velocities (imu.horizontal_velocity):
+    the streamed statistics carry tilt_band{b}_cos_psi and the hull's heave and horizontal
+    responses, equal to the campaign's own (a wave follower's: 1 within 0.05), and a
+    series without the heave column gives none of the former."""
     from flidar_uq.campaign.scenarios import load_scenario
 
     sc = load_scenario("wave_follower") | {"n_records": 6, "heights_m": [58.0]}
-    sc["imu"] = sc.get("imu", {}) | {option: True, "gap_probability": 0.0}
+    sc["imu"] = sc.get("imu", {}) | {
+        option: True,
+        "horizontal_velocity": True,
+        "gap_probability": 0.0,
+    }
     camp = generate_campaign(sc, 5, return_imu=True, n_workers=1)
     assert column in camp.imu
-    cols = [f"tilt_band{b}_cos_psi" for b in range(1, 9)]
+    responses = ["heave_response_ratio", "horizontal_response_ratio"]
+    np.testing.assert_allclose(camp.records[responses], 1.0, atol=0.05)
+    cols = [f"tilt_band{b}_cos_psi" for b in range(1, 9)] + responses
     path = tmp_path / "imu.csv"
     io.write_imu_series(camp.imu, path)
     got = series_motion_statistics(path, camp.records, chunk_rows=4000).statistics
@@ -304,7 +312,7 @@ def test_vertical_velocity_gives_the_bands_measured_direction_as_in_the_campaign
     assert np.isfinite(got[cols].to_numpy()).any()
     io.write_imu_series(camp.imu.drop(columns=column), path)
     without = series_motion_statistics(path, camp.records, chunk_rows=4000).statistics
-    assert not set(cols) & set(without.columns)
+    assert not set(cols[:-1]) & set(without.columns)
 
 
 def test_merge_series_motion_the_series_wins_row_by_row():

@@ -587,6 +587,48 @@ def test_measured_translation_fixes_the_hull_response_of_its_records():
     np.testing.assert_allclose(measured_response(disp)[1], 0.6, rtol=1e-9)  # taken equal
 
 
+def test_imu_series_responses_are_a_measured_translation_below_the_mru():
+    """The IMU series' heave and horizontal responses (heave_response_ratio,
+    horizontal_response_ratio) are R_z and R_x where no MRU or GNSS std is given: the
+    record's sigma_Z is that of a measured translation of that size whatever the fitted
+    hull response, described as "imu_series"; the heave alone sets both; an MRU std on
+    the record wins over the series."""
+    from flidar_uq.inference.record_motion import (
+        describe_motion,
+        gram_sigma_z_ms,
+        measured_response,
+        motion_gram,
+    )
+
+    truth = {"rho": 0.0, "kappa": 0.03, "kappa_z": 0.1, "lever_arm_m": 2.0,
+             "motion_scale": 1.0, "hull_response": 0.6, "rho_sd": 0.1}  # fmt: skip
+    rec = _draw_records(np.random.default_rng(8), 50, truth)
+    series = rec.assign(heave_response_ratio=0.5, horizontal_response_ratio=0.2)
+    r_z, r_x = measured_response(series)
+    np.testing.assert_allclose(r_z, 0.5, rtol=1e-12)
+    np.testing.assert_allclose(r_x, 0.2, rtol=1e-12)
+    heave_only = series.drop(columns="horizontal_response_ratio")
+    np.testing.assert_allclose(measured_response(heave_only)[1], 0.5, rtol=1e-12)
+    gram = motion_gram(series)
+    assert gram["translation_measured"].eq(1.0).all()
+    # the same as an MRU measuring that heave and horizontal velocity
+    mru = rec.assign(
+        heave_velocity_std_ms=0.5 * rec["follower_heave_velocity_std_ms"],
+        surge_velocity_std_ms=0.2 * rec["follower_heave_velocity_std_ms"],
+        sway_velocity_std_ms=0.0,
+    )
+    for h in (0.0, 1.4):
+        np.testing.assert_allclose(
+            gram_sigma_z_ms(gram, lever_arm_m=2.0, hull_response=h),
+            gram_sigma_z_ms(motion_gram(mru), lever_arm_m=2.0, hull_response=1.0),
+            rtol=1e-12,
+        )
+    assert describe_motion(series)["translation_description"].eq("imu_series").all()
+    both = mru.assign(heave_response_ratio=0.9, horizontal_response_ratio=0.9)
+    np.testing.assert_allclose(measured_response(both)[0], 0.5, rtol=1e-12)
+    assert describe_motion(both)["translation_description"].eq("measured").all()
+
+
 def test_record_model_with_measured_translation_recovers_lever_arm_and_scale():
     truth = {"rho": 0.1, "kappa": 0.03, "kappa_z": 0.15, "lever_arm_m": 2.5,
              "motion_scale": 1.0, "hull_response": 0.6, "rho_sd": 0.1}  # fmt: skip

@@ -728,10 +728,13 @@ def test_default_campaign_meets_the_corrected_ti_acceptance(tmp_path):
     # model's 20 % of TI
     assert (groups["median_rel_width"] <= 0.24).all(), groups.to_string()
     # the campaign's IMU series has the heave velocity: every corrected record's wave bands
-    # have their directions of travel measured, and the report's first screen says so
+    # have their directions of travel measured, its translation's size is the measured
+    # heave's, and the report's first screen says so
     assert rec.loc[kept, "wave_direction_description"].eq("measured").all()
+    assert rec.loc[kept, "translation_description"].eq("imu_series").all()
     html = (tmp_path / "results" / "report" / "report.html").read_text()
     assert "direction of travel measured from the heave" in html
+    assert "translation measured in the IMU series" in html
     _library_path_gives_the_pipelines_tables(tmp_path)
 
 

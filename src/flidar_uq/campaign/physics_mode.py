@@ -1118,6 +1118,8 @@ def _imu_statistics(cols, settings, imu_att, imu_ns, wd_mean, clk):
         rate,
         velocity_up_ms=att.get("velocity_up_ms"),
         acceleration_up_ms2=att.get("acceleration_up_ms2"),
+        velocity_east_ms=att.get("velocity_east_ms"),
+        velocity_north_ms=att.get("velocity_north_ms"),
     )
     for key, col in _imu.tilt_spectrum_columns(spec).items():
         cols[key] = np.asarray(col, float)

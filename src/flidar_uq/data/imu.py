@@ -44,6 +44,8 @@ import numpy as np
 from numpy import fft as _fft
 
 from flidar_uq.data.schema import (
+    HEAVE_RESPONSE_COLUMN,
+    HORIZONTAL_RESPONSE_COLUMN,
     N_TILT_BANDS,
     TILT_SPECTRUM_COLUMNS,
     tilt_band_column_names,
@@ -67,6 +69,7 @@ if TYPE_CHECKING:  # pandas is imported where a function builds or reads a DataF
 __all__ = [
     "AMPLITUDE_METHODS",
     "band_direction_from_heave",
+    "response_ratio",
     "grid_rate_hz",
     "PERIOD_METHODS",
     "amplitude_std_deg",
@@ -285,6 +288,13 @@ def band_direction_from_heave(
     a follower, in phase, gives the same ratios. Welch estimate as :func:`motion_spectrum`
     (gaps linearly filled, detrended, periodic Hann segments with 50 % overlap).
 
+    The same spectra give the heave's size: a wave follower's heave velocity has ``(g /
+    omega)^2`` times its tilt's power at each frequency (:mod:`flidar_uq.physics.hull`),
+    so the ratio of the measured heave velocity's power to that, summed over the bands'
+    frequencies, is the hull's heave response relative to a wave follower's with the
+    record's own tilt (:func:`response_ratio`; a measured translation,
+    :func:`flidar_uq.inference.record_motion.measured_response`).
+
     An inertial unit without a velocity output gives the heave acceleration instead: each
     segment's transform of it divided by ``i omega`` is that of the velocity, as wave
     buoys integrate their heave (Tucker and Pitt, 2001, Sec. 7.3), only at the bands'
@@ -315,6 +325,11 @@ def band_direction_from_heave(
         heave or tilt power or a window without a finite vertical velocity.
     sincos_psi : numpy.ndarray, shape (nwin, n_bands)
         ``<sin psi cos psi>`` per band (-, in [-1/2, 1/2]), NaN where ``sin_psi`` is.
+    heave_response : numpy.ndarray, shape (nwin,)
+        The hull's measured heave against a wave follower's with the same tilt, over the
+        bands' periods: ``sqrt(sum_f P_w(f) / sum_f (g / omega)^2 P_tilt(f))`` (-, tilt in
+        rad; 1 for a hull that follows the waves, 0 for one that only rotates); NaN
+        without heave or tilt power.
     """
     from flidar_uq.data import imu_kernels  # numba: imported where an estimator runs
 
@@ -375,12 +390,14 @@ def band_direction_from_heave(
             cos_psi[:, b] = -(co_along[:, sl] * r).sum(-1) / norm
             sin_psi[:, b] = (co_across[:, sl] * r).sum(-1) / norm
             sincos_psi[:, b] = -co_tilt[:, sl].sum(-1) / np.where(ok, pt.sum(-1), np.nan)
-    for x in (cos_psi, sin_psi, sincos_psi):
+    heave_response = response_ratio(f, p_w, p_tilt, period_min_s, period_max_s)
+    for x in (cos_psi, sin_psi, sincos_psi, heave_response):
         x[no_heave] = np.nan
     return (
         np.clip(cos_psi, -1.0, 1.0),
         np.clip(sin_psi, -1.0, 1.0),
         np.clip(sincos_psi, -0.5, 0.5),
+        heave_response,
     )
 
 
@@ -390,6 +407,46 @@ def _band(f: np.ndarray, period_min_s: float, period_max_s: float) -> np.ndarray
             f"need 0 < period_min_s < period_max_s, got {period_min_s}, {period_max_s}"
         )
     return (f >= 1.0 / period_max_s) & (f <= 1.0 / period_min_s)
+
+
+def response_ratio(f_hz, velocity_psd, tilt_psd_deg2, period_min_s, period_max_s) -> np.ndarray:
+    """A hull's translation against a wave follower's with the same tilt, over a period band.
+
+    A wave follower's heave velocity, and its horizontal orbital velocity (deep-water
+    orbits are circular), have ``(g / omega)^2`` times its tilt's power at each frequency
+    (:mod:`flidar_uq.physics.hull`), whatever the waves' directions. So
+
+    ``R = sqrt(sum_f P_v(f) / sum_f (g / omega)^2 P_tilt(f))``
+
+    over the frequencies of ``[period_min_s, period_max_s]`` is 1 for a hull that follows
+    the waves, less for one that moves less, 0 for one that only rotates (a velocity
+    outside the band, a mooring's slow drift, does not count).
+
+    Parameters
+    ----------
+    f_hz : numpy.ndarray, shape (nf,)
+        Frequencies, Hz.
+    velocity_psd : numpy.ndarray, shape (nwin, nf)
+        Power of the measured velocity (heave, or east + north), (m/s)^2 per unit of the
+        tilt's scale.
+    tilt_psd_deg2 : numpy.ndarray, shape (nwin, nf)
+        Power of the tilt (along + across), deg^2 in the same scale.
+    period_min_s, period_max_s : float
+        The band, s.
+
+    Returns
+    -------
+    numpy.ndarray, shape (nwin,)
+        ``R`` (-); NaN without tilt power in the band.
+    """
+    f = np.asarray(f_hz, float)
+    inside = _band(f, period_min_s, period_max_s) & (f > 0)
+    c2 = np.zeros_like(f)
+    c2[inside] = (G_MS2 / (2.0 * np.pi * f[inside])) ** 2
+    follower = (np.asarray(tilt_psd_deg2, float) * np.deg2rad(1.0) ** 2 * c2).sum(-1)
+    measured = np.where(inside, np.asarray(velocity_psd, float), 0.0).sum(-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.sqrt(measured / np.where(follower > 0, follower, np.nan))
 
 
 def _refine(f: np.ndarray, p: np.ndarray, k: np.ndarray) -> np.ndarray:
@@ -923,6 +980,8 @@ def tilt_band_statistics(
     period_max_s: float = 20.0,
     velocity_up_ms=None,
     acceleration_up_ms2=None,
+    velocity_east_ms=None,
+    velocity_north_ms=None,
 ) -> TiltBandSpectrum:
     """Per-record tilt spectrum along and across the wind, reduced to period bands.
 
@@ -958,6 +1017,9 @@ def tilt_band_statistics(
     acceleration_up_ms2 : array_like, shape like roll_deg, optional
         Vertical acceleration of the buoy, positive up, gravity removed, m/s^2: without
         ``velocity_up_ms``, the heave (:func:`band_direction_from_heave`).
+    velocity_east_ms, velocity_north_ms : array_like, shape like roll_deg, optional
+        Horizontal velocity of the buoy towards east and north, m/s: with both, the hull's
+        horizontal response (:func:`response_ratio`) is in ``horizontal_response``.
 
     Returns
     -------
@@ -966,11 +1028,14 @@ def tilt_band_statistics(
         ``(nwin * k, ...)``.
     """
     east, north = _tilt_vector(roll_deg, pitch_deg, yaw_deg)  # (nwin, n)
-    heave = {}  # the heave: its velocity, else its acceleration
+    velocities = {}  # the heave (its velocity, else its acceleration), the horizontal velocity
     if velocity_up_ms is not None:
-        heave["velocity_up_ms"] = _as_2d(velocity_up_ms)[0]
+        velocities["velocity_up_ms"] = _as_2d(velocity_up_ms)[0]
     elif acceleration_up_ms2 is not None:
-        heave["acceleration_up_ms2"] = _as_2d(acceleration_up_ms2)[0]
+        velocities["acceleration_up_ms2"] = _as_2d(acceleration_up_ms2)[0]
+    if velocity_east_ms is not None and velocity_north_ms is not None:
+        velocities["velocity_east_ms"] = _as_2d(velocity_east_ms)[0]
+        velocities["velocity_north_ms"] = _as_2d(velocity_north_ms)[0]
     if np.ndim(wd_deg) == 2:  # k directions per series: rows (series, direction)
         wd = np.asarray(wd_deg, np.float64)
         if wd.shape[0] != east.shape[0]:
@@ -980,7 +1045,7 @@ def tilt_band_statistics(
             )
         # each series projected on its k directions by broadcasting (rows: series, direction)
         east, north, wd = east[:, None, :], north[:, None, :], wd[:, :, None]
-        heave = {k: np.repeat(v, wd.shape[1], axis=0) for k, v in heave.items()}
+        velocities = {k: np.repeat(v, wd.shape[1], axis=0) for k, v in velocities.items()}
     else:
         wd = np.asarray(wd_deg, np.float64).reshape(-1, 1) if np.ndim(wd_deg) else float(wd_deg)
     return _projected_band_spectrum(
@@ -992,7 +1057,7 @@ def tilt_band_statistics(
         n_bands=n_bands,
         period_min_s=period_min_s,
         period_max_s=period_max_s,
-        **heave,
+        **velocities,
     )
 
 
@@ -1017,10 +1082,13 @@ def _projected_band_spectrum(
     period_max_s,
     velocity_up_ms=None,
     acceleration_up_ms2=None,
+    velocity_east_ms=None,
+    velocity_north_ms=None,
 ) -> TiltBandSpectrum:
     """Band spectrum of the tilt vector projected on the wind (``wd_deg`` broadcast; s, Hz),
     with each band's ``<cos psi>`` from the vertical velocity (m/s) or acceleration
-    (m/s^2) where one is given."""
+    (m/s^2) where one is given, and the horizontal response (:func:`response_ratio`) from
+    the east and north velocities (m/s) where both are."""
     along, across = project_tilt_on_wind_deg(east, north, wd_deg)
     if along.ndim == 3:  # (series, direction, sample): one row a (series, direction)
         along, across = (a.reshape(-1, a.shape[-1]) for a in (along, across))
@@ -1028,9 +1096,18 @@ def _projected_band_spectrum(
     _, pc = motion_spectrum(across, fs_hz, segment_s=segment_s)
     bands = dict(n_bands=n_bands, period_min_s=period_min_s, period_max_s=period_max_s)
     spec = tilt_band_spectrum(f, pa, pc, **bands)
+    if velocity_east_ms is not None and velocity_north_ms is not None:
+        vel = [_as_2d(v)[0] for v in (velocity_east_ms, velocity_north_ms)]
+        none = ~(np.isfinite(vel[0]).any(-1) & np.isfinite(vel[1]).any(-1))
+        p_h = sum(
+            motion_spectrum(np.where(none[:, None], 0.0, v), fs_hz, segment_s=segment_s)[1]
+            for v in vel
+        )
+        ratio = response_ratio(f, p_h, pa + pc, period_min_s, period_max_s)
+        spec = replace(spec, horizontal_response=np.where(none, np.nan, ratio))
     if velocity_up_ms is None and acceleration_up_ms2 is None:
         return spec
-    cos_psi, sin_psi, sincos_psi = band_direction_from_heave(
+    cos_psi, sin_psi, sincos_psi, heave_response = band_direction_from_heave(
         velocity_up_ms,
         along,
         across,
@@ -1039,7 +1116,13 @@ def _projected_band_spectrum(
         segment_s=segment_s,
         **bands,
     )
-    return replace(spec, cos_psi=cos_psi, sin_psi=sin_psi, sincos_psi=sincos_psi)
+    return replace(
+        spec,
+        cos_psi=cos_psi,
+        sin_psi=sin_psi,
+        sincos_psi=sincos_psi,
+        heave_response=heave_response,
+    )
 
 
 def tilt_spectrum_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
@@ -1066,6 +1149,10 @@ def tilt_spectrum_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
             bands[tilt_band_sin_psi_column(b + 1)] = np.asarray(spec.sin_psi[:, b], float)
         if spec.sincos_psi is not None:
             bands[tilt_band_sincos_psi_column(b + 1)] = np.asarray(spec.sincos_psi[:, b], float)
+    if spec.heave_response is not None:
+        bands[HEAVE_RESPONSE_COLUMN] = np.asarray(spec.heave_response, float)
+    if spec.horizontal_response is not None:
+        bands[HORIZONTAL_RESPONSE_COLUMN] = np.asarray(spec.horizontal_response, float)
     return (
         {
             "tilt_along_wind_std_deg": spec.along_std_deg,
@@ -1304,6 +1391,10 @@ def _tilt_spectrum_windows(
     # spectra by i omega)
     heave = next((c for c in ("velocity_up_ms", "acceleration_up_ms2") if c in imu.columns), None)
     names += [heave] if heave else []
+    # the horizontal velocity: its east and north components (response_ratio)
+    horizontal = [c for c in ("velocity_east_ms", "velocity_north_ms") if c in imu.columns]
+    horizontal = horizontal if len(horizontal) == 2 else []
+    names += horizontal
     vals = imu[names].to_numpy(dtype=np.float64)
     start_s, grid, fs = window_series((t_ns - t0_ns) * 1e-9, vals, window_s=window_s, fs_hz=fs_hz)
     stamps = pd.to_datetime(t0_ns + np.rint(start_s * 1e9).astype(np.int64), utc=True)
@@ -1328,7 +1419,8 @@ def _tilt_spectrum_windows(
         if has_yaw
         else np.full(len(stamps), np.nan)
     )
-    heave_series = {heave: grid[..., -1]} if heave else {}
+    col = {name: grid[..., i] for i, name in enumerate(names)}
+    velocity_series = {c: col[c] for c in (heave, *horizontal) if c}
     keep = np.flatnonzero(present)
     out = []
     for j in range(wd.shape[1]):
@@ -1342,7 +1434,7 @@ def _tilt_spectrum_windows(
             n_bands=n_bands,
             period_min_s=PERIOD_RANGE_S[0],
             period_max_s=PERIOD_RANGE_S[1],
-            **heave_series,
+            **velocity_series,
         ).masked(good[:, j])
         table = pd.DataFrame(
             {"timestamp": stamps} | tilt_spectrum_columns(spec) | {"heading_mean_deg": heading}

@@ -31,6 +31,8 @@ from flidar_uq.data import imu as _imu
 from flidar_uq.data import io
 from flidar_uq.data.formats import detect_los_format, read_los_file
 from flidar_uq.data.schema import (
+    HEAVE_RESPONSE_COLUMN,
+    HORIZONTAL_RESPONSE_COLUMN,
     RADIAN_SUSPECT_MAX_DEG,
     RADIAN_SUSPECT_MIN_COUNT,
     TILT_SPECTRUM_COLUMNS,
@@ -670,7 +672,7 @@ def _record_table(records, rec_keys, motion_rows, tilt_rows) -> pd.DataFrame:
         out = out.assign(**{c: np.nan for c in (*TILT_SPECTRUM_COLUMNS, "heading_mean_deg")})
     out["imu_availability_pct"] = out["imu_availability_pct"].fillna(0.0)
     out["timestamp"] = records["timestamp"].to_numpy()  # back to the records' own times
-    measured = _measured_direction_columns(out)
+    measured = _measured_heave_columns(out)
     return out[["timestamp", "height_m", *SERIES_MOTION_COLUMNS, *measured]]
 
 
@@ -738,15 +740,22 @@ def series_overrides(records: pd.DataFrame) -> tuple[list[str], int]:
         Record rows with a value in one of them (the series wins over it).
     """
     own = [c for c in SERIES_MOTION_COLUMNS if c in records.columns]
-    own += _measured_direction_columns(records)
+    own += _measured_heave_columns(records)
     return own, int(records[own].notna().any(axis=1).sum()) if own else 0
 
 
-def _measured_direction_columns(table: pd.DataFrame) -> list[str]:
-    """The bands' measured directions (``tilt_band{b}_cos_psi``, ``tilt_band{b}_sin_psi``,
-    ``tilt_band{b}_sincos_psi``) a table carries."""
+def _measured_heave_columns(table: pd.DataFrame) -> list[str]:
+    """What the heave of an IMU series measured that a table carries: the bands'
+    directions (``tilt_band{b}_cos_psi``, ``tilt_band{b}_sin_psi``,
+    ``tilt_band{b}_sincos_psi``) and the hull's responses (``heave_response_ratio``,
+    ``horizontal_response_ratio``)."""
     ends = ("_cos_psi", "_sin_psi", "_sincos_psi")
-    return [c for c in table if c.startswith("tilt_band") and c.endswith(ends)]
+    return [
+        c
+        for c in table
+        if (c.startswith("tilt_band") and c.endswith(ends))
+        or c in (HEAVE_RESPONSE_COLUMN, HORIZONTAL_RESPONSE_COLUMN)
+    ]
 
 
 def merge_series_motion(
@@ -787,7 +796,8 @@ def merge_series_motion(
             f"({len(statistics)} vs {len(records)} rows); rerun the imu_statistics step"
         )
     merged = records.drop(columns=series_overrides(records)[0])
-    # with the bands' measured directions where the series had a vertical velocity
-    for col in (*SERIES_MOTION_COLUMNS, *_measured_direction_columns(statistics)):
+    # with what the heave measured (the bands' directions, the heave response) where the
+    # series had a vertical velocity or acceleration
+    for col in (*SERIES_MOTION_COLUMNS, *_measured_heave_columns(statistics)):
         merged[col] = statistics[col].to_numpy(dtype=float)
     return merged

@@ -26,6 +26,8 @@ __all__ = [
     "MOTION_COLUMNS",
     "N_TILT_BANDS",
     "TILT_SPECTRUM_COLUMNS",
+    "HEAVE_RESPONSE_COLUMN",
+    "HORIZONTAL_RESPONSE_COLUMN",
     "tilt_band_column_names",
     "tilt_band_cos_psi_column",
     "tilt_band_sin_psi_column",
@@ -132,6 +134,15 @@ _HEIGHT_M = Column(
 #: b = 1 .. N_TILT_BANDS): log-spaced between 1 and 20 s, the bands the data layer reduces a
 #: raw IMU series to (:func:`flidar_uq.data.imu.tilt_band_statistics`).
 N_TILT_BANDS = 8
+
+#: Optional record column: the hull's heave against a wave follower's with the record's
+#: tilt spectrum, measured from the IMU series' vertical velocity or acceleration
+#: (:func:`flidar_uq.data.imu.band_direction_from_heave`).
+HEAVE_RESPONSE_COLUMN = "heave_response_ratio"
+
+#: Optional record column: the same of the hull's horizontal velocity, from the IMU series'
+#: east and north velocities (:func:`flidar_uq.data.imu.response_ratio`).
+HORIZONTAL_RESPONSE_COLUMN = "horizontal_response_ratio"
 
 
 def tilt_band_cos_psi_column(b: int) -> str:
@@ -462,6 +473,37 @@ RECORD_COLUMNS: tuple[Column, ...] = (
                 "scan does not use it.",
             ),
         )
+    ),
+    Column(
+        HEAVE_RESPONSE_COLUMN,
+        "float",
+        "-",
+        False,
+        0.0,
+        10.0,
+        True,
+        "The hull's heave velocity against a wave follower's with the record's tilt "
+        "spectrum, sqrt(sum_f P_w(f) / sum_f (g / omega)^2 P_tilt(f)) over the tilt bands' "
+        "periods (1-20 s, tilt in rad), from the IMU series' vertical velocity or "
+        "acceleration: 1 follows the waves, 0 only rotates. The record model takes it as "
+        "a measured translation (the horizontal motion with the same ratio) where no "
+        "MRU or GNSS translation std is given; absent: the translation's size is the "
+        "fitted hull response's.",
+    ),
+    Column(
+        HORIZONTAL_RESPONSE_COLUMN,
+        "float",
+        "-",
+        False,
+        0.0,
+        10.0,
+        True,
+        "The hull's horizontal velocity (east and north together) against a wave "
+        "follower's orbital velocity with the record's tilt spectrum, over the tilt bands' "
+        "periods (1-20 s), from the IMU series' velocity_east_ms and velocity_north_ms: 1 "
+        "follows the waves (deep-water orbits are circular), 0 only rotates. Taken as the "
+        "measured horizontal translation with heave_response_ratio; absent: the "
+        "horizontal motion takes the heave's ratio.",
     ),
     Column(
         "heading_mean_deg",
@@ -798,7 +840,8 @@ IMU_COLUMNS: tuple[Column, ...] = (
         True,
         "Vertical (heave) velocity of the buoy at its rotation centre, positive up (ENU earth "
         "frame); with it the record table gets each tilt band's measured directions of travel "
-        "(tilt_band{b}_cos_psi, tilt_band{b}_sin_psi, tilt_band{b}_sincos_psi).",
+        "(tilt_band{b}_cos_psi, tilt_band{b}_sin_psi, tilt_band{b}_sincos_psi) and the "
+        "hull's heave response (heave_response_ratio).",
     ),
     Column(
         "acceleration_up_ms2",

@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from flidar_uq.data.imu import tilt_bands_from_records
+from flidar_uq.data.schema import HEAVE_RESPONSE_COLUMN, HORIZONTAL_RESPONSE_COLUMN
 from flidar_uq.inference.observations import records_wind_body_deg
 from flidar_uq.physics.dbs_sigma_z import hws_error_moments
 from flidar_uq.physics.hull import G_MS2, get_hull
@@ -72,13 +73,16 @@ ALONG_WIND_COLUMNS = ("tilt_along_wind_std_deg", "tilt_period_mean_s")
 #: pitch of Gutiérrez-Antuñano et al. (2018).
 MOTION_DESCRIPTIONS = ("tilt_bands", "along_wind", "roll_pitch", "none")
 
-#: Values of ``translation_description``: where a record's hull translation comes from.
-#: ``"measured"``: the record's MRU or GNSS translation stds
-#: (:data:`MEASURED_TRANSLATION_COLUMNS`, :func:`measured_response`) with the wave
-#: follower's phases, the hull response known; ``"tilt_spectrum"``: the translation a wave follower has with the record's tilt spectrum
-#: (:data:`FOLLOWER_COLUMNS`), scaled by the fitted hull response; ``"none"``: the buoy is
-#: taken to rotate about a fixed centre (the rotation-only model).
-TRANSLATION_DESCRIPTIONS = ("measured", "tilt_spectrum", "none")
+#: Values of ``translation_description``: where a record's hull translation comes from,
+#: best first. ``"measured"``: the record's MRU or GNSS translation stds
+#: (:data:`MEASURED_TRANSLATION_COLUMNS`, :func:`measured_response`) with the reference
+#: hull's phases, the hull response known; ``"imu_series"``: the heave (and the horizontal
+#: velocity where given) of the record's IMU series against a wave follower's
+#: (``heave_response_ratio``, ``horizontal_response_ratio``), likewise;
+#: ``"tilt_spectrum"``: the translation the reference hull has with the record's tilt
+#: spectrum (:data:`FOLLOWER_COLUMNS`), scaled by the fitted hull response; ``"none"``: the
+#: buoy is taken to rotate about a fixed centre (the rotation-only model).
+TRANSLATION_DESCRIPTIONS = ("measured", "imu_series", "tilt_spectrum", "none")
 
 
 def _col(records: pd.DataFrame, name: str) -> np.ndarray:
@@ -353,9 +357,13 @@ def measured_response(
     circular, moves horizontally with the same total std. A measured translation gives the
     ratios ``R_z = sigma_heave / sigma_h`` and ``R_x = sqrt(sigma_surge^2 + sigma_sway^2) /
     sigma_h`` (velocity stds; a displacement std times ``2 pi / T_h``, ``T_h`` the
-    follower's heave mean period). With only the heave, or only the horizontal motion,
-    measured the other ratio is taken equal to it. For another reference hull (``hull``)
-    the ratios are to its translation with the same tilt, ``R_z / q_z`` and ``R_x / q_x``
+    follower's heave mean period). Where the record has none of those stds, the responses
+    its IMU series measured are ``R_z`` and ``R_x`` (``heave_response_ratio``,
+    ``horizontal_response_ratio``, :func:`flidar_uq.data.imu.response_ratio`: the same
+    ratios taken frequency by frequency over the tilt bands). With only the heave, or only
+    the horizontal motion, measured the other ratio is taken equal to it. For another
+    reference hull (``hull``) the ratios are to its translation with the same tilt,
+    ``R_z / q_z`` and ``R_x / q_x``
     (:func:`reference_translation_ratio`): the record's translation then keeps the
     reference hull's response per band, phases included, at the measured size. The wave
     follower's phases are right for a hull well above its natural periods (in phase with
@@ -365,7 +373,8 @@ def measured_response(
     ----------
     records : pandas.DataFrame
         Records with :data:`FOLLOWER_COLUMNS` and any of
-        :data:`MEASURED_TRANSLATION_COLUMNS`.
+        :data:`MEASURED_TRANSLATION_COLUMNS` or ``heave_response_ratio`` and
+        ``horizontal_response_ratio``.
     hull : str or HullResponse
         The reference hull (:data:`flidar_uq.physics.hull.HULLS`; default the wave
         follower).
@@ -391,6 +400,16 @@ def measured_response(
     with np.errstate(invalid="ignore", divide="ignore"):
         r_z = np.where(sig_h > 0, heave / sig_h, np.nan)
         r_x = np.where(sig_h > 0, horiz / sig_h, np.nan)
+    # the IMU series' heave and horizontal velocity against the follower's, frequency by
+    # frequency, where neither the MRU's nor the GNSS's translation is given
+    stds = np.isfinite(r_z) | np.isfinite(r_x)
+    series_z, series_x = (
+        np.where(stds, np.nan, _col(records, c))
+        for c in (HEAVE_RESPONSE_COLUMN, HORIZONTAL_RESPONSE_COLUMN)
+    )
+    r_z = np.where(np.isfinite(series_z), series_z, r_z)
+    r_x = np.where(np.isfinite(series_x), series_x, r_x)
+    with np.errstate(invalid="ignore", divide="ignore"):
         if get_hull(hull).name != "wave_follower":
             q_z, q_x = reference_translation_ratio(records, hull, nodes=nodes)
             r_z, r_x = r_z / q_z, r_x / q_x
@@ -598,8 +617,9 @@ def describe_motion(
         ``translation_description`` (one of :data:`TRANSLATION_DESCRIPTIONS`;
         ``"tilt_spectrum"`` only where the tilt is described along the wind (by bands or
         moments), or for a DBS lidar by its bands or its roll and pitch with the follower
-        columns); ``wave_direction_description``: for tilt bands with the translation from
-        the tilt spectrum, ``"measured"`` where the record has the bands' directions of
+        columns; ``"measured"`` from the MRU's or GNSS's stds, ``"imu_series"`` from the IMU
+        series' velocities, :func:`measured_response`); ``wave_direction_description``: for tilt
+        bands with a translation, ``"measured"`` where the record has the bands' directions of
         travel from the heave (``tilt_band{b}_cos_psi``), else ``"assumed"``
         (:func:`band_cos_psi`); ``""`` where they do not enter.
     """
@@ -621,10 +641,16 @@ def describe_motion(
             follower = follower | banded
     r_z, r_x = measured_response(records)
     measured = follower & np.isfinite(r_z) & np.isfinite(r_x)
-    trans = np.where(measured, "measured", np.where(follower, "tilt_spectrum", "none"))
+    series = [HEAVE_RESPONSE_COLUMN, HORIZONTAL_RESPONSE_COLUMN]
+    stds = np.isfinite(measured_response(records.drop(columns=series, errors="ignore"))[0])
+    trans = np.where(
+        measured,
+        np.where(stds, "measured", "imu_series"),
+        np.where(follower, "tilt_spectrum", "none"),
+    )
     if hull_model == "rotation_only":
         trans = np.full(len(records), "none")
-    on_bands = (tilt == "tilt_bands") & (trans == "tilt_spectrum")
+    on_bands = (tilt == "tilt_bands") & (trans != "none")
     heave = (
         np.isfinite(bands["cos_psi_measured"]).any(axis=-1)
         if bands is not None

@@ -341,6 +341,14 @@ class TiltBandSpectrum:
     sincos_psi : ndarray, shape (nrec, nb), or None
         Mean ``sin psi cos psi`` of the same directions, from the co-spectrum of the along-
         and across-wind tilt; given with ``sin_psi``.
+    heave_response : ndarray, shape (nrec,), or None
+        The hull's heave against a wave follower's with the record's tilt, over the bands'
+        periods, from the vertical velocity
+        (:func:`flidar_uq.data.imu.band_direction_from_heave`); None without one.
+    horizontal_response : ndarray, shape (nrec,), or None
+        The same of the hull's horizontal velocity (east and north together), from the
+        east and north velocities (:func:`flidar_uq.data.imu.response_ratio`); None
+        without them.
     """
 
     edges_s: np.ndarray
@@ -355,6 +363,8 @@ class TiltBandSpectrum:
     cos_psi: np.ndarray | None = None
     sin_psi: np.ndarray | None = None
     sincos_psi: np.ndarray | None = None
+    heave_response: np.ndarray | None = None
+    horizontal_response: np.ndarray | None = None
 
     _RECORD_FIELDS = (
         "period_s",
@@ -373,7 +383,9 @@ class TiltBandSpectrum:
 
     def _fields(self) -> tuple[str, ...]:
         measured = tuple(
-            k for k in ("cos_psi", "sin_psi", "sincos_psi") if getattr(self, k) is not None
+            k
+            for k in ("cos_psi", "sin_psi", "sincos_psi", "heave_response", "horizontal_response")
+            if getattr(self, k) is not None
         )
         return self._RECORD_FIELDS + measured
 

@@ -41,6 +41,7 @@ from flidar_uq.inference import (
     fit_global,
     fit_record_model_selecting_hull,
 )
+from flidar_uq.physics.lidar import get_lidar
 from flidar_uq.physics.surrogate import get_surrogate
 from flidar_uq.seeding import as_seedsequence
 from flidar_uq.threads import single_threaded
@@ -102,11 +103,22 @@ def regime_labels(records: pd.DataFrame) -> pd.DataFrame:
 
 
 @single_threaded
+def _scenario_lidar(cfg: Mapping, lidar: str | None) -> str:
+    """The scenario's lidar name; ``lidar`` must be it (ValueError otherwise)."""
+    simulated = get_lidar((cfg.get("lidar") or {}).get("name", "zephir300")).name
+    if lidar is not None and get_lidar(lidar).name != simulated:
+        raise ValueError(
+            f"scenario_records: lidar {lidar!r}, but the scenario {cfg.get('name', '')!r} "
+            f"simulates {simulated!r}: pass lidar={simulated!r} or leave it out"
+        )
+    return simulated
+
+
 def scenario_records(
     scenario: str | Path | Mapping,
     seed: int,
     *,
-    lidar: str = "zephir300",
+    lidar: str | None = None,
     settings: SamplerSettings = SamplerSettings(),
     credible_mass: float = 0.9,
     ndraws: int = 400,
@@ -128,8 +140,10 @@ def scenario_records(
         Scenario name (``flidar_uq/resources/scenarios/<name>.yaml``), path or settings.
     seed : int
         Root seed: campaign, fit, point target and propagation get its spawned children.
-    lidar : str
-        Lidar of the surrogate (must be the scenario's lidar).
+    lidar : str, optional
+        The lidar the records are corrected for: the scenario's own (its ``lidar.name``)
+        when None; another name is refused (sigma_Z would be that of the wrong geometry,
+        as the pipeline refuses a ``campaign.lidar`` that is not the scenario's).
     settings : SamplerSettings
     credible_mass : float
         Credible mass of the intervals, in (0, 1).
@@ -197,6 +211,7 @@ def scenario_records(
         cfg["n_records"] = int(n_records)
     if n_workers is not None:
         cfg["n_workers"] = int(n_workers)
+    lidar = _scenario_lidar(cfg, lidar)
     ss_camp, ss_fit, ss_point, ss_prop = as_seedsequence(seed).spawn(4)
     sampling = reference_sampling(cfg)
     kind = sampling["reference_kind"]

@@ -365,14 +365,17 @@ _TILT_WORDS = {
 }
 _TRANSLATION_WORDS = {
     "measured": "surge, sway and heave measured (MRU or GNSS stds), the hull response known",
+    "imu_series": "translation measured in the IMU series (its heave velocity or "
+    "acceleration; surge and sway from their velocities where given, else in proportion), "
+    "the hull response known",
     "tilt_spectrum": "surge and heave from the tilt spectrum through the fitted hull response",
     "none": "no translation (rotation about a fixed centre)",
 }
 
 
 #: How the tilt bands' directions of travel were found (records.csv column
-#: ``wave_direction_description``, for tilt bands with the translation from the tilt
-#: spectrum): measured from the heave, or assumed.
+#: ``wave_direction_description``, for tilt bands with a translation): measured from the
+#: heave, or assumed.
 _DIRECTION_WORDS = {
     "measured": "each wave band's direction of travel measured from the heave",
     "assumed": (
@@ -409,8 +412,9 @@ def hull_model_words(info: dict) -> str:
     ref = info.get("hull_reference", "wave_follower")
     name = {
         "rotation_only": "rotation about a fixed centre",
-        "translating": "surge, sway and heave from the tilt spectrum: a fitted hull response "
-        f"times the translation of the {ref} hull ({get_hull(ref).description})",
+        "translating": f"surge, sway and heave of the {ref} hull "
+        f"({get_hull(ref).description}) with the record's tilt spectrum, at the measured "
+        "size where the translation is measured, else times a fitted hull response",
     }[kept]
     cmp = info.get("hull_model_comparison")
     rc = info.get("hull_reference_comparison") if kept == "translating" else None
