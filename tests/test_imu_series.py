@@ -315,6 +315,31 @@ def test_vertical_velocity_gives_the_bands_measured_direction_as_in_the_campaign
     assert not set(cols[:-1]) & set(without.columns)
 
 
+def test_a_velocity_that_covers_too_little_of_a_window_measures_nothing(tmp_path):
+    """A separate MRU's velocity with its own gaps: in a window where the heave velocity
+    covers less than the tilt must (80 %), its linear fill would lose band power, so the
+    window gets no heave response and no measured directions (the record model then fits
+    the translation's size); the other windows keep theirs, unchanged."""
+    from flidar_uq.campaign.scenarios import load_scenario
+
+    sc = load_scenario("wave_follower") | {"n_records": 3, "heights_m": [58.0]}
+    sc["imu"] = sc.get("imu", {}) | {"vertical_velocity": True, "gap_probability": 0.0}
+    camp = generate_campaign(sc, 5, return_imu=True, n_workers=1)
+    path = tmp_path / "imu.csv"
+    io.write_imu_series(camp.imu, path)
+    full = series_motion_statistics(path, camp.records).statistics
+    sparse = camp.imu.copy()
+    first = sparse["timestamp"] < camp.records["timestamp"].iloc[0] + pd.Timedelta(600, "s")
+    gap = first & (np.arange(len(sparse)) % 3 != 0)  # a third of the first window left
+    sparse.loc[gap, "velocity_up_ms"] = np.nan
+    io.write_imu_series(sparse, path)
+    got = series_motion_statistics(path, camp.records).statistics
+    cols = ["heave_response_ratio", *[f"tilt_band{b}_cos_psi" for b in range(1, 9)]]
+    assert got.loc[0, cols].isna().all()
+    assert np.isfinite(full.loc[0, cols].to_numpy(dtype=float)).any()
+    pd.testing.assert_frame_equal(got.loc[1:, cols], full.loc[1:, cols])
+
+
 def test_merge_series_motion_the_series_wins_row_by_row():
     t = pd.to_datetime(["2016-05-01T00:00:00Z", "2016-05-01T00:10:00Z"], utc=True)
     records = pd.DataFrame(

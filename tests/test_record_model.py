@@ -591,8 +591,8 @@ def test_imu_series_responses_are_a_measured_translation_below_the_mru():
     """The IMU series' heave and horizontal responses (heave_response_ratio,
     horizontal_response_ratio) are R_z and R_x where no MRU or GNSS std is given: the
     record's sigma_Z is that of a measured translation of that size whatever the fitted
-    hull response, described as "imu_series"; the heave alone sets both; an MRU std on
-    the record wins over the series."""
+    hull response, described as "imu_series"; the heave alone sets both; an MRU std of
+    the same motion wins over the series, which still gives the motion the MRU lacks."""
     from flidar_uq.inference.record_motion import (
         describe_motion,
         gram_sigma_z_ms,
@@ -626,7 +626,13 @@ def test_imu_series_responses_are_a_measured_translation_below_the_mru():
     assert describe_motion(series)["translation_description"].eq("imu_series").all()
     both = mru.assign(heave_response_ratio=0.9, horizontal_response_ratio=0.9)
     np.testing.assert_allclose(measured_response(both)[0], 0.5, rtol=1e-12)
+    np.testing.assert_allclose(measured_response(both)[1], 0.2, rtol=1e-12)
     assert describe_motion(both)["translation_description"].eq("measured").all()
+    # an MRU that gives the heave only: the series' horizontal response beside it
+    heave_mru = mru.drop(columns=["surge_velocity_std_ms", "sway_velocity_std_ms"])
+    mixed = heave_mru.assign(heave_response_ratio=0.9, horizontal_response_ratio=0.3)
+    np.testing.assert_allclose(measured_response(mixed)[0], 0.5, rtol=1e-12)
+    np.testing.assert_allclose(measured_response(mixed)[1], 0.3, rtol=1e-12)
 
 
 def test_record_model_with_measured_translation_recovers_lever_arm_and_scale():

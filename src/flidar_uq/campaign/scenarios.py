@@ -148,7 +148,8 @@ DEFAULT_SCENARIO: dict = {
         "mru_translation": False,
         # the hull's vertical velocity in the IMU series (velocity_up_ms, m/s), as a wave
         # sensor or motion reference unit reports it, with white noise (m/s): the records
-        # then carry each tilt band's measured direction (tilt_band{b}_cos_psi)
+        # then carry each tilt band's measured direction (tilt_band{b}_cos_psi) and the
+        # hull's heave response (heave_response_ratio)
         "vertical_velocity": False,
         "vertical_velocity_noise_ms": 0.02,
         # the hull's vertical acceleration instead (acceleration_up_ms2, m/s^2, gravity
@@ -158,7 +159,8 @@ DEFAULT_SCENARIO: dict = {
         "vertical_acceleration_noise_ms2": 0.01,
         # the hull's horizontal velocity in the IMU series (velocity_east_ms,
         # velocity_north_ms, m/s, earth frame), as a motion reference unit or GNSS reports
-        # it, with white noise (m/s): the LOS branch adds it to the head velocity
+        # it, with white noise (m/s): the LOS branch adds it to the head velocity, and the
+        # records carry the hull's horizontal response (horizontal_response_ratio)
         "horizontal_velocity": False,
         "horizontal_velocity_noise_ms": 0.02,
     },

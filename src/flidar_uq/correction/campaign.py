@@ -65,6 +65,8 @@ CARRIED_RECORD_COLUMNS = (
     "surge_velocity_std_ms",
     "sway_velocity_std_ms",
     "heave_velocity_std_ms",
+    "heave_response_ratio",
+    "horizontal_response_ratio",
     "gnss_speed_mean_ms",
     "wave_hs_m",
     "wave_tp_s",

@@ -70,6 +70,7 @@ __all__ = [
     "AMPLITUDE_METHODS",
     "band_direction_from_heave",
     "response_ratio",
+    "RESPONSE_RATIO_MAX",
     "grid_rate_hz",
     "PERIOD_METHODS",
     "amplitude_std_deg",
@@ -409,6 +410,11 @@ def _band(f: np.ndarray, period_min_s: float, period_max_s: float) -> np.ndarray
     return (f >= 1.0 / period_max_s) & (f <= 1.0 / period_min_s)
 
 
+#: Largest hull response against a wave follower's that :func:`response_ratio` reports (-):
+#: the record columns' bound (``heave_response_ratio``, ``horizontal_response_ratio``).
+RESPONSE_RATIO_MAX = 10.0
+
+
 def response_ratio(f_hz, velocity_psd, tilt_psd_deg2, period_min_s, period_max_s) -> np.ndarray:
     """A hull's translation against a wave follower's with the same tilt, over a period band.
 
@@ -437,7 +443,9 @@ def response_ratio(f_hz, velocity_psd, tilt_psd_deg2, period_min_s, period_max_s
     Returns
     -------
     numpy.ndarray, shape (nwin,)
-        ``R`` (-); NaN without tilt power in the band.
+        ``R`` (-); NaN without tilt power in the band, or above
+        :data:`RESPONSE_RATIO_MAX` (a velocity in other units than m/s, or a window
+        almost without tilt: the record model then fits the translation's size instead).
     """
     f = np.asarray(f_hz, float)
     inside = _band(f, period_min_s, period_max_s) & (f > 0)
@@ -446,7 +454,8 @@ def response_ratio(f_hz, velocity_psd, tilt_psd_deg2, period_min_s, period_max_s
     follower = (np.asarray(tilt_psd_deg2, float) * np.deg2rad(1.0) ** 2 * c2).sum(-1)
     measured = np.where(inside, np.asarray(velocity_psd, float), 0.0).sum(-1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.sqrt(measured / np.where(follower > 0, follower, np.nan))
+        ratio = np.sqrt(measured / np.where(follower > 0, follower, np.nan))
+    return np.where(ratio <= RESPONSE_RATIO_MAX, ratio, np.nan)
 
 
 def _refine(f: np.ndarray, p: np.ndarray, k: np.ndarray) -> np.ndarray:
@@ -1420,7 +1429,14 @@ def _tilt_spectrum_windows(
         else np.full(len(stamps), np.nan)
     )
     col = {name: grid[..., i] for i, name in enumerate(names)}
-    velocity_series = {c: col[c] for c in (heave, *horizontal) if c}
+    # a velocity counts in a window only where it covers it as the tilt must (a separate
+    # MRU's or GNSS's gaps: filled linearly, a sparse velocity would lose band power)
+    velocity_series = {}
+    for group in ([heave] if heave else [], horizontal):
+        if group:
+            both = np.all([np.isfinite(col[c]) for c in group], axis=0)
+            thin = 100.0 * both.mean(axis=-1) < min_coverage_pct
+            velocity_series |= {c: np.where(thin[:, None], np.nan, col[c]) for c in group}
     keep = np.flatnonzero(present)
     out = []
     for j in range(wd.shape[1]):

@@ -357,11 +357,12 @@ def measured_response(
     circular, moves horizontally with the same total std. A measured translation gives the
     ratios ``R_z = sigma_heave / sigma_h`` and ``R_x = sqrt(sigma_surge^2 + sigma_sway^2) /
     sigma_h`` (velocity stds; a displacement std times ``2 pi / T_h``, ``T_h`` the
-    follower's heave mean period). Where the record has none of those stds, the responses
-    its IMU series measured are ``R_z`` and ``R_x`` (``heave_response_ratio``,
-    ``horizontal_response_ratio``, :func:`flidar_uq.data.imu.response_ratio`: the same
-    ratios taken frequency by frequency over the tilt bands). With only the heave, or only
-    the horizontal motion, measured the other ratio is taken equal to it. For another
+    follower's heave mean period). Where the record has no such std of the heave (of the
+    horizontal motion), the response its IMU series measured is ``R_z`` (``R_x``):
+    ``heave_response_ratio`` (``horizontal_response_ratio``,
+    :func:`flidar_uq.data.imu.response_ratio`: the same ratio taken frequency by frequency
+    over the tilt bands). With only the heave, or only the horizontal motion, measured
+    the other ratio is taken equal to it. For another
     reference hull (``hull``) the ratios are to its translation with the same tilt,
     ``R_z / q_z`` and ``R_x / q_x``
     (:func:`reference_translation_ratio`): the record's translation then keeps the
@@ -401,14 +402,9 @@ def measured_response(
         r_z = np.where(sig_h > 0, heave / sig_h, np.nan)
         r_x = np.where(sig_h > 0, horiz / sig_h, np.nan)
     # the IMU series' heave and horizontal velocity against the follower's, frequency by
-    # frequency, where neither the MRU's nor the GNSS's translation is given
-    stds = np.isfinite(r_z) | np.isfinite(r_x)
-    series_z, series_x = (
-        np.where(stds, np.nan, _col(records, c))
-        for c in (HEAVE_RESPONSE_COLUMN, HORIZONTAL_RESPONSE_COLUMN)
-    )
-    r_z = np.where(np.isfinite(series_z), series_z, r_z)
-    r_x = np.where(np.isfinite(series_x), series_x, r_x)
+    # frequency, where the MRU's or the GNSS's std of the same motion is not given
+    r_z = np.where(np.isfinite(r_z), r_z, _col(records, HEAVE_RESPONSE_COLUMN))
+    r_x = np.where(np.isfinite(r_x), r_x, _col(records, HORIZONTAL_RESPONSE_COLUMN))
     with np.errstate(invalid="ignore", divide="ignore"):
         if get_hull(hull).name != "wave_follower":
             q_z, q_x = reference_translation_ratio(records, hull, nodes=nodes)

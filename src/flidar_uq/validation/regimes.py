@@ -102,7 +102,6 @@ def regime_labels(records: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
-@single_threaded
 def _scenario_lidar(cfg: Mapping, lidar: str | None) -> str:
     """The scenario's lidar name; ``lidar`` must be it (ValueError otherwise)."""
     simulated = get_lidar((cfg.get("lidar") or {}).get("name", "zephir300")).name
@@ -114,6 +113,7 @@ def _scenario_lidar(cfg: Mapping, lidar: str | None) -> str:
     return simulated
 
 
+@single_threaded
 def scenario_records(
     scenario: str | Path | Mapping,
     seed: int,
