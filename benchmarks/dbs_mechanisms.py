@@ -10,10 +10,11 @@ direction relative to the beams uniform):
 - ``geometry``: sigma_Z of the same cone with every beam of a cycle taken at once, as a
   share of the full sigma_Z (what the cone's geometry with the relative velocity gives
   alone; Desert, Knapp & Aubrun 2021 name it first);
-- ``beam_timing``, ``tilt``, ``heave``, ``translation``: the share of sigma_Z^2 that goes
+- ``beam_timing``, ``tilt``, ``heave``, ``translation``, ``shear``: the share of sigma_Z^2 that goes
   when the mechanism is switched off, ``1 - sigma_Z,without^2 / sigma_Z^2`` (negative: the
   mechanism reduces sigma_Z; heave partly cancels the tilt's apparent vertical wind, so the
-  shares need not add to one);
+  shares need not add to one; ``shear``: the range gates that the tilt moves through a
+  power-law profile of exponent 0.1, Yamaguchi and Ishihara 2016's offshore value);
 - ``heading``: the std of sigma_Z over headings as a share of its rms (how much knowing the
   heading matters).
 
@@ -40,6 +41,7 @@ N_HEADINGS = 24
 LIDARS = ("windcube_v2", "windcube_v1", "windcube_v2_1")
 HULL_NAMES = ("wave_follower", "rotation_only")
 HWS = (5.0, 10.0, 15.0)
+SHEAR_EXPONENT = 0.1
 SEAS = {  # directions of travel relative to the wind's
     "windsea_4s": [WaveSystem(3.0, 4.0, 3.3, 0.0, 30.0)],
     "windsea+swell_across": [
@@ -51,7 +53,7 @@ SEAS = {  # directions of travel relative to the wind's
         WaveSystem(1.8, 9.0, 6.0, 180.0, 10.0),
     ],
 }
-SWITCHED = ("beam_timing", "tilt", "heave", "translation")
+SWITCHED = ("beam_timing", "tilt", "heave", "translation", "shear")
 COLUMNS = ("geometry", *SWITCHED, "heading")
 
 
@@ -71,6 +73,7 @@ def _per_heading(a, p, d_wind, hws, lidar, hull, mechanisms):
                     hull=hull,
                     lidar=lidar,
                     mechanisms=mechanisms,
+                    shear_exponent=SHEAR_EXPONENT,
                 )
             )
             for b in beta
@@ -135,7 +138,12 @@ def _plot(df: pd.DataFrame) -> None:
     for ax, hull in zip(axes, HULL_NAMES, strict=True):
         g = g0[g0.hull == hull].set_index("sea").loc[seas]
         for k, col in enumerate(COLUMNS):
-            ax.bar(np.arange(len(seas)) + (k - 2.5) * width, g[col], width, label=col)
+            ax.bar(
+                np.arange(len(seas)) + (k - 0.5 * (len(COLUMNS) - 1)) * width,
+                g[col],
+                width,
+                label=col,
+            )
         ax.axhline(0.0, color="k", lw=0.6)
         ax.set_xticks(range(len(seas)), seas, fontsize=8)
         ax.set_title(f"{hull} (sigma_Z {', '.join(f'{v:.2f}' for v in g.sigma_z_ms)} m/s)")

@@ -170,6 +170,75 @@ def test_band_sums_chunk_by_chunk_equal_the_whole_and_a_table_without_bands_fall
     pd.testing.assert_series_equal(gram.iloc[2], whole.iloc[2])
 
 
+def test_shear_exponent_fitted_to_each_timestamps_heights():
+    """A power-law profile at each time stamp's heights gives its exponent; one height, no
+    positive mean or a fit out of bounds gives NaN; a given column wins where finite."""
+    from flidar_uq.inference.observations import records_shear_exponent, with_shear_exponent
+
+    z = np.array([40.0, 80.0, 120.0])
+    alpha = np.array([0.1, 0.25, -0.05, 0.3, 2.0])
+    hws = 9.0 * (z[None, :] / 80.0) ** alpha[:, None]
+    hws[3, 1] = np.nan  # two heights left: still a fit
+    rec = pd.DataFrame(
+        {
+            "timestamp": np.repeat(pd.date_range("2026-01-01", periods=5, freq="10min"), 3),
+            "height_m": np.tile(z, 5),
+            "hws_mean_ms": hws.ravel(),
+        }
+    )
+    lone = pd.DataFrame(
+        {"timestamp": [pd.Timestamp("2026-02-01")], "height_m": [80.0], "hws_mean_ms": [7.0]}
+    )
+    got = records_shear_exponent(pd.concat([rec, lone], ignore_index=True))
+    # the row without a mean HWS (10) has the fit of its time stamp's others
+    want = np.r_[np.repeat([0.1, 0.25, -0.05, 0.3, np.nan], 3), np.nan]
+    np.testing.assert_allclose(got, want, atol=1e-12)
+    given = rec.assign(shear_exponent=np.r_[np.full(3, 0.5), np.full(12, np.nan)])
+    np.testing.assert_allclose(
+        records_shear_exponent(given)[:6], np.r_[np.full(3, 0.5), np.full(3, 0.25)]
+    )
+    assert np.isnan(records_shear_exponent(rec.drop(columns="timestamp"))).all()
+    # the subset of one height keeps what the whole table found
+    one_height = with_shear_exponent(rec).query("height_m == 80.0")
+    np.testing.assert_allclose(
+        records_shear_exponent(one_height), [0.1, 0.25, -0.05, 0.3, np.nan], atol=1e-12
+    )
+
+
+def test_dbs_record_model_takes_each_timestamps_shear():
+    """A DBS lidar's sigma_Z takes the time stamp's shear (the tilt moves its range gates
+    through it): fitted to the heights or given, the same; no shear found, no term; a
+    conical scan ignores it."""
+    from flidar_uq.inference.record_motion import gram_sigma_z_ms, motion_gram
+
+    rng = np.random.default_rng(7)
+    n = 6
+    per = np.geomspace(1.3, 17.0, 8)[None, :] * rng.uniform(0.95, 1.05, (n, 8))
+    va, vc = rng.uniform(0, 1.5, (n, 8)), rng.uniform(0, 1.5, (n, 8))
+    heights = np.tile([40.0, 80.0, 120.0], 2)
+    alpha = np.repeat([0.0, 0.3], 3)
+    rec = pd.DataFrame(
+        {"timestamp": np.repeat(pd.date_range("2026-01-01", periods=2, freq="10min"), 3),
+         "height_m": heights, "hws_mean_ms": 10.0 * (heights / 80.0) ** alpha,
+         "wd_mean_deg": 250.0, "heading_mean_deg": 20.0}
+        | _band_columns(per, va, vc)
+    )  # fmt: skip
+    fitted = motion_gram(rec, lidar="windcube_v2")
+    given = motion_gram(rec.assign(shear_exponent=alpha), lidar="windcube_v2")
+    pd.testing.assert_frame_equal(fitted, given, rtol=1e-9)
+    none = motion_gram(rec.drop(columns="timestamp"), lidar="windcube_v2")
+
+    def sz(g):
+        return gram_sigma_z_ms(g, lever_arm_m=2.0, hull_response=1.0)
+
+    np.testing.assert_allclose(sz(fitted)[:3], sz(none)[:3], rtol=1e-9)
+    assert np.all(np.abs(sz(fitted)[3:] / sz(none)[3:] - 1.0) > 1e-3)
+    pd.testing.assert_frame_equal(
+        motion_gram(rec.assign(shear_exponent=alpha), lidar="zephir300"),
+        motion_gram(rec, lidar="zephir300"),
+    )
+
+
 def test_describe_motion_agrees_with_the_terms_the_model_uses():
     from flidar_uq.inference.record_motion import FOLLOWER_COLUMNS, describe_motion, six_dof_terms
 

@@ -54,6 +54,7 @@ from flidar_uq.inference import (
     is_record_model,
     records_wind_body_deg,
 )
+from flidar_uq.inference.observations import with_shear_exponent
 from flidar_uq.inference.record_motion import (
     CROSS_WIND_COLUMNS,
     GRAM_COLUMNS,
@@ -1043,7 +1044,8 @@ def draw_held_ti(
     scan = get_lidar(lidar or "zephir300").scan_period_s if scan is None else scan
     if is_record_model(global_fit):
         grams = {} if record_grams is None else record_grams
-        _propagate_record_model(p, records, surrogate, lidar, scan, grams)
+        # each time stamp's shear from all its heights, before the records are chunked
+        _propagate_record_model(p, with_shear_exponent(records), surrogate, lidar, scan, grams)
     else:
         _propagate_bin_model(p, records, bin_fits, surrogate, scan)
     return p.result()

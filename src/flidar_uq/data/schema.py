@@ -27,6 +27,8 @@ __all__ = [
     "N_TILT_BANDS",
     "TILT_SPECTRUM_COLUMNS",
     "HEAVE_RESPONSE_COLUMN",
+    "SHEAR_EXPONENT_COLUMN",
+    "SHEAR_EXPONENT_RANGE",
     "HORIZONTAL_RESPONSE_COLUMN",
     "tilt_band_column_names",
     "tilt_band_cos_psi_column",
@@ -143,6 +145,13 @@ HEAVE_RESPONSE_COLUMN = "heave_response_ratio"
 #: Optional record column: the same of the hull's horizontal velocity, from the IMU series'
 #: east and north velocities (:func:`flidar_uq.data.imu.response_ratio`).
 HORIZONTAL_RESPONSE_COLUMN = "horizontal_response_ratio"
+
+#: Optional record column: the power-law shear exponent of the mean wind's profile at the
+#: record's time (a DBS lidar's range gates move through the shear as the hull tilts),
+#: and its bounds (-): outside them a profile is no power law (a low-level jet, a
+#: height's mean disturbed).
+SHEAR_EXPONENT_COLUMN = "shear_exponent"
+SHEAR_EXPONENT_RANGE = (-0.5, 1.0)
 
 
 def tilt_band_cos_psi_column(b: int) -> str:
@@ -504,6 +513,21 @@ RECORD_COLUMNS: tuple[Column, ...] = (
         "follows the waves (deep-water orbits are circular), 0 only rotates. Taken as the "
         "measured horizontal translation with heave_response_ratio; absent: the "
         "horizontal motion takes the heave's ratio.",
+    ),
+    Column(
+        SHEAR_EXPONENT_COLUMN,
+        "float",
+        "-",
+        False,
+        SHEAR_EXPONENT_RANGE[0],
+        SHEAR_EXPONENT_RANGE[1],
+        True,
+        "Power-law exponent alpha of the mean wind's profile U (z / z0)^alpha at the "
+        "record's time (the same on every height's row). A DBS lidar's record model takes "
+        "it for the range gates that the hull's tilt moves up and down through the shear; "
+        "absent or NaN: fitted to the floating lidar's own mean HWS at the heights of the "
+        "same timestamp (at least two), else that term is left out. A conical scan does "
+        "not use it.",
     ),
     Column(
         "heading_mean_deg",

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from flidar_uq.data.schema import SHEAR_EXPONENT_COLUMN, SHEAR_EXPONENT_RANGE
 from flidar_uq.physics.dbs_sigma_z import wind_to_body_deg
 from flidar_uq.physics.surrogate import default_surrogate
 from flidar_uq.seeding import as_seedsequence
@@ -78,6 +79,57 @@ def records_wind_body_deg(records: pd.DataFrame) -> np.ndarray:
         )
 
     return wind_to_body_deg(col("wd_mean_deg"), col("heading_mean_deg"))
+
+
+def records_shear_exponent(records: pd.DataFrame) -> np.ndarray:
+    """Each record's power-law shear exponent ``alpha`` (-) of the mean wind's profile.
+
+    From the column ``shear_exponent`` (:data:`flidar_uq.data.schema.SHEAR_EXPONENT_COLUMN`) where the record table gives it, else fitted at each
+    time stamp to the floating lidar's own mean HWS at its heights, ``log U = alpha log z
+    + c`` by least squares over the rows of the same ``timestamp`` (the power law of
+    Yamaguchi and Ishihara 2016; the motion's mean HWS error, a few cm/s, hardly moves it).
+    NaN where a time stamp has fewer than two heights with a positive mean HWS, where the
+    fit falls outside :data:`flidar_uq.data.schema.SHEAR_EXPONENT_RANGE`, or without ``timestamp`` and
+    ``height_m`` columns. A DBS lidar's record model takes it for the range gates that the
+    tilt moves through the shear (:func:`flidar_uq.physics.dbs_sigma_z.dbs_band_terms`);
+    NaN leaves that term out.
+    """
+    n = len(records)
+    given = (
+        records[SHEAR_EXPONENT_COLUMN].to_numpy(dtype=float)
+        if SHEAR_EXPONENT_COLUMN in records
+        else np.full(n, np.nan)
+    )
+    if n == 0 or not {"timestamp", "height_m", "hws_mean_ms"} <= set(records.columns):
+        return given
+    z = records["height_m"].to_numpy(dtype=float)
+    u = records["hws_mean_ms"].to_numpy(dtype=float)
+    ok = np.isfinite(z) & np.isfinite(u) & (z > 0) & (u > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frame = pd.DataFrame(
+            {
+                "t": records["timestamp"].to_numpy(),
+                "x": np.where(ok, np.log(np.where(ok, z, 1.0)), np.nan),
+                "y": np.where(ok, np.log(np.where(ok, u, 1.0)), np.nan),
+            }
+        )
+    frame["xx"], frame["xy"] = frame.x * frame.x, frame.x * frame.y
+    sums = frame.groupby("t", sort=False)[["x", "y", "xx", "xy"]].transform("sum")
+    count = frame.groupby("t", sort=False)["x"].transform("count").to_numpy(dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sxx = sums.xx.to_numpy() - sums.x.to_numpy() ** 2 / count
+        sxy = sums.xy.to_numpy() - sums.x.to_numpy() * sums.y.to_numpy() / count
+        alpha = np.where((count >= 2) & (sxx > 1e-12), sxy / sxx, np.nan)
+    lo, hi = SHEAR_EXPONENT_RANGE
+    alpha = np.where((alpha >= lo) & (alpha <= hi), alpha, np.nan)
+    return np.where(np.isfinite(given), given, alpha)
+
+
+def with_shear_exponent(records: pd.DataFrame) -> pd.DataFrame:
+    """``records`` with the column ``shear_exponent`` filled (:func:`records_shear_exponent`):
+    for a table whose rows are later taken apart (the calibration records, chunks), so
+    that each time stamp's exponent comes from all its heights."""
+    return records.assign(**{SHEAR_EXPONENT_COLUMN: records_shear_exponent(records)})
 
 
 def imu_observations(records: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:

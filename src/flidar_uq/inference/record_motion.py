@@ -27,7 +27,7 @@ import pandas as pd
 
 from flidar_uq.data.imu import tilt_bands_from_records
 from flidar_uq.data.schema import HEAVE_RESPONSE_COLUMN, HORIZONTAL_RESPONSE_COLUMN
-from flidar_uq.inference.observations import records_wind_body_deg
+from flidar_uq.inference.observations import records_shear_exponent, records_wind_body_deg
 from flidar_uq.physics.dbs_sigma_z import hws_error_moments
 from flidar_uq.physics.hull import G_MS2, get_hull
 from flidar_uq.physics.lidar import get_lidar
@@ -766,6 +766,7 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
     banded, bands = _dbs_banded(records, hws)
     beta = records_wind_body_deg(records)
     known = np.isfinite(beta)
+    shear = records_shear_exponent(records)
     out = np.full((31, len(records)), np.nan)
     if np.any(banded):
         mom = band_moments_to_wind(
@@ -798,6 +799,7 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
                         lidar=g,
                         n_headings=n_headings,
                         cross_wind=True,
+                        shear_exponent=shear[rows],
                     )
                 )
     rp = ok & ~banded
@@ -814,6 +816,7 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
                     lidar=g,
                     n_headings=n_headings,
                     cross_wind=True,
+                    shear_exponent=shear[sel],
                 )
             )
     ok |= banded

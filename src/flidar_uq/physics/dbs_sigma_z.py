@@ -90,8 +90,10 @@ __all__ = [
 #: (``benchmarks/dbs_mechanisms.py``): ``tilt`` (the mean wind rotated into the beams'
 #: vertical), ``heave`` (the hull's vertical velocity), ``translation`` (the head's
 #: horizontal velocity: lever arm and orbital surge/sway), ``beam_timing`` (beams at
-#: different times; off: every beam of a cycle at the cycle's mid time).
-DBS_MECHANISMS = ("tilt", "heave", "translation", "beam_timing")
+#: different times; off: every beam of a cycle at the cycle's mid time), ``shear`` (the
+#: tilt moving each inclined beam's range gate up or down through the wind's shear:
+#: :func:`dbs_error_coefficients`, zero without a ``shear_exponent``).
+DBS_MECHANISMS = ("tilt", "heave", "translation", "beam_timing", "shear")
 
 
 def wind_to_body_deg(wd_deg, yaw_deg=0.0):
@@ -102,8 +104,9 @@ def wind_to_body_deg(wd_deg, yaw_deg=0.0):
 
 
 def _beam_weights(g: LidarGeometry):
-    """Times (s, from the cycle start), body unit vectors and the retrieval operator of one
-    cycle: ``W[k, m, i] = P[k, m] d_k[i]`` so that ``delta_m = sum_k W[k, m, :] . e(t_k)``."""
+    """Times ``t_k`` (s, from the cycle start), the retrieval operator ``P`` (K, 3) and the
+    body unit vectors ``d`` (K, 3) of one cycle's beams: ``delta_m = sum_k P[k, m] v_k``
+    for radial speed errors ``v_k`` (``d_k . e(t_k)`` for an apparent wind ``e``)."""
     t, az = scan_times_azimuths(g)
     d = beam_unit_vectors_body(g, az)  # (K, 3)
     if g.kind == "dbs":
@@ -112,7 +115,33 @@ def _beam_weights(g: LidarGeometry):
         from flidar_uq.physics.lidar import vad_pseudo_inverse
 
         p = vad_pseudo_inverse(d).T
-    return t, p[:, :, None] * d[:, None, :]  # (K,), (K, 3, 3)
+    return t, p, d
+
+
+def _shear_phasors(z, p, d, scale, beta):
+    """The retrieved wind's error phasors (..., nc, 3 (uvw), 3 (f)) from the tilt moving
+    each beam's range gate through the shear.
+
+    A lean ``phi`` of the hull towards ``theta`` lowers beam ``k``'s unit vector's vertical
+    component by ``phi (d_k,x cos theta + d_k,y sin theta)``: its range gate's height ``z``
+    changes by the fraction ``x_k = -phi (d_k,x cos theta + d_k,y sin theta) / d_k,z``
+    (the focus height along the tilted beam, Nassif et al. 2020, Eq. 5), and the mean wind
+    there by ``U alpha x_k`` for a power-law profile ``U (z / z_0)^alpha`` (Yamaguchi and
+    Ishihara 2016), which the beam sees through its horizontal projection on the wind,
+    ``d_k,x cos beta + d_k,y sin beta``. Linear in ``f = (1, cos theta, sin theta)``. A
+    vertical beam sees none. Opposite beams' changes cancel when they are taken at once;
+    a DBS lidar takes them a beam or two apart, so a tilt that changes between them leaks
+    into ``u`` and ``v``: at 28 deg with ``alpha = 0.1``, ``alpha tan^2(th)`` = 2.8 % of
+    the tilt's own vertical-wind leak.
+
+    ``z`` (..., nc, K): each beam's ``exp(i omega t_k)`` (with the dwell average);
+    ``p``, ``d`` (K, 3): :func:`_beam_weights`; ``scale`` (..., nc): ``U alpha phi`` (m/s);
+    ``beta`` (..., nc): the wind's direction of travel in the body frame, rad.
+    """
+    proj = d[:, 0] * np.cos(beta)[..., None] + d[:, 1] * np.sin(beta)[..., None]  # (..., nc, K)
+    v = -scale[..., None] * proj / d[:, 2]  # each beam's radial speed change per unit f
+    f_of_beam = np.stack([np.zeros(len(d)), d[:, 0], d[:, 1]], -1)  # (K, 3 (f))
+    return np.einsum("...ck,km,kf->...cmf", z * v, p, f_of_beam)
 
 
 def direction_moments(direction_deg, weight=None, axis=-1):
@@ -154,6 +183,7 @@ def dbs_error_coefficients(
     lidar: str | LidarGeometry | Mapping = "windcube_v2",
     mechanisms=DBS_MECHANISMS,
     dwell_average: bool = False,
+    shear_exponent=0.0,
 ):
     """The along- and across-wind error phasors per component, as linear forms in its direction.
 
@@ -170,7 +200,7 @@ def dbs_error_coefficients(
     hws_ms, wind_body_deg : array_like, shape (...)
         Mean HWS (m/s) and the direction the wind blows towards, deg counter-clockwise from
         the body x axis (:func:`wind_to_body_deg`).
-    lever_arm_m, hull, lidar, mechanisms, dwell_average
+    lever_arm_m, hull, lidar, mechanisms, dwell_average, shear_exponent
         As :func:`dbs_harmonic_sigma_z_ms`.
 
     Returns
@@ -184,14 +214,16 @@ def dbs_error_coefficients(
         raise ValueError(
             f"unknown mechanism {sorted(bad)[0]!r}; known: {', '.join(DBS_MECHANISMS)}"
         )
-    t_k, w = _beam_weights(g)
+    t_k, p, d = _beam_weights(g)
+    w = p[:, :, None] * d[:, None, :]  # (K, 3 (uvw), 3 (xyz))
     if "beam_timing" not in mechanisms:
         t_k = np.full_like(t_k, 0.5 * (t_k[0] + t_k[-1]))
     amp = np.deg2rad(np.asarray(amplitude_deg, float))
     per = np.asarray(period_s, float)
     hws = np.asarray(hws_ms, float)[..., None]
     beta = np.deg2rad(np.asarray(wind_body_deg, float))[..., None]
-    amp, per, hws, beta = np.broadcast_arrays(amp, per, hws, beta)
+    alpha = np.asarray(shear_exponent, float)[..., None]
+    amp, per, hws, beta, alpha = np.broadcast_arrays(amp, per, hws, beta, alpha)
     omega = 2.0 * np.pi / per
     r_x, r_z = get_hull(hull).relative_responses(per)
     zero = np.zeros(amp.shape, complex)
@@ -216,6 +248,8 @@ def dbs_error_coefficients(
         z = z * np.sinc(g.los_duration_s / per)[..., None]
     gmat = np.einsum("...k,kmi->...mi", z, w)  # (..., nc, 3 (uvw), 3 (xyz))
     a = np.einsum("...mi,...fi->...mf", gmat, b)  # (..., nc, 3 (uvw), 3 (f))
+    if "shear" in mechanisms and np.any(alpha != 0.0):
+        a = a + _shear_phasors(z, p, d, hws * alpha * amp, beta)
     cb, sb = np.cos(beta)[..., None], np.sin(beta)[..., None]
     return cb * a[..., 0, :] + sb * a[..., 1, :], -sb * a[..., 0, :] + cb * a[..., 1, :]
 
@@ -249,6 +283,7 @@ def dbs_harmonic_sigma_z_ms(
     mechanisms=DBS_MECHANISMS,
     cross_wind: bool = True,
     dwell_average: bool = False,
+    shear_exponent=0.0,
 ) -> np.ndarray:
     """sigma_Z (m/s) of a DBS lidar on a hull in a sea of harmonic components (module docstring).
 
@@ -283,6 +318,10 @@ def dbs_harmonic_sigma_z_ms(
         Knapp & Aubrun 2021): every component's error is multiplied by
         ``sinc(dwell / T)`` (0.96 at 6 s for a 1-s beam). Default False: each beam at one
         instant, as the LOS replay; the virtual campaign averages over the dwell.
+    shear_exponent : array_like, shape (...)
+        Power-law exponent ``alpha`` (-) of the mean wind's profile: the tilt moves each
+        inclined beam's range gate through it (mechanism ``shear``, :func:`_shear_phasors`);
+        0 (default): no shear.
 
     Returns
     -------
@@ -306,6 +345,7 @@ def dbs_harmonic_sigma_z_ms(
         lidar=lidar,
         mechanisms=mechanisms,
         dwell_average=dwell_average,
+        shear_exponent=shear_exponent,
     )
     var = 0.5 * np.sum(_mean_sq(a_par, mom), axis=-1)
     if cross_wind:  # the HWS's own nonlinearity, to fourth order (hws_error_moments)
@@ -534,23 +574,26 @@ def hws_error_moments(var_along, var_across, cov, hws_ms):
     return np.maximum(var, 0.0), 0.5 * sb2 * np.sqrt(inv_u2)
 
 
-def _basis_gram(amp, per, hws, wind_body_deg, mom_body, lidar, dwell_average, cross_wind=False):
+def _basis_gram(bands, hws, wind_body_deg, lidar, dwell_average, cross_wind=False, shear=0.0):
     """Gram matrices (..., 4, 4) of the :data:`TERM_BASIS` phasors at one wind direction.
 
-    ``amp``, ``per`` (..., nc) lean amplitudes (deg) and periods (s) of the components or
-    bands, ``hws`` (...) m/s, ``wind_body_deg`` (...) deg, ``mom_body`` (..., nc, 5) their
-    direction moments in the body frame: ``G_ij = sum_c a_i M_c a_j^* / 2`` with
-    ``M_c = <f f^T>`` (:func:`dbs_error_coefficients`' linear forms in ``f``).
+    ``bands = (amp, per, mom_body)``: lean amplitudes (deg) and periods (s) of the
+    components or bands (..., nc) and their direction moments in the body frame
+    (..., nc, 5); ``hws`` (...) m/s, ``wind_body_deg`` (...) deg: ``G_ij = sum_c a_i M_c a_j^* / 2`` with
+    ``M_c = <f f^T>`` (:func:`dbs_error_coefficients`' linear forms in ``f``). ``shear``
+    (...): the shear exponent (-), whose term (the range gates moved by the tilt) joins the
+    tilt's phasor, scaled by ``k`` with it.
     ``cross_wind``: (..., 3, 4, 4), the along-wind error's, the cross-wind error's and
     their covariance's (symmetric part) Gram matrices (:data:`GRAM_PARTS`).
     """
     from flidar_uq.physics.hull import DofResponse, HullResponse
 
+    amp, per, mom_body = bands
     one, zero = DofResponse(gain=1.0), DofResponse(gain=0.0)
     follower = HullResponse("follower", one, one, one)
     still = HullResponse("still", one, zero, zero)
     basis = (  # (mechanisms, hull, lever arm) of each basis phasor
-        (("tilt", "beam_timing"), still, 0.0),
+        (("tilt", "shear", "beam_timing"), still, 0.0),
         (("heave", "beam_timing"), follower, 0.0),
         (("translation", "beam_timing"), still, 1.0),
         (("translation", "beam_timing"), follower, 0.0),
@@ -566,6 +609,7 @@ def _basis_gram(amp, per, hws, wind_body_deg, mom_body, lidar, dwell_average, cr
             lidar=lidar,
             mechanisms=mech,
             dwell_average=dwell_average,
+            shear_exponent=shear,
         )
         for mech, hull, lever in basis
     ]
@@ -599,6 +643,7 @@ def dbs_record_terms(
     n_headings: int = 24,
     dwell_average: bool = True,
     cross_wind: bool = False,
+    shear_exponent=None,
 ) -> np.ndarray:
     """Per-record Gram matrix of a DBS lidar's error phasors: sigma_Z for any lever arm,
     hull response and motion scale by a 4 x 4 quadratic form (:func:`dbs_sigma_z_from_terms`).
@@ -623,6 +668,9 @@ def dbs_record_terms(
         As :func:`dbs_record_sigma_z_ms`.
     cross_wind : bool
         Also the cross-wind error's Gram matrix and the covariance's (:data:`GRAM_PARTS`).
+    shear_exponent : array_like, shape (n,), optional
+        Each record's power-law shear exponent (-; NaN or None: no shear term), as
+        :func:`dbs_harmonic_sigma_z_ms`.
 
     Returns
     -------
@@ -630,6 +678,7 @@ def dbs_record_terms(
         ``G`` in (m/s)^2 (per m and m^2 for the lever-arm rows).
     """
     hws = np.asarray(hws_ms, float)
+    shear = _shear_or_zero(shear_exponent, hws.shape)
     p_pitch = np.asarray(period_s, float)
     p_roll = p_pitch if roll_period_s is None else np.asarray(roll_period_s, float)
     amp = np.stack(np.broadcast_arrays(roll_amplitude_deg, pitch_amplitude_deg), -1)
@@ -641,8 +690,17 @@ def dbs_record_terms(
         if wind_body_deg is not None
         else [np.full(hws.shape, b) for b in _heading_grid(n_headings)]
     )
-    gram = sum(_basis_gram(amp, per, hws, b, mom, lidar, dwell_average, cross_wind) for b in betas)
+    gram = sum(
+        _basis_gram((amp, per, mom), hws, b, lidar, dwell_average, cross_wind, shear) for b in betas
+    )
     return gram / len(betas)
+
+
+def _shear_or_zero(shear_exponent, shape) -> np.ndarray:
+    """A record's shear exponent (-) broadcast to ``shape``, 0 where it is None or NaN."""
+    if shear_exponent is None:
+        return np.zeros(shape)
+    return np.broadcast_to(np.nan_to_num(np.asarray(shear_exponent, float), nan=0.0), shape)
 
 
 #: Highest harmonic of the wind's direction relative to the body, ``beta``, in a Gram matrix
@@ -807,6 +865,7 @@ def dbs_band_terms(
     n_headings: int = 24,
     dwell_average: bool = True,
     cross_wind: bool = False,
+    shear_exponent=None,
 ) -> np.ndarray:
     """Per-record Gram matrix of a DBS lidar's error phasors from the record's tilt bands.
 
@@ -831,7 +890,7 @@ def dbs_band_terms(
     wind_body_deg : array_like, shape (n,), optional
         The wind's direction relative to the body (:func:`wind_to_body_deg`), deg; None:
         unknown, averaged.
-    lidar, n_headings, dwell_average, cross_wind
+    lidar, n_headings, dwell_average, cross_wind, shear_exponent
         As :func:`dbs_record_terms`.
 
     Returns
@@ -840,6 +899,7 @@ def dbs_band_terms(
         ``G`` in (m/s)^2 (per m and m^2 for the lever-arm rows).
     """
     hws = np.asarray(hws_ms, float)
+    shear = _shear_or_zero(shear_exponent, hws.shape)
     amp, per = np.broadcast_arrays(np.asarray(amplitude_deg, float), np.asarray(period_s, float))
     mom = np.asarray(moments_to_wind, float)
     betas = (
@@ -849,7 +909,13 @@ def dbs_band_terms(
     )
     gram = sum(
         _basis_gram(
-            amp, per, hws, b, rotate_moments(mom, b[..., None]), lidar, dwell_average, cross_wind
+            (amp, per, rotate_moments(mom, b[..., None])),
+            hws,
+            b,
+            lidar,
+            dwell_average,
+            cross_wind,
+            shear,
         )
         for b in betas
     )

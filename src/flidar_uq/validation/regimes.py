@@ -41,6 +41,7 @@ from flidar_uq.inference import (
     fit_global,
     fit_record_model_selecting_hull,
 )
+from flidar_uq.inference.observations import with_shear_exponent
 from flidar_uq.physics.lidar import get_lidar
 from flidar_uq.physics.surrogate import get_surrogate
 from flidar_uq.seeding import as_seedsequence
@@ -217,7 +218,8 @@ def scenario_records(
     kind = sampling["reference_kind"]
     pair = kind == "fixed_lidar" and reference_pair
     generated = generate_campaign(cfg, ss_camp)
-    kept = run_qc(generated.records, QCConfig()).kept
+    # each time stamp's shear exponent from all its heights (the pipeline's validate step)
+    kept = run_qc(with_shear_exponent(generated.records), QCConfig()).kept
     hws = kept["hws_mean_ms"].to_numpy(dtype=float)
     kept = kept[(hws >= 3.0) & (hws < 20.0)].copy()
     kept["bin_id"] = np.nan

@@ -224,6 +224,7 @@ def validate_records(
 
     from flidar_uq.data import io
     from flidar_uq.data.inspection import reference_problems
+    from flidar_uq.inference.observations import with_shear_exponent
     from flidar_uq.workflow.inputs import inspect_records
 
     if imu_statistics_path:
@@ -251,6 +252,9 @@ def validate_records(
     problems = reference_problems(records, str(in_path))
     if problems:
         raise problems[0]
+    # each time stamp's shear exponent from all its heights, before QC and the fits take
+    # the records apart (flidar_uq.inference.observations.records_shear_exponent)
+    records = with_shear_exponent(records)
     report = inspect_records(
         records,
         source=str(in_path),
