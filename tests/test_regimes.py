@@ -574,8 +574,10 @@ DBS_WAVE_SEEDS = (268473979, 778780715)
 #: sea peaks above 7 s. That group's mean error has a standard error of 0.7-0.9 %: a few
 #: 10-min records where a long swell's heave makes the motion error twice the turbulence
 #: carry it, and there the realised motion error strays furthest from the tilt bands'
-#: expectation (with the turbulence switched off, a spread of 8.5-10 % at 9-10 s against
-#: 5-6 % at 7-8 s; the 5-s beam cycle samples a 10-s swell near its Nyquist period).
+#: expectation: one wind a 5-s cycle samples a 10-s swell near its Nyquist period (realised
+#: over model ``Var Z`` spreads 0.16-0.20 at 9.5-10.5 s against 0.09-0.10 at 6-8 s,
+#: ``benchmarks/dbs_output_sampling.py``); the records within 0.5 s of 10 s carry +1.1 and
+#: -0.6 points of the two misses.
 #: ``dbs_wave_follower`` 268473979: 255 such records +1.68 % off (bound 1.5 %; se 0.69 %;
 #: 1.35 points of it from two 10-min records, three heights each); 778780715: 213 such
 #: records -1.50 % off (se 0.89 %), and its 421 records at 9-12 m/s cover 0.952 (401

@@ -105,14 +105,13 @@ def records_shear_exponent(records: pd.DataFrame) -> np.ndarray:
     z = records["height_m"].to_numpy(dtype=float)
     u = records["hws_mean_ms"].to_numpy(dtype=float)
     ok = np.isfinite(z) & np.isfinite(u) & (z > 0) & (u > 0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        frame = pd.DataFrame(
-            {
-                "t": records["timestamp"].to_numpy(),
-                "x": np.where(ok, np.log(np.where(ok, z, 1.0)), np.nan),
-                "y": np.where(ok, np.log(np.where(ok, u, 1.0)), np.nan),
-            }
-        )
+    frame = pd.DataFrame(
+        {
+            "t": records["timestamp"].to_numpy(),
+            "x": np.log(np.where(ok, z, np.nan)),
+            "y": np.log(np.where(ok, u, np.nan)),
+        }
+    )
     frame["xx"], frame["xy"] = frame.x * frame.x, frame.x * frame.y
     sums = frame.groupby("t", sort=False)[["x", "y", "xx", "xy"]].transform("sum")
     count = frame.groupby("t", sort=False)["x"].transform("count").to_numpy(dtype=float)

@@ -501,6 +501,7 @@ def dbs_replay_sigma_z_ms(
     translation_m=None,
     lidar: str | LidarGeometry | Mapping = "windcube_v2",
     dwell_samples: int = 1,
+    every_beam: bool = False,
 ) -> float:
     """sigma_Z (m/s) of a record by LOS-level replay of its motion through a DBS lidar.
 
@@ -509,7 +510,10 @@ def dbs_replay_sigma_z_ms(
     reference for :func:`dbs_harmonic_sigma_z_ms`, and the method where the harmonic sum
     does not hold (module docstring). ``dwell_samples > 1``: each beam's radial speed is
     its mean over that many instants of its dwell (the pulse accumulation; compare with
-    ``dwell_average=True``); default 1, each beam at one instant.
+    ``dwell_average=True``); default 1, each beam at one instant. ``every_beam``: one wind
+    after every beam from the latest beam of each azimuth (the instrument's 1-s output)
+    instead of one a cycle (what the virtual campaign and the harmonic sum take;
+    ``benchmarks/dbs_output_sampling.py``).
     """
     from flidar_uq.physics.motion_spectrum import replay_sigma_z
 
@@ -524,6 +528,7 @@ def dbs_replay_sigma_z_ms(
         lidar=get_lidar(lidar),
         translation_m=translation_m,
         dwell_samples=dwell_samples,
+        every_beam=every_beam,
     ).sigma_z_ms
 
 

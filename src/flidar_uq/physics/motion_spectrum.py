@@ -49,7 +49,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from flidar_uq.physics.lidar import LidarGeometry, get_lidar, scan_times_azimuths, wind_vector_ms
+from flidar_uq.physics.lidar import (
+    LidarGeometry,
+    dbs_retrieval_operator,
+    get_lidar,
+    scan_times_azimuths,
+    wind_vector_ms,
+)
 from flidar_uq.physics.motion import SampledMotion
 from flidar_uq.physics.simulator import simulate_scans
 
@@ -805,9 +811,9 @@ class ReplayResult:
     mean_z_ms : float
         Mean of Z, m/s.
     z_ms : ndarray, shape (nscan,)
-        Z of every scan, m/s.
+        Z of every scan (``every_beam``: of every line of sight from the second cycle), m/s.
     wind_ms : ndarray, shape (nscan, 2)
-        The retrieved horizontal wind (east, north) of every scan, m/s: with the true wind,
+        The retrieved horizontal wind (east, north) of each, m/s: with the true wind,
         the motion's error along and across it.
     """
 
@@ -831,6 +837,7 @@ def replay_sigma_z(
     sign_ambiguity: bool = False,
     translation_m=None,
     dwell_samples: int = 1,
+    every_beam: bool = False,
 ) -> ReplayResult:
     """Realised sigma_Z of a record: its attitude series replayed through the scan simulator.
 
@@ -869,6 +876,12 @@ def replay_sigma_z(
         accumulation of a pulsed lidar, Désert, Knapp & Aubrun 2021; what the virtual
         campaign simulates). The retrieval is linear in the radial speeds for a signed
         lidar, so the mean of the ``n`` retrieved winds is the retrieval of the mean speeds.
+    every_beam : bool
+        Default False: one retrieval a scan (a DBS lidar's cycle). True (a DBS lidar only):
+        one after every line of sight from the latest line of sight of each beam (a
+        sliding window, as a WindCube v2 reports about once a second; Yamaguchi &
+        Ishihara 2016 retrieve every second), compass-corrected by the mean yaw of the
+        window's lines of sight; from the second cycle on, so that every window is full.
 
     Returns
     -------
@@ -880,6 +893,11 @@ def replay_sigma_z(
         raise ValueError(
             f"replay_sigma_z: dwell_samples={dwell_samples!r} needs to be 1, or > 1 for a "
             "lidar that measures signed speeds (pulsed)"
+        )
+    if every_beam and g.kind != "dbs":
+        raise ValueError(
+            f"replay_sigma_z: every_beam needs a DBS lidar (the latest line of sight of each "
+            f"beam), not {g.name!r} ({g.kind})"
         )
     t = np.asarray(time_s, float)
     arm = (
@@ -909,11 +927,11 @@ def replay_sigma_z(
     moving = any(a != 0 for a in arm) or translation_m is not None
     # instants within a line of sight's dwell (its time is the dwell's start): midpoints
     offsets = (np.arange(n_dwell) + 0.5) / n_dwell * g.los_duration_s if n_dwell > 1 else [0.0]
-    u = v = 0.0
+    u = v = v_r = yaw_los = 0.0
     for off in offsets:
         tt = starts[:, None] + t_los[None, :] + off
         roll, pitch, yaw = motion.attitude_rad(tt)
-        _, ret = simulate_scans(
+        v_off, ret = simulate_scans(
             g,
             wind_vector_ms(hws_ms, wd_deg),
             roll,
@@ -924,7 +942,33 @@ def replay_sigma_z(
             sign_ambiguity=sign_ambiguity,
         )
         u, v = u + np.asarray(ret.u_ms), v + np.asarray(ret.v_ms)
-    hws = np.hypot(u, v) / len(offsets) if n_dwell > 1 else np.asarray(ret.hws_ms)
+        v_r, yaw_los = v_r + v_off, yaw_los + np.broadcast_to(yaw, v_off.shape)
+    if every_beam:
+        u, v = _every_beam_wind(g, v_r / len(offsets), yaw_los / len(offsets))
+    else:
+        u, v = u / len(offsets), v / len(offsets)
+    hws = np.hypot(u, v) if every_beam or n_dwell > 1 else np.asarray(ret.hws_ms)
     z = hws - float(hws_ms)  # Eq. (1) of Gutiérrez-Antuñano et al. (2018)
-    wind = np.stack(np.broadcast_arrays(u, v), axis=-1).reshape(-1, 2) / len(offsets)
+    wind = np.stack(np.broadcast_arrays(u, v), axis=-1).reshape(-1, 2)
     return ReplayResult(float(np.std(z)), float(np.mean(z)), z, wind)
+
+
+def _every_beam_wind(g: LidarGeometry, v_r, yaw_rad):
+    """A DBS lidar's horizontal wind (east, north; m/s) after every line of sight of
+    back-to-back cycles, from the latest line of sight of each beam.
+
+    ``v_r`` and ``yaw_rad`` (rad) of shape (cycles, K) in scan order; after line of sight
+    ``j`` of cycle ``c`` the window holds lines ``<= j`` of cycle ``c`` and ``> j`` of
+    cycle ``c - 1`` (the last window of a cycle is the cycle itself). Returns arrays of
+    shape ((cycles - 1) K,) in time order, each window's retrieval
+    (:func:`~flidar_uq.physics.lidar.dbs_retrieval_operator`) rotated by its mean yaw.
+    """
+    k = np.arange(v_r.shape[1])
+    newer = k[None, :, None] >= k[None, None, :]  # (1, window j, beam k): beam k <= j
+    latest = np.where(newer, v_r[1:, None, :], v_r[:-1, None, :])  # (cycles - 1, K, K)
+    yaw = np.where(newer, yaw_rad[1:, None, :], yaw_rad[:-1, None, :]).mean(axis=-1)
+    body = latest @ dbs_retrieval_operator(g)  # (cycles - 1, K, 3)
+    c, s = np.cos(yaw), np.sin(yaw)
+    u = c * body[..., 0] - s * body[..., 1]
+    v = s * body[..., 0] + c * body[..., 1]
+    return u.ravel(), v.ravel()
