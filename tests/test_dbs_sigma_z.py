@@ -161,6 +161,84 @@ def test_once_a_cycle_a_swell_of_two_cycles_spreads_the_records_motion_error():
     model = gram_sigma_z_ms(gram, lever_arm_m=2.0, hull_response=1.0) ** 2
     spread = {b: np.std(v / model) / np.mean(v / model) for b, v in var.items()}
     assert spread[False] > 1.4 * spread[True], spread
+    # the record model's own spread from the sampling (cycle_sampling_rel_var of the tilt
+    # bands; 4 x the log-variance it adds to kappa_z^2) is the excess of the once-a-cycle
+    # spread: predicted 0.18-0.19 against 0.15-0.22 measured over six seeds (ratio
+    # 0.85-1.26); the bounds leave the estimate's own scatter over 48 records (~20 %)
+    from flidar_uq.inference.record_motion import SAMPLING_COLUMN
+
+    predicted = np.sqrt(np.mean(4.0 * gram[SAMPLING_COLUMN]))
+    excess = np.sqrt(spread[False] ** 2 - spread[True] ** 2)
+    assert 0.6 < predicted / excess < 1.6, (predicted, excess)
+
+
+def test_cycle_sampling_rel_var_of_a_narrow_component_and_far_from_the_aliases():
+    """One component of width ``w`` centred on half the cycle's frequency overlaps its own
+    reflection fully: ``(P / w)^2 w / (T_rec P^2) = 1 / (T_rec w)``; moved a width away from
+    it, nothing; two components that mirror each other about ``1 / (2 T_c)`` (9 s and
+    ``1 / (0.2 - 1/9)`` s) as one of twice the power; far from every multiple of the cycle's
+    frequency, 0; narrower than ``1 / (2 T_rec)``, the cap 1/2; no power, 0."""
+    f0 = 0.1  # 1 / (2 x 5 s)
+    rel = dbs.cycle_sampling_rel_var([[f0]], [[2.0]], [[0.02]], cycle_s=5.0, record_s=600.0)
+    assert rel[0] == pytest.approx(1.0 / (600.0 * 0.02))
+    off = dbs.cycle_sampling_rel_var([[f0 + 0.02]], [[2.0]], [[0.02]], cycle_s=5.0)
+    assert off[0] == pytest.approx(0.0, abs=1e-12)
+    f1 = 1.0 / 9.0
+    pair = dbs.cycle_sampling_rel_var([[f1, 0.2 - f1]], [[1.0, 1.0]], [[0.02, 0.02]], cycle_s=5.0)
+    # the two halves overlap each other's reflection fully and themselves by 0.02 - 2 (f1 - f0)
+    own = max(0.02 - 2 * (f1 - f0), 0.0)
+    want = (2 * 0.02 + 2 * own) / 0.02**2 / 600.0 / 4.0
+    assert pair[0] == pytest.approx(want)
+    far = dbs.cycle_sampling_rel_var([[0.14]], [[1.0]], [[0.01]], cycle_s=5.0)
+    assert far[0] == 0.0
+    narrow = dbs.cycle_sampling_rel_var([[f0]], [[1.0]], [[1e-4]], cycle_s=5.0)
+    assert narrow[0] == 0.5
+    none = dbs.cycle_sampling_rel_var([[f0, 0.3]], [[0.0, np.nan]], [[0.01, 0.01]], cycle_s=5.0)
+    assert none[0] == 0.0
+
+
+def test_sampling_column_of_the_dbs_record_model():
+    """A DBS lidar's record table gets the sampling column (0 without tilt bands, positive
+    with a swell of twice the cycle, larger than with a 7-s one); the record fit's
+    likelihood adds it to kappa_z^2 (a record with it has a wider tau)."""
+    from flidar_uq.data.imu import tilt_band_statistics, tilt_spectrum_columns
+    from flidar_uq.inference.record_fit import _record_z2_tau2
+    from flidar_uq.inference.record_motion import SAMPLING_COLUMN, motion_gram
+
+    rng = np.random.default_rng(np.random.SeedSequence(20261208))
+    n10 = int(600 / DT)
+    cols = []
+    for tp in (7.0, 10.0):
+        m = hull_motion_series(
+            n10 * 4, DT, [WaveSystem(2.0, tp, 6.0, 90.0, 10.0)], rng, "wave_follower"
+        )
+        roll, pitch = (m[c].reshape(4, n10) for c in ("roll_deg", "pitch_deg"))
+        w_up = np.gradient(m["heave_m"], DT).reshape(4, n10)
+        spec = tilt_band_statistics(
+            roll, pitch, 0.0, np.full(4, 240.0), 1 / DT, velocity_up_ms=w_up
+        )
+        cols.append(pd.DataFrame(tilt_spectrum_columns(spec)))
+    rec = pd.concat(cols, ignore_index=True).assign(
+        wd_mean_deg=240.0, heading_mean_deg=0.0, hws_mean_ms=8.0
+    )
+    gram = motion_gram(rec, lidar="windcube_v2")
+    v = gram[SAMPLING_COLUMN].to_numpy()
+    assert np.all(v[4:] > 0.005) and np.all(v[4:] > 2.0 * v[:4]), v
+    bare = rec[["wd_mean_deg", "heading_mean_deg", "hws_mean_ms"]].assign(
+        roll_amplitude_deg=2.0, pitch_amplitude_deg=2.0, roll_period_s=10.0, pitch_period_s=10.0
+    )
+    assert np.all(motion_gram(bare, lidar="windcube_v2")[SAMPLING_COLUMN] == 0.0)
+    assert SAMPLING_COLUMN not in motion_gram(bare)  # a CW lidar: no cycle
+    from flidar_uq.inference.record_fit import _gram_rows
+
+    g = gram[_gram_rows(True)].to_numpy(float).T[:, 4:5]
+    theta = np.array([[0.3, np.log(0.1), np.log(0.05), 2.0, 0.0, 0.0, np.log(0.1)]])
+    s_ms, r_ms = np.array([0.8]), np.array([0.6])
+    tau = _record_z2_tau2(theta, s_ms, r_ms, g, 0.0)[1]
+    g0 = g.copy()
+    g0[32] = 0.0
+    tau0 = _record_z2_tau2(theta, s_ms, r_ms, g0, 0.0)[1]
+    assert tau[0, 0] > tau0[0, 0]
 
 
 def test_opposite_beam_leak_weight():

@@ -549,7 +549,7 @@ def test_dbs_tilt_only_record_model_calibrated_in_every_group(seed):
 def test_dbs_tilt_only_fit_recovers_motion_scale_and_lever_arm(seed):
     """The DBS record fit on its tilt bands recovers the scenario's motion (``k`` = 1, the
     lever arm 2 m): ``k`` within [0.9, 1.1] and ``L`` within 0.5 m, the bounds of the
-    physics-mode acceptance (measured k 1.02 and 1.02, L 2.19 and 2.18 m; on roll and pitch
+    physics-mode acceptance (measured k 1.02 and 1.01, L 2.17 and 2.17 m; on roll and pitch
     alone it was k 0.90, L 1.25 m)."""
     _, fit = _run_dbs("dbs_tilt_only", seed)
     assert fit.converged, fit.failure_reasons
@@ -575,47 +575,39 @@ DBS_WAVE_SEEDS = (268473979, 778780715)
 #: 10-min records where a long swell's heave makes the motion error twice the turbulence
 #: carry it, and there the realised motion error strays furthest from the tilt bands'
 #: expectation: one wind a 5-s cycle samples a 10-s swell near its Nyquist period (realised
-#: over model ``Var Z`` spreads 0.16-0.20 at 9.5-10.5 s against 0.09-0.10 at 6-8 s,
+#: over model ``Var Z`` spreads 0.16-0.20 at 9.5-10.5 s against 0.085-0.10 at 6-8 s,
 #: ``benchmarks/dbs_output_sampling.py``); the records within 0.5 s of 10 s carry +1.1 and
-#: -0.6 points of the two misses.
-#: ``dbs_wave_follower`` 268473979: 255 such records +1.68 % off (bound 1.5 %; se 0.69 %;
-#: 1.35 points of it from two 10-min records, three heights each); 778780715: 213 such
-#: records -1.50 % off (se 0.89 %), and its 421 records at 9-12 m/s cover 0.952 (401
-#: inside; bound 0.95). Without the range gates that the tilt moves through the shear in
-#: the DBS sigma_Z they are +2.06 % and -1.07 %, the coverage 0.948.
+#: -0.6 points of the two misses. ``dbs_wave_follower`` 268473979: 255 such records +1.67 %
+#: off (bound 1.5 %; se 0.69 %); 778780715: 213 such records -1.57 % off (se 0.89 %).
+#: Not strict: both sit within 0.2 points of the bound, and the fit's floating point differs
+#: between machines (the same code gave 778780715 -1.46 % and 9-12 m/s coverage 0.948 on one
+#: machine, -1.50 % and 0.952 on another). The fit, the answered share and the widths of
+#: these runs are checked strictly (the test before).
 _DBS_MISSES = {
     ("dbs_wave_follower", 268473979): pytest.mark.xfail(
-        strict=True,
-        reason="wave-period group > 7 s: mean error +1.68 % on 255 records (bound 1.5 %)",
+        strict=False,
+        reason="wave-period group > 7 s: mean error +1.67 % on 255 records (bound 1.5 %)",
     ),
     ("dbs_wave_follower", 778780715): pytest.mark.xfail(
-        strict=True,
-        reason="wave-period group > 7 s: mean error -1.50 % on 213 records (bound 1.5 %); "
-        "9-12 m/s coverage 0.952 (bound 0.95)",
+        strict=False,
+        reason="wave-period group > 7 s: mean error -1.57 % on 213 records (bound 1.5 %)",
     ),
 }
+_DBS_WAVE_RUNS = [
+    (scenario, seed)
+    for scenario in ("dbs_wave_follower", "dbs_wave_follower_weathervane")
+    for seed in DBS_WAVE_SEEDS
+]
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    ("scenario", "seed"),
-    [
-        pytest.param(
-            scenario,
-            seed,
-            marks=_DBS_MISSES.get((scenario, seed), ()),
-        )
-        for scenario in ("dbs_wave_follower", "dbs_wave_follower_weathervane")
-        for seed in DBS_WAVE_SEEDS
-    ],
-)
-def test_dbs_wave_follower_corrected_and_calibrated_in_every_group(scenario, seed):
+@pytest.mark.parametrize(("scenario", "seed"), _DBS_WAVE_RUNS)
+def test_dbs_wave_follower_corrected_and_the_fit_finds_the_buoy(scenario, seed):
     """A WindCube v2 on a buoy that follows the waves (surge, sway and heave; a wind sea and
     in half the records a swell 45-135 deg off the wind), at a fixed heading and
     weathervaning, its IMU series with the heave velocity: >= 99 % of the records
-    corrected, calibrated in every group of >= 200 records (speed, sea state x heading,
-    wave period), intervals <= 30 % of the TI (the DBS acceptance), the heave measured as
-    a wave follower's in the IMU series, and the fit finds the buoy: motion scale in
+    corrected, intervals <= 30 % of the TI (the DBS acceptance), the heave measured as a
+    wave follower's in the IMU series, and the fit finds the buoy: motion scale in
     [0.9, 1.1], lever arm within 0.5 m of the scenario's 2 m (the physics-mode bounds of
     the hull's six degrees of freedom)."""
     records, fit = _run_dbs(scenario, seed)
@@ -629,7 +621,17 @@ def test_dbs_wave_follower_corrected_and_calibrated_in_every_group(scenario, see
     lever = float(np.median(fit.flat("lever_arm_m")))
     assert 0.9 <= k <= 1.1, k
     assert abs(lever - float(records["true_lever_arm_m"].iloc[0])) <= 0.5, lever
-    # last, so that a run missing one group's bound (the strict xfails) still checks the rest
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("scenario", "seed"),
+    [pytest.param(*run, marks=_DBS_MISSES.get(run, ())) for run in _DBS_WAVE_RUNS],
+)
+def test_dbs_wave_follower_calibrated_in_every_group(scenario, seed):
+    """The runs of the test before: calibrated in every group of >= 200 records (speed, sea
+    state x heading, wave period) and in aggregate (the DBS acceptance)."""
+    records, _ = _run_dbs(scenario, seed)
     _check_calibrated(records, f"{scenario} seed {seed}")
 
 

@@ -58,6 +58,7 @@ from flidar_uq.inference.observations import with_shear_exponent
 from flidar_uq.inference.record_motion import (
     CROSS_WIND_COLUMNS,
     GRAM_COLUMNS,
+    SAMPLING_COLUMN,
     gram_hws_error_ms,
     motion_gram,
 )
@@ -864,7 +865,8 @@ class _Propagation:
 
 def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan, grams) -> None:
     """Record motion model: each record's sigma_Z from its own measured motion, with the
-    global lever arm, motion scale and the record-level motion error kappa_z, and each
+    global lever arm, motion scale and the record-level motion error kappa_z (with a DBS
+    lidar's record's own sampling part added in quadrature, as in the record fit), and each
     record's correlation ``tanh(atanh(rho) + rho_sd N(0, 1))`` (the scatter of its
     realised correlation, :mod:`flidar_uq.inference.record_fit`; held with ``rho``), record
     chunk by record chunk (:data:`_RECORD_CHUNK`). ``grams``: the chunks' Gram tables
@@ -878,7 +880,7 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan, gr
     rho_z = np.arctanh(p.rho)  # Fisher z of the campaign's correlation
     translation = global_fit.info.get("hull_model") != "rotation_only"  # the kept model
     hull_reference = global_fit.info.get("hull_reference", "wave_follower")
-    cols = [*GRAM_COLUMNS, "translation_measured", *CROSS_WIND_COLUMNS]
+    cols = [*GRAM_COLUMNS, "translation_measured", *CROSS_WIND_COLUMNS, SAMPLING_COLUMN]
     described = np.zeros(n, dtype=bool)
     described_by = (lidar, scan, translation, hull_reference)
     for start in range(0, n, _RECORD_CHUNK):
@@ -903,7 +905,10 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan, gr
         g = {c: gram[c].to_numpy()[ok][None, :] for c in gram.columns}
         sz, mean_z = gram_hws_error_ms(g, lever_arm_m=lever, hull_response=hull, motion_scale=scale)
         err = p.rng.standard_normal((p.ndraws, int(ok.sum())))
-        err *= kappa_z
+        if SAMPLING_COLUMN in g:  # a DBS lidar's motion error sampled once a cycle
+            err *= np.sqrt(kappa_z**2 + g[SAMPLING_COLUMN])
+        else:
+            err *= kappa_z
         sz *= np.exp(err, out=err)  # sz exp(kappa_z N(0, 1)), in place
         del err
         rho = None

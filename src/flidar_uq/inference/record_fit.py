@@ -17,7 +17,9 @@ phasors). The model (docs/inference.md):
   + (p_i r_i dmu_i/dr_i)^2``:
   ``kappa`` the relative sampling noise of a 10-min std, ``kappa_z`` the relative error of
   a record's sigma_Z (the realised motion error of 10 minutes scatters about the one its
-  motion spectrum predicts), ``s_rho`` (``rho_sd``) the scatter of a record's realised
+  motion spectrum predicts; a DBS lidar's record adds the known part of that scatter from
+  its retrieval once a cycle to ``kappa_z^2``,
+  :func:`~flidar_uq.physics.dbs_sigma_z.cycle_sampling_rel_var`), ``s_rho`` (``rho_sd``) the scatter of a record's realised
   correlation of the turbulence and the motion error about ``rho``, as the sd of its
   Fisher z (``atanh``; Fisher 1921: the sample correlation of ``N`` pairs has
   ``sd(atanh r) ~ 1 / sqrt(N - 3)``, so ``(1 - rho^2) s_rho`` on ``rho`` itself), through
@@ -51,6 +53,7 @@ from flidar_uq.inference.priors import Priors, SamplerSettings
 from flidar_uq.inference.record_motion import (
     CROSS_WIND_COLUMNS,
     GRAM_COLUMNS,
+    SAMPLING_COLUMN,
     describe_motion,
     gram_coefficients,
     gram_sigma_z_ms,
@@ -117,13 +120,17 @@ def _record_z2_tau2(theta, s, r, gram, pair_sq):
     entries :data:`~flidar_uq.inference.record_motion.GRAM_COLUMNS` of
     :func:`~flidar_uq.inference.record_motion.motion_gram` and the measured-translation
     flag (``h = 1`` there; 10 rows: none measured); ``sZ^2`` is one (walkers x 10) by
-    (10 x records) product. A DBS lidar's 32 rows add its
+    (10 x records) product. A DBS lidar's 33 rows add its
     :data:`~flidar_uq.inference.record_motion.CROSS_WIND_COLUMNS` (sZ to fourth order in
-    the cross-wind error, :func:`~flidar_uq.physics.dbs_sigma_z.hws_error_moments`).
+    the cross-wind error, :func:`~flidar_uq.physics.dbs_sigma_z.hws_error_moments`) and
+    :data:`~flidar_uq.inference.record_motion.SAMPLING_COLUMN`, the variance of the
+    record's ``log sZ`` from its sampling once a cycle, added to ``kappa_z^2``.
     """
     rho = theta[:, 0:1]
     kappa_sq = np.exp(2.0 * theta[:, 1:2])
     kz_sq = np.exp(2.0 * theta[:, 2:3])
+    if gram.shape[0] > 32:  # a DBS lidar's record: its motion error sampled once a cycle
+        kz_sq = kz_sq + gram[32]
     k = np.exp(theta[:, 4])
     h = np.exp(theta[:, 5])
     lever = theta[:, 3]
@@ -326,8 +333,10 @@ def _broad(lever_arm_prior):
 def _gram_rows(cross_wind: bool) -> list[str]:
     """The rows of the observations' ``gram`` (:func:`_record_observations`), the columns
     of :func:`motion_gram` it holds: :data:`GRAM_COLUMNS` and ``translation_measured``,
-    with ``cross_wind`` (a DBS lidar's) :data:`CROSS_WIND_COLUMNS`."""
-    return [*GRAM_COLUMNS, "translation_measured", *(CROSS_WIND_COLUMNS if cross_wind else ())]
+    with ``cross_wind`` (a DBS lidar's) :data:`CROSS_WIND_COLUMNS` and
+    :data:`SAMPLING_COLUMN`."""
+    dbs = (*CROSS_WIND_COLUMNS, SAMPLING_COLUMN) if cross_wind else ()
+    return [*GRAM_COLUMNS, "translation_measured", *dbs]
 
 
 @single_threaded
@@ -338,8 +347,8 @@ def _record_observations(
 
     Returns ``((s, r, gram), use, kinds)``: measured std ``s`` (m/s), reference std ``r``
     (m/s) and the motion error ``gram`` (11, n) (:func:`motion_gram`'s
-    :data:`GRAM_COLUMNS` and ``translation_measured``; a DBS lidar's 32 rows with its
-    :data:`CROSS_WIND_COLUMNS`, :func:`_gram_rows`) of the usable records (all finite
+    :data:`GRAM_COLUMNS` and ``translation_measured``; a DBS lidar's 33 rows with its
+    :data:`CROSS_WIND_COLUMNS` and :data:`SAMPLING_COLUMN`, :func:`_gram_rows`) of the usable records (all finite
     and ``s, r > 0``), the mask ``use`` over ``records`` and every record's motion
     description kind.
     """
@@ -358,7 +367,7 @@ def _record_observations(
         else np.full(len(records), np.nan)
     )
     kinds = mot["motion_description"].to_numpy()
-    # (11, n), a DBS lidar's (32, n)
+    # (11, n), a DBS lidar's (33, n)
     gram = mot[_gram_rows(CROSS_WIND_COLUMNS[0] in mot)].to_numpy(dtype=float).T
     use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.all(np.isfinite(gram), axis=0)
     return (s[use], r[use], np.ascontiguousarray(gram[:, use])), use, kinds
@@ -413,7 +422,7 @@ HULL_NEGLIGIBLE_SIGMA_Z_SHARE = 0.01
 def _hull_response_negligible(nat: dict[str, np.ndarray], gram: np.ndarray) -> bool:
     """True when the hull response's posterior (95 % quantile against 0) changes no
     record's sigma_Z by more than :data:`HULL_NEGLIGIBLE_SIGMA_Z_SHARE`, at the median lever
-    arm and motion scale; ``gram`` (11, n), a DBS lidar's (32, n), as
+    arm and motion scale; ``gram`` (11, n), a DBS lidar's (33, n), as
     :func:`_record_observations` returns it."""
     if not gram.shape[1]:
         return True

@@ -43,6 +43,7 @@ __all__ = [
     "band_sincos_psi",
     "GRAM_COLUMNS",
     "CROSS_WIND_COLUMNS",
+    "SAMPLING_COLUMN",
     "gram_hws_error_ms",
     "MEASURED_TRANSLATION_COLUMNS",
     "MOTION_DESCRIPTIONS",
@@ -689,6 +690,11 @@ CROSS_WIND_COLUMNS = (
     *(c.replace("gram_", "gram_cov_") for c in GRAM_COLUMNS),
     "gram_inv_hws_sq",
 )
+#: A DBS lidar's record: the variance (-) of ``log sigma_Z`` of the record's realised motion
+#: error about the model's from its retrieval once a cycle
+#: (:func:`flidar_uq.physics.dbs_sigma_z.cycle_sampling_rel_var` / 4): it adds to
+#: ``kappa_z^2`` in the record fit and the propagation. 0 for a record without tilt bands.
+SAMPLING_COLUMN = "sigma_z_sampling_log_var"
 _GRAM_IJ = tuple((i, j) for i in range(4) for j in range(i, 4))
 #: entries of GRAM_COLUMNS that carry the hull response (a row or column 1 or 3)
 _HULL_ENTRIES = tuple(n for n, (i, j) in enumerate(_GRAM_IJ) if {i, j} & {1, 3})
@@ -755,10 +761,39 @@ def _dbs_banded(records: pd.DataFrame, hws_ms):
     return bands["complete"] & np.isfinite(np.asarray(hws_ms, float)), bands
 
 
+def _dbs_node_powers(nodes, hws, wind_body_deg, g, n_headings, shear, coef):
+    """Each node's share of ``Var Z`` (m/s)^2, (n, nc), of records whose bands are expanded
+    into ``nodes = (amp, per, mom)`` (lean amplitudes, deg, and periods, s, (n, nc);
+    direction moments (n, nc, 5)): each node alone through
+    :func:`~flidar_uq.physics.dbs_sigma_z.dbs_band_terms`, the along-wind Gram's form at the
+    basis coefficients ``coef`` (n, 4)."""
+    from flidar_uq.physics.dbs_sigma_z import dbs_band_terms
+
+    amp, per, mom = nodes
+    n, nc = amp.shape
+    gram = dbs_band_terms(
+        np.repeat(hws, nc),
+        amp.reshape(-1, 1),
+        per.reshape(-1, 1),
+        mom.reshape(-1, 1, mom.shape[-1]),
+        wind_body_deg=None if wind_body_deg is None else np.repeat(wind_body_deg, nc),
+        lidar=g,
+        n_headings=n_headings,
+        shear_exponent=np.repeat(shear, nc),
+    ).reshape(n, nc, 4, 4)
+    return np.einsum("ni,ncij,nj->nc", coef, gram, coef)
+
+
 def _dbs_gram(records, g, n_headings, translation, nodes):
-    """(31, n) Gram entries (:data:`GRAM_COLUMNS` and :data:`CROSS_WIND_COLUMNS`), measured
-    flag and description of a DBS lidar (:func:`motion_gram`)."""
-    from flidar_uq.physics.dbs_sigma_z import band_moments_to_wind, dbs_band_terms, dbs_record_terms
+    """(32, n) Gram entries (:data:`GRAM_COLUMNS`, :data:`CROSS_WIND_COLUMNS` and
+    :data:`SAMPLING_COLUMN`), measured flag and description of a DBS lidar
+    (:func:`motion_gram`)."""
+    from flidar_uq.physics.dbs_sigma_z import (
+        band_moments_to_wind,
+        cycle_sampling_rel_var,
+        dbs_band_terms,
+        dbs_record_terms,
+    )
 
     a_r, a_p, t_r, t_p, ok = _dbs_motion(records)
     hws = _col(records, "hws_mean_ms")
@@ -767,7 +802,8 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
     beta = records_wind_body_deg(records)
     known = np.isfinite(beta)
     shear = records_shear_exponent(records)
-    out = np.full((31, len(records)), np.nan)
+    r_z, r_x = measured_response(records)
+    out = np.full((32, len(records)), np.nan)
     if np.any(banded):
         mom = band_moments_to_wind(
             band_cos_psi(bands, hws, banded),
@@ -784,11 +820,40 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
             mom,
             n_nodes=nodes,
         )
+        # the sampling of the motion error once a cycle: each node's share of Var Z at the
+        # truth's scale (k = 1), the hull's translation as described (a wave follower's,
+        # scaled by a measured response) and no lever arm, spread over its share of its
+        # band's frequencies
+        edges_hz = 1.0 / np.asarray(bands["edges_s"], float)
+        width_hz = np.repeat(np.abs(np.diff(edges_hz)) / nodes, nodes)
+        h = float(translation)
+        coef = np.stack(
+            [
+                np.ones(len(records)),
+                np.where(np.isfinite(r_z), r_z, 1.0) * h,
+                np.zeros(len(records)),
+                np.where(np.isfinite(r_x), r_x, 1.0) * h,
+            ],
+            -1,
+        )
         for sel, wb in ((known[banded], beta[banded]), (~known[banded], None)):
             idx = np.flatnonzero(sel)
             for part in _row_chunks(idx.size):
                 i = idx[part]
                 rows = np.flatnonzero(banded)[i]
+                power = _dbs_node_powers(
+                    (amp[i], per[i], mom[i]),
+                    hws[rows],
+                    None if wb is None else wb[i],
+                    g,
+                    n_headings,
+                    shear[rows],
+                    coef[rows],
+                )
+                # Var(log sigma_Z) = Var(Var Z / E Var Z) / 4 to first order
+                out[31, rows] = 0.25 * cycle_sampling_rel_var(
+                    1.0 / per[i], power, width_hz, cycle_s=g.cycle_s
+                )
                 out[:30, rows] = _gram_entries(
                     dbs_band_terms(
                         hws[rows],
@@ -822,11 +887,11 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
     ok |= banded
     with np.errstate(divide="ignore"):
         out[30, ok] = 1.0 / hws[ok] ** 2
+    out[31, ok & ~banded] = 0.0  # a harmonic's spread is not known without the bands
     # a record described by its tilt bands has the wave follower's translation through them
     follower = ok & (_follower_complete(records) | banded) & translation
     hull = [n + part for part in (0, 10, 20) for n in _HULL_ENTRIES]
     out[np.ix_(hull, ok & ~follower)] = 0.0  # rotation only: no heave, no orbital motion
-    r_z, r_x = measured_response(records)
     meas = follower & np.isfinite(r_z) & np.isfinite(r_x)
     if np.any(meas):  # the heave phasor scales with R_z, the orbital one with R_x
         scale = np.stack([np.ones(len(records)), r_z, np.ones(len(records)), r_x])
@@ -904,7 +969,8 @@ def motion_gram(
     -------
     pandas.DataFrame
         Index of ``records``; :data:`GRAM_COLUMNS` (units there; NaN where the record has
-        no motion description), ``translation_measured`` (1 or 0, -) and
+        no motion description; a DBS lidar's also :data:`CROSS_WIND_COLUMNS` and
+        :data:`SAMPLING_COLUMN`), ``translation_measured`` (1 or 0, -) and
         ``motion_description`` (:data:`MOTION_DESCRIPTIONS`).
     """
     g = get_lidar("zephir300" if lidar is None else lidar)
@@ -924,7 +990,11 @@ def motion_gram(
             *(terms[c].to_numpy() for c in terms.columns[:4]),
         )
         meas, kind = terms["translation_measured"].to_numpy() > 0, mot["motion_description"]
-    names = GRAM_COLUMNS if len(gram) == len(GRAM_COLUMNS) else GRAM_COLUMNS + CROSS_WIND_COLUMNS
+    names = (
+        GRAM_COLUMNS
+        if len(gram) == len(GRAM_COLUMNS)
+        else (*GRAM_COLUMNS, *CROSS_WIND_COLUMNS, SAMPLING_COLUMN)
+    )
     out = pd.DataFrame(dict(zip(names, gram, strict=True)), index=records.index)
     out["translation_measured"] = np.asarray(meas, float)
     out["motion_description"] = np.asarray(kind)

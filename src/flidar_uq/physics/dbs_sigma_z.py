@@ -83,6 +83,7 @@ __all__ = [
     "GRAM_PARTS",
     "hws_error_moments",
     "dbs_replay_sigma_z_ms",
+    "cycle_sampling_rel_var",
     "wind_to_body_deg",
 ]
 
@@ -530,6 +531,76 @@ def dbs_replay_sigma_z_ms(
         dwell_samples=dwell_samples,
         every_beam=every_beam,
     ).sigma_z_ms
+
+
+#: Length of a record (s) whose motion error a DBS lidar samples once a cycle
+#: (:func:`cycle_sampling_rel_var`): the 10-min statistics of the record table.
+RECORD_S = 600.0
+
+#: The largest relative variance of a record's realised ``Var Z`` about its expectation
+#: (:func:`cycle_sampling_rel_var`): that of one harmonic at a fixed phase against the
+#: cycle, ``2 cos^2(phi)`` over a uniform ``phi`` (variance 1/2).
+_MAX_SAMPLING_REL_VAR = 0.5
+
+
+def cycle_sampling_rel_var(frequency_hz, power, width_hz, *, cycle_s, record_s=RECORD_S):
+    """Relative variance of a record's realised motion-error variance about its expectation,
+    from one retrieval a cycle.
+
+    A DBS lidar that retrieves once a cycle ``T_c`` samples each harmonic component of its
+    error ``Z_n = sum_j Re(delta_j exp(i omega_j n T_c))`` at the cycle. The record's
+    ``(1/N) sum_n Z_n^2`` then holds, beside its expectation ``sum_j |delta_j|^2 / 2``, the
+    terms ``Re(delta_j delta_l D_N(omega_j + omega_l)) / 2`` with
+    ``D_N(x) = (1/N) sum_n exp(i x n T_c)``, which do not average out where
+    ``f_j + f_l`` is near a multiple of the cycle's frequency (a swell of twice the cycle
+    sampled near its Nyquist period, or of one cycle): how they add up hangs on the phase at
+    which the cycles meet the waves, which no 10-min statistic holds. Over random phases,
+    with ``|D_N|^2`` a Fejer kernel of area ``1 / (N T_c)`` about each multiple, the
+    relative variance of the realised ``Var Z`` is
+
+    ``(1 / T_rec) sum_{m >= 1} int S(f) S(m / T_c - f) df / (int S(f) df)^2``
+
+    for the error's spectrum ``S`` (one-sided), capped at 1/2 (one harmonic at a fixed
+    phase). ``S`` is taken as the given components' powers spread evenly over their
+    widths. Checked against LOS-level replay (``benchmarks/dbs_output_sampling.py``,
+    ``tests/test_dbs_sigma_z.py``).
+
+    Parameters
+    ----------
+    frequency_hz, power, width_hz : array_like, shape (..., nc)
+        Each component's (or sub-band's) frequency (Hz, > 0), share of ``Var Z`` (any
+        unit, >= 0; NaN counts as 0) and frequency width (Hz, > 0).
+    cycle_s : float
+        Time between retrievals, s (a DBS lidar's cycle).
+    record_s : float
+        Record length, s.
+
+    Returns
+    -------
+    numpy.ndarray, shape (...)
+        Relative variance (-), in [0, 1/2]; 0 where the powers add up to 0.
+    """
+    f, pw, w = np.broadcast_arrays(
+        np.asarray(frequency_hz, float), np.asarray(power, float), np.asarray(width_hz, float)
+    )
+    pw = np.where(np.isfinite(pw) & np.isfinite(f) & np.isfinite(w), np.maximum(pw, 0.0), 0.0)
+    f = np.where(pw > 0, f, 0.0)
+    w = np.where(pw > 0, w, 1.0)
+    density = pw / w
+    lo, hi = f - 0.5 * w, f + 0.5 * w
+    total = np.zeros(pw.shape[:-1])
+    f_max = float(np.max(hi, initial=0.0))
+    for m in range(1, int(np.ceil(2.0 * f_max * cycle_s)) + 1):
+        # the overlap of component i with component j reflected about f_m / 2
+        lo_j, hi_j = m / cycle_s - hi, m / cycle_s - lo
+        overlap = np.minimum(hi[..., :, None], hi_j[..., None, :]) - np.maximum(
+            lo[..., :, None], lo_j[..., None, :]
+        )
+        total += np.einsum("...i,...j,...ij->...", density, density, np.maximum(overlap, 0.0))
+    sum_p = pw.sum(axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = np.where(sum_p > 0, total / float(record_s) / sum_p**2, 0.0)
+    return np.minimum(rel, _MAX_SAMPLING_REL_VAR)
 
 
 #: Order of the basis of :func:`dbs_record_terms`: sigma_Z's error phasor is
