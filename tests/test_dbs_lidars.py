@@ -110,6 +110,27 @@ def test_custom_geometry_block_rotated_beams_retrieve_exactly():
             "los_time_s must be",
         ),
         ({"kind": "vad", "half_cone_angle_deg": 30, "scan_period_s": 1.0}, "needs n_los"),
+        (
+            {
+                "kind": "dbs",
+                "half_cone_angle_deg": 30,
+                "beam_azimuths_deg": [0, 90, 180, 270],
+                "los_time_s": 0.9,
+                "scan_period_s": 4.0,
+                "every_beam_output": True,
+            },
+            "every_beam_output needs a DBS cycle without dead time",
+        ),
+        (
+            {
+                "kind": "vad",
+                "half_cone_angle_deg": 30,
+                "n_los": 50,
+                "scan_period_s": 1.0,
+                "every_beam_output": True,
+            },
+            "every_beam_output needs a DBS cycle",
+        ),  # fmt: skip
         ({"kind": "dbs", "half_cone_angle": 30}, "unknown key"),
     ],
 )
@@ -117,6 +138,38 @@ def test_bad_custom_geometry_is_one_line(block, pattern):
     with pytest.raises(ValueError, match=pattern) as exc:
         L.get_lidar(block)
     assert "\n" not in str(exc.value)
+
+
+def test_a_wind_after_every_beam_windows_and_times():
+    """The WindCube v2 and v2.1 retrieve a wind after every beam (their 1-s data), the v1
+    entries once a cycle; a custom block says which. The windows after every beam hold the
+    latest beam of each azimuth (the first cycle's own window is that cycle), and each
+    window's beam times run from its start in the cycle's order."""
+    assert [n for n in NAMES if L.get_lidar(n).every_beam_output] == [
+        "windcube_v2",
+        "windcube_v2_1",
+    ]
+    v2, v1 = L.get_lidar("windcube_v2"), L.get_lidar("windcube_v1")
+    assert v2.window_starts == (0, 1, 2, 3, 4) and v2.output_interval_s == pytest.approx(1.0)
+    assert v1.window_starts == (0,) and v1.output_interval_s == pytest.approx(4.0)
+    block = {"kind": "dbs", "half_cone_angle_deg": 28, "beam_azimuths_deg": [0, 90, 180, 270],
+             "los_time_s": 0.5, "every_beam_output": True}  # fmt: skip
+    assert L.get_lidar(block).window_starts == (0, 1, 2, 3)
+    # beam k of the window starting at place s: ((k - s) mod K) beams in
+    t = L.window_beam_times_s(v2)
+    np.testing.assert_allclose(t[0], [0, 1, 2, 3, 4])
+    np.testing.assert_allclose(t[2], [3, 4, 0, 1, 2])
+    np.testing.assert_allclose(L.window_beam_times_s(v1), [[0, 1, 2, 3]])
+    # cycles of values 10 c + k: after beam j of cycle c, beams <= j of cycle c, > j of c - 1
+    cycles = 10.0 * np.arange(3)[:, None] + np.arange(4)[None, :]
+    w = L.every_beam_windows(cycles)
+    assert w.shape == (8, 4)
+    np.testing.assert_array_equal(w[0], [10, 1, 2, 3])
+    np.testing.assert_array_equal(w[2], [10, 11, 12, 3])
+    np.testing.assert_array_equal(w[3], cycles[1])
+    np.testing.assert_array_equal(w[7], cycles[2])
+    # trailing axes ride along (a beam's dwell sub-slots)
+    assert L.every_beam_windows(np.repeat(cycles[..., None], 3, -1)).shape == (8, 4, 3)
 
 
 # --------------------------------------------------------------------------- config

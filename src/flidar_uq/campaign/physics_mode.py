@@ -685,8 +685,21 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         yaw_c = s["yaw"][None]  # (1,N), or (1,1): a constant heading
         if yaw_c.shape[1] > 1 and (yaw_c == yaw_c[:, :1]).all():
             yaw_c = np.ascontiguousarray(yaw_c[:, :1])  # contiguous: the kernel's compiled type
-        v_r_c, *fits = _scan_record(s, yaw_c, settings, par, c, e_wind, geo, lay, clk)
-        scans.append((v_r_c if want_los else None, *fits))  # the radial speeds: LOS output
+        v_r_c, uvw_c, uvw0_c, resid_c, truth_c, v_r0_c = _scan_record(
+            s, yaw_c, settings, par, c, e_wind, geo, lay, clk
+        )
+        # the radial speeds: LOS output, and a wind after every beam's windows
+        keep = want_los or geo.every_beam_output
+        scans.append(
+            (
+                v_r_c if keep else None,
+                uvw_c,
+                uvw0_c,
+                resid_c,
+                truth_c,
+                v_r0_c if geo.every_beam_output else None,
+            )
+        )
         att, ns = _imu_series(s, yaw_c, ts, clk)
         imu_att.append(att)
         imu_ns.append(ns)
@@ -704,9 +717,15 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         ):
             del s[key]  # the record's long series: done with
         series.append(s)
-    sc = _chunk_scans(series, scans, par, lay.n_los, clk.n_slots, want_los)
+    sc = _chunk_scans(series, scans, par, lay.n_los, clk.n_slots, want_los or geo.every_beam_output)
+    # the 10-min statistics: of the cycles, or of the windows after every beam
+    st_sc = (
+        _every_beam_scans(sc, scans, series, par, lay, geo, clk.n_slots)
+        if geo.every_beam_output
+        else sc
+    )
     cols, wd_mean = _record_statistics(
-        settings, par, rec_idx, starts_ns, sc, fl_truth, trans_truth, e_wind
+        settings, par, rec_idx, starts_ns, st_sc, fl_truth, trans_truth, e_wind
     )
     los = _los_frames(sc, settings, starts_ns, geo, lay, clk) if want_los else None
     att = _imu_statistics(cols, settings, imu_att, imu_ns, wd_mean, clk)
@@ -829,22 +848,16 @@ def _chunk_scans(series, scans, par, n_los, n_slots, want_los) -> SimpleNamespac
     one, and its wind direction (compass, deg; the body frame turned by the heading at the
     scan's middle slot), a CW lidar's on the 180-deg branch closest to the true direction
     (a met-station vane). A scan counts (``ok``) if it ends within the record (``valid``),
-    did not drop out and its record is not out. ``n_los`` slots a scan, ``n_slots`` a record.
+    did not drop out and its record is not out. ``n_los`` slots a scan, ``n_slots`` a record;
+    ``want_los``: keep the radial speeds (the LOS output, and the windows of a lidar with a
+    wind after every beam).
     """
-    n_c = len(series)
     n_h = series[0]["hws_h"].size
     j_max = series[0]["starts"].size
     starts = np.stack([s["starts"] for s in series])  # (C,J)
     valid = starts + n_los <= n_slots
-    yaw = np.stack([s["yaw"] for s in series])  # (C,N), or (C,1): a constant heading
     uvw, uvw0, resid = (np.concatenate([o[k] for o in scans]) for k in (1, 2, 3))
-    hws_scan = np.hypot(uvw[..., 0], uvw[..., 1])  # (C,J)
-    mid = np.minimum(starts + n_los // 2, n_slots - 1)  # (C,J): each scan's middle slot
-    yaw_mid = yaw[np.arange(n_c)[:, None], np.minimum(mid, yaw.shape[1] - 1)]
-    wd_scan = _lidar.wind_direction_deg(uvw[..., 0], uvw[..., 1]) - yaw_mid  # compass
-    # 180-deg branch of the CW lidar: the one closest to the met-station vane (true wd)
-    wd_true = par["wd_deg"][:, None]
-    off = np.abs((wd_scan - wd_true + 180.0) % 360.0 - 180.0) > 90.0
+    wd_scan = _scan_wind_direction(series, uvw, starts, n_los, n_slots, par["wd_deg"])
     dropped = np.stack([s["dropped"] for s in series])
     outage = np.array([s["outage"] for s in series])
     return SimpleNamespace(
@@ -856,11 +869,91 @@ def _chunk_scans(series, scans, par, n_los, n_slots, want_los) -> SimpleNamespac
         h_idx=np.broadcast_to(np.arange(j_max) % n_h, starts.shape),  # heights in turn
         hws_h=np.stack([s["hws_h"] for s in series]),  # (C,H)
         v_r=np.concatenate([o[0] for o in scans]) if want_los else None,  # (C,J,L)
-        hws_scan=hws_scan,
+        hws_scan=np.hypot(uvw[..., 0], uvw[..., 1]),  # (C,J)
         hws0=np.hypot(uvw0[..., 0], uvw0[..., 1]),
         resid=resid,
-        wd_scan=(wd_scan + 180.0 * off) % 360.0,
+        wd_scan=wd_scan,
         attitude=np.concatenate([o[4] for o in scans], axis=1),  # (5,C)
+    )
+
+
+def _scan_wind_direction(series, uvw, starts, n_los, n_slots, wd_deg):
+    """Each scan's wind direction (compass, deg): its body-frame wind (C, J, 3) turned by
+    the heading at the scan's middle slot (``starts`` (C, J), ``n_los`` slots a scan,
+    ``n_slots`` a record), a CW lidar's on the 180-deg branch closest to the true direction
+    ``wd_deg`` (C,) (a met-station vane)."""
+    yaw = np.stack([s["yaw"] for s in series])  # (C,N), or (C,1): a constant heading
+    mid = np.minimum(starts + n_los // 2, n_slots - 1)  # (C,J): each scan's middle slot
+    yaw_mid = yaw[np.arange(len(series))[:, None], np.minimum(mid, yaw.shape[1] - 1)]
+    wd_scan = _lidar.wind_direction_deg(uvw[..., 0], uvw[..., 1]) - yaw_mid  # compass
+    off = np.abs((wd_scan - np.asarray(wd_deg, float)[:, None] + 180.0) % 360.0 - 180.0) > 90.0
+    return (wd_scan + 180.0 * off) % 360.0
+
+
+def _every_beam_scans(sc, scans, series, par, lay, geo, n_slots) -> SimpleNamespace:
+    """The chunk's retrieval windows of a DBS lidar with a wind after every beam
+    (:attr:`flidar_uq.physics.lidar.LidarGeometry.every_beam_output`), as
+    :func:`_chunk_scans` gives its cycles.
+
+    The first cycle, then after each beam of every later cycle, at each height, the window
+    of the latest beam of each azimuth (:func:`flidar_uq.physics.lidar.every_beam_windows`; each beam
+    its dwell's ``m`` sub-slots) is retrieved by the beam pairs (``lay.pinv_t``), for the
+    floating lidar (``sc.v_r``) and the motionless one (``scans``' last item); its RMS fit
+    residual over the sub-slots, its wind direction at its middle slot. A window counts if
+    the cycles of its inclined beams (the beam pairs' HWS does not read the vertical beam)
+    are complete (``valid``) and counted. Returns the fields of
+    :func:`_chunk_scans` that the record statistics read, windows (W heights in turn)
+    along J.
+    """
+    n_c, j_max, n_sub = sc.v_r.shape
+    n_h = sc.hws_h.shape[1]
+    n_beam = geo.n_los
+    m = n_sub // n_beam
+    n_cyc = j_max // n_h
+    v_r0 = np.concatenate([o[5] for o in scans])  # (C,J,L)
+
+    def windows(x):  # (C, J, ...) per cycle and height -> (C, W x H, K, ...) per window
+        y = x.reshape((n_c, n_cyc, n_h) + x.shape[2:]).swapaxes(1, 2)  # (C,H,cycles,K,...)
+        out = np.stack(
+            [
+                np.stack(
+                    [
+                        np.concatenate([y[c, h, :1], _lidar.every_beam_windows(y[c, h])])
+                        for h in range(n_h)
+                    ],
+                    1,
+                )
+                for c in range(n_c)
+            ]
+        )  # (C, W, H, K, ...): the first cycle's own window, then one after every beam
+        return out.reshape((n_c, -1) + out.shape[3:])
+
+    def per_beam(flag):  # a cycle's flag (C, J) on each of its beams
+        return np.repeat(flag[..., None], n_beam, axis=-1)
+
+    v_w = windows(sc.v_r.reshape(n_c, j_max, n_beam, m)).reshape(n_c, -1, n_sub)
+    v0_w = windows(v_r0.reshape(n_c, j_max, n_beam, m)).reshape(n_c, -1, n_sub)
+    uvw, uvw0 = v_w @ lay.pinv_t, v0_w @ lay.pinv_t  # (C,J',3)
+    resid = np.sqrt(np.mean((v_w - uvw @ lay.d_body.T) ** 2, axis=-1))
+    inclined = ~np.isnan(_lidar.scan_times_azimuths(geo)[1])  # the pairs' beams
+    valid = windows(per_beam(sc.valid))[..., inclined].all(axis=-1)
+    ok = windows(per_beam(sc.ok))[..., inclined].all(axis=-1)
+    # each window's first slot: the cycle's start plus (beam + 1) dwells, less a cycle
+    cyc_start = windows(per_beam(sc.starts))[..., 0]  # the newest cycle's start
+    end_beam = np.repeat(np.r_[n_beam - 1, np.tile(np.arange(n_beam), n_cyc - 1)], n_h)
+    starts = cyc_start + (end_beam + 1) * m - n_sub
+    wd_scan = _scan_wind_direction(series, uvw, starts, n_sub, n_slots, par["wd_deg"])
+    return SimpleNamespace(
+        starts=starts,
+        valid=valid,
+        ok=ok,
+        h_idx=np.broadcast_to(np.arange(starts.shape[1]) % n_h, starts.shape),
+        hws_h=sc.hws_h,
+        hws_scan=np.hypot(uvw[..., 0], uvw[..., 1]),
+        hws0=np.hypot(uvw0[..., 0], uvw0[..., 1]),
+        resid=resid,
+        wd_scan=wd_scan,
+        attitude=sc.attitude,
     )
 
 

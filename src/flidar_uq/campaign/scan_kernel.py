@@ -267,6 +267,8 @@ def simulate_chunk_scans(
         RMS fit residual of the moving lidar, m/s.
     truth : ndarray, shape (5, C)
         The records' true motion statistics, :func:`attitude_truth`'s.
+    v_r0 : ndarray, shape (C, J, L)
+        Radial speed of the fixed reference lidar, m/s (signed).
     """
     n_c, n_j = starts.shape
     n_los = d_body.shape[0]
@@ -274,6 +276,7 @@ def simulate_chunk_scans(
     n_h = hws_h.shape[1]
     moving = trans.shape[1] > 0 or lever[0] != 0.0 or lever[1] != 0.0 or lever[2] != 0.0
     v_r = np.empty((n_c, n_j, n_los))
+    v_r0 = np.empty((n_c, n_j, n_los))
     uvw = np.empty((n_c, n_j, 3))
     uvw0 = np.empty((n_c, n_j, 3))
     resid = np.empty((n_c, n_j))
@@ -359,6 +362,7 @@ def simulate_chunk_scans(
                 # the fixed reference lidar: the same wind, no motion, the body geometry
                 vr0 = (mean_los * e0 + f0) * m0 + (mean_los * e1 + f1) * m1
                 vr0 += (mean_los * e2 + f2) * m2
+                v_r0[c, j, k] = vr0
                 q0 += vr0 * pinv_t[a, 0]
                 q1 += vr0 * pinv_t[a, 1]
                 q2 += vr0 * pinv_t[a, 2]
@@ -389,4 +393,4 @@ def simulate_chunk_scans(
             uvw[c, j, 0], uvw[c, j, 1], uvw[c, j, 2] = p0, p1, p2
             uvw0[c, j, 0], uvw0[c, j, 1], uvw0[c, j, 2] = q0, q1, q2
         _truth_into(trig, 0, roll_deg, pitch_deg, c, wd_deg[c], truth_stride, along, across, truth)
-    return v_r, uvw, uvw0, resid, truth
+    return v_r, uvw, uvw0, resid, truth, v_r0

@@ -24,6 +24,7 @@ missing IMU sample, like a NaN angle.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import partial
 
 import numpy as np
 import pandas as pd
@@ -293,7 +294,8 @@ def los_record_ti(
         Longest IMU pause tolerated during a scan, s.
     min_scans : int
         Fewer usable scans give NaN, and so do fewer retrieved HWS of a method (a 10-min
-        std from 30 scans has a relative sampling error of about 1 / sqrt(2 * 30) = 13 %).
+        std from 30 scans has a relative sampling error of about 1 / sqrt(2 * 30) = 13 %);
+        of a DBS lidar's windows after every beam, fewer than ``min_scans`` cycles' worth.
 
     Returns
     -------
@@ -302,7 +304,8 @@ def los_record_ti(
         (with IMU), ``los_flags`` (:data:`LOS_RECORD_REASONS`, ``;``-separated),
         ``translation`` (the measured axes in the head velocity, e.g. ``east+north+up`` or
         ``up``, or ``rotation_only``: :func:`_imu_motion`), and per
-        method ``m`` of :func:`los_methods`: ``n_hws_<m>`` (scans with a retrieved HWS; a
+        method ``m`` of :func:`los_methods`: ``n_hws_<m>`` (scans with a retrieved HWS, or
+        a DBS lidar's windows after every beam with ``every_beam_output``; a
         Yamaguchi and Ishihara (2016) target whose point on a tilted beam lies beyond the
         lowest or highest gate, or a singular scan, gives none), ``hws_mean_ms_<m>``,
         ``hws_std_ms_<m>`` (m/s, over those scans' HWS) and ``ti_los_<m>`` (-), NaN from
@@ -368,19 +371,15 @@ def los_record_ti(
             li = used.ravel()
             ref = float(wd) if np.isfinite(wd) else None
             if geom.kind == "dbs":
-                kw = dict(range_height_m=gates, target_height_m=[h], step=geom.n_los)
-                hws["uncorrected"] = correct_dbs_motion(
-                    geom, t[li], az[li], vr_d[li], method="none", **kw
-                ).hws_ms[:, 0]
-                for m in ("conventional", "new"):
-                    hws[f"dbs_{m}"] = correct_dbs_motion(
-                        geom, t[li], az[li], vr_d[li], motion, method=m, **kw
-                    ).hws_ms[:, 0]
+                kw = dict(range_height_m=gates, target_height_m=[h])
+                for m, key in (("none", "uncorrected"), ("conventional", "dbs_conventional"),
+                               ("new", "dbs_new")):  # fmt: skip
+                    pairs = partial(_pairs_hws, geom=geom, motion=motion, method=m, kw=kw)
+                    hws[key] = _dbs_window_hws(geom, used, pairs, t, az, vr_d)
                 if h in gates:
                     g = int(np.flatnonzero(gates == h)[0])
-                    hws["least_squares"] = correct_least_squares(
-                        geom, t[li], az[li], vr_d[li, g], motion
-                    ).hws_ms
+                    at_gate = partial(_gate_ls_hws, geom=geom, motion=motion)
+                    hws["least_squares"] = _dbs_window_hws(geom, used, at_gate, t, az, vr_d[:, g])
             else:
                 hws["uncorrected"] = correct_least_squares(
                     geom, t[li], az[li], vr[li], reference_wd_deg=ref
@@ -389,7 +388,8 @@ def los_record_ti(
                     geom, t[li], az[li], vr[li], motion, reference_wd_deg=ref
                 ).hws_ms
         for m in methods:
-            n, mean, std, ti = _ti(hws[m], min_scans)
+            # a DBS lidar's windows after every beam: min_scans cycles' worth of them
+            n, mean, std, ti = _ti(hws[m], min_scans * len(geom.window_starts))
             row.update(
                 {
                     f"n_hws_{m}": n,
@@ -400,6 +400,31 @@ def los_record_ti(
             )
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def _dbs_window_hws(geom, cycles, retrieve, t, az, vr) -> np.ndarray:
+    """A DBS lidar's retrieved HWS (m/s) of a record's complete ``cycles`` (n, K) of LOS
+    indices into ``t``, ``az``, ``vr``: one a cycle, or, for a lidar with a wind after every
+    beam (``every_beam_output``), one after every beam within each run of back-to-back
+    cycles (a window never spans a gap). ``retrieve(t, az, vr, step)`` gives the HWS of the
+    windows of ``K`` lines of sight ``step`` apart."""
+    if not geom.every_beam_output:
+        li = cycles.ravel()
+        return retrieve(t[li], az[li], vr[li], geom.n_los)
+    breaks = np.flatnonzero(cycles[1:, 0] != cycles[:-1, -1] + 1) + 1
+    runs = [run.ravel() for run in np.split(cycles, breaks) if len(run)]
+    out = [retrieve(t[li], az[li], vr[li], 1) for li in runs]
+    return np.concatenate(out) if out else np.empty(0)
+
+
+def _pairs_hws(t, az, vr, step, *, geom, motion, method, kw) -> np.ndarray:
+    """HWS (m/s) of the beam pairs (:func:`~flidar_uq.correction.los.correct_dbs_motion`)."""
+    return correct_dbs_motion(geom, t, az, vr, motion, method=method, step=step, **kw).hws_ms[:, 0]
+
+
+def _gate_ls_hws(t, az, vr, step, *, geom, motion) -> np.ndarray:
+    """HWS (m/s) of the least squares at a gate (:func:`~flidar_uq.correction.los.correct_least_squares`)."""
+    return correct_least_squares(geom, t, az, vr, motion, step=step).hws_ms
 
 
 def agreement_with_bayesian(

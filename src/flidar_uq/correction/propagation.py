@@ -905,10 +905,8 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan, gr
         g = {c: gram[c].to_numpy()[ok][None, :] for c in gram.columns}
         sz, mean_z = gram_hws_error_ms(g, lever_arm_m=lever, hull_response=hull, motion_scale=scale)
         err = p.rng.standard_normal((p.ndraws, int(ok.sum())))
-        if SAMPLING_COLUMN in g:  # a DBS lidar's motion error sampled once a cycle
-            err *= np.sqrt(kappa_z**2 + g[SAMPLING_COLUMN])
-        else:
-            err *= kappa_z
+        # a DBS lidar's record adds the spread its output's sampling makes (CW: none)
+        err *= np.sqrt(kappa_z**2 + g.get(SAMPLING_COLUMN, 0.0))
         sz *= np.exp(err, out=err)  # sz exp(kappa_z N(0, 1)), in place
         del err
         rho = None

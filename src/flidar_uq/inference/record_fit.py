@@ -124,13 +124,13 @@ def _record_z2_tau2(theta, s, r, gram, pair_sq):
     :data:`~flidar_uq.inference.record_motion.CROSS_WIND_COLUMNS` (sZ to fourth order in
     the cross-wind error, :func:`~flidar_uq.physics.dbs_sigma_z.hws_error_moments`) and
     :data:`~flidar_uq.inference.record_motion.SAMPLING_COLUMN`, the variance of the
-    record's ``log sZ`` from its sampling once a cycle, added to ``kappa_z^2``.
+    record's ``log sZ`` from its sampling once an output interval, added to ``kappa_z^2``.
     """
     rho = theta[:, 0:1]
     kappa_sq = np.exp(2.0 * theta[:, 1:2])
     kz_sq = np.exp(2.0 * theta[:, 2:3])
-    if gram.shape[0] > 32:  # a DBS lidar's record: its motion error sampled once a cycle
-        kz_sq = kz_sq + gram[32]
+    if gram.shape[0] > _SAMPLING_ROW:  # a DBS lidar's record: its output's sampling
+        kz_sq = kz_sq + gram[_SAMPLING_ROW]
     k = np.exp(theta[:, 4])
     h = np.exp(theta[:, 5])
     lever = theta[:, 3]
@@ -337,6 +337,10 @@ def _gram_rows(cross_wind: bool) -> list[str]:
     :data:`SAMPLING_COLUMN`."""
     dbs = (*CROSS_WIND_COLUMNS, SAMPLING_COLUMN) if cross_wind else ()
     return [*GRAM_COLUMNS, "translation_measured", *dbs]
+
+
+#: The row of :data:`SAMPLING_COLUMN` in a DBS lidar's observations (:func:`_gram_rows`).
+_SAMPLING_ROW = _gram_rows(True).index(SAMPLING_COLUMN)
 
 
 @single_threaded

@@ -691,9 +691,11 @@ CROSS_WIND_COLUMNS = (
     "gram_inv_hws_sq",
 )
 #: A DBS lidar's record: the variance (-) of ``log sigma_Z`` of the record's realised motion
-#: error about the model's from its retrieval once a cycle
-#: (:func:`flidar_uq.physics.dbs_sigma_z.cycle_sampling_rel_var` / 4): it adds to
-#: ``kappa_z^2`` in the record fit and the propagation. 0 for a record without tilt bands.
+#: error about the model's from its retrieval once an output interval
+#: (:func:`flidar_uq.physics.dbs_sigma_z.cycle_sampling_rel_var` / 4, at
+#: :attr:`~flidar_uq.physics.lidar.LidarGeometry.output_interval_s`): it adds to
+#: ``kappa_z^2`` in the record fit and the propagation. 0 for a record without tilt bands,
+#: or whose bands stay below half the output rate (a wind after every beam).
 SAMPLING_COLUMN = "sigma_z_sampling_log_var"
 _GRAM_IJ = tuple((i, j) for i in range(4) for j in range(i, 4))
 #: entries of GRAM_COLUMNS that carry the hull response (a row or column 1 or 3)
@@ -761,29 +763,6 @@ def _dbs_banded(records: pd.DataFrame, hws_ms):
     return bands["complete"] & np.isfinite(np.asarray(hws_ms, float)), bands
 
 
-def _dbs_node_powers(nodes, hws, wind_body_deg, g, n_headings, shear, coef):
-    """Each node's share of ``Var Z`` (m/s)^2, (n, nc), of records whose bands are expanded
-    into ``nodes = (amp, per, mom)`` (lean amplitudes, deg, and periods, s, (n, nc);
-    direction moments (n, nc, 5)): each node alone through
-    :func:`~flidar_uq.physics.dbs_sigma_z.dbs_band_terms`, the along-wind Gram's form at the
-    basis coefficients ``coef`` (n, 4)."""
-    from flidar_uq.physics.dbs_sigma_z import dbs_band_terms
-
-    amp, per, mom = nodes
-    n, nc = amp.shape
-    gram = dbs_band_terms(
-        np.repeat(hws, nc),
-        amp.reshape(-1, 1),
-        per.reshape(-1, 1),
-        mom.reshape(-1, 1, mom.shape[-1]),
-        wind_body_deg=None if wind_body_deg is None else np.repeat(wind_body_deg, nc),
-        lidar=g,
-        n_headings=n_headings,
-        shear_exponent=np.repeat(shear, nc),
-    ).reshape(n, nc, 4, 4)
-    return np.einsum("ni,ncij,nj->nc", coef, gram, coef)
-
-
 def _dbs_gram(records, g, n_headings, translation, nodes):
     """(32, n) Gram entries (:data:`GRAM_COLUMNS`, :data:`CROSS_WIND_COLUMNS` and
     :data:`SAMPLING_COLUMN`), measured flag and description of a DBS lidar
@@ -820,10 +799,10 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
             mom,
             n_nodes=nodes,
         )
-        # the sampling of the motion error once a cycle: each node's share of Var Z at the
-        # truth's scale (k = 1), the hull's translation as described (a wave follower's,
-        # scaled by a measured response) and no lever arm, spread over its share of its
-        # band's frequencies
+        # the sampling of the motion error once an output interval: each node's share of
+        # Var Z (its own Gram matrix) at the truth's scale (k = 1), the hull's translation as
+        # described (a wave follower's, scaled by a measured response) and no lever arm,
+        # spread over its share of its band's frequencies
         edges_hz = 1.0 / np.asarray(bands["edges_s"], float)
         width_hz = np.repeat(np.abs(np.diff(edges_hz)) / nodes, nodes)
         h = float(translation)
@@ -841,31 +820,23 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
             for part in _row_chunks(idx.size):
                 i = idx[part]
                 rows = np.flatnonzero(banded)[i]
-                power = _dbs_node_powers(
-                    (amp[i], per[i], mom[i]),
+                per_node = dbs_band_terms(
                     hws[rows],
-                    None if wb is None else wb[i],
-                    g,
-                    n_headings,
-                    shear[rows],
-                    coef[rows],
-                )
+                    amp[i],
+                    per[i],
+                    mom[i],
+                    wind_body_deg=None if wb is None else wb[i],
+                    lidar=g,
+                    n_headings=n_headings,
+                    cross_wind=True,
+                    shear_exponent=shear[rows],
+                    per_band=True,
+                )  # (n, 3, nodes, 4, 4)
+                out[:30, rows] = _gram_entries(per_node.sum(axis=2))
+                power = np.einsum("ni,ncij,nj->nc", coef[rows], per_node[:, 0], coef[rows])
                 # Var(log sigma_Z) = Var(Var Z / E Var Z) / 4 to first order
                 out[31, rows] = 0.25 * cycle_sampling_rel_var(
-                    1.0 / per[i], power, width_hz, cycle_s=g.cycle_s
-                )
-                out[:30, rows] = _gram_entries(
-                    dbs_band_terms(
-                        hws[rows],
-                        amp[i],
-                        per[i],
-                        mom[i],
-                        wind_body_deg=None if wb is None else wb[i],
-                        lidar=g,
-                        n_headings=n_headings,
-                        cross_wind=True,
-                        shear_exponent=shear[rows],
-                    )
+                    1.0 / per[i], power, width_hz, cycle_s=g.output_interval_s
                 )
     rp = ok & ~banded
     for sel, wb in ((rp & known, beta), (rp & ~known, None)):

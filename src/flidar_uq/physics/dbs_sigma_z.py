@@ -29,7 +29,10 @@ relative to the beams (the buoy's heading): for the leak,
 ``|cos(beta) exp(i omega tau) + sin(beta)|^2 = 1 + sin(2 beta) cos(omega tau)`` for N, E,
 S, W at ``tau`` a beam.
 
-sigma_Z (std of ``Z = retrieved HWS - HWS`` over the cycles of a record) is then, with
+sigma_Z (std of ``Z = retrieved HWS - HWS`` over the retrievals of a record: one a cycle,
+or, for a lidar with a wind after every beam (``every_beam_output``), one a beam from the
+latest beam of each azimuth, whose windows start at each place in the cycle: their
+variances are averaged, ``window_start`` of :func:`dbs_error_coefficients`) is then, with
 ``delta_par`` and ``delta_perp`` the phasors along and across the wind and the components
 independent (random phases),
 
@@ -185,6 +188,7 @@ def dbs_error_coefficients(
     mechanisms=DBS_MECHANISMS,
     dwell_average: bool = False,
     shear_exponent=0.0,
+    window_start: int = 0,
 ):
     """The along- and across-wind error phasors per component, as linear forms in its direction.
 
@@ -203,6 +207,10 @@ def dbs_error_coefficients(
         the body x axis (:func:`wind_to_body_deg`).
     lever_arm_m, hull, lidar, mechanisms, dwell_average, shear_exponent
         As :func:`dbs_harmonic_sigma_z_ms`.
+    window_start : int
+        Position in the cycle (beam index) at which the retrieval window starts
+        (:attr:`flidar_uq.physics.lidar.LidarGeometry.window_starts`): beam ``k`` is taken
+        ``((k - window_start) mod K)`` beams into the window; 0 (default): the cycle itself.
 
     Returns
     -------
@@ -216,6 +224,7 @@ def dbs_error_coefficients(
             f"unknown mechanism {sorted(bad)[0]!r}; known: {', '.join(DBS_MECHANISMS)}"
         )
     t_k, p, d = _beam_weights(g)
+    t_k = ((np.arange(t_k.size) - int(window_start)) % t_k.size) * g.los_duration_s
     w = p[:, :, None] * d[:, None, :]  # (K, 3 (uvw), 3 (xyz))
     if "beam_timing" not in mechanisms:
         t_k = np.full_like(t_k, 0.5 * (t_k[0] + t_k[-1]))
@@ -336,25 +345,33 @@ def dbs_harmonic_sigma_z_ms(
         if direction_moments_ is None
         else np.asarray(direction_moments_, float)
     )
-    a_par, a_perp = dbs_error_coefficients(
-        amplitude_deg,
-        period_s,
-        hws_ms=hws_ms,
-        wind_body_deg=wind_body_deg,
-        lever_arm_m=lever_arm_m,
-        hull=hull,
-        lidar=lidar,
-        mechanisms=mechanisms,
-        dwell_average=dwell_average,
-        shear_exponent=shear_exponent,
-    )
-    var = 0.5 * np.sum(_mean_sq(a_par, mom), axis=-1)
+    g = get_lidar(lidar)
+    m = _moment_matrix(mom)
+    var = s_perp2 = cov = 0.0
+    # the along- and cross-wind moments: means over the record's retrieval windows
+    for start in g.window_starts:
+        a_par, a_perp = dbs_error_coefficients(
+            amplitude_deg,
+            period_s,
+            hws_ms=hws_ms,
+            wind_body_deg=wind_body_deg,
+            lever_arm_m=lever_arm_m,
+            hull=hull,
+            lidar=g,
+            mechanisms=mechanisms,
+            dwell_average=dwell_average,
+            shear_exponent=shear_exponent,
+            window_start=start,
+        )
+        var = var + 0.5 * np.sum(_mean_sq(a_par, mom), axis=-1)
+        if cross_wind:
+            s_perp2 = s_perp2 + 0.5 * np.sum(_mean_sq(a_perp, mom), axis=-1)
+            cov = cov + 0.5 * np.einsum("...ci,...cij,...cj->...", a_par, m, np.conj(a_perp)).real
+    n_win = len(g.window_starts)
+    var = var / n_win
     if cross_wind:  # the HWS's own nonlinearity, to fourth order (hws_error_moments)
-        s_perp2 = 0.5 * np.sum(_mean_sq(a_perp, mom), axis=-1)
-        m = _moment_matrix(mom)
-        cov = 0.5 * np.einsum("...ci,...cij,...cj->...", a_par, m, np.conj(a_perp)).real
         hws = np.asarray(hws_ms, float)
-        full = hws_error_moments(var, s_perp2, cov, np.maximum(hws, 1e-9))[0]
+        full = hws_error_moments(var, s_perp2 / n_win, cov / n_win, np.maximum(hws, 1e-9))[0]
         var = np.where(hws > 0, full, var)
     return np.sqrt(var)
 
@@ -502,7 +519,7 @@ def dbs_replay_sigma_z_ms(
     translation_m=None,
     lidar: str | LidarGeometry | Mapping = "windcube_v2",
     dwell_samples: int = 1,
-    every_beam: bool = False,
+    every_beam: bool | None = None,
 ) -> float:
     """sigma_Z (m/s) of a record by LOS-level replay of its motion through a DBS lidar.
 
@@ -512,12 +529,14 @@ def dbs_replay_sigma_z_ms(
     does not hold (module docstring). ``dwell_samples > 1``: each beam's radial speed is
     its mean over that many instants of its dwell (the pulse accumulation; compare with
     ``dwell_average=True``); default 1, each beam at one instant. ``every_beam``: one wind
-    after every beam from the latest beam of each azimuth (the instrument's 1-s output)
-    instead of one a cycle (what the virtual campaign and the harmonic sum take;
-    ``benchmarks/dbs_output_sampling.py``).
+    after every beam from the latest beam of each azimuth (a WindCube v2's 1-s output)
+    instead of one a cycle (``benchmarks/dbs_output_sampling.py``); default None, the
+    geometry's :attr:`~flidar_uq.physics.lidar.LidarGeometry.every_beam_output`, as the
+    virtual campaign and the harmonic sum take it.
     """
     from flidar_uq.physics.motion_spectrum import replay_sigma_z
 
+    g = get_lidar(lidar)
     return replay_sigma_z(
         time_s,
         roll_deg,
@@ -526,7 +545,7 @@ def dbs_replay_sigma_z_ms(
         hws_ms=hws_ms,
         wd_deg=wd_deg,
         lever_arm_m=lever_arm_m,
-        lidar=get_lidar(lidar),
+        lidar=g,
         translation_m=translation_m,
         dwell_samples=dwell_samples,
         every_beam=every_beam,
@@ -625,7 +644,7 @@ def hws_error_moments(var_along, var_across, cov, hws_ms):
     ``E Z = s_b^2 / (2 U)``: the cross-wind error (a DBS lidar's heave leaks into both beam
     pairs) lowers sigma_Z below ``s_a`` and raises the mean HWS. Against the LOS-level
     replay (``benchmarks/dbs_sigma_z_second_order.py``) the fourth-order variance gives
-    80 % of the replay's reduction; the mean leaves out the along-wind error's own
+    half of the replay's reduction (a WindCube v2 after every beam; 80 % once a cycle); the mean leaves out the along-wind error's own
     second-order mean (the tilt times the heave velocity), which brings the replay's mean
     0.1-0.2 % of U below ``s_b^2 / (2 U)`` with a swell against the wind at 10-15 m/s and
     up to 0.5 % at 5 m/s.
@@ -650,7 +669,16 @@ def hws_error_moments(var_along, var_across, cov, hws_ms):
     return np.maximum(var, 0.0), 0.5 * sb2 * np.sqrt(inv_u2)
 
 
-def _basis_gram(bands, hws, wind_body_deg, lidar, dwell_average, cross_wind=False, shear=0.0):
+def _basis_gram(
+    bands,
+    hws,
+    wind_body_deg,
+    lidar,
+    dwell_average,
+    cross_wind=False,
+    shear=0.0,
+    per_component=False,
+):
     """Gram matrices (..., 4, 4) of the :data:`TERM_BASIS` phasors at one wind direction.
 
     ``bands = (amp, per, mom_body)``: lean amplitudes (deg) and periods (s) of the
@@ -661,6 +689,7 @@ def _basis_gram(bands, hws, wind_body_deg, lidar, dwell_average, cross_wind=Fals
     tilt's phasor, scaled by ``k`` with it.
     ``cross_wind``: (..., 3, 4, 4), the along-wind error's, the cross-wind error's and
     their covariance's (symmetric part) Gram matrices (:data:`GRAM_PARTS`).
+    ``per_component``: each component's own, (..., [3,] nc, 4, 4), which sum to them.
     """
     from flidar_uq.physics.hull import DofResponse, HullResponse
 
@@ -674,32 +703,41 @@ def _basis_gram(bands, hws, wind_body_deg, lidar, dwell_average, cross_wind=Fals
         (("translation", "beam_timing"), still, 1.0),
         (("translation", "beam_timing"), follower, 0.0),
     )
-    coef = [
-        dbs_error_coefficients(
-            amp,
-            per,
-            hws_ms=hws,
-            wind_body_deg=wind_body_deg,
-            lever_arm_m=lever,
-            hull=hull,
-            lidar=lidar,
-            mechanisms=mech,
-            dwell_average=dwell_average,
-            shear_exponent=shear,
-        )
-        for mech, hull, lever in basis
-    ]
-    a = np.stack([c[0] for c in coef], axis=-3)  # (..., 4, nc, 3): along the wind
     m = _moment_matrix(mom_body)  # (..., nc, 3, 3)
 
-    def gram(x, y):
-        return 0.5 * np.einsum("...icf,...cfg,...jcg->...ij", x, m, np.conj(y)).real
+    spec = "...icf,...cfg,...jcg->...cij" if per_component else "...icf,...cfg,...jcg->...ij"
 
-    if not cross_wind:
-        return gram(a, a)
-    b = np.stack([c[1] for c in coef], axis=-3)  # across the wind
-    cov = gram(a, b)
-    return np.stack([gram(a, a), gram(b, b), 0.5 * (cov + np.swapaxes(cov, -1, -2))], axis=-3)
+    def gram(x, y):
+        return 0.5 * np.einsum(spec, x, m, np.conj(y)).real
+
+    g = get_lidar(lidar)
+    out = 0.0
+    for start in g.window_starts:  # the mean over the record's retrieval windows
+        coef = [
+            dbs_error_coefficients(
+                amp,
+                per,
+                hws_ms=hws,
+                wind_body_deg=wind_body_deg,
+                lever_arm_m=lever,
+                hull=hull,
+                lidar=g,
+                mechanisms=mech,
+                dwell_average=dwell_average,
+                shear_exponent=shear,
+                window_start=start,
+            )
+            for mech, hull, lever in basis
+        ]
+        a = np.stack([c[0] for c in coef], axis=-3)  # (..., 4, nc, 3): along the wind
+        if not cross_wind:
+            out = out + gram(a, a)
+            continue
+        b = np.stack([c[1] for c in coef], axis=-3)  # across the wind
+        cov = gram(a, b)
+        parts = [gram(a, a), gram(b, b), 0.5 * (cov + np.swapaxes(cov, -1, -2))]
+        out = out + np.stack(parts, axis=-4 if per_component else -3)
+    return out / len(g.window_starts)
 
 
 def _heading_grid(n_headings: int) -> np.ndarray:
@@ -829,7 +867,7 @@ def _unit_tilt_lever_series(period_s, lidar, dwell_average) -> np.ndarray:
 #: directions; WindCube v1, v2, v2.1): 3200 nodes keep sigma_Z within 3e-5 of it (the
 #: worst next to the zeros at periods of 1 and 2 beam dwells; 1e-8 where sigma_Z is above
 #: 1 % of its largest value), 1600 within 8e-4, 800 within 1.2e-2. Built once per lidar in
-#: about 0.4 s.
+#: about 0.4 s (once a cycle) or 1.9 s (a wind after every beam: five windows).
 _TABLE_PERIODS = 3200
 
 
@@ -942,6 +980,7 @@ def dbs_band_terms(
     dwell_average: bool = True,
     cross_wind: bool = False,
     shear_exponent=None,
+    per_band: bool = False,
 ) -> np.ndarray:
     """Per-record Gram matrix of a DBS lidar's error phasors from the record's tilt bands.
 
@@ -968,11 +1007,14 @@ def dbs_band_terms(
         unknown, averaged.
     lidar, n_headings, dwell_average, cross_wind, shear_exponent
         As :func:`dbs_record_terms`.
+    per_band : bool
+        Each band's own Gram matrix (its share), an axis ``nb`` before the last two.
 
     Returns
     -------
     ndarray, shape (n, 4, 4), or (n, 3, 4, 4) with ``cross_wind``
-        ``G`` in (m/s)^2 (per m and m^2 for the lever-arm rows).
+        ``G`` in (m/s)^2 (per m and m^2 for the lever-arm rows); with ``per_band``
+        (n, nb, 4, 4) or (n, 3, nb, 4, 4), which sum over ``nb`` to it.
     """
     hws = np.asarray(hws_ms, float)
     shear = _shear_or_zero(shear_exponent, hws.shape)
@@ -992,6 +1034,7 @@ def dbs_band_terms(
             dwell_average,
             cross_wind,
             shear,
+            per_band,
         )
         for b in betas
     )

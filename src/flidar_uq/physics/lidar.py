@@ -36,6 +36,8 @@ __all__ = [
     "dbs_retrieval_operator",
     "get_lidar",
     "scan_times_azimuths",
+    "window_beam_times_s",
+    "every_beam_windows",
     "beam_index",
     "beam_unit_vectors_body",
     "vad_pseudo_inverse",
@@ -77,6 +79,13 @@ class LidarGeometry:
         Time from the start of one line of sight to the next, s; None:
         ``scan_period_s / n_los``. Less than that when a cycle ends with dead time
         (``n_los * los_time_s <= scan_period_s``).
+    every_beam_output : bool
+        DBS only: the instrument retrieves a wind after every beam from the latest beam of
+        each azimuth (a sliding window of one cycle, ``n_los`` windows a cycle) and computes
+        its 10-min statistics from those; False: one wind a cycle. The WindCube v2 records
+        1-s data this way and its 10-min statistics from them (Vaisala, WindCube user
+        documentation; Yamaguchi & Ishihara 2016 retrieve every second). Needs a cycle
+        without dead time.
     notes : str
         Where the values come from, and which of them are assumptions (for reports).
     """
@@ -90,6 +99,7 @@ class LidarGeometry:
     vertical_beam: bool = False
     beam_azimuths_deg: tuple[float, ...] | None = None
     los_time_s: float | None = None
+    every_beam_output: bool = False
     notes: str = field(default="", compare=False)
 
     def __post_init__(self) -> None:
@@ -146,6 +156,15 @@ class LidarGeometry:
                 f"LidarGeometry {self.name!r}: los_time_s must be > 0 and n_los * los_time_s "
                 f"<= scan_period_s = {self.scan_period_s}, got {self.los_time_s!r}"
             )
+        if self.every_beam_output and (
+            self.kind != "dbs"
+            or abs(self.los_duration_s * self.n_los - self.scan_period_s)
+            > 1e-9 * self.scan_period_s
+        ):
+            raise ValueError(
+                f"LidarGeometry {self.name!r}: every_beam_output needs a DBS cycle without "
+                f"dead time (n_los * los_time_s = scan_period_s)"
+            )
 
     @property
     def half_cone_angle_rad(self) -> float:
@@ -161,6 +180,18 @@ class LidarGeometry:
     def cycle_s(self) -> float:
         """Time per cycle (one complete scan, every beam once), s: ``scan_period_s``."""
         return self.scan_period_s
+
+    @property
+    def window_starts(self) -> tuple[int, ...]:
+        """Positions in the cycle (beam indices) at which a retrieval window starts:
+        every beam with ``every_beam_output``, else the cycle's first beam alone."""
+        return tuple(range(self.n_los)) if self.every_beam_output else (0,)
+
+    @property
+    def output_interval_s(self) -> float:
+        """Time between two retrieved winds, s: a beam's with ``every_beam_output``, else
+        the cycle's."""
+        return self.los_duration_s if self.every_beam_output else self.cycle_s
 
     @property
     def pulsed(self) -> bool:
@@ -238,8 +269,10 @@ WINDCUBE_V2 = LidarGeometry(
     signed=True,
     vertical_beam=True,
     beam_azimuths_deg=(0.0, 90.0, 180.0, 270.0),
+    every_beam_output=True,
     notes="28 deg, 4 inclined beams + vertical, ~1 s a beam (the WindCube v2's nominal "
-    "geometry); the beam order N, E, S, W, vertical is an assumption",
+    "geometry), a wind after every beam (its 1-s data); the beam order N, E, S, W, "
+    "vertical is an assumption",
 )
 # WindCube v2.1: the v2's geometry with faster sampling. ASSUMPTION: 0.5 s a line of sight
 # (2.5-s cycle); the texts at hand state "faster sampling" without a number.
@@ -252,7 +285,8 @@ WINDCUBE_V2_1 = LidarGeometry(
     signed=True,
     vertical_beam=True,
     beam_azimuths_deg=(0.0, 90.0, 180.0, 270.0),
-    notes="the v2's geometry; ASSUMED 0.5 s a line of sight (2.5-s cycle) and the beam order "
+    every_beam_output=True,
+    notes="the v2's geometry and output; ASSUMED 0.5 s a line of sight (2.5-s cycle) and the beam order "
     "N, E, S, W, vertical: give a custom geometry block for other timings",
 )
 KNOWN_LIDARS: dict[str, LidarGeometry] = {
@@ -270,6 +304,7 @@ GEOMETRY_KEYS = (
     "pulsed",
     "vertical_beam",
     "beam_azimuths_deg",
+    "every_beam_output",
     "notes",
 )
 
@@ -281,7 +316,8 @@ def lidar_from_mapping(block: Mapping) -> LidarGeometry:
     block needs ``beam_azimuths_deg`` and one of ``scan_period_s`` or ``los_time_s``
     (the cycle is then ``n_los * los_time_s``); a VAD block ``n_los`` and
     ``scan_period_s``. ``pulsed`` (default: True for DBS, False for VAD) says whether the
-    radial-speed sign is measured; ``name`` defaults to ``"custom"``.
+    radial-speed sign is measured; ``every_beam_output`` (default False) whether a DBS
+    lidar retrieves a wind after every beam; ``name`` defaults to ``"custom"``.
 
     Raises
     ------
@@ -323,6 +359,7 @@ def lidar_from_mapping(block: Mapping) -> LidarGeometry:
         vertical_beam=vertical,
         beam_azimuths_deg=az,
         los_time_s=None if los_t is None else float(los_t),
+        every_beam_output=bool(block.get("every_beam_output", False)),
         notes=str(block.get("notes", "custom geometry from the config")),
     )
 
@@ -387,6 +424,33 @@ def scan_times_azimuths(
         az = np.append(az, np.nan)
     start = int(np.floor(g.n_los * (scan_phase_rad % (2.0 * np.pi)) / (2.0 * np.pi))) % g.n_los
     return t_s, np.roll(az, -start)
+
+
+def window_beam_times_s(lidar: str | LidarGeometry) -> np.ndarray:
+    """Time of each beam (s) from the start of each retrieval window, shape (S, n_los): row
+    ``s`` is the window starting at position ``window_starts[s]`` of the cycle (beam ``k`` at
+    ``((k - start) mod n_los) * los_duration_s``), columns in the cycle's beam order."""
+    g = get_lidar(lidar)
+    k = np.arange(g.n_los)
+    starts = np.asarray(g.window_starts)[:, None]
+    return ((k[None, :] - starts) % g.n_los) * g.los_duration_s
+
+
+def every_beam_windows(per_cycle) -> np.ndarray:
+    """The retrieval windows of a DBS lidar with a wind after every beam, from the values of
+    back-to-back cycles.
+
+    ``per_cycle`` (cycles, K, ...): a value per beam of each cycle, in scan order. After beam
+    ``j`` of cycle ``c >= 1`` the window holds beams ``<= j`` of cycle ``c`` and ``> j`` of
+    cycle ``c - 1`` (the latest of each azimuth; the window after a cycle's last beam is the
+    cycle itself). Returns shape ((cycles - 1) K, K, ...): the windows in time order, each
+    with its beams in scan order.
+    """
+    v = np.asarray(per_cycle)
+    k = np.arange(v.shape[1])
+    newer = (k[:, None] >= k[None, :]).reshape((1, k.size, k.size) + (1,) * (v.ndim - 2))
+    out = np.where(newer, v[1:, None], v[:-1, None])  # (cycles - 1, window j, beam k, ...)
+    return out.reshape((-1,) + out.shape[2:])
 
 
 def beam_index(

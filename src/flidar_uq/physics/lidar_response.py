@@ -72,13 +72,15 @@ def _response_cached(lidar_name_or_geom, f_key, n_dir, beta_deg=None):
     e_v = np.stack([-np.sin(beta), np.cos(beta), np.zeros(n_dir)], -1)  # cross-wind
     e_w = np.broadcast_to([0.0, 0.0, 1.0], (n_dir, 3))
     proj = e_u[:, :2] @ p[:2]  # (D, K): along-wind component of the retrieval
-    phase = np.exp(2j * np.pi * f[:, None] * t_s[None, :])  # (F, K)
+    # a DBS lidar with a wind after every beam: the mean over the windows' beam orders
+    t_win = _lidar.window_beam_times_s(g) if g.kind == "dbs" else t_s[None, :]  # (S, K)
+    phase = np.exp(2j * np.pi * f[None, :, None] * t_win[:, None, :])  # (S, F, K)
     # each line of sight averages the wind over its duration (boxcar)
     box = np.sinc(f * g.los_duration_s) ** 2
     out = []
     for e in (e_u, e_v, e_w):
         c = proj * (e @ d.T)  # (D, K): weight of the component at each line of sight
-        out.append(np.mean(np.abs(phase @ c.T) ** 2, axis=1) * box)
+        out.append(np.mean(np.abs(phase @ c.T) ** 2, axis=(0, 2)) * box)
     return np.stack(out)  # (3, F)
 
 
@@ -305,7 +307,11 @@ class _ScanSimulation(NamedTuple):
         return np.hypot(wind[:: self.every, 0], wind[:: self.every, 1]).std(ddof=1)
 
     def schedule(self, rng):
-        """Scan start slots of one height and each scan's random azimuth phase (rad)."""
+        """Scan start slots of one height and each scan's random azimuth phase (rad); a DBS
+        lidar with a wind after every beam: a window at every slot."""
+        if self.geometry.every_beam_output:
+            starts = np.arange(self.n - self.geometry.n_los + 1)
+            return starts, np.zeros((starts.size, 1))
         gaps = self.geometry.n_los + rng.integers(
             self.delay_slots[0], self.delay_slots[1] + 1, size=self.n // self.geometry.n_los + 1
         )
@@ -318,9 +324,12 @@ class _ScanSimulation(NamedTuple):
         """``log(lidar 10-min HWS std / point_std)`` of the scans at ``starts``, the lidar
         turned by ``heading_rad`` in the body frame (rad). A VAD scan starts at its random
         azimuth ``phase`` (rad); a DBS lidar's beams are fixed to its body, so only the
-        heading turns them."""
+        heading turns them (with a wind after every beam, the beam at each slot is its
+        place in the cycle)."""
         g = self.geometry
-        if g.kind == "dbs":
+        if g.every_beam_output:
+            az = self.az0[(starts[:, None] + self.lag[None, :]) % g.n_los] + heading_rad
+        elif g.kind == "dbs":
             az = np.broadcast_to(self.az0 + heading_rad, (starts.size, self.lag.size))
         else:
             az = self.az0[None, :] + (phase + heading_rad)

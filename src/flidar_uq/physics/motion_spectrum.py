@@ -52,6 +52,7 @@ import numpy as np
 from flidar_uq.physics.lidar import (
     LidarGeometry,
     dbs_retrieval_operator,
+    every_beam_windows,
     get_lidar,
     scan_times_azimuths,
     wind_vector_ms,
@@ -837,7 +838,7 @@ def replay_sigma_z(
     sign_ambiguity: bool = False,
     translation_m=None,
     dwell_samples: int = 1,
-    every_beam: bool = False,
+    every_beam: bool | None = None,
 ) -> ReplayResult:
     """Realised sigma_Z of a record: its attitude series replayed through the scan simulator.
 
@@ -876,12 +877,13 @@ def replay_sigma_z(
         accumulation of a pulsed lidar, Désert, Knapp & Aubrun 2021; what the virtual
         campaign simulates). The retrieval is linear in the radial speeds for a signed
         lidar, so the mean of the ``n`` retrieved winds is the retrieval of the mean speeds.
-    every_beam : bool
-        Default False: one retrieval a scan (a DBS lidar's cycle). True (a DBS lidar only):
-        one after every line of sight from the latest line of sight of each beam (a
-        sliding window, as a WindCube v2 reports about once a second; Yamaguchi &
-        Ishihara 2016 retrieve every second), compass-corrected by the mean yaw of the
-        window's lines of sight; from the second cycle on, so that every window is full.
+    every_beam : bool, optional
+        False: one retrieval a scan (a DBS lidar's cycle). True (a DBS lidar only): one
+        after every line of sight from the latest line of sight of each beam (a sliding
+        window, as a WindCube v2 reports about once a second; Yamaguchi & Ishihara 2016
+        retrieve every second), compass-corrected by the mean yaw of the window's lines of
+        sight; from the second cycle on, so that every window is full. Default None: the
+        geometry's ``every_beam_output``.
 
     Returns
     -------
@@ -894,6 +896,7 @@ def replay_sigma_z(
             f"replay_sigma_z: dwell_samples={dwell_samples!r} needs to be 1, or > 1 for a "
             "lidar that measures signed speeds (pulsed)"
         )
+    every_beam = g.every_beam_output if every_beam is None else bool(every_beam)
     if every_beam and g.kind != "dbs":
         raise ValueError(
             f"replay_sigma_z: every_beam needs a DBS lidar (the latest line of sight of each "
@@ -963,12 +966,10 @@ def _every_beam_wind(g: LidarGeometry, v_r, yaw_rad):
     shape ((cycles - 1) K,) in time order, each window's retrieval
     (:func:`~flidar_uq.physics.lidar.dbs_retrieval_operator`) rotated by its mean yaw.
     """
-    k = np.arange(v_r.shape[1])
-    newer = k[None, :, None] >= k[None, None, :]  # (1, window j, beam k): beam k <= j
-    latest = np.where(newer, v_r[1:, None, :], v_r[:-1, None, :])  # (cycles - 1, K, K)
-    yaw = np.where(newer, yaw_rad[1:, None, :], yaw_rad[:-1, None, :]).mean(axis=-1)
-    body = latest @ dbs_retrieval_operator(g)  # (cycles - 1, K, 3)
+    latest = every_beam_windows(v_r)  # ((cycles - 1) K, K)
+    yaw = every_beam_windows(yaw_rad).mean(axis=-1)
+    body = latest @ dbs_retrieval_operator(g)  # ((cycles - 1) K, 3)
     c, s = np.cos(yaw), np.sin(yaw)
     u = c * body[..., 0] - s * body[..., 1]
     v = s * body[..., 0] + c * body[..., 1]
-    return u.ravel(), v.ravel()
+    return u, v
