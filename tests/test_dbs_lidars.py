@@ -163,13 +163,16 @@ def test_a_wind_after_every_beam_windows_and_times():
     # cycles of values 10 c + k: after beam j of cycle c, beams <= j of cycle c, > j of c - 1
     cycles = 10.0 * np.arange(3)[:, None] + np.arange(4)[None, :]
     w = L.every_beam_windows(cycles)
-    assert w.shape == (8, 4)
-    np.testing.assert_array_equal(w[0], [10, 1, 2, 3])
-    np.testing.assert_array_equal(w[2], [10, 11, 12, 3])
-    np.testing.assert_array_equal(w[3], cycles[1])
-    np.testing.assert_array_equal(w[7], cycles[2])
+    assert w.shape == (9, 4)
+    np.testing.assert_array_equal(w[0], cycles[0])  # the first wind: the first cycle
+    np.testing.assert_array_equal(w[1], [10, 1, 2, 3])
+    np.testing.assert_array_equal(w[3], [10, 11, 12, 3])
+    np.testing.assert_array_equal(w[4], cycles[1])
+    np.testing.assert_array_equal(w[8], cycles[2])
     # trailing axes ride along (a beam's dwell sub-slots)
-    assert L.every_beam_windows(np.repeat(cycles[..., None], 3, -1)).shape == (8, 4, 3)
+    assert L.every_beam_windows(np.repeat(cycles[..., None], 3, -1)).shape == (9, 4, 3)
+    # any window start, as the record model's coefficients take it
+    np.testing.assert_allclose(L.window_beam_times_s(v2, [2]), t[2:3])
 
 
 # --------------------------------------------------------------------------- config

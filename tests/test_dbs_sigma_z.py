@@ -93,9 +93,10 @@ def test_sea_components_match_replay_over_headings():
 
 
 def test_every_beam_replay_holds_each_cycles_own_retrieval_and_yaw():
-    """One wind after every beam (``every_beam``): the window after a cycle's last beam is
-    that cycle's retrieval, compass-corrected alike under a turning heading; the others
-    mix two cycles, so they differ; the output is five times as dense."""
+    """One wind after every beam (``every_beam``): the first window is the first cycle and
+    the window after a cycle's last beam is that cycle's retrieval, compass-corrected alike
+    under a turning heading; the others mix two cycles, so they differ; the output is five
+    times as dense."""
     from flidar_uq.physics.motion_spectrum import replay_sigma_z
 
     t = np.arange(int(300 / DT)) * DT
@@ -106,9 +107,9 @@ def test_every_beam_replay_holds_each_cycles_own_retrieval_and_yaw():
     cyc = replay_sigma_z(t, roll, pitch, yaw, every_beam=False, **kw)
     beam = replay_sigma_z(t, roll, pitch, yaw, **kw)  # the WindCube v2's own output
     k = 5  # four inclined beams and the vertical one
-    assert beam.z_ms.size == (cyc.z_ms.size - 1) * k
-    np.testing.assert_allclose(beam.wind_ms[k - 1 :: k], cyc.wind_ms[1:], rtol=0, atol=1e-9)
-    others = beam.wind_ms.reshape(-1, k, 2)[:, : k - 1]
+    assert beam.z_ms.size == 1 + (cyc.z_ms.size - 1) * k
+    np.testing.assert_allclose(beam.wind_ms[::k], cyc.wind_ms, rtol=0, atol=1e-9)
+    others = beam.wind_ms[1:].reshape(-1, k, 2)[:, : k - 1]
     assert np.abs(others - cyc.wind_ms[1:, None, :]).max() > 0.05
     with pytest.raises(ValueError, match="every_beam needs a DBS lidar"):
         replay_sigma_z(t, roll, pitch, every_beam=True, hws_ms=9.0, wd_deg=250.0)

@@ -551,6 +551,34 @@ def test_independence_acceptance_high_for_matching_low_for_mismatched_proposal()
     assert _independence_acceptance(bad, state, log_prob, (), 4, ss) < 0.05
 
 
+def test_burn_in_stragglers_move_onto_their_ensembles_best():
+    """A walker that the burn-in leaves far in the tail (log-prob 72 below its ensemble's
+    best, beyond chi2_3(1 - 1e-6) / 2 = 15.4) takes the place of its own ensemble's best
+    walker; one 8 below (a normal posterior's ordinary spread) and the other ensembles stay
+    as they were, and a state without stragglers is left untouched."""
+    import emcee
+
+    from flidar_uq.inference.sampler import _reset_stragglers
+
+    def log_prob(x):  # standard normal in 3 dimensions
+        return -0.5 * np.sum(x**2, axis=1)
+
+    rng = np.random.default_rng(np.random.SeedSequence(20261206))
+    x = 0.5 * rng.standard_normal((4 * 8, 3))
+    x[11] = [12.0, 0.0, 0.0]  # ensemble 1: a straggler
+    x[27] = [4.0, 0.0, 0.0]  # ensemble 3: in the tail, not a straggler
+    before = x.copy()
+    state = emcee.State(x.copy(), log_prob=log_prob(x))
+    assert _reset_stragglers(state, 4) == 1
+    best = 8 + int(np.argmax(log_prob(before[8:16])))
+    np.testing.assert_array_equal(state.coords[11], before[best])
+    assert state.log_prob[11] == log_prob(before[best : best + 1])[0]
+    others = np.arange(32) != 11
+    np.testing.assert_array_equal(state.coords[others], before[others])
+    clean = emcee.State(before[others].copy()[:24], log_prob=log_prob(before[others][:24]))
+    assert _reset_stragglers(clean, 3) == 0
+
+
 def test_global_init_spreads_a_parameter_whose_mode_is_on_the_boundary():
     # data without any head translation: the lever arm's mode is L = 0 (the support's
     # edge), the Laplace approximation has zero width there; emcee would refuse the

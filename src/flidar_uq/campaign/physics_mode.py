@@ -676,6 +676,8 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
     geo = _lidar.get_lidar(settings["lidar"]["name"])
     lay = _scan_layout(geo)
     clk = _chunk_clocks(settings, lay)
+    # the radial speeds are kept for the LOS output and the windows after every beam
+    keep = want_los or geo.every_beam_output
     wd = np.deg2rad(par["wd_deg"])
     e_wind = np.stack([-np.sin(wd), -np.cos(wd), np.zeros_like(wd)], -1)  # (C,3)
     starts_ns = np.asarray(par["record_start_ns"], np.int64)  # from the parent (pandas)
@@ -688,8 +690,6 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         v_r_c, uvw_c, uvw0_c, resid_c, truth_c, v_r0_c = _scan_record(
             s, yaw_c, settings, par, c, e_wind, geo, lay, clk
         )
-        # the radial speeds: LOS output, and a wind after every beam's windows
-        keep = want_los or geo.every_beam_output
         scans.append(
             (
                 v_r_c if keep else None,
@@ -717,7 +717,7 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         ):
             del s[key]  # the record's long series: done with
         series.append(s)
-    sc = _chunk_scans(series, scans, par, lay.n_los, clk.n_slots, want_los or geo.every_beam_output)
+    sc = _chunk_scans(series, scans, par, lay.n_los, clk.n_slots, keep)
     # the 10-min statistics: of the cycles, or of the windows after every beam
     st_sc = (
         _every_beam_scans(sc, scans, series, par, lay, geo, clk.n_slots)
@@ -913,19 +913,10 @@ def _every_beam_scans(sc, scans, series, par, lay, geo, n_slots) -> SimpleNamesp
     v_r0 = np.concatenate([o[5] for o in scans])  # (C,J,L)
 
     def windows(x):  # (C, J, ...) per cycle and height -> (C, W x H, K, ...) per window
-        y = x.reshape((n_c, n_cyc, n_h) + x.shape[2:]).swapaxes(1, 2)  # (C,H,cycles,K,...)
-        out = np.stack(
-            [
-                np.stack(
-                    [
-                        np.concatenate([y[c, h, :1], _lidar.every_beam_windows(y[c, h])])
-                        for h in range(n_h)
-                    ],
-                    1,
-                )
-                for c in range(n_c)
-            ]
-        )  # (C, W, H, K, ...): the first cycle's own window, then one after every beam
+        y = x.reshape((n_c, n_cyc, n_h) + x.shape[2:])  # (C,cycles,H,K,...)
+        y = np.moveaxis(y, (1, 3), (0, 1))  # (cycles,K,C,H,...)
+        # (W,K,C,H,...): the first cycle's own window, then one after every beam
+        out = np.moveaxis(_lidar.every_beam_windows(y), (0, 1), (1, 3))  # (C,W,H,K,...)
         return out.reshape((n_c, -1) + out.shape[3:])
 
     def per_beam(flag):  # a cycle's flag (C, J) on each of its beams

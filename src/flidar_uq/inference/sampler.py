@@ -34,6 +34,11 @@ _INIT_WIDENING = 3.0
 # uses the full independence_weight (below: proportionally less, the rest DE)
 _INDEPENDENCE_FULL_ACCEPTANCE = 0.5
 
+# a walker whose log-prob lies more than chi2_ndim(1 - _STRAGGLER_TAIL) / 2 below its
+# ensemble's best at the end of a burn-in phase is a straggler (a normal posterior holds
+# this share of its mass there)
+_STRAGGLER_TAIL = 1e-6
+
 # burn-in rounds (nburn steps each) added at most while the independence move's expected
 # acceptance stays below _INDEPENDENCE_FULL_ACCEPTANCE
 _ADAPT_ROUNDS = 3
@@ -50,7 +55,7 @@ def _fit_proposal(sampler, nens, start_frac):
     Uses the steps from ``start_frac`` of the phase on, and only samples inside the 99.9 %
     highest-density region of a normal approximation (log-prob within
     ``chi2_ndim(0.999) / 2`` of the block's best), so that a few walkers still far from the
-    bulk do not inflate the proposal; the independence move then pulls them in.
+    bulk do not inflate the proposal (:func:`_reset_stragglers` then moves them).
     """
     chain, lp = sampler.get_chain(), sampler.get_log_prob()
     start = int(start_frac * chain.shape[0])
@@ -87,6 +92,38 @@ def _independence_acceptance(prop, state, log_prob, args, nens, seedseq, nrep=4)
     return float(np.min(np.mean(acc, axis=0).reshape(nens, -1).mean(axis=1)))
 
 
+def _reset_stragglers(state, nens) -> int:
+    """Move the walkers that a burn-in phase left far in the tail onto their ensemble's best.
+
+    A walker whose log-prob lies more than ``chi2_ndim(1 - _STRAGGLER_TAIL) / 2`` below the
+    best of its own ensemble takes the position and log-prob of that ensemble's ``k``-th
+    best walker (the ``k``-th straggler, best first; no random numbers, so a burn-in
+    without stragglers is left as it was). Neither main move brings such a walker back: the
+    independence move's weight ``p / q`` is huge where the Student-t's tail is thin, so
+    its proposals are refused, and the DE steps are the bulk's size. On a DBS campaign two
+    walkers of one ensemble sat at ``kappa_z`` ~ 1e-6 (log-prob 25 below the bulk's best)
+    for 12,000 steps, halving the tail ESS. Only the main phase's start changes, so its
+    chain is still a valid one. ``state``: emcee's State, changed in place. Returns the
+    number of walkers moved.
+    """
+    coords, lp = state.coords, state.log_prob
+    nw = len(lp) // nens
+    cut = 0.5 * stats.chi2.isf(_STRAGGLER_TAIL, coords.shape[1])
+    moved = 0
+    for b in range(nens):
+        idx = np.arange(b * nw, (b + 1) * nw)
+        finite = np.where(np.isfinite(lp[idx]), lp[idx], -np.inf)
+        order = idx[np.argsort(-finite, kind="stable")]
+        bad = idx[~(finite >= finite.max() - cut)]
+        for k, i in enumerate(bad):
+            j = order[k % max(nw - len(bad), 1)]
+            coords[i], lp[i] = coords[j], lp[j]
+            if state.blobs is not None:
+                state.blobs[i] = state.blobs[j]
+        moved += len(bad)
+    return moved
+
+
 def _sampler(log_prob, args, ndim, nwalk, moves, random_state):
     sm = emcee.EnsembleSampler(nwalk, ndim, log_prob, args=args, moves=moves, vectorize=True)
     sm.random_state = random_state
@@ -100,7 +137,9 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq, check, *, l
     overdispersed relative to the posterior); its moves use only its own walkers
     (:class:`~flidar_uq.inference.moves.BlockDEMove`, a per-block Student-t), so the ensembles are independent
     chains. Burn-in, first half: DE + DE-snooker moves; second half: the main kernel with
-    a Student-t fitted to the first half (it pulls stragglers into the bulk). Main phase (a
+    a Student-t fitted to the first half; at the end of each burn-in phase the walkers
+    left far in the tail are moved onto their ensemble's best (:func:`_reset_stragglers`).
+    Main phase (a
     fixed kernel): DE + the independence Student-t Metropolis move refitted to the second
     half, its weight ``independence_weight`` scaled down when the Student-t fits the
     posterior poorly (:func:`_independence_acceptance` below
@@ -155,13 +194,14 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq, check, *, l
             moves.append((emcee.moves.MHMove(prop), weight))
         return moves
 
-    # second half of the burn-in with the main kernel fitted to the first half: its
-    # independence move pulls stragglers into the bulk, so the final fit sees the bulk only
+    # second half of the burn-in with the main kernel fitted to the first half, then the
+    # stragglers moved, so the final fit sees the bulk only
     # (a collapsed ensemble is left to fail the diagnostics rather than raise here)
     w_ind = settings.independence_weight
     prop = _fit_proposal(burn, nens, _FIT_FRAC) if w_ind > 0 else None
     burn2 = _sampler(log_prob, args, ndim, nens * nw, main_moves(prop, w_ind), random_state)
     state = burn2.run_mcmc(state, nburn - nburn // 2, skip_initial_state_check=True)
+    stragglers = _reset_stragglers(state, nens)
     phase_done("burn-in done", nburn)
     last, burned = burn2, nburn
     if w_ind > 0:
@@ -182,11 +222,18 @@ def _run_ensembles(log_prob, args, init_fn, ndim, settings, seedseq, check, *, l
                 log_prob, args, ndim, nens * nw, main_moves(prop, w_round), last.random_state
             )
             state = last.run_mcmc(state, nburn, skip_initial_state_check=True)
+            stragglers += _reset_stragglers(state, nens)
             burned += nburn
             prop = _fit_proposal(last, nens, 0.0)
             acc = _independence_acceptance(prop, state, log_prob, args, nens, ss_round)
             phase_done(f"burn-in extended (independence acceptance {acc:.2f})", burned)
         w_ind *= min(1.0, acc / _INDEPENDENCE_FULL_ACCEPTANCE)
+    if stragglers:
+        log.info(
+            "%s%d walker(s) left in the tail by the burn-in moved onto their ensemble's best",
+            f"{label}: " if label is not None else "",
+            stragglers,
+        )
     main = _sampler(log_prob, args, ndim, nens * nw, main_moves(prop, w_ind), last.random_state)
     main.run_mcmc(state, settings.nsteps, skip_initial_state_check=True)
     phase_done("main phase", burned + settings.nsteps)

@@ -66,6 +66,7 @@ from flidar_uq.physics.lidar import (
     dbs_retrieval_operator,
     get_lidar,
     scan_times_azimuths,
+    window_beam_times_s,
 )
 from flidar_uq.physics.surrogate import PERIOD_RANGE_S
 
@@ -188,7 +189,7 @@ def dbs_error_coefficients(
     mechanisms=DBS_MECHANISMS,
     dwell_average: bool = False,
     shear_exponent=0.0,
-    window_start: int = 0,
+    window_start=0,
 ):
     """The along- and across-wind error phasors per component, as linear forms in its direction.
 
@@ -207,14 +208,16 @@ def dbs_error_coefficients(
         the body x axis (:func:`wind_to_body_deg`).
     lever_arm_m, hull, lidar, mechanisms, dwell_average, shear_exponent
         As :func:`dbs_harmonic_sigma_z_ms`.
-    window_start : int
+    window_start : int or sequence of int
         Position in the cycle (beam index) at which the retrieval window starts
         (:attr:`flidar_uq.physics.lidar.LidarGeometry.window_starts`): beam ``k`` is taken
-        ``((k - window_start) mod K)`` beams into the window; 0 (default): the cycle itself.
+        ``((k - window_start) mod K)`` beams into the window
+        (:func:`flidar_uq.physics.lidar.window_beam_times_s`); 0 (default): the cycle
+        itself. A sequence of ``S`` starts adds a leading axis, one window each.
 
     Returns
     -------
-    a_par, a_perp : ndarray, complex, shape (..., nc, 3)
+    a_par, a_perp : ndarray, complex, shape ([S,] ..., nc, 3)
         Coefficients (m/s) of ``(1, cos theta, sin theta)``.
     """
     g = get_lidar(lidar)
@@ -223,11 +226,11 @@ def dbs_error_coefficients(
         raise ValueError(
             f"unknown mechanism {sorted(bad)[0]!r}; known: {', '.join(DBS_MECHANISMS)}"
         )
-    t_k, p, d = _beam_weights(g)
-    t_k = ((np.arange(t_k.size) - int(window_start)) % t_k.size) * g.los_duration_s
+    _, p, d = _beam_weights(g)
+    t_k = window_beam_times_s(g, np.atleast_1d(window_start))  # (S, K)
     w = p[:, :, None] * d[:, None, :]  # (K, 3 (uvw), 3 (xyz))
     if "beam_timing" not in mechanisms:
-        t_k = np.full_like(t_k, 0.5 * (t_k[0] + t_k[-1]))
+        t_k = np.broadcast_to(0.5 * (t_k[:, :1] + t_k[:, -1:]), t_k.shape)
     amp = np.deg2rad(np.asarray(amplitude_deg, float))
     per = np.asarray(period_s, float)
     hws = np.asarray(hws_ms, float)[..., None]
@@ -253,7 +256,11 @@ def dbs_error_coefficients(
         ],
         axis=-2,
     )  # (..., nc, 3 (f), 3 (xyz))
-    z = np.exp(1j * omega[..., None] * t_k)  # (..., nc, K)
+    if np.ndim(window_start):  # (S, 1, ..., 1, K): a leading window axis
+        t_k = t_k.reshape(t_k.shape[:1] + (1,) * omega.ndim + t_k.shape[1:])
+    else:
+        t_k = t_k[0]
+    z = np.exp(1j * omega[..., None] * t_k)  # ([S,] ..., nc, K)
     if dwell_average:  # the mean of exp(i omega t) over a beam's dwell: sinc(dwell / T)
         z = z * np.sinc(g.los_duration_s / per)[..., None]
     gmat = np.einsum("...k,kmi->...mi", z, w)  # (..., nc, 3 (uvw), 3 (xyz))
@@ -347,31 +354,27 @@ def dbs_harmonic_sigma_z_ms(
     )
     g = get_lidar(lidar)
     m = _moment_matrix(mom)
-    var = s_perp2 = cov = 0.0
     # the along- and cross-wind moments: means over the record's retrieval windows
-    for start in g.window_starts:
-        a_par, a_perp = dbs_error_coefficients(
-            amplitude_deg,
-            period_s,
-            hws_ms=hws_ms,
-            wind_body_deg=wind_body_deg,
-            lever_arm_m=lever_arm_m,
-            hull=hull,
-            lidar=g,
-            mechanisms=mechanisms,
-            dwell_average=dwell_average,
-            shear_exponent=shear_exponent,
-            window_start=start,
-        )
-        var = var + 0.5 * np.sum(_mean_sq(a_par, mom), axis=-1)
-        if cross_wind:
-            s_perp2 = s_perp2 + 0.5 * np.sum(_mean_sq(a_perp, mom), axis=-1)
-            cov = cov + 0.5 * np.einsum("...ci,...cij,...cj->...", a_par, m, np.conj(a_perp)).real
-    n_win = len(g.window_starts)
-    var = var / n_win
+    a_par, a_perp = dbs_error_coefficients(
+        amplitude_deg,
+        period_s,
+        hws_ms=hws_ms,
+        wind_body_deg=wind_body_deg,
+        lever_arm_m=lever_arm_m,
+        hull=hull,
+        lidar=g,
+        mechanisms=mechanisms,
+        dwell_average=dwell_average,
+        shear_exponent=shear_exponent,
+        window_start=g.window_starts,
+    )  # (S, ..., nc, 3)
+    var = np.mean(0.5 * np.sum(_mean_sq(a_par, mom), axis=-1), axis=0)
     if cross_wind:  # the HWS's own nonlinearity, to fourth order (hws_error_moments)
+        s_perp2 = np.mean(0.5 * np.sum(_mean_sq(a_perp, mom), axis=-1), axis=0)
+        cov = np.einsum("...ci,...cij,...cj->...", a_par, m, np.conj(a_perp)).real
+        cov = np.mean(0.5 * cov, axis=0)
         hws = np.asarray(hws_ms, float)
-        full = hws_error_moments(var, s_perp2 / n_win, cov / n_win, np.maximum(hws, 1e-9))[0]
+        full = hws_error_moments(var, s_perp2, cov, np.maximum(hws, 1e-9))[0]
         var = np.where(hws > 0, full, var)
     return np.sqrt(var)
 
@@ -711,33 +714,29 @@ def _basis_gram(
         return 0.5 * np.einsum(spec, x, m, np.conj(y)).real
 
     g = get_lidar(lidar)
-    out = 0.0
-    for start in g.window_starts:  # the mean over the record's retrieval windows
-        coef = [
-            dbs_error_coefficients(
-                amp,
-                per,
-                hws_ms=hws,
-                wind_body_deg=wind_body_deg,
-                lever_arm_m=lever,
-                hull=hull,
-                lidar=g,
-                mechanisms=mech,
-                dwell_average=dwell_average,
-                shear_exponent=shear,
-                window_start=start,
-            )
-            for mech, hull, lever in basis
-        ]
-        a = np.stack([c[0] for c in coef], axis=-3)  # (..., 4, nc, 3): along the wind
-        if not cross_wind:
-            out = out + gram(a, a)
-            continue
-        b = np.stack([c[1] for c in coef], axis=-3)  # across the wind
-        cov = gram(a, b)
-        parts = [gram(a, a), gram(b, b), 0.5 * (cov + np.swapaxes(cov, -1, -2))]
-        out = out + np.stack(parts, axis=-4 if per_component else -3)
-    return out / len(g.window_starts)
+    coef = [  # each ([S,] ..., nc, 3): the record's retrieval windows on a leading axis
+        dbs_error_coefficients(
+            amp,
+            per,
+            hws_ms=hws,
+            wind_body_deg=wind_body_deg,
+            lever_arm_m=lever,
+            hull=hull,
+            lidar=g,
+            mechanisms=mech,
+            dwell_average=dwell_average,
+            shear_exponent=shear,
+            window_start=g.window_starts,
+        )
+        for mech, hull, lever in basis
+    ]
+    a = np.stack([c[0] for c in coef], axis=-3)  # (S, ..., 4, nc, 3): along the wind
+    if not cross_wind:
+        return np.mean(gram(a, a), axis=0)  # the mean over the windows
+    b = np.stack([c[1] for c in coef], axis=-3)  # across the wind
+    cov = gram(a, b)
+    parts = [gram(a, a), gram(b, b), 0.5 * (cov + np.swapaxes(cov, -1, -2))]
+    return np.mean(np.stack(parts, axis=-4 if per_component else -3), axis=0)
 
 
 def _heading_grid(n_headings: int) -> np.ndarray:

@@ -426,13 +426,14 @@ def scan_times_azimuths(
     return t_s, np.roll(az, -start)
 
 
-def window_beam_times_s(lidar: str | LidarGeometry) -> np.ndarray:
+def window_beam_times_s(lidar: str | LidarGeometry, starts=None) -> np.ndarray:
     """Time of each beam (s) from the start of each retrieval window, shape (S, n_los): row
-    ``s`` is the window starting at position ``window_starts[s]`` of the cycle (beam ``k`` at
+    ``s`` is the window starting at position ``starts[s]`` of the cycle (beam index; default
+    the geometry's :attr:`~LidarGeometry.window_starts`; beam ``k`` at
     ``((k - start) mod n_los) * los_duration_s``), columns in the cycle's beam order."""
     g = get_lidar(lidar)
     k = np.arange(g.n_los)
-    starts = np.asarray(g.window_starts)[:, None]
+    starts = np.asarray(g.window_starts if starts is None else starts, int).reshape(-1, 1)
     return ((k[None, :] - starts) % g.n_los) * g.los_duration_s
 
 
@@ -440,17 +441,18 @@ def every_beam_windows(per_cycle) -> np.ndarray:
     """The retrieval windows of a DBS lidar with a wind after every beam, from the values of
     back-to-back cycles.
 
-    ``per_cycle`` (cycles, K, ...): a value per beam of each cycle, in scan order. After beam
-    ``j`` of cycle ``c >= 1`` the window holds beams ``<= j`` of cycle ``c`` and ``> j`` of
-    cycle ``c - 1`` (the latest of each azimuth; the window after a cycle's last beam is the
-    cycle itself). Returns shape ((cycles - 1) K, K, ...): the windows in time order, each
-    with its beams in scan order.
+    ``per_cycle`` (cycles, K, ...): a value per beam of each cycle, in scan order. The first
+    window is the first cycle itself (the first wind once every azimuth has a beam); after
+    beam ``j`` of cycle ``c >= 1`` the window holds beams ``<= j`` of cycle ``c`` and
+    ``> j`` of cycle ``c - 1`` (the latest of each azimuth; the window after a cycle's last
+    beam is the cycle itself). Returns shape (1 + (cycles - 1) K, K, ...): the windows in
+    time order, each with its beams in scan order.
     """
     v = np.asarray(per_cycle)
     k = np.arange(v.shape[1])
     newer = (k[:, None] >= k[None, :]).reshape((1, k.size, k.size) + (1,) * (v.ndim - 2))
     out = np.where(newer, v[1:, None], v[:-1, None])  # (cycles - 1, window j, beam k, ...)
-    return out.reshape((-1,) + out.shape[2:])
+    return np.concatenate([v[:1], out.reshape((-1,) + out.shape[2:])])
 
 
 def beam_index(

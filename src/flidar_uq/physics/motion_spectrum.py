@@ -960,15 +960,15 @@ def _every_beam_wind(g: LidarGeometry, v_r, yaw_rad):
     """A DBS lidar's horizontal wind (east, north; m/s) after every line of sight of
     back-to-back cycles, from the latest line of sight of each beam.
 
-    ``v_r`` and ``yaw_rad`` (rad) of shape (cycles, K) in scan order; after line of sight
-    ``j`` of cycle ``c`` the window holds lines ``<= j`` of cycle ``c`` and ``> j`` of
-    cycle ``c - 1`` (the last window of a cycle is the cycle itself). Returns arrays of
-    shape ((cycles - 1) K,) in time order, each window's retrieval
+    ``v_r`` and ``yaw_rad`` (rad) of shape (cycles, K) in scan order: the first cycle, then
+    after line of sight ``j`` of cycle ``c`` the window of lines ``<= j`` of cycle ``c`` and
+    ``> j`` of cycle ``c - 1`` (:func:`~flidar_uq.physics.lidar.every_beam_windows`). Returns
+    arrays of shape (1 + (cycles - 1) K,) in time order, each window's retrieval
     (:func:`~flidar_uq.physics.lidar.dbs_retrieval_operator`) rotated by its mean yaw.
     """
-    latest = every_beam_windows(v_r)  # ((cycles - 1) K, K)
+    latest = every_beam_windows(v_r)  # (1 + (cycles - 1) K, K)
     yaw = every_beam_windows(yaw_rad).mean(axis=-1)
-    body = latest @ dbs_retrieval_operator(g)  # ((cycles - 1) K, 3)
+    body = latest @ dbs_retrieval_operator(g)  # (1 + (cycles - 1) K, 3)
     c, s = np.cos(yaw), np.sin(yaw)
     u = c * body[..., 0] - s * body[..., 1]
     v = s * body[..., 0] + c * body[..., 1]
