@@ -395,26 +395,27 @@ def test_large_discus_buoy_with_its_heave_measured_finds_the_lever_arm(seed):
     _check_calibrated(records, f"discus_buoy with its heave measured, seed {seed}")
 
 
-_DISCUS_LEVER_MISS = pytest.mark.xfail(
-    strict=True, reason="lever arm 2.29 m against the truth's 3 m (bound 0.5 m)"
-)
+#: Discus runs whose lever arm leaves the 0.5-m bound: from the tilt alone its posterior sd
+#: is ~0.4 m, and seed 93494952 gave 2.29 m against 3 m (motion scale 1.01, hull response
+#: 0.99). Reported as an expected failure where it is still outside the bound.
+_DISCUS_LEVER_MISSES = {93494952: "discus lever arm 2.29 m against the truth's 3 m"}
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "seed",
-    [pytest.param(s, marks=_DISCUS_LEVER_MISS if s == 93494952 else ()) for s in DISCUS_SEEDS],
-)
+@pytest.mark.parametrize("seed", DISCUS_SEEDS)
 def test_large_discus_buoy_fit_finds_the_motion_scale_and_the_lever_arm(seed):
     """The discus buoy's record fit with the reference hull PSIS-LOO keeps (the discus
     buoy's, the fit the named hull gives): motion scale in [0.9, 1.1],
-    lever arm within 0.5 m of the scenario's 3 m, no discrepancy warning. On seed 93494952
-    the lever arm is 2.29 m (motion scale 1.01, hull response 0.99), on 1572108785 3.41 m."""
+    lever arm within 0.5 m of the scenario's 3 m, no discrepancy warning (1572108785:
+    3.41 m)."""
     records, fit = _run_discus(seed)
     k = float(np.median(fit.flat("motion_scale")))
     lever = float(np.median(fit.flat("lever_arm_m")))
     assert 0.9 <= k <= 1.1, k
-    assert abs(lever - float(records["true_lever_arm_m"].iloc[0])) <= 0.5, lever
+    off = abs(lever - float(records["true_lever_arm_m"].iloc[0]))
+    if off > 0.5 and seed in _DISCUS_LEVER_MISSES:
+        pytest.xfail(f"{_DISCUS_LEVER_MISSES[seed]}; here {lever:.2f} m")
+    assert off <= 0.5, lever
     assert "motion_scale_warning" not in fit.info and "lever_arm_warning" not in fit.info
 
 
@@ -580,13 +581,13 @@ def test_dbs_tilt_only_fit_recovers_motion_scale_and_lever_arm(seed):
 DBS_WAVE_SEEDS = (1433736163, 2056328097)
 
 #: The DBS acceptance groups that miss a bound. The weathervaning run 2056328097 covers its
-#: 3-6 m/s records 0.959 (370 records, bound 0.95), in a run whose intervals are a little
+#: 3-6 m/s records 0.954 (370 records, bound 0.95), in a run whose intervals are a little
 #: wide throughout (0.927 overall; the other weathervaning run 0.912, its 3-6 m/s 0.915).
 #: The run's other groups and its aggregate are held to the bounds; the test reports the
 #: miss as an expected failure while it lasts.
 _DBS_KNOWN_MISSES = {
     ("dbs_wave_follower_weathervane", 2056328097): {
-        ("speed_group", "3-6 m/s"): "3-6 m/s coverage 0.959 on 370 records (bound 0.95)"
+        ("speed_group", "3-6 m/s"): "3-6 m/s coverage 0.954 on 370 records (bound 0.95)"
     },
 }
 #: Scenarios whose fitted lever arm leans off the truth, beyond the 0.5-m bound on some

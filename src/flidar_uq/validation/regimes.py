@@ -198,7 +198,8 @@ def scenario_records(
         The QC-kept records in 3-20 m/s with the truth columns, the corrected TI
         (``ti_corrected_median``, ``ti_corrected_lo``, ``ti_corrected_hi``; with the
         reference's campaign-wide ``g`` error ``ti_corrected_lo_total``,
-        ``ti_corrected_hi_total``), ``ti_true``
+        ``ti_corrected_hi_total``), ``ti_true``, the point target's ratio of the lidar's
+        std to the point wind's (``lidar_std_ratio``, -; 1 for the motionless-lidar target)
         and the regime labels of :func:`regime_labels`.
     fit : GlobalFit
         The record model's (or the bin model's) global posterior.
@@ -289,6 +290,7 @@ def scenario_records(
     for c in (*CORRECTED_TI_COLUMNS, "ti_uncorrected"):
         out[c] = per_record[c].to_numpy()
     out["ti_true"] = kept["true_ti"].to_numpy(dtype=float)
+    out["lidar_std_ratio"] = 1.0 if g is None else np.asarray(g, dtype=float)
     out["has_reference"] = np.isfinite(kept["ref_hws_std_ms"].to_numpy(dtype=float))
     out["in_calibration"] = out["has_reference"] & kept.index.isin(calib.index)
     return pd.concat([out, regime_labels(out)], axis=1), fit
