@@ -72,8 +72,11 @@ def one_run(scenario: str, seed: int) -> dict:
     g = float(np.median(still / truth))
     s, m = r["hws_std_ms"].to_numpy(dtype=float), r["hws_mean_ms"].to_numpy(dtype=float)
     sz = r["true_sigma_z_ms"].to_numpy(dtype=float)
-    if (r.get("true_weathervane", pd.Series(0.0, index=r.index)) > 0.5).any():
-        sz = np.full_like(sz, np.nan)  # the lidars' difference is not the motion's alone
+    # a weathervaning buoy's beams turn against the motionless lidar's: the two lidars'
+    # difference is not the motion's alone
+    fixed = not (r.get("true_weathervane", pd.Series(0.0, index=r.index)) > 0.5).any()
+    if not fixed:
+        sz = np.full_like(sz, np.nan)
     est = {
         "uncorrected": r["ti_uncorrected"].to_numpy(dtype=float),
         "motionless": still,
@@ -88,7 +91,6 @@ def one_run(scenario: str, seed: int) -> dict:
     row |= {f"removed_{k}": 1.0 - v / rmse["uncorrected"] for k, v in rmse.items()}
     # the motion's own share: against the motionless lidar, the corrected TI in its response
     lidar_level = est["corrected"] * r["lidar_std_ratio"].to_numpy(dtype=float)
-    fixed = np.isfinite(sz).any()
     for k, v in (("uncorrected", est["uncorrected"]), ("corrected", lidar_level)):
         row[f"rmse_{k}_vs_motionless"] = (
             float(np.sqrt(np.mean((v - still) ** 2))) if fixed else float("nan")

@@ -714,7 +714,7 @@ def _basis_gram(
         return 0.5 * np.einsum(spec, x, m, np.conj(y)).real
 
     g = get_lidar(lidar)
-    coef = [  # each ([S,] ..., nc, 3): the record's retrieval windows on a leading axis
+    coef = [  # each (S, ..., nc, 3): the record's retrieval windows on a leading axis
         dbs_error_coefficients(
             amp,
             per,
