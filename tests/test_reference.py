@@ -490,7 +490,8 @@ def test_sampling_correlation_auto_is_synchronized_for_the_virtual_twin_else_zer
 )  # fixed_lidar: ~30 s of scan simulation (point scatter and pair correlation)
 def test_pipeline_record_fit_takes_the_reference_lidars_pair_term(tmp_path, monkeypatch, kind):
     """fit_global_model (model record) passes the pair term of the same Reference.noise the
-    propagation uses: sqrt(2 (1 - c)) sd per record for a fixed lidar, none for a cup."""
+    propagation uses: sqrt(2 (1 - c)) sd per record for a fixed lidar, the floating lidar's
+    own sd for a cup (no sampling scatter of its own), and fits the cup's std times g."""
     from flidar_uq import inference
     from flidar_uq.workflow import inference_steps
 
@@ -507,14 +508,15 @@ def test_pipeline_record_fit_takes_the_reference_lidars_pair_term(tmp_path, monk
         converged, failure_reasons, info = True, [], {"hull_model": "rotation_only"}
 
     def fake_fit(records, **kwargs):
-        seen.update(kwargs)
+        seen.update(kwargs, records=records)
         return _Fit()
 
     monkeypatch.setattr(inference, "fit_record_model_selecting_hull", fake_fit)
     monkeypatch.setattr(inference, "save_fit", lambda fit, path: None)
     rec = pd.DataFrame(
         {"record_id": [0, 1, 2], "bin_id": [1, 1, 2], "hws_mean_ms": [6.0, 9.0, 12.0],
-         "height_m": [85.0, 85.0, 85.0], "heading_mean_deg": [0.0, 90.0, 180.0]}
+         "height_m": [85.0, 85.0, 85.0], "heading_mean_deg": [0.0, 90.0, 180.0],
+         "ref_hws_std_ms": [0.6, 0.9, 1.2]}
     )  # fmt: skip
     rec.to_csv(tmp_path / "assign.csv", index=False)
     cfg = _yaml(CONFIG)
@@ -530,10 +532,17 @@ def test_pipeline_record_fit_takes_the_reference_lidars_pair_term(tmp_path, monk
         inference=cfg["inference"], priors=cfg["priors"], lidar="zephir300",
         reference=ref.to_config(), correction=scan,
     )  # fmt: skip
+    ((g, sd, c, pair, ratio),) = spied
     if kind == "cup":
-        assert seen["pair_log_sd"] is None and not spied
+        assert seen["pair_log_sd"] is pair
+        np.testing.assert_array_equal(pair, sd)
+        np.testing.assert_array_equal(c, 0.0)
+        np.testing.assert_allclose(ratio * g, 1.0)
+        assert np.all(sd > 0.0)
+        # the cup's std in the floating lidar's motionless response: times g
+        fitted = seen["records"]["ref_hws_std_ms"].to_numpy()
+        np.testing.assert_allclose(fitted, np.array([0.6, 0.9, 1.2]) * g)
         return
-    ((g, sd, c, pair, _ratio),) = spied
     assert seen["pair_log_sd"] is pair
     np.testing.assert_allclose(pair, np.sqrt(2.0 * (1.0 - c)) * sd)
     assert pair[0] < 0.35 * sd[0] and pair[2] > 1.2 * sd[2]  # same azimuths vs opposite

@@ -292,15 +292,15 @@ def correct_campaign(
     equal-tailed ``settings.credible_mass`` interval; and Gutiérrez-Antuñano et al.'s
     (2018) U / C / PC laws.
 
-    The corrected std is always the point (cup-like) std; how it is reached follows the
-    reference instrument: ``kind`` "cup" or "sonic": the model is calibrated to the point
-    wind directly (no ratio, no extra scatter). "fixed_lidar" (or "none": the deployment
-    formula gives a motionless lidar of the floating lidar's type): divided by that
-    lidar's std ratio (:func:`flidar_uq.physics.lidar_response.lidar_std_ratio` of
-    ``reference.lidar``, at the record's HWS and height, band-limited at
-    ``1 / (2 turbulence_dt_s)`` for a synthetic series) with its prior sd
-    ``reference.lidar_std_ratio_log_sd`` and its record-to-record scatter
-    (:func:`flidar_uq.physics.lidar_response.lidar_point_log_sd`).
+    The corrected std is always the point (cup-like) std. The deployment formula gives the
+    std a motionless lidar of the floating lidar's type would measure, which is divided by
+    its std ratio to the point wind (:func:`flidar_uq.physics.lidar_response.lidar_std_ratio`,
+    at the record's HWS, height and wind direction against the beams, band-limited at
+    ``1 / (2 turbulence_dt_s)`` for a synthetic series) with its record-to-record scatter
+    (:func:`flidar_uq.physics.lidar_response.lidar_point_log_sd`); the reference instrument
+    (:meth:`flidar_uq.correction.reference.Reference.noise`) decides the ratio's
+    campaign-wide error: none for a cup or sonic (the fit calibrates it), the prior sd
+    ``reference.lidar_std_ratio_log_sd`` for a fixed lidar or none.
 
     The speed-bin table is per height and 1-m/s speed bin
     (:func:`flidar_uq.correction.propagation.ti_group_statistics`; groups with fewer
@@ -438,15 +438,15 @@ def _point_target(sub, rec, reference: Reference, settings: CorrectionSettings):
     heights = settings.heights_in_turn(rec)
     noise = settings.reference_noise(sub, reference, heights=heights)
     g_ratio, log_sd, pair_corr = noise.lidar_std_ratio, noise.point_log_sd, noise.correlation
-    g_log_sd = float(reference.lidar_std_ratio_log_sd)
-    if g_ratio is None:
-        log.info("point target: reference %s, calibrated to the point wind", reference.kind)
-        g_log_sd = 0.0
-    else:
-        log.info(
-            "point target: lidar std ratio %.4f-%.4f, log-sd %.4f-%.4f (%d heights in turn)",
-            np.nanmin(g_ratio), np.nanmax(g_ratio), np.nanmin(log_sd), np.nanmax(log_sd), heights,
-        )  # fmt: skip
+    # a point reference calibrates g itself: an error of g is taken up by the record fit's
+    # motion terms and divided out again, so it is no campaign-wide error of the point TI
+    point_reference = reference.kind in ("cup", "sonic")
+    g_log_sd = 0.0 if point_reference else float(reference.lidar_std_ratio_log_sd)
+    log.info(
+        "point target: lidar std ratio %.4f-%.4f, log-sd %.4f-%.4f (%d heights in turn)%s",
+        np.nanmin(g_ratio), np.nanmax(g_ratio), np.nanmin(log_sd), np.nanmax(log_sd), heights,
+        f"; calibrated by the {reference.kind}" if point_reference else "",
+    )  # fmt: skip
     if pair_corr is not None:
         log.info(
             "reference lidar sampling: correlation with the floating lidar's %s, c = %.3f-%.3f",

@@ -32,9 +32,10 @@ class Reference:
     Attributes
     ----------
     kind : str
-        "cup" | "sonic" (the model is calibrated to the point wind directly),
-        "fixed_lidar" (to a motionless lidar, then divided by its std ratio to the point
-        wind) or "none" (no reference: a motionless lidar of the floating lidar's type).
+        "cup" | "sonic" (the point wind), "fixed_lidar" (a motionless lidar) or "none" (no
+        reference): the model is calibrated to the floating lidar's motionless std, the
+        reference's std times its ratio to it, and the corrected std divided by the
+        floating lidar's std ratio to the point wind (:meth:`noise`).
     lidar : str
         The fixed lidar's scan geometry (a lidar name of
         :func:`flidar_uq.physics.lidar.get_lidar`; the floating lidar's when not given).
@@ -202,7 +203,12 @@ class Reference:
         floating lidar's ``g_f`` and ``sd_f``; the reference's std is ``g_r / g_f`` times
         the floating lidar's motionless std in expectation, and the pair's sampling
         scatter is ``sd_f^2 + sd_r^2 - 2 c sd_f sd_r`` (``c`` the two lidars' sampling
-        correlation). For one conical-scan type ``g_f = g_r``, ``sd_f = sd_r``.
+        correlation). For one conical-scan type ``g_f = g_r``, ``sd_f = sd_r``. A cup or
+        sonic measures the point wind: ``g_r = 1``, ``sd_r = 0``, so its std is ``1 / g_f``
+        times the floating lidar's motionless std and the pair's scatter is ``sd_f`` (the
+        record fit takes it as known; a fit on the point std itself leaves the motionless
+        lidar's excess over the point, ``g_f^2 - 1`` of the variance, 3-10 % for a DBS
+        lidar, to the motion terms: the lever arm came out 0.8-1.3 m long).
 
         Parameters
         ----------
@@ -231,15 +237,18 @@ class Reference:
             "point_sample_interval_s": point_sample_interval_s,
             "turbulence_dt_s": turbulence_dt_s,
         }
-        if self.kind in ("cup", "sonic"):
-            return ReferenceNoise(None, None, None, None, None)
         wd = _column(records, "wd_mean_deg")
         beta_f = wind_to_body_deg(wd, _column(records, "heading_mean_deg"))
-        if self.kind == "none":
+        if self.kind in ("cup", "sonic", "none"):
             g_f, sd_f = prop.point_target(
                 hws, height, floating, **scan, seed=seed, wind_body_deg=beta_f
             )
-            return ReferenceNoise(g_f, sd_f, None, None, None)
+            if self.kind == "none":
+                return ReferenceNoise(g_f, sd_f, None, None, None)
+            # a point reference: no sampling scatter of its own against the point wind, so
+            # the pair's is the floating lidar's (c does not enter) and its std is 1 / g_f
+            # times the floating lidar's motionless std in expectation
+            return ReferenceNoise(g_f, sd_f, np.zeros_like(sd_f), sd_f, 1.0 / g_f)
         beta_r = wind_to_body_deg(wd, np.nan if self.heading_deg is None else self.heading_deg)
         (g_f, sd_f), (g_r, sd_r) = _two_lidar_targets(
             (floating, beta_f), (self.lidar, beta_r), hws, height, scan, seed
@@ -276,21 +285,22 @@ class ReferenceNoise(NamedTuple):
 
     Attributes
     ----------
-    lidar_std_ratio, point_log_sd : numpy.ndarray or None
+    lidar_std_ratio, point_log_sd : numpy.ndarray
         The point target (:class:`flidar_uq.correction.propagation.PointTarget`): the
         floating lidar's motionless std over the point std ``g_f`` (-) and the std of its
-        log ``sd_f`` (-), at each record's wind direction against its beams; None for a
-        cup or sonic (the model is calibrated to the point wind directly).
+        log ``sd_f`` (-), at each record's wind direction against its beams.
     correlation : numpy.ndarray or None
-        A fixed reference lidar's sampling correlation with the floating lidar ``c`` (-).
+        The reference's sampling correlation with the floating lidar ``c`` (-; 0 for a cup
+        or sonic, which has no sampling scatter of its own); None without a reference.
     pair_log_sd : numpy.ndarray or None
-        The std of ``log(floating lidar's motionless std / reference lidar's std)`` their
-        sampling gives (-): the record fit's known pair term
+        The std of ``log(floating lidar's motionless std / reference's std)`` their
+        sampling gives (-; ``sd_f`` for a cup or sonic): the record fit's known pair term
         (``fit_record_model(pair_log_sd=...)``).
     reference_std_ratio : numpy.ndarray or None
-        The reference lidar's std over the floating lidar's motionless std in expectation,
-        ``g_r / g_f`` (-; 1 for two lidars of one conical-scan type):
-        :meth:`floating_reference` divides the reference std by it for the record fit.
+        The reference's std over the floating lidar's motionless std in expectation,
+        ``g_r / g_f`` (-; 1 for two lidars of one conical-scan type, ``1 / g_f`` for a cup
+        or sonic): :meth:`floating_reference` divides the reference std by it for the
+        record fit.
     """
 
     lidar_std_ratio: np.ndarray | None

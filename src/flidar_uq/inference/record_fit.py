@@ -24,7 +24,8 @@ phasors). The model (docs/inference.md):
   Fisher z (``atanh``; Fisher 1921: the sample correlation of ``N`` pairs has
   ``sd(atanh r) ~ 1 / sqrt(N - 3)``, so ``(1 - rho^2) s_rho`` on ``rho`` itself), through
   ``dmu/drho = r_i sZ_i / mu_i``; ``p_i`` the known relative scatter of a reference lidar's std
-  against the floating lidar's motionless std (``pair_log_sd``, 0 for a cup or sonic):
+  against the floating lidar's motionless std (``pair_log_sd``; for a cup or sonic the
+  floating lidar's own sampling scatter against the point wind):
   it is a scatter of the turbulent part ``r_i`` only, so it enters through
   ``dmu/dr = (r + rho sZ) / mu``, not in proportion to ``mu`` (first-order propagation
   through Eq. (15) for these errors). The propagation draws the same

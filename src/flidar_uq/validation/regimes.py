@@ -158,7 +158,8 @@ def scenario_records(
         Blocked cross-validation by sea-state class: only the references of this class
         enter the fit (the others are corrected as deployment records).
     lidar_std_ratio_log_sd : float
-        Prior sd of log g (-) when the scenario's reference is a fixed lidar.
+        Prior sd of log g (-) when the scenario's reference is a fixed lidar (a cup or
+        sonic calibrates g: 0).
     reference_pair : bool
         With a fixed reference lidar: the record fit takes the two lidars' sampling scatter
         against each other as known (``fit_record_model(pair_log_sd=...)``). The virtual
@@ -198,8 +199,8 @@ def scenario_records(
         The QC-kept records in 3-20 m/s with the truth columns, the corrected TI
         (``ti_corrected_median``, ``ti_corrected_lo``, ``ti_corrected_hi``; with the
         reference's campaign-wide ``g`` error ``ti_corrected_lo_total``,
-        ``ti_corrected_hi_total``), ``ti_true``, the point target's ratio of the lidar's
-        std to the point wind's (``lidar_std_ratio``, -; 1 for the motionless-lidar target)
+        ``ti_corrected_hi_total``), ``ti_true``, the point target's ratio of the floating
+        lidar's motionless std to the point wind's (``lidar_std_ratio``, -)
         and the regime labels of :func:`regime_labels`.
     fit : GlobalFit
         The record model's (or the bin model's) global posterior.
@@ -217,7 +218,9 @@ def scenario_records(
     ss_camp, ss_fit, ss_point, ss_prop = as_seedsequence(seed).spawn(4)
     sampling = reference_sampling(cfg)
     kind = sampling["reference_kind"]
-    pair = kind == "fixed_lidar" and reference_pair
+    synchronized = kind == "fixed_lidar" and reference_pair
+    # the record fit takes the pair term of a synchronised reference lidar, a cup or a sonic
+    pair = synchronized or kind in ("cup", "sonic")
     generated = generate_campaign(cfg, ss_camp)
     # each time stamp's shear exponent from all its heights (the pipeline's validate step)
     kept = run_qc(with_shear_exponent(generated.records), QCConfig()).kept
@@ -234,7 +237,7 @@ def scenario_records(
     # the pipeline's reference: the virtual reference lidar (the floating lidar's twin at
     # the beams of a buoy heading of 0, on its scan schedule), a cup or sonic
     reference = Reference.from_config(
-        {"sampling_correlation": SYNCHRONIZED if pair else REFERENCE_SAMPLING_CORRELATION},
+        {"sampling_correlation": SYNCHRONIZED if synchronized else REFERENCE_SAMPLING_CORRELATION},
         lidar=lidar,
         virtual_kind=kind,
     )
@@ -272,7 +275,7 @@ def scenario_records(
     target = PointTarget(
         lidar_std_ratio=g,
         point_log_sd=sd,
-        lidar_std_ratio_log_sd=lidar_std_ratio_log_sd if g is not None else 0.0,
+        lidar_std_ratio_log_sd=lidar_std_ratio_log_sd if kind == "fixed_lidar" else 0.0,
         reference_sampling_correlation=correlation,
         reference_pair_log_sd=pair_all if motion_model == "bin" else None,
     )
@@ -290,7 +293,7 @@ def scenario_records(
     for c in (*CORRECTED_TI_COLUMNS, "ti_uncorrected"):
         out[c] = per_record[c].to_numpy()
     out["ti_true"] = kept["true_ti"].to_numpy(dtype=float)
-    out["lidar_std_ratio"] = 1.0 if g is None else np.asarray(g, dtype=float)
+    out["lidar_std_ratio"] = np.asarray(g, dtype=float)
     out["has_reference"] = np.isfinite(kept["ref_hws_std_ms"].to_numpy(dtype=float))
     out["in_calibration"] = out["has_reference"] & kept.index.isin(calib.index)
     return pd.concat([out, regime_labels(out)], axis=1), fit

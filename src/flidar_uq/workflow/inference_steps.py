@@ -167,13 +167,14 @@ def fit_global_model(
     ``reference`` (:meth:`flidar_uq.correction.reference.Reference.to_config` of the
     resolved reference) and ``correction`` (the fields of
     :class:`flidar_uq.correction.campaign.CorrectionSettings`: the workflow's
-    ``correction_settings``, the very values the ``propagate`` step gets): with a fixed
-    reference lidar, the record model takes the two lidars' sampling scatter against each
-    other as known (``fit_record_model(pair_log_sd=...)``, the pair term of
+    ``correction_settings``, the very values the ``propagate`` step gets): with a
+    reference (a fixed lidar, a cup or a sonic), the record model takes the sampling
+    scatter of the floating lidar's motionless std against the reference's as known
+    (``fit_record_model(pair_log_sd=...)``, the pair term of
     :meth:`flidar_uq.correction.reference.Reference.noise` with those settings, the same
     numbers the propagation uses), so that ``kappa`` is the floating lidar's own noise.
-    None: no pair term (``kappa`` holds both lidars' sampling). Every model, record or
-    bin, is fitted on the reference std divided by the reference lidar's std over the
+    None: no pair term (``kappa`` holds both instruments' sampling). Every model, record
+    or bin, is fitted on the reference std divided by the reference's std over the
     floating lidar's motionless std
     (:meth:`~flidar_uq.correction.reference.ReferenceNoise.floating_reference`), the
     target the propagation corrects to.
@@ -251,14 +252,14 @@ def fit_global_model(
 
 def _reference_noise(assigned, reference, correction):
     """:meth:`flidar_uq.correction.reference.Reference.noise` of the fit's records with a
-    fixed reference lidar (``correction``: the fields of
+    reference (``correction``: the fields of
     :class:`flidar_uq.correction.campaign.CorrectionSettings`, the ones the propagation
-    gets); None for any other reference."""
-    if reference is None or reference["kind"] != "fixed_lidar":
+    gets); None without one (``reference`` None or kind "none")."""
+    if reference is None or reference["kind"] == "none":
         return None
     if correction is None:
         raise ValueError(
-            "fit_global_model: a fixed reference lidar needs the correction settings "
+            f"fit_global_model: a {reference['kind']} reference needs the correction settings "
             "(correction=, the fields of CorrectionSettings the propagation uses)"
         )
     from flidar_uq.correction.campaign import CorrectionSettings
@@ -268,9 +269,9 @@ def _reference_noise(assigned, reference, correction):
     settings = CorrectionSettings(**correction)
     noise = settings.reference_noise(assigned, ref, heights=settings.heights_in_turn(assigned))
     log.info(
-        "reference lidar's sampling correlation (%s) %.3f-%.3f, pair log-sd %.4f-%.4f "
-        "taken as known; its std over the floating lidar's motionless std %.4f-%.4f",
-        ref.sampling_correlation, np.nanmin(noise.correlation), np.nanmax(noise.correlation),
+        "reference %s: sampling correlation with the floating lidar's %.3f-%.3f, pair log-sd "
+        "%.4f-%.4f taken as known; its std over the floating lidar's motionless std %.4f-%.4f",
+        ref.kind, np.nanmin(noise.correlation), np.nanmax(noise.correlation),
         np.nanmin(noise.pair_log_sd), np.nanmax(noise.pair_log_sd),
         np.nanmin(noise.reference_std_ratio), np.nanmax(noise.reference_std_ratio),
     )  # fmt: skip
