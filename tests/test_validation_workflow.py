@@ -54,9 +54,12 @@ def _posterior_draws(path) -> dict:
 
 
 def _refit(cfg_path: Path, assignments: Path, out: Path, holdout: dict) -> dict:
-    """The run's record fit again (the run's config with its defaults), on ``assignments``.
+    """The run's record fit again (the run's config with its defaults, its reference and
+    correction settings as the workflow resolves them), on ``assignments``."""
+    from dataclasses import asdict
 
-    With a cup reference the fit takes no reference-lidar pair term (reference None)."""
+    from flidar_uq.workflow.inputs import check_reference, correction_inputs
+
     full = check_config(load_config_file(cfg_path))
     fit_global_model(
         [],
@@ -66,6 +69,8 @@ def _refit(cfg_path: Path, assignments: Path, out: Path, holdout: dict) -> dict:
         inference=full["inference"],
         priors=full["priors"],
         lidar=full["campaign"]["lidar"],
+        reference=check_reference(full).to_config(),
+        correction=asdict(correction_inputs(full)[1]),
     )
     return _posterior_draws(out)
 

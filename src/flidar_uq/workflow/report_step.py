@@ -124,8 +124,10 @@ def reference_kind(config: dict, metrics: pd.DataFrame | None = None) -> str:
         kind = str(metrics["reference_kind"].iloc[0])
     kind = kind or (config.get("reference") or {}).get("kind") or "none"
     words = {
-        "cup": "cup anemometer: the model is calibrated to the point wind directly",
-        "sonic": "sonic anemometer: the model is calibrated to the point wind directly",
+        "cup": "cup anemometer: the point wind, through the floating lidar's std ratio g, "
+        "which the cup calibrates",
+        "sonic": "sonic anemometer: the point wind, through the floating lidar's std ratio g, "
+        "which the sonic calibrates",
         "fixed_lidar": "fixed (motionless) lidar: the point TI through its std ratio g, "
         "with g's uncertainty",
         "none": "none: the point TI through a motionless lidar of the floating lidar's type",
