@@ -206,9 +206,9 @@ class Reference:
         correlation). For one conical-scan type ``g_f = g_r``, ``sd_f = sd_r``. A cup or
         sonic measures the point wind: ``g_r = 1``, ``sd_r = 0``, so its std is ``1 / g_f``
         times the floating lidar's motionless std and the pair's scatter is ``sd_f`` (the
-        record fit takes it as known; a fit on the point std itself leaves the motionless
-        lidar's excess over the point, ``g_f^2 - 1`` of the variance, 3-10 % for a DBS
-        lidar, to the motion terms: the lever arm came out 0.8-1.3 m long).
+        record fit takes it as known; a fit on the point std itself would leave the
+        motionless lidar's excess over the point, ``g_f^2 - 1`` of the variance, 3-10 % for
+        a DBS lidar, to the motion terms).
 
         Parameters
         ----------
