@@ -112,6 +112,7 @@ def _kernel(a, n_sign_iter, *, with_truth=False):
         n_sign_iter,
         a["wd_deg"],
         5,
+        a.get("yaw_still", np.zeros(a["starts"].shape[0])),
     )
     return out if with_truth else out[:4]
 
@@ -162,6 +163,28 @@ def test_records_are_independent_of_their_chunk():
         for g, w in zip(alone[:4], together[:4], strict=True):
             np.testing.assert_array_equal(g[0], w[c])
         np.testing.assert_array_equal(alone[4][:, 0], together[4][:, c])
+
+
+@pytest.mark.parametrize("n_sign_iter", [0, 1])
+def test_still_lidar_is_the_floating_lidar_without_its_motion(n_sign_iter):
+    """The lidar the motion's error is taken against is the floating lidar held still at
+    its heading: with no roll, pitch, lever arm or translation and a constant heading its
+    radial speeds and (signed speeds) winds are the floating lidar's (the fixed reference
+    lidar's, at a heading of 0, are not), and at a heading of 0 they are the reference
+    lidar's."""
+    a = _inputs(np.random.default_rng(13), lever=(0.0, 0.0, 0.0), translate=False, n_c=2)
+    a = dict(a, roll=np.zeros_like(a["roll"]), pitch=np.zeros_like(a["pitch"]))
+    a["yaw"] = np.ascontiguousarray(np.array([[35.0], [-120.0]]))
+    a["yaw_still"] = np.array([35.0, -120.0])
+    out = _kernel(a, n_sign_iter, with_truth=True)
+    uvw, uvw0, uvws = out[1], out[2], out[6]
+    hws = lambda x: np.hypot(x[..., 0], x[..., 1])  # noqa: E731
+    np.testing.assert_allclose(out[7], out[0], rtol=0, atol=1e-9)  # the radial speeds
+    assert np.abs(hws(uvw0) - hws(uvw)).max() > 1e-3
+    if n_sign_iter == 0:  # a CW lidar's fit of |v_r| may unfold a sign otherwise
+        np.testing.assert_allclose(hws(uvws), hws(uvw), rtol=0, atol=1e-9)
+    zero = _kernel(dict(a, yaw_still=np.zeros(2)), n_sign_iter, with_truth=True)
+    np.testing.assert_allclose(zero[6], zero[2], rtol=0, atol=1e-12)
 
 
 def test_kernel_truth_is_attitude_truth():

@@ -687,9 +687,10 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         yaw_c = s["yaw"][None]  # (1,N), or (1,1): a constant heading
         if yaw_c.shape[1] > 1 and (yaw_c == yaw_c[:, :1]).all():
             yaw_c = np.ascontiguousarray(yaw_c[:, :1])  # contiguous: the kernel's compiled type
-        v_r_c, uvw_c, uvw0_c, resid_c, truth_c, v_r0_c = _scan_record(
+        v_r_c, uvw_c, uvw0_c, resid_c, truth_c, v_r0_c, uvws_c, v_rs_c = _scan_record(
             s, yaw_c, settings, par, c, e_wind, geo, lay, clk
         )
+        every = geo.every_beam_output
         scans.append(
             (
                 v_r_c if keep else None,
@@ -697,7 +698,9 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
                 uvw0_c,
                 resid_c,
                 truth_c,
-                v_r0_c if geo.every_beam_output else None,
+                v_r0_c if every else None,
+                uvws_c,
+                v_rs_c if every else None,
             )
         )
         att, ns = _imu_series(s, yaw_c, ts, clk)
@@ -795,7 +798,14 @@ def _scan_record(s, yaw_c, settings, par, c, e_wind, geo, lay, clk):
         0 if geo.signed else 1,
         np.asarray(par["wd_deg"], float)[c : c + 1],
         clk.truth_stride,
+        np.array([_mean_heading_deg(yaw_c[0])]),
     )
+
+
+def _mean_heading_deg(yaw_deg) -> float:
+    """Circular mean of a record's yaw series (deg): the heading of its lidar held still."""
+    y = np.deg2rad(np.asarray(yaw_deg, dtype=float))
+    return float(np.rad2deg(np.arctan2(np.sin(y).mean(), np.cos(y).mean())))
 
 
 def _imu_series(s, yaw_c, ts_ns, clk):
@@ -856,7 +866,7 @@ def _chunk_scans(series, scans, par, n_los, n_slots, want_los) -> SimpleNamespac
     j_max = series[0]["starts"].size
     starts = np.stack([s["starts"] for s in series])  # (C,J)
     valid = starts + n_los <= n_slots
-    uvw, uvw0, resid = (np.concatenate([o[k] for o in scans]) for k in (1, 2, 3))
+    uvw, uvw0, resid, uvws = (np.concatenate([o[k] for o in scans]) for k in (1, 2, 3, 6))
     wd_scan = _scan_wind_direction(series, uvw, starts, n_los, n_slots, par["wd_deg"])
     dropped = np.stack([s["dropped"] for s in series])
     outage = np.array([s["outage"] for s in series])
@@ -871,6 +881,7 @@ def _chunk_scans(series, scans, par, n_los, n_slots, want_los) -> SimpleNamespac
         v_r=np.concatenate([o[0] for o in scans]) if want_los else None,  # (C,J,L)
         hws_scan=np.hypot(uvw[..., 0], uvw[..., 1]),  # (C,J)
         hws0=np.hypot(uvw0[..., 0], uvw0[..., 1]),
+        hws_still=np.hypot(uvws[..., 0], uvws[..., 1]),
         resid=resid,
         wd_scan=wd_scan,
         attitude=np.concatenate([o[4] for o in scans], axis=1),  # (5,C)
@@ -911,6 +922,7 @@ def _every_beam_scans(sc, scans, series, par, lay, geo, n_slots) -> SimpleNamesp
     m = n_sub // n_beam
     n_cyc = j_max // n_h
     v_r0 = np.concatenate([o[5] for o in scans])  # (C,J,L)
+    v_rs = np.concatenate([o[7] for o in scans])
 
     def windows(x):  # (C, J, ...) per cycle and height -> (C, W x H, K, ...) per window
         y = x.reshape((n_c, n_cyc, n_h) + x.shape[2:])  # (C,cycles,H,K,...)
@@ -924,7 +936,8 @@ def _every_beam_scans(sc, scans, series, par, lay, geo, n_slots) -> SimpleNamesp
 
     v_w = windows(sc.v_r.reshape(n_c, j_max, n_beam, m)).reshape(n_c, -1, n_sub)
     v0_w = windows(v_r0.reshape(n_c, j_max, n_beam, m)).reshape(n_c, -1, n_sub)
-    uvw, uvw0 = v_w @ lay.pinv_t, v0_w @ lay.pinv_t  # (C,J',3)
+    vs_w = windows(v_rs.reshape(n_c, j_max, n_beam, m)).reshape(n_c, -1, n_sub)
+    uvw, uvw0, uvws = v_w @ lay.pinv_t, v0_w @ lay.pinv_t, vs_w @ lay.pinv_t  # (C,J',3)
     resid = np.sqrt(np.mean((v_w - uvw @ lay.d_body.T) ** 2, axis=-1))
     inclined = ~np.isnan(_lidar.scan_times_azimuths(geo)[1])  # the pairs' beams
     valid = windows(per_beam(sc.valid))[..., inclined].all(axis=-1)
@@ -942,6 +955,7 @@ def _every_beam_scans(sc, scans, series, par, lay, geo, n_slots) -> SimpleNamesp
         hws_h=sc.hws_h,
         hws_scan=np.hypot(uvw[..., 0], uvw[..., 1]),
         hws0=np.hypot(uvw0[..., 0], uvw0[..., 1]),
+        hws_still=np.hypot(uvws[..., 0], uvws[..., 1]),
         resid=resid,
         wd_scan=wd_scan,
         attitude=sc.attitude,
@@ -952,7 +966,10 @@ def _scan_statistics(sc, n_h) -> SimpleNamespace:
     """10-min statistics of every (record, height) at once: its scans are a mask over J.
 
     Counted scans ``n``, mean and std (``ddof=1``) of the scans' HWS (m/s), of their error
-    against the motionless lidar ``Z`` (m/s), the spatial variation ``sv`` (RMS fit
+    ``Z`` (m/s) against the floating lidar held still at its record's mean heading (the
+    motion's error alone; against the fixed reference lidar, at a heading of 0, it would
+    hold the two headings' sampling of the turbulence) and of that still lidar's HWS (m/s),
+    the spatial variation ``sv`` (RMS fit
     residual over HWS, dimensionless), the circular mean direction (deg), NaN below two
     scans; availability (%, counted over complete scans).
     """
@@ -960,13 +977,15 @@ def _scan_statistics(sc, n_h) -> SimpleNamespace:
     sel = sc.ok[:, None, :] & at_h
     sel_ref = sc.valid[:, None, :] & at_h
     n_sel, hs_mean, hs_std = _masked_mean_std(sc.hws_scan[:, None, :], sel)
-    _, z_mean, z_std = _masked_mean_std((sc.hws_scan - sc.hws0)[:, None, :], sel)
+    _, z_mean, z_std = _masked_mean_std((sc.hws_scan - sc.hws_still)[:, None, :], sel)
+    _, still_mean, still_std = _masked_mean_std(sc.hws_still[:, None, :], sel)
     with np.errstate(invalid="ignore", divide="ignore"):
         _, sv, _ = _masked_mean_std((sc.resid / sc.hws_scan)[:, None, :], sel)
     wd_mean = _circ_mean_deg(sc.wd_scan[:, None, :], sel, -1)
     enough = n_sel >= 2
-    hs_mean, hs_std, z_mean, z_std, sv, wd_mean = (
-        np.where(enough, v, np.nan) for v in (hs_mean, hs_std, z_mean, z_std, sv, wd_mean)
+    hs_mean, hs_std, z_mean, z_std, still_mean, still_std, sv, wd_mean = (
+        np.where(enough, v, np.nan)
+        for v in (hs_mean, hs_std, z_mean, z_std, still_mean, still_std, sv, wd_mean)
     )
     return SimpleNamespace(
         n_sel=n_sel,
@@ -974,6 +993,8 @@ def _scan_statistics(sc, n_h) -> SimpleNamespace:
         hs_std=hs_std,
         z_mean=z_mean,
         z_std=z_std,
+        still_mean=still_mean,
+        still_std=still_std,
         sv=sv,
         wd_mean=wd_mean,
         sel_ref=sel_ref,
@@ -1064,6 +1085,9 @@ def _record_statistics(settings, par, rec_idx, starts_ns, sc, fl_truth, trans_tr
         "true_velocity_along_wind_std_ms": per_translation(2),
         "true_sigma_z_ms": st.z_std.ravel(),
         "true_mean_z_ms": st.z_mean.ravel(),
+        # the floating lidar held still at its heading, on its counted scans
+        "true_still_hws_mean_ms": st.still_mean.ravel(),
+        "true_still_hws_std_ms": st.still_std.ravel(),
         "true_n_scans": st.n_sel.ravel().astype(float),
         "true_record": per_record(np.asarray(rec_idx, float)),
         "true_case": per_record(par["case"] if "case" in par else np.full(n_c, np.nan)),

@@ -218,6 +218,7 @@ def simulate_chunk_scans(
     n_sign_iter,
     wd_deg,
     truth_stride,
+    yaw_still_deg,
 ):
     """Radial speeds and VAD fits of every scan of a chunk of records.
 
@@ -255,6 +256,12 @@ def simulate_chunk_scans(
     wd_deg : ndarray, shape (C,)
         Wind direction (compass, from), deg; ``truth_stride``: slots between the samples of
         the tilt along / across the wind and the heading (:func:`attitude_truth`).
+    yaw_still_deg : ndarray, shape (C,)
+        Heading of the floating lidar held still (its record's mean yaw, deg): the
+        motionless lidar against which the motion's error ``Z`` is taken is the floating
+        lidar without its motion, its beams at this heading (the fixed reference lidar's
+        are at a heading of 0: at another heading the two sample the turbulence along
+        other beams).
 
     Returns
     -------
@@ -269,7 +276,11 @@ def simulate_chunk_scans(
         The records' true motion statistics, :func:`attitude_truth`'s.
     v_r0 : ndarray, shape (C, J, L)
         Radial speed of the fixed reference lidar, m/s (signed).
+    uvw_still, v_r_still : ndarray, shape (C, J, 3) and (C, J, L)
+        Wind (body frame) and radial speeds (signed) of the floating lidar held still at
+        ``yaw_still_deg``, m/s.
     """
+    to_rad = np.pi / 180.0
     n_c, n_j = starts.shape
     n_los = d_body.shape[0]
     n_slots = roll_deg.shape[1]
@@ -279,6 +290,8 @@ def simulate_chunk_scans(
     v_r0 = np.empty((n_c, n_j, n_los))
     uvw = np.empty((n_c, n_j, 3))
     uvw0 = np.empty((n_c, n_j, 3))
+    v_rs = np.empty((n_c, n_j, n_los))
+    uvws = np.empty((n_c, n_j, 3))
     resid = np.empty((n_c, n_j))
     y_abs = np.empty(n_los)
     sgn = np.empty(n_los)
@@ -293,6 +306,8 @@ def simulate_chunk_scans(
         _trig_into(roll_deg, pitch_deg, yaw_deg, c, trig, 0)
         e0, e1, e2 = e_wind[c, 0], e_wind[c, 1], e_wind[c, 2]
         a_ = alpha[c]
+        cys = math.cos(yaw_still_deg[c] * to_rad)
+        sys_ = math.sin(yaw_still_deg[c] * to_rad)
         # head position R(t) r + translation at every slot (Yamaguchi and Ishihara, 2016, Eq. 4), once a record
         for t in range(pos.shape[0]):
             x0, x1, x2 = _rotate_at(trig, 0, t, lever[0], lever[1], lever[2])
@@ -311,6 +326,9 @@ def simulate_chunk_scans(
             q0 = 0.0
             q1 = 0.0
             q2 = 0.0
+            g0 = 0.0
+            g1 = 0.0
+            g2 = 0.0
             # the slot, its azimuth slot and turbulence sample, stepped along the scan (one
             # modulo and one division a scan, not a line of sight); past the record's last
             # slot (a scan that does not fit, not kept) the last slot is repeated
@@ -366,6 +384,14 @@ def simulate_chunk_scans(
                 q0 += vr0 * pinv_t[a, 0]
                 q1 += vr0 * pinv_t[a, 1]
                 q2 += vr0 * pinv_t[a, 2]
+                # the floating lidar held still: the body geometry turned by its heading
+                vrs = (mean_los * e0 + f0) * (cys * m0 - sys_ * m1)
+                vrs += (mean_los * e1 + f1) * (sys_ * m0 + cys * m1)
+                vrs += (mean_los * e2 + f2) * m2
+                v_rs[c, j, k] = vrs
+                g0 += vrs * pinv_t[a, 0]
+                g1 += vrs * pinv_t[a, 1]
+                g2 += vrs * pinv_t[a, 2]
             # sign fixed point (vad_sign_unfolding): s <- sign(M p), p <- pinv (s |v_r|)
             for _ in range(n_sign_iter):
                 n0 = 0.0
@@ -392,5 +418,6 @@ def simulate_chunk_scans(
             resid[c, j] = np.sqrt(ss / n_los)
             uvw[c, j, 0], uvw[c, j, 1], uvw[c, j, 2] = p0, p1, p2
             uvw0[c, j, 0], uvw0[c, j, 1], uvw0[c, j, 2] = q0, q1, q2
+            uvws[c, j, 0], uvws[c, j, 1], uvws[c, j, 2] = g0, g1, g2
         _truth_into(trig, 0, roll_deg, pitch_deg, c, wd_deg[c], truth_stride, along, across, truth)
-    return v_r, uvw, uvw0, resid, truth, v_r0
+    return v_r, uvw, uvw0, resid, truth, v_r0, uvws, v_rs
