@@ -798,14 +798,9 @@ def _scan_record(s, yaw_c, settings, par, c, e_wind, geo, lay, clk):
         0 if geo.signed else 1,
         np.asarray(par["wd_deg"], float)[c : c + 1],
         clk.truth_stride,
-        np.array([_mean_heading_deg(yaw_c[0])]),
+        # the heading of the lidar held still: the record's circular mean yaw
+        np.atleast_1d(_circ_mean_deg(yaw_c[0], True, -1)),
     )
-
-
-def _mean_heading_deg(yaw_deg) -> float:
-    """Circular mean of a record's yaw series (deg): the heading of its lidar held still."""
-    y = np.deg2rad(np.asarray(yaw_deg, dtype=float))
-    return float(np.rad2deg(np.arctan2(np.sin(y).mean(), np.cos(y).mean())))
 
 
 def _imu_series(s, yaw_c, ts_ns, clk):

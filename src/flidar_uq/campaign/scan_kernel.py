@@ -385,9 +385,9 @@ def simulate_chunk_scans(
                 q1 += vr0 * pinv_t[a, 1]
                 q2 += vr0 * pinv_t[a, 2]
                 # the floating lidar held still: the body geometry turned by its heading
-                vrs = (mean_los * e0 + f0) * (cys * m0 - sys_ * m1)
-                vrs += (mean_los * e1 + f1) * (sys_ * m0 + cys * m1)
-                vrs += (mean_los * e2 + f2) * m2
+                s0_, s1_, s2_ = _rotate(1.0, 0.0, 1.0, 0.0, cys, sys_, m0, m1, m2)
+                vrs = (mean_los * e0 + f0) * s0_ + (mean_los * e1 + f1) * s1_
+                vrs += (mean_los * e2 + f2) * s2_
                 v_rs[c, j, k] = vrs
                 g0 += vrs * pinv_t[a, 0]
                 g1 += vrs * pinv_t[a, 1]
