@@ -207,26 +207,17 @@ def test_cycle_sampling_rel_var_of_a_narrow_component_and_far_from_the_aliases()
     assert none[0] == 0.0
 
 
-def test_sampling_column_of_the_dbs_record_model():
-    """A DBS lidar's record table gets the sampling column: for one wind a cycle, 0 without
-    tilt bands, positive with a swell of twice the cycle, larger than with a 7-s one; for a
-    wind after every beam (the WindCube v2's), nothing. The record fit's likelihood adds it
-    to kappa_z^2 (a record with it has a wider tau)."""
-    import dataclasses
-
+def _band_records(seed, peak_periods_s, hs_m):
+    """Tilt-band record columns of four 10-min records of a wave follower for each peak
+    period (s), a wind sea of significant height ``hs_m`` (m) from 90 deg."""
     from flidar_uq.data.imu import tilt_band_statistics, tilt_spectrum_columns
-    from flidar_uq.inference.record_fit import _record_z2_tau2
-    from flidar_uq.inference.record_motion import SAMPLING_COLUMN, motion_gram
-    from flidar_uq.physics.lidar import get_lidar
 
-    once = dataclasses.replace(get_lidar("windcube_v2"), every_beam_output=False)
-
-    rng = np.random.default_rng(np.random.SeedSequence(20261208))
+    rng = np.random.default_rng(np.random.SeedSequence(seed))
     n10 = int(600 / DT)
     cols = []
-    for tp in (7.0, 10.0):
+    for tp in peak_periods_s:
         m = hull_motion_series(
-            n10 * 4, DT, [WaveSystem(2.0, tp, 6.0, 90.0, 10.0)], rng, "wave_follower"
+            n10 * 4, DT, [WaveSystem(hs_m, tp, 6.0, 90.0, 10.0)], rng, "wave_follower"
         )
         roll, pitch = (m[c].reshape(4, n10) for c in ("roll_deg", "pitch_deg"))
         w_up = np.gradient(m["heave_m"], DT).reshape(4, n10)
@@ -234,7 +225,23 @@ def test_sampling_column_of_the_dbs_record_model():
             roll, pitch, 0.0, np.full(4, 240.0), 1 / DT, velocity_up_ms=w_up
         )
         cols.append(pd.DataFrame(tilt_spectrum_columns(spec)))
-    rec = pd.concat(cols, ignore_index=True).assign(
+    return pd.concat(cols, ignore_index=True)
+
+
+def test_sampling_column_of_the_dbs_record_model():
+    """A DBS lidar's record table gets the sampling column: for one wind a cycle, 0 without
+    tilt bands, positive with a swell of twice the cycle, larger than with a 7-s one; for a
+    wind after every beam (the WindCube v2's), nothing. The record fit's likelihood adds it
+    to kappa_z^2 (a record with it has a wider tau)."""
+    import dataclasses
+
+    from flidar_uq.inference.record_fit import _record_z2_tau2
+    from flidar_uq.inference.record_motion import SAMPLING_COLUMN, motion_gram
+    from flidar_uq.physics.lidar import get_lidar
+
+    once = dataclasses.replace(get_lidar("windcube_v2"), every_beam_output=False)
+
+    rec = _band_records(20261208, (7.0, 10.0), 2.0).assign(
         wd_mean_deg=240.0, heading_mean_deg=0.0, hws_mean_ms=8.0
     )
     gram = motion_gram(rec, lidar=once)
@@ -718,3 +725,206 @@ def test_band_of_a_wave_follower_knows_which_side_a_cross_swell_runs_on(beta, ev
         assert abs(band(-1.0) / rep - 1.0) > 0.06
     else:
         assert abs(band(0.0) / rep - 1.0) > 0.10
+
+
+@pytest.mark.parametrize(
+    ("period", "direction", "beta", "hull"),
+    [
+        (5.3, 0.0, 0.0, "rotation_only"),  # near the 5-s cycle: the error moves to 0.011 Hz
+        (4.3, 30.0, 60.0, "wave_follower"),
+        (3.1, 120.0, 20.0, "wave_follower"),
+    ],
+)
+def test_window_lines_hold_the_every_beam_replays_spectrum(period, direction, beta, hull):
+    """A WindCube v2's wind after every beam holds a component's error at the lines
+    ``f + m / T_c`` folded at its 1-s output (window_line_frequencies_hz), with the powers of
+    the phasors' transform over the windows: the LOS-level replay's periodogram puts the same
+    share of its variance within 0.004 Hz of each line (to 0.01), and the lines sum to
+    sigma_Z^2."""
+    from flidar_uq.physics.hull import G_MS2, get_hull
+    from flidar_uq.physics.lidar import get_lidar
+    from flidar_uq.physics.motion_spectrum import replay_sigma_z
+
+    amp, hws, lever, g = 2.5, 10.0, 2.0, get_lidar("windcube_v2")
+    t = np.arange(int(round(40 * 60 / DT))) * DT
+    th, omega = np.deg2rad(direction), 2 * np.pi / period
+    r_x, r_z = get_hull(hull).relative_responses(np.array(period))
+    phi = np.deg2rad(amp) * np.exp(1j * omega * t)
+    horiz = (-r_x * G_MS2 / omega**2 * phi).real
+    heave = (-1j * r_z * G_MS2 / omega**2 * phi).real
+    rep = replay_sigma_z(
+        t,
+        np.rad2deg((-phi * np.sin(th)).real),
+        np.rad2deg((phi * np.cos(th)).real),
+        hws_ms=hws,
+        wd_deg=float(dbs.wind_to_body_deg(beta)),
+        lever_arm_m=lever,
+        translation_m=np.column_stack([horiz * np.cos(th), horiz * np.sin(th), heave]),
+        lidar=g,
+    )
+    z = rep.z_ms - rep.z_ms.mean()
+    power = np.abs(np.fft.rfft(z)) ** 2
+    freq = np.fft.rfftfreq(z.size, g.output_interval_s)
+    a = dbs.dbs_error_coefficients(
+        np.array([amp]),
+        np.array([period]),
+        hws_ms=hws,
+        wind_body_deg=beta,
+        lever_arm_m=lever,
+        hull=hull,
+        lidar=g,
+        window_start=g.window_starts,
+    )[0][:, 0, :] @ np.array([1.0, np.cos(th), np.sin(th)])
+    lines = np.abs(np.fft.fft(a) / a.size) ** 2 / 2
+    assert np.sqrt(lines.sum()) == pytest.approx(z.std(), rel=0.02)
+    at = dbs.window_line_frequencies_hz(1.0 / period, g)
+    got = [power[np.abs(freq - f) < 0.004].sum() / power.sum() for f in at]
+    np.testing.assert_allclose(got, lines / lines.sum(), atol=0.01)
+    if period == 5.3:
+        assert at[np.argmax(lines)] == pytest.approx(1.0 - 1.0 / 5.3 - 0.8, abs=1e-12)
+        assert lines.max() / lines.sum() > 0.99
+
+
+def test_band_terms_window_lines_sum_to_the_window_mean():
+    rng = np.random.default_rng(np.random.SeedSequence(20261206))
+    n, nb = 7, 4
+    amp, per = rng.uniform(0.5, 3.0, (n, nb)), rng.uniform(3.0, 9.0, (n, nb))
+    cos_psi = rng.uniform(-1.0, 1.0, (n, nb))
+    mom = dbs.band_moments_to_wind(cos_psi, cos_psi**2)
+    kw = dict(wind_body_deg=rng.uniform(0, 360, n), cross_wind=True, per_band=True)
+    for lidar in ("windcube_v2", "windcube_v1"):
+        plain = dbs.dbs_band_terms(8.0 + amp[:, 0], amp, per, mom, lidar=lidar, **kw)
+        lines = dbs.dbs_band_terms(
+            8.0 + amp[:, 0], amp, per, mom, lidar=lidar, window_lines=True, **kw
+        )
+        assert lines.shape == (5 if lidar == "windcube_v2" else 1, *plain.shape)
+        np.testing.assert_allclose(lines.sum(axis=0), plain, rtol=1e-10, atol=1e-14)
+        assert np.all(lines[:, :, 0].diagonal(axis1=-2, axis2=-1) >= -1e-15)
+
+
+@pytest.mark.parametrize(
+    ("lines", "powers"),
+    [
+        ((0.0113,), (1.0,)),
+        ((0.3,), (1.0,)),
+        ((0.0113, 0.21), (0.6, 0.4)),
+        ((0.05, 0.123), (0.3, 0.7)),
+    ],
+)
+def test_output_correlation_sampling_var_is_bartletts_variance(lines, powers):
+    """The 10-min correlation of a motion error made of lines with Kaimal turbulence (a long
+    series cut into 10-min records, each record's means removed) scatters as
+    output_correlation_sampling_var says: its variance over 4000 records within 15 % (the
+    Monte Carlo's sd is 2 %; the formula's second-order ratio leaves about 5 %)."""
+    from flidar_uq.physics.turbulence import kaimal_psd
+
+    rng = np.random.default_rng(np.random.SeedSequence(20261207))
+    rec, hws, length = 600, 8.0, 340.2
+    n_long = 100 * rec
+    f = np.fft.rfftfreq(n_long, 1.0)
+    amp = np.sqrt(kaimal_psd(f, hws, 1.0, length) * n_long / 2.0)
+    amp[0] = 0.0
+    t = np.arange(rec)
+    r = []
+    for _ in range(40):
+        u = np.fft.irfft(amp * (rng.standard_normal(f.size) + 1j * rng.standard_normal(f.size)))
+        u = u.reshape(-1, rec)
+        ph = rng.uniform(0.0, 2 * np.pi, (u.shape[0], len(lines)))
+        z = sum(
+            np.sqrt(2 * p) * np.cos(2 * np.pi * fl * t + ph[:, [i]])
+            for i, (fl, p) in enumerate(zip(lines, powers, strict=True))
+        )
+        u, z = u - u.mean(1, keepdims=True), z - z.mean(1, keepdims=True)
+        r.append((u * z).sum(1) / np.sqrt((u**2).sum(1) * (z**2).sum(1)))
+    want = dbs.output_correlation_sampling_var(
+        np.array(lines)[None], np.array(powers)[None], 1e-4, hws_ms=hws, length_scale_m=length
+    )
+    assert np.var(np.concatenate(r)) == pytest.approx(float(want), rel=0.15)
+
+
+def test_output_correlation_sampling_var_near_the_turbulence():
+    """A line near 0 Hz (a wave period near the cycle's, aliased) meets the turbulence's
+    energetic scales: its correlation scatters ~100 times more than at a 3-s wave's own
+    frequency; no power, 0; the same line twice is the line."""
+    kw = dict(hws_ms=np.array([8.0, 8.0]), length_scale_m=340.2)
+    v = dbs.output_correlation_sampling_var(
+        np.array([[[0.011], [0.33]]]), np.ones((1, 2, 1)), 0.01, **kw
+    )
+    assert v[0] > 100.0 * v[1] > 0.0
+    assert 0.005 < v[0] < 0.05  # an sd of 0.07-0.2
+    none = dbs.output_correlation_sampling_var(
+        np.array([[[0.011]]]), np.zeros((1, 1, 1)), 0.01, hws_ms=8.0, length_scale_m=340.2
+    )
+    assert np.all(none == 0.0)
+    twice = dbs.output_correlation_sampling_var(
+        np.array([[[0.011, 0.011]]]), np.ones((1, 1, 2)), 0.01, hws_ms=8.0, length_scale_m=340.2
+    )
+    assert float(twice.squeeze()) == pytest.approx(float(v[0]), rel=1e-12)
+
+
+def test_rho_sampling_column_of_the_dbs_record_model(monkeypatch):
+    """A WindCube v2's record table gets the correlation-scatter column: larger for a sea
+    near its 5-s cycle (the error at the output's lines near 0 Hz) than for a 3-s one, 0
+    without tilt bands, absent for a CW lidar. The record fit's likelihood adds it to the
+    correlation's scatter (a wider tau) and the propagation to its draws of each record's
+    correlation (a wider interval)."""
+    from flidar_uq.correction.propagation import PropagationSettings, draw_corrected_ti
+    from flidar_uq.inference.record_fit import _gram_rows, _record_z2_tau2
+    from flidar_uq.inference.record_motion import RHO_SAMPLING_COLUMN, motion_gram
+    from flidar_uq.inference.results import GlobalFit
+
+    rec = _band_records(20261209, (5.0, 3.0), 1.5).assign(
+        wd_mean_deg=240.0,
+        heading_mean_deg=0.0,
+        hws_mean_ms=9.0,
+        height_m=100.0,
+        hws_std_ms=1.0,
+        ref_hws_std_ms=0.8,
+        bin_id=0,
+    )
+    gram = motion_gram(rec, lidar="windcube_v2")
+    v = gram[RHO_SAMPLING_COLUMN].to_numpy()
+    assert np.all(v > 0.0) and v[:4].mean() > 2.0 * v[4:].mean(), v
+    assert 0.002 < v[:4].mean() < 0.05, v  # an sd of 0.045-0.22 on the correlation
+    bare = rec[["wd_mean_deg", "heading_mean_deg", "hws_mean_ms"]].assign(
+        roll_amplitude_deg=2.0, pitch_amplitude_deg=2.0, roll_period_s=5.0, pitch_period_s=5.0
+    )
+    assert np.all(motion_gram(bare, lidar="windcube_v2")[RHO_SAMPLING_COLUMN] == 0.0)
+    assert RHO_SAMPLING_COLUMN not in motion_gram(bare)  # a CW lidar: no output's lines
+
+    g = gram[_gram_rows(True)].to_numpy(float).T[:, :1]
+    theta = np.array([[0.3, np.log(0.1), np.log(0.05), 2.0, 0.0, 0.0, np.log(0.03)]])
+    s_ms, r_ms = np.array([1.0]), np.array([0.8])
+    tau = _record_z2_tau2(theta, s_ms, r_ms, g, 0.0)[1]
+    g0 = g.copy()
+    g0[_gram_rows(True).index(RHO_SAMPLING_COLUMN)] = 0.0
+    assert tau[0, 0] > _record_z2_tau2(theta, s_ms, r_ms, g0, 0.0)[1][0, 0]
+
+    shape = (2, 200)
+    fit = GlobalFit(
+        draws={
+            "rho": np.full(shape, 0.2),
+            "kappa": np.full(shape, 1e-6),
+            "kappa_z": np.full(shape, 1e-6),
+            "lever_arm_m": np.full(shape, 2.0),
+            "motion_scale": np.ones(shape),
+            "hull_response": np.ones(shape),
+            "rho_sd": np.full(shape, 0.02),
+        },
+        log_lik=None,
+        diagnostics={},
+        failure_reasons=[],
+        info={"loo": {"model": "record"}, "hull_model": "translating", "n_records": 1},
+    )
+
+    def width():
+        settings = PropagationSettings(ndraws=400, lidar="windcube_v2")
+        q = draw_corrected_ti(rec, [], fit, settings=settings, seed=3).ti_quantiles
+        return q[-1] - q[0]  # the 90 % interval's width
+
+    with_lines = width()
+    monkeypatch.setattr(
+        dbs, "output_correlation_sampling_var", lambda *a, **k: np.zeros(len(k["hws_ms"]))
+    )
+    without = width()
+    assert np.all(with_lines[:4] > 1.2 * without[:4]), (with_lines, without)

@@ -8,10 +8,9 @@ import pytest
 
 from flidar_uq.inference.record_fit import _record_loglik_pointwise, _record_observations
 from flidar_uq.inference.record_motion import (
-    CROSS_WIND_COLUMNS,
+    DBS_COLUMNS,
     FOLLOWER_COLUMNS,
     GRAM_COLUMNS,
-    SAMPLING_COLUMN,
     describe_motion,
     gram_from_cw_terms,
     gram_hws_error_ms,
@@ -174,7 +173,7 @@ def test_a_negative_cross_wind_form_is_zero_in_the_likelihood_and_the_propagatio
     # likelihood and the propagation both take it as 0, so they keep the same sigma_Z
     rec = _records(80)
     (s, r, g), use, _ = _record_observations(rec, None, None, "windcube_v2")
-    assert use.all() and g.shape[0] == 33  # with the sampling row
+    assert use.all() and g.shape[0] == 34  # with the two sampling rows
     flipped, zeroed = g.copy(), g.copy()
     flipped[11:21] *= -1.0  # the cross-wind Gram negated: s_b^2 <= 0
     zeroed[11:21] = 0.0
@@ -189,7 +188,7 @@ def test_a_negative_cross_wind_form_is_zero_in_the_likelihood_and_the_propagatio
     assert np.all(
         _record_loglik_pointwise(theta, s, r, flipped) != _record_loglik_pointwise(theta, s, r, g)
     )
-    names = [*GRAM_COLUMNS, "translation_measured", *CROSS_WIND_COLUMNS, SAMPLING_COLUMN]
+    names = [*GRAM_COLUMNS, "translation_measured", *DBS_COLUMNS]
     sz = {}
     for key, rows in (("flipped", flipped), ("zeroed", zeroed)):
         gram = dict(zip(names, rows, strict=True))
@@ -281,8 +280,8 @@ def test_record_observations_hold_the_gram_of_the_configured_lidar(lidar):
     (s, r, g), use, kinds = _record_observations(rec, None, None, lidar)
     gram = motion_gram(rec, lidar=lidar)
     np.testing.assert_array_equal(g[:10], gram[list(GRAM_COLUMNS)].to_numpy().T[:, use])
-    # a DBS lidar's: + the cross-wind error and the sampling once a cycle
-    rows = 11 if lidar == "zephir300" else 11 + len(CROSS_WIND_COLUMNS) + 1
+    # a DBS lidar's: + the cross-wind error and its output's two sampling terms
+    rows = 11 if lidar == "zephir300" else 11 + len(DBS_COLUMNS)
     assert g.shape == (rows, use.sum()) and set(FOLLOWER_COLUMNS) <= set(rec)
 
 

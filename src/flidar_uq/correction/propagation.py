@@ -57,7 +57,9 @@ from flidar_uq.inference import (
 from flidar_uq.inference.observations import with_shear_exponent
 from flidar_uq.inference.record_motion import (
     CROSS_WIND_COLUMNS,
+    DBS_COLUMNS,
     GRAM_COLUMNS,
+    RHO_SAMPLING_COLUMN,
     SAMPLING_COLUMN,
     gram_hws_error_ms,
     motion_gram,
@@ -867,7 +869,8 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan, gr
     """Record motion model: each record's sigma_Z from its own measured motion, with the
     global lever arm, motion scale and the record-level motion error kappa_z (with a DBS
     lidar's record's own sampling part added in quadrature, as in the record fit), and each
-    record's correlation ``tanh(atanh(rho) + rho_sd N(0, 1))`` (the scatter of its
+    record's correlation ``tanh(atanh(rho) + rho_sd N(0, 1))`` (a DBS lidar's with its
+    record's known part added in quadrature, as in the record fit; the scatter of its
     realised correlation, :mod:`flidar_uq.inference.record_fit`; held with ``rho``), record
     chunk by record chunk (:data:`_RECORD_CHUNK`). ``grams``: the chunks' Gram tables
     by (description, chunk start), filled here and read where already there."""
@@ -880,7 +883,7 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan, gr
     rho_z = np.arctanh(p.rho)  # Fisher z of the campaign's correlation
     translation = global_fit.info.get("hull_model") != "rotation_only"  # the kept model
     hull_reference = global_fit.info.get("hull_reference", "wave_follower")
-    cols = [*GRAM_COLUMNS, "translation_measured", *CROSS_WIND_COLUMNS, SAMPLING_COLUMN]
+    cols = [*GRAM_COLUMNS, "translation_measured", *DBS_COLUMNS]
     described = np.zeros(n, dtype=bool)
     described_by = (lidar, scan, translation, hull_reference)
     for start in range(0, n, _RECORD_CHUNK):
@@ -912,7 +915,9 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan, gr
         rho = None
         if rho_sd is not None:  # drawn whatever is held: the other draws do not move
             rho = p.rng.standard_normal((p.ndraws, int(ok.sum())))
-            rho *= 0.0 if "rho" in p.hold else rho_sd
+            # a DBS lidar's record adds the scatter its output's lines make, on rho itself
+            known = g.get(RHO_SAMPLING_COLUMN, 0.0) / (1.0 - p.rho**2) ** 2
+            rho *= 0.0 if "rho" in p.hold else np.sqrt(rho_sd**2 + known)
             rho = np.tanh(rho_z + rho)
         rows = start + np.flatnonzero(ok)
         if CROSS_WIND_COLUMNS[0] in g:  # a DBS lidar's mean HWS error (its posterior median)

@@ -23,14 +23,17 @@ phasors). The model (docs/inference.md):
   correlation of the turbulence and the motion error about ``rho``, as the sd of its
   Fisher z (``atanh``; Fisher 1921: the sample correlation of ``N`` pairs has
   ``sd(atanh r) ~ 1 / sqrt(N - 3)``, so ``(1 - rho^2) s_rho`` on ``rho`` itself), through
-  ``dmu/drho = r_i sZ_i / mu_i``; ``p_i`` the known relative scatter of a reference lidar's std
+  ``dmu/drho = r_i sZ_i / mu_i`` (a DBS lidar's record adds the known part of that scatter
+  from where its output puts the motion error against the turbulence's spectrum to
+  ``(s_rho (1 - rho^2))^2``,
+  :func:`~flidar_uq.physics.dbs_sigma_z.output_correlation_sampling_var`); ``p_i`` the known relative scatter of a reference lidar's std
   against the floating lidar's motionless std (``pair_log_sd``; for a cup or sonic the
   floating lidar's own sampling scatter against the point wind):
   it is a scatter of the turbulent part ``r_i`` only, so it enters through
   ``dmu/dr = (r + rho sZ) / mu``, not in proportion to ``mu`` (first-order propagation
   through Eq. (15) for these errors). The propagation draws the same
   ``exp(kappa_z N(0, 1))`` factor on each record's sigma_Z and each record's correlation as
-  ``tanh(atanh(rho) + s_rho N(0, 1))``, so ``sZ_i`` is the median of
+  ``tanh(atanh(rho) + s_rho N(0, 1))`` (with a DBS lidar's known part), so ``sZ_i`` is the median of
   the realised motion error; the mean and the variance above take its mean,
   ``sZ_i exp(kappa_z^2 / 2)`` (a likelihood at the median made the fit's ``sZ`` absorb the
   log-normal's mean and the propagation then over-correct: the corrected TI was
@@ -53,7 +56,9 @@ from flidar_uq.inference.loo import _loo_chunked, _loo_compare
 from flidar_uq.inference.priors import Priors, SamplerSettings
 from flidar_uq.inference.record_motion import (
     CROSS_WIND_COLUMNS,
+    DBS_COLUMNS,
     GRAM_COLUMNS,
+    RHO_SAMPLING_COLUMN,
     SAMPLING_COLUMN,
     describe_motion,
     gram_coefficients,
@@ -121,11 +126,13 @@ def _record_z2_tau2(theta, s, r, gram, pair_sq):
     entries :data:`~flidar_uq.inference.record_motion.GRAM_COLUMNS` of
     :func:`~flidar_uq.inference.record_motion.motion_gram` and the measured-translation
     flag (``h = 1`` there; 10 rows: none measured); ``sZ^2`` is one (walkers x 10) by
-    (10 x records) product. A DBS lidar's 33 rows add its
+    (10 x records) product. A DBS lidar's 34 rows add its
     :data:`~flidar_uq.inference.record_motion.CROSS_WIND_COLUMNS` (sZ to fourth order in
-    the cross-wind error, :func:`~flidar_uq.physics.dbs_sigma_z.hws_error_moments`) and
+    the cross-wind error, :func:`~flidar_uq.physics.dbs_sigma_z.hws_error_moments`),
     :data:`~flidar_uq.inference.record_motion.SAMPLING_COLUMN`, the variance of the
-    record's ``log sZ`` from its sampling once an output interval, added to ``kappa_z^2``.
+    record's ``log sZ`` from its sampling once an output interval, added to ``kappa_z^2``,
+    and :data:`~flidar_uq.inference.record_motion.RHO_SAMPLING_COLUMN`, the variance of its
+    realised correlation from its output's lines, added to ``(s_rho (1 - rho^2))^2``.
     """
     rho = theta[:, 0:1]
     kappa_sq = np.exp(2.0 * theta[:, 1:2])
@@ -137,6 +144,8 @@ def _record_z2_tau2(theta, s, r, gram, pair_sq):
     lever = theta[:, 3]
     # the scatter of a record's correlation, sd of its Fisher z times d rho / d z = 1 - rho^2
     rho_scatter_sq = (np.exp(theta[:, 6:7]) * (1.0 - rho * rho)) ** 2
+    if gram.shape[0] > _RHO_SAMPLING_ROW:  # a DBS lidar's record: its output's lines
+        rho_scatter_sq = rho_scatter_sq + gram[_RHO_SAMPLING_ROW]
     coef = gram_coefficients(k, h, lever)  # (n_walkers, 10)
     # measured translation: the response is known (h = 1)
     meas = gram[10] if gram.shape[0] > 10 and np.any(gram[10]) else None
@@ -334,14 +343,15 @@ def _broad(lever_arm_prior):
 def _gram_rows(cross_wind: bool) -> list[str]:
     """The rows of the observations' ``gram`` (:func:`_record_observations`), the columns
     of :func:`motion_gram` it holds: :data:`GRAM_COLUMNS` and ``translation_measured``,
-    with ``cross_wind`` (a DBS lidar's) :data:`CROSS_WIND_COLUMNS` and
-    :data:`SAMPLING_COLUMN`."""
-    dbs = (*CROSS_WIND_COLUMNS, SAMPLING_COLUMN) if cross_wind else ()
+    with ``cross_wind`` (a DBS lidar's) :data:`DBS_COLUMNS`."""
+    dbs = DBS_COLUMNS if cross_wind else ()
     return [*GRAM_COLUMNS, "translation_measured", *dbs]
 
 
-#: The row of :data:`SAMPLING_COLUMN` in a DBS lidar's observations (:func:`_gram_rows`).
+#: The rows of :data:`SAMPLING_COLUMN` and :data:`RHO_SAMPLING_COLUMN` in a DBS lidar's
+#: observations (:func:`_gram_rows`).
 _SAMPLING_ROW = _gram_rows(True).index(SAMPLING_COLUMN)
+_RHO_SAMPLING_ROW = _gram_rows(True).index(RHO_SAMPLING_COLUMN)
 
 
 @single_threaded
@@ -352,8 +362,8 @@ def _record_observations(
 
     Returns ``((s, r, gram), use, kinds)``: measured std ``s`` (m/s), reference std ``r``
     (m/s) and the motion error ``gram`` (11, n) (:func:`motion_gram`'s
-    :data:`GRAM_COLUMNS` and ``translation_measured``; a DBS lidar's 33 rows with its
-    :data:`CROSS_WIND_COLUMNS` and :data:`SAMPLING_COLUMN`, :func:`_gram_rows`) of the usable records (all finite
+    :data:`GRAM_COLUMNS` and ``translation_measured``; a DBS lidar's 34 rows with its
+    :data:`DBS_COLUMNS`, :func:`_gram_rows`) of the usable records (all finite
     and ``s, r > 0``), the mask ``use`` over ``records`` and every record's motion
     description kind.
     """
@@ -372,7 +382,7 @@ def _record_observations(
         else np.full(len(records), np.nan)
     )
     kinds = mot["motion_description"].to_numpy()
-    # (11, n), a DBS lidar's (33, n)
+    # (11, n), a DBS lidar's (34, n)
     gram = mot[_gram_rows(CROSS_WIND_COLUMNS[0] in mot)].to_numpy(dtype=float).T
     use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.all(np.isfinite(gram), axis=0)
     return (s[use], r[use], np.ascontiguousarray(gram[:, use])), use, kinds
@@ -427,7 +437,7 @@ HULL_NEGLIGIBLE_SIGMA_Z_SHARE = 0.01
 def _hull_response_negligible(nat: dict[str, np.ndarray], gram: np.ndarray) -> bool:
     """True when the hull response's posterior (95 % quantile against 0) changes no
     record's sigma_Z by more than :data:`HULL_NEGLIGIBLE_SIGMA_Z_SHARE`, at the median lever
-    arm and motion scale; ``gram`` (11, n), a DBS lidar's (33, n), as
+    arm and motion scale; ``gram`` (11, n), a DBS lidar's (34, n), as
     :func:`_record_observations` returns it."""
     if not gram.shape[1]:
         return True

@@ -44,6 +44,8 @@ __all__ = [
     "GRAM_COLUMNS",
     "CROSS_WIND_COLUMNS",
     "SAMPLING_COLUMN",
+    "RHO_SAMPLING_COLUMN",
+    "DBS_COLUMNS",
     "gram_hws_error_ms",
     "MEASURED_TRANSLATION_COLUMNS",
     "MOTION_DESCRIPTIONS",
@@ -697,6 +699,15 @@ CROSS_WIND_COLUMNS = (
 #: ``kappa_z^2`` in the record fit and the propagation. 0 for a record without tilt bands,
 #: or whose bands stay below half the output rate (a wind after every beam).
 SAMPLING_COLUMN = "sigma_z_sampling_log_var"
+#: A DBS lidar's record: the variance (-) of the record's realised correlation of the motion
+#: error with the turbulence about the campaign's, from where the lidar's output puts the
+#: error's power against the turbulence's spectrum
+#: (:func:`flidar_uq.physics.dbs_sigma_z.output_correlation_sampling_var`, at the same
+#: scale as :data:`SAMPLING_COLUMN`'s): it adds to ``(rho_sd (1 - rho^2))^2`` in the record
+#: fit and the propagation. 0 for a record without tilt bands.
+RHO_SAMPLING_COLUMN = "rho_sampling_var"
+#: A DBS lidar's columns beside :data:`GRAM_COLUMNS`, in :func:`motion_gram`'s order.
+DBS_COLUMNS = (*CROSS_WIND_COLUMNS, SAMPLING_COLUMN, RHO_SAMPLING_COLUMN)
 _GRAM_IJ = tuple((i, j) for i in range(4) for j in range(i, 4))
 #: entries of GRAM_COLUMNS that carry the hull response (a row or column 1 or 3)
 _HULL_ENTRIES = tuple(n for n, (i, j) in enumerate(_GRAM_IJ) if {i, j} & {1, 3})
@@ -764,15 +775,17 @@ def _dbs_banded(records: pd.DataFrame, hws_ms):
 
 
 def _dbs_gram(records, g, n_headings, translation, nodes):
-    """(32, n) Gram entries (:data:`GRAM_COLUMNS`, :data:`CROSS_WIND_COLUMNS` and
-    :data:`SAMPLING_COLUMN`), measured flag and description of a DBS lidar
-    (:func:`motion_gram`)."""
+    """(33, n) Gram entries (:data:`GRAM_COLUMNS` and :data:`DBS_COLUMNS`), measured flag
+    and description of a DBS lidar (:func:`motion_gram`)."""
     from flidar_uq.physics.dbs_sigma_z import (
         band_moments_to_wind,
         cycle_sampling_rel_var,
         dbs_band_terms,
         dbs_record_terms,
+        output_correlation_sampling_var,
+        window_line_frequencies_hz,
     )
+    from flidar_uq.physics.turbulence import kaimal_length_scales_m
 
     a_r, a_p, t_r, t_p, ok = _dbs_motion(records)
     hws = _col(records, "hws_mean_ms")
@@ -782,7 +795,11 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
     known = np.isfinite(beta)
     shear = records_shear_exponent(records)
     r_z, r_x = measured_response(records)
-    out = np.full((32, len(records)), np.nan)
+    # the turbulence's Kaimal length scale at the record's height (without heights: above
+    # 60 m, IEC 61400-1's Lambda_1 = 42 m)
+    length_u = kaimal_length_scales_m(_col(records, "height_m"))[:, 0]
+    length_u = np.where(np.isfinite(length_u), length_u, kaimal_length_scales_m(60.0)[0])
+    out = np.full((33, len(records)), np.nan)
     if np.any(banded):
         mom = band_moments_to_wind(
             band_cos_psi(bands, hws, banded),
@@ -820,7 +837,7 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
             for part in _row_chunks(idx.size):
                 i = idx[part]
                 rows = np.flatnonzero(banded)[i]
-                per_node = dbs_band_terms(
+                lines = dbs_band_terms(
                     hws[rows],
                     amp[i],
                     per[i],
@@ -831,12 +848,21 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
                     cross_wind=True,
                     shear_exponent=shear[rows],
                     per_band=True,
-                )  # (n, 3, nodes, 4, 4)
+                    window_lines=True,
+                )  # (S, n, 3, nodes, 4, 4): the output's lines of each node
+                per_node = lines.sum(axis=0)
                 out[:30, rows] = _gram_entries(per_node.sum(axis=2))
-                power = np.einsum("ni,ncij,nj->nc", coef[rows], per_node[:, 0], coef[rows])
+                power = np.einsum("ni,sncij,nj->snc", coef[rows], lines[:, :, 0], coef[rows])
                 # Var(log sigma_Z) = Var(Var Z / E Var Z) / 4 to first order
                 out[31, rows] = 0.25 * cycle_sampling_rel_var(
-                    1.0 / per[i], power, width_hz, cycle_s=g.output_interval_s
+                    1.0 / per[i], power.sum(axis=0), width_hz, cycle_s=g.output_interval_s
+                )
+                out[32, rows] = output_correlation_sampling_var(
+                    window_line_frequencies_hz(1.0 / per[i], g),
+                    power,
+                    width_hz,
+                    hws_ms=hws[rows],
+                    length_scale_m=length_u[rows],
                 )
     rp = ok & ~banded
     for sel, wb in ((rp & known, beta), (rp & ~known, None)):
@@ -858,7 +884,7 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
     ok |= banded
     with np.errstate(divide="ignore"):
         out[30, ok] = 1.0 / hws[ok] ** 2
-    out[31, ok & ~banded] = 0.0  # a harmonic's spread is not known without the bands
+    out[31:33, ok & ~banded] = 0.0  # a harmonic's spread is not known without the bands
     # a record described by its tilt bands has the wave follower's translation through them
     follower = ok & (_follower_complete(records) | banded) & translation
     hull = [n + part for part in (0, 10, 20) for n in _HULL_ENTRIES]
@@ -940,8 +966,8 @@ def motion_gram(
     -------
     pandas.DataFrame
         Index of ``records``; :data:`GRAM_COLUMNS` (units there; NaN where the record has
-        no motion description; a DBS lidar's also :data:`CROSS_WIND_COLUMNS` and
-        :data:`SAMPLING_COLUMN`), ``translation_measured`` (1 or 0, -) and
+        no motion description; a DBS lidar's also :data:`DBS_COLUMNS`),
+        ``translation_measured`` (1 or 0, -) and
         ``motion_description`` (:data:`MOTION_DESCRIPTIONS`).
     """
     g = get_lidar("zephir300" if lidar is None else lidar)
@@ -961,11 +987,7 @@ def motion_gram(
             *(terms[c].to_numpy() for c in terms.columns[:4]),
         )
         meas, kind = terms["translation_measured"].to_numpy() > 0, mot["motion_description"]
-    names = (
-        GRAM_COLUMNS
-        if len(gram) == len(GRAM_COLUMNS)
-        else (*GRAM_COLUMNS, *CROSS_WIND_COLUMNS, SAMPLING_COLUMN)
-    )
+    names = GRAM_COLUMNS if len(gram) == len(GRAM_COLUMNS) else (*GRAM_COLUMNS, *DBS_COLUMNS)
     out = pd.DataFrame(dict(zip(names, gram, strict=True)), index=records.index)
     out["translation_measured"] = np.asarray(meas, float)
     out["motion_description"] = np.asarray(kind)

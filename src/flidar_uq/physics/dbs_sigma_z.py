@@ -69,6 +69,7 @@ from flidar_uq.physics.lidar import (
     window_beam_times_s,
 )
 from flidar_uq.physics.surrogate import PERIOD_RANGE_S
+from flidar_uq.physics.turbulence import kaimal_psd
 
 __all__ = [
     "DBS_MECHANISMS",
@@ -88,6 +89,8 @@ __all__ = [
     "hws_error_moments",
     "dbs_replay_sigma_z_ms",
     "cycle_sampling_rel_var",
+    "output_correlation_sampling_var",
+    "window_line_frequencies_hz",
     "wind_to_body_deg",
 ]
 
@@ -681,6 +684,7 @@ def _basis_gram(
     cross_wind=False,
     shear=0.0,
     per_component=False,
+    window_lines=False,
 ):
     """Gram matrices (..., 4, 4) of the :data:`TERM_BASIS` phasors at one wind direction.
 
@@ -693,6 +697,8 @@ def _basis_gram(
     ``cross_wind``: (..., 3, 4, 4), the along-wind error's, the cross-wind error's and
     their covariance's (symmetric part) Gram matrices (:data:`GRAM_PARTS`).
     ``per_component``: each component's own, (..., [3,] nc, 4, 4), which sum to them.
+    ``window_lines``: a leading axis of the ``S`` spectral lines of the error over the
+    retrieval windows (:func:`window_line_frequencies_hz`), which sum to them.
     """
     from flidar_uq.physics.hull import DofResponse, HullResponse
 
@@ -730,13 +736,131 @@ def _basis_gram(
         )
         for mech, hull, lever in basis
     ]
-    a = np.stack([c[0] for c in coef], axis=-3)  # (S, ..., 4, nc, 3): along the wind
+    # the phasors' discrete Fourier transform over the S windows: line m of a component at
+    # f is the error's power at f + m / (S dt) (:func:`window_line_frequencies_hz`); by
+    # Parseval the lines sum to the mean over the windows
+    n_windows = len(g.window_starts)
+    a = np.fft.fft(np.stack([c[0] for c in coef], axis=-3), axis=0) / n_windows  # along
     if not cross_wind:
-        return np.mean(gram(a, a), axis=0)  # the mean over the windows
-    b = np.stack([c[1] for c in coef], axis=-3)  # across the wind
-    cov = gram(a, b)
-    parts = [gram(a, a), gram(b, b), 0.5 * (cov + np.swapaxes(cov, -1, -2))]
-    return np.mean(np.stack(parts, axis=-4 if per_component else -3), axis=0)
+        lines = gram(a, a)
+    else:
+        b = np.fft.fft(np.stack([c[1] for c in coef], axis=-3), axis=0) / n_windows  # across
+        cov = gram(a, b)
+        parts = [gram(a, a), gram(b, b), 0.5 * (cov + np.swapaxes(cov, -1, -2))]
+        lines = np.stack(parts, axis=-4 if per_component else -3)
+    return lines if window_lines else lines.sum(axis=0)
+
+
+def window_line_frequencies_hz(frequency_hz, lidar: str | LidarGeometry | Mapping):
+    """Frequencies (Hz) at which a DBS lidar's output holds a motion component's error.
+
+    A lidar with ``S`` retrieval windows an output interval ``dt`` apart (a wind after
+    every beam, :attr:`~flidar_uq.physics.lidar.LidarGeometry.window_starts`) weighs a
+    component ``exp(i omega t)`` by a phasor ``delta_s`` that repeats with the window's
+    place ``s`` in the cycle, so its output ``Re(delta_s exp(i omega n dt))`` is a sum of
+    lines at ``f + m / (S dt)``, ``m = 0 .. S - 1``, with the powers of the discrete
+    Fourier transform of ``delta_s`` (``window_lines`` of the band terms), sampled every
+    ``dt``: folded into ``[0, 1 / (2 dt)]``. One window a cycle (``S = 1``): the
+    component's own frequency, folded at the cycle. Returns shape ``(S,) + f.shape``.
+    """
+    g = get_lidar(lidar)
+    n_windows, dt = len(g.window_starts), float(g.output_interval_s)
+    f = np.asarray(frequency_hz, float)
+    lines = f[None] + np.arange(n_windows).reshape((-1,) + (1,) * f.ndim) / (n_windows * dt)
+    return np.abs((lines + 0.5 / dt) % (1.0 / dt) - 0.5 / dt)
+
+
+#: Sub-points of a line's width over which the turbulence's spectrum is averaged
+#: (:func:`output_correlation_sampling_var`).
+_LINE_SUBPOINTS = 16
+
+
+@functools.cache
+def _kaimal_record_table():
+    """``log(T U / L)`` nodes and, at each, the share of a Kaimal spectrum's variance within a
+    record of ``T`` (its mean removed: ``1 - sinc^2(f T)``) and that record variance's
+    relative variance times ``T U / L`` (:func:`_kaimal_record_moments`)."""
+    log_x = np.linspace(np.log(0.1), np.log(1e5), 241)
+    g = np.geomspace(1e-7, 1e3, 6000)  # f L / U
+    dg = np.diff(g)
+    dens = 4.0 / (1.0 + 6.0 * g) ** (5.0 / 3.0) * (1.0 - np.sinc(g * np.exp(log_x)[:, None]) ** 2)
+    var = np.sum(0.5 * (dens[:, 1:] + dens[:, :-1]) * dg, axis=-1)
+    sq = np.sum(0.5 * (dens[:, 1:] ** 2 + dens[:, :-1] ** 2) * dg, axis=-1)
+    return log_x, var, sq / var**2
+
+
+def _kaimal_record_moments(record_over_tau):
+    """Share (-) of a Kaimal spectrum's variance within a record (the record's mean removed)
+    and the relative variance (-) of that record variance for a Gaussian process,
+    ``(1 / T) int S^2 df / (int S df)^2``, at ``T U / L`` (-)."""
+    log_x, var, sq = _kaimal_record_table()
+    x = np.log(np.clip(np.asarray(record_over_tau, float), np.exp(log_x[0]), np.exp(log_x[-1])))
+    return np.interp(x, log_x, var), np.interp(x, log_x, sq) / np.exp(x)
+
+
+def output_correlation_sampling_var(
+    line_hz, power, width_hz, *, hws_ms, length_scale_m, record_s=RECORD_S
+):
+    """Variance (-) of a record's realised correlation of the motion error with the
+    turbulence about its expectation, from where the lidar's output puts the error's power.
+
+    The sample correlation over ``T`` of two processes with correlation functions
+    ``rho_Z`` and ``rho_u`` and no correlation between them scatters with
+    ``Var r = (1 / T) int rho_Z(tau) rho_u(tau) dtau`` (Bartlett 1946; Box & Jenkins 1976,
+    Eq. 11.1.7), that is ``(1 / (2 T)) int S_Z(f) S_u(f) df`` with the one-sided spectra
+    normalised to the variance within a record (the record's mean removed: a factor
+    ``1 - sinc^2(f T)`` on each, about 0.8 of the Kaimal variance at 10 m/s and 100 m
+    reaches a 10-min std). A motion error at the wave's frequency meets little turbulence
+    (``Var r`` of the order of 1e-4 at a 3-s period), but a DBS lidar's output moves it to
+    the lines of :func:`window_line_frequencies_hz`, down to the turbulence's energetic
+    scales where a wave period is near a multiple of the output interval: there a 10-min
+    correlation scatters by up to 0.1. ``S_u`` is the Kaimal spectrum of the along-wind
+    component (IEC 61400-1 Ed. 3, Eq. B.1, :func:`flidar_uq.physics.turbulence.kaimal_psd`),
+    averaged over each line's width.
+
+    Parameters
+    ----------
+    line_hz : array_like, shape (S, ..., nc)
+        Each component's lines (Hz, :func:`window_line_frequencies_hz`).
+    power : array_like, shape (S, ..., nc)
+        Each line's share of ``Var Z`` (any unit, >= 0; NaN counts as 0).
+    width_hz : array_like, shape (nc,) or broadcastable
+        Each component's frequency width (Hz, > 0), each line's too.
+    hws_ms, length_scale_m : array_like, shape (...)
+        Mean wind speed (m/s) and the Kaimal length scale of ``u`` (m).
+    record_s : float
+        Record length, s.
+
+    Returns
+    -------
+    numpy.ndarray, shape (...)
+        ``Var r`` (-), 0 where the powers add up to 0.
+    """
+    f = np.asarray(line_hz, float)
+    pw = np.asarray(power, float)
+    pw = np.where(np.isfinite(pw) & np.isfinite(f), np.maximum(pw, 0.0), 0.0)
+    w = np.broadcast_to(np.asarray(width_hz, float), f.shape)
+    u = np.asarray(hws_ms, float)
+    length = np.asarray(length_scale_m, float)
+    record = float(record_s)
+
+    def within_record(f_hz, uu, ll):  # the Kaimal spectrum less what the record's mean takes
+        return kaimal_psd(f_hz, uu, 1.0, ll) * (1.0 - np.sinc(f_hz * record) ** 2)
+
+    spectrum = 0.0
+    for x in (np.arange(_LINE_SUBPOINTS) + 0.5) / _LINE_SUBPOINTS - 0.5:
+        spectrum = spectrum + within_record(np.abs(f + x * w), u[..., None], length[..., None])
+    spectrum /= _LINE_SUBPOINTS
+    # normalised by the turbulence's variance within a record (a 10-min std's square); the
+    # 10-min variance itself scatters (relative variance (1 / T) int S^2 df / var^2 of a
+    # Gaussian process) and the correlation divides by it: E[1 / s^2] ~ (1 + CV^2) / E[s^2]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        var_u, cv_sq = _kaimal_record_moments(record * u / length)
+    total = np.sum(pw, axis=(0, -1))
+    num = np.sum(pw * np.where(pw > 0, spectrum, 0.0), axis=(0, -1))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = np.where(total > 0, num / total, 0.0)
+        return rel * (1.0 + cv_sq) / var_u / (2.0 * record)
 
 
 def _heading_grid(n_headings: int) -> np.ndarray:
@@ -980,6 +1104,7 @@ def dbs_band_terms(
     cross_wind: bool = False,
     shear_exponent=None,
     per_band: bool = False,
+    window_lines: bool = False,
 ) -> np.ndarray:
     """Per-record Gram matrix of a DBS lidar's error phasors from the record's tilt bands.
 
@@ -1013,7 +1138,9 @@ def dbs_band_terms(
     -------
     ndarray, shape (n, 4, 4), or (n, 3, 4, 4) with ``cross_wind``
         ``G`` in (m/s)^2 (per m and m^2 for the lever-arm rows); with ``per_band``
-        (n, nb, 4, 4) or (n, 3, nb, 4, 4), which sum over ``nb`` to it.
+        (n, nb, 4, 4) or (n, 3, nb, 4, 4), which sum over ``nb`` to it; with
+        ``window_lines`` a leading axis of the output's ``S`` lines
+        (:func:`window_line_frequencies_hz`), which sum to it.
     """
     hws = np.asarray(hws_ms, float)
     shear = _shear_or_zero(shear_exponent, hws.shape)
@@ -1034,6 +1161,7 @@ def dbs_band_terms(
             cross_wind,
             shear,
             per_band,
+            window_lines,
         )
         for b in betas
     )
