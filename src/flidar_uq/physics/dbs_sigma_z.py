@@ -809,14 +809,18 @@ def output_correlation_sampling_var(
     ``Var r = (1 / T) int rho_Z(tau) rho_u(tau) dtau`` (Bartlett 1946; Box & Jenkins 1976,
     Eq. 11.1.7), that is ``(1 / (2 T)) int S_Z(f) S_u(f) df`` with the one-sided spectra
     normalised to the variance within a record (the record's mean removed: a factor
-    ``1 - sinc^2(f T)`` on each, about 0.8 of the Kaimal variance at 10 m/s and 100 m
-    reaches a 10-min std). A motion error at the wave's frequency meets little turbulence
-    (``Var r`` of the order of 1e-4 at a 3-s period), but a DBS lidar's output moves it to
-    the lines of :func:`window_line_frequencies_hz`, down to the turbulence's energetic
-    scales where a wave period is near a multiple of the output interval: there a 10-min
-    correlation scatters by up to 0.1. ``S_u`` is the Kaimal spectrum of the along-wind
-    component (IEC 61400-1 Ed. 3, Eq. B.1, :func:`flidar_uq.physics.turbulence.kaimal_psd`),
-    averaged over each line's width.
+    ``1 - sinc^2(f T)`` on each; 0.90 of the Kaimal variance at 10 m/s and 100 m reaches a
+    10-min std), times ``1 + CV^2``: the sample correlation divides by the record's own
+    variance, which scatters with a relative variance ``CV^2 = (1 / T) int S_u^2 df`` for a
+    Gaussian process (``E[1 / s^2] ~ (1 + CV^2) / E[s^2]``; 0.05 at 10 m/s). A motion error
+    at the wave's frequency meets little turbulence (``Var r`` 1.1e-4 for a line at 3 s and
+    10 m/s), but a DBS lidar's output moves it to the lines of
+    :func:`window_line_frequencies_hz`, down to the turbulence's energetic scales where a
+    wave period is near a multiple of the output interval (0.02, an sd of 0.14, for a line
+    at 0.011 Hz). ``S_u`` is the Kaimal spectrum of the along-wind component (IEC 61400-1
+    Ed. 3, Eq. B.1, :func:`flidar_uq.physics.turbulence.kaimal_psd`), averaged over each
+    line's width. Against Monte Carlo it gives 0.94-0.97 of the realised variance
+    (``tests/test_dbs_sigma_z.py``).
 
     Parameters
     ----------
@@ -851,9 +855,7 @@ def output_correlation_sampling_var(
     for x in (np.arange(_LINE_SUBPOINTS) + 0.5) / _LINE_SUBPOINTS - 0.5:
         spectrum = spectrum + within_record(np.abs(f + x * w), u[..., None], length[..., None])
     spectrum /= _LINE_SUBPOINTS
-    # normalised by the turbulence's variance within a record (a 10-min std's square); the
-    # 10-min variance itself scatters (relative variance (1 / T) int S^2 df / var^2 of a
-    # Gaussian process) and the correlation divides by it: E[1 / s^2] ~ (1 + CV^2) / E[s^2]
+    # normalised by the turbulence's variance within a record, times 1 + CV^2 (docstring)
     with np.errstate(invalid="ignore", divide="ignore"):
         var_u, cv_sq = _kaimal_record_moments(record * u / length)
     total = np.sum(pw, axis=(0, -1))
