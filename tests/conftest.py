@@ -38,3 +38,29 @@ def require_tool(name: str) -> str:
 def rng() -> np.random.Generator:
     """A deterministic generator; tests never touch the global numpy seed."""
     return np.random.default_rng(np.random.SeedSequence(20181122))
+
+
+@pytest.fixture
+def constant_fit():
+    """A factory of global fits whose draws hold constant values:
+    ``constant_fit(rho=0.2, lever_arm_m=2.0, record=True, shape=(2, 50))``. ``record``: the
+    record model's (its LOO and hull model in ``info``), else the bin model's global fit."""
+    from flidar_uq.inference.results import GlobalFit
+
+    def make(*, record: bool = False, shape: tuple[int, int] = (4, 50), **values) -> GlobalFit:
+        draws = {k: np.full(shape, float(v)) for k, v in values.items()}
+        if record:
+            info = {"loo": {"model": "record"}, "hull_model": "translating", "n_records": 1}
+            return GlobalFit(
+                draws=draws, log_lik=None, diagnostics={}, failure_reasons=[], info=info
+            )
+        info = {"n_records": 1, "prior_only": False, "loo": {}}
+        return GlobalFit(
+            draws=draws,
+            log_lik=np.zeros((*shape, 1)),
+            diagnostics={},
+            failure_reasons=[],
+            info=info,
+        )
+
+    return make

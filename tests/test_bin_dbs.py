@@ -13,7 +13,6 @@ import pytest
 from flidar_uq.correction.propagation import PropagationSettings, draw_corrected_ti
 from flidar_uq.inference import (
     BinFit,
-    GlobalFit,
     Priors,
     SamplerSettings,
     effective_sigma_z_ms,
@@ -193,7 +192,7 @@ def _dbs_records(n, seed):
     )
 
 
-def test_propagation_bin_path_uses_the_dbs_terms_at_each_records_heading(surrogate):
+def test_propagation_bin_path_uses_the_dbs_terms_at_each_records_heading(surrogate, constant_fit):
     """draw_corrected_ti on the bin model with a DBS lidar: each record's sigma_Z median is
     the DBS quadratic form at the global lever arm and motion scale, with the record's own
     wind direction relative to the beams (wd_mean_deg, heading_mean_deg), the heading
@@ -201,13 +200,9 @@ def test_propagation_bin_path_uses_the_dbs_terms_at_each_records_heading(surroga
     rec = _dbs_records(8, 4).assign(hws_std_ms=1.2)
     fit = _unimodal(np.full(SHAPE, 3.0), np.full(SHAPE, 3.2))
     lever, k = 2.0, 1.1
-    gf = GlobalFit(
-        draws={"rho": np.zeros(SHAPE), "tau0_ms": np.full(SHAPE, 1e-6),
-               "kappa": np.full(SHAPE, 1e-6), "lever_arm_m": np.full(SHAPE, lever),
-               "motion_scale": np.full(SHAPE, k)},
-        log_lik=np.zeros(SHAPE + (1,)), diagnostics={}, failure_reasons=[],
-        info={"n_records": 1, "prior_only": False, "loo": {}},
-    )  # fmt: skip
+    gf = constant_fit(
+        shape=SHAPE, rho=0.0, tau0_ms=1e-6, kappa=1e-6, lever_arm_m=lever, motion_scale=k
+    )
     d = draw_corrected_ti(
         rec, [fit], gf, settings=PropagationSettings(ndraws=50, lidar=LIDAR), seed=1
     )

@@ -862,7 +862,7 @@ def test_output_correlation_sampling_var_near_the_turbulence():
     assert float(twice.squeeze()) == pytest.approx(float(v[0]), rel=1e-12)
 
 
-def test_rho_sampling_column_of_the_dbs_record_model(monkeypatch):
+def test_rho_sampling_column_of_the_dbs_record_model(monkeypatch, constant_fit):
     """A WindCube v2's record table gets the correlation-scatter column: larger for a sea
     near its 5-s cycle (the error at the output's lines near 0 Hz) than for a 3-s one, 0
     without tilt bands, absent for a CW lidar. The record fit's likelihood adds it to the
@@ -871,7 +871,6 @@ def test_rho_sampling_column_of_the_dbs_record_model(monkeypatch):
     from flidar_uq.correction.propagation import PropagationSettings, draw_corrected_ti
     from flidar_uq.inference.record_fit import _gram_rows, _record_z2_tau2
     from flidar_uq.inference.record_motion import RHO_SAMPLING_COLUMN, motion_gram
-    from flidar_uq.inference.results import GlobalFit
 
     rec = _band_records(20261209, (5.0, 3.0), 1.5).assign(
         wd_mean_deg=240.0,
@@ -900,21 +899,16 @@ def test_rho_sampling_column_of_the_dbs_record_model(monkeypatch):
     g0[_gram_rows(True).index(RHO_SAMPLING_COLUMN)] = 0.0
     assert tau[0, 0] > _record_z2_tau2(theta, s_ms, r_ms, g0, 0.0)[1][0, 0]
 
-    shape = (2, 200)
-    fit = GlobalFit(
-        draws={
-            "rho": np.full(shape, 0.2),
-            "kappa": np.full(shape, 1e-6),
-            "kappa_z": np.full(shape, 1e-6),
-            "lever_arm_m": np.full(shape, 2.0),
-            "motion_scale": np.ones(shape),
-            "hull_response": np.ones(shape),
-            "rho_sd": np.full(shape, 0.02),
-        },
-        log_lik=None,
-        diagnostics={},
-        failure_reasons=[],
-        info={"loo": {"model": "record"}, "hull_model": "translating", "n_records": 1},
+    fit = constant_fit(
+        record=True,
+        shape=(2, 200),
+        rho=0.2,
+        kappa=1e-6,
+        kappa_z=1e-6,
+        lever_arm_m=2.0,
+        motion_scale=1.0,
+        hull_response=1.0,
+        rho_sd=0.02,
     )
 
     def width():

@@ -19,7 +19,6 @@ from flidar_uq.inference.record_motion import (
     per_record_motion,
     six_dof_terms,
 )
-from flidar_uq.inference.results import GlobalFit
 from flidar_uq.physics.dbs_sigma_z import (
     dbs_record_terms,
     dbs_sigma_z_from_terms,
@@ -227,30 +226,24 @@ def test_heading_turned_by_90_deg_changes_a_dbs_lidars_sigma_z_not_a_cw_lidars()
             np.testing.assert_array_equal(a, b)
 
 
-def _record_fit(lever=2.0, hull=0.3):
-    shape = (2, 50)
-    draws = {
-        "rho": np.full(shape, 0.1),
-        "kappa": np.full(shape, 1e-6),
-        "kappa_z": np.full(shape, 1e-6),
-        "lever_arm_m": np.full(shape, lever),
-        "motion_scale": np.ones(shape),
-        "hull_response": np.full(shape, hull),
-    }
-    return GlobalFit(
-        draws=draws,
-        log_lik=None,
-        diagnostics={},
-        failure_reasons=[],
-        info={"loo": {"model": "record"}, "hull_model": "translating", "n_records": 1},
+def _record_fit(make, lever=2.0, hull=0.3):
+    return make(
+        record=True,
+        shape=(2, 50),
+        rho=0.1,
+        kappa=1e-6,
+        kappa_z=1e-6,
+        lever_arm_m=lever,
+        motion_scale=1.0,
+        hull_response=hull,
     )
 
 
-def test_propagation_uses_the_configured_lidars_sigma_z():
+def test_propagation_uses_the_configured_lidars_sigma_z(constant_fit):
     from flidar_uq.correction.propagation import PropagationSettings, draw_corrected_ti
 
     rec = _records(30).assign(bin_id=0)
-    fit = _record_fit()
+    fit = _record_fit(constant_fit)
     out = {}
     for lidar in ("zephir300", "windcube_v2"):
         draws = draw_corrected_ti(
@@ -285,7 +278,9 @@ def test_record_observations_hold_the_gram_of_the_configured_lidar(lidar):
     assert g.shape == (rows, use.sum()) and set(FOLLOWER_COLUMNS) <= set(rec)
 
 
-def test_reference_hull_scales_the_translation_by_its_response_and_the_propagation_follows():
+def test_reference_hull_scales_the_translation_by_its_response_and_the_propagation_follows(
+    constant_fit,
+):
     """inference.hull_reference: with moments the heave and orbital terms take the hull's
     relative responses at the heave's mean period (a discus buoy's differ from 1 below its
     natural periods, a wave follower's are 1); measured records keep the measured size
@@ -327,7 +322,7 @@ def test_reference_hull_scales_the_translation_by_its_response_and_the_propagati
     )
     assert not np.allclose(dis["gram_k_kh"][meas], fol["gram_k_kh"][meas])
     assert not np.allclose(dis["gram_hh"][free], fol["gram_hh"][free])
-    fit = _record_fit(hull=1.0)
+    fit = _record_fit(constant_fit, hull=1.0)
     fit.info["hull_reference"] = "discus_buoy"
     draws = draw_corrected_ti(rec, [], fit, settings=PropagationSettings(ndraws=50), seed=3)
     want = gram_sigma_z_ms(dis, lever_arm_m=2.0, hull_response=1.0)

@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from flidar_uq.campaign.scenarios import load_scenario
 from flidar_uq.data.calibration import calibration_by_group
 from flidar_uq.validation.regimes import (
     REGIME_COLUMNS,
@@ -336,8 +337,6 @@ def _run_discus(seed: int, mru: bool = False, heave: bool = False):
     # (0.88-0.92 by group) but the lever arm comes out 7.1-7.3 m against 3 m
     # (docs/inference.md); ``mru``: the hull's translation stds measured (imu.mru_translation);
     # ``heave``: the heave velocity in the IMU series (imu.vertical_velocity)
-    from flidar_uq.campaign.scenarios import load_scenario
-
     sc = load_scenario("discus_buoy")
     sc["imu"] = sc.get("imu", {}) | {"mru_translation": mru, "vertical_velocity": heave}
     return scenario_records(sc, seed, hull_reference="auto")
@@ -639,6 +638,38 @@ def test_dbs_wave_follower_calibrated_in_every_group(scenario, seed):
     )
     if missed:
         pytest.xfail("; ".join(missed))
+
+
+#: The other DBS lidars on the wave follower, each on a seed drawn once
+#: (secrets.randbelow(2**31)) after the WindCube v2 runs above passed, and used for nothing
+#: else: the WindCube v1 (one wind a 4-s cycle, no vertical beam) and the WindCube v2.1
+#: (0.5-s beams, a wind after every beam), each at a fixed heading and weathervaning.
+_OTHER_DBS_RUNS = [
+    ("dbs_wave_follower", "windcube_v1", 529873400),
+    ("dbs_wave_follower_weathervane", "windcube_v1", 203100526),
+    ("dbs_wave_follower", "windcube_v2_1", 203100526),
+    ("dbs_wave_follower_weathervane", "windcube_v2_1", 203100526),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("scenario", "lidar", "seed"), _OTHER_DBS_RUNS)
+def test_other_dbs_lidars_on_the_wave_follower_corrected_and_calibrated(scenario, lidar, seed):
+    """The WindCube v2's wave-follower scenarios simulated and corrected for another DBS
+    lidar's geometry and timing (the virtual campaign, the record model and the
+    propagation each with the configured lidar): the DBS acceptance (>= 99 % corrected,
+    every group of >= 200 records calibrated, intervals <= 30 % of the TI) and the fit
+    finds the buoy (motion scale in [0.9, 1.1], lever arm within 0.5 m of 2 m)."""
+    cfg = dict(load_scenario(scenario))
+    cfg["lidar"] = {**cfg["lidar"], "name": lidar}
+    records, fit = scenario_records(cfg, seed)
+    assert fit.converged, fit.failure_reasons
+    assert records["ti_corrected_median"].notna().mean() >= 0.99
+    r = records[records["ti_corrected_median"].notna() & records["ti_true"].notna()]
+    assert ((r["ti_corrected_hi"] - r["ti_corrected_lo"]) / r["ti_true"]).median() <= 0.30
+    _check_heave_measured(records, lidar)
+    _check_calibrated(records, f"{scenario} {lidar} seed {seed}")
+    _check_finds_the_buoy(fit, records)
 
 
 #: Seeds of the DBS wave follower with a cup reference, drawn once (secrets.randbelow(2**31))

@@ -15,6 +15,7 @@ from flidar_uq.physics.turbulence import (
     kaimal_series,
     offshore_sigma_ms,
     pyconturb_field,
+    record_variance_share,
     wind_enu_ms,
 )
 
@@ -43,6 +44,19 @@ def test_kaimal_series_record_variance_is_iec_sigma2():
         assert abs(v.mean() - (1.2 * ratio) ** 2) < 4 * v.std() / np.sqrt(v.size)
     y = kaimal_series(600, 1.0, 10.0, 1.2, 85.0, rng, exact_variance=True)
     np.testing.assert_allclose(y.std(axis=-1), 1.2 * np.array(IEC_SIGMA_RATIOS))
+
+
+def test_record_variance_share_of_a_sinusoid_over_its_phase():
+    # a sinusoid of random phase sampled at 1 Hz over a 600-s record: its sample variance
+    # (the record's mean removed) averaged over the phase, over its variance 1/2
+    t = np.arange(600) + 0.5
+    phase = np.linspace(0.0, 2.0 * np.pi, 64, endpoint=False)
+    for f in (0.2 / 600, 0.7 / 600, 1.0 / 600, 1.5 / 600, 7.3 / 600):
+        x = np.cos(2.0 * np.pi * f * t[None, :] + phase[:, None])
+        realised = x.var(axis=1).mean() / 0.5
+        assert realised == pytest.approx(float(record_variance_share(f, 600.0)), abs=2e-3), f
+    assert record_variance_share(0.0, 600.0) == 0.0
+    assert record_variance_share(3.0 / 600, 600.0) == pytest.approx(1.0)
 
 
 def test_generated_wind_spectrum_follows_iec_kaimal():

@@ -69,7 +69,7 @@ from flidar_uq.physics.lidar import (
     window_beam_times_s,
 )
 from flidar_uq.physics.surrogate import PERIOD_RANGE_S
-from flidar_uq.physics.turbulence import kaimal_psd
+from flidar_uq.physics.turbulence import kaimal_psd, record_variance_share
 
 __all__ = [
     "DBS_MECHANISMS",
@@ -783,7 +783,8 @@ def _kaimal_record_table():
     log_x = np.linspace(np.log(0.1), np.log(1e5), 241)
     g = np.geomspace(1e-7, 1e3, 6000)  # f L / U
     dg = np.diff(g)
-    dens = 4.0 / (1.0 + 6.0 * g) ** (5.0 / 3.0) * (1.0 - np.sinc(g * np.exp(log_x)[:, None]) ** 2)
+    # the Kaimal density per unit f L / U; f T = (f L / U) (T U / L)
+    dens = 4.0 / (1.0 + 6.0 * g) ** (5.0 / 3.0) * record_variance_share(g, np.exp(log_x)[:, None])
     var = np.sum(0.5 * (dens[:, 1:] + dens[:, :-1]) * dg, axis=-1)
     sq = np.sum(0.5 * (dens[:, 1:] ** 2 + dens[:, :-1] ** 2) * dg, axis=-1)
     return log_x, var, sq / var**2
@@ -849,7 +850,7 @@ def output_correlation_sampling_var(
     record = float(record_s)
 
     def within_record(f_hz, uu, ll):  # the Kaimal spectrum less what the record's mean takes
-        return kaimal_psd(f_hz, uu, 1.0, ll) * (1.0 - np.sinc(f_hz * record) ** 2)
+        return kaimal_psd(f_hz, uu, 1.0, ll) * record_variance_share(f_hz, record)
 
     spectrum = 0.0
     for x in (np.arange(_LINE_SUBPOINTS) + 0.5) / _LINE_SUBPOINTS - 0.5:

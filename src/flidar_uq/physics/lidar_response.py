@@ -41,6 +41,7 @@ from flidar_uq.physics.turbulence import (
     kaimal_lambda1_m,
     kaimal_psd,
     kaimal_series,
+    record_variance_share,
 )
 from flidar_uq.seeding import as_seedsequence
 
@@ -257,7 +258,7 @@ def _std_ratio_on_grid(f, h, grid, *, r, record_length_s, f_max):
     # (the IEC sigma_k is a 10-min std; the virtual campaign and PyConTurb do the same).
     # int over f as int over ln f: the integrand times f.
     spec = kaimal_psd(f[None, None, :], 1.0, 1.0, tau[..., None])  # (G, 3, F) shapes
-    w = (1.0 - np.sinc(f * record_length_s) ** 2) * f
+    w = record_variance_share(f, record_length_s) * f
     if f_max is not None:
         w = np.where(f <= f_max, w, 0.0)
     lnf = np.log(f)

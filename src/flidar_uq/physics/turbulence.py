@@ -33,6 +33,7 @@ __all__ = [
     "kaimal_psd",
     "kaimal_series",
     "pyconturb_field",
+    "record_variance_share",
     "iec_ntm_sigma_ms",
     "offshore_sigma_ms",
     "draw_sigma_u_ms",
@@ -110,6 +111,23 @@ def kaimal_psd(f_hz, hws_ms, sigma_ms, length_scale_m):
     tau_s = np.asarray(length_scale_m, dtype=float) / np.where(u > 0.0, u, np.nan)
     f = np.asarray(f_hz, dtype=float)
     return 4.0 * np.asarray(sigma_ms) ** 2 * tau_s / (1.0 + 6.0 * f * tau_s) ** (5.0 / 3.0)
+
+
+def record_variance_share(f_hz, record_s):
+    """Share (-) of a frequency's variance kept by a record's variance about its own mean.
+
+    ``1 - sinc^2(f T)``: the mean of a record of ``T`` s takes ``sinc^2(f T)`` of a
+    component at ``f`` (the systematic error of a variance measured over a finite record,
+    Lenschow, Mann & Kristensen 1994).
+
+    Parameters
+    ----------
+    f_hz : array_like
+        Frequency (Hz).
+    record_s : float or array_like
+        Record length ``T`` (s).
+    """
+    return 1.0 - np.sinc(np.asarray(f_hz, dtype=float) * record_s) ** 2
 
 
 def kaimal_series(
