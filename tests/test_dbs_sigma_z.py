@@ -862,15 +862,22 @@ def test_output_correlation_sampling_var_near_the_turbulence():
     assert float(twice.squeeze()) == pytest.approx(float(v[0]), rel=1e-12)
 
 
-def test_rho_sampling_column_of_the_dbs_record_model(monkeypatch, constant_fit):
-    """A WindCube v2's record table gets the correlation-scatter column: larger for a sea
-    near its 5-s cycle (the error at the output's lines near 0 Hz) than for a 3-s one, 0
-    without tilt bands, absent for a CW lidar. The record fit's likelihood adds it to the
-    correlation's scatter (a wider tau) and the propagation to its draws of each record's
-    correlation (a wider interval)."""
+def test_rho_sampling_columns_of_the_dbs_record_model(monkeypatch, constant_fit):
+    """A WindCube v2's record table gets the correlation-scatter Gram: its quadratic form
+    over the along-wind one is larger for a sea near its 5-s cycle (the error at the
+    output's lines near 0 Hz) than for a 3-s one, and at no lever arm it is the power-
+    weighted mean of the lines' weights (output_correlation_sampling_var); it moves with
+    the lever arm, whose term puts the error at lines of its own; 0 without tilt bands,
+    absent for a CW lidar. The record fit's likelihood adds it to the correlation's scatter
+    (a wider tau) and the propagation to its draws of each record's correlation (a wider
+    interval)."""
     from flidar_uq.correction.propagation import PropagationSettings, draw_corrected_ti
-    from flidar_uq.inference.record_fit import _gram_rows, _record_z2_tau2
-    from flidar_uq.inference.record_motion import RHO_SAMPLING_COLUMN, motion_gram
+    from flidar_uq.inference.record_fit import _RHO_SAMPLING_ROWS, _gram_rows, _record_z2_tau2
+    from flidar_uq.inference.record_motion import (
+        RHO_SAMPLING_COLUMNS,
+        gram_rho_sampling_var,
+        motion_gram,
+    )
 
     rec = _band_records(20261209, (5.0, 3.0), 1.5).assign(
         wd_mean_deg=240.0,
@@ -882,21 +889,46 @@ def test_rho_sampling_column_of_the_dbs_record_model(monkeypatch, constant_fit):
         bin_id=0,
     )
     gram = motion_gram(rec, lidar="windcube_v2")
-    v = gram[RHO_SAMPLING_COLUMN].to_numpy()
+    v = gram_rho_sampling_var(gram, lever_arm_m=0.0, hull_response=1.0)
     assert np.all(v > 0.0) and v[:4].mean() > 2.0 * v[4:].mean(), v
     assert 0.002 < v[:4].mean() < 0.05, v  # an sd of 0.045-0.22 on the correlation
+    with_arm = gram_rho_sampling_var(gram, lever_arm_m=np.array([[2.0], [-2.0]]), hull_response=1.0)
+    assert with_arm.shape == (2, len(rec))
+    assert np.all(np.abs(with_arm / v - 1.0).max(axis=1) > 0.01), with_arm / v
+    # the weighted Gram is the along-wind one line by line: equal weights give that weight
+    # back at any motion scale, hull response and lever arm (its entries, the hull's and a
+    # measured response's scalings as the Gram's)
+    for r_z in (None, 0.8):
+        table = rec if r_z is None else rec.assign(heave_response_ratio=r_z)
+        with monkeypatch.context() as m:
+            m.setattr(
+                dbs, "output_correlation_line_weights", lambda f, *a, **k: np.full(np.shape(f), 0.3)
+            )
+            flat = motion_gram(table, lidar="windcube_v2")
+        got = gram_rho_sampling_var(
+            flat,
+            lever_arm_m=np.array([[0.0], [2.5], [-1.0]]),
+            hull_response=np.array([[1.0], [0.4], [0.0]]),
+            motion_scale=np.array([[1.0], [1.2], [0.8]]),
+        )
+        np.testing.assert_allclose(got, 0.3, rtol=1e-9)
     bare = rec[["wd_mean_deg", "heading_mean_deg", "hws_mean_ms"]].assign(
         roll_amplitude_deg=2.0, pitch_amplitude_deg=2.0, roll_period_s=5.0, pitch_period_s=5.0
     )
-    assert np.all(motion_gram(bare, lidar="windcube_v2")[RHO_SAMPLING_COLUMN] == 0.0)
-    assert RHO_SAMPLING_COLUMN not in motion_gram(bare)  # a CW lidar: no output's lines
+    none = gram_rho_sampling_var(
+        motion_gram(bare, lidar="windcube_v2"), lever_arm_m=2.0, hull_response=1.0
+    )
+    assert np.all(none == 0.0)
+    cw = motion_gram(bare)  # a CW lidar: no output's lines
+    assert RHO_SAMPLING_COLUMNS[0] not in cw
+    assert np.all(gram_rho_sampling_var(cw, lever_arm_m=2.0, hull_response=1.0) == 0.0)
 
     g = gram[_gram_rows(True)].to_numpy(float).T[:, :1]
     theta = np.array([[0.3, np.log(0.1), np.log(0.05), 2.0, 0.0, 0.0, np.log(0.03)]])
     s_ms, r_ms = np.array([1.0]), np.array([0.8])
     tau = _record_z2_tau2(theta, s_ms, r_ms, g, 0.0)[1]
     g0 = g.copy()
-    g0[_gram_rows(True).index(RHO_SAMPLING_COLUMN)] = 0.0
+    g0[_RHO_SAMPLING_ROWS] = 0.0
     assert tau[0, 0] > _record_z2_tau2(theta, s_ms, r_ms, g0, 0.0)[1][0, 0]
 
     fit = constant_fit(
@@ -918,7 +950,7 @@ def test_rho_sampling_column_of_the_dbs_record_model(monkeypatch, constant_fit):
 
     with_lines = width()
     monkeypatch.setattr(
-        dbs, "output_correlation_sampling_var", lambda *a, **k: np.zeros(len(k["hws_ms"]))
+        dbs, "output_correlation_line_weights", lambda f, *a, **k: np.zeros(np.shape(f))
     )
     without = width()
     assert np.all(with_lines[:4] > 1.2 * without[:4]), (with_lines, without)

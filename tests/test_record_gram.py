@@ -172,7 +172,7 @@ def test_a_negative_cross_wind_form_is_zero_in_the_likelihood_and_the_propagatio
     # likelihood and the propagation both take it as 0, so they keep the same sigma_Z
     rec = _records(80)
     (s, r, g), use, _ = _record_observations(rec, None, None, "windcube_v2")
-    assert use.all() and g.shape[0] == 34  # with the two sampling rows
+    assert use.all() and g.shape[0] == 43  # with the sampling rows
     flipped, zeroed = g.copy(), g.copy()
     flipped[11:21] *= -1.0  # the cross-wind Gram negated: s_b^2 <= 0
     zeroed[11:21] = 0.0

@@ -59,9 +59,9 @@ from flidar_uq.inference.record_motion import (
     CROSS_WIND_COLUMNS,
     DBS_COLUMNS,
     GRAM_COLUMNS,
-    RHO_SAMPLING_COLUMN,
     SAMPLING_COLUMN,
     gram_hws_error_ms,
+    gram_rho_sampling_var,
     motion_gram,
 )
 from flidar_uq.physics.lidar import get_lidar
@@ -916,7 +916,10 @@ def _propagate_record_model(p: _Propagation, records, surrogate, lidar, scan, gr
         if rho_sd is not None:  # drawn whatever is held: the other draws do not move
             rho = p.rng.standard_normal((p.ndraws, int(ok.sum())))
             # a DBS lidar's record adds the scatter its output's lines make, on rho itself
-            known = g.get(RHO_SAMPLING_COLUMN, 0.0) / (1.0 - p.rho**2) ** 2
+            known = (
+                gram_rho_sampling_var(g, lever_arm_m=lever, hull_response=hull, motion_scale=scale)
+                / (1.0 - p.rho**2) ** 2
+            )
             rho *= 0.0 if "rho" in p.hold else np.sqrt(rho_sd**2 + known)
             rho = np.tanh(rho_z + rho)
         rows = start + np.flatnonzero(ok)

@@ -58,7 +58,7 @@ from flidar_uq.inference.record_motion import (
     CROSS_WIND_COLUMNS,
     DBS_COLUMNS,
     GRAM_COLUMNS,
-    RHO_SAMPLING_COLUMN,
+    RHO_SAMPLING_COLUMNS,
     SAMPLING_COLUMN,
     describe_motion,
     gram_coefficients,
@@ -118,7 +118,8 @@ def is_record_model(fit) -> bool:
 def _record_z2_tau2(theta, s, r, gram, pair_sq):
     """``(z^2 / tau^2, tau^2)`` of the record model (module docstring), each of shape
     (n_walkers, n_obs), with ``z = s - mu``: ``-2 log p(s_i | theta) - log(2 pi)`` is
-    ``z^2 / tau^2 + log tau^2``. Computed in place (eight temporaries of the output's size).
+    ``z^2 / tau^2 + log tau^2``. Computed in place (eight temporaries of the output's size;
+    a DBS lidar's three more).
 
     ``pair_sq``: the known relative variance of the two instruments' sampling (-), a
     scatter of the turbulent part ``r`` (enters through ``(dmu/dr)^2``); a scalar 0 or an
@@ -126,13 +127,15 @@ def _record_z2_tau2(theta, s, r, gram, pair_sq):
     entries :data:`~flidar_uq.inference.record_motion.GRAM_COLUMNS` of
     :func:`~flidar_uq.inference.record_motion.motion_gram` and the measured-translation
     flag (``h = 1`` there; 10 rows: none measured); ``sZ^2`` is one (walkers x 10) by
-    (10 x records) product. A DBS lidar's 34 rows add its
+    (10 x records) product. A DBS lidar's 43 rows add its
     :data:`~flidar_uq.inference.record_motion.CROSS_WIND_COLUMNS` (sZ to fourth order in
     the cross-wind error, :func:`~flidar_uq.physics.dbs_sigma_z.hws_error_moments`),
     :data:`~flidar_uq.inference.record_motion.SAMPLING_COLUMN`, the variance of the
     record's ``log sZ`` from its sampling once an output interval, added to ``kappa_z^2``,
-    and :data:`~flidar_uq.inference.record_motion.RHO_SAMPLING_COLUMN`, the variance of its
-    realised correlation from its output's lines, added to ``(s_rho (1 - rho^2))^2``.
+    and :data:`~flidar_uq.inference.record_motion.RHO_SAMPLING_COLUMNS`, whose quadratic
+    form over the along-wind one is the variance of its realised correlation from its
+    output's lines (:func:`~flidar_uq.inference.record_motion.gram_rho_sampling_var`),
+    added to ``(s_rho (1 - rho^2))^2``.
     """
     rho = theta[:, 0:1]
     kappa_sq = np.exp(2.0 * theta[:, 1:2])
@@ -144,8 +147,6 @@ def _record_z2_tau2(theta, s, r, gram, pair_sq):
     lever = theta[:, 3]
     # the scatter of a record's correlation, sd of its Fisher z times d rho / d z = 1 - rho^2
     rho_scatter_sq = (np.exp(theta[:, 6:7]) * (1.0 - rho * rho)) ** 2
-    if gram.shape[0] > _RHO_SAMPLING_ROW:  # a DBS lidar's record: its output's lines
-        rho_scatter_sq = rho_scatter_sq + gram[_RHO_SAMPLING_ROW]
     coef = gram_coefficients(k, h, lever)  # (n_walkers, 10)
     # measured translation: the response is known (h = 1)
     meas = gram[10] if gram.shape[0] > 10 and np.any(gram[10]) else None
@@ -158,6 +159,10 @@ def _record_z2_tau2(theta, s, r, gram, pair_sq):
         return q
 
     sz_sq = form(gram[:10])
+    if gram.shape[0] > _RHO_SAMPLING_ROWS.start:  # a DBS lidar's record: its output's lines
+        with np.errstate(invalid="ignore", divide="ignore"):
+            line_sq = np.maximum(form(gram[_RHO_SAMPLING_ROWS]), 0.0) / sz_sq
+        rho_scatter_sq = rho_scatter_sq + np.where(sz_sq > 0.0, line_sq, 0.0)
     if gram.shape[0] > 11:  # a DBS lidar's cross-wind error, to fourth order
         across, cov = np.maximum(form(gram[11:21]), 0.0), form(gram[21:31])
         sz_sq = hws_error_moments(sz_sq, across, cov, gram[31] ** -0.5)[0]
@@ -348,10 +353,13 @@ def _gram_rows(cross_wind: bool) -> list[str]:
     return [*GRAM_COLUMNS, "translation_measured", *dbs]
 
 
-#: The rows of :data:`SAMPLING_COLUMN` and :data:`RHO_SAMPLING_COLUMN` in a DBS lidar's
+#: The rows of :data:`SAMPLING_COLUMN` and :data:`RHO_SAMPLING_COLUMNS` in a DBS lidar's
 #: observations (:func:`_gram_rows`).
 _SAMPLING_ROW = _gram_rows(True).index(SAMPLING_COLUMN)
-_RHO_SAMPLING_ROW = _gram_rows(True).index(RHO_SAMPLING_COLUMN)
+_RHO_SAMPLING_ROWS = slice(
+    _gram_rows(True).index(RHO_SAMPLING_COLUMNS[0]),
+    _gram_rows(True).index(RHO_SAMPLING_COLUMNS[-1]) + 1,
+)
 
 
 @single_threaded
@@ -362,7 +370,7 @@ def _record_observations(
 
     Returns ``((s, r, gram), use, kinds)``: measured std ``s`` (m/s), reference std ``r``
     (m/s) and the motion error ``gram`` (11, n) (:func:`motion_gram`'s
-    :data:`GRAM_COLUMNS` and ``translation_measured``; a DBS lidar's 34 rows with its
+    :data:`GRAM_COLUMNS` and ``translation_measured``; a DBS lidar's 43 rows with its
     :data:`DBS_COLUMNS`, :func:`_gram_rows`) of the usable records (all finite
     and ``s, r > 0``), the mask ``use`` over ``records`` and every record's motion
     description kind.
@@ -382,7 +390,7 @@ def _record_observations(
         else np.full(len(records), np.nan)
     )
     kinds = mot["motion_description"].to_numpy()
-    # (11, n), a DBS lidar's (34, n)
+    # (11, n), a DBS lidar's (43, n)
     gram = mot[_gram_rows(CROSS_WIND_COLUMNS[0] in mot)].to_numpy(dtype=float).T
     use = np.isfinite(s) & np.isfinite(r) & (s > 0) & (r > 0) & np.all(np.isfinite(gram), axis=0)
     return (s[use], r[use], np.ascontiguousarray(gram[:, use])), use, kinds
@@ -437,7 +445,7 @@ HULL_NEGLIGIBLE_SIGMA_Z_SHARE = 0.01
 def _hull_response_negligible(nat: dict[str, np.ndarray], gram: np.ndarray) -> bool:
     """True when the hull response's posterior (95 % quantile against 0) changes no
     record's sigma_Z by more than :data:`HULL_NEGLIGIBLE_SIGMA_Z_SHARE`, at the median lever
-    arm and motion scale; ``gram`` (11, n), a DBS lidar's (34, n), as
+    arm and motion scale; ``gram`` (11, n), a DBS lidar's (43, n), as
     :func:`_record_observations` returns it."""
     if not gram.shape[1]:
         return True

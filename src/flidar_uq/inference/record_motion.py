@@ -44,7 +44,7 @@ __all__ = [
     "GRAM_COLUMNS",
     "CROSS_WIND_COLUMNS",
     "SAMPLING_COLUMN",
-    "RHO_SAMPLING_COLUMN",
+    "RHO_SAMPLING_COLUMNS",
     "DBS_COLUMNS",
     "gram_hws_error_ms",
     "MEASURED_TRANSLATION_COLUMNS",
@@ -53,6 +53,7 @@ __all__ = [
     "describe_motion",
     "gram_coefficients",
     "gram_from_cw_terms",
+    "gram_rho_sampling_var",
     "gram_sigma_z_ms",
     "measured_response",
     "motion_gram",
@@ -699,15 +700,17 @@ CROSS_WIND_COLUMNS = (
 #: ``kappa_z^2`` in the record fit and the propagation. 0 for a record without tilt bands,
 #: or whose bands stay below half the output rate (a wind after every beam).
 SAMPLING_COLUMN = "sigma_z_sampling_log_var"
-#: A DBS lidar's record: the variance (-) of the record's realised correlation of the motion
-#: error with the turbulence about the campaign's, from where the lidar's output puts the
-#: error's power against the turbulence's spectrum
-#: (:func:`flidar_uq.physics.dbs_sigma_z.output_correlation_sampling_var`, at the same
-#: scale as :data:`SAMPLING_COLUMN`'s): it adds to ``(rho_sd (1 - rho^2))^2`` in the record
-#: fit and the propagation. 0 for a record without tilt bands.
-RHO_SAMPLING_COLUMN = "rho_sampling_var"
+#: A DBS lidar's record: the along-wind Gram matrix's entries (as :data:`GRAM_COLUMNS`) with
+#: each of the output's lines weighted by the variance (-) it gives the record's realised
+#: correlation of the motion error with the turbulence
+#: (:func:`flidar_uq.physics.dbs_sigma_z.output_correlation_line_weights`): the scatter of
+#: that correlation about the campaign's is ``v^T G_rho v / v^T G v``
+#: (:func:`gram_rho_sampling_var`) for the fit's motion scale, hull response and lever arm,
+#: whose terms put the error at lines of their own. It adds to ``(rho_sd (1 - rho^2))^2``
+#: in the record fit and the propagation. 0 for a record without tilt bands.
+RHO_SAMPLING_COLUMNS = tuple(c.replace("gram_", "gram_rho_sampling_") for c in GRAM_COLUMNS)
 #: A DBS lidar's columns beside :data:`GRAM_COLUMNS`, in :func:`motion_gram`'s order.
-DBS_COLUMNS = (*CROSS_WIND_COLUMNS, SAMPLING_COLUMN, RHO_SAMPLING_COLUMN)
+DBS_COLUMNS = (*CROSS_WIND_COLUMNS, SAMPLING_COLUMN, *RHO_SAMPLING_COLUMNS)
 _GRAM_IJ = tuple((i, j) for i in range(4) for j in range(i, 4))
 #: entries of GRAM_COLUMNS that carry the hull response (a row or column 1 or 3)
 _HULL_ENTRIES = tuple(n for n, (i, j) in enumerate(_GRAM_IJ) if {i, j} & {1, 3})
@@ -775,14 +778,14 @@ def _dbs_banded(records: pd.DataFrame, hws_ms):
 
 
 def _dbs_gram(records, g, n_headings, translation, nodes):
-    """(33, n) Gram entries (:data:`GRAM_COLUMNS` and :data:`DBS_COLUMNS`), measured flag
+    """(42, n) Gram entries (:data:`GRAM_COLUMNS` and :data:`DBS_COLUMNS`), measured flag
     and description of a DBS lidar (:func:`motion_gram`)."""
     from flidar_uq.physics.dbs_sigma_z import (
         band_moments_to_wind,
         cycle_sampling_rel_var,
         dbs_band_terms,
         dbs_record_terms,
-        output_correlation_sampling_var,
+        output_correlation_line_weights,
         window_line_frequencies_hz,
     )
     from flidar_uq.physics.turbulence import kaimal_length_scales_m
@@ -799,7 +802,7 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
     # 60 m, IEC 61400-1's Lambda_1 = 42 m)
     length_u = kaimal_length_scales_m(_col(records, "height_m"))[:, 0]
     length_u = np.where(np.isfinite(length_u), length_u, kaimal_length_scales_m(60.0)[0])
-    out = np.full((33, len(records)), np.nan)
+    out = np.full((32 + len(RHO_SAMPLING_COLUMNS), len(records)), np.nan)
     if np.any(banded):
         mom = band_moments_to_wind(
             band_cos_psi(bands, hws, banded),
@@ -819,7 +822,8 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
         # the sampling of the motion error once an output interval: each node's share of
         # Var Z (its own Gram matrix) at the truth's scale (k = 1), the hull's translation as
         # described (a wave follower's, scaled by a measured response) and no lever arm,
-        # spread over its share of its band's frequencies
+        # spread over its share of its band's frequencies (the correlation's scatter, a
+        # ratio of quadratic forms, keeps the lines' Gram instead: any v)
         edges_hz = 1.0 / np.asarray(bands["edges_s"], float)
         width_hz = np.repeat(np.abs(np.diff(edges_hz)) / nodes, nodes)
         h = float(translation)
@@ -857,13 +861,13 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
                 out[31, rows] = 0.25 * cycle_sampling_rel_var(
                     1.0 / per[i], power.sum(axis=0), width_hz, cycle_s=g.output_interval_s
                 )
-                out[32, rows] = output_correlation_sampling_var(
+                weight = output_correlation_line_weights(
                     window_line_frequencies_hz(1.0 / per[i], g),
-                    power,
                     width_hz,
                     hws_ms=hws[rows],
                     length_scale_m=length_u[rows],
-                )
+                )  # (S, n, nodes)
+                out[32:, rows] = _gram_entries(np.einsum("sncij,snc->nij", lines[:, :, 0], weight))
     rp = ok & ~banded
     for sel, wb in ((rp & known, beta), (rp & ~known, None)):
         if np.any(sel):
@@ -884,16 +888,17 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
     ok |= banded
     with np.errstate(divide="ignore"):
         out[30, ok] = 1.0 / hws[ok] ** 2
-    out[31:33, ok & ~banded] = 0.0  # a harmonic's spread is not known without the bands
+    out[31:, ok & ~banded] = 0.0  # a harmonic's spread is not known without the bands
     # a record described by its tilt bands has the wave follower's translation through them
     follower = ok & (_follower_complete(records) | banded) & translation
-    hull = [n + part for part in (0, 10, 20) for n in _HULL_ENTRIES]
+    parts = (0, 10, 20, 32)  # the Gram matrices: along, across, covariance, rho sampling
+    hull = [n + part for part in parts for n in _HULL_ENTRIES]
     out[np.ix_(hull, ok & ~follower)] = 0.0  # rotation only: no heave, no orbital motion
     meas = follower & np.isfinite(r_z) & np.isfinite(r_x)
     if np.any(meas):  # the heave phasor scales with R_z, the orbital one with R_x
         scale = np.stack([np.ones(len(records)), r_z, np.ones(len(records)), r_x])
         for n, (i, j) in enumerate(_GRAM_IJ):
-            for part in (0, 10, 20):
+            for part in parts:
                 out[n + part, meas] *= scale[i, meas] * scale[j, meas]
     return out, meas, np.where(banded, "tilt_bands", np.where(ok, "roll_pitch", "none"))
 
@@ -1004,9 +1009,10 @@ def gram_coefficients(motion_scale, hull_response, lever_arm_m):
     return np.stack([v[i] * v[j] * (1.0 if i == j else 2.0) for i, j in _GRAM_IJ], -1)
 
 
-def _quadratic_forms(gram, lever_arm_m, hull_response, motion_scale):
-    """``v^T G v`` of each Gram part of ``gram`` (:func:`gram_sigma_z_ms`): the along-wind
-    one, and with :data:`CROSS_WIND_COLUMNS` the cross-wind and covariance ones (else None)."""
+def _form(gram, lever_arm_m, hull_response, motion_scale):
+    """``columns -> v^T G v`` of the Gram part in ``columns`` (in :data:`GRAM_COLUMNS`'s
+    order) of ``gram`` (:func:`gram_sigma_z_ms`), ``h = 1`` where the translation is
+    measured."""
     h = np.asarray(hull_response, float)
     if "translation_measured" in gram:  # measured translation: the response is known
         meas = np.asarray(gram["translation_measured"], float)
@@ -1019,9 +1025,32 @@ def _quadratic_forms(gram, lever_arm_m, hull_response, motion_scale):
             var = var + coef[..., n] * np.asarray(gram[c], float)
         return var
 
+    return form
+
+
+def _quadratic_forms(gram, lever_arm_m, hull_response, motion_scale):
+    """``v^T G v`` of each Gram part of ``gram`` (:func:`gram_sigma_z_ms`): the along-wind
+    one, and with :data:`CROSS_WIND_COLUMNS` the cross-wind and covariance ones (else None)."""
+    form = _form(gram, lever_arm_m, hull_response, motion_scale)
     if CROSS_WIND_COLUMNS[0] not in gram:
         return form(GRAM_COLUMNS), None, None
     return form(GRAM_COLUMNS), form(CROSS_WIND_COLUMNS[:10]), form(CROSS_WIND_COLUMNS[10:20])
+
+
+def gram_rho_sampling_var(gram, *, lever_arm_m, hull_response, motion_scale=1.0):
+    """Variance (-) of a DBS record's realised correlation of motion error and turbulence.
+
+    From where the lidar's output puts the error (:data:`RHO_SAMPLING_COLUMNS`):
+    ``v^T G_rho v / v^T G v`` with the along-wind Gram ``G``, for the arguments of
+    :func:`gram_sigma_z_ms` (broadcast the same way); 0 where the Gram has no such columns
+    (a CW lidar) or the motion error is 0."""
+    if RHO_SAMPLING_COLUMNS[0] not in gram:
+        args = (lever_arm_m, hull_response, motion_scale, gram[GRAM_COLUMNS[0]])
+        return np.zeros(np.broadcast_shapes(*(np.shape(x) for x in args)))
+    form = _form(gram, lever_arm_m, hull_response, motion_scale)
+    along, weighted = form(GRAM_COLUMNS), form(RHO_SAMPLING_COLUMNS)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(along > 0.0, np.maximum(weighted, 0.0) / along, 0.0)
 
 
 def gram_sigma_z_ms(gram, *, lever_arm_m, hull_response, motion_scale=1.0):

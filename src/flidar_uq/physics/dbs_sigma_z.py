@@ -89,6 +89,7 @@ __all__ = [
     "hws_error_moments",
     "dbs_replay_sigma_z_ms",
     "cycle_sampling_rel_var",
+    "output_correlation_line_weights",
     "output_correlation_sampling_var",
     "window_line_frequencies_hz",
     "wind_to_body_deg",
@@ -821,7 +822,8 @@ def output_correlation_sampling_var(
     at 0.011 Hz). ``S_u`` is the Kaimal spectrum of the along-wind component (IEC 61400-1
     Ed. 3, Eq. B.1, :func:`flidar_uq.physics.turbulence.kaimal_psd`), averaged over each
     line's width. Against Monte Carlo it gives 0.94-0.97 of the realised variance
-    (``tests/test_dbs_sigma_z.py``).
+    (``tests/test_dbs_sigma_z.py``). It is the power-weighted mean of
+    :func:`output_correlation_line_weights`.
 
     Parameters
     ----------
@@ -841,9 +843,45 @@ def output_correlation_sampling_var(
     numpy.ndarray, shape (...)
         ``Var r`` (-), 0 where the powers add up to 0.
     """
-    f = np.asarray(line_hz, float)
     pw = np.asarray(power, float)
-    pw = np.where(np.isfinite(pw) & np.isfinite(f), np.maximum(pw, 0.0), 0.0)
+    pw = np.where(np.isfinite(pw) & np.isfinite(line_hz), np.maximum(pw, 0.0), 0.0)
+    weight = output_correlation_line_weights(
+        line_hz, width_hz, hws_ms=hws_ms, length_scale_m=length_scale_m, record_s=record_s
+    )
+    total = np.sum(pw, axis=(0, -1))
+    num = np.sum(pw * np.where(pw > 0, weight, 0.0), axis=(0, -1))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(total > 0, num / total, 0.0)
+
+
+def output_correlation_line_weights(
+    line_hz, width_hz, *, hws_ms, length_scale_m, record_s=RECORD_S
+):
+    """Each output line's weight (-) in the variance of the motion-turbulence correlation.
+
+    The variance one line alone gives a record's realised correlation of the motion error
+    with the turbulence: ``S_u(f) (1 + CV^2) / (2 T sigma_u^2)``, the Kaimal
+    spectrum within the record averaged over the line's width, normalised as in
+    :func:`output_correlation_sampling_var` (these weights' mean over the lines' powers).
+    Each line's share of ``Var Z`` weighted by it gives a quadratic form in the motion's
+    parameters whose ratio to ``Var Z`` is the correlation's variance.
+
+    Parameters
+    ----------
+    line_hz : array_like, shape (S, ..., nc)
+        The lines (Hz, :func:`window_line_frequencies_hz`).
+    width_hz : array_like, shape (nc,) or broadcastable
+        Each line's width (Hz, > 0).
+    hws_ms, length_scale_m : array_like, shape (...)
+        Mean wind speed (m/s) and the Kaimal length scale of ``u`` (m).
+    record_s : float
+        Record length, s.
+
+    Returns
+    -------
+    numpy.ndarray, shape of ``line_hz``
+    """
+    f = np.asarray(line_hz, float)
     w = np.broadcast_to(np.asarray(width_hz, float), f.shape)
     u = np.asarray(hws_ms, float)
     length = np.asarray(length_scale_m, float)
@@ -856,14 +894,10 @@ def output_correlation_sampling_var(
     for x in (np.arange(_LINE_SUBPOINTS) + 0.5) / _LINE_SUBPOINTS - 0.5:
         spectrum = spectrum + within_record(np.abs(f + x * w), u[..., None], length[..., None])
     spectrum /= _LINE_SUBPOINTS
-    # normalised by the turbulence's variance within a record, times 1 + CV^2 (docstring)
+    # normalised by the turbulence's variance within a record, times 1 + CV^2
     with np.errstate(invalid="ignore", divide="ignore"):
         var_u, cv_sq = _kaimal_record_moments(record * u / length)
-    total = np.sum(pw, axis=(0, -1))
-    num = np.sum(pw * np.where(pw > 0, spectrum, 0.0), axis=(0, -1))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rel = np.where(total > 0, num / total, 0.0)
-        return rel * (1.0 + cv_sq) / var_u / (2.0 * record)
+    return spectrum * ((1.0 + cv_sq) / var_u / (2.0 * record))[..., None]
 
 
 def _heading_grid(n_headings: int) -> np.ndarray:
