@@ -777,6 +777,26 @@ def _dbs_banded(records: pd.DataFrame, hws_ms):
     return bands["complete"] & np.isfinite(np.asarray(hws_ms, float)), bands
 
 
+def _rho_sampling_gram(lines_along, frequency_hz, width_hz, lidar, hws_ms, length_scale_m):
+    """(10, n) entries of :data:`RHO_SAMPLING_COLUMNS`: the along-wind Gram matrices of the
+    output's lines of each band node (S, n, nodes, 4, 4), the nodes at ``frequency_hz``
+    (n, nodes) and ``width_hz`` wide, weighted by
+    :func:`flidar_uq.physics.dbs_sigma_z.output_correlation_line_weights` at the records'
+    mean HWS (m/s) and Kaimal length scale of ``u`` (m)."""
+    from flidar_uq.physics.dbs_sigma_z import (
+        output_correlation_line_weights,
+        window_line_frequencies_hz,
+    )
+
+    weight = output_correlation_line_weights(
+        window_line_frequencies_hz(frequency_hz, lidar),
+        width_hz,
+        hws_ms=hws_ms,
+        length_scale_m=length_scale_m,
+    )  # (S, n, nodes)
+    return _gram_entries(np.einsum("sncij,snc->nij", lines_along, weight))
+
+
 def _dbs_gram(records, g, n_headings, translation, nodes):
     """(42, n) Gram entries (:data:`GRAM_COLUMNS` and :data:`DBS_COLUMNS`), measured flag
     and description of a DBS lidar (:func:`motion_gram`)."""
@@ -785,8 +805,6 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
         cycle_sampling_rel_var,
         dbs_band_terms,
         dbs_record_terms,
-        output_correlation_line_weights,
-        window_line_frequencies_hz,
     )
     from flidar_uq.physics.turbulence import kaimal_length_scales_m
 
@@ -822,8 +840,7 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
         # the sampling of the motion error once an output interval: each node's share of
         # Var Z (its own Gram matrix) at the truth's scale (k = 1), the hull's translation as
         # described (a wave follower's, scaled by a measured response) and no lever arm,
-        # spread over its share of its band's frequencies (the correlation's scatter, a
-        # ratio of quadratic forms, keeps the lines' Gram instead: any v)
+        # spread over its share of its band's frequencies
         edges_hz = 1.0 / np.asarray(bands["edges_s"], float)
         width_hz = np.repeat(np.abs(np.diff(edges_hz)) / nodes, nodes)
         h = float(translation)
@@ -861,13 +878,9 @@ def _dbs_gram(records, g, n_headings, translation, nodes):
                 out[31, rows] = 0.25 * cycle_sampling_rel_var(
                     1.0 / per[i], power.sum(axis=0), width_hz, cycle_s=g.output_interval_s
                 )
-                weight = output_correlation_line_weights(
-                    window_line_frequencies_hz(1.0 / per[i], g),
-                    width_hz,
-                    hws_ms=hws[rows],
-                    length_scale_m=length_u[rows],
-                )  # (S, n, nodes)
-                out[32:, rows] = _gram_entries(np.einsum("sncij,snc->nij", lines[:, :, 0], weight))
+                out[32:, rows] = _rho_sampling_gram(
+                    lines[:, :, 0], 1.0 / per[i], width_hz, g, hws[rows], length_u[rows]
+                )
     rp = ok & ~banded
     for sel, wb in ((rp & known, beta), (rp & ~known, None)):
         if np.any(sel):
