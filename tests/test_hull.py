@@ -306,7 +306,7 @@ def test_heave_gives_each_bands_signed_direction_of_travel(direction_deg, hull):
     wrapped-normal spread s, <cos psi> = cos(psi) exp(-s^2 / 2) and <sin psi> = sin(psi)
     exp(-s^2 / 2); a hull whose heave lags its tilt by phi (its response amplitude
     operators) gives those times cos(phi)."""
-    from flidar_uq.data.imu import tilt_band_statistics
+    from flidar_uq.data.imu import band_direction_moments, tilt_band_statistics
     from flidar_uq.physics.hull import get_hull
 
     spread = 10.0
@@ -322,9 +322,19 @@ def test_heave_gives_each_bands_signed_direction_of_travel(direction_deg, hull):
     # <sin psi cos psi> = sin(2 psi) exp(-2 s^2) / 2, from the tilt alone (no hull phase)
     sincos = 0.5 * np.sin(2.0 * psi) * np.exp(-2.0 * np.deg2rad(spread) ** 2)
     np.testing.assert_allclose(spec.sincos_psi[0][strong], sincos, atol=0.04)
-    # the tilt alone cannot tell the side: without the heave there is no measured direction
+    # the tilt alone cannot tell the side: without the heave there is no measured side,
+    # but the same <sin psi cos psi> (the tilt's own co-spectrum, taken from the PSD of the
+    # along + across tilt), and with it the band's axis: <cos psi> of waves running along
+    # that axis on its downwind side, |cos psi| exp(-s^2 / 2) for the follower
     alone = tilt_band_statistics(roll, pitch, 0.0, 270.0, 5.0)
-    assert alone.cos_psi is None and alone.sin_psi is None and alone.sincos_psi is None
+    assert alone.cos_psi is None and alone.sin_psi is None
+    np.testing.assert_allclose(alone.sincos_psi, spec.sincos_psi, rtol=0, atol=1e-12)
+    _, axis = band_direction_moments(alone.var_along_deg2, alone.var_across_deg2, alone.sincos_psi)
+    _, wind_axis = band_direction_moments(alone.var_along_deg2, alone.var_across_deg2)
+    r1 = np.exp(-0.5 * np.deg2rad(spread) ** 2)
+    np.testing.assert_allclose(axis[0][strong], abs(np.cos(psi)) * r1, atol=0.03)
+    if direction_deg in (60.0, 240.0):  # the wind's axis alone: (2 cos^2 - 1)^(1/4) cos 60
+        assert np.all(wind_axis[0][strong] < axis[0][strong] - 0.1)
 
 
 @pytest.mark.parametrize("tp_s", [4.0, 14.0])

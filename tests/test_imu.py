@@ -438,6 +438,7 @@ def test_optional_tilt_columns_read_and_bounds_checked(tmp_path):
         df[f"tilt_band{b}_period_s"] = 1.2 * 1.45**b
         df[f"tilt_band{b}_along_wind_var_deg2"] = 0.2
         df[f"tilt_band{b}_across_wind_var_deg2"] = 0.05
+        df[f"tilt_band{b}_sincos_psi"] = -0.1
     df.to_csv(tmp_path / "ok.csv", index=False)
     rec = io.read_records(tmp_path / "ok.csv")
     assert set(imu.TILT_SPECTRUM_COLUMNS) <= set(rec.columns)

@@ -1103,8 +1103,11 @@ def _projected_band_spectrum(
         along, across = (a.reshape(-1, a.shape[-1]) for a in (along, across))
     f, pa = motion_spectrum(along, fs_hz, segment_s=segment_s)
     _, pc = motion_spectrum(across, fs_hz, segment_s=segment_s)
+    # the co-spectrum of the two from the PSD of their sum: |A + C|^2 = |A|^2 + |C|^2 +
+    # 2 Re(A* C), segment by segment (the same windows, gaps and trends in all three)
+    _, ps = motion_spectrum(along + across, fs_hz, segment_s=segment_s)
     bands = dict(n_bands=n_bands, period_min_s=period_min_s, period_max_s=period_max_s)
-    spec = tilt_band_spectrum(f, pa, pc, **bands)
+    spec = tilt_band_spectrum(f, pa, pc, cospectrum=0.5 * (ps - pa - pc), **bands)
     if velocity_east_ms is not None and velocity_north_ms is not None:
         vel = [_as_2d(v)[0] for v in (velocity_east_ms, velocity_north_ms)]
         none = ~(np.isfinite(vel[0]).any(-1) & np.isfinite(vel[1]).any(-1))
@@ -1129,7 +1132,8 @@ def _projected_band_spectrum(
         spec,
         cos_psi=cos_psi,
         sin_psi=sin_psi,
-        sincos_psi=sincos_psi,
+        # the same co-spectrum's, taken with the heave's (NaN where the heave is)
+        sincos_psi=np.where(np.isfinite(sincos_psi), sincos_psi, spec.sincos_psi),
         heave_response=heave_response,
     )
 
@@ -1174,20 +1178,32 @@ def tilt_spectrum_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
     )
 
 
-def band_direction_moments(var_along, var_across) -> tuple[np.ndarray, np.ndarray]:
+def band_direction_moments(
+    var_along, var_across, sincos_psi=None
+) -> tuple[np.ndarray, np.ndarray]:
     """``<cos^2 psi>`` and ``<cos psi>`` of each band's directions of travel against the wind.
 
-    ``<cos^2 psi>`` is the band's along-wind share of the tilt variance. The tilt cannot tell
-    a wave running downwind from one running upwind, so ``<cos psi>`` is taken as for waves
-    running downwind with a wrapped-normal spread: ``<cos psi> = (2 <cos^2 psi> - 1)^(1/4)``
-    (for a wrapped normal of spread s, ``<cos psi> = exp(-s^2 / 2)`` and ``<cos 2 psi> =
-    exp(-2 s^2)``), 0 where the band is mostly across the wind (a swell whose side the tilt
-    cannot tell).
+    ``<cos^2 psi>`` is the band's along-wind share of the tilt variance. With the band's
+    ``<sin psi cos psi>`` (the along-across tilt co-spectrum's share) the tilt gives the
+    second directional moments ``a2 = <cos 2 psi> = 2 <cos^2 psi> - 1`` and ``b2 = <sin 2
+    psi> = 2 <sin psi cos psi>``, whose angle is twice the band's mean axis ``theta2`` and
+    whose length ``r2`` is ``exp(-2 s^2)`` for a wrapped-normal spread ``s`` (Kuik, van
+    Vledder and Holthuijsen, 1988). The tilt cannot tell a wave running downwind from one
+    running upwind, so ``<cos psi>`` is taken as for waves running along that axis on its
+    downwind side: ``<cos psi> = r1 |cos theta2|`` with ``r1 = exp(-s^2 / 2) = r2^(1/4)``;
+    0 for a band across the wind (a swell whose side the tilt cannot tell). Without
+    ``sincos_psi`` the axis is taken on the wind's (``b2 = 0``): ``(2 <cos^2 psi> -
+    1)^(1/4)`` where the band is mostly along the wind, else 0; a wind sea running at an
+    angle to the wind then takes too small a ``<cos psi>`` (at 30 deg, 0.84 of its
+    ``cos 30``).
 
     Parameters
     ----------
     var_along, var_across : array_like
         Tilt variance along and across the wind per band (any one unit, e.g. deg^2).
+    sincos_psi : array_like, optional
+        Each band's ``<sin psi cos psi>`` (-, record column ``tilt_band{b}_sincos_psi``);
+        NaN or absent: 0.
 
     Returns
     -------
@@ -1198,7 +1214,12 @@ def band_direction_moments(var_along, var_across) -> tuple[np.ndarray, np.ndarra
     vt = va + np.asarray(var_across, float)
     with np.errstate(invalid="ignore", divide="ignore"):
         share = np.where(vt > 0, va / np.where(vt > 0, vt, 1.0), 0.0)
-    cos_mean = np.where(2.0 * share - 1.0 > 0, np.abs(2.0 * share - 1.0) ** 0.25, 0.0)
+    a2 = 2.0 * share - 1.0
+    b2 = 0.0 if sincos_psi is None else np.nan_to_num(2.0 * np.asarray(sincos_psi, float))
+    r2 = np.minimum(np.hypot(a2, b2), 1.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos_axis_sq = 0.5 * (1.0 + np.where(r2 > 0, a2 / np.where(r2 > 0, r2, 1.0), -1.0))
+    cos_mean = r2**0.25 * np.sqrt(np.clip(cos_axis_sq, 0.0, 1.0))
     return share, cos_mean
 
 
@@ -1227,8 +1248,6 @@ def tilt_bands_from_records(records: pd.DataFrame):
 
     per, va, vc = stack(0), stack(1), stack(2)
     complete = np.all(np.isfinite(per) & np.isfinite(va) & np.isfinite(vc), axis=-1)
-    cos_sq, cos_mean = band_direction_moments(va, vc)
-
     def measured(column):
         out = np.full(per.shape, np.nan)
         for b in range(N_TILT_BANDS):
@@ -1236,6 +1255,8 @@ def tilt_bands_from_records(records: pd.DataFrame):
                 out[:, b] = records[column(b + 1)].to_numpy(dtype=float)
         return out
 
+    sincos = measured(tilt_band_sincos_psi_column)
+    cos_sq, cos_mean = band_direction_moments(va, vc, sincos)
     return {
         "amplitude_deg": np.sqrt(2.0 * (va + vc)),
         "period_s": per,
@@ -1243,7 +1264,7 @@ def tilt_bands_from_records(records: pd.DataFrame):
         "cos_psi": cos_mean,
         "cos_psi_measured": measured(tilt_band_cos_psi_column),
         "sin_psi_measured": measured(tilt_band_sin_psi_column),
-        "sincos_psi_measured": measured(tilt_band_sincos_psi_column),
+        "sincos_psi_measured": sincos,
         "edges_s": band_edges_s(N_TILT_BANDS, *PERIOD_RANGE_S),
         "complete": complete,
     }
@@ -1273,7 +1294,7 @@ def follower_translation_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray
     c = G_MS2 * np.asarray(spec.period_s, float) / (2.0 * np.pi)  # phase speed, m/s
     heave_var = np.sum(vt * c**2, axis=-1)
     along_var = np.sum(va * c**2, axis=-1)
-    _, cos_mean = band_direction_moments(va, vt - va)
+    _, cos_mean = band_direction_moments(va, vt - va, spec.sincos_psi)
     if spec.cos_psi is not None:  # measured from the heave where it is
         cos_mean = np.where(np.isfinite(spec.cos_psi), spec.cos_psi, cos_mean)
     with np.errstate(invalid="ignore", divide="ignore"):

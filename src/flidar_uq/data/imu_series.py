@@ -745,11 +745,11 @@ def series_overrides(records: pd.DataFrame) -> tuple[list[str], int]:
 
 
 def _measured_heave_columns(table: pd.DataFrame) -> list[str]:
-    """What the heave of an IMU series measured that a table carries: the bands'
-    directions (``tilt_band{b}_cos_psi``, ``tilt_band{b}_sin_psi``,
-    ``tilt_band{b}_sincos_psi``) and the hull's responses (``heave_response_ratio``,
-    ``horizontal_response_ratio``)."""
-    ends = ("_cos_psi", "_sin_psi", "_sincos_psi")
+    """What the heave of an IMU series measured that a table carries: the bands' sides
+    (``tilt_band{b}_cos_psi``, ``tilt_band{b}_sin_psi``; the bands'
+    ``tilt_band{b}_sincos_psi`` is the tilt's own, :data:`SERIES_MOTION_COLUMNS`) and the
+    hull's responses (``heave_response_ratio``, ``horizontal_response_ratio``)."""
+    ends = ("_cos_psi", "_sin_psi")
     return [
         c
         for c in table

@@ -170,7 +170,7 @@ def tilt_band_sin_psi_column(b: int) -> str:
 def tilt_band_sincos_psi_column(b: int) -> str:
     """Name of the optional record column of tilt band ``b`` (1-based): the mean of
     ``sin psi cos psi`` over its waves' directions of travel against the wind, from the
-    co-spectrum of the along- and across-wind tilt (written with the heave's columns)."""
+    co-spectrum of the along- and across-wind tilt (written with the band's variances)."""
     return f"tilt_band{b}_sincos_psi"
 
 
@@ -476,10 +476,12 @@ RECORD_COLUMNS: tuple[Column, ...] = (
                 True,
                 f"Mean of sin(psi) cos(psi) over the directions of travel of band {b}'s waves "
                 f"against the wind (psi as in tilt_band{b}_sin_psi), from the co-spectrum of "
-                "the along- and across-wind tilt (Longuet-Higgins et al., 1963), written "
-                "with the measured side: a DBS lidar's beams see a band oblique to the wind "
-                "through it; absent: 0 (a spread symmetric about the wind's axes). A conical "
-                "scan does not use it.",
+                "the along- and across-wind tilt (Longuet-Higgins et al., 1963; the tilt "
+                "alone gives it, whichever way the waves run): with the along-wind share it "
+                "sets the band's mean axis, on which a wind sea is taken to run downwind "
+                "where the side is not measured; with the measured side a DBS lidar's "
+                "beams see a band oblique to the wind through it. Absent: 0 (a spread "
+                "symmetric about the wind's axes).",
             ),
         )
     ),
@@ -787,7 +789,11 @@ TILT_SPECTRUM_COLUMNS = (
     "follower_heave_period_s",
     "follower_velocity_along_wind_std_ms",
     "follower_heave_tilt_correlation",
-    *(c for b in range(1, N_TILT_BANDS + 1) for c in tilt_band_column_names(b)),
+    *(
+        c
+        for b in range(1, N_TILT_BANDS + 1)
+        for c in (*tilt_band_column_names(b), tilt_band_sincos_psi_column(b))
+    ),
 )
 
 IMU_COLUMNS: tuple[Column, ...] = (

@@ -347,7 +347,8 @@ class TiltBandSpectrum:
         velocity and the across-wind tilt; None without a vertical velocity.
     sincos_psi : ndarray, shape (nrec, nb), or None
         Mean ``sin psi cos psi`` of the same directions, from the co-spectrum of the along-
-        and across-wind tilt; given with ``sin_psi``.
+        and across-wind tilt (the tilt alone: it does not change when a wave runs the
+        other way); None where the co-spectrum was not taken.
     heave_response : ndarray, shape (nrec,), or None
         The hull's heave against a wave follower's with the record's tilt, over the bands'
         periods, from the vertical velocity
@@ -444,6 +445,7 @@ def tilt_band_spectrum(
     n_bands: int = 8,
     period_min_s: float = 1.0,
     period_max_s: float = 20.0,
+    cospectrum=None,
 ) -> TiltBandSpectrum:
     """Reduce along/across-wind tilt PSDs to period bands and spectral moments.
 
@@ -456,6 +458,10 @@ def tilt_band_spectrum(
         (``psd.sum(-1) * df`` is the variance).
     n_bands, period_min_s, period_max_s : int, float, float
         Log-spaced bands between the two periods, s.
+    cospectrum : array_like, shape like psd_along, optional
+        Co-spectrum of the along- and across-wind tilt, deg^2/Hz: then each band's
+        ``<sin psi cos psi>`` (minus its band sum over the band's tilt variance; NaN for a
+        band without tilt power) is in ``sincos_psi``.
 
     Returns
     -------
@@ -509,7 +515,13 @@ def tilt_band_spectrum(
     m2 = (pa_in * f**2).sum(axis=-1) * df
     k = np.argmax(np.where(inside, tot, -np.inf), axis=-1)
     tp = np.where(tot[np.arange(tot.shape[0]), k] > 0, 1.0 / f[k], np.nan)
-    return TiltBandSpectrum(edges, period, var_a, var_c, outside, m0, m1, m2, tp)
+    spec = TiltBandSpectrum(edges, period, var_a, var_c, outside, m0, m1, m2, tp)
+    if cospectrum is None:
+        return spec
+    co = band_sums(np.ascontiguousarray(np.atleast_2d(np.asarray(cospectrum, float))))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sincos = -co / np.where(v_tot > 0, v_tot, np.nan)
+    return replace(spec, sincos_psi=np.clip(sincos, -0.5, 0.5))
 
 
 def _sigma_single(sur, hws, amp, per, lever_arm_m):
