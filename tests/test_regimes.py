@@ -398,9 +398,10 @@ def test_large_discus_buoy_with_its_heave_measured_finds_the_lever_arm(seed):
 
 
 #: Discus runs whose lever arm leaves the 0.5-m bound: from the tilt alone its posterior sd
-#: is ~0.4 m, and seed 93494952 gave 2.29 m against 3 m (motion scale 1.01, hull response
-#: 0.99). Reported as an expected failure where it is still outside the bound.
-_DISCUS_LEVER_MISSES = {93494952: "discus lever arm 2.29 m against the truth's 3 m"}
+#: is ~0.3 m, and seed 93494952 gave 1.94 m against 3 m (motion scale 1.04, hull response
+#: 0.98; 2.29 m with the wind-sea bands on the wind's axis). Reported as an expected
+#: failure where it is still outside the bound.
+_DISCUS_LEVER_MISSES = {93494952: "discus lever arm 1.94 m against the truth's 3 m"}
 
 
 @pytest.mark.slow
@@ -409,7 +410,7 @@ def test_large_discus_buoy_fit_finds_the_motion_scale_and_the_lever_arm(seed):
     """The discus buoy's record fit with the reference hull PSIS-LOO keeps (the discus
     buoy's, the fit the named hull gives): motion scale in [0.9, 1.1],
     lever arm within 0.5 m of the scenario's 3 m, no discrepancy warning (1572108785:
-    3.41 m)."""
+    2.75 m)."""
     records, fit = _run_discus(seed)
     _check_finds_the_buoy(fit, records, lean=_DISCUS_LEVER_MISSES.get(seed))
 

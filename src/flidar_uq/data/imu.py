@@ -1194,8 +1194,8 @@ def band_direction_moments(
     0 for a band across the wind (a swell whose side the tilt cannot tell). Without
     ``sincos_psi`` the axis is taken on the wind's (``b2 = 0``): ``(2 <cos^2 psi> -
     1)^(1/4)`` where the band is mostly along the wind, else 0; a wind sea running at an
-    angle to the wind then takes too small a ``<cos psi>`` (at 30 deg, 0.84 of its
-    ``cos 30``).
+    angle to the wind then takes too small a ``<cos psi>`` (0.97 of it at 30 deg, 0.84
+    at 40 deg, none from 45 deg).
 
     Parameters
     ----------
