@@ -261,10 +261,12 @@ def test_speed_bins_per_height_with_the_issue_columns(surrogate):
         assert (pb[f"{s}_lo"] < pb[s]).all() and (pb[s] < pb[f"{s}_hi"]).all()
 
 
-def test_bin_statistic_interval_is_the_quantile_of_the_statistic_draws(surrogate):
-    """The interval on a bin's mean TI comes from the draws of the bin mean (computed here
-    directly from the draw matrix), not from the average of the records' intervals, which
-    is several times wider when the records' errors are independent."""
+def test_bin_statistics_are_those_of_the_population_not_of_the_draws(surrogate):
+    """A bin's mean TI is the mean of its records' draws (the records' own errors average
+    out of it); its sd, representative TI and P90 come from the measurement-error model,
+    below the draw-by-draw statistics that add every record's own noise to the spread
+    (docs/inference.md, "Bin statistics"). The mean's interval is far narrower than a
+    record's when the records' errors are independent."""
     rec = _records(np.linspace(0.6, 1.0, 40))
     out = draw_corrected_ti(
         rec,
@@ -275,20 +277,14 @@ def test_bin_statistic_interval_is_the_quantile_of_the_statistic_draws(surrogate
         seed=8,
     )
     pr = record_summary(rec, out, variance_law_baselines(rec, surrogate))
-    pb, draws = speed_bin_statistics(out.ti, pr, rec), out.ti
-    assert draws.shape == (2000, 40) and draws.dtype == np.float32
-    draws = draws.astype(float)  # the statistics are computed in float64
+    pb, draws = speed_bin_statistics(out.ti, pr, rec, seed=8), out.ti.astype(float)
+    row = pb.iloc[0]
     mean_draws = draws.mean(axis=1)
     lo, med, hi = np.quantile(mean_draws, [0.05, 0.5, 0.95])
-    row = pb.iloc[0]
-    np.testing.assert_allclose([row.ti_mean_lo, row.ti_mean, row.ti_mean_hi], [lo, med, hi])
-    rep = mean_draws + 1.28 * draws.std(axis=1, ddof=1)
-    np.testing.assert_allclose(
-        [row.ti_rep_lo, row.ti_rep_hi], np.quantile(rep, [0.05, 0.95]), rtol=1e-12
-    )
-    p90 = np.quantile(draws, 0.9, axis=1)
-    np.testing.assert_allclose([row.ti_p90_lo, row.ti_p90_hi], np.quantile(p90, [0.05, 0.95]))
-    # 40 records with independent sampling noise: the mean's interval is much narrower
+    assert abs(row.ti_mean / med - 1.0) < 0.01
+    assert lo < row.ti_mean < hi
+    draw_rep = np.median(mean_draws + 1.28 * draws.std(axis=1, ddof=1))
+    assert row.ti_rep < draw_rep and row.ti_sd < np.median(draws.std(axis=1, ddof=1))
     avg_record_width = float((pr.ti_corrected_hi - pr.ti_corrected_lo).mean())
     assert row.ti_mean_hi - row.ti_mean_lo < 0.4 * avg_record_width
     np.testing.assert_allclose(row.ti_mean_uncorrected, pr.ti_uncorrected.mean())
@@ -328,5 +324,5 @@ def test_per_record_quantiles_are_those_of_the_returned_draws(surrogate):
     np.testing.assert_allclose(got.to_numpy().T, want, rtol=1e-6)
     pr2, pb2 = corrected_ti(*args, **kw)
     pd.testing.assert_frame_equal(pr2, pr)
-    pd.testing.assert_frame_equal(pb2, speed_bin_statistics(draws, pr, rec))
+    pd.testing.assert_frame_equal(pb2, speed_bin_statistics(draws, pr, rec, seed=4))
     assert len(pb2) == 1

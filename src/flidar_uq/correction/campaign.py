@@ -467,19 +467,28 @@ def _group_tables(ti_draws, per_record, sub, settings: CorrectionSettings):
         }
     )
     speed_bins = prop.ti_group_statistics(
-        ti_draws, per_record, speed_keys, credible_mass=credible_mass, min_count=min_count
+        ti_draws,
+        per_record,
+        speed_keys,
+        credible_mass=credible_mass,
+        min_count=min_count,
+        seed=child_seed(settings.seed, 5, 0),
     )
     labels = record_groups(sub, sector_width_deg=settings.sector_width_deg)
     tables = []
-    for grouping, col in (
-        ("campaign", None),
-        ("direction sector", "sector_deg"),
-        ("sea state", "sea_state"),
+    for k, (grouping, col) in enumerate(
+        (("campaign", None), ("direction sector", "sector_deg"), ("sea state", "sea_state")),
+        start=1,
     ):
         group = np.full(len(sub), "all", dtype=object) if col is None else labels[col]
         keys = pd.DataFrame({"height_m": sub_heights, "group": np.asarray(group, dtype=object)})
         t = prop.ti_group_statistics(
-            ti_draws, per_record, keys, credible_mass=credible_mass, min_count=min_count
+            ti_draws,
+            per_record,
+            keys,
+            credible_mass=credible_mass,
+            min_count=min_count,
+            seed=child_seed(settings.seed, 5, k),
         )
         t.insert(0, "grouping", grouping)
         tables.append(t)

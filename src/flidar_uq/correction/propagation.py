@@ -46,6 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from flidar_uq.correction.bin_population import population_statistic_draws
 from flidar_uq.data.binning import speed_bin_ms
 from flidar_uq.data.metrics import REPRESENTATIVE_TI_FACTOR, representative_ti
 from flidar_uq.inference import (
@@ -1163,6 +1164,7 @@ def speed_bin_statistics(
     settings: PropagationSettings = PropagationSettings(),
     *,
     min_count: int = 2,
+    seed=0,
 ) -> pd.DataFrame:
     """The TI statistics per height and speed bin (:func:`speed_bin_keys` at
     ``settings.speed_bin_width_ms``; :func:`ti_group_statistics` at
@@ -1170,10 +1172,15 @@ def speed_bin_statistics(
     and std of the corrected TI with credible intervals of the statistic, beside the
     uncorrected and Gutiérrez-Antuñano et al. (2018) values. ``ti_draws`` (ndraws,
     n_records) are :attr:`CorrectedDraws.ti` (-), ``per_record`` the
-    :func:`record_summary` of ``records``."""
+    :func:`record_summary` of ``records``; ``seed`` that of the population model."""
     keys = speed_bin_keys(records, settings.speed_bin_width_ms)
     return ti_group_statistics(
-        ti_draws, per_record, keys, credible_mass=settings.credible_mass, min_count=min_count
+        ti_draws,
+        per_record,
+        keys,
+        credible_mass=settings.credible_mass,
+        min_count=min_count,
+        seed=seed,
     )
 
 
@@ -1208,7 +1215,8 @@ def corrected_ti(
         seed=seed,
     )  # fmt: skip
     per_record = record_summary(records, draws, variance_law_baselines(records, surrogate))
-    return per_record, speed_bin_statistics(draws.ti, per_record, records, settings)
+    bins = speed_bin_statistics(draws.ti, per_record, records, settings, seed=seed)
+    return per_record, bins
 
 
 def ti_group_statistics(
@@ -1218,18 +1226,21 @@ def ti_group_statistics(
     *,
     credible_mass: float = 0.9,
     min_count: int = 2,
+    seed=0,
 ) -> pd.DataFrame:
     """TI statistics per group of records (height x speed bin, sector, sea state) with
     credible intervals of the statistic itself, from the joint posterior draws.
 
-    For every posterior draw ``d`` the statistic is computed over the group's records
-    (mean, sample std, representative TI ``mean + 1.28 std`` of IEC 61400-1, 90th
-    percentile); because draw ``d`` of every record comes from the same global posterior
-    draw (:func:`draw_corrected_ti`), these are draws of the statistic's posterior, and its
-    median and equal-tailed interval are reported. This is the uncertainty of the
-    statistic over the measured records (motion, correlation, noise, reference response),
-    not the sampling uncertainty of the site's climate. The average of per-record
-    intervals would be a different (much wider) quantity.
+    The statistics are those of the group's population of true TI
+    (:func:`flidar_uq.correction.bin_population.population_statistic_draws`): each record's
+    corrected TI is a noisy measurement of its true TI, the records' own errors are taken
+    out of the population's spread by a hierarchical (measurement-error) model, and the
+    error shared by the group's records (the global posterior) is carried draw by draw.
+    Reported per statistic: the posterior median and equal-tailed interval of the mean, the
+    sd, the representative TI ``mean + 1.28 sd`` (IEC 61400-1 ed. 3) and the 90 % quantile
+    (the representative TI of IEC 61400-1 ed. 4) of the group's records' true TI. This is
+    the uncertainty of the statistic over the measured records, not the sampling
+    uncertainty of the site's climate.
 
     Parameters
     ----------
@@ -1247,6 +1258,9 @@ def ti_group_statistics(
     min_count : int
         Fewest records with a corrected TI for the statistics of a group (>= 2); groups
         below it keep their count and NaN statistics.
+    seed : int or numpy.random.SeedSequence
+        The population model's random numbers (group ``k`` of the sorted keys uses spawn
+        key ``k``).
 
     Returns
     -------
@@ -1281,7 +1295,9 @@ def ti_group_statistics(
     valid = kv.notna().all(axis=1).to_numpy()
     stats = ("ti_mean", "ti_sd", "ti_rep", "ti_p90")
     rows = []
-    for key, idx in kv[valid].groupby(key_cols, sort=True).indices.items():
+    root = as_seedsequence(seed)
+    groups = kv[valid].groupby(key_cols, sort=True).indices.items()
+    for g, (key, idx) in enumerate(groups):
         members = np.flatnonzero(valid)[idx]
         key = key if isinstance(key, tuple) else (key,)
         k = members[usable[members]]
@@ -1290,8 +1306,11 @@ def ti_group_statistics(
         row["n_not_converged"] = int((~conv[members]).sum())
         enough = k.size >= min_count
         if enough:
-            draws = _draw_statistics(ti_draws, k)
-            for name, x in zip(stats, draws, strict=True):
+            sub_seed = np.random.SeedSequence(root.entropy, spawn_key=(*root.spawn_key, g))
+            rng = np.random.default_rng(sub_seed)
+            draws = population_statistic_draws(ti_draws, rng, k)
+            mean, sd, rep, p90 = draws
+            for name, x in zip(stats, (mean, sd, rep, p90), strict=True):
                 lo, med, hi = np.quantile(x, q)
                 row.update({name: med, f"{name}_lo": lo, f"{name}_hi": hi})
         else:
@@ -1328,18 +1347,6 @@ def finite_records(ti_draws) -> np.ndarray:
     for j in range(0, ti_draws.shape[1], step):
         out[j : j + step] = np.all(np.isfinite(ti_draws[:, j : j + step]), axis=0)
     return out
-
-
-def _draw_statistics(ti_draws: np.ndarray, columns: np.ndarray):
-    """:func:`_statistics` over ``columns`` of every draw (row), computed on blocks of
-    draws converted to float64 (a group of a year's records would otherwise be copied
-    whole, several times); row by row the same numbers as on the whole matrix."""
-    step = max(1, _BLOCK_VALUES // max(columns.size, 1))
-    blocks = [
-        _statistics(ti_draws[j : j + step, columns], axis=1)
-        for j in range(0, max(ti_draws.shape[0], 1), step)
-    ]
-    return tuple(np.concatenate(parts) for parts in zip(*blocks, strict=True))
 
 
 def _statistics(ti, axis: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
