@@ -611,7 +611,7 @@ def test_reference_mean_without_std_warns_in_validate_and_stops_the_pipeline(tmp
     assert (
         "column 'ref_hws_std_ms': the reference mean ref_hws_mean_ms is given but its std " in err
     )
-    assert "global_fit_failed" in err and "(the pipeline stops on this)" in err
+    assert "rho at its prior" in err and "(the pipeline stops on this)" in err
     stream = io.StringIO()
     config = {"campaign": {"source": "files", "records": str(path)}}
     assert pipeline_preflight(config, stream=stream) == EXIT_DATA

@@ -35,7 +35,7 @@ def reference_problems(records: pd.DataFrame, source: str) -> list:
 
     rho (and with it every corrected value) is learnt only from records with
     ``ref_hws_std_ms``; a file with the reference's mean speed but no std would run to the
-    end and flag every record ``global_fit_failed``.
+    end with rho at its prior, the reference calibrating nothing.
 
     Parameters
     ----------
@@ -65,8 +65,9 @@ def reference_problems(records: pd.DataFrame, source: str) -> list:
                 None,
                 "ref_hws_std_ms",
                 f"the reference mean ref_hws_mean_ms is given but its std {what}: rho is "
-                "learnt only from the reference std, so every record would be flagged "
-                "global_fit_failed; add (or map, campaign.columns) the reference std column, "
+                "learnt only from the reference std, so the reference would calibrate nothing "
+                "(rho at its prior, wide intervals); add (or map, campaign.columns) the "
+                "reference std column, "
                 "or drop the mean (campaign.columns: {<its name>: null})",
             )
         ]
@@ -186,7 +187,7 @@ def inspect_records(
     if share["ref_hws_std_ms"] == 0.0 and not blocking:
         warnings.append(
             "no reference std (ref_hws_std_ms): rho cannot be learnt, its posterior is the "
-            "prior, the intervals are wide and every record is flagged global_fit_failed"
+            "prior and the corrected TI's intervals are wide"
         )
     elif 0 < share["ref_hws_std_ms"] * n < _MIN_REFERENCE_RECORDS:
         warnings.append(

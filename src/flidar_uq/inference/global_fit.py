@@ -216,11 +216,7 @@ def _fit_global_model(name, data, settings, ss_mc, ss_loo, priors, loo_threshold
     draws, ll, diag, reasons = _sample_global(
         s, r, szm, szv, u2, settings, ss_mc, priors, _GLOBAL_NDIM[name], corr
     )
-    reasons = list(reasons)
-    if prior_only:
-        reasons.append(
-            "no record with reference std and converged bin: rho posterior equals the prior"
-        )
+    reasons = list(reasons)  # prior only: the prior's answer (info["prior_only"]), not a failure
     loo_info = {"model": name}
     lg = None if prior_only else _loo(ll)
     if name != "rho_only":  # per-bin rho comparison at the median lever arm (and scale)

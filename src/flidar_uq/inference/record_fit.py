@@ -607,9 +607,9 @@ def fit_record_model(
     thin = _thin(chains, settings.ndraws)
     draws = natural_draws(thin)
     reasons = list(reasons)
+    # without a reference std the posterior is the prior: an answer with the prior's
+    # (wide) uncertainty, not a convergence failure (info["prior_only"] says so)
     prior_only = s.size == 0
-    if prior_only:
-        reasons.append("no record with a reference std and a motion description: prior only")
     loo = None if prior_only else _record_loo(thin.reshape(-1, ndim), s, r, gram, pair)
     k_med = float(np.median(draws["motion_scale"]))
     info = {

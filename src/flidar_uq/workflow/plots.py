@@ -96,6 +96,23 @@ def sigma_scatter_figure(
     return fig
 
 
+def _ti_limits(b: pd.DataFrame, *others: pd.DataFrame | None) -> tuple[float, float]:
+    """y-limits (-) fitting the plotted bin statistics with a 10 % margin of their range
+    (at least 0.005): a correction of a few thousandths stays visible. ``b``: speed-bin
+    rows; ``others``: truth or reference rows (``ti_mean``, ``ti_rep``), or None."""
+    cols = ["ti_mean", "ti_mean_lo", "ti_mean_hi", "ti_rep", "ti_rep_lo", "ti_rep_hi",
+            "ti_mean_uncorrected", "ti_rep_uncorrected"]  # fmt: skip
+    vals = [b[c].to_numpy(dtype=float) for c in cols if c in b]
+    vals += [o[c].to_numpy(dtype=float) for o in others if o is not None for c in
+             ("ti_mean", "ti_rep") if c in o]  # fmt: skip
+    v = np.concatenate(vals) if vals else np.empty(0)
+    v = v[np.isfinite(v)]
+    if not v.size:
+        return 0.0, 0.3
+    margin = max(0.1 * (v.max() - v.min()), 0.005)
+    return max(0.0, v.min() - margin), v.max() + margin
+
+
 def ti_speed_bins_figure(
     speed_bins: pd.DataFrame,
     records: pd.DataFrame | None = None,
@@ -174,9 +191,7 @@ def ti_speed_bins_figure(
         ax.annotate(f"IEC {cat}", (vv[-1], iec_representative_ti(vv[-1], i_ref)), fontsize=7,
                     color="tab:green", xytext=(2, 0), textcoords="offset points", va="center")  # fmt: skip
     ax.set_xlim(vv[0], vv[-1] + 1.3)
-    top = np.nanmax(np.r_[b["ti_rep_hi"].to_numpy(dtype=float), 0.1]) if len(b) else 0.3
-    iec_top = float(iec_representative_ti(vv[0], max(IEC_TURBULENCE_CATEGORIES.values())))
-    ax.set_ylim(0, 1.05 * max(min(1.2 * top, 0.6), iec_top))  # every IEC curve in full
+    ax.set_ylim(*_ti_limits(b, truth, reference))
     ax.set_xlabel("HWS bin [m/s]")
     ax.set_ylabel("TI [-]")
     ax.set_title(title + " (green: IEC 61400-1 ed. 4 categories, representative TI)", fontsize=10)

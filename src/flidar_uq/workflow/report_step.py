@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from markupsafe import Markup
+from markupsafe import Markup, escape
 
 from flidar_uq.threads import numeric_environment
 from flidar_uq.workflow import report as rep
@@ -292,10 +292,18 @@ def _plain_warnings(gfit, bins, records, global_summary, motion_model, coverage)
             "intervals of bins far from the average may be too narrow or too wide. Check the "
             "per-bin validation below before relying on a single bin."
         )
+    if gfit.info.get("prior_only"):
+        out.append(
+            "Without a reference std (ref_hws_std_ms) the correlation rho between the motion "
+            "error and the turbulence stays at its prior: the corrected TI and its per-bin "
+            "statistics carry that prior's wide intervals. A reference narrows them."
+        )
     if not gfit.converged:
         out.append(
-            "The fit did not converge (" + "; ".join(gfit.failure_reasons) + "): no record "
-            "has a corrected TI. Rerun with more sampler steps (inference.nsteps, nburn)."
+            "The fit's chains did not meet the convergence criteria ("
+            + "; ".join(gfit.failure_reasons)
+            + "): its records have no trustworthy corrected TI (flag global_fit_failed). "
+            "Rerun with more sampler steps (inference.nsteps, nburn)."
         )
     st = bins["status"].value_counts()
     n_failed = int(st.get("failed", 0) + st.get("error", 0))
@@ -324,7 +332,7 @@ def _first_screen(ctx: dict) -> str:
         campaign_name,
         file_identity,
         first_screen_html,
-        hull_model_words,
+        hull_model_short,
         motion_description_summary,
         reference_speed_bins,
         representative_at_15,
@@ -350,7 +358,7 @@ def _first_screen(ctx: dict) -> str:
     described = motion_description_summary(records)
     if described:
         facts.append(("motion description", described))
-    hull = hull_model_words(ctx["gfit"].info if ctx.get("gfit") is not None else {})
+    hull = hull_model_short(ctx["gfit"].info if ctx.get("gfit") is not None else {})
     if hull:
         facts.append(("hull model", hull))
     screen = FirstScreen(
@@ -659,6 +667,19 @@ def _bin_table_section(ctx: dict) -> rep.Section:
     )
 
 
+def _model_selection_section(ctx: dict) -> rep.Section | None:
+    """Appendix: which motion description the data favour, in words (None without a
+    comparison: a configured hull model, or the bin motion model)."""
+    from flidar_uq.workflow.report_summary import hull_model_words, model_selection_words
+
+    words = model_selection_words(ctx["gfit"].info)
+    if not words:
+        return None
+    body = "<ul>" + "".join(f"<li>{escape(w)}</li>" for w in words) + "</ul>"
+    body += f"<p>In full: {escape(hull_model_words(ctx['gfit'].info))}.</p>"
+    return rep.Section("Appendix F. Which description of the buoy's motion the data favour", body)
+
+
 def _budget_section(ctx: dict) -> rep.Section:
     """Appendix: the uncertainty budget."""
     from flidar_uq.correction.propagation import UNCERTAINTY_SOURCES
@@ -895,6 +916,7 @@ def build_report(
         _budget_section(ctx),
         _qc_section(ctx),
         _methods_section(ctx),
+        *filter(None, [_model_selection_section(ctx)]),
         *series_sections(**(series_paths or {})),  # raw IMU series, LOS branch
         rep.Section(
             "How to cite", rep.templates().get_template("sections/references.html.j2").render()

@@ -27,10 +27,15 @@ from flidar_uq.workflow import report as rep
 __all__ = [
     "Validation",
     "campaign_name",
+    "category_move_words",
+    "correction_size_words",
+    "coverage_words",
     "first_screen_html",
     "held_out_records",
+    "hull_model_short",
     "hull_model_words",
     "lever_arm_words",
+    "model_selection_words",
     "motion_description_summary",
     "motion_scale_words",
     "reference_speed_bins",
@@ -158,31 +163,82 @@ def reference_speed_bins(records: pd.DataFrame, min_count: int = 10) -> pd.DataF
     return out.reset_index()[cols]
 
 
+#: Columns of :func:`representative_at_15`.
+_REP15_COLUMNS = ["height_m", "n", "ti_rep", "ti_rep_lo", "ti_rep_hi", "category",
+                  "ti_rep_uncorrected", "category_uncorrected", "note"]  # fmt: skip
+
+
 def representative_at_15(speed_bins: pd.DataFrame, min_count: int = 10) -> pd.DataFrame:
-    """Per height: the corrected representative TI of the 15-m/s bin and its IEC category.
+    """Per height: the representative TI of the 15-m/s bin and its IEC category, corrected
+    and uncorrected.
 
     Returns ``height_m``, ``n``, ``ti_rep``, ``ti_rep_lo``, ``ti_rep_hi`` (-), ``category``
     (:func:`flidar_uq.validation.reference.iec_category` of the value, and of the interval
-    bounds when they fall in other categories) and ``note`` (why a height has none).
+    bounds when they fall in other categories), ``ti_rep_uncorrected`` (-) and
+    ``category_uncorrected`` (of the floating lidar's TI as measured, the records with a
+    corrected TI) and ``note`` (why a height has none).
     """
     rows = []
     for h, b in speed_bins.groupby("height_m", sort=True):
         at = b[np.isclose(b["hws_bin_ms"], IEC_REFERENCE_SPEED_MS)]
         n = int(at["n"].iloc[0]) if len(at) else 0
-        vals = at[["ti_rep", "ti_rep_lo", "ti_rep_hi"]].to_numpy(dtype=float)
+        vals = at[["ti_rep", "ti_rep_lo", "ti_rep_hi", "ti_rep_uncorrected"]].to_numpy(float)
         if n < min_count or not len(vals) or not np.isfinite(vals[0, 0]):
             rows.append({"height_m": h, "n": n, "ti_rep": np.nan, "ti_rep_lo": np.nan,
-                         "ti_rep_hi": np.nan, "category": "",
+                         "ti_rep_hi": np.nan, "category": "", "ti_rep_uncorrected": np.nan,
+                         "category_uncorrected": "",
                          "note": f"too few records in the 15-m/s bin ({n})"})  # fmt: skip
             continue
-        v, lo, hi = vals[0]
+        v, lo, hi, unc = vals[0]
         cats = dict.fromkeys(iec_category(x) for x in (lo, v, hi))
         cat = iec_category(v) + (f" (interval spans {' to '.join(cats)})" if len(cats) > 1 else "")
         rows.append({"height_m": h, "n": n, "ti_rep": v, "ti_rep_lo": lo, "ti_rep_hi": hi,
-                     "category": cat, "note": ""})  # fmt: skip
-    return pd.DataFrame(
-        rows, columns=["height_m", "n", "ti_rep", "ti_rep_lo", "ti_rep_hi", "category", "note"]
+                     "category": cat, "ti_rep_uncorrected": unc,
+                     "category_uncorrected": iec_category(unc), "note": ""})  # fmt: skip
+    return pd.DataFrame(rows, columns=_REP15_COLUMNS)
+
+
+def correction_size_words(row) -> str:
+    """The correction's size at 15 m/s of one height in plain words ("" without a value).
+
+    ``row``: a row of :func:`representative_at_15`, e.g. "At 85 m the representative TI
+    at 15 m/s falls from 0.142 to 0.135 (-5.0 %; corrected interval 0.131-0.139): IEC
+    category B -> C."
+    """
+    before, after = float(row.ti_rep_uncorrected), float(row.ti_rep)
+    if not (np.isfinite(before) and np.isfinite(after)):
+        return ""
+    verb = "falls" if after < before else "rises" if after > before else "stays"
+    cat_before, cat_after = row.category_uncorrected, iec_category(after)
+    cats = (
+        f"IEC category {cat_before} -> {cat_after}"
+        if cat_before != cat_after
+        else f"IEC category {cat_after} either way"
     )
+    return (
+        f"At {row.height_m:g} m the representative TI at 15 m/s {verb} from {before:.3f} to "
+        f"{after:.3f} ({100 * (after / before - 1.0):+.1f} %; corrected interval "
+        f"{row.ti_rep_lo:.3f}-{row.ti_rep_hi:.3f}): {cats}."
+    )
+
+
+def category_move_words(rep15: pd.DataFrame) -> str:
+    """One sentence when the correction moves every height (two or more, each with a value)
+    from one IEC category to the same other one, else "" (``rep15``:
+    :func:`representative_at_15`)."""
+    r = rep15[np.isfinite(rep15["ti_rep"].to_numpy(float))]
+    r = r[np.isfinite(r["ti_rep_uncorrected"].to_numpy(float))]
+    if len(r) < 2 or len(r) < len(rep15):
+        return ""
+    cats = zip(r["category_uncorrected"], r["ti_rep"], strict=True)
+    moves = {(before, iec_category(after)) for before, after in cats}
+    if len(moves) != 1:
+        return ""
+    ((before, after),) = moves
+    if before == after:
+        return ""
+    n = {2: "both", 3: "all three"}.get(len(r), f"all {len(r)}")
+    return f"The correction moves {n} heights from IEC category {before} to {after}."
 
 
 def _cell(v: float, lo: float = np.nan, hi: float = np.nan) -> tuple[str, str]:
@@ -219,7 +275,26 @@ def _bin_rows(b: pd.DataFrame, ref: pd.DataFrame, min_count: int) -> list[list[t
     return rows
 
 
+def coverage_words(v: Validation, mass: float) -> str:
+    """The held-out records' interval coverage in words ("" when in sample: the fit saw
+    those records, so their coverage says nothing about new ones)."""
+    if v.sample != "held out":
+        return ""
+    s = v.tables["summary"]
+    row = s[(s["sample"] == "held out") & (s["estimate"] == "corrected")]
+    if not len(row) or not np.isfinite(row["coverage"].iloc[0]):
+        return ""
+    cov, n = float(row["coverage"].iloc[0]), int(row["n"].iloc[0])
+    return (
+        f"On the {n} held-out records, which the fit never saw, the corrected TI's {mass:.0%} "
+        f"interval holds the reference TI in {100 * cov:.1f} % of them ({mass:.0%} expected: "
+        "fewer means intervals too narrow, more too wide)."
+    )
+
+
 def _headline_table(v: Validation) -> str:
+    """The validation headline: bias, RMSE, slope, offset, R² (the coverage is in words,
+    :func:`coverage_words`)."""
     tab = v.tables["summary"].copy()
     out = pd.DataFrame({VALIDATION_LABELS[c]: tab[c] for c in ("sample", "estimate", "n")})
     for c, fmt in (("bias", "{:+.4f}"), ("bias_rel", "{:+.1f}"), ("rmse", "{:.4f}"),
@@ -228,13 +303,12 @@ def _headline_table(v: Validation) -> str:
         out[VALIDATION_LABELS[c]] = [
             fmt.format(scale * x) if np.isfinite(x) else "–" for x in tab[c]
         ]
-    out["coverage"] = [f"{100 * x:.1f} %" if np.isfinite(x) else "–" for x in tab["coverage"]]
     return rep.table_html(out, caption="")
 
 
 @dataclass(frozen=True)
 class FirstScreen:
-    """What the first screen shows (built by :func:`build_first_screen` from the results)."""
+    """What the first screen shows (the report step builds it from the results)."""
 
     title: str
     facts: list
@@ -253,6 +327,7 @@ def first_screen_html(screen: FirstScreen) -> str:
             "height": f"{r.height_m:g}",
             "value": _cell(r.ti_rep, r.ti_rep_lo, r.ti_rep_hi),
             "category": r.category,
+            "words": correction_size_words(r),
             "note": r.note,
         }
         for r in screen.rep15.itertuples()
@@ -263,9 +338,12 @@ def first_screen_html(screen: FirstScreen) -> str:
         .render(
             facts=screen.facts,
             rep15=rep15,
+            moves=category_move_words(screen.rep15),
             bin_tables=screen.bin_tables,
             headline=Markup(_headline_table(v)) if v else "",
             statement=v.statement if v else "",
+            sample=v.sample if v else "",
+            coverage=coverage_words(v, screen.mass) if v else "",
             lidar_reference=bool(v and v.lidar_reference),
             warnings=screen.warnings,
             mass=f"{screen.mass:.0%}",
@@ -402,6 +480,68 @@ def motion_description_summary(records: pd.DataFrame) -> str:
         words = f"{n:,} records: {_TILT_WORDS[t]}; {_TRANSLATION_WORDS.get(tr, tr)}"
         parts.append(f"{words}, {_DIRECTION_WORDS[d]}" if d in _DIRECTION_WORDS else words)
     return " · ".join(parts)
+
+
+#: The reference hulls in a reader's words (physics.hull.HULLS names).
+_HULL_PLAIN = {
+    "wave_follower": "the hull that follows the waves",
+    "discus_buoy": "the large discus buoy's hull (follows the waves longer than about 4 s)",
+    "spar": "the deep-draught spar's hull",
+}
+
+
+def _hull_plain(name: str) -> str:
+    return _HULL_PLAIN.get(name, f"the {name.replace('_', ' ')} hull")
+
+
+def hull_model_short(info: dict) -> str:
+    """The record model's hull description in a few words, from the global fit's ``info``
+    ("" without one); the comparison that chose it is :func:`model_selection_words`'."""
+    kept = info.get("hull_model")
+    if not kept:
+        return ""
+    if kept == "rotation_only":
+        return "rotation about a fixed centre, no translation"
+    return f"rotation and translation of {_hull_plain(info.get('hull_reference', 'wave_follower'))}"
+
+
+def _margin_words(d: float, se: float) -> str:
+    """How clearly a PSIS-LOO elpd difference ``d`` (± ``se``) favours a model, in words
+    (the selection's rule: clear beyond max(4, 2 se))."""
+    if d > max(4.0, 2.0 * se):
+        return "by a clear margin"
+    return "slightly, within the noise of the comparison, so the simpler one is kept"
+
+
+def _favour(first: str, second: str, d: float, se: float) -> str:
+    if d > 0:
+        return f"The data favour {first} over {second}, {_margin_words(d, se)}"
+    return f"The data do not favour {first} over {second}"
+
+
+def model_selection_words(info: dict) -> list[str]:
+    """The record model's hull comparisons in words a reader can use ([] without any), e.g.
+    "The data favour the hull that follows the waves over rotation only, by a clear
+    margin." Each sentence ends with the statistic behind it (PSIS-LOO elpd difference,
+    Vehtari et al. 2017)."""
+    out = []
+    cmp = info.get("hull_model_comparison")
+    if cmp:
+        d, se = float(cmp["elpd_difference"]), float(cmp["elpd_difference_se"])
+        ref = _hull_plain(info.get("hull_reference", "wave_follower"))
+        out.append(
+            _favour(ref, "rotation only", d, se)
+            + f" (PSIS-LOO elpd difference {d:+.1f} ± {se:.1f})."
+        )
+    rc = info.get("hull_reference_comparison")
+    if rc and info.get("hull_model") == "translating":
+        for c in rc["candidates"][1:]:
+            d, se = float(c["elpd_difference"]), float(c["elpd_difference_se"])
+            out.append(
+                _favour(_hull_plain(c["hull_reference"]), _hull_plain(c["against"]), d, se)
+                + f" (elpd difference {d:+.1f} ± {se:.1f}); kept: {_hull_plain(rc['kept'])}."
+            )
+    return out
 
 
 def hull_model_words(info: dict) -> str:
