@@ -14,16 +14,17 @@ _BINS = ((0.06, 0.30), (0.08, 0.25), (0.10, 0.25), (0.12, 0.30), (0.14, 0.35), (
 
 def _noisy_bin(rng, mean_ti, log_sd, n, ndraws, shared_sd=0.0):
     """A known log-normal population of true TI, each record measured with relative noise
-    of 10-30 % of its TI (the measured std ``s = s_true (1 + r z)``), and posterior draws
-    taken back through the pivot ``s / (1 + r z')`` as the propagation does
-    (:mod:`flidar_uq.correction.propagation`, step 2), times a factor shared by every record
-    of a draw (``exp(shared_sd N(0, 1))``)."""
+    of 10-30 % of its TI, and posterior draws about the measurement with the same noise,
+    times a factor shared by every record of a draw (``exp(shared_sd N(0, 1))``). The noise
+    is log-normal with unit mean, ``exp(r z - r^2 / 2)``: unbiased on the linear scale and
+    symmetric on the log scale, as the record model's draws are (measured against the truth
+    of the virtual campaigns, docs/inference.md, "Bin statistics")."""
     t = mean_ti * np.exp(log_sd * rng.standard_normal(n) - log_sd**2 / 2)
     rel = rng.uniform(0.1, 0.3, n)
-    measured = t * (1.0 + rel * rng.standard_normal(n))
-    pivot = np.maximum(1.0 + rel * rng.standard_normal((ndraws, n)), 0.05)
+    measured = t * np.exp(rel * rng.standard_normal(n) - rel**2 / 2)
+    draws = measured * np.exp(rel * rng.standard_normal((ndraws, n)) - rel**2 / 2)
     shared = np.exp(shared_sd * rng.standard_normal((ndraws, 1)))
-    return t, (measured / pivot * shared).astype(np.float32)
+    return t, (draws * shared).astype(np.float32)
 
 
 def test_representative_ti_of_a_known_population_under_record_noise():
@@ -74,7 +75,7 @@ def test_group_errors_split_own_and_shared_parts():
     x = y + beta * c[:, None] + np.sqrt(v) * rng.standard_normal((ndraws, n))
     e = group_errors(x)
     np.testing.assert_allclose(e.estimate, y, atol=5 * np.sqrt(v.max() / ndraws) + 3e-4)
-    np.testing.assert_allclose(e.own_var / v, 1.0, atol=0.1)
+    np.testing.assert_allclose(e.own_var / v, 1.0, atol=0.15)
     np.testing.assert_allclose(e.shared_loading, beta, atol=0.1)
     assert abs(np.std(e.shared_draws) / 0.01 - 1.0) < 0.06
 
@@ -92,5 +93,3 @@ def test_zero_draws_and_tiny_bins_stay_finite():
     assert all(np.all(np.isfinite(s)) for s in two)
     with pytest.raises(ValueError, match="needs >= 2 records, got 1"):
         group_errors(draws[:, :1])
-    with pytest.raises(ValueError, match="scale='cube' must be 'log' or 'linear'"):
-        population_statistic_draws(draws, rng, scale="cube")

@@ -10,27 +10,33 @@ estimates about their true values and once through each draw's scatter about the
 (law of total variance). The sd, the representative TI and the 90th percentile then lean
 high, by more the noisier the records.
 
-The measurement-error model here separates the two (docs/inference.md, "Bin statistics"):
+The measurement-error model here separates the two on the log scale (a record's noise is
+relative, and a bin's TI is right-skewed: on the project's virtual campaigns the log of the
+true TI of a height and 1-m/s bin has a median skewness of 0.01-0.05, the TI itself 0.9),
+docs/inference.md, "Bin statistics":
 
-1. Shared part. For every record ``i`` the draws are regressed on the group's leave-one-out
-   mean draw ``M_{-i,d}``: ``X_di = y_i + beta_i (M_{-i,d} - M_{-i}) + r_di``. ``y_i`` (the
-   record's posterior mean) is its point estimate, ``beta_i`` its share of the group's
-   common error and ``v_i = Var_d r_di`` the variance of its own error.
-2. Population. The records' true TI ``t_i`` are a normal population ``N(mu, tau^2)`` and
-   ``y_i ~ N(t_i, v_i)``: the hierarchical normal model of Gelman et al. (2013, Sec. 5.4,
-   the "eight schools"), ``tau`` with a uniform prior on a grid, ``mu`` flat. Its draws of
-   ``(tau, mu)`` and of every ``t_i`` given them (each shrunk towards ``mu`` by
+1. Shared part. For every record ``i`` the log TI draws are regressed on the group's
+   leave-one-out mean draw ``M_{-i,d}``: ``X_di = y_i + beta_i (M_{-i,d} - M_{-i}) + r_di``.
+   ``y_i`` (the record's posterior mean) is its point estimate, ``beta_i`` its share of the
+   group's common error and ``v_i`` the variance of its own error ``r_di``, taken from the
+   central 68 % of the residuals (the log TI draws of the record model have longer tails
+   than the record's actual error: their variance is 1.35 times the actual error's).
+2. Population. The records' true log TI are a normal population ``N(mu, tau^2)`` and
+   ``y_i ~ N(log t_i, v_i)``: the hierarchical normal model of Gelman et al. (2013, Sec.
+   5.4, the "eight schools"), ``tau`` with a uniform prior on a grid, ``mu`` flat. Its
+   draws of ``(tau, mu)`` and of every ``log t_i`` given them (each shrunk towards ``mu`` by
    ``v_i / (v_i + tau^2)``) are draws of the group's finite population of true TI.
 3. Statistics. To every population draw the shared error of one posterior draw is added
-   (``beta_i`` times the group's mean error, with its own-noise part taken out), and the mean,
-   sd, representative TI (IEC 61400-1 ed. 3: mean + 1.28 sd) and 90 % quantile (the
-   representative TI of IEC 61400-1 ed. 4) are taken over the records.
+   (``beta_i`` times the group's mean error, with its own-noise part taken out), and the
+   mean, sd, representative TI (IEC 61400-1 ed. 3: mean + 1.28 sd) and 90 % quantile (the
+   representative TI of IEC 61400-1 ed. 4) of the TI are taken over the records. Every
+   statistic is then scaled so that the population's mean is the records' mean TI: the
+   records' own errors average out of a mean on the linear scale, where the record
+   model's draws are unbiased, and a record's log-scale posterior is not exactly normal.
 
 The target is the finite population: the statistic of the true TI of the group's own
-records (what the truth columns of a virtual campaign give), not a climate's. A normal
-population is the model's; a skewed one keeps most of its shape, because each record is
-shrunk in proportion to its own noise, not to a shape. The per-record corrected TI that the
-tables publish is the record's own posterior (unshrunk).
+records (what the truth columns of a virtual campaign give), not a climate's. The per-record
+corrected TI that the tables publish is the record's own posterior (unshrunk).
 """
 
 from __future__ import annotations
@@ -43,6 +49,8 @@ from flidar_uq.data.metrics import REPRESENTATIVE_TI_FACTOR
 
 __all__ = ["LOG_FLOOR_TI", "GroupErrors", "group_errors", "population_statistic_draws"]
 
+#: Normal quantiles at -1 and +1 sd.
+_ONE_SIGMA = (0.15865525393145707, 0.8413447460685429)
 #: Grid points of the population sd ``tau`` (its posterior is smooth and one-peaked).
 _TAU_GRID = 256
 #: Floor of the TI draws taken to the log scale (-): a draw of 0 (the motion's variance
@@ -67,12 +75,16 @@ class GroupErrors:
     shared_draws : numpy.ndarray, shape (ndraws,)
         The group's common error per posterior draw (-), centred, with the records' own
         errors' share of the mean draw taken out in variance.
+    mean_ti : float
+        The mean over draws and records of the corrected TI itself (-), on the linear scale
+        whatever the scale of the rest.
     """
 
     estimate: np.ndarray
     own_var: np.ndarray
     shared_loading: np.ndarray
     shared_draws: np.ndarray
+    mean_ti: float
 
 
 def group_errors(draws, columns=None, *, log: bool = False) -> GroupErrors:
@@ -100,20 +112,20 @@ def group_errors(draws, columns=None, *, log: bool = False) -> GroupErrors:
     if n < 2:
         raise ValueError(f"group_errors: needs >= 2 records, got {n}")
 
-    def block(j):
-        b = np.asarray(draws[:, cols[j : j + step]], dtype=float)
-        return np.log(np.maximum(b, LOG_FLOOR_TI)) if log else b
-
     step = max(1, _BLOCK_VALUES // max(ndraws, 1))
-    total = np.zeros(ndraws)
+    total, linear_total = np.zeros(ndraws), 0.0
     for j in range(0, n, step):
-        total += block(j).sum(axis=1)
+        b = np.asarray(draws[:, cols[j : j + step]], dtype=float)
+        linear_total += float(b.sum())
+        total += (np.log(np.maximum(b, LOG_FLOOR_TI)) if log else b).sum(axis=1)
     s_c = total - total.mean()
     dof = max(ndraws - 1, 1)
     var_s = s_c @ s_c / dof
     est, own, beta = (np.empty(n) for _ in range(3))
     for j in range(0, n, step):
-        b = block(j)
+        b = np.asarray(draws[:, cols[j : j + step]], dtype=float)
+        if log:
+            b = np.log(np.maximum(b, LOG_FLOOR_TI))
         mean = b.mean(axis=0)
         b -= mean
         var_x = np.einsum("ij,ij->j", b, b) / dof
@@ -124,13 +136,16 @@ def group_errors(draws, columns=None, *, log: bool = False) -> GroupErrors:
         with np.errstate(invalid="ignore", divide="ignore"):
             slope = np.where(var_m > 0.0, cov_xm / var_m, 0.0)
         est[j : j + step] = mean
-        own[j : j + step] = np.maximum(var_x - slope * cov_xm, 0.0)
+        # the own error's variance from the central 68 % of the residuals (a normal's
+        # +-1 sd): a record's log TI draws have longer tails than its error has
+        lo, hi = np.quantile(b - slope * (s_c[:, None] - b), _ONE_SIGMA, axis=0)
+        own[j : j + step] = ((hi - lo) / 2.0) ** 2
         beta[j : j + step] = slope * (n - 1)
     # the common error per draw: the mean draw, less its own-noise variance mean(v) / n
     mean_c = s_c / n
     var_mean = float(mean_c @ mean_c) / dof
     shrink = np.sqrt(max(var_mean - own.mean() / n, 0.0) / var_mean) if var_mean > 0 else 0.0
-    return GroupErrors(est, own, beta, mean_c * shrink)
+    return GroupErrors(est, own, beta, mean_c * shrink, linear_total / (ndraws * n))
 
 
 def _tau_posterior(y: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -151,7 +166,7 @@ def _tau_posterior(y: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def population_statistic_draws(
-    draws, rng: np.random.Generator, columns=None, *, scale: str = "log"
+    draws, rng: np.random.Generator, columns=None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Posterior draws of a group's population statistics of the true TI (steps 1-3 of the
     module docstring).
@@ -159,15 +174,12 @@ def population_statistic_draws(
     Parameters
     ----------
     draws : numpy.ndarray, shape (ndraws, n_records)
-        Corrected TI draws (-) (as :func:`group_errors`).
+        Corrected TI draws (-) (as :func:`group_errors`; floored at :data:`LOG_FLOOR_TI`
+        on the log scale).
     rng : numpy.random.Generator
         The population's random numbers (``ndraws x n`` standard normals and the grid draws).
     columns : numpy.ndarray of int, optional
         The group's ``n >= 2`` records (columns of ``draws``); default all.
-    scale : {"log", "linear"}
-        The scale on which the population is normal and the errors additive: ``"log"`` (a
-        log-normal population with relative errors, the default: a record's noise is
-        relative, :data:`LOG_FLOOR_TI` floors the draws) or ``"linear"``.
 
     Returns
     -------
@@ -176,10 +188,7 @@ def population_statistic_draws(
         (IEC 61400-1 ed. 3) and the 90 % quantile (IEC 61400-1 ed. 4's representative TI),
         each (-).
     """
-    if scale not in ("log", "linear"):
-        raise ValueError(f"population_statistic_draws: scale={scale!r} must be 'log' or 'linear'")
-    log = scale == "log"
-    e = group_errors(draws, columns, log=log)
+    e = group_errors(draws, columns, log=True)
     ndraws, n = np.shape(draws)[0], e.estimate.size
     y, v = e.estimate, e.own_var
     tau_grid, mass = _tau_posterior(y, np.maximum(v, 1e-18))
@@ -199,11 +208,12 @@ def population_statistic_draws(
         t_hat = (y[None, :] / np.maximum(v[None, :], 1e-18) + mu[d] / tau[d] ** 2) / prec
         t = t_hat + rng.standard_normal(t_hat.shape) / np.sqrt(prec)
         t += e.shared_loading[None, :] * e.shared_draws[d, None]
-        if log:
-            t = np.exp(t)
+        t = np.exp(t)
         mean = t.mean(axis=1)
         sd = t.std(axis=1, ddof=1)
         out[0][d], out[1][d] = mean, sd
         out[2][d] = mean + REPRESENTATIVE_TI_FACTOR * sd
         out[3][d] = np.quantile(t, 0.9, axis=1)
-    return tuple(out)
+    # the population's mean is the records' mean TI (step 3); every statistic scales with it
+    ratio = e.mean_ti / float(np.mean(out[0]))
+    return tuple(x * ratio for x in out)
