@@ -437,6 +437,38 @@ def _run_generate_campaign(args: argparse.Namespace) -> dict:
     return result
 
 
+# ---- run -----------------------------------------------------------------------------------
+
+
+def _add_run(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--configfile", default=None, help="your config (YAML); default config/")
+    p.add_argument("--cores", default="all", help="CPU cores Snakemake may use; default all")
+    p.add_argument(
+        "--directory",
+        default=".",
+        help="working directory of the run (its results/ go there); default the current one",
+    )
+    p.add_argument("--verbose", action="store_true", help="show Snakemake's own output unchanged")
+
+
+def _run_pipeline(args: argparse.Namespace) -> int:
+    from flidar_uq.workflow.inputs import load_config_file
+    from flidar_uq.workflow.run_console import run_pipeline
+
+    smk = ["--cores", str(args.cores), "--directory", args.directory]
+    min_count = 10
+    if args.configfile is not None:
+        smk += ["--configfile", args.configfile]
+        report = load_config_file(args.configfile).get("report") or {}
+        min_count = int(report.get("group_min_count", min_count))
+    return run_pipeline(
+        smk + list(args.snakemake_args),
+        workdir=args.directory,
+        verbose=args.verbose,
+        min_count=min_count,
+    )
+
+
 SUBCOMMANDS: dict[str, tuple[Callable, Callable, str]] = {
     "sigma-z": (
         _add_sigma_z,
@@ -454,6 +486,12 @@ SUBCOMMANDS: dict[str, tuple[Callable, Callable, str]] = {
         _run_generate_campaign,
         "write a virtual campaign (physics mode) in the record format",
     ),
+    "run": (
+        _add_run,
+        _run_pipeline,
+        "run the pipeline (Snakemake) with one plain-words line per step and a summary; "
+        "other arguments go to Snakemake",
+    ),
 }
 
 
@@ -466,7 +504,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"flidar-uq {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_OneLineParser)
     for name, (add, run, helptext) in SUBCOMMANDS.items():
-        p = sub.add_parser(name, help=helptext, description=helptext, epilog=epilog)
+        # no abbreviations for run: Snakemake's --config must not become --configfile
+        p = sub.add_parser(
+            name, help=helptext, description=helptext, epilog=epilog, allow_abbrev=name != "run"
+        )
         add(p)
         p.set_defaults(_run=run)
     return parser
@@ -479,9 +520,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(argv)
         if getattr(args, "_run", None) is None:
             raise CliError("flidar-uq: error: a command is required: " + ", ".join(SUBCOMMANDS))
+        if extra and args.command != "run":
+            raise CliError(f"flidar-uq: error: unrecognized arguments: {' '.join(extra)}")
+        args.snakemake_args = extra
         result = args._run(args)
     except CliError as exc:
         print(str(exc), file=sys.stderr)
@@ -499,6 +543,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return EXIT_DATA
         print(f"flidar-uq: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
         return EXIT_INTERNAL
+    if isinstance(result, int):  # a command that printed its own output: its exit status
+        return result
     print(json.dumps(result))
     return EXIT_OK
 
