@@ -493,3 +493,37 @@ def test_windcube_v1_layout_is_named(tmp_path):
     with pytest.raises(DataValidationError, match=r"v1\.sta: line 1, column 'HeaderLength': "
                        r"not a WindCube v2 header"):  # fmt: skip
         read_instrument(p)
+
+
+def test_a_json_beside_a_table_that_is_not_task43_metadata_switches_nothing(tmp_path):
+    """Only recognisable Task 43 metadata next to a file makes it an IEA Task 43 file."""
+    text = IEA43.read_text()
+    meta, end = json.JSONDecoder().raw_decode(text)
+    (tmp_path / "fls.csv").write_text(text[end:].lstrip("\n"))
+    (tmp_path / "fls.json").write_text(json.dumps({"exported_by": "logger", "rows": 6}))
+    assert detect_format(tmp_path / "fls.csv") == "table"
+    with pytest.raises(DataValidationError, match=r"fls\.json.*not IEA Task 43 metadata"):
+        read_instrument(tmp_path / "fls.csv", "iea43")
+    (tmp_path / "fls.json").write_text("[1, 2")  # not even JSON
+    assert detect_format(tmp_path / "fls.csv") == "table"
+    (tmp_path / "fls.json").write_text(json.dumps(meta))
+    assert detect_format(tmp_path / "fls.csv") == "iea43"
+
+
+def test_a_wide_instrument_file_reads_without_a_pandas_performance_warning(tmp_path):
+    """150 extra logger columns: the frame is built at once, never column by column."""
+    import warnings
+
+    text = WINDCUBE.read_bytes().decode("latin-1").split("\n")
+    n = int(text[0].split("=")[1])
+    head, table = text[: n + 1], text[n + 1 :]
+    wide = [table[0] + "".join(f"\tlogger_{k}" for k in range(150))]
+    wide += [ln + "".join(f"\t{k}" for k in range(150)) if ln.strip() else ln for ln in table[1:]]
+    path = tmp_path / "wide.sta"
+    path.write_bytes("\n".join(head + wide).encode("latin-1"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", pd.errors.PerformanceWarning)
+        got = read_instrument(path)
+    narrow = read_instrument(WINDCUBE).records
+    assert got.records["logger_149"].eq(149).all()
+    pd.testing.assert_frame_equal(got.records[narrow.columns], narrow)
