@@ -292,7 +292,7 @@ def test_non_editable_install_runs_the_cli_and_the_pipeline(tmp_path):
     assert json.loads(_run(cmd, work, env).stdout)["n_records"] == 144 * 3
     user = work / "user.yaml"
     user.write_text(yaml.safe_dump({"campaign": {"source": "files", "records": "t.csv"}}))
-    out = json.loads(_run([cli, "validate", "--config", str(user)], work, env).stdout)
+    out = json.loads(_run([cli, "validate", "--json", "--config", str(user)], work, env).stdout)
     assert out["valid"] and out["n_records"] == 144 * 3, out
     bad = work / "bad.yaml"
     bad.write_text(yaml.safe_dump({"campaign": {"source": "files", "records": "t.csv", "x": 1}}))
