@@ -230,3 +230,17 @@ def test_flidar_uq_run_tiny_campaign_talks_and_summarises(tmp_path):
         assert "corrected 0." in ln and "uncorrected 0." in ln
         assert ln.count("category ") == 2
     assert any(ln.startswith("  per-record TI against the truth") for ln in lines)
+
+
+def test_verbose_shows_snakemakes_own_output_unchanged(tmp_path, monkeypatch, capfd):
+    snakefile = tmp_path / "Snakefile"
+    snakefile.write_text('rule ok:\n    output: "a.txt"\n    shell: "echo ok > {output}"\n')
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "--cores", "1", "--verbose", "-s", str(snakefile)]) == 0
+    verbose = capfd.readouterr()
+    assert "localrule ok:" in verbose.err and "1 of 1 steps (100%) done" in verbose.err
+    (tmp_path / "a.txt").unlink()
+    assert main(["run", "--cores", "1", "-s", str(snakefile)]) == 0
+    quiet = capfd.readouterr()
+    assert "localrule" not in quiet.out + quiet.err
+    assert quiet.out.splitlines()[0] == "[0 of 1 steps done] ok: a step of the pipeline"

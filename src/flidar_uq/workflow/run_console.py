@@ -11,6 +11,7 @@ prints the failing step, its log file and the last lines of that log.
 
 from __future__ import annotations
 
+import functools
 import json
 import re
 import subprocess
@@ -328,7 +329,7 @@ def run_pipeline(
     snakemake_args: Sequence[str],
     workdir: str | Path = ".",
     verbose: bool = False,
-    emit: Callable[[str], None] = print,
+    emit: Callable[[str], None] | None = None,
     min_count: int = 10,
 ) -> int:
     """Run the pipeline and tell the user what happens; returns Snakemake's exit status.
@@ -343,11 +344,13 @@ def run_pipeline(
         the current directory, so relative paths of its arguments hold.
     verbose : bool
         Pass Snakemake's own output through unchanged instead of the step lines.
-    emit : callable
-        Receives each output line.
+    emit : callable, optional
+        Receives each output line (default: printed on stdout at once, so that a pipe shows
+        each step when it starts).
     min_count : int
         Fewest records for the summary's 15-m/s representative TI.
     """
+    emit = emit or functools.partial(print, flush=True)
     workdir = Path(workdir)
     cmd = snakemake_command(snakemake_args)
     console = None
