@@ -244,3 +244,11 @@ def test_verbose_shows_snakemakes_own_output_unchanged(tmp_path, monkeypatch, ca
     quiet = capfd.readouterr()
     assert "localrule" not in quiet.out + quiet.err
     assert quiet.out.splitlines()[0] == "[0 of 1 steps done] ok: a step of the pipeline"
+
+
+def test_summary_of_a_fleet_per_campaign(tmp_path):
+    _write_results(tmp_path / "results" / "north")
+    out = run_summary(tmp_path / "results")
+    assert out[0] == "campaign north:"
+    assert out[1] == f"  report: {tmp_path / 'results' / 'north' / 'report' / 'report.html'}"
+    assert any(ln.startswith("    58 m: corrected 0.130") for ln in out)

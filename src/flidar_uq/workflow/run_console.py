@@ -302,10 +302,18 @@ def run_summary(results: str | Path, min_count: int = 10) -> list[str]:
         Lines of at most :data:`MAX_LINE_CHARS` characters: the report's path, per height
         the representative TI at 15 m/s corrected and uncorrected with their IEC 61400-1
         categories (``results/ti/speed_bins.csv``), the validation headline
-        (``results/ti/metrics.csv``, when present) and the warnings.
+        (``results/ti/metrics.csv``, when present) and the warnings; for a fleet (no
+        ``results/report/``) the same per campaign, from ``results/<name>/``.
     """
     results = Path(results)
     report = results / "report" / "report.html"
+    fleet = sorted(results.glob("*/report/report.html"))
+    if not report.is_file() and fleet:  # a fleet: one results/<name>/ per campaign
+        out = []
+        for r in fleet:
+            out += [f"campaign {r.parents[1].name}:"]
+            out += ["  " + ln for ln in run_summary(r.parents[1], min_count)]
+        return [clip_line(ln) for ln in out]
     out = [f"report: {report}" if report.is_file() else f"report: none written ({report})"]
     bins = results / "ti" / "speed_bins.csv"
     if bins.is_file():
