@@ -29,7 +29,7 @@ lock:
 venv: $(VENV)/.installed
 
 run: venv
-	$(VENV)/bin/snakemake --cores $(CORES)
+	$(VENV)/bin/flidar-uq run --cores $(CORES)
 
 test: venv
 	bash scripts/system-deps.sh

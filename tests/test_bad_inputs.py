@@ -604,7 +604,7 @@ def test_there_are_at_least_25_cases_of_files_series_and_config():
 
 def test_reference_mean_without_std_warns_in_validate_and_stops_the_pipeline(tmp_path, capsys):
     path = write(tmp_path, valid_records().drop(columns="ref_hws_std_ms"))
-    assert main(["validate", str(path)]) == EXIT_OK
+    assert main(["validate", "--json", str(path)]) == EXIT_OK
     out, err = capsys.readouterr()
     report = json.loads(out)
     assert report["reference"] == {"share_with_mean": 1.0, "share_with_std": 0.0}
@@ -636,7 +636,7 @@ def test_validate_warns_about_groups_that_will_stay_uncorrected(tmp_path, capsys
     df.loc[at100, "availability_pct"] = 20.0  # every record at 100 m fails low_availability
     cfg = write_config(tmp_path, {"qc": {"imu_gap": False}})
     df.loc[[0, 2], ["roll_period_s", "pitch_period_s"]] = np.nan  # no motion description
-    assert main(["validate", "--config", str(cfg), str(write(tmp_path, df))]) == EXIT_OK
+    assert main(["validate", "--json", "--config", str(cfg), str(write(tmp_path, df))]) == EXIT_OK
     out, err = capsys.readouterr()
     report = json.loads(out)
     assert report["qc_preview"]["by_filter"]["low_availability"] == int(at100.sum())
@@ -799,7 +799,7 @@ def test_random_corruption_never_gives_a_traceback(tmp_path, capsys, ops, gz):
     name = "fuzz.csv.gz" if gz else "fuzz.csv"
     path = tmp_path / name
     path.write_bytes(gzip.compress(data, mtime=0) if gz else data)
-    code = main(["validate", str(path)])
+    code = main(["validate", "--json", str(path)])
     out, err = capsys.readouterr()
     assert code in (EXIT_OK, EXIT_DATA), err
     if code == EXIT_DATA:

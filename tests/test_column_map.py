@@ -40,7 +40,7 @@ def test_example_config_reads_the_logger_table_as_the_hand_written_records():
 
 def test_validate_runs_the_example_config(monkeypatch, capsys):
     monkeypatch.chdir(REPO)  # campaign.records is relative to the working directory
-    assert main(["validate", "--config", str(EXAMPLE.relative_to(REPO))]) == 0
+    assert main(["validate", "--json", "--config", str(EXAMPLE.relative_to(REPO))]) == 0
     out, err = capsys.readouterr()
     report = json.loads(out)
     assert report["n_records"] == 30 and report["heights_m"] == [58.0, 85.0]

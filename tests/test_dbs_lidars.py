@@ -8,6 +8,8 @@ from __future__ import annotations
 import io
 import re
 import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -230,7 +232,7 @@ def test_unknown_name_one_line_exit_2_in_validate_and_pipeline(tmp_path):
     cfg = tmp_path / "c.yaml"
     cfg.write_text(yaml.safe_dump(_files_config(tmp_path, "windcube_v3")))
     cli = subprocess.run(
-        [str(REPO / ".venv" / "bin" / "flidar-uq"), "validate", "--config", str(cfg)],
+        [str(Path(sys.executable).with_name("flidar-uq")), "validate", "--config", str(cfg)],
         capture_output=True,
         text=True,
         timeout=120,

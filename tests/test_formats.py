@@ -113,11 +113,11 @@ def test_iea43_value_by_value():
 @pytest.mark.parametrize("path", [WINDCUBE, ZEPHIR, IEA43])
 def test_convert_writes_the_documented_record_table(path, tmp_path, capsys):
     out = tmp_path / "records.csv"
-    assert main(["convert", str(path), "--output", str(out)]) == 0
+    assert main(["convert", str(path), "--output", str(out), "--json"]) == 0
     captured = capsys.readouterr()
     result = json.loads(captured.out)
     assert result["n_records"] == 6
-    assert "-> 'hws_mean_ms'" in captured.err  # the mapping used
+    assert "hws_mean_ms" in result["mapping"].values() and captured.err == ""  # the mapping
     back = read_records(out, require_motion=False, extra_columns="keep")
     expected, _ = complete_motion(read_instrument(path).records)  # IEA 43: periods from Tp
     pd.testing.assert_frame_equal(back, expected[list(back.columns)], check_dtype=False)
@@ -412,7 +412,7 @@ def test_three_files_joined_on_the_interval_and_reported():
 def test_validate_prints_the_format_header_facts_and_join(tmp_path, capsys):
     cfg = tmp_path / "c.yaml"
     cfg.write_text(yaml.safe_dump(three_file_campaign()))
-    assert main(["validate", "--config", str(cfg)]) == 0
+    assert main(["validate", "--json", "--config", str(cfg)]) == 0
     captured = capsys.readouterr()
     out = json.loads(captured.out)
     assert out["format"] == "windcube_sta"
@@ -464,7 +464,7 @@ def test_each_sample_validates_without_a_column_map(path, fmt, fact, tmp_path, c
         }
     }
     (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
-    assert main(["validate", "--config", str(tmp_path / "c.yaml")]) == 0
+    assert main(["validate", "--json", "--config", str(tmp_path / "c.yaml")]) == 0
     captured = capsys.readouterr()
     out = json.loads(captured.out)
     assert out["format"] == fmt and out["n_records"] == 6
@@ -493,3 +493,37 @@ def test_windcube_v1_layout_is_named(tmp_path):
     with pytest.raises(DataValidationError, match=r"v1\.sta: line 1, column 'HeaderLength': "
                        r"not a WindCube v2 header"):  # fmt: skip
         read_instrument(p)
+
+
+def test_a_json_beside_a_table_that_is_not_task43_metadata_switches_nothing(tmp_path):
+    """Only recognisable Task 43 metadata next to a file makes it an IEA Task 43 file."""
+    text = IEA43.read_text()
+    meta, end = json.JSONDecoder().raw_decode(text)
+    (tmp_path / "fls.csv").write_text(text[end:].lstrip("\n"))
+    (tmp_path / "fls.json").write_text(json.dumps({"exported_by": "logger", "rows": 6}))
+    assert detect_format(tmp_path / "fls.csv") == "table"
+    with pytest.raises(DataValidationError, match=r"fls\.json.*not IEA Task 43 metadata"):
+        read_instrument(tmp_path / "fls.csv", "iea43")
+    (tmp_path / "fls.json").write_text("[1, 2")  # not even JSON
+    assert detect_format(tmp_path / "fls.csv") == "table"
+    (tmp_path / "fls.json").write_text(json.dumps(meta))
+    assert detect_format(tmp_path / "fls.csv") == "iea43"
+
+
+def test_a_wide_instrument_file_reads_without_a_pandas_performance_warning(tmp_path):
+    """150 extra logger columns: the frame is built at once, never column by column."""
+    import warnings
+
+    text = WINDCUBE.read_bytes().decode("latin-1").split("\n")
+    n = int(text[0].split("=")[1])
+    head, table = text[: n + 1], text[n + 1 :]
+    wide = [table[0] + "".join(f"\tlogger_{k}" for k in range(150))]
+    wide += [ln + "".join(f"\t{k}" for k in range(150)) if ln.strip() else ln for ln in table[1:]]
+    path = tmp_path / "wide.sta"
+    path.write_bytes("\n".join(head + wide).encode("latin-1"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", pd.errors.PerformanceWarning)
+        got = read_instrument(path)
+    narrow = read_instrument(WINDCUBE).records
+    assert got.records["logger_149"].eq(149).all()
+    pd.testing.assert_frame_equal(got.records[narrow.columns], narrow)

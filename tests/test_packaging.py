@@ -292,7 +292,7 @@ def test_non_editable_install_runs_the_cli_and_the_pipeline(tmp_path):
     assert json.loads(_run(cmd, work, env).stdout)["n_records"] == 144 * 3
     user = work / "user.yaml"
     user.write_text(yaml.safe_dump({"campaign": {"source": "files", "records": "t.csv"}}))
-    out = json.loads(_run([cli, "validate", "--config", str(user)], work, env).stdout)
+    out = json.loads(_run([cli, "validate", "--json", "--config", str(user)], work, env).stdout)
     assert out["valid"] and out["n_records"] == 144 * 3, out
     bad = work / "bad.yaml"
     bad.write_text(yaml.safe_dump({"campaign": {"source": "files", "records": "t.csv", "x": 1}}))
@@ -314,3 +314,14 @@ def test_non_editable_install_runs_the_cli_and_the_pipeline(tmp_path):
     for out_file in ("ti/records.csv", "ti/bins.csv", "posterior/global.nc", "report/report.html"):
         assert (work / "results" / out_file).stat().st_size > 0, out_file
     print(f"non-editable install + CLI {t_cli:.0f} s, total {time.perf_counter() - t0:.0f} s")
+
+
+def test_license_is_an_spdx_string_and_setuptools_reads_it():
+    """A license table is deprecated by setuptools (>= 77 reads the SPDX string): no
+    deprecation warning on install."""
+    assert PYPROJECT["project"]["license"] == "MIT"
+    assert (REPO / PYPROJECT["project"]["license-files"][0]).is_file()
+    (req,) = [r for r in PYPROJECT["build-system"]["requires"] if r.startswith("setuptools")]
+    assert Requirement(req).specifier.contains("77") and not Requirement(req).specifier.contains(
+        "76.9"
+    )

@@ -147,7 +147,7 @@ def _imu_csv(path: Path, start: str, seconds: float) -> Path:
 def test_validate_reads_a_rtd_beside_its_imu_series(tmp_path, capsys):
     imu = _imu_csv(tmp_path / "imu.csv", "2023-01-14T23:59:50Z", 30.0)
     records = DATA.parent / "hand_written_campaign.csv"
-    argv = ["validate", str(records), "--imu-series", str(imu), "--los-series", str(RTD)]
+    argv = ["validate", "--json", str(records), "--imu-series", str(imu), "--los-series", str(RTD)]
     assert main(argv) == EXIT_OK
     got = json.loads(capsys.readouterr().out)["los_series"]
     assert got["format"] == "windcube_rtd" and got["n_measurements"] == 30

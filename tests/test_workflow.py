@@ -94,7 +94,7 @@ def tiny_config(workdir: Path, shared: Path | None = None, **campaign) -> Path:
 def snakemake(
     workdir: Path, configfile: Path, *args: str, timeout: float = 600, check: bool = True
 ):
-    """Run the repository's workflow in ``workdir`` with the .venv's snakemake."""
+    """Run the repository's workflow in ``workdir`` with the running interpreter's snakemake."""
     cmd = [
         SNAKEMAKE,
         "-s",

@@ -1,8 +1,10 @@
 """``flidar-uq`` command line.
 
 Subcommands are registered in :data:`SUBCOMMANDS` (name -> ``(add_arguments, run, help)``);
-other modules' commands are added there. Every command prints its result on stdout as
-one JSON object; bad input gives exactly one line on stderr naming the argument, config
+other modules' commands are added there. ``sigma-z`` and ``generate-campaign`` print their
+result on stdout as one JSON object; ``validate`` and ``convert`` print a short summary for
+people, and the JSON object with ``--json``; ``run`` prints one line per pipeline step and a
+summary. Bad input gives exactly one line on stderr naming the argument, config
 key or file, row and column, never a traceback, and an exit status per class
 (:data:`flidar_uq.workflow.inputs.EXIT_CODES`): 0 ok, 2 usage error (argument or config
 key), 3 bad data (file missing, unreadable, malformed, wrong units), 1 internal error.
@@ -12,7 +14,8 @@ Example::
     flidar-uq sigma-z --hws-ms 8 --amplitude-deg 3 --period-s 4
     flidar-uq sigma-z --hws-ms 8 --amplitude-deg 3 --period-s 4 --period2-s 12 --weight1 0.6
     flidar-uq validate my_campaign.csv
-    flidar-uq validate --config my_config.yaml
+    flidar-uq validate --config my_config.yaml --json
+    flidar-uq run --cores 2 --configfile my_config.yaml
     flidar-uq generate-campaign --scenario tiny --seed 1 --output tiny.csv
 """
 
@@ -252,6 +255,7 @@ def _add_validate(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--imu-series", default=None, help="also check a raw IMU series file")
     p.add_argument("--los-series", default=None, help="also check a LOS file (needs --imu-series)")
+    _add_json(p, _validate_summary)
 
 
 def _run_validate(args: argparse.Namespace) -> dict:
@@ -302,6 +306,13 @@ def _run_validate(args: argparse.Namespace) -> dict:
                 "share_with_imu": round(float(ok.mean()), 4) if len(ok) else 0.0,
             }
     out.update(_source_facts(path, campaign))
+    if args.json:
+        _validate_stderr(out)
+    return out
+
+
+def _validate_stderr(out: dict) -> None:
+    """With ``--json``: the header facts, the joins and the warnings on stderr."""
     if out["format"] != "table":
         facts = ", ".join(f"{k}={v}" for k, v in out["header_facts"].items())
         print(f"flidar-uq validate: {out['format']}: {facts}", file=sys.stderr)
@@ -312,11 +323,69 @@ def _run_validate(args: argparse.Namespace) -> dict:
             f"{j['unmatched_file']} of the file unmatched",
             file=sys.stderr,
         )
-    for line in report["blocking"]:
+    for line in out["blocking"]:
         print(f"flidar-uq validate: warning: {line} (the pipeline stops on this)", file=sys.stderr)
-    for line in report["warnings"]:
+    for line in out["warnings"]:
         print(f"flidar-uq validate: warning: {line}", file=sys.stderr)
+
+
+def _add_json(p: argparse.ArgumentParser, summary: Callable[[dict], list[str]]) -> None:
+    p.add_argument(
+        "--json", action="store_true", help="print the result as one JSON object (for machines)"
+    )
+    p.set_defaults(_summary=summary)
+
+
+def _format_words(fmt: str, facts: dict) -> str:
+    """The detected format and where an IEA Task 43 file's metadata came from."""
+    meta = facts.get("metadata")
+    if meta == "header":
+        return f"{fmt} (metadata: the file's JSON header)"
+    return f"{fmt} (metadata: {meta}, beside the file)" if meta else fmt
+
+
+def _records_lines(report: dict) -> list[str]:
+    """Records, heights, period, the QC preview and the warnings of an inspection."""
+    span = report.get("time_span") or {}
+    qc = report.get("qc_preview") or {}
+    flags = ", ".join(f"{k} {v}" for k, v in (qc.get("by_filter") or {}).items() if v)
+    out = [
+        f"records: {report['n_records']} at heights "
+        + ", ".join(f"{h:g}" for h in report.get("heights_m", []))
+        + " m",
+    ]
+    if span.get("start"):
+        out.append(f"period: {span['start']} to {span['end']} ({span['days']:g} days)")
+    if qc:
+        out.append(
+            f"QC would keep {qc['n_kept']} of {report['n_records']}"
+            + (f"; flags: {flags}" if flags else "; no flags")
+        )
+    out += [f"stops the pipeline: {w}" for w in report.get("blocking", [])]
+    out += [f"warning: {w}" for w in report.get("warnings", [])]
     return out
+
+
+def _validate_summary(out: dict) -> list[str]:
+    """``flidar-uq validate``'s summary for people."""
+    lines = [
+        f"{out['path']}: valid",
+        "format: " + _format_words(out["format"], out["header_facts"]),
+    ]
+    lines += _records_lines(out)
+    for j in out["join"]:
+        lines.append(
+            f"join {j['role']} {j['path']}: {j['matched']} of {j['intervals']} intervals matched"
+        )
+    if "imu_series" in out:
+        lines.append(f"IMU series: {out['imu_series']['n_samples']} samples")
+    if "los_series" in out:
+        los = out["los_series"]
+        lines.append(
+            f"LOS series ({los['format']}): {los['n_measurements']} measurements, "
+            f"{los['share_with_imu']:.0%} with IMU samples"
+        )
+    return lines
 
 
 def _source_facts(path, campaign) -> dict:
@@ -362,11 +431,13 @@ def _add_convert(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--extra-columns", choices=["keep", "ignore", "error"], default="keep", help="other columns"
     )
+    _add_json(p, _convert_summary)
 
 
 def _run_convert(args: argparse.Namespace) -> dict:
     from flidar_uq.data.formats import complete_motion, read_any
     from flidar_uq.data.io import write_records
+    from flidar_uq.workflow.inputs import inspect_records
 
     conv = {
         "format": args.format,
@@ -377,8 +448,7 @@ def _run_convert(args: argparse.Namespace) -> dict:
     got = read_any(args.path, conv, extra_columns=args.extra_columns)
     records, notes = complete_motion(got.records)
     path = write_records(records, args.output, require_motion=False)
-    for name, target in got.mapping.items():
-        print(f"flidar-uq convert: {name!r} -> {target!r}", file=sys.stderr)
+    report = inspect_records(records, source=str(path))
     return {
         "input": str(args.path),
         "output": str(path),
@@ -387,7 +457,19 @@ def _run_convert(args: argparse.Namespace) -> dict:
         "header_facts": got.facts,
         "mapping": got.mapping,
         "notes": got.notes + notes,
+        **{k: report[k] for k in ("heights_m", "time_span", "qc_preview", "blocking", "warnings")},
     }
+
+
+def _convert_summary(out: dict) -> list[str]:
+    """``flidar-uq convert``'s summary for people (the mapping itself with ``--json``)."""
+    lines = [
+        f"wrote {out['output']} from {out['input']}",
+        "format: " + _format_words(out["format"], out["header_facts"]),
+        f"{len(out['mapping'])} columns mapped; --json lists them",
+    ]
+    lines += _records_lines(out)
+    return lines + [f"note: {n}" for n in out["notes"]]
 
 
 # ---- generate-campaign ---------------------------------------------------------------------
@@ -437,6 +519,38 @@ def _run_generate_campaign(args: argparse.Namespace) -> dict:
     return result
 
 
+# ---- run -----------------------------------------------------------------------------------
+
+
+def _add_run(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--configfile", default=None, help="your config (YAML); default config/")
+    p.add_argument("--cores", default="all", help="CPU cores Snakemake may use; default all")
+    p.add_argument(
+        "--directory",
+        default=".",
+        help="working directory of the run (its results/ go there); default the current one",
+    )
+    p.add_argument("--verbose", action="store_true", help="show Snakemake's own output unchanged")
+
+
+def _run_pipeline(args: argparse.Namespace) -> int:
+    from flidar_uq.workflow.inputs import load_config_file
+    from flidar_uq.workflow.run_console import run_pipeline
+
+    smk = ["--cores", str(args.cores), "--directory", args.directory]
+    min_count = 10
+    if args.configfile is not None:
+        smk += ["--configfile", args.configfile]
+        report = load_config_file(args.configfile).get("report") or {}
+        min_count = int(report.get("group_min_count", min_count))
+    return run_pipeline(
+        smk + list(args.snakemake_args),
+        workdir=args.directory,
+        verbose=args.verbose,
+        min_count=min_count,
+    )
+
+
 SUBCOMMANDS: dict[str, tuple[Callable, Callable, str]] = {
     "sigma-z": (
         _add_sigma_z,
@@ -454,6 +568,12 @@ SUBCOMMANDS: dict[str, tuple[Callable, Callable, str]] = {
         _run_generate_campaign,
         "write a virtual campaign (physics mode) in the record format",
     ),
+    "run": (
+        _add_run,
+        _run_pipeline,
+        "run the pipeline (Snakemake) with one plain-words line per step and a summary; "
+        "other arguments go to Snakemake",
+    ),
 }
 
 
@@ -466,7 +586,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"flidar-uq {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_OneLineParser)
     for name, (add, run, helptext) in SUBCOMMANDS.items():
-        p = sub.add_parser(name, help=helptext, description=helptext, epilog=epilog)
+        # no abbreviations for run: Snakemake's --config must not become --configfile
+        p = sub.add_parser(
+            name, help=helptext, description=helptext, epilog=epilog, allow_abbrev=name != "run"
+        )
         add(p)
         p.set_defaults(_run=run)
     return parser
@@ -479,9 +602,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(argv)
         if getattr(args, "_run", None) is None:
             raise CliError("flidar-uq: error: a command is required: " + ", ".join(SUBCOMMANDS))
+        if extra and args.command != "run":
+            raise CliError(f"flidar-uq: error: unrecognized arguments: {' '.join(extra)}")
+        args.snakemake_args = extra
         result = args._run(args)
     except CliError as exc:
         print(str(exc), file=sys.stderr)
@@ -499,6 +625,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             return EXIT_DATA
         print(f"flidar-uq: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
         return EXIT_INTERNAL
+    if isinstance(result, int):  # a command that printed its own output: its exit status
+        return result
+    summary = getattr(args, "_summary", None)
+    if summary is not None and not args.json:
+        print("\n".join(summary(result)))
+        return EXIT_OK
     print(json.dumps(result))
     return EXIT_OK
 

@@ -76,8 +76,9 @@ def detect_format(path: str | Path) -> str:
     """The format of a file from its first line: one of :data:`FORMATS` but ``auto``.
 
     ``windcube_sta`` (``HeaderSize=``), ``zephir_csv`` (a ``Time sync``/``Unit:``
-    metadata line), ``iea43`` (a JSON header, or a ``.json`` metadata file of the same
-    name), else ``table``.
+    metadata line), ``iea43`` (a JSON header, or a ``.json`` file of the same name that is
+    recognisably Task 43 metadata, :func:`iea43.metadata_sidecar`; any other ``.json``
+    beside the file changes nothing), else ``table``.
     """
     path = Path(path)
     head = _first_line(path)
@@ -89,7 +90,7 @@ def detect_format(path: str | Path) -> str:
         return "iea43"
     if zephir.looks_like(head):
         return "zephir_csv"
-    if path.with_suffix(".json").exists():
+    if iea43.metadata_sidecar(path) is not None:
         return "iea43"
     return "table"
 
@@ -167,12 +168,11 @@ def _long(parsed, source: str) -> tuple[pd.DataFrame, np.ndarray, list[dict]]:
         )
     for h in heights:
         cols = parsed.per_height[h]
-        part = pd.DataFrame({"timestamp": t["timestamp"].to_numpy(), "height_m": h})
-        for c, n in shared.items():
-            part[n] = t[c].to_numpy()
-        for c, n in cols.items():
-            part[n] = t[c].to_numpy()
-        parts.append(part)
+        # one constructor, not a column at a time: a wide file would fragment the frame
+        columns = {n: t[c].to_numpy() for c, n in (*shared.items(), *cols.items())}
+        parts.append(
+            pd.DataFrame({"timestamp": t["timestamp"].to_numpy(), "height_m": h, **columns})
+        )
         names.append({n: c for c, n in {**shared, **cols}.items()})
     n = len(t)
     out = pd.concat(parts, ignore_index=True)

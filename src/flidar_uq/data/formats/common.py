@@ -24,6 +24,7 @@ __all__ = [
     "numeric_columns",
     "parse_stamps",
     "to_utc_start",
+    "with_timestamp",
     "check_alignment",
     "resolve_offset_h",
     "availability_from_packets",
@@ -112,6 +113,13 @@ def numeric_columns(
         else:
             out[name] = s.where(~empty) if decimal_comma else s
     return pd.DataFrame(out, index=table.index)
+
+
+def with_timestamp(table: pd.DataFrame, timestamp: pd.Series) -> pd.DataFrame:
+    """``table`` with ``timestamp`` (UTC) as its first column, in one concatenation (an
+    ``insert`` into a wide file's frame fragments it and makes pandas warn)."""
+    stamps = pd.DataFrame({"timestamp": timestamp.array}, index=table.index)
+    return pd.concat([stamps, table], axis=1)
 
 
 def parse_stamps(

@@ -26,10 +26,11 @@ from flidar_uq.data.formats.common import (
     read_text,
     resolve_offset_h,
     to_utc_start,
+    with_timestamp,
 )
 from flidar_uq.data.io import DataValidationError, heading_ccw_deg
 
-__all__ = ["looks_like", "read", "TARGETS"]
+__all__ = ["looks_like", "is_metadata", "metadata_sidecar", "read", "TARGETS"]
 
 #: (measurement_type_id, statistic_type_id) -> record column; None: any statistic
 TARGETS = {
@@ -56,6 +57,33 @@ _FORMATS = ("ISO8601",)
 def looks_like(head: str) -> bool:
     """Whether a text starts with a JSON document (the metadata header)."""
     return head.lstrip().startswith("{")
+
+
+def is_metadata(meta) -> bool:
+    """Whether a parsed JSON document is recognisably Task 43 metadata: an object whose
+    ``measurement_location`` is a list of objects each with a ``logger_main_config`` or a
+    ``measurement_point``."""
+    locs = meta.get("measurement_location") if isinstance(meta, dict) else None
+    return (
+        isinstance(locs, list)
+        and bool(locs)
+        and all(
+            isinstance(loc, dict) and ("logger_main_config" in loc or "measurement_point" in loc)
+            for loc in locs
+        )
+    )
+
+
+def metadata_sidecar(path: str | Path) -> Path | None:
+    """The ``.json`` of the same name next to ``path`` when it is Task 43 metadata
+    (:func:`is_metadata`); None when there is none or it is another JSON file."""
+    side = Path(path).with_suffix(".json")
+    if not side.is_file():
+        return None
+    try:
+        return side if is_metadata(json.loads(read_text(side))) else None
+    except (json.JSONDecodeError, OSError, UnicodeDecodeError):
+        return None
 
 
 def _split(text: str, path: Path) -> tuple[dict, str, int, str]:
@@ -94,6 +122,12 @@ def _split(text: str, path: Path) -> tuple[dict, str, int, str]:
         raise DataValidationError(
             str(side), None, None, f"malformed JSON ({exc.msg})", line=exc.lineno
         ) from None
+    if not is_metadata(meta):
+        raise DataValidationError(
+            str(side), None, "measurement_location",
+            "not IEA Task 43 metadata (no measurement_location with a logger_main_config or "
+            "measurement_point)", whole_file=True,
+        )  # fmt: skip
     return meta, text, 1, side.name
 
 
@@ -196,8 +230,9 @@ def read(
     local = parse_stamps(
         table.pop(time_col), _FORMATS, source=source, column=time_col, first_line=header_line + 1
     )
-    table.insert(0, "timestamp", to_utc_start(local, utc_offset_h=facts["utc_offset_h"],
-                                              at_end=at == "end"))  # fmt: skip
+    table = with_timestamp(
+        table, to_utc_start(local, utc_offset_h=facts["utc_offset_h"], at_end=at == "end")
+    )
     table = numeric_columns(table, decimal_comma=False)
     per_height: dict[float, dict[str, str]] = {}
     shared = {c: c for c in table.columns[1:]}

@@ -28,6 +28,7 @@ from flidar_uq.data.formats.common import (
     read_text,
     resolve_offset_h,
     to_utc_start,
+    with_timestamp,
 )
 from flidar_uq.data.io import DataValidationError, validate_los_series
 
@@ -188,7 +189,7 @@ def read(
     local = parse_stamps(
         table.pop(names[0]), _FORMATS, source=source, column=header[0], first_line=first_line
     )
-    table.insert(0, "timestamp", to_utc_start(local, utc_offset_h=offset, at_end=at_end))
+    table = with_timestamp(table, to_utc_start(local, utc_offset_h=offset, at_end=at_end))
     table = numeric_columns(table, decimal_comma=False)
     per_height: dict[float, dict[str, str]] = {}
     shared = {}

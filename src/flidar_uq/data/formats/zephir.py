@@ -28,6 +28,7 @@ from flidar_uq.data.formats.common import (
     read_text,
     resolve_offset_h,
     to_utc_start,
+    with_timestamp,
 )
 from flidar_uq.data.io import DataValidationError, heading_ccw_deg
 
@@ -133,10 +134,8 @@ def read(
     facts["timestamp_at"] = at
     header, table = _table(lines, source)
     local = parse_stamps(table.pop(_TIME), _FORMATS, source=source, column=_TIME, first_line=3)
-    table.insert(
-        0,
-        "timestamp",
-        to_utc_start(local, utc_offset_h=facts["utc_offset_h"], at_end=at == "end"),
+    table = with_timestamp(
+        table, to_utc_start(local, utc_offset_h=facts["utc_offset_h"], at_end=at == "end")
     )
     table = numeric_columns(table, decimal_comma=True, missing=_MISSING)
     per_height: dict[float, dict[str, str]] = {}
