@@ -185,3 +185,54 @@ def test_the_library_page_runs_end_to_end(tmp_path, monkeypatch):
     records = pd.read_csv(tmp_path / "ti" / "records.csv")
     assert len(records) == 30 and records["ti_corrected_median"].notna().any()
     assert sorted(p.name for p in (tmp_path / "ti").iterdir()) == sorted(RESULT_FILES.values())
+
+
+def test_settings_from_config_are_the_propagate_rules(tmp_path):
+    """None: the shipped config's reference and settings, the very values the workflow's
+    correction_settings() passes to propagate; a user file is laid over the defaults."""
+    import yaml
+
+    from flidar_uq.workflow.inputs import ConfigError, check_config, correction_inputs
+
+    shipped = check_config(yaml.safe_load((REPO / "config" / "config.yaml").read_text()))
+    reference, settings = correction_inputs(shipped)
+    assert flidar_uq.settings_from_config() == {"reference": reference, "settings": settings}
+    user = tmp_path / "user.yaml"
+    user.write_text(
+        yaml.safe_dump(
+            {
+                "campaign": {"source": "files", "records": "r.csv"},
+                "reference": {"kind": "cup", "height_m": [58.0, 85.0], "separation_m": 60.0},
+                "propagation": {"ndraws": 100},
+                "inference": {"seed": 11},
+            }
+        )
+    )
+    got = flidar_uq.settings_from_config(user)
+    assert got["reference"].kind == "cup" and got["reference"].separation_m == 60.0
+    s = got["settings"]
+    assert (s.ndraws, s.seed, s.budget_ndraws) == (100, 11, settings.budget_ndraws)
+    assert s.scan_heights_in_turn is None  # the user's files: counted in the records
+    with pytest.raises(ConfigError, match="no such config file"):
+        flidar_uq.settings_from_config(tmp_path / "nope.yaml")
+
+
+def test_to_files_refuses_a_pipeline_runs_results_unless_overwrite(tmp_path):
+    from flidar_uq.correction.campaign import CorrectionResult, pipeline_results
+
+    empty = pd.DataFrame({"a": [1.0]})
+    result = CorrectionResult(empty, empty, empty, empty, empty)
+    run = tmp_path / "run"
+    (run / "results" / "ti").mkdir(parents=True)
+    assert pipeline_results(run / "results" / "ti") is None  # no pipeline ran here
+    result.to_files(run / "results" / "ti")
+    (run / ".snakemake").mkdir()
+    assert pipeline_results(run / "results" / "ti") == (run / "results").resolve()
+    before = (run / "results" / "ti" / "records.csv").stat().st_mtime_ns
+    with pytest.raises(ValueError, match=r"results of a pipeline run.*overwrite=True") as err:
+        result.to_files(run / "results" / "ti")
+    assert str(run / "results" / "ti") in str(err.value)
+    assert (run / "results" / "ti" / "records.csv").stat().st_mtime_ns == before
+    result.to_files(run / "results" / "ti", overwrite=True)
+    result.to_files(run / "library")  # beside results/: not the pipeline's
+    assert sorted(p.name for p in (run / "library").iterdir()) == sorted(RESULT_FILES.values())

@@ -34,6 +34,7 @@ _LAZY = {
     "CorrectionResult": "flidar_uq.correction.campaign",
     "CorrectionSettings": "flidar_uq.correction.campaign",
     "correct_campaign": "flidar_uq.correction.campaign",
+    "settings_from_config": "flidar_uq.workflow.inputs",
 }
 
 __all__ = ["__version__", *_LAZY]

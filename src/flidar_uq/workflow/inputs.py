@@ -55,6 +55,7 @@ __all__ = [
     "read_campaign_records",
     "resolve_propagation",
     "scenario_path",
+    "settings_from_config",
     "step_errors_exit",
 ]
 
@@ -714,6 +715,40 @@ def correction_inputs(config: dict, record_columns=None):
         {**config, "propagation": resolve_propagation(config)}
     )
     return reference, settings
+
+
+def settings_from_config(path: str | os.PathLike | None = None) -> dict:
+    """The keyword settings with which :func:`flidar_uq.correct_campaign` does what the
+    pipeline's ``propagate`` step does under a config.
+
+    Parameters
+    ----------
+    path : path, optional
+        A config file (relative paths in it are read from the working directory), laid
+        over the defaults as the pipeline lays a ``--configfile`` over the shipped
+        config/config.yaml (whose values are the schema's defaults). None: the shipped
+        config.
+
+    Returns
+    -------
+    dict
+        ``reference`` (:class:`flidar_uq.Reference`) and ``settings``
+        (:class:`flidar_uq.CorrectionSettings`), "auto" keys resolved as the pipeline
+        resolves them (:func:`correction_inputs`): ``correct_campaign(records, fit,
+        **settings_from_config(path), flags=...)``.
+
+    Raises
+    ------
+    ConfigError
+        (a ValueError) naming the key of the first problem of the config.
+    """
+    config = check_config({} if path is None else load_config_file(path))
+    if "campaigns" in config:
+        raise ConfigError(
+            "campaigns", "a fleet config: settings_from_config reads one campaign's config"
+        )
+    reference, settings = correction_inputs(config)
+    return {"reference": reference, "settings": settings}
 
 
 def check_series(campaign: Mapping) -> None:
