@@ -180,7 +180,7 @@ def _doc_code() -> str:
 @pytest.mark.slow  # ~40 s: a short record fit of 30 records
 def test_the_library_page_runs_end_to_end(tmp_path, monkeypatch):
     monkeypatch.chdir(REPO)
-    code = _doc_code().replace('"results/ti"', repr(str(tmp_path / "ti")))
+    code = _doc_code().replace('"library_ti"', repr(str(tmp_path / "ti")))
     exec(compile(code, "docs/library.md", "exec"), {})
     records = pd.read_csv(tmp_path / "ti" / "records.csv")
     assert len(records) == 30 and records["ti_corrected_median"].notna().any()
