@@ -253,7 +253,7 @@ def test_the_library_gives_the_pipelines_speed_bins(tmp_path):
     """The pipeline on the tests' tiny virtual campaign, then correct_campaign on its
     records, QC flags and record fit with settings_from_config of the same config: the
     same speed_bins.csv byte for byte (the propagation draws from the config's seed, so no
-    Monte Carlo error separates them). The fit is the pipeline's posterior: the library
+    Monte Carlo error separates them). The fit is the pipeline's record fit: the library
     reads it with load_fit."""
     from test_workflow import snakemake, tiny_config
 
@@ -263,8 +263,10 @@ def test_the_library_gives_the_pipelines_speed_bins(tmp_path):
     snakemake(tmp_path, cfg, "--cores", "2", "results/ti/speed_bins.csv")
     res = tmp_path / "results"
     records = flidar_uq.read_records(res / "data" / "records.csv")
-    flags = read_csv(res / "qc" / "flags.csv", ["record_id", "timestamp", "reasons"])
-    fit = flidar_uq.load_fit(res / "posterior" / "global.nc")
+    flags = read_csv(res / "qc" / "flags.csv")
+    assert not flags["fail_std_pattern"].any()  # a virtual campaign's stds keep their pattern
+    # the record motion model's fit, the propagate rule's input
+    fit = flidar_uq.load_fit(res / "inference" / "global_record.nc")
     result = flidar_uq.correct_campaign(
         records, fit, **flidar_uq.settings_from_config(cfg), flags=flags
     )

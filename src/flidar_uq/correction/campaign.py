@@ -434,7 +434,8 @@ class _CorrectedSubset:
             reasons = pd.Series([""] * n)
             timestamp = rec["timestamp"] if "timestamp" in rec else pd.Series(np.arange(n))
         else:
-            reasons = flags["reasons"].fillna("").reset_index(drop=True)
+            # object first: a flags file without any reason reads as an all-NaN float column
+            reasons = flags["reasons"].astype(object).fillna("").reset_index(drop=True)
             timestamp = flags["timestamp"].reset_index(drop=True)
         record_model = inf.is_record_model(fit)
         if not record_model and (bins is None or bins.status is None):
