@@ -645,6 +645,27 @@ def test_validate_warns_about_groups_that_will_stay_uncorrected(tmp_path, capsys
     assert report["motion_description"]["none"] == 2
 
 
+def test_validate_names_the_rows_whose_std_holds_ti_in_percent(tmp_path, capsys):
+    """10 of the hand-written campaign's 30 rows with TI in percent in the std column:
+    validate counts them under the QC flag std_pattern and names the first rows."""
+    from test_qc import PERCENT_ROWS, ti_percent_in_std
+
+    from flidar_uq.data.io import read_records
+
+    rec = read_records(Path(__file__).parent / "data" / "hand_written_campaign.csv")
+    path = tmp_path / "percent.csv"
+    ti_percent_in_std(rec).to_csv(path, index=False)
+    assert main(["validate", str(path)]) == EXIT_OK
+    out, err = capsys.readouterr()
+    assert json.loads(out)["qc_preview"]["by_filter"]["std_pattern"] == 10
+    first = ", ".join(str(r) for r in PERCENT_ROWS[:5])
+    assert f"10 record(s) (rows {first}, ...) have hws_std_ms / hws_mean_ms far" in err
+    assert (
+        main(["validate", str(Path(__file__).parent / "data" / "hand_written_campaign.csv")]) == 0
+    )
+    assert "std_pattern" not in capsys.readouterr().err
+
+
 def test_calm_site_passes_with_allow_small_angles(tmp_path, capsys):
     df = valid_records()
     for c in ("roll_amplitude_deg", "pitch_amplitude_deg"):

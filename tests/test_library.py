@@ -177,11 +177,134 @@ def _doc_code() -> str:
     return block
 
 
+def test_the_shipped_example_is_the_tests_hand_written_campaign():
+    from flidar_uq.resources import resource_path
+
+    shipped = resource_path("examples", "hand_written_campaign.csv")
+    assert (
+        shipped.read_bytes() == (REPO / "tests" / "data" / "hand_written_campaign.csv").read_bytes()
+    )
+
+
 @pytest.mark.slow  # ~40 s: a short record fit of 30 records
 def test_the_library_page_runs_end_to_end(tmp_path, monkeypatch):
-    monkeypatch.chdir(REPO)
-    code = _doc_code().replace('"results/ti"', repr(str(tmp_path / "ti")))
-    exec(compile(code, "docs/library.md", "exec"), {})
-    records = pd.read_csv(tmp_path / "ti" / "records.csv")
+    """The doc's code as it is, from a working directory outside the repository."""
+    monkeypatch.chdir(tmp_path)
+    exec(compile(_doc_code(), "docs/library.md", "exec"), {})
+    records = pd.read_csv(tmp_path / "library_ti" / "records.csv")
     assert len(records) == 30 and records["ti_corrected_median"].notna().any()
-    assert sorted(p.name for p in (tmp_path / "ti").iterdir()) == sorted(RESULT_FILES.values())
+    written = sorted(p.name for p in (tmp_path / "library_ti").iterdir())
+    assert written == sorted(RESULT_FILES.values())
+
+
+def test_settings_from_config_are_the_propagate_rules(tmp_path):
+    """None: the shipped config's reference and settings, the very values the workflow's
+    correction_settings() passes to propagate; a user file is laid over the defaults."""
+    import yaml
+
+    from flidar_uq.workflow.inputs import ConfigError, check_config, correction_inputs
+
+    shipped = check_config(yaml.safe_load((REPO / "config" / "config.yaml").read_text()))
+    reference, settings = correction_inputs(shipped)
+    assert flidar_uq.settings_from_config() == {"reference": reference, "settings": settings}
+    user = tmp_path / "user.yaml"
+    user.write_text(
+        yaml.safe_dump(
+            {
+                "campaign": {"source": "files", "records": "r.csv"},
+                "reference": {"kind": "cup", "height_m": [58.0, 85.0], "separation_m": 60.0},
+                "propagation": {"ndraws": 100},
+                "inference": {"seed": 11},
+            }
+        )
+    )
+    got = flidar_uq.settings_from_config(user)
+    assert got["reference"].kind == "cup" and got["reference"].separation_m == 60.0
+    s = got["settings"]
+    assert (s.ndraws, s.seed, s.budget_ndraws) == (100, 11, settings.budget_ndraws)
+    assert s.scan_heights_in_turn is None  # the user's files: counted in the records
+    with pytest.raises(ConfigError, match="no such config file"):
+        flidar_uq.settings_from_config(tmp_path / "nope.yaml")
+
+
+def test_to_files_refuses_a_pipeline_runs_results_unless_overwrite(tmp_path):
+    from flidar_uq.correction.campaign import CorrectionResult, pipeline_results
+
+    empty = pd.DataFrame({"a": [1.0]})
+    result = CorrectionResult(empty, empty, empty, empty, empty)
+    run = tmp_path / "run"
+    (run / "results" / "ti").mkdir(parents=True)
+    assert pipeline_results(run / "results" / "ti") is None  # no pipeline ran here
+    result.to_files(run / "results" / "ti")
+    (run / ".snakemake").mkdir()
+    assert pipeline_results(run / "results" / "ti") == (run / "results").resolve()
+    before = (run / "results" / "ti" / "records.csv").stat().st_mtime_ns
+    with pytest.raises(ValueError, match=r"results of a pipeline run.*overwrite=True") as err:
+        result.to_files(run / "results" / "ti")
+    assert str(run / "results" / "ti") in str(err.value)
+    assert (run / "results" / "ti" / "records.csv").stat().st_mtime_ns == before
+    result.to_files(run / "results" / "ti", overwrite=True)
+    result.to_files(run / "library")  # beside results/: not the pipeline's
+    assert sorted(p.name for p in (run / "library").iterdir()) == sorted(RESULT_FILES.values())
+
+
+@pytest.mark.slow  # ~2 min: the tiny virtual campaign through the pipeline's record fit
+def test_the_library_gives_the_pipelines_speed_bins(tmp_path):
+    """The pipeline on the tests' tiny virtual campaign, then correct_campaign on its
+    records, QC flags and record fit with settings_from_config of the same config: the
+    same speed_bins.csv byte for byte (the propagation draws from the config's seed, so no
+    Monte Carlo error separates them). The fit is the pipeline's record fit: the library
+    reads it with load_fit."""
+    from test_workflow import snakemake, tiny_config
+
+    from flidar_uq.workflow.files import read_csv
+
+    cfg = tiny_config(tmp_path)
+    snakemake(tmp_path, cfg, "--cores", "2", "results/ti/speed_bins.csv")
+    res = tmp_path / "results"
+    records = flidar_uq.read_records(res / "data" / "records.csv")
+    flags = read_csv(res / "qc" / "flags.csv")
+    assert not flags["fail_std_pattern"].any()  # a virtual campaign's stds keep their pattern
+    # the record motion model's fit, the propagate rule's input
+    fit = flidar_uq.load_fit(res / "inference" / "global_record.nc")
+    result = flidar_uq.correct_campaign(
+        records, fit, **flidar_uq.settings_from_config(cfg), flags=flags
+    )
+    with pytest.raises(ValueError, match="results of a pipeline run"):
+        result.to_files(res / "ti")
+    written = result.to_files(tmp_path / "library")
+    assert len(result.speed_bins) > 1
+    assert written["speed_bins"].read_bytes() == (res / "ti" / "speed_bins.csv").read_bytes()
+
+
+@pytest.mark.slow  # ~1 min: two short record fits of 30 records
+def test_ti_in_percent_rows_are_flagged_and_leave_the_clean_rows_corrected_ti():
+    """10 of the hand-written campaign's 30 rows with TI in percent in the std column: QC
+    flags exactly those (std_pattern), and the corrected TI of the other rows moves by
+    less than their 90 % interval's half-width against the clean table's (both fitted and
+    corrected from the same seeds; the two fits differ by the records they see)."""
+    from test_qc import PERCENT_ROWS, ti_percent_in_std
+
+    from flidar_uq.resources import resource_path
+
+    clean = flidar_uq.read_records(resource_path("examples", "hand_written_campaign.csv"))
+    reference = Reference.from_config(
+        {"kind": "cup", "height_m": [58.0, 85.0], "separation_m": 60.0}, lidar="zephir300"
+    )
+    sampler = flidar_uq.SamplerSettings(nwalkers=16, nsteps=300, nburn=100, ndraws=100)
+    settings = CorrectionSettings(ndraws=100, budget_ndraws=100, seed=1)
+
+    def corrected(records):
+        qc = flidar_uq.run_qc(records)
+        fit = flidar_uq.fit_record_model(qc.kept, settings=sampler, seed=1)
+        return qc, correct_campaign(records, fit, reference, settings, flags=qc.flags).records
+
+    _, a = corrected(clean)
+    qc, b = corrected(ti_percent_in_std(clean))
+    assert qc.flags.loc[qc.flags["fail_std_pattern"], "row"].tolist() == PERCENT_ROWS
+    assert b["ti_corrected_median"].iloc[np.asarray(PERCENT_ROWS) - 1].isna().all()
+    others = ~np.isin(np.arange(1, 31), PERCENT_ROWS) & a["ti_corrected_median"].notna()
+    assert others.sum() >= 10
+    half_width = (a["ti_corrected_hi"] - a["ti_corrected_lo"])[others] / 2
+    moved = (b["ti_corrected_median"] - a["ti_corrected_median"])[others].abs()
+    assert (moved < half_width).all(), pd.DataFrame({"moved": moved, "half": half_width})

@@ -21,6 +21,7 @@ from flidar_uq.data.qc import (
     rolling_mad_outliers,
     run_los_qc,
     run_qc,
+    std_pattern_outliers,
     summarise,
 )
 
@@ -197,6 +198,49 @@ def test_cnr_malekmohammadi2024_minus23db_on_los():
     assert run_los_qc(los, QCConfig(cnr=False)).n_kept == 6
 
 
+#: Rows (1-based) of the hand-written campaign whose std column gets TI in percent.
+PERCENT_ROWS = list(range(2, 31, 3))
+
+
+def ti_percent_in_std(rec: pd.DataFrame, rows=PERCENT_ROWS) -> pd.DataFrame:
+    """``rec`` with TI in percent (100 std / mean) in the std column of ``rows`` (1-based)."""
+    out = rec.copy()
+    idx = out.index[np.asarray(rows) - 1]
+    out.loc[idx, "hws_std_ms"] = 100.0 * out.loc[idx, "hws_std_ms"] / out.loc[idx, "hws_mean_ms"]
+    return out
+
+
+def test_std_pattern_flags_exactly_the_rows_with_ti_in_percent():
+    rec = read_records(DATA / "hand_written_campaign.csv")
+    assert run_qc(rec).counts.loc["std_pattern", "n_failed"] == 0
+    r = run_qc(ti_percent_in_std(rec))
+    assert failed(r, "std_pattern") == PERCENT_ROWS
+    assert (
+        not run_qc(ti_percent_in_std(rec), QCConfig(std_pattern=False))
+        .flags["fail_std_pattern"]
+        .any()
+    )
+
+
+def test_std_pattern_hand_computed_threshold():
+    """log ratios 0 (x9), 0.1, 1.0, 1.2 -> median 0, MAD 0 -> threshold log(3) = 1.0986:
+    only the last; with min_factor 2 (log 2 = 0.693) the last two."""
+    mean = np.full(12, 10.0)
+    std = 10.0 * np.exp([0.0] * 9 + [0.1, 1.0, 1.2])
+    assert np.flatnonzero(std_pattern_outliers(mean, std)).tolist() == [11]
+    assert np.flatnonzero(std_pattern_outliers(mean, std, min_factor=2.0)).tolist() == [10, 11]
+    # the MAD term: half the ratios spread by +-0.5 -> MAD 0.5, 5 scaled MADs = 3.71
+    wide = 10.0 * np.exp([0.0, 0.5, -0.5] * 4 + [3.0, 4.0])
+    assert np.flatnonzero(std_pattern_outliers(np.full(14, 10.0), wide)).tolist() == [13]
+
+
+def test_std_pattern_needs_ten_finite_ratios():
+    mean = np.array([8.0] * 9 + [np.nan])
+    std = np.array([0.6] * 8 + [60.0, 0.6])
+    assert not std_pattern_outliers(mean, std).any()
+    assert std_pattern_outliers(np.full(10, 8.0), np.array([0.6] * 9 + [60.0]))[-1]
+
+
 # --------------------------------------------------------------------------- table and switches
 def test_hand_written_campaign_reasons():
     rec = read_records(DATA / "hand_written_campaign.csv")
@@ -249,6 +293,8 @@ def test_thresholds_are_configurable():
         ({"ti_hws_min_ms": 45.0}, "ti_hws_min_ms < ti_hws_max_ms"),
         ({"availability_min_pct": 120.0}, r"availability_min_pct must lie in \[0, 100\]"),
         ({"mad_min_records": 0}, "mad_min_records must be >= 1"),
+        ({"std_pattern_min_factor": 1.0}, "std_pattern_min_factor must be > 1"),
+        ({"std_pattern_k": 0.0}, "QCConfig.std_pattern_k must be a positive number"),
     ],
 )
 def test_bad_config_raises(kwargs, match):

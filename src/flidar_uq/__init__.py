@@ -8,9 +8,9 @@ docs/library.md for the correction as a library, in memory:
     records = flidar_uq.read_records("records.csv")        # validated record table
     qc = flidar_uq.run_qc(records)                          # QC flags, kept records
     fit = flidar_uq.fit_record_model(qc.kept, settings=flidar_uq.SamplerSettings(...))
-    result = flidar_uq.correct_campaign(records, fit, flidar_uq.Reference(...),
-                                        flidar_uq.CorrectionSettings(...), flags=qc.flags)
-    result.to_files("results/ti")
+    result = flidar_uq.correct_campaign(records, fit, **flidar_uq.settings_from_config(),
+                                        flags=qc.flags)     # or Reference, CorrectionSettings
+    result.to_files("corrected_ti")                         # not a pipeline run's results/
 """
 
 from __future__ import annotations
@@ -34,6 +34,7 @@ _LAZY = {
     "CorrectionResult": "flidar_uq.correction.campaign",
     "CorrectionSettings": "flidar_uq.correction.campaign",
     "correct_campaign": "flidar_uq.correction.campaign",
+    "settings_from_config": "flidar_uq.workflow.inputs",
 }
 
 __all__ = ["__version__", *_LAZY]

@@ -33,6 +33,7 @@ __all__ = [
     "CorrectionSettings",
     "carried_columns",
     "correct_campaign",
+    "pipeline_results",
     "record_groups",
 ]
 
@@ -263,14 +264,40 @@ class CorrectionResult:
     budget: pd.DataFrame
     metrics: pd.DataFrame
 
-    def to_files(self, directory: str | os.PathLike) -> dict[str, Path]:
+    def to_files(self, directory: str | os.PathLike, *, overwrite: bool = False) -> dict[str, Path]:
         """Write the tables as the pipeline's propagation does (results/ti/): records.csv,
         speed_bins.csv, metrics.csv, groups.csv and uncertainty_budget.csv in
-        ``directory`` (created); returns the paths by table name."""
+        ``directory`` (created); returns the paths by table name.
+
+        Raises
+        ------
+        ValueError
+            When ``directory`` lies in the ``results/`` of a pipeline run (a ``results``
+            folder beside Snakemake's ``.snakemake``), unless ``overwrite``: the pipeline's
+            files would no longer be what its inputs give.
+        """
+        owner = pipeline_results(directory)
+        if owner is not None and not overwrite:
+            raise ValueError(
+                f"CorrectionResult.to_files: {directory} lies in {owner}, the results of a "
+                "pipeline run; write to another folder, or pass overwrite=True to replace "
+                "the pipeline's files"
+            )
         paths = {name: Path(directory) / file for name, file in RESULT_FILES.items()}
         for name, path in paths.items():
             write_csv(getattr(self, name), path)
         return paths
+
+
+def pipeline_results(directory: str | os.PathLike) -> Path | None:
+    """The ``results`` folder of a pipeline run that holds ``directory`` (itself or one of
+    its parents, beside the ``.snakemake`` folder Snakemake keeps in its working
+    directory); None when ``directory`` belongs to no pipeline run."""
+    path = Path(directory).resolve()
+    for folder in (path, *path.parents):
+        if folder.name == "results" and (folder.parent / ".snakemake").is_dir():
+            return folder
+    return None
 
 
 @single_threaded
@@ -407,7 +434,8 @@ class _CorrectedSubset:
             reasons = pd.Series([""] * n)
             timestamp = rec["timestamp"] if "timestamp" in rec else pd.Series(np.arange(n))
         else:
-            reasons = flags["reasons"].fillna("").reset_index(drop=True)
+            # object first: a flags file without any reason reads as an all-NaN float column
+            reasons = flags["reasons"].astype(object).fillna("").reset_index(drop=True)
             timestamp = flags["timestamp"].reset_index(drop=True)
         record_model = inf.is_record_model(fit)
         if not record_model and (bins is None or bins.status is None):

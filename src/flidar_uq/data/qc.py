@@ -24,6 +24,9 @@ reason                    rule (flagged if ...)                                 
                           frozen sensor; such a record cannot enter the fit)
 ``height_not_selected``   ``height_m`` not among the selected heights           config
                           (``heights_m``, config ``campaign.heights``)
+``std_pattern``           ``log(hws_std_ms / hws_mean_ms)`` farther from its     robust statistics
+                          column's median than 5 scaled MADs and than a factor
+                          3 (e.g. TI in percent in the std column)
 ========================  ====================================================  ============
 
 LOS-level filter (:func:`run_los_qc`): ``cnr_low``, CNR below -23 dB or missing
@@ -46,6 +49,8 @@ __all__ = [
     "run_qc",
     "run_los_qc",
     "rolling_mad_outliers",
+    "std_pattern_outliers",
+    "STD_PATTERN_MIN_RECORDS",
     "los_availability_pct",
     "apply_filters",
     "summarise",
@@ -63,6 +68,7 @@ RECORD_REASONS = (
     "imu_gap",
     "zero_std",
     "height_not_selected",
+    "std_pattern",
 )
 LOS_REASONS = ("cnr_low",)
 
@@ -122,6 +128,15 @@ class QCConfig:
     heights_m : tuple of float, optional
         Selected measurement heights, m; records at other heights are flagged
         ``height_not_selected`` (None: every height).
+    std_pattern : bool
+        Flag records whose std-to-mean ratio breaks its column's pattern
+        (:func:`std_pattern_outliers`).
+    std_pattern_k : float
+        Multiplier of the scaled MAD of ``log(hws_std_ms / hws_mean_ms)``, dimensionless (5).
+    std_pattern_min_factor : float
+        Smallest ratio to the column's median std-to-mean ratio (or its inverse) that is
+        flagged, dimensionless (3; TI in percent in the std column is ``100 / hws_mean_ms``
+        times the true ratio).
     cnr : bool
         Flag LOS measurements with CNR below ``cnr_min_db`` (LOS data only).
     cnr_min_db : float
@@ -149,6 +164,9 @@ class QCConfig:
     imu_availability_min_pct: float = 80.0
     zero_std: bool = True
     heights_m: tuple[float, ...] | None = None
+    std_pattern: bool = True
+    std_pattern_k: float = 5.0
+    std_pattern_min_factor: float = 3.0
     cnr: bool = True
     cnr_min_db: float = -23.0
 
@@ -166,6 +184,7 @@ class QCConfig:
             "mad_k": self.mad_k,
             "mad_window_h": self.mad_window_h,
             "relative_sigma_max": self.relative_sigma_max,
+            "std_pattern_k": self.std_pattern_k,
         }
         for name, value in positive.items():
             if not np.isfinite(value) or value <= 0:
@@ -179,6 +198,10 @@ class QCConfig:
             value = getattr(self, name)
             if not 0 <= value <= 100:
                 raise ValueError(f"QCConfig.{name} must lie in [0, 100] %, got {value!r}")
+        if not self.std_pattern_min_factor > 1:
+            raise ValueError(
+                f"QCConfig.std_pattern_min_factor must be > 1, got {self.std_pattern_min_factor!r}"
+            )
         if int(self.mad_min_records) < 1:
             raise ValueError(f"QCConfig.mad_min_records must be >= 1, got {self.mad_min_records!r}")
 
@@ -292,6 +315,56 @@ def rolling_mad_outliers(
     return out
 
 
+#: Fewest finite std-to-mean ratios for :func:`std_pattern_outliers` to judge (-).
+STD_PATTERN_MIN_RECORDS = 10
+
+
+def std_pattern_outliers(
+    hws_mean_ms: np.ndarray,
+    hws_std_ms: np.ndarray,
+    *,
+    k: float = 5.0,
+    min_factor: float = 3.0,
+) -> np.ndarray:
+    """Records whose std breaks the pattern of its column: its ratio to the mean speed far
+    outside the column's robust distribution.
+
+    With ``x = log(hws_std_ms / hws_mean_ms)`` (the log TI), a record is flagged when
+    ``|x - median(x)| > max(k * MAD / 0.6745, log(min_factor))`` over the column's finite
+    values. The median and MAD stand up to nearly half the rows being wrong, e.g. TI in
+    percent in the std column (``100 / hws_mean_ms`` times the true ratio, ~10 at 10 m/s);
+    the factor floor keeps a column of nearly equal ratios (small MAD) from flagging the
+    ordinary spread of TI with wind speed.
+
+    Parameters
+    ----------
+    hws_mean_ms, hws_std_ms : numpy.ndarray, shape (n,)
+        Mean and std of the HWS (m/s); NaN, zero or negative values are never flagged.
+    k : float
+        Multiplier of the scaled MAD, dimensionless.
+    min_factor : float
+        Smallest ratio to the median ratio (or its inverse) that is flagged (-, > 1).
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (n,)
+        True for the records that break the pattern; none when fewer than
+        :data:`STD_PATTERN_MIN_RECORDS` ratios are finite.
+    """
+    mean = np.asarray(hws_mean_ms, dtype=np.float64)
+    std = np.asarray(hws_std_ms, dtype=np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x = np.log(std / mean)
+    ok = np.isfinite(x)
+    out = np.zeros(x.shape, dtype=bool)
+    if ok.sum() < STD_PATTERN_MIN_RECORDS:
+        return out
+    med = np.median(x[ok])
+    mad = np.median(np.abs(x[ok] - med))
+    out[ok] = np.abs(x[ok] - med) > max(k * mad / MAD_SCALE, np.log(min_factor))
+    return out
+
+
 def _threshold_texts(config: QCConfig) -> dict[str, str]:
     c = config
     return {
@@ -308,6 +381,10 @@ def _threshold_texts(config: QCConfig) -> dict[str, str]:
             "all heights"
             if c.heights_m is None
             else "not in " + ", ".join(f"{h:g}" for h in c.heights_m) + " m"
+        ),
+        "std_pattern": (
+            f"log(std/mean) beyond {c.std_pattern_k:g} MAD and x{c.std_pattern_min_factor:g} "
+            "of its median"
         ),
         "cnr_low": f"CNR < {c.cnr_min_db:g} dB or NaN",
     }
@@ -379,6 +456,10 @@ def _record_masks(records: pd.DataFrame, c: QCConfig) -> dict[str, tuple[bool, b
             h = _col(records, "height_m")
             other = ~np.isclose(h[:, None], np.asarray(c.heights_m)[None, :], atol=1e-6).any(axis=1)
         out["height_not_selected"] = (True, c.heights_m is not None, other)
+        pattern = std_pattern_outliers(
+            hws, std, k=c.std_pattern_k, min_factor=c.std_pattern_min_factor
+        )
+        out["std_pattern"] = (c.std_pattern, True, pattern)
     return out
 
 

@@ -4,9 +4,11 @@
   (:data:`flidar_uq.workflow.inputs.SCHEMA_PATH`), read by ``flidar-uq validate --config``
   and by the workflow before any job;
 - ``scenarios/<name>.yaml``: the virtual-campaign scenarios
-  (:func:`flidar_uq.campaign.scenarios.scenario_dir`, ``scenarios/README.md``).
+  (:func:`flidar_uq.campaign.scenarios.scenario_dir`, ``scenarios/README.md``);
+- ``examples/hand_written_campaign.csv``: a 30-record table of the user's format, the
+  example of docs/library.md.
 
-These are the only copies: the workflow reads them from the installed package too, so an
+The schema and scenarios are the only copies: the workflow reads them from the installed package too, so an
 editable and a non-editable ``pip install`` find the same files.
 """
 

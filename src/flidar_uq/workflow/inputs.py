@@ -55,6 +55,7 @@ __all__ = [
     "read_campaign_records",
     "resolve_propagation",
     "scenario_path",
+    "settings_from_config",
     "step_errors_exit",
 ]
 
@@ -565,7 +566,7 @@ def inspect_records(
     from flidar_uq.data import inspection
     from flidar_uq.inference.record_motion import MOTION_DESCRIPTIONS, per_record_motion
 
-    return inspection.inspect_records(
+    report = inspection.inspect_records(
         records,
         per_record_motion(records)["motion_description"],
         descriptions=MOTION_DESCRIPTIONS,
@@ -573,6 +574,48 @@ def inspect_records(
         qc_params=qc_params,
         heights=heights,
         columns=columns,
+    )
+    pattern = _std_pattern_warning(records, qc_params)
+    if pattern:
+        report["warnings"].append(pattern)
+    return report
+
+
+#: Rows named by the std-pattern warning of :func:`inspect_records` before "...".
+_ROWS_NAMED = 5
+
+
+def _std_pattern_warning(records: pd.DataFrame, qc_params: Mapping | None) -> str:
+    """The warning naming the rows whose std breaks its column's pattern
+    (:func:`flidar_uq.data.qc.std_pattern_outliers`, QC flag ``std_pattern``); "" when none
+    or the filter is switched off."""
+    import numpy as np
+
+    from flidar_uq.data.qc import QCConfig, std_pattern_outliers
+
+    c = QCConfig(**dict(qc_params or {}))
+    if not c.std_pattern:
+        return ""
+    rows = (
+        np.flatnonzero(
+            std_pattern_outliers(
+                records["hws_mean_ms"].to_numpy(dtype=float),
+                records["hws_std_ms"].to_numpy(dtype=float),
+                k=c.std_pattern_k,
+                min_factor=c.std_pattern_min_factor,
+            )
+        )
+        + 1
+    )
+    if not rows.size:
+        return ""
+    named = ", ".join(str(r) for r in rows[:_ROWS_NAMED]) + (
+        ", ..." if rows.size > _ROWS_NAMED else ""
+    )
+    return (
+        f"{rows.size} record(s) (rows {named}) have hws_std_ms / hws_mean_ms far from the "
+        "rest of the column (QC flag std_pattern, e.g. TI in percent in the std column): "
+        "check that column's units"
     )
 
 
@@ -672,6 +715,40 @@ def correction_inputs(config: dict, record_columns=None):
         {**config, "propagation": resolve_propagation(config)}
     )
     return reference, settings
+
+
+def settings_from_config(path: str | os.PathLike | None = None) -> dict:
+    """The keyword settings with which :func:`flidar_uq.correct_campaign` does what the
+    pipeline's ``propagate`` step does under a config.
+
+    Parameters
+    ----------
+    path : path, optional
+        A config file (relative paths in it are read from the working directory), laid
+        over the defaults as the pipeline lays a ``--configfile`` over the shipped
+        config/config.yaml (whose values are the schema's defaults). None: the shipped
+        config.
+
+    Returns
+    -------
+    dict
+        ``reference`` (:class:`flidar_uq.Reference`) and ``settings``
+        (:class:`flidar_uq.CorrectionSettings`), "auto" keys resolved as the pipeline
+        resolves them (:func:`correction_inputs`): ``correct_campaign(records, fit,
+        **settings_from_config(path), flags=...)``.
+
+    Raises
+    ------
+    ConfigError
+        (a ValueError) naming the key of the first problem of the config.
+    """
+    config = check_config({} if path is None else load_config_file(path))
+    if "campaigns" in config:
+        raise ConfigError(
+            "campaigns", "a fleet config: settings_from_config reads one campaign's config"
+        )
+    reference, settings = correction_inputs(config)
+    return {"reference": reference, "settings": settings}
 
 
 def check_series(campaign: Mapping) -> None:

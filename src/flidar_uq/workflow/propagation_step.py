@@ -75,7 +75,7 @@ def propagate(
         flags=flags,
         bins=bins,
     )
-    result.to_files(Path(out_dir))
+    result.to_files(Path(out_dir), overwrite=True)  # the pipeline writes its own results/ti
     return result.records
 
 
