@@ -28,14 +28,6 @@ GLOBAL_MODELS = (
 )
 
 
-def global_model_batches(wildcards):
-    """The per-bin fits a global model needs: none for the record motion model (its sigma_Z
-    comes from each record's own motion, so it runs beside the per-bin fits)."""
-    if wildcards.model == "record":
-        return []
-    return expand("results/inference/batch_{batch}", batch=BATCHES)
-
-
 # What the propagation reads of the fits. The record motion model takes each record's
 # sigma_Z from its own motion: it reads the record model's posterior only, and no per-bin
 # fit is scheduled. The bin motion model needs the chosen global model and every
@@ -49,7 +41,8 @@ GLOBAL_MODEL_FILES = (
     else expand("results/inference/global_{model}.nc", model=GLOBAL_MODELS)
 )
 BIN_MODEL = MOTION_MODEL == "bin"
-# The per-bin fits' batch directories: only the bin motion model runs them.
+# The per-bin fits' batch directories: only the bin motion model runs them (the record
+# motion model's sigma_Z comes from each record's own motion).
 BIN_BATCHES = expand("results/inference/batch_{batch}", batch=BATCHES) if BIN_MODEL else []
 PROPAGATION_FITS = (
     {

@@ -52,7 +52,7 @@ rule posterior_bin:
 
 rule fit_global_model:
     input:
-        batches=global_model_batches,
+        batches=BIN_BATCHES,
         assignments="results/bins/assignments.csv",
         records="results/data/records.csv",
     output:
