@@ -1,7 +1,8 @@
 # flidar_uq: floating-lidar motion -> turbulence-intensity uncertainty.
 #
 #   campaign -> validate -> qc -> motion statistics -> bins (checkpoint) -> sigma_Z per bin
-#   -> inference per bin (batched fan-out) -> global rho (gather) -> propagation -> report
+#   -> global fit (the record motion model; with inference.motion_model bin: inference per
+#   bin, batched fan-out, and the global models on them) -> propagation -> report
 #
 # Run: `.venv/bin/snakemake --cores all` (config/config.yaml); see README.md for own data,
 # a fleet of campaigns (config key campaigns) and SLURM (profiles/slurm).
@@ -47,8 +48,8 @@ else:
 
     # One campaign: results/ (the output contract of README.md). Light steps (rules marked
     # `localrule: True`) run on the submitting host under a cluster executor; campaign
-    # generation, the per-bin inference batches, the global models and the propagation go
-    # to the cluster.
+    # generation, the global models, the propagation and (bin motion model) the per-bin
+    # inference batches go to the cluster.
     include: "workflow/rules/common.smk"
     include: "workflow/rules/data.smk"
     include: "workflow/rules/inference.smk"
@@ -58,10 +59,9 @@ else:
     rule all:
         input:
             "results/ti/records.csv",
-            "results/ti/bins.csv",
             "results/posterior/global.nc",
-            posterior_bin_files,
             "results/report/report.html",
             LOS_OUTPUTS,
+            BIN_MODEL_OUTPUTS,
         default_target: True
         localrule: True

@@ -209,8 +209,10 @@ def test_readme_example_builds_both_trees_and_the_fleet_summary(tmp_path):
     path.write_text(yaml.safe_dump(example))
     plan = snakemake(tmp_path, path, "-n", "--cores", "2", timeout=300).stdout
     for name in example["campaigns"]:  # the job stats: every step once per campaign
-        for rule in ("campaign", "validate", "bins", "infer_batch", "propagate", "report"):
+        for rule in ("campaign", "validate", "bins", "fit_global_model", "propagate", "report"):
             assert re.search(rf"^{name}_{rule}\s+\d+$", plan, re.M), f"{name}_{rule}\n{plan}"
+        # the record motion model (the default): no per-bin fit in any campaign
+        assert not re.search(rf"^{name}_(infer_batch|ti_bins)\s+\d+$", plan, re.M), plan
     assert re.search(r"^fleet_summary\s+1$", plan, re.M), plan
     # the files of each tree (dry run: the jobs' outputs up to the checkpoint, and after)
     for name in example["campaigns"]:

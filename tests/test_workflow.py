@@ -241,44 +241,73 @@ def test_bin_seed_independent_of_batch_layout_and_distinct_per_bin():
 # --------------------------------------------------------------------------- dry run, lint
 
 
-def test_dry_run_builds_the_dag(tmp_path):
-    proc = snakemake(tmp_path, tiny_config(tmp_path), "-n", "--cores", "2", timeout=120)
-    out = proc.stdout + proc.stderr
-    for rule in (
-        "campaign",
-        "validate",
-        "qc",
-        "motion_statistics",
-        "bins",
-        "sigma_z",
-        "infer_batch",
-        "fit_global_model",
-        "fit_global",
-        "propagate",
-        "ti_bins",
-        "report",
-    ):
-        assert rule in out, f"rule {rule} missing from the dry run"
+def dry_run_jobs(proc) -> set[str]:
+    """The rule names of a dry run's job stats table (lines "<rule> <count>")."""
+    return {
+        line.split()[0]
+        for line in (proc.stdout + proc.stderr).splitlines()
+        if line.strip() and line.split()[-1].isdigit() and len(line.split()) == 2
+    }
+
+
+#: The per-bin fits of the bin motion model: its jobs, and the outputs only it writes.
+BIN_MODEL_RULES = {"infer_batch", "posterior_bin", "ti_bins"}
+
+
+@pytest.mark.parametrize("motion_model", ["record", "bin"])
+def test_dry_run_of_the_shipped_config_schedules_the_per_bin_fits_only_for_the_bin_model(
+    tmp_path, motion_model
+):
+    """The shipped config (record motion model) builds the whole DAG without the per-bin
+    fits nor results/ti/bins.csv; inference.motion_model bin brings them back."""
+    cfg = CONFIG
+    if motion_model == "bin":
+        cfg = tmp_path / "bin.yaml"
+        cfg.write_text(yaml.safe_dump({"inference": {"motion_model": "bin"}}))
+    proc = snakemake(tmp_path, cfg, "-n", "--cores", "2", timeout=120)
+    jobs = dry_run_jobs(proc)
+    common = {"campaign", "validate", "qc", "motion_statistics", "bins", "sigma_z",
+              "fit_global_model", "fit_global", "propagate", "report"}  # fmt: skip
+    assert common <= jobs, jobs
+    # posterior_bin comes after the bins checkpoint: not in a dry run of an empty directory
+    assert jobs & BIN_MODEL_RULES == (
+        {"infer_batch", "ti_bins"} if motion_model == "bin" else set()
+    )
+    assert ("results/ti/bins.csv" in proc.stdout) == (motion_model == "bin")
     assert not (tmp_path / "results").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("motion_model", ["record", "bin"])
+def test_the_per_bin_posteriors_are_scheduled_after_the_checkpoint_only_for_the_bin_model(
+    tmp_path, motion_model
+):
+    """Past the bins checkpoint the DAG holds one posterior_bin job per fitted bin under the
+    bin motion model, none under the record motion model."""
+    cfg = tiny_config(tmp_path)
+    data = load_yaml(cfg)
+    data["inference"] = data["inference"] | {"motion_model": motion_model}
+    cfg.write_text(yaml.safe_dump(data))
+    snakemake(tmp_path, cfg, "--cores", "2", "results/bins/table.csv", timeout=300)
+    table = pd.read_csv(tmp_path / "results" / "bins" / "table.csv")
+    assert table["fitted"].any()
+    jobs = dry_run_jobs(snakemake(tmp_path, cfg, "-n", "--cores", "2", timeout=120))
+    assert "propagate" in jobs and "report" in jobs, jobs
+    assert jobs & BIN_MODEL_RULES == (BIN_MODEL_RULES if motion_model == "bin" else set()), jobs
 
 
 @pytest.mark.parametrize("motion_model", ["record", "bin"])
 def test_the_propagation_waits_for_the_per_bin_fits_only_under_the_bin_motion_model(
     tmp_path, motion_model
 ):
-    """The record motion model's propagation reads the record model's posterior alone, so
-    it runs beside the per-bin fits (issue 13: a year in minutes); the bin motion model's
-    needs every bin posterior and the chosen global model."""
+    """The record motion model's propagation reads the record model's posterior alone; the
+    bin motion model's needs every bin posterior and the chosen global model."""
     cfg = tiny_config(tmp_path)
     data = load_yaml(cfg)
     data.setdefault("inference", {})["motion_model"] = motion_model
     cfg.write_text(yaml.safe_dump(data))
     proc = snakemake(tmp_path, cfg, "-n", "--cores", "2", "results/ti/records.csv", timeout=120)
-    jobs = {
-        line.split()[0]
-        for line in (proc.stdout + proc.stderr).splitlines()
-        if line.strip() and line.split()[-1].isdigit() and len(line.split()) == 2
-    }
+    jobs = dry_run_jobs(proc)
     assert "propagate" in jobs and "fit_global_model" in jobs, jobs
     assert ("infer_batch" in jobs) == (motion_model == "bin"), jobs
     assert ("fit_global" in jobs) == (motion_model == "bin"), jobs
@@ -306,21 +335,20 @@ def test_snakemake_lint_is_clean(tmp_path):
 # --------------------------------------------------------------------------- end to end (slow)
 
 
-def check_outputs(workdir: Path, *, truth: bool) -> pd.DataFrame:
-    """The output contract: files present, records.csv columns, one row per input record."""
+def check_outputs(workdir: Path, *, truth: bool, bin_model: bool = False) -> pd.DataFrame:
+    """The output contract: files present, records.csv columns, one row per input record;
+    the per-bin table and posteriors with the bin motion model only."""
     res = workdir / "results"
-    for rel in (
-        "ti/records.csv",
-        "ti/bins.csv",
-        "ti/metrics.csv",
-        "posterior/global.nc",
-        "report/report.html",
-    ):
+    for rel in ("ti/records.csv", "ti/metrics.csv", "posterior/global.nc", "report/report.html"):
         assert (res / rel).is_file(), rel
     table = pd.read_csv(res / "bins" / "table.csv")
     fitted = table.loc[table["fitted"], "bin_id"]
+    assert len(fitted)
     for b in fitted:
-        assert (res / "posterior" / f"bin_{int(b):04d}.nc").is_file()
+        assert (res / "posterior" / f"bin_{int(b):04d}.nc").is_file() == bin_model, b
+    assert (res / "ti" / "bins.csv").is_file() == bin_model
+    assert (res / "inference" / "bin_fits.csv").is_file() == bin_model
+    assert any((res / "inference").glob("batch_*")) == bin_model
     records = pd.read_csv(res / "ti" / "records.csv")
     assert list(records.columns[: len(RECORD_COLUMNS)]) == RECORD_COLUMNS
     assert ("ti_true" in records) == truth
@@ -374,6 +402,7 @@ def test_tiny_end_to_end_rerun_nothing_clean_rerun_identical(tmp_path):
         "Direction sectors and sea states",
         "Motion of the buoy",
         "Appendix A. Bayesian diagnostics",
+        "Appendix B. Per-bin motion fits",
         "Appendix C. Uncertainty budget",
         "How to cite",
         "Provenance and how to rerun",
@@ -393,6 +422,8 @@ def test_tiny_end_to_end_rerun_nothing_clean_rerun_identical(tmp_path):
     assert "Representative TI at 15 m/s" in html
     assert "category <b" in html or "too few records in the 15-m/s bin" in html
     assert "In sample: the model was fitted on these same" in html
+    # the record motion model (the default) ran no per-bin fit: the report says so in a line
+    assert "The bin motion model was not run" in html and "case no." not in html
     # no development benchmark in the user's report; they are in the developer one
     charts = sorted((tmp_path / "benchmark_charts").glob("*.png"))
     chart_uris = {
@@ -433,18 +464,9 @@ def test_tiny_end_to_end_rerun_nothing_clean_rerun_identical(tmp_path):
     data["inference"]["seed"] = 43
     cfg_a.write_text(yaml.safe_dump(data))
     out = snakemake(a, cfg_a, "-n", "--cores", "2").stdout
-    assert "infer_batch" in out and "fit_global" in out
-    for rule in ("rule campaign", "rule validate", "rule qc", "rule bins"):
-        assert rule not in out, rule
-    # changing the reference's settings refits the global model and propagates again, not
-    # the bin fits (a virtual campaign's lidar is its scenario's: changing campaign.lidar
-    # alone is refused, test_dbs_lidars.py)
-    del data["inference"]["seed"]  # back to the run's inference seed
-    data.setdefault("reference", {})["lidar_std_ratio_log_sd"] = 0.03
-    cfg_a.write_text(yaml.safe_dump(data))
-    out = snakemake(a, cfg_a, "-n", "--cores", "2").stdout
     assert "rule fit_global_model" in out and "rule propagate" in out
-    assert "rule infer_batch" not in out
+    for rule in ("rule campaign", "rule validate", "rule qc", "rule bins", "rule infer_batch"):
+        assert rule not in out, rule
 
 
 @pytest.mark.slow
@@ -498,8 +520,14 @@ def write_user_config(tmp_path: Path) -> Path:
 
 @pytest.mark.slow
 def test_user_data_run_on_hand_written_campaign(tmp_path):
-    snakemake(tmp_path, write_user_config(tmp_path), "--cores", "2")
-    records = check_outputs(tmp_path, truth=False)
+    """The user-data example under inference.motion_model bin: the per-bin fits, their
+    table, posteriors and report sections (the end-to-end test of the bin model)."""
+    config = write_user_config(tmp_path)
+    data = load_yaml(config)
+    data["inference"]["motion_model"] = "bin"
+    config.write_text(yaml.safe_dump(data))
+    snakemake(tmp_path, config, "--cores", "2")
+    records = check_outputs(tmp_path, truth=False, bin_model=True)
     src = pd.read_csv(REPO / "tests" / "data" / "hand_written_campaign.csv")
     assert len(records) == len(src)
     np.testing.assert_allclose(records["hws_mean_ms"], src["hws_mean_ms"])
@@ -518,6 +546,23 @@ def test_user_data_run_on_hand_written_campaign(tmp_path):
     html = (tmp_path / "results" / "report" / "report.html").read_text()
     assert "hand_written_campaign.csv (SHA-256" in html
     assert_no_absolute_path(html, tmp_path, REPO)
+    # the bin model's sections: the per-bin table and the per-bin convergence
+    bins = pd.read_csv(tmp_path / "results" / "ti" / "bins.csv")
+    assert "Per-bin motion fits (they feed the corrected TI: bin model)" in html
+    assert "case no." in html and len(bins) and "The bin motion model was not run" not in html
+    # changing the inference seed refits the bins; changing the reference refits the
+    # global models and propagates again, not the bin fits
+    data["inference"]["seed"] = 43
+    config.write_text(yaml.safe_dump(data))
+    out = snakemake(tmp_path, config, "-n", "--cores", "2").stdout
+    assert "rule infer_batch" in out and "rule fit_global_model" in out
+    assert "rule bins" not in out and "rule validate" not in out
+    del data["inference"]["seed"]  # back to the run's inference seed
+    data["reference"]["separation_m"] = 80.0
+    config.write_text(yaml.safe_dump(data))
+    out = snakemake(tmp_path, config, "-n", "--cores", "2").stdout
+    assert "rule fit_global_model" in out and "rule propagate" in out
+    assert "rule infer_batch" not in out
 
 
 def _fake_bin_fit(bin_id: int, rng: np.random.Generator):

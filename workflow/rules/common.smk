@@ -28,18 +28,10 @@ GLOBAL_MODELS = (
 )
 
 
-def global_model_batches(wildcards):
-    """The per-bin fits a global model needs: none for the record motion model (its sigma_Z
-    comes from each record's own motion, so it runs beside the per-bin fits)."""
-    if wildcards.model == "record":
-        return []
-    return expand("results/inference/batch_{batch}", batch=BATCHES)
-
-
 # What the propagation reads of the fits. The record motion model takes each record's
-# sigma_Z from its own motion: it reads the record model's posterior only, and so runs
-# beside the per-bin fits (which then feed results/ti/bins.csv and the report only). The
-# bin motion model needs the chosen global model and every converged bin posterior.
+# sigma_Z from its own motion: it reads the record model's posterior only, and no per-bin
+# fit is scheduled. The bin motion model needs the chosen global model and every
+# converged bin posterior.
 # validation.trial_posterior: the record-model posterior of a trial campaign (a run
 # beside a reference) corrects this campaign; no global model is fitted here.
 TRIAL_POSTERIOR = config["validation"]["trial_posterior"]
@@ -48,14 +40,18 @@ GLOBAL_MODEL_FILES = (
     if TRIAL_POSTERIOR
     else expand("results/inference/global_{model}.nc", model=GLOBAL_MODELS)
 )
+BIN_MODEL = MOTION_MODEL == "bin"
+# The per-bin fits' batch directories: only the bin motion model runs them (the record
+# motion model's sigma_Z comes from each record's own motion).
+BIN_BATCHES = expand("results/inference/batch_{batch}", batch=BATCHES) if BIN_MODEL else []
 PROPAGATION_FITS = (
-    {"posterior": GLOBAL_MODEL_FILES[0]}
-    if MOTION_MODEL == "record"
-    else {
+    {
         "posterior": "results/posterior/global.nc",
         "bin_fits": "results/inference/bin_fits.csv",
-        "batches": expand("results/inference/batch_{batch}", batch=BATCHES),
+        "batches": BIN_BATCHES,
     }
+    if BIN_MODEL
+    else {"posterior": GLOBAL_MODEL_FILES[0]}
 )
 
 
@@ -104,6 +100,23 @@ def bin_ids():
 def posterior_bin_files(wildcards):
     """One NetCDF posterior per fitted bin: results/posterior/bin_<id>.nc."""
     return expand("results/posterior/bin_{bin}.nc", bin=bin_ids())
+
+
+# The bin motion model's own outputs: the per-bin TI table and the per-bin posteriors
+# (rule all), and what the report reads of the per-bin fits (rule report).
+BIN_MODEL_OUTPUTS = ["results/ti/bins.csv", posterior_bin_files] if BIN_MODEL else []
+BIN_MODEL_REPORT_INPUTS = (
+    {
+        "bins": "results/ti/bins.csv",
+        "bin_fits": "results/inference/bin_fits.csv",
+        "batches": BIN_BATCHES,
+        # the per-bin posterior files (links): the report is the last step of a campaign,
+        # so its results tree is complete when the report is (a fleet asks for the reports)
+        "posterior_bins": posterior_bin_files,
+    }
+    if BIN_MODEL
+    else {}
+)
 
 
 def batch_of_bin(wildcards):

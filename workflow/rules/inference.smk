@@ -1,6 +1,8 @@
-# Per-bin inference (fan-out over a fixed number of batch jobs, each fitting several
+# The global fit (the record motion model), propagation, and with inference.motion_model
+# bin: per-bin inference (fan-out over a fixed number of batch jobs, each fitting several
 # bins), the per-bin posterior files, the three global models (gather, in parallel), the
-# choice among them by PSIS-LOO, propagation, and the per-bin TI table.
+# choice among them by PSIS-LOO, and the per-bin TI table. Under the record motion model
+# no rule asks for the per-bin fits, so none is scheduled.
 
 
 rule infer_batch:
@@ -50,7 +52,7 @@ rule posterior_bin:
 
 rule fit_global_model:
     input:
-        batches=global_model_batches,
+        batches=BIN_BATCHES,
         assignments="results/bins/assignments.csv",
         records="results/data/records.csv",
     output:
@@ -72,8 +74,9 @@ rule fit_global_model:
         "results/logs/fit_global_{model}.log",
     benchmark:
         "results/benchmarks/fit_global_{model}.tsv"
-    # the longest single job of the fits: started first, so that the per-bin batches fill
-    # the other cores beside it instead of leaving it to run alone at the end
+    # the longest single job of the fits: started first, so that the other jobs (with the
+    # bin motion model, the per-bin batches) fill the other cores beside it instead of
+    # leaving it to run alone at the end
     priority: 10
     resources:
         mem_mb=1500,
@@ -86,13 +89,14 @@ rule fit_global:
     localrule: True
     input:
         models=GLOBAL_MODEL_FILES,
-        batches=expand("results/inference/batch_{batch}", batch=BATCHES),
+        batches=BIN_BATCHES,
     output:
         posterior="results/posterior/global.nc",
-        bin_fits="results/inference/bin_fits.csv",
         summary=report(
             "results/inference/global.csv", caption="../report/global.rst", category="Inference"
         ),
+        # the per-bin fits' summaries (bin motion model)
+        **({"bin_fits": "results/inference/bin_fits.csv"} if BIN_MODEL else {}),
     params:
         inference=config["inference"],
     conda:
@@ -141,8 +145,8 @@ rule propagate:
         "results/logs/propagate.log",
     benchmark:
         "results/benchmarks/propagate.tsv"
-    # with the record motion model, the second link of the longest chain (record fit ->
-    # propagation): started as soon as the record fit ends, the per-bin batches around it
+    # the second link of the longest chain (global fit -> propagation): started as soon as
+    # the fit ends
     priority: 5
     script:
         "../scripts/propagate.py"

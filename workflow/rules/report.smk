@@ -7,7 +7,6 @@ rule report:
     localrule: True
     input:
         records="results/ti/records.csv",
-        bins="results/ti/bins.csv",
         metrics="results/ti/metrics.csv",
         speed_bins="results/ti/speed_bins.csv",
         groups="results/ti/groups.csv",
@@ -16,15 +15,12 @@ rule report:
         sigma_z="results/bins/sigma_z.csv",
         qc_summary="results/qc/summary.csv",
         roll_pitch="results/motion/roll_pitch.csv",
-        bin_fits="results/inference/bin_fits.csv",
         global_summary="results/inference/global.csv",
         posterior="results/posterior/global.nc",
         campaign="results/campaign/records.csv",
         validated="results/data/records.csv",
-        batches=expand("results/inference/batch_{batch}", batch=BATCHES),
-        # the per-bin posterior files (links): the report is the last step of a campaign,
-        # so its results tree is complete when the report is (a fleet asks for the reports)
-        posterior_bins=posterior_bin_files,
+        # the per-bin fits' table and diagnostics (bin motion model)
+        **BIN_MODEL_REPORT_INPUTS,
         # the IMU series and LOS branch sections, when those inputs are given
         **SERIES_REPORT_INPUTS,
     output:

@@ -31,7 +31,7 @@ build_report(
     out_path=snakemake.output[0],
     # results/ of this campaign (results/<name>/ in a fleet): above the report's directory
     results_dir=Path(snakemake.output[0]).parents[1],
-    batch_dirs=list(snakemake.input.batches),
+    batch_dirs=list(snakemake.input.get("batches", [])),  # the bin motion model's
     config=dict(snakemake.params.config),
     git_revision=git_revision(snakemake.params.repo),
     input_files=inputs,

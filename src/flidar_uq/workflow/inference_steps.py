@@ -321,7 +321,7 @@ def fit_global(
     model_paths: Sequence[str | os.PathLike],
     batch_dirs: Sequence[str | os.PathLike],
     posterior_path: str | os.PathLike,
-    bin_fits_path: str | os.PathLike,
+    bin_fits_path: str | os.PathLike | None,
     summary_path: str | os.PathLike,
     *,
     inference: dict,
@@ -331,7 +331,8 @@ def fit_global(
     ``model_paths``: the posteriors of :func:`fit_global_model` in the order rho only,
     lever arm, lever arm + motion scale (:func:`flidar_uq.inference.select_global_model`).
     Writes the chosen global posterior (NetCDF), the concatenated per-bin summaries
-    (``bin_fits_path``) and the global parameter summary (``summary_path``, one row per
+    (``bin_fits_path``; None under the record motion model, which runs no per-bin fit:
+    ``batch_dirs`` is then empty) and the global parameter summary (``summary_path``, one row per
     parameter with diagnostics, ``converged``, ``failure_reasons`` and the LOO
     comparisons). Bins that failed or raised were excluded from the global fit.
     """
@@ -344,7 +345,8 @@ def fit_global(
         fit = inf.select_global_model(*fits, settings=_settings(inference))
     Path(posterior_path).parent.mkdir(parents=True, exist_ok=True)
     inf.save_fit(fit, posterior_path)
-    write_csv(gather_bin_summaries(batch_dirs), bin_fits_path)
+    if bin_fits_path is not None:
+        write_csv(gather_bin_summaries(batch_dirs), bin_fits_path)
     write_csv(fit.summary(), summary_path)
     log.info(
         "global fit: model %s, converged=%s %s",

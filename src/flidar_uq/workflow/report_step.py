@@ -631,8 +631,15 @@ def _diagnostics_section(ctx: dict) -> rep.Section:
 
 
 def _bin_table_section(ctx: dict) -> rep.Section:
-    """Appendix: the bin table, as what feeds the answer (bin model) or as the
-    Gutiérrez-Antuñano et al. (2018) Table 1 reproduction (record model)."""
+    """Appendix: the per-bin motion fits that feed the answer (bin model), or one line
+    saying they were not run (record model)."""
+    title = "Appendix B. Per-bin motion fits"
+    if ctx["motion_model"] != "bin":
+        return rep.Section(
+            title,
+            "<p>The bin motion model was not run (inference.motion_model: record): each "
+            "record's sigma_Z comes from its own motion, and no per-bin fit is made.</p>",
+        )
     bins, bin_fits, mass = ctx["bins"], ctx["bin_fits"], ctx["mass"]
     cols = [c for c in ("bin_id", "hws_ms", "amplitude_deg", "period_s", "count", "sigma_z_ms",
                         "mean_z_ms", "status", "model", "ti_uncorrected_mean",
@@ -644,22 +651,14 @@ def _bin_table_section(ctx: dict) -> rep.Section:
                  "mean_z_ms": "mean_Z (m/s)", "ti_uncorrected_mean": "uncorrected TI",
                  "ti_corrected_median_mean": "corrected TI", "ti_true_mean": "true TI"}
     )  # fmt: skip
-    if ctx["motion_model"] == "bin":
-        title = "Appendix B. Per-bin motion fits (they feed the corrected TI: bin model)"
-        intro = "With the bin motion model each record's sigma_Z comes from its bin's fit."
-    else:
-        title = "Appendix B. Bin table: Gutiérrez-Antuñano et al. (2018) Table 1 reproduction"
-        intro = (
-            "With the record motion model (the default) the corrected TI does not use these "
-            "per-bin fits; they reproduce Table 1 of Gutiérrez-Antuñano et al. (2018)."
-        )
+    intro = "With the bin motion model each record's sigma_Z comes from its bin's fit."
     st = bin_fits["status"].value_counts()
     intro += (
         f" Fits: {int(st.get('ok', 0))} ok, {int(st.get('failed', 0))} missed the convergence "
         f"criteria, {int(st.get('error', 0))} raised. The 15 bins with the most records are shown."
     )
     return rep.Section(
-        title,
+        title + " (they feed the corrected TI: bin model)",
         f"<p>{intro}</p>"
         + rep.table_html(
             table1, caption=rep.caption("bin_table", mass=mass, n_hidden=int((~shown).sum()))
@@ -802,29 +801,39 @@ def public_config(config: dict) -> dict:
 
 
 def _load(res: Path, batch_dirs, config: dict) -> dict:
-    """The result tables the report reads, and what is derived from them once."""
+    """The result tables the report reads, and what is derived from them once.
+
+    The per-bin tables (results/ti/bins.csv, results/inference/bin_fits.csv) are read
+    with the bin motion model only: the record motion model runs no per-bin fit, and its
+    ``bins`` and ``bin_fits`` are empty tables (no bin failed).
+    """
     from flidar_uq import inference as inf
 
+    gfit = inf.load_fit(res / "posterior" / "global.nc")
+    motion_model = "record" if inf.is_record_model(gfit) else "bin"
+    no_bins = pd.DataFrame({"status": pd.Series(dtype=str)})
     ctx = {
         "records": read_csv(res / "ti" / "records.csv"),
         "data": read_csv(res / "data" / "records.csv"),
-        "bins": read_csv(res / "ti" / "bins.csv"),
+        "bins": read_csv(res / "ti" / "bins.csv") if motion_model == "bin" else no_bins,
         "speed_bins": read_csv(res / "ti" / "speed_bins.csv"),
         "groups": read_csv(res / "ti" / "groups.csv"),
         "budget": read_csv(res / "ti" / "uncertainty_budget.csv"),
         "metrics": read_csv(res / "ti" / "metrics.csv"),
         "qc_counts": read_csv(res / "qc" / "summary.csv"),
         "roll_pitch": read_csv(res / "motion" / "roll_pitch.csv"),
-        "bin_fits": read_csv(res / "inference" / "bin_fits.csv"),
+        "bin_fits": (
+            read_csv(res / "inference" / "bin_fits.csv") if motion_model == "bin" else no_bins
+        ),
         "global_summary": read_csv(res / "inference" / "global.csv"),
-        "gfit": inf.load_fit(res / "posterior" / "global.nc"),
+        "gfit": gfit,
+        "motion_model": motion_model,
         "config": config,
         "batch_dirs": list(batch_dirs),
         "mass": float(config["propagation"]["credible_mass"]),
         "min_count": int(config.get("report", {}).get("group_min_count", 10)),
     }
     ctx["heights"] = sorted(ctx["records"]["height_m"].dropna().unique())
-    ctx["motion_model"] = "record" if inf.is_record_model(ctx["gfit"]) else "bin"
     m = ctx["metrics"]
     kind = str(m["reference_kind"].iloc[0]) if "reference_kind" in m and len(m) else None
     ctx["reference_kind_code"] = kind or (config.get("reference") or {}).get("kind") or "none"
