@@ -47,7 +47,13 @@ import numpy as np
 
 from flidar_uq.data.metrics import REPRESENTATIVE_TI_FACTOR
 
-__all__ = ["LOG_FLOOR_TI", "GroupErrors", "group_errors", "population_statistic_draws"]
+__all__ = [
+    "LOG_FLOOR_TI",
+    "GroupErrors",
+    "group_errors",
+    "population_statistic_draws",
+    "tau_posterior",
+]
 
 #: Normal quantiles at -1 and +1 sd.
 _ONE_SIGMA = (0.15865525393145707, 0.8413447460685429)
@@ -148,7 +154,7 @@ def group_errors(draws, columns=None, *, log: bool = False) -> GroupErrors:
     return GroupErrors(est, own, beta, mean_c * shrink, linear_total / (ndraws * n))
 
 
-def _tau_posterior(y: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def tau_posterior(y: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Grid and normalised posterior mass of the population sd ``tau`` of the hierarchical
     normal model with a uniform prior on ``tau`` and a flat one on ``mu`` (Gelman et al.
     2013, Eq. 5.21): ``p(tau | y) ∝ V_mu^(1/2) prod (v_i + tau^2)^(-1/2)
@@ -166,7 +172,7 @@ def _tau_posterior(y: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def population_statistic_draws(
-    draws, rng: np.random.Generator, columns=None
+    draws, rng: np.random.Generator, columns=None, *, shift=None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Posterior draws of a group's population statistics of the true TI (steps 1-3 of the
     module docstring).
@@ -180,6 +186,12 @@ def population_statistic_draws(
         The population's random numbers (``ndraws x n`` standard normals and the grid draws).
     columns : numpy.ndarray of int, optional
         The group's ``n >= 2`` records (columns of ``draws``); default all.
+    shift : (numpy.ndarray, numpy.ndarray), optional
+        A systematic error on log TI shared within regimes
+        (:meth:`flidar_uq.correction.regime_discrepancy.RegimeDiscrepancy.draws`): each
+        record's regime (index per column of ``draws``) and the regimes' draws ``delta``
+        (ndraws, n_regimes); each population draw is divided by ``exp(delta)`` of its
+        record's regime.
 
     Returns
     -------
@@ -191,7 +203,7 @@ def population_statistic_draws(
     e = group_errors(draws, columns, log=True)
     ndraws, n = np.shape(draws)[0], e.estimate.size
     y, v = e.estimate, e.own_var
-    tau_grid, mass = _tau_posterior(y, np.maximum(v, 1e-18))
+    tau_grid, mass = tau_posterior(y, np.maximum(v, 1e-18))
     cell = tau_grid[0]
     tau = tau_grid[rng.choice(tau_grid.size, size=ndraws, p=mass)]
     tau = np.maximum(tau - cell * rng.random(ndraws), 1e-12)[:, None]  # uniform in its cell
@@ -200,6 +212,10 @@ def population_statistic_draws(
     mu = (w * y[None, :]).sum(axis=1, keepdims=True) * v_mu
     mu = mu + np.sqrt(v_mu) * rng.standard_normal((ndraws, 1))
     out = [np.empty(ndraws) for _ in range(4)]
+    unshifted_mean = np.empty(ndraws)
+    if shift is not None:
+        cols = np.arange(np.shape(draws)[1]) if columns is None else np.asarray(columns)
+        regime, delta = np.asarray(shift[0])[cols], np.asarray(shift[1], dtype=float)
     step = max(1, _BLOCK_VALUES // max(n, 1))
     for j in range(0, ndraws, step):
         d = slice(j, j + step)
@@ -209,11 +225,14 @@ def population_statistic_draws(
         t = t_hat + rng.standard_normal(t_hat.shape) / np.sqrt(prec)
         t += e.shared_loading[None, :] * e.shared_draws[d, None]
         t = np.exp(t)
+        unshifted_mean[d] = t.mean(axis=1)
+        if shift is not None:
+            t *= np.exp(-delta[d][:, regime])
         mean = t.mean(axis=1)
         sd = t.std(axis=1, ddof=1)
         out[0][d], out[1][d] = mean, sd
         out[2][d] = mean + REPRESENTATIVE_TI_FACTOR * sd
         out[3][d] = np.quantile(t, 0.9, axis=1)
     # the population's mean is the records' mean TI (step 3); every statistic scales with it
-    ratio = e.mean_ti / float(np.mean(out[0]))
+    ratio = e.mean_ti / float(np.mean(unshifted_mean))
     return tuple(x * ratio for x in out)

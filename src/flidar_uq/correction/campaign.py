@@ -16,6 +16,11 @@ import pandas as pd
 
 from flidar_uq.correction import propagation as prop
 from flidar_uq.correction.reference import Reference
+from flidar_uq.correction.regime_discrepancy import (
+    RegimeDiscrepancy,
+    fit_regime_discrepancy,
+    regime_keys,
+)
 from flidar_uq.data.binning import bin_centre, speed_bin_ms
 from flidar_uq.data.io import write_csv
 from flidar_uq.data.schema import CORRECTED_TI_COLUMNS
@@ -388,7 +393,10 @@ def correct_campaign(
 
     main = correct()
     per_record = prop.record_summary(sub, main, baseline)
-    speed_keys, speed_bins, groups = _group_tables(main.ti, per_record, sub, settings)
+    discrepancy = _regime_discrepancy(sub, per_record, target, reference)
+    rng = np.random.default_rng(child_seed(settings.seed, 6))
+    shift = discrepancy.draws(regime_keys(sub), settings.ndraws, rng)
+    speed_keys, speed_bins, groups = _group_tables(main.ti, per_record, sub, settings, shift)
     # its own passes at budget_ndraws (common random numbers: the same seed and draws
     # for every hold), the main pass's draws when it has no more
     nb = min(int(settings.budget_ndraws), int(settings.ndraws))
@@ -397,7 +405,7 @@ def correct_campaign(
     else:  # the main pass's draws are done with: freed before the budget's passes
         del main
         free = correct((), nb).ti
-    budget = _budget(correct, free, nb, per_record, speed_keys, settings)
+    budget = _budget(correct, free, nb, per_record, speed_keys, settings, shift)
     out = _output_records(c, fit, per_record, baseline[0], settings)
     return CorrectionResult(
         records=out,
@@ -483,9 +491,24 @@ def _point_target(sub, rec, reference: Reference, settings: CorrectionSettings):
     return prop.PointTarget(g_ratio, log_sd, g_log_sd, pair_corr, noise.pair_log_sd)
 
 
-def _group_tables(ti_draws, per_record, sub, settings: CorrectionSettings):
+def _regime_discrepancy(sub, per_record, target, reference: Reference) -> RegimeDiscrepancy:
+    """The regime discrepancy of the corrected records against the reference's point TI
+    (a fixed lidar's divided by the lidar's std ratio ``g``), by whole UTC days."""
+    ti_ref = np.full(len(sub), np.nan)
+    if "ref_hws_std_ms" in sub and "ref_hws_mean_ms" in sub:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ti_ref = sub["ref_hws_std_ms"].to_numpy(float) / sub["ref_hws_mean_ms"].to_numpy(float)
+            if reference.kind == "fixed_lidar" and target.lidar_std_ratio is not None:
+                ti_ref = ti_ref / np.asarray(target.lidar_std_ratio, dtype=float)
+    day = pd.to_datetime(sub["timestamp"], utc=True).dt.floor("D").to_numpy()
+    corrected = per_record["ti_corrected_median"].to_numpy(float)
+    return fit_regime_discrepancy(corrected, ti_ref, regime_keys(sub), day)
+
+
+def _group_tables(ti_draws, per_record, sub, settings: CorrectionSettings, shift=None):
     """Speed-bin keys, the speed-bin table (height x 1-m/s bin) and the group table
-    (campaign, direction sector, sea state) of the corrected records."""
+    (campaign, direction sector, sea state) of the corrected records; ``shift`` the regime
+    discrepancy's draws (:meth:`RegimeDiscrepancy.draws`) or None."""
     credible_mass, min_count = settings.credible_mass, settings.min_count
     sub_heights = sub["height_m"].to_numpy(dtype=float)
     speed_keys = pd.DataFrame(
@@ -501,6 +524,7 @@ def _group_tables(ti_draws, per_record, sub, settings: CorrectionSettings):
         credible_mass=credible_mass,
         min_count=min_count,
         seed=child_seed(settings.seed, 5, 0),
+        shift=shift,
     )
     labels = record_groups(sub, sector_width_deg=settings.sector_width_deg)
     tables = []
@@ -517,22 +541,36 @@ def _group_tables(ti_draws, per_record, sub, settings: CorrectionSettings):
             credible_mass=credible_mass,
             min_count=min_count,
             seed=child_seed(settings.seed, 5, k),
+            shift=shift,
         )
         t.insert(0, "grouping", grouping)
         tables.append(t)
     return speed_keys, speed_bins, pd.concat(tables, ignore_index=True)
 
 
-def _budget(correct, free, nb, per_record, speed_keys, settings: CorrectionSettings):
+def _budget(correct, free, nb, per_record, speed_keys, settings: CorrectionSettings, shift):
     """The uncertainty budget per campaign and speed bin from the passes at ``nb`` draws
-    (``free``: the pass that holds nothing; ``correct(hold, nb)``: one that holds)."""
-    from flidar_uq.correction.uncertainty_budget import uncertainty_budget
+    (``free``: the pass that holds nothing; ``correct(hold, nb)``: one that holds), with
+    the regime discrepancy's first ``nb`` draws ``shift`` (None: none) as a source of its
+    own, held at its posterior mean."""
+    from flidar_uq.correction.uncertainty_budget import BUDGET_SOURCES, uncertainty_budget
+
+    def draws_for(hold):
+        base = tuple(h for h in hold if h != "regime_discrepancy")
+        d = free if not base else correct(base, nb).ti
+        if shift is None:
+            return d
+        at, delta = shift[0], shift[1][:nb]
+        if "regime_discrepancy" in hold:
+            delta = delta.mean(axis=0, keepdims=True)
+        return (d * np.exp(-delta[:, at])).astype(np.float32)
 
     usable = per_record["converged"].to_numpy(dtype=bool) & prop.finite_records(free)
     return uncertainty_budget(
-        lambda hold: free if not hold else correct(hold, nb).ti,
+        draws_for,
         {"campaign": speed_keys[["height_m"]], "speed bin": speed_keys},
         usable,
+        sources=BUDGET_SOURCES,
         credible_mass=settings.credible_mass,
         min_count=settings.min_count,
     )

@@ -1227,6 +1227,7 @@ def ti_group_statistics(
     credible_mass: float = 0.9,
     min_count: int = 2,
     seed=0,
+    shift=None,
 ) -> pd.DataFrame:
     """TI statistics per group of records (height x speed bin, sector, sea state) with
     credible intervals of the statistic itself, from the joint posterior draws.
@@ -1261,6 +1262,10 @@ def ti_group_statistics(
     seed : int or numpy.random.SeedSequence
         The population model's random numbers (group ``k`` of the sorted keys uses spawn
         key ``k``).
+    shift : (numpy.ndarray, numpy.ndarray), optional
+        The regime discrepancy's draws
+        (:meth:`flidar_uq.correction.regime_discrepancy.RegimeDiscrepancy.draws`), one
+        regime index per record of ``per_record``; None: none.
 
     Returns
     -------
@@ -1308,7 +1313,7 @@ def ti_group_statistics(
         if enough:
             sub_seed = np.random.SeedSequence(root.entropy, spawn_key=(*root.spawn_key, g))
             rng = np.random.default_rng(sub_seed)
-            draws = population_statistic_draws(ti_draws, rng, k)
+            draws = population_statistic_draws(ti_draws, rng, k, shift=shift)
             mean, sd, rep, p90 = draws
             for name, x in zip(stats, (mean, sd, rep, p90), strict=True):
                 lo, med, hi = np.quantile(x, q)

@@ -37,7 +37,11 @@ import pandas as pd
 from flidar_uq.correction.propagation import UNCERTAINTY_SOURCES
 from flidar_uq.progress import ProgressLog
 
-__all__ = ["uncertainty_budget"]
+__all__ = ["BUDGET_SOURCES", "uncertainty_budget"]
+
+#: The budget's sources: the propagation's (:data:`UNCERTAINTY_SOURCES`) and the regime
+#: discrepancy of the bin statistics (:mod:`flidar_uq.correction.regime_discrepancy`).
+BUDGET_SOURCES = (*UNCERTAINTY_SOURCES, "regime_discrepancy")
 
 log = logging.getLogger(__name__)
 
@@ -100,10 +104,10 @@ def uncertainty_budget(
     ValueError
         If a source is unknown or the shapes do not match.
     """
-    unknown = [k for k in sources if k not in UNCERTAINTY_SOURCES]
+    unknown = [k for k in sources if k not in BUDGET_SOURCES]
     if unknown:
         raise ValueError(
-            f"uncertainty_budget: unknown sources {unknown}; known: {list(UNCERTAINTY_SOURCES)}"
+            f"uncertainty_budget: unknown sources {unknown}; known: {list(BUDGET_SOURCES)}"
         )
     usable = np.asarray(usable, dtype=bool)
     tables = {}

@@ -109,6 +109,7 @@ SOURCE_LABELS = {
     "noise_model": "noise model",
     "reference_response": "reference response g",
     "sampling": "10-min std sampling",
+    "regime_discrepancy": "regime discrepancy",
 }
 
 
@@ -681,11 +682,11 @@ def _model_selection_section(ctx: dict) -> rep.Section | None:
 
 def _budget_section(ctx: dict) -> rep.Section:
     """Appendix: the uncertainty budget."""
-    from flidar_uq.correction.propagation import UNCERTAINTY_SOURCES
+    from flidar_uq.correction.uncertainty_budget import BUDGET_SOURCES
     from flidar_uq.workflow import plots
 
     budget, mass = ctx["budget"], ctx["mass"]
-    sources = [k for k in UNCERTAINTY_SOURCES if f"share_{k}" in budget]
+    sources = [k for k in BUDGET_SOURCES if f"share_{k}" in budget]
     cb = budget[budget["grouping"] == "campaign"]
     btab = pd.DataFrame({"height (m)": cb["height_m"].map(lambda v: f"{v:g}")})
     btab[f"{mass:.0%} width of the mean"] = cb["width"].map(lambda v: f"{v:.2g}")

@@ -1,0 +1,90 @@
+"""The regime discrepancy learnt on the reference period
+(:mod:`flidar_uq.correction.regime_discrepancy`): known regime biases, blocked CV."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from flidar_uq.correction.bin_population import population_statistic_draws
+from flidar_uq.correction.regime_discrepancy import fit_regime_discrepancy, regime_keys
+
+
+def _campaign(rng, bias_by_period, ndays=40, per_day=60):
+    """Reference records over ``ndays`` days: speeds 4-14 m/s, tilt periods in the three
+    classes, the reference's point TI with 10 % record noise and a corrected TI off by
+    ``bias_by_period[class]`` (log) plus its own 10 % noise."""
+    n = ndays * per_day
+    hws = rng.uniform(4.0, 14.0, n)
+    period = rng.choice([3.0, 5.5, 9.0], n)
+    t = 0.1 * np.exp(0.25 * rng.standard_normal(n))
+    ref = t * np.exp(0.1 * rng.standard_normal(n) - 0.005)
+    bias = np.select([period < 4, period <= 7], [bias_by_period[0], bias_by_period[1]],
+                     bias_by_period[2])  # fmt: skip
+    corrected = t * np.exp(bias + 0.1 * rng.standard_normal(n) - 0.005)
+    stamps = pd.Timestamp("2020-01-01", tz="UTC") + pd.to_timedelta(
+        np.repeat(np.arange(ndays), per_day) * 86400 + rng.uniform(0, 86000, n), unit="s"
+    )
+    records = pd.DataFrame(
+        {"hws_mean_ms": hws, "roll_period_s": period, "pitch_period_s": period, "timestamp": stamps}
+    )
+    return records, corrected, ref, t
+
+
+def _fit(records, corrected, ref):
+    day = records["timestamp"].dt.floor("D").to_numpy()
+    return fit_regime_discrepancy(corrected, ref, regime_keys(records), day)
+
+
+def test_a_regime_bias_is_kept_and_corrects_the_bin_mean():
+    """A model 6 % high for 4-7 s seas and right elsewhere: blocked cross-validation keeps
+    the term, the 4-7 s regimes' discrepancy is near log(1.06) and the others' near 0, and a
+    bin statistic with it holds the true mean, which it misses without it."""
+    rng = np.random.default_rng(np.random.SeedSequence(11))
+    records, corrected, ref, t = _campaign(rng, (0.0, np.log(1.06), 0.0))
+    d = _fit(records, corrected, ref)
+    assert d.kept, d.reason
+    assert "kept" in d.reason and d.elpd_gain > 2 * d.elpd_gain_se
+    mid = d.regimes[d.regimes["period_class"] == "4-7 s"]
+    others = d.regimes[d.regimes["period_class"] != "4-7 s"]
+    assert abs(mid["delta"].median() - np.log(1.06)) < 0.015
+    assert abs(others["delta"].median()) < 0.015
+    # the 4-7 s records of the 9 m/s bin: draws about the corrected TI, with and without it
+    hws = records["hws_mean_ms"].to_numpy()
+    k = np.flatnonzero((records["roll_period_s"] == 5.5).to_numpy() & (np.abs(hws - 9.0) < 0.5))
+    assert k.size > 50
+    draws = corrected[k][None, :] * np.exp(0.1 * rng.standard_normal((500, k.size)) - 0.005)
+    shift = d.draws(regime_keys(records.iloc[k]), 500, rng)
+    truth = t[k].mean()
+    for sh, holds in ((None, False), (shift, True)):
+        mean = population_statistic_draws(draws, np.random.default_rng(1), shift=sh)[0]
+        lo, hi = np.quantile(mean, [0.05, 0.95])
+        assert bool(lo <= truth <= hi) == holds, (lo, truth, hi)
+
+
+def test_no_bias_is_not_kept_and_an_unseen_regime_takes_the_spread():
+    """A model right in every regime: the term is not kept (its draws are None); with a
+    bias the regime the reference never saw takes ``mu`` and ``tau``."""
+    rng = np.random.default_rng(np.random.SeedSequence(12))
+    d = _fit(*_campaign(rng, (0.0, 0.0, 0.0))[:3])
+    assert not d.kept and "not kept" in d.reason
+    assert d.draws(regime_keys(_campaign(rng, (0, 0, 0))[0]), 10, rng) is None
+    records, corrected, ref, _ = _campaign(rng, (0.05, -0.05, 0.0))
+    d = _fit(records, corrected, ref)
+    assert d.kept
+    unseen = pd.DataFrame({"hws_mean_ms": [25.0], "roll_period_s": [5.0], "pitch_period_s": [5.0]})
+    at, delta = d.draws(regime_keys(unseen), 4000, rng)
+    assert at[0] == len(d.regimes)
+    assert abs(np.std(delta[:, at[0]]) / d.tau - 1.0) < 0.05
+    assert abs(np.mean(delta[:, at[0]]) - d.regimes.attrs["mu"]) < 0.1 * d.tau
+
+
+def test_too_few_regimes_and_bad_shapes():
+    """Without reference records nothing is kept, with a reason; mismatched inputs are refused."""
+    rng = np.random.default_rng(3)
+    records, corrected, _, _ = _campaign(rng, (0, 0, 0), ndays=2, per_day=5)
+    d = _fit(records, corrected, np.full(len(records), np.nan))
+    assert not d.kept and "too few" in d.reason
+    with pytest.raises(ValueError, match="do not match"):
+        fit_regime_discrepancy(corrected[:3], corrected, regime_keys(records), np.zeros(2))
