@@ -655,13 +655,20 @@ def test_validate_names_the_rows_whose_std_holds_ti_in_percent(tmp_path, capsys)
     rec = read_records(Path(__file__).parent / "data" / "hand_written_campaign.csv")
     path = tmp_path / "percent.csv"
     ti_percent_in_std(rec).to_csv(path, index=False)
-    assert main(["validate", str(path)]) == EXIT_OK
+    assert main(["validate", "--json", str(path)]) == EXIT_OK
     out, err = capsys.readouterr()
     assert json.loads(out)["qc_preview"]["by_filter"]["std_pattern"] == 10
     first = ", ".join(str(r) for r in PERCENT_ROWS[:5])
     assert f"10 record(s) (rows {first}, ...) have hws_std_ms / hws_mean_ms far" in err
     assert (
-        main(["validate", str(Path(__file__).parent / "data" / "hand_written_campaign.csv")]) == 0
+        main(
+            [
+                "validate",
+                "--json",
+                str(Path(__file__).parent / "data" / "hand_written_campaign.csv"),
+            ]
+        )
+        == 0
     )
     assert "std_pattern" not in capsys.readouterr().err
 

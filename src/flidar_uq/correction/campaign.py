@@ -406,6 +406,7 @@ def correct_campaign(
         del main
         free = correct((), nb).ti
     budget = _budget(correct, free, nb, per_record, speed_keys, settings, shift)
+    speed_bins = _with_dominant_source(speed_bins, budget)
     out = _output_records(c, fit, per_record, baseline[0], settings)
     return CorrectionResult(
         records=out,
@@ -546,6 +547,38 @@ def _group_tables(ti_draws, per_record, sub, settings: CorrectionSettings, shift
         t.insert(0, "grouping", grouping)
         tables.append(t)
     return speed_keys, speed_bins, pd.concat(tables, ignore_index=True)
+
+
+#: What a bin's interval comes from, in words, by budget source (shares of one label add).
+DOMINANT_SOURCE_WORDS = {
+    "motion": "the motion description",
+    "rho": "the correlation rho",
+    "noise_model": "the records' noise",
+    "sampling": "the records' noise",
+    "reference_response": "the lidar's response g",
+    "regime_discrepancy": "the regime discrepancy",
+}
+#: Fewest records of a bin below which its interval is said to come from too few records.
+FEW_RECORDS = 30
+
+
+def _with_dominant_source(speed_bins: pd.DataFrame, budget: pd.DataFrame) -> pd.DataFrame:
+    """``speed_bins`` with ``interval_from``: in words, what the bin mean's interval comes
+    from (the largest of the budget's variance shares, :data:`DOMINANT_SOURCE_WORDS`), or
+    "too few records" below :data:`FEW_RECORDS`; "" where the budget has no row."""
+    sb = budget[budget["grouping"] == "speed bin"]
+    words = {}
+    for _, row in sb.iterrows():
+        shares: dict[str, float] = {}
+        for source, label in DOMINANT_SOURCE_WORDS.items():
+            if f"share_{source}" in row and np.isfinite(row[f"share_{source}"]):
+                shares[label] = shares.get(label, 0.0) + float(row[f"share_{source}"])
+        if shares:
+            words[(row["height_m"], row["hws_bin_ms"])] = max(shares, key=shares.get)
+    keys = zip(speed_bins["height_m"], speed_bins["hws_bin_ms"], strict=True)
+    label = [words.get(k, "") for k in keys]
+    few = speed_bins["n"].to_numpy() < FEW_RECORDS
+    return speed_bins.assign(interval_from=np.where(few, "too few records", label))
 
 
 def _budget(correct, free, nb, per_record, speed_keys, settings: CorrectionSettings, shift):

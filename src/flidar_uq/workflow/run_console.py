@@ -311,8 +311,9 @@ def run_summary(results: str | Path, min_count: int = 10) -> list[str]:
     if not report.is_file() and fleet:  # a fleet: one results/<name>/ per campaign
         out = []
         for r in fleet:
-            out += [f"campaign {r.parents[1].name}:"]
-            out += ["  " + ln for ln in run_summary(r.parents[1], min_count)]
+            campaign = r.parent.parent  # results/<name>/report/report.html
+            out += [f"campaign {campaign.name}:"]
+            out += ["  " + ln for ln in run_summary(campaign, min_count)]
         return [clip_line(ln) for ln in out]
     out = [f"report: {report}" if report.is_file() else f"report: none written ({report})"]
     bins = results / "ti" / "speed_bins.csv"
