@@ -36,7 +36,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from timing import best_time  # noqa: E402
+from _timing import best_time  # noqa: E402
 
 from flidar_uq.correction.propagation import PropagationSettings, draw_corrected_ti  # noqa: E402
 from flidar_uq.inference import (  # noqa: E402

@@ -25,7 +25,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from timing import best_time  # noqa: E402
+from _timing import best_time  # noqa: E402
 
 from flidar_uq.data.io import write_csv  # noqa: E402
 

@@ -38,7 +38,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from acceptance_runs import SCENARIO_OPTIONS, campaign_seeds, run_campaigns  # noqa: E402
+from _acceptance_runs import SCENARIO_OPTIONS, campaign_seeds, run_campaigns  # noqa: E402
 from scipy import stats  # noqa: E402
 
 from flidar_uq.threads import single_threaded  # noqa: E402

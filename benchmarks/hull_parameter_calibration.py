@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from acceptance_runs import run_campaigns, scenario_lidar
+from _acceptance_runs import run_campaigns, scenario_lidar
 
 from flidar_uq.campaign.scenarios import load_scenario
 from flidar_uq.data.calibration import calibration_by_group

@@ -45,7 +45,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from acceptance_runs import SCENARIO_OPTIONS, run_campaigns  # noqa: E402
+from _acceptance_runs import SCENARIO_OPTIONS, run_campaigns  # noqa: E402
 
 from flidar_uq.threads import single_threaded  # noqa: E402
 from flidar_uq.validation.regimes import scenario_records  # noqa: E402

@@ -1,7 +1,7 @@
 """The timing loop the benchmarks share: the best of a few repeats.
 
 Benchmarks are run as scripts (``python benchmarks/<name>.py``), so this module is
-imported as ``from timing import best_time`` from the script's own directory. The best
+imported as ``from _timing import best_time`` from the script's own directory. The best
 (shortest) of several repeats is the least disturbed by other work on a shared machine.
 """
 

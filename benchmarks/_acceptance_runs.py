@@ -2,7 +2,7 @@
 run each scenario, the campaign seeds, and a process pool over the campaigns.
 
 Benchmarks are run as scripts (``python benchmarks/<name>.py``), so this module is
-imported as ``from acceptance_runs import ...`` from the script's own directory.
+imported as ``from _acceptance_runs import ...`` from the script's own directory.
 """
 
 from __future__ import annotations
