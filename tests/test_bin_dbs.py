@@ -356,7 +356,7 @@ def test_bin_model_finds_the_lever_arm_of_a_dbs_buoy_and_corrects_its_ti(seed):
     +0.3 %, uncorrected +13 %, +17 %). After every beam (the WindCube v2's output) the
     order of opposite beams turns from window to window, the cross term averages down
     (correlation at most 0.31) and the lever arm's own share of sigma_Z^2 is 1-13 %
-    (``benchmarks/dbs_mechanisms.py``): on seed 527423 LOO keeps rho only (elpd of the
+    (``benchmarks/dbs_sigma_z.py --study mechanisms``): on seed 527423 LOO keeps rho only (elpd of the
     lever arm +1.0), on 854725 the lever arm.
     The bin model's harmonic roll and pitch at the bin's peak period carry the
     description's error into ``L`` (the record model's roll-and-pitch description is

@@ -228,8 +228,7 @@ def test_single_height_campaign_does_not_depend_on_the_chunk_size():
 
 
 #: Column sums of the default scenario's first 3 records (seed 20181122, 9 rows) from the
-#: generator of commit 3846522, before the issue-13 speed work (benchmarks/campaign_generation.py
-#: compares the two in full). The speed work until session 12 left the output
+#: generator of commit 3846522, before its speed work. The speed work until session 12 left the output
 #: byte-identical on the benchmark machine; the compiled line-of-sight loop and the own
 #: Welch estimate of session 13 changed the last bits (<= 5e-15 relative, benchmark); the
 #: tolerance allows for those and for other BLAS kernels (FMA order, ~1e-15).

@@ -119,7 +119,7 @@ def test_once_a_cycle_a_swell_of_two_cycles_spreads_the_records_motion_error():
     """One wind a 5-s cycle samples a 10-s swell at its Nyquist period: each 10-min
     record's realised Var Z hangs on the phase at which the cycles meet the waves, so it
     spreads over records about twice as much as one wind after every beam, whose five
-    windows a cycle sample five phases (``benchmarks/dbs_output_sampling.py``: 0.19
+    windows a cycle sample five phases (``benchmarks/dbs_sigma_z.py --study output-sampling``: 0.19
     against 0.09 at 10 s over 96 records; this test's ratio 1.8-2.4 over six seeds). The
     bound, 1.4 times, is about half-way from 1 (no aliasing) to the benchmark's ratio."""
     rng = np.random.default_rng(np.random.SeedSequence(20261207))

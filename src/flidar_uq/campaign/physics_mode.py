@@ -66,7 +66,7 @@ record's series are drawn (still in cache; the long series are dropped after it)
 Gaussian draws are NumPy's ``Generator.standard_normal`` and the IMU estimators' detrend and
 Welch loops are compiled too (:mod:`flidar_uq.data.imu_kernels`); the 10-min statistics are
 NumPy over the chunk. The workers import neither pandas nor scipy's subpackages
-(``benchmarks/campaign_generation.py``, docs/performance.md).
+(docs/performance.md).
 """
 
 from __future__ import annotations
@@ -1247,7 +1247,7 @@ _BLAS_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 #: glibc's malloc in the workers: keep freed memory for reuse (no trimming of the heap, no
 #: mmap below 32 MB). By default a chunk's arrays of a few MB are returned to the kernel
 #: when freed and faulted in again page by page at the next chunk: ~0.8 ms of system time a
-#: record, ~10 % of the generator (measured with benchmarks/campaign_generation.py). No effect on results;
+#: record, ~10 % of the generator (measured when it was set; CHANGELOG). No effect on results;
 #: ignored by other C libraries.
 _MALLOC_TUNABLES = (
     "glibc.malloc.mmap_threshold=33554432:glibc.malloc.trim_threshold=1073741824:"

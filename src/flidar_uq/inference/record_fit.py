@@ -246,7 +246,7 @@ def _record_loglik_sum(theta, s, r, gram, pair_sq=0.0):
     ``_SUM_BLOCK_ELEMENTS`` values a block), summed block by block, the ``log tau^2`` by
     :func:`_sum_log_rows`: the row sums of :func:`_record_loglik_pointwise` to rounding
     (~1e-15 relative), 1.85-2x faster than on the whole (walkers x records) array, and
-    the grouped logarithm faster again (``benchmarks/record_loglik_speed.py``).
+    the grouped logarithm faster again (measured when it was written; CHANGELOG).
     """
     n = np.size(s)
     out = np.zeros(theta.shape[0])

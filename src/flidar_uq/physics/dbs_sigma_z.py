@@ -44,7 +44,7 @@ independent (random phases),
 cross-wind error, as large as the along-wind one where heave leaks into both beam pairs,
 lowers sigma_Z and raises the mean HWS by ``s_b^2 / (2 U)``). Checked against the LOS
 replay of the scan simulator (:func:`dbs_replay_sigma_z_ms`; ``benchmarks/dbs_sigma_z.py``,
-``benchmarks/dbs_sigma_z_second_order.py``).
+``benchmarks/dbs_sigma_z.py --study second-order``).
 Where it does not hold: second-order tilt terms (``U phi^2``) are left out, which matters
 only where the first-order leak cancels (a period equal to the opposite-beam lag, or a wave
 follower whose heave cancels the tilt's vertical wind, ``U cos(psi) = c``); yaw within a
@@ -96,7 +96,7 @@ __all__ = [
 ]
 
 #: Mechanisms that :func:`dbs_harmonic_sigma_z_ms` can switch off one at a time
-#: (``benchmarks/dbs_mechanisms.py``): ``tilt`` (the mean wind rotated into the beams'
+#: (``benchmarks/dbs_sigma_z.py --study mechanisms``): ``tilt`` (the mean wind rotated into the beams'
 #: vertical), ``heave`` (the hull's vertical velocity), ``translation`` (the head's
 #: horizontal velocity: lever arm and orbital surge/sway), ``beam_timing`` (beams at
 #: different times; off: every beam of a cycle at the cycle's mid time), ``shear`` (the
@@ -537,7 +537,7 @@ def dbs_replay_sigma_z_ms(
     its mean over that many instants of its dwell (the pulse accumulation; compare with
     ``dwell_average=True``); default 1, each beam at one instant. ``every_beam``: one wind
     after every beam from the latest beam of each azimuth (a WindCube v2's 1-s output)
-    instead of one a cycle (``benchmarks/dbs_output_sampling.py``); default None, the
+    instead of one a cycle (``benchmarks/dbs_sigma_z.py --study output-sampling``); default None, the
     geometry's :attr:`~flidar_uq.physics.lidar.LidarGeometry.every_beam_output`, as the
     virtual campaign and the harmonic sum take it.
     """
@@ -588,7 +588,7 @@ def cycle_sampling_rel_var(frequency_hz, power, width_hz, *, cycle_s, record_s=R
 
     for the error's spectrum ``S`` (one-sided), capped at 1/2 (one harmonic at a fixed
     phase). ``S`` is taken as the given components' powers spread evenly over their
-    widths. Checked against LOS-level replay (``benchmarks/dbs_output_sampling.py``,
+    widths. Checked against LOS-level replay (``benchmarks/dbs_sigma_z.py --study output-sampling``,
     ``tests/test_dbs_sigma_z.py``).
 
     Parameters
@@ -650,7 +650,7 @@ def hws_error_moments(var_along, var_across, cov, hws_ms):
     ``Var Z = s_a^2 + s_b^4 / (2 U^2) - (s_a^2 s_b^2 + 2 c_ab^2) / U^2`` and
     ``E Z = s_b^2 / (2 U)``: the cross-wind error (a DBS lidar's heave leaks into both beam
     pairs) lowers sigma_Z below ``s_a`` and raises the mean HWS. Against the LOS-level
-    replay (``benchmarks/dbs_sigma_z_second_order.py``) the fourth-order variance gives
+    replay (``benchmarks/dbs_sigma_z.py --study second-order``) the fourth-order variance gives
     half of the replay's reduction (a WindCube v2 after every beam; 80 % once a cycle); the mean leaves out the along-wind error's own
     second-order mean (the tilt times the heave velocity), which brings the replay's mean
     0.1-0.2 % of U below ``s_b^2 / (2 U)`` with a swell against the wind at 10-15 m/s and
