@@ -1178,9 +1178,7 @@ def tilt_spectrum_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray]:
     )
 
 
-def band_direction_moments(
-    var_along, var_across, sincos_psi=None
-) -> tuple[np.ndarray, np.ndarray]:
+def band_direction_moments(var_along, var_across, sincos_psi=None) -> tuple[np.ndarray, np.ndarray]:
     """``<cos^2 psi>`` and ``<cos psi>`` of each band's directions of travel against the wind.
 
     ``<cos^2 psi>`` is the band's along-wind share of the tilt variance. With the band's
@@ -1248,6 +1246,7 @@ def tilt_bands_from_records(records: pd.DataFrame):
 
     per, va, vc = stack(0), stack(1), stack(2)
     complete = np.all(np.isfinite(per) & np.isfinite(va) & np.isfinite(vc), axis=-1)
+
     def measured(column):
         out = np.full(per.shape, np.nan)
         for b in range(N_TILT_BANDS):
