@@ -35,7 +35,7 @@ test: venv
 	bash scripts/system-deps.sh
 	$(VENV)/bin/lint-imports --no-cache
 	$(VENV)/bin/python -m pytest -m "slow or not slow" -p no:cacheprovider \
-	  -n $(TEST_WORKERS) --dist loadfile
+	  -n $(TEST_WORKERS) --dist loadfile --durations=25
 
 test-fast: venv
 	$(VENV)/bin/python -m pytest

@@ -105,6 +105,36 @@ def test_console_fleet_rules_keep_the_campaign_name():
     assert lines == ["[starting] [north] QC: flag records that fail the quality checks"]
 
 
+def test_console_follows_the_progress_lines_of_the_running_steps_logs(tmp_path):
+    """A step's log path is read from Snakemake's job block; the progress lines its log
+    gains (ProgressLog's and the sampler's phases) are emitted once each, other log lines
+    and a line still being written are not."""
+    out = []
+    console = RunConsole(out.append)
+    for line in ("rule campaign:", "    output: results/campaign/records.csv",
+                 "    log: results/logs/campaign.log", "    jobid: 1", ""):  # fmt: skip
+        console.feed(line)
+    log = tmp_path / "results" / "logs" / "campaign.log"
+    log.parent.mkdir(parents=True)
+    log.write_text(
+        "INFO flidar_uq.workflow: numeric environment: x\n"
+        "INFO flidar_uq.campaign.physics_mode: campaign default: 4320 of 8640 records (50 %) "
+        "in 40.1 s, about 40 s left\n"
+        "INFO flidar_uq.inference.sampler: record fit: burn-in done, 400 steps per walker, 6"
+    )
+    console.follow_logs(tmp_path)
+    progress = [ln for ln in out if ln.startswith("    ")]
+    assert progress == [
+        "    campaign default: 4320 of 8640 records (50 %) in 40.1 s, about 40 s left"
+    ]
+    with log.open("a") as f:
+        f.write("1.2 s\n")
+    console.follow_logs(tmp_path)
+    console.follow_logs(tmp_path)
+    progress = [ln for ln in out if ln.startswith("    ")]
+    assert progress[1:] == ["    record fit: burn-in done, 400 steps per walker, 61.2 s"]
+
+
 def test_failure_names_the_step_its_log_and_the_log_tail(tmp_path):
     log = tmp_path / "results" / "logs" / "qc.log"
     log.parent.mkdir(parents=True)
@@ -230,6 +260,8 @@ def test_flidar_uq_run_tiny_campaign_talks_and_summarises(tmp_path):
         assert "corrected 0." in ln and "uncorrected 0." in ln
         assert ln.count("category ") == 2
     assert any(ln.startswith("  per-record TI against the truth") for ln in lines)
+    # the long steps' progress, read from their logs while they run
+    assert any(ln.startswith("    ") and "steps per walker" in ln for ln in lines), lines
 
 
 def test_verbose_shows_snakemakes_own_output_unchanged(tmp_path, monkeypatch, capfd):

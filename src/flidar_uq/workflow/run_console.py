@@ -13,9 +13,11 @@ from __future__ import annotations
 
 import functools
 import json
+import queue
 import re
 import subprocess
 import sys
+import threading
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -66,6 +68,14 @@ _LOG = re.compile(r"^\s+log: (.+?)(?: \(check log file\(s\) for error details\))
 _WILDCARDS = re.compile(r"^\s+wildcards: (.+)$")
 _PROGRESS = re.compile(r"^(\d+) of (\d+) steps \(\S+\) done")
 _ERROR = re.compile(r"^Error in rule (\w+):")
+#: Progress lines of a step's log: :class:`flidar_uq.progress.ProgressLog`'s ("campaign
+#: default: 4320 of 8640 records (50 %) in 40.1 s, about 40 s left") and the sampler's
+#: phases ("record fit: burn-in done, 400 steps per walker, 61.2 s").
+_LOG_PROGRESS = re.compile(
+    r"^INFO \S+: (.+?(?: \d+ of \d+ \w+ \(\d+ %\) in .+| \d+ steps per walker, .+ s))$"
+)
+#: Seconds between two looks at the running steps' logs.
+_LOG_POLL_S = 2.0
 _STATS = re.compile(r"^(\w+)\s+(\d+)$")
 
 
@@ -97,6 +107,8 @@ class RunConsole:
     total: int = 0
     failed_rule: str | None = None
     failed_logs: list = field(default_factory=list)
+    #: log file -> characters already read, of every step started (:meth:`follow_logs`)
+    step_logs: dict = field(default_factory=dict)
     tail: deque = field(default_factory=lambda: deque(maxlen=15))
     _planned: dict = field(default_factory=dict)
     _started: dict = field(default_factory=dict)
@@ -115,6 +127,9 @@ class RunConsole:
                 self.failed_logs += [p.strip() for p in m.group(1).split(",")]
             elif not line.startswith(" "):
                 self._in_error = False
+        elif (m := _LOG.match(line)) and not line.strip().startswith("log: .snakemake"):
+            for path in m.group(1).split(","):
+                self.step_logs.setdefault(path.strip(), 0)
         if line.startswith("Job stats:"):
             self._in_stats = True
             return
@@ -169,6 +184,23 @@ class RunConsole:
     def finish(self) -> None:
         """Announce a step whose start was the last line read."""
         self._flush()
+
+    def follow_logs(self, workdir: Path) -> None:
+        """Emit the progress lines written since the last look to the logs of the steps
+        started so far (paths relative to ``workdir``): how far a long step (the campaign,
+        the record fit, the uncertainty budget) is, while it runs."""
+        for path, seen in self.step_logs.items():
+            try:
+                with open(workdir / path, "rb") as f:
+                    f.seek(seen)
+                    data = f.read()
+            except OSError:
+                continue
+            complete = data[: data.rfind(b"\n") + 1]  # a line still being written waits
+            self.step_logs[path] = seen + len(complete)
+            for line in complete.decode(errors="replace").splitlines():
+                if m := _LOG_PROGRESS.match(line):
+                    self.emit(clip_line(f"    {m.group(1)}"))
 
 
 def _log_tail(path: Path, n_lines: int = 15) -> list[str]:
@@ -329,6 +361,13 @@ def run_summary(results: str | Path, min_count: int = 10) -> list[str]:
 # ---- the run ---------------------------------------------------------------------------------
 
 
+def _read_lines(stream, lines: queue.Queue) -> None:
+    """Put every line of ``stream`` on ``lines``, then None."""
+    for line in stream:
+        lines.put(line)
+    lines.put(None)
+
+
 def snakemake_command(snakemake_args: Sequence[str]) -> list[str]:
     """Snakemake of the running interpreter with ``snakemake_args``."""
     return [sys.executable, "-m", "snakemake", *snakemake_args]
@@ -374,9 +413,20 @@ def run_pipeline(
             errors="replace",
         )
         console = RunConsole(emit)
-        for line in proc.stdout:
+        lines: queue.Queue = queue.Queue()
+        reader = threading.Thread(target=_read_lines, args=(proc.stdout, lines), daemon=True)
+        reader.start()
+        while True:
+            try:
+                line = lines.get(timeout=_LOG_POLL_S)
+            except queue.Empty:
+                console.follow_logs(workdir)
+                continue
+            if line is None:
+                break
             console.feed(line)
         console.finish()
+        console.follow_logs(workdir)
         code = proc.wait()
     if code != 0:
         for ln in failure_lines(console, workdir, code) if console else []:
