@@ -132,7 +132,8 @@ def scenario_records(
     hull_model: str = "translating",
     hull_reference: str = "wave_follower",
     motion_model: str = "record",
-) -> tuple[pd.DataFrame, object]:
+    return_draws: bool = False,
+):
     """Generate a scenario and correct every QC-kept record in 3-20 m/s (the pipeline's steps).
 
     Parameters
@@ -186,6 +187,9 @@ def scenario_records(
         model's fit has no pair term: with ``reference_pair`` the propagation takes the
         reference lidar's share out of ``kappa`` with the synchronised correlation above
         (the pipeline's ``reference.sampling_correlation: auto``), else with ``c = 0``.
+    return_draws : bool
+        Also return the corrected TI draws (float32, (ndraws, n_records), columns in the
+        order of ``records``), e.g. for statistics over records.
 
     The point target follows the scenario's ``reference_instrument`` as the pipeline's
     ``reference.kind`` does, through the pipeline's
@@ -204,6 +208,8 @@ def scenario_records(
         and the regime labels of :func:`regime_labels`.
     fit : GlobalFit
         The record model's (or the bin model's) global posterior.
+    ti_draws : numpy.ndarray
+        With ``return_draws`` only.
     """
     if motion_model not in ("record", "bin"):
         raise ValueError(
@@ -296,7 +302,8 @@ def scenario_records(
     out["lidar_std_ratio"] = np.asarray(g, dtype=float)
     out["has_reference"] = np.isfinite(kept["ref_hws_std_ms"].to_numpy(dtype=float))
     out["in_calibration"] = out["has_reference"] & kept.index.isin(calib.index)
-    return pd.concat([out, regime_labels(out)], axis=1), fit
+    out = pd.concat([out, regime_labels(out)], axis=1)
+    return (out, fit, draws.ti) if return_draws else (out, fit)
 
 
 def bin_model_fit(
