@@ -1048,8 +1048,10 @@ def build_developer_report(
     git_revision: str = "",
     results_dir: str | os.PathLike | None = None,
 ) -> str:
-    """Write the developer report: the project's benchmark charts and LOS comparison tables,
-    and a corrected campaign's comparison of correction methods.
+    """Write the developer report: benchmark charts, LOS tables, correction methods compared.
+
+    The project's benchmark charts and LOS comparison tables, and a corrected campaign's
+    comparison of the correction methods.
 
     Kept apart from the user's campaign report (results/report/report.html).
 
