@@ -3,6 +3,7 @@
 #   campaign -> validate -> qc -> motion statistics -> bins (checkpoint) -> sigma_Z per bin
 #   -> global fit (the record motion model; with inference.motion_model bin: inference per
 #   bin, batched fan-out, and the global models on them) -> propagation -> report
+#   (a table without motion statistics: campaign -> validate -> qc -> uncorrected -> report)
 #
 # Run: `.venv/bin/snakemake --cores all` (config/config.yaml); see README.md for own data,
 # a fleet of campaigns (config key campaigns) and SLURM (profiles/slurm).
@@ -52,14 +53,19 @@ else:
     # inference batches go to the cluster.
     include: "workflow/rules/common.smk"
     include: "workflow/rules/data.smk"
-    include: "workflow/rules/inference.smk"
+
+    # without motion statistics: no fit and no propagation (rule uncorrected, data.smk)
+    if not MOTION_MISSING:
+
+        include: "workflow/rules/inference.smk"
+
     include: "workflow/rules/report.smk"
     include: "workflow/rules/los.smk"
 
     rule all:
         input:
             "results/ti/records.csv",
-            "results/posterior/global.nc",
+            [] if MOTION_MISSING else "results/posterior/global.nc",
             "results/report/report.html",
             LOS_OUTPUTS,
             BIN_MODEL_OUTPUTS,

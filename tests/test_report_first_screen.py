@@ -15,6 +15,7 @@ import yaml
 from test_report import _chromium
 
 from flidar_uq.workflow import plots
+from flidar_uq.workflow.report_step import build_developer_report
 from flidar_uq.workflow.report_summary import (
     Validation,
     category_move_words,
@@ -172,6 +173,15 @@ def test_first_screen_says_the_correction_size_and_the_validation_sample(tmp_pat
     assert "Validation against the reference, in sample" in text
     assert "coverage" not in text.lower()  # in sample: its coverage is not a validation
     assert not re.search(r"elpd|PSIS|wave_follower|discus_buoy|rotation_only", text), text
+    # the paper's methods comparison is developer material: in the developer report only
+    html = (res / "report" / "report.html").read_text()
+    assert "Tables 2-3" not in html and "MD std (m/s)" not in html
+    dev = build_developer_report(
+        out_path=tmp_path / "developer.html",
+        benchmarks_dir=REPO / "benchmarks" / "results",
+        results_dir=res,
+    )
+    assert "Correction methods compared on results/" in dev and "MD std (m/s)" in dev
 
 
 @pytest.mark.slow

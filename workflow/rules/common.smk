@@ -2,7 +2,7 @@
 import os
 import sys
 
-from flidar_uq.workflow.inputs import pipeline_preflight
+from flidar_uq.workflow.inputs import missing_motion_columns, pipeline_preflight
 
 
 # Before any job: the closed schema (package data, src/flidar_uq/resources/config.schema.yaml,
@@ -18,6 +18,10 @@ if _status:
     sys.exit(_status)
 
 REPO = workflow.basedir
+# The motion columns the user's table lacks (no raw IMU series either): the campaign is
+# then reported uncorrected, the TI as measured per height and speed bin (rule uncorrected),
+# and nothing of the motion statistics, bins, fits or propagation is scheduled.
+MOTION_MISSING = missing_motion_columns(config["campaign"])
 NBATCHES = config["inference"]["nbatches"]
 BATCHES = [f"{b:03d}" for b in range(NBATCHES)]
 # The global model(s): the record motion model, or the nested bin-motion models
@@ -40,7 +44,7 @@ GLOBAL_MODEL_FILES = (
     if TRIAL_POSTERIOR
     else expand("results/inference/global_{model}.nc", model=GLOBAL_MODELS)
 )
-BIN_MODEL = MOTION_MODEL == "bin"
+BIN_MODEL = MOTION_MODEL == "bin" and not MOTION_MISSING
 # The per-bin fits' batch directories: only the bin motion model runs them (the record
 # motion model's sigma_Z comes from each record's own motion).
 BIN_BATCHES = expand("results/inference/batch_{batch}", batch=BATCHES) if BIN_MODEL else []

@@ -17,8 +17,9 @@ rule campaign:
         seed=config["campaign"]["seed"],
         columns=config["campaign"]["columns"] if config["campaign"]["source"] == "files" else {},
         allow_small_angles=config["campaign"]["allow_small_angles"],
-        # motion columns may be absent from the user's table when an IMU series gives them
-        require_motion=not IMU_SERIES,
+        # motion columns may be absent from the user's table when an IMU series gives them,
+        # or the campaign is reported uncorrected (MOTION_MISSING)
+        require_motion=not (IMU_SERIES or MOTION_MISSING),
         conventions={
             k: config["campaign"][k]
             for k in (
@@ -87,6 +88,7 @@ rule validate:
         allow_small_angles=config["campaign"]["allow_small_angles"],
         qc=config["qc"],
         heights=config["campaign"]["heights"],
+        require_motion=not MOTION_MISSING,
     conda:
         "../envs/flidar_uq.yaml"
     log:
@@ -111,6 +113,7 @@ rule qc:
         hws_width_ms=config["binning"]["hws_width_ms"],
         heights=config["campaign"]["heights"],
         allow_small_angles=config["campaign"]["allow_small_angles"],
+        require_motion=not MOTION_MISSING,
     conda:
         "../envs/flidar_uq.yaml"
     log:
@@ -119,6 +122,34 @@ rule qc:
         "results/benchmarks/qc.tsv"
     script:
         "../scripts/qc.py"
+
+
+# Without motion statistics (MOTION_MISSING) the TI is reported as measured, in the tables
+# of a corrected run (the corrected columns NaN); no motion statistics, bins or fits.
+if MOTION_MISSING:
+
+    rule uncorrected:
+        localrule: True
+        input:
+            records="results/data/records.csv",
+            flags="results/qc/flags.csv",
+        output:
+            records=report(
+                "results/ti/records.csv", caption="../report/records.rst", category="TI"
+            ),
+            speed_bins=report(
+                "results/ti/speed_bins.csv", caption="../report/speed_bins.rst", category="TI"
+            ),
+        params:
+            min_count=config["report"]["group_min_count"],
+        conda:
+            "../envs/flidar_uq.yaml"
+        log:
+            "results/logs/uncorrected.log",
+        benchmark:
+            "results/benchmarks/uncorrected.tsv"
+        script:
+            "../scripts/uncorrected.py"
 
 
 rule motion_statistics:

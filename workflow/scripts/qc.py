@@ -15,4 +15,5 @@ run_qc(
     allow_small_angles=snakemake.params.allow_small_angles,
     speed_bins_path=snakemake.output.speed_bins,
     hws_width_ms=snakemake.params.hws_width_ms,
+    require_motion=snakemake.params.require_motion,
 )

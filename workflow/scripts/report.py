@@ -36,4 +36,5 @@ build_report(
     git_revision=git_revision(snakemake.params.repo),
     input_files=inputs,
     series_paths={k: snakemake.input[k] for k in SERIES_KEYS if k in snakemake.input.keys()},
+    motion_missing=snakemake.params.motion_missing,  # none: the campaign was corrected
 )

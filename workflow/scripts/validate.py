@@ -18,4 +18,5 @@ with step_errors_exit():
         qc_params=dict(snakemake.params.qc),
         heights_m=snakemake.params.heights,
         imu_statistics_path=snakemake.input.get("imu_statistics"),
+        require_motion=snakemake.params.require_motion,
     )

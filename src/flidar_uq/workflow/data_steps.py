@@ -25,6 +25,7 @@ __all__ = [
     "motion_statistics",
     "run_qc",
     "sigma_z_table",
+    "uncorrected_ti",
     "validate_records",
 ]
 
@@ -191,6 +192,7 @@ def validate_records(
     qc_params: dict | None = None,
     heights_m: Sequence[float] | None = None,
     imu_statistics_path: str | os.PathLike | None = None,
+    require_motion: bool = True,
 ) -> pd.DataFrame:
     """Validate the record table, refuse what leaves every record uncorrectable, report.
 
@@ -214,6 +216,9 @@ def validate_records(
         Per-record motion statistics of a raw IMU series (rule imu_statistics, config
         ``campaign.imu_series``): they replace the table's own motion columns (the series
         wins; logged).
+    require_motion : bool
+        The motion columns must be in the table (False for a campaign reported
+        uncorrected, :func:`flidar_uq.workflow.inputs.missing_motion_columns`).
 
     Raises
     ------
@@ -247,7 +252,10 @@ def validate_records(
         )
     else:
         records = io.read_records(
-            in_path, allow_small_angles=allow_small_angles, extra_columns="keep"
+            in_path,
+            allow_small_angles=allow_small_angles,
+            extra_columns="keep",
+            require_motion=require_motion,
         )
     problems = reference_problems(records, str(in_path))
     if problems:
@@ -265,7 +273,9 @@ def validate_records(
         log.warning("%s", w)
         print(f"flidar-uq: warning: {w}", file=sys.stderr)
     Path(out_path).parent.mkdir(parents=True, exist_ok=True)
-    io.write_records(records, out_path, allow_small_angles=allow_small_angles)
+    io.write_records(
+        records, out_path, allow_small_angles=allow_small_angles, require_motion=require_motion
+    )
     if report_path is not None:
         Path(report_path).write_text(json.dumps(report, indent=1, sort_keys=True) + "\n")
     log.info("validate: %d records valid", len(records))
@@ -286,6 +296,7 @@ def run_qc(
     allow_small_angles: bool = False,
     speed_bins_path: str | os.PathLike | None = None,
     hws_width_ms: float = 1.0,
+    require_motion: bool = True,
 ) -> pd.DataFrame:
     """Apply the QC filters; write every record with its reasons, the kept records, and counts.
 
@@ -307,6 +318,9 @@ def run_qc(
     speed_bins_path : path, optional
         Output: what each filter removed per height and mean-speed bin
         (:func:`flidar_uq.data.qc.speed_bin_summary`, bins ``hws_width_ms`` m/s wide).
+    require_motion : bool
+        The motion columns must be in the table (False for a campaign reported
+        uncorrected).
 
     Returns
     -------
@@ -315,7 +329,12 @@ def run_qc(
     """
     from flidar_uq.data import io, qc
 
-    records = io.read_records(in_path, allow_small_angles=allow_small_angles, extra_columns="keep")
+    records = io.read_records(
+        in_path,
+        allow_small_angles=allow_small_angles,
+        extra_columns="keep",
+        require_motion=require_motion,
+    )
     heights = tuple(heights_m) if heights_m else None
     result = qc.run_qc(records, qc.QCConfig(**qc_params, heights_m=heights))
     flags = result.flags.copy()
@@ -407,4 +426,105 @@ def sigma_z_table(
     out["sigma_z_ms"] = sur.sigma_z_ms(*args)
     out["mean_z_ms"] = sur.mean_z_ms(*args)
     write_csv(out, out_path)
+    return out
+
+
+# --------------------------------------------------------------------------- no motion statistics
+
+
+def uncorrected_ti(
+    records_path: str | os.PathLike,
+    flags_path: str | os.PathLike,
+    records_out: str | os.PathLike,
+    speed_bins_out: str | os.PathLike,
+    *,
+    min_count: int = 10,
+) -> pd.DataFrame:
+    """results/ti/ of a campaign without motion statistics: the floating lidar's TI as
+    measured, not corrected for the buoy's motion.
+
+    Writes the two tables of a corrected run in its schema, the corrected columns NaN:
+    records.csv (every input record, its QC reasons or ``no_motion_description``) and
+    speed_bins.csv (per height and 1-m/s bin over the QC-kept records: ``n`` and the
+    uncorrected mean, sd, representative TI ``mean + 1.28 sd`` and 90 % quantile of
+    :func:`flidar_uq.correction.propagation.ti_group_statistics`, given the measured TI as
+    its one draw).
+
+    Parameters
+    ----------
+    records_path : path
+        Validated record table (rule validate).
+    flags_path : path
+        QC flags, one row per record of ``records_path`` (:func:`run_qc`).
+    records_out, speed_bins_out : path
+        Outputs: results/ti/records.csv and results/ti/speed_bins.csv.
+    min_count : int
+        Fewest records for a bin's statistics (config ``report.group_min_count``, >= 2);
+        bins below it keep their count and NaN statistics.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The records table written.
+    """
+    from flidar_uq.correction import propagation as prop
+    from flidar_uq.correction.campaign import RECORD_COLUMNS, carried_columns
+    from flidar_uq.data import io
+    from flidar_uq.data.binning import speed_bin_ms
+    from flidar_uq.data.metrics import turbulence_intensity
+    from flidar_uq.data.schema import CORRECTED_TI_COLUMNS
+
+    rec = io.read_records(records_path, require_motion=False, extra_columns="keep")
+    flags = read_csv(flags_path, ["record_id", "timestamp", "reasons"])
+    if len(flags) != len(rec):
+        raise ValueError(
+            f"uncorrected_ti: {flags_path} has {len(flags)} rows, {records_path} {len(rec)} records"
+        )
+    reasons = flags["reasons"].astype(object).fillna("").reset_index(drop=True)
+    n = len(rec)
+    mean_ms = rec["hws_mean_ms"].to_numpy(dtype=float)
+    ti = turbulence_intensity(rec["hws_std_ms"], mean_ms)
+    out = pd.DataFrame({"record_id": flags["record_id"], "timestamp": flags["timestamp"]})
+    out["height_m"] = rec["height_m"].to_numpy(dtype=float)
+    out["bin_id"] = np.nan
+    out["hws_mean_ms"] = mean_ms
+    out["hws_std_ms"] = rec["hws_std_ms"].to_numpy(dtype=float)
+    out["ti_uncorrected"] = ti
+    for col in CORRECTED_TI_COLUMNS:
+        out[col] = np.nan
+    out["flags"] = prop.record_flags(
+        reasons,
+        np.full(n, np.nan),
+        np.zeros(n, dtype=bool),
+        np.zeros(n, dtype=bool),
+        fitted=pd.Series(dtype=bool),
+        status=pd.Series(dtype=object),
+        global_converged=True,
+        motion_described=np.zeros(n, dtype=bool),
+    )
+    if "ref_hws_std_ms" in rec:
+        out["ref_hws_std_ms"] = rec["ref_hws_std_ms"].to_numpy(dtype=float)
+        out["ti_ref"] = turbulence_intensity(rec["ref_hws_std_ms"], rec["ref_hws_mean_ms"])
+    for col in carried_columns(rec.columns):
+        if col not in out.columns:
+            out[col] = rec[col].to_numpy()
+    out = out[RECORD_COLUMNS + [c for c in out.columns if c not in RECORD_COLUMNS]]
+    kept = reasons.eq("").to_numpy() & np.isfinite(ti)
+    keys = pd.DataFrame(
+        {"height_m": out["height_m"][kept], "hws_bin_ms": speed_bin_ms(mean_ms[kept])}
+    )
+    bins = prop.ti_group_statistics(
+        ti[None, kept],  # the measured TI, one draw: no posterior to propagate
+        pd.DataFrame({"converged": np.ones(int(kept.sum()), bool), "ti_uncorrected": ti[kept]}),
+        keys,
+        min_count=min_count,
+    )
+    corrected = [c for c in bins.columns if c.startswith("ti_") and "uncorrected" not in c]
+    bins[corrected] = np.nan
+    write_csv(out, records_out)
+    write_csv(bins, speed_bins_out)
+    log.info(
+        "uncorrected: %d records (%d kept by QC), %d height x speed bins -> %s",
+        n, int(kept.sum()), len(bins), speed_bins_out,
+    )  # fmt: skip
     return out

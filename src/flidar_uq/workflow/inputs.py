@@ -22,7 +22,7 @@ import logging
 import os
 import re
 import sys
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -51,6 +51,7 @@ __all__ = [
     "exit_status",
     "inspect_records",
     "load_config_file",
+    "missing_motion_columns",
     "pipeline_preflight",
     "read_campaign_records",
     "resolve_propagation",
@@ -472,8 +473,10 @@ def read_campaign_records(
         The record table (CSV or Parquet).
     campaign : mapping, optional
         The config's ``campaign`` section: ``columns`` (column map), ``heights``
-        (selected heights, m: each must occur in the file), ``allow_small_angles`` and
-        ``imu_series`` (when given, the table's motion columns are optional).
+        (selected heights, m: each must occur in the file) and ``allow_small_angles``.
+        The motion columns are optional: a raw IMU series (``imu_series``) may give them,
+        and without either the pipeline reports the uncorrected TI
+        (:func:`missing_motion_columns`).
     allow_small_angles : bool, optional
         Overrides ``campaign["allow_small_angles"]`` when given.
 
@@ -515,8 +518,9 @@ def read_campaign_records(
             "columns": campaign.get("columns") or None,
             "extra_columns": campaign.get("extra_columns", "keep"),
         },
-        # the motion columns may be absent when a raw IMU series gives them
-        require_motion=not campaign.get("imu_series"),
+        # the motion columns may be absent: a raw IMU series gives them, or the campaign
+        # is reported uncorrected (missing_motion_columns)
+        require_motion=False,
         allow_small_angles=allow_small_angles,
     )[0]
     heights = campaign.get("heights")
@@ -530,6 +534,39 @@ def read_campaign_records(
                     f"{', '.join(f'{x:g}' for x in present)} m)",
                 )
     return records
+
+
+def missing_motion_columns(
+    campaign: Mapping, record_columns: Iterable[str] | None = None
+) -> tuple[str, ...]:
+    """The motion columns the campaign's records lack (roll and pitch amplitude and period,
+    :data:`flidar_uq.data.schema.MOTION_COLUMNS`): without them the TI cannot be corrected
+    and the pipeline reports the uncorrected TI per height and speed bin.
+
+    Parameters
+    ----------
+    campaign : mapping
+        The checked config's ``campaign`` section (``source``, ``records``, ``imu_series``
+        and the keys of :func:`read_campaign_records`).
+    record_columns : iterable of str, optional
+        The columns of the records as read (:func:`read_campaign_records`, which derives
+        the amplitudes from ``roll_std_deg`` / ``pitch_std_deg``); None reads
+        ``campaign["records"]``.
+
+    Returns
+    -------
+    tuple of str
+        The missing motion columns in schema order; empty for the virtual campaign, with a
+        raw IMU series (``campaign.imu_series`` gives them) or when the table has them all.
+    """
+    from flidar_uq.data.schema import MOTION_COLUMNS
+
+    if campaign["source"] != "files" or campaign.get("imu_series"):
+        return ()
+    if record_columns is None:
+        record_columns = read_campaign_records(campaign["records"], campaign).columns
+    present = set(record_columns)
+    return tuple(c for c in MOTION_COLUMNS if c not in present)
 
 
 def inspect_records(
@@ -816,7 +853,7 @@ def pipeline_preflight(config: dict, *, read_data: bool = True, stream=None) -> 
             _preflight_data(config, read_data)
         for name, merged in campaign_configs(config).items():
             try:
-                _preflight_data(merged, read_data)
+                _preflight_data(merged, read_data, fleet=True)
             except ConfigError as exc:
                 raise exc.in_campaign(name) from None
     except Exception as exc:  # noqa: BLE001 - classified below, re-raised if not bad input
@@ -828,8 +865,10 @@ def pipeline_preflight(config: dict, *, read_data: bool = True, stream=None) -> 
     return EXIT_OK
 
 
-def _preflight_data(config: dict, read_data: bool) -> None:
-    """The data checks of :func:`pipeline_preflight` for one campaign's checked config."""
+def _preflight_data(config: dict, read_data: bool, *, fleet: bool = False) -> None:
+    """The data checks of :func:`pipeline_preflight` for one campaign's checked config
+    (``fleet``: a campaign of a fleet, which compares corrected campaigns: its motion
+    columns are required)."""
     camp = config["campaign"]
     if read_data and camp["source"] == "files":
         from flidar_uq.data.inspection import reference_problems
@@ -838,6 +877,14 @@ def _preflight_data(config: dict, read_data: bool) -> None:
         problems = reference_problems(records, str(camp["records"]))
         if problems:
             raise problems[0]
+        missing = missing_motion_columns(camp, records.columns) if fleet else ()
+        if missing:
+            raise ConfigError(
+                "campaign.records",
+                f"{camp['records']} has no {', '.join(missing)} column and no raw IMU series "
+                "(campaign.imu_series): a fleet compares motion-corrected campaigns; run this "
+                "campaign on its own for its uncorrected TI",
+            )
         check_reference(config, list(records.columns))
         check_series(camp)
     elif camp["source"] == "virtual":

@@ -121,6 +121,7 @@ def ti_speed_bins_figure(
     title: str = "",
     truth: pd.DataFrame | None = None,
     reference: pd.DataFrame | None = None,
+    corrected: bool = True,
 ) -> Figure:
     """Corrected TI per speed bin with the IEC 61400-1 categories (Gutiérrez-Antuñano et al.
     2018, Fig. 8b style): corrected, uncorrected and reference, mean and representative.
@@ -141,6 +142,9 @@ def ti_speed_bins_figure(
         ``hws_bin_ms``, ``ti_mean``, ``ti_rep`` of the true TI per bin (virtual campaigns).
     reference : pandas.DataFrame, optional
         ``hws_bin_ms``, ``ti_mean``, ``ti_rep`` of the reference instrument's TI per bin.
+    corrected : bool
+        False for a campaign without motion statistics: the uncorrected TI only (bins
+        with an uncorrected statistic; ``records`` drawn with ``ti_uncorrected``).
 
     Returns
     -------
@@ -149,26 +153,30 @@ def ti_speed_bins_figure(
         representative TI (from the draws of the bin statistic), as the legend says.
     """
     fig, ax = plt.subplots(figsize=(10.5, 4.5))
-    b = speed_bins[np.isfinite(speed_bins["ti_mean"])].sort_values("hws_bin_ms")
+    stat = "ti_mean" if corrected else "ti_mean_uncorrected"
+    b = speed_bins[np.isfinite(speed_bins[stat])].sort_values("hws_bin_ms")
     if records is not None and len(records):
         ax.plot(
             records["hws_mean_ms"],
-            records["ti_corrected_median"],
+            records["ti_corrected_median" if corrected else "ti_uncorrected"],
             ".",
             color="0.75",
             ms=1.5,
             alpha=0.4,
-            label="records, corrected (median)",
+            label="records, corrected (median)" if corrected else "records, uncorrected",
             zorder=1,
         )
     v = b["hws_bin_ms"].to_numpy(dtype=float)
     pct = f"{credible_mass:.0%}"
-    ax.fill_between(v, b["ti_mean_lo"], b["ti_mean_hi"], color="tab:blue", alpha=0.35, zorder=2)
-    ax.plot(v, b["ti_mean"], "o-", color="tab:blue", ms=3, lw=1.5, zorder=3,
-            label=f"corrected bin mean, {pct} interval of the mean")  # fmt: skip
-    ax.fill_between(v, b["ti_rep_lo"], b["ti_rep_hi"], color="tab:orange", alpha=0.35, zorder=2)
-    ax.plot(v, b["ti_rep"], "s-", color="tab:orange", ms=3, lw=1.5, zorder=3,
-            label=f"corrected representative TI, {pct} interval")  # fmt: skip
+    if corrected:
+        ax.fill_between(v, b["ti_mean_lo"], b["ti_mean_hi"], color="tab:blue", alpha=0.35,
+                        zorder=2)  # fmt: skip
+        ax.plot(v, b["ti_mean"], "o-", color="tab:blue", ms=3, lw=1.5, zorder=3,
+                label=f"corrected bin mean, {pct} interval of the mean")  # fmt: skip
+        ax.fill_between(v, b["ti_rep_lo"], b["ti_rep_hi"], color="tab:orange", alpha=0.35,
+                        zorder=2)  # fmt: skip
+        ax.plot(v, b["ti_rep"], "s-", color="tab:orange", ms=3, lw=1.5, zorder=3,
+                label=f"corrected representative TI, {pct} interval")  # fmt: skip
     ax.plot(v, b["ti_mean_uncorrected"], "--", color="k", lw=1, label="uncorrected bin mean")
     ax.plot(v, b["ti_rep_uncorrected"], ":", color="k", lw=1.2, label="uncorrected repr. TI")
     if truth is not None and len(truth):

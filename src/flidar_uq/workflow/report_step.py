@@ -334,16 +334,19 @@ def _first_screen(ctx: dict) -> str:
         file_identity,
         first_screen_html,
         hull_model_short,
+        missing_motion_words,
         motion_description_summary,
         reference_speed_bins,
         representative_at_15,
+        uncorrected_at_15,
     )
 
     records, config, mass = ctx["records"], ctx["config"], ctx["mass"]
-    min_count = ctx["min_count"]
+    min_count, corrected = ctx["min_count"], ctx["corrected"]
     ts = pd.to_datetime(records["timestamp"], utc=True, errors="coerce")
     name, sha = file_identity(ctx["input_file"]) if ctx["input_file"] else ("", "")
     n_corr = int(records["ti_corrected_median"].notna().sum())
+    speed_bins = ctx["speed_bins"]
     facts = [
         ("campaign", campaign_name(config)),
         ("input", f"{name} (SHA-256 {sha[:12]}…)" if sha else name or "–"),
@@ -352,7 +355,13 @@ def _first_screen(ctx: dict) -> str:
             f"{ts.min():%Y-%m-%d %H:%M} to {ts.max():%Y-%m-%d %H:%M}" if ts.notna().any() else "",
         ),
         ("heights", ", ".join(f"{h:g} m" for h in ctx["heights"])),
-        ("records", f"{len(records)} input, {n_corr} with a corrected TI"),
+        (
+            "records",
+            f"{len(records)} input, {n_corr} with a corrected TI"
+            if corrected
+            else f"{len(records)} input, {int(records['flags'].isin(MODEL_FLAGS).sum())} kept "
+            "by QC, none corrected for motion",
+        ),
         ("reference", ctx["reference_kind"]),
         ("lidar", str((config.get("campaign") or {}).get("lidar", ""))),
     ]
@@ -365,13 +374,16 @@ def _first_screen(ctx: dict) -> str:
     screen = FirstScreen(
         title=campaign_name(config),
         facts=facts,
-        rep15=representative_at_15(ctx["speed_bins"], min_count),
+        rep15=(representative_at_15 if corrected else uncorrected_at_15)(speed_bins, min_count),
         bin_tables=bin_tables(
-            ctx["speed_bins"], reference_speed_bins(records, min_count), min_count
+            speed_bins, reference_speed_bins(records, min_count), min_count, corrected
         ),
         validation=ctx["validation"],
         warnings=ctx["warnings"],
         mass=mass,
+        missing_motion=(
+            "" if corrected else missing_motion_words(ctx["motion_missing"], "ti_ref" in records)
+        ),
     )
     return first_screen_html(screen)
 
@@ -383,12 +395,24 @@ def _ti_section(ctx: dict) -> rep.Section:
     from flidar_uq.workflow.report_summary import reference_speed_bins
 
     records, speed_bins, mass = ctx["records"], ctx["speed_bins"], ctx["mass"]
+    corrected, min_count = ctx["corrected"], ctx["min_count"]
     truth_bins = _truth_speed_bins(records)
-    ref_bins = reference_speed_bins(records, ctx["min_count"])
-    body = f"<p>{rep.caption('speed_bins', mass=mass, min_count=ctx['min_count'])}</p>"
+    ref_bins = reference_speed_bins(records, min_count)
+    body = (
+        f"<p>{rep.caption('speed_bins', mass=mass, min_count=min_count)}</p>"
+        if corrected
+        else "<p>Per height and 1-m/s speed bin (centred on integers, IEC 61400-12-1): the "
+        "mean, representative TI (mean + 1.28 std, IEC 61400-1) and 90th percentile (P90) "
+        "of the floating lidar's TI as measured, over the records kept by QC, not corrected "
+        f"for the buoy's motion. Bins with fewer than {min_count} records show their count "
+        "only.</p>"
+    )
+    ti_col = "ti_corrected_median" if corrected else "ti_uncorrected"
     for h in ctx["heights"]:
         b = speed_bins[speed_bins["height_m"] == h].sort_values("hws_bin_ms")
-        rec_h = records[(records["height_m"] == h) & records["ti_corrected_median"].notna()]
+        rec_h = records[(records["height_m"] == h) & records[ti_col].notna()]
+        if not corrected:
+            rec_h = rec_h[rec_h["flags"].isin(MODEL_FLAGS)]  # kept by QC
         fig = plots.ti_speed_bins_figure(
             b,
             rec_h,
@@ -396,13 +420,25 @@ def _ti_section(ctx: dict) -> rep.Section:
             title=f"{h:g} m",
             truth=truth_bins[truth_bins["height_m"] == h] if len(truth_bins) else None,
             reference=ref_bins[ref_bins["height_m"] == h].dropna() if len(ref_bins) else None,
+            corrected=corrected,
         )
         body += f"<h3>{h:g} m</h3>" + rep.img_html(
-            rep.figure_to_data_uri(fig), rep.caption("ti_speed_bins", mass=mass, height=f"{h:g}")
+            rep.figure_to_data_uri(fig),
+            rep.caption("ti_speed_bins", mass=mass, height=f"{h:g}")
+            if corrected
+            else f"{h:g} m: uncorrected TI per 1-m/s speed bin, bin mean (dashed) and "
+            "representative TI (dotted), the records' TI (grey) and the IEC 61400-1 ed. 4 "
+            "turbulence categories (green)",
         )
+        table = _speed_bin_table(b[b["n"] > 0])
+        if not corrected:
+            table = table.drop(columns=[c for c in table if "[interval]" in c])
+            table["uncorrected P90"] = b.loc[b["n"] > 0, "ti_p90_uncorrected"].map(_f3)
         body += rep.table_html(
-            _speed_bin_table(b[b["n"] > 0]),
-            caption=f"{h:g} m: TI per 1-m/s bin ({mass:.0%} intervals of the bin statistic)",
+            table,
+            caption=f"{h:g} m: TI per 1-m/s bin ({mass:.0%} intervals of the bin statistic)"
+            if corrected
+            else f"{h:g} m: uncorrected TI per 1-m/s bin",
         )
     if len(truth_bins):
         body += f"<p>{_truth_check(speed_bins, truth_bins)}</p>"
@@ -677,7 +713,7 @@ def _model_selection_section(ctx: dict) -> rep.Section | None:
         return None
     body = "<ul>" + "".join(f"<li>{escape(w)}</li>" for w in words) + "</ul>"
     body += f"<p>In full: {escape(hull_model_words(ctx['gfit'].info))}.</p>"
-    return rep.Section("Appendix F. Which description of the buoy's motion the data favour", body)
+    return rep.Section("Appendix E. Which description of the buoy's motion the data favour", body)
 
 
 def _budget_section(ctx: dict) -> rep.Section:
@@ -713,14 +749,15 @@ def _qc_section(ctx: dict) -> rep.Section:
         columns={"reason": "filter", "enabled": "on", "threshold": "threshold",
                  "n_failed": "records failing", "n_failed_only": "failing only this"}
     )  # fmt: skip
+    body = rep.table_html(counts, caption=rep.caption("flags")) + rep.table_html(
+        qc, caption=rep.caption("qc_filters")
+    )
+    if not ctx["corrected"]:  # no motion statistics: no roll-pitch correlation either
+        return rep.Section("Appendix. Quality control and flags", body)
     rp = ctx["roll_pitch"].rename(
         columns={"r_amplitude": "r (amplitude)", "r_period": "r (period)", "n": "records"}
     )
-    body = (
-        rep.table_html(counts, caption=rep.caption("flags"))
-        + rep.table_html(qc, caption=rep.caption("qc_filters"))
-        + rep.table_html(rp, caption=rep.caption("roll_pitch"))
-    )
+    body += rep.table_html(rp, caption=rep.caption("roll_pitch"))
     return rep.Section("Appendix D. Quality control and flags", body)
 
 
@@ -733,13 +770,23 @@ _METRIC_LABELS = {
 }  # fmt: skip
 
 
-def _methods_section(ctx: dict) -> rep.Section:
-    """Appendix: the Gutiérrez-Antuñano et al. (2018) U / C / PC laws beside the Bayesian
-    correction (their Tables 2-3 and Fig. 5), and (virtual campaigns) the truth check."""
+def _methods_section(results_dir: Path) -> rep.Section | None:
+    """The developer report's comparison of a campaign's corrections: the
+    Gutiérrez-Antuñano et al. (2018) U / C / PC laws beside the Bayesian correction (their
+    Tables 2-3 and Fig. 5), and (virtual campaigns) the truth check; None when
+    ``results_dir`` holds no corrected campaign (results/ti/metrics.csv and
+    results/posterior/global.nc)."""
+    from flidar_uq import inference as inf
     from flidar_uq.physics import variance_laws as correction
     from flidar_uq.workflow import plots
 
-    records, metrics, gfit, mass = ctx["records"], ctx["metrics"], ctx["gfit"], ctx["mass"]
+    paths = [results_dir / "ti" / f for f in ("records.csv", "metrics.csv")]
+    paths.append(results_dir / "posterior" / "global.nc")
+    if not all(p.is_file() for p in paths):
+        return None
+    records, metrics = read_csv(paths[0]), read_csv(paths[1])
+    gfit = inf.load_fit(paths[2])
+    mass = float(metrics["credible_mass"].iloc[0]) if len(metrics) else 0.9
     m = metrics[[c for c in _METRIC_LABELS if c in metrics]]
     body = rep.table_html(m.rename(columns=_METRIC_LABELS), caption=rep.caption("metrics"))
     rho_med = float(np.median(gfit.flat("rho")))
@@ -777,7 +824,9 @@ def _methods_section(ctx: dict) -> rep.Section:
             caption=rep.caption("regimes", mass=mass),
         )
     return rep.Section(
-        "Appendix E. Correction methods compared (Gutiérrez-Antuñano et al. 2018, Tables 2-3)", body
+        f"Correction methods compared on {results_dir.name}/ (Gutiérrez-Antuñano et al. 2018, "
+        "Tables 2-3)",
+        body,
     )
 
 
@@ -801,13 +850,25 @@ def public_config(config: dict) -> dict:
     return config
 
 
-def _load(res: Path, batch_dirs, config: dict) -> dict:
+def _load(res: Path, batch_dirs, config: dict, motion_missing: Sequence[str] = ()) -> dict:
     """The result tables the report reads, and what is derived from them once.
 
     The per-bin tables (results/ti/bins.csv, results/inference/bin_fits.csv) are read
     with the bin motion model only: the record motion model runs no per-bin fit, and its
-    ``bins`` and ``bin_fits`` are empty tables (no bin failed).
+    ``bins`` and ``bin_fits`` are empty tables (no bin failed). Without motion statistics
+    (``motion_missing``, the missing columns) only the records, the speed bins and QC
+    exist: ``corrected`` is False.
     """
+    if motion_missing:
+        ctx = {
+            "records": read_csv(res / "ti" / "records.csv"),
+            "speed_bins": read_csv(res / "ti" / "speed_bins.csv"),
+            "qc_counts": read_csv(res / "qc" / "summary.csv"),
+            "corrected": False,
+            "motion_missing": tuple(motion_missing),
+            "gfit": None,
+        }
+        return _load_common(ctx, config, None)
     from flidar_uq import inference as inf
 
     gfit = inf.load_fit(res / "posterior" / "global.nc")
@@ -829,14 +890,22 @@ def _load(res: Path, batch_dirs, config: dict) -> dict:
         "global_summary": read_csv(res / "inference" / "global.csv"),
         "gfit": gfit,
         "motion_model": motion_model,
-        "config": config,
         "batch_dirs": list(batch_dirs),
-        "mass": float(config["propagation"]["credible_mass"]),
-        "min_count": int(config.get("report", {}).get("group_min_count", 10)),
+        "corrected": True,
     }
-    ctx["heights"] = sorted(ctx["records"]["height_m"].dropna().unique())
     m = ctx["metrics"]
     kind = str(m["reference_kind"].iloc[0]) if "reference_kind" in m and len(m) else None
+    return _load_common(ctx, config, kind)
+
+
+def _load_common(ctx: dict, config: dict, kind: str | None) -> dict:
+    """What :func:`_load` derives alike with and without motion statistics: the heights,
+    the credible mass, the bins' fewest records and the reference kind (``kind``, the one
+    the propagation resolved, else the config's)."""
+    ctx["config"] = config
+    ctx["mass"] = float(config["propagation"]["credible_mass"])
+    ctx["min_count"] = int(config.get("report", {}).get("group_min_count", 10))
+    ctx["heights"] = sorted(ctx["records"]["height_m"].dropna().unique())
     ctx["reference_kind_code"] = kind or (config.get("reference") or {}).get("kind") or "none"
     ctx["reference_kind"] = {
         "cup": "cup anemometer",
@@ -856,6 +925,7 @@ def build_report(
     git_revision: str = "",
     input_files: dict[str, str | os.PathLike] | None = None,
     series_paths: dict | None = None,
+    motion_missing: Sequence[str] = (),
 ) -> str:
     """Write the self-contained HTML report of the user's campaign from the result files.
 
@@ -884,17 +954,60 @@ def build_report(
     series_paths : dict, optional
         Result files of the raw IMU series and the LOS branch, when given
         (:func:`flidar_uq.workflow.series_report.series_sections`).
+    motion_missing : sequence of str
+        The motion columns the records lack
+        (:func:`flidar_uq.workflow.inputs.missing_motion_columns`): the campaign was not
+        corrected (results/ti/ of the ``uncorrected`` rule), and the report gives the
+        uncorrected TI per height and speed bin with its IEC category, what is missing and
+        what a correction would take; no fit, motion or validation section.
 
     Returns
     -------
     str
         The HTML text written.
     """
+    from flidar_uq.workflow.report_summary import campaign_name
+
+    ctx = _load(Path(results_dir), batch_dirs, config, motion_missing)
+    ctx["input_file"] = next(iter((input_files or {}).values()), None)
+    if ctx["corrected"]:
+        sections = _corrected_sections(ctx, series_paths)
+        title = f"{campaign_name(config)}: motion-corrected turbulence intensity"
+    else:
+        ctx["validation"], ctx["warnings"] = None, []
+        sections = [_ti_section(ctx), _qc_section(ctx)]
+        title = f"{campaign_name(config)}: turbulence intensity, not corrected for motion"
+    sections.append(
+        rep.Section(
+            "How to cite", rep.templates().get_template("sections/references.html.j2").render()
+        )
+    )
+    prov = file_provenance(input_files or {})
+    shown = public_config(config)
+    sections.append(
+        rep.Section(
+            "Provenance and how to rerun",
+            rep.templates()
+            .get_template("sections/rerun.html.j2")
+            .render(files=Markup(rep.table_html(prov, caption="input files")))
+            + rep.provenance_html(
+                shown, git_revision, rep.package_versions(), numeric_environment()
+            ),
+        )
+    )
+    text = rep.render_html(title, sections, intro_html=_first_screen(ctx))
+    Path(out_path).parent.mkdir(parents=True, exist_ok=True)
+    Path(out_path).write_text(text, encoding="utf-8")
+    return text
+
+
+def _corrected_sections(ctx: dict, series_paths: dict | None) -> list[rep.Section]:
+    """The sections of a corrected campaign's report before the citation and provenance;
+    sets the validation and the warnings of the first screen in ``ctx``."""
     from flidar_uq.workflow.report_summary import held_out_records, validate
     from flidar_uq.workflow.series_report import series_sections
 
-    ctx = _load(Path(results_dir), batch_dirs, config)
-    records = ctx["records"]
+    records, config = ctx["records"], ctx["config"]
     ctx["validation"] = validate(records, config, ctx["reference_kind_code"])
     ctx["held_out"] = (
         held_out_records(records, config)[0] if ctx["validation"] else np.zeros(len(records), bool)
@@ -915,8 +1028,7 @@ def build_report(
                 "its priors and the correction is not calibrated. Hold out less "
                 "(validation.holdout.days) or use alternate_weeks on a longer campaign."
             )
-    ctx["input_file"] = next(iter((input_files or {}).values()), None)
-    sections = [
+    return [
         _ti_section(ctx),
         _validation_section(ctx),
         _direction_section(ctx),
@@ -925,36 +1037,9 @@ def build_report(
         _bin_table_section(ctx),
         _budget_section(ctx),
         _qc_section(ctx),
-        _methods_section(ctx),
         *filter(None, [_model_selection_section(ctx)]),
         *series_sections(**(series_paths or {})),  # raw IMU series, LOS branch
-        rep.Section(
-            "How to cite", rep.templates().get_template("sections/references.html.j2").render()
-        ),
     ]
-    prov = file_provenance(input_files or {})
-    shown = public_config(config)
-    sections.append(
-        rep.Section(
-            "Provenance and how to rerun",
-            rep.templates()
-            .get_template("sections/rerun.html.j2")
-            .render(files=Markup(rep.table_html(prov, caption="input files")))
-            + rep.provenance_html(
-                shown, git_revision, rep.package_versions(), numeric_environment()
-            ),
-        )
-    )
-    from flidar_uq.workflow.report_summary import campaign_name
-
-    text = rep.render_html(
-        f"{campaign_name(config)}: motion-corrected turbulence intensity",
-        sections,
-        intro_html=_first_screen(ctx),
-    )
-    Path(out_path).parent.mkdir(parents=True, exist_ok=True)
-    Path(out_path).write_text(text, encoding="utf-8")
-    return text
 
 
 def build_developer_report(
@@ -962,8 +1047,12 @@ def build_developer_report(
     out_path: str | os.PathLike,
     benchmarks_dir: str | os.PathLike,
     git_revision: str = "",
+    results_dir: str | os.PathLike | None = None,
 ) -> str:
-    """Write the developer report: the project's benchmark charts and LOS comparison tables.
+    """Write the developer report: benchmark charts, LOS tables, correction methods compared.
+
+    The project's benchmark charts and LOS comparison tables, and a corrected campaign's
+    comparison of the correction methods.
 
     Kept apart from the user's campaign report (results/report/report.html).
 
@@ -975,6 +1064,12 @@ def build_developer_report(
         Directory of benchmark PNG charts and ``los*comparison.csv`` tables.
     git_revision : str
         Revision of the repository.
+    results_dir : path, optional
+        A pipeline's ``results/``: when it holds a corrected campaign, the MD / RMSE of the
+        uncorrected, U, C, PC and Bayesian std and TI against the reference or truth
+        (Gutiérrez-Antuñano et al. 2018, Tables 2-3; results/ti/metrics.csv), the corrected
+        stds against the reference (their Fig. 5) and, for virtual campaigns, the
+        calibration per regime.
 
     Returns
     -------
@@ -992,6 +1087,9 @@ def build_developer_report(
     if not bdir.is_dir():
         raise ValueError(f"build_developer_report: {bdir} is not a directory")
     sections = []
+    methods = _methods_section(Path(results_dir)) if results_dir is not None else None
+    if methods is not None:
+        sections.append(methods)
     los = sorted(bdir.glob("los*comparison.csv"))
     if los:
         sections.append(

@@ -11,6 +11,7 @@ The statistics come from :mod:`flidar_uq.validation.reference`; this module lays
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,11 +36,13 @@ __all__ = [
     "hull_model_short",
     "hull_model_words",
     "lever_arm_words",
+    "missing_motion_words",
     "model_selection_words",
     "motion_description_summary",
     "motion_scale_words",
     "reference_speed_bins",
     "representative_at_15",
+    "uncorrected_at_15",
     "validate",
 ]
 
@@ -198,6 +201,14 @@ def representative_at_15(speed_bins: pd.DataFrame, min_count: int = 10) -> pd.Da
     return pd.DataFrame(rows, columns=_REP15_COLUMNS)
 
 
+def uncorrected_at_15(speed_bins: pd.DataFrame, min_count: int = 10) -> pd.DataFrame:
+    """:func:`representative_at_15` of the uncorrected TI (a campaign without motion
+    statistics): ``ti_rep`` and its bounds are ``ti_rep_uncorrected``, ``category`` its
+    IEC category."""
+    u = speed_bins["ti_rep_uncorrected"]
+    return representative_at_15(speed_bins.assign(ti_rep=u, ti_rep_lo=u, ti_rep_hi=u), min_count)
+
+
 def correction_size_words(row) -> str:
     """The correction's size at 15 m/s of one height in plain words ("" without a value).
 
@@ -247,13 +258,20 @@ def _cell(v: float, lo: float = np.nan, hi: float = np.nan) -> tuple[str, str]:
     return (f"{v:.3f}", f"{lo:.3f}–{hi:.3f}" if np.isfinite(lo) else "")
 
 
-def _bin_rows(b: pd.DataFrame, ref: pd.DataFrame, min_count: int) -> list[list[tuple]]:
-    """Cells (value, interval line) of one height's per-bin table."""
+def _bin_rows(
+    b: pd.DataFrame, ref: pd.DataFrame, min_count: int, corrected: bool = True
+) -> list[list[tuple]]:
+    """Cells (value, interval line) of one height's per-bin table (``corrected`` False:
+    the uncorrected mean, representative TI and P90 only)."""
     ref = ref.set_index("hws_bin_ms") if len(ref) else None
     rows = []
     for _, r in b[b["n"] > 0].sort_values("hws_bin_ms").iterrows():
         few = r["n"] < min_count
         row = [(f"{r['hws_bin_ms']:g}", ""), (f"{int(r['n'])}", "")]
+        if not corrected:
+            stats = ("ti_mean_uncorrected", "ti_rep_uncorrected", "ti_p90_uncorrected")
+            rows.append(row + [("–", "") if few else _cell(r[c]) for c in stats])
+            continue
         row.append(("–", "") if few else _cell(r["ti_mean"], r["ti_mean_lo"], r["ti_mean_hi"]))
         row.append(("–", "") if few else _cell(r["ti_rep"], r["ti_rep_lo"], r["ti_rep_hi"]))
         row.append(
@@ -317,17 +335,21 @@ class FirstScreen:
     validation: Validation | None
     warnings: list
     mass: float
+    #: Without motion statistics: what is missing and what it would take
+    #: (:func:`missing_motion_words`); the TI is then the uncorrected one.
+    missing_motion: str = ""
 
 
 def first_screen_html(screen: FirstScreen) -> str:
     """The first screen's HTML (``templates/sections/first_screen.html.j2``)."""
     v = screen.validation
+    corrected = not screen.missing_motion
     rep15 = [
         {
             "height": f"{r.height_m:g}",
-            "value": _cell(r.ti_rep, r.ti_rep_lo, r.ti_rep_hi),
+            "value": _cell(r.ti_rep, r.ti_rep_lo, r.ti_rep_hi) if corrected else _cell(r.ti_rep),
             "category": r.category,
-            "words": correction_size_words(r),
+            "words": correction_size_words(r) if corrected else "",
             "note": r.note,
         }
         for r in screen.rep15.itertuples()
@@ -338,7 +360,7 @@ def first_screen_html(screen: FirstScreen) -> str:
         .render(
             facts=screen.facts,
             rep15=rep15,
-            moves=category_move_words(screen.rep15),
+            moves=category_move_words(screen.rep15) if corrected else "",
             bin_tables=screen.bin_tables,
             headline=Markup(_headline_table(v)) if v else "",
             statement=v.statement if v else "",
@@ -347,12 +369,47 @@ def first_screen_html(screen: FirstScreen) -> str:
             lidar_reference=bool(v and v.lidar_reference),
             warnings=screen.warnings,
             mass=f"{screen.mass:.0%}",
+            missing_motion=screen.missing_motion,
         )
     )
 
 
-def bin_tables(speed_bins: pd.DataFrame, ref_bins: pd.DataFrame, min_count: int) -> list[dict]:
-    """The per-height bin tables of the first screen (template context)."""
+def missing_motion_words(missing: Sequence[str], has_reference: bool) -> str:
+    """What a campaign without motion statistics lacks and what its correction would take,
+    in plain words (the first screen's statement).
+
+    Parameters
+    ----------
+    missing : sequence of str
+        The motion columns the records lack
+        (:func:`flidar_uq.workflow.inputs.missing_motion_columns`).
+    has_reference : bool
+        The records carry a reference instrument's TI.
+    """
+    cols = ", ".join(missing)
+    reference = (
+        "The input's reference TI will then validate the correction."
+        if has_reference
+        else "Ideally, add a period with a reference instrument beside the buoy (a fixed "
+        "lidar, cup or sonic anemometer: columns ref_hws_mean_ms and ref_hws_std_ms) to "
+        "validate the correction."
+    )
+    return (
+        f"Not corrected for the buoy's motion: the input has no {cols} "
+        f"column{'s' if len(missing) > 1 else ''} and no raw IMU series. The TI here is the "
+        "floating lidar's TI as measured; the buoy's motion adds to it, so it may overstate "
+        "the wind's TI and its IEC category. To correct it, give each 10-min record's roll "
+        "and pitch amplitude and period (roll_amplitude_deg, pitch_amplitude_deg, "
+        "roll_period_s, pitch_period_s; the record format of docs/data-format.md) or the "
+        f"buoy's IMU series (config campaign.imu_series), and run again. {reference}"
+    )
+
+
+def bin_tables(
+    speed_bins: pd.DataFrame, ref_bins: pd.DataFrame, min_count: int, corrected: bool = True
+) -> list[dict]:
+    """The per-height bin tables of the first screen (template context; ``corrected``
+    False: the uncorrected statistics only)."""
     out = []
     for h, b in speed_bins.groupby("height_m", sort=True):
         ref = ref_bins[np.isclose(ref_bins["height_m"], h)] if len(ref_bins) else ref_bins
@@ -361,7 +418,7 @@ def bin_tables(speed_bins: pd.DataFrame, ref_bins: pd.DataFrame, min_count: int)
                 "height": f"{h:g}",
                 "id": f"bins-{h:g}".replace(".", "_"),
                 "reference": bool(len(ref_bins)),
-                "rows": _bin_rows(b, ref, min_count),
+                "rows": _bin_rows(b, ref, min_count, corrected),
             }
         )
     return out

@@ -55,10 +55,11 @@ STEP_WORDS = {
     "fit_global": "fit: the global model from the fits",
     "propagate": "propagation: corrected TI with credible intervals per record",
     "ti_bins": "TI per bin: corrected and uncorrected TI per height and wind-speed bin",
+    "uncorrected": "uncorrected TI per height and wind-speed bin (no motion statistics)",
     "los_correction": "LOS correction: line-of-sight motion correction of the raw series",
     "los_agreement": "LOS agreement: LOS-level against Bayesian corrected TI",
     "report": "report: write the HTML report",
-    "developer_report": "developer report: diagnostics of the fits",
+    "developer_report": "developer report: benchmarks, correction methods compared",
     "fleet_summary": "fleet: summary of the campaigns",
     "all": "done: every result is in place",
 }
@@ -249,8 +250,26 @@ def _rep15_lines(speed_bins: pd.DataFrame, min_count: int) -> list[str]:
     """Per height: representative TI at 15 m/s, corrected against uncorrected, with IEC
     categories."""
     from flidar_uq.validation.reference import iec_category
-    from flidar_uq.workflow.report_summary import IEC_REFERENCE_SPEED_MS, representative_at_15
+    from flidar_uq.workflow.report_summary import (
+        IEC_REFERENCE_SPEED_MS,
+        representative_at_15,
+        uncorrected_at_15,
+    )
 
+    # results/ti/ of the uncorrected rule: no corrected statistic, some uncorrected ones
+    if speed_bins["ti_rep"].isna().all() and speed_bins["ti_rep_uncorrected"].notna().any():
+        rep = uncorrected_at_15(speed_bins, min_count=min_count)
+        out = [
+            f"representative TI at {IEC_REFERENCE_SPEED_MS:g} m/s (IEC 61400-1 category), "
+            "uncorrected (no motion statistics):"
+        ]
+        for r in rep.itertuples():
+            out.append(
+                f"  {r.height_m:g} m: uncorrected {r.ti_rep:.3f}, category {r.category}"
+                if np.isfinite(r.ti_rep)
+                else f"  {r.height_m:g} m: none, {r.note}"
+            )
+        return out
     rep = representative_at_15(speed_bins, min_count=min_count)
     out = [f"representative TI at {IEC_REFERENCE_SPEED_MS:g} m/s (IEC 61400-1 category):"]
     for r in rep.itertuples():
