@@ -51,3 +51,21 @@ def test_loo_in_blocks_is_none_where_the_whole_matrix_fails():
     assert _loo(ll) is None
     assert _loo_chunked(lambda sl: ll[:, sl], ll.shape[1], chunk=8) is None
     assert _loo_chunked(lambda sl: ll[:, sl], 0, chunk=8) is None
+
+
+def test_loo_of_a_whole_matrix_runs_in_blocks_of_the_default_size(monkeypatch):
+    ll = _log_lik()
+    whole = _loo(ll)  # 400 x 37 values: one block at the default size
+    monkeypatch.setattr(loo_mod, "_LOO_CHUNK_ELEMENTS", 400 * 8)  # 8 observations a block
+    shapes = []
+    psis = loo_mod._psis_loo
+
+    def spy(x):
+        shapes.append(x.shape)
+        return psis(x)
+
+    monkeypatch.setattr(loo_mod, "_psis_loo", spy)
+    got = _loo(ll.reshape(2, 200, -1))
+    assert shapes == [(400, 8)] * 4 + [(400, 5)]
+    for k in ("elpd", "se", "p_loo", "elpd_i", "pareto_k"):
+        np.testing.assert_array_equal(got[k], whole[k])

@@ -45,30 +45,28 @@ HEIGHT_SUMMARY_COLUMNS = (
 SPEED_GROUP_WIDTH_MS = 3.0
 
 
-def wilson_interval(k, n, level: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
+def wilson_interval(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
     """Wilson score interval of a binomial proportion ``k / n`` (Wilson 1927).
+
+    SciPy's ``binomtest(k, n).proportion_ci(method="wilson")``, with NaN bounds for no
+    trials.
 
     Parameters
     ----------
-    k, n : array_like
-        Successes and trials (counts), broadcastable; ``n = 0`` gives NaN.
+    k, n : int
+        Successes and trials (counts), ``0 <= k <= n``; ``n = 0`` gives NaN.
     level : float
         Confidence level in (0, 1).
 
     Returns
     -------
-    lo, hi : numpy.ndarray
+    lo, hi : float
         Interval bounds, in [0, 1].
     """
-    k = np.asarray(k, dtype=float)
-    n = np.asarray(n, dtype=float)
-    z = stats.norm.ppf(0.5 + level / 2.0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        p = k / n
-        denom = 1.0 + z**2 / n
-        centre = (p + z**2 / (2 * n)) / denom
-        half = z * np.sqrt(p * (1 - p) / n + z**2 / (4 * n**2)) / denom
-    return np.where(n > 0, centre - half, np.nan), np.where(n > 0, centre + half, np.nan)
+    if n == 0:
+        return float("nan"), float("nan")
+    ci = stats.binomtest(int(k), int(n)).proportion_ci(confidence_level=level, method="wilson")
+    return float(ci.low), float(ci.high)
 
 
 def speed_group_label(hws_ms, width_ms: float = SPEED_GROUP_WIDTH_MS, start_ms: float = 3.0):
@@ -167,8 +165,8 @@ def calibration_by_group(
                 "n_answered": k,
                 "answered_share": k / n if n else np.nan,
                 "coverage": inside / k if k else np.nan,
-                "coverage_lo": float(c_lo),
-                "coverage_hi": float(c_hi),
+                "coverage_lo": c_lo,
+                "coverage_hi": c_hi,
                 "mean_rel_error": float(np.nanmean(g["_rel_err"])) if k else np.nan,
                 "mean_rel_error_se": (
                     float(np.nanstd(g["_rel_err"], ddof=1) / np.sqrt(k)) if k >= 2 else np.nan
