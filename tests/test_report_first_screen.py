@@ -203,3 +203,10 @@ def test_campaign_without_reference_fills_the_per_bin_tables(tmp_path):
         assert f"{r.ti_mean:.3f} {r.ti_mean_lo:.3f}–{r.ti_mean_hi:.3f}" in text, text
     assert "rho between the motion error and the turbulence stays at its prior" in text
     assert "sampler" not in text and "did not converge" not in text
+    # what each bin's interval comes from, in words, in the table and the report
+    words = {"the lidar's response g", "the regime discrepancy", "the motion description",
+             "the correlation rho", "the records' noise", "too few records"}  # fmt: skip
+    assert set(filled["interval_from"]) <= words and (filled["n"] < 30).any()
+    assert (filled.loc[filled["n"] < 30, "interval_from"] == "too few records").all()
+    html = (res / "report" / "report.html").read_text()
+    assert "the interval comes from" in html and "too few records" in html

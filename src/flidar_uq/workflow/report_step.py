@@ -242,15 +242,21 @@ def _speed_bin_table(b: pd.DataFrame) -> pd.DataFrame:
             "mean TI [interval]": [
                 _fmt_interval(*x) for x in b[["ti_mean", "ti_mean_lo", "ti_mean_hi"]].to_numpy()
             ],
-            "representative TI [interval]": [
+            "representative TI (ed. 3, mean + 1.28 sd) [interval]": [
                 _fmt_interval(*x) for x in b[["ti_rep", "ti_rep_lo", "ti_rep_hi"]].to_numpy()
             ],
-            "P90 TI [interval]": [
+            "P90 TI (ed. 4 repr.) [interval]": [
                 _fmt_interval(*x) for x in b[["ti_p90", "ti_p90_lo", "ti_p90_hi"]].to_numpy()
             ],
             "uncorrected mean": b["ti_mean_uncorrected"].map(_f3),
             "uncorrected repr.": b["ti_rep_uncorrected"].map(_f3),
         }
+    ).assign(
+        **(
+            {"the interval comes from": b["interval_from"].fillna("").to_numpy()}
+            if "interval_from" in b
+            else {}
+        )
     )
 
 
