@@ -105,7 +105,7 @@ def test_slurm_run_equals_local_run(slurm_partition, tmp_path):
         ["squeue", "-h", "-t", "all", "-o", "%i %T"], capture_output=True, text=True
     ).stdout.split("\n")
     completed = [j for j in jobs if j.endswith("COMPLETED")]
-    assert len(completed) >= 5, jobs  # campaign, 2 inference batches, global fit, propagate
+    assert len(completed) >= 3, jobs  # campaign, the record fit, propagate
     assert result_hashes(cluster) == result_hashes(local)
 
 
@@ -128,8 +128,8 @@ def test_slurm_fleet_run_equals_local_fleet_run(slurm_partition, tmp_path):
     spans = {}
     for name in TINY_FLEET:
         mine = [j for j in ran.values() if j["comment"].startswith(f"rule_{name}_")]
-        # campaign, 2 inference batches, global fit, propagate
-        assert sum(j["state"] == "COMPLETED" for j in mine) >= 5, (name, ran)
+        # campaign, the record fit, propagate (the per-bin fits run with the bin model only)
+        assert sum(j["state"] == "COMPLETED" for j in mine) >= 3, (name, ran)
         spans[name] = [
             (datetime.fromisoformat(j["start"]), datetime.fromisoformat(j["end"])) for j in mine
         ]
