@@ -235,10 +235,8 @@ def fit_regime_discrepancy(
         f"{'raises' if gain > 0 else 'lowers'} the held-out elpd by {gain:.1f} "
         f"(se {se:.1f}) nats, {'kept' if kept else 'not kept (not above 2 se)'}"
     )
-    table = fit.assign(delta=delta, delta_sd=delta_sd, noise_sd=np.sqrt(v))
-    table = table[["hws_bin_ms", "period_class", "n_reference", "residual", "noise_sd"]].assign(
-        delta=delta, delta_sd=delta_sd
-    )
+    columns = ["hws_bin_ms", "period_class", "n_reference", "residual"]
+    table = fit[columns].assign(noise_sd=np.sqrt(v), delta=delta, delta_sd=delta_sd)
     table.attrs["mu"] = mu
     return RegimeDiscrepancy(table.reset_index(drop=True), tau, kept, gain, se, reason)
 
