@@ -412,9 +412,13 @@ RECORD_COLUMNS: tuple[Column, ...] = (
                 0.0,
                 60.0,
                 True,
-                f"Tilt spectrum band {b} of {N_TILT_BANDS} (log-spaced 1-20 s bands, shortest "
-                "first): its centroid period 1/f_c, f_c the variance-weighted mean frequency "
-                "of the along + across tilt spectrum in the band.",
+                (
+                    f"Tilt spectrum band 1 of {N_TILT_BANDS} (log-spaced 1-20 s bands, shortest "
+                    "first): its centroid period 1/f_c, f_c the variance-weighted mean "
+                    "frequency of the along + across tilt spectrum in the band."
+                    if b == 1
+                    else f"As tilt_band1_period_s, for band {b} of {N_TILT_BANDS}."
+                ),
                 lower_exclusive=True,
             ),
             Column(
@@ -445,11 +449,15 @@ RECORD_COLUMNS: tuple[Column, ...] = (
                 -1.0,
                 1.0,
                 True,
-                f"Signed mean cosine of the directions of travel of band {b}'s waves against "
-                "the wind (+1 downwind, -1 upwind), from the co-spectrum of the IMU series' "
-                "vertical velocity and the along-wind tilt (Longuet-Higgins et al., 1963); "
-                "absent without a vertical velocity: then wind sea is taken to run downwind "
-                "and swell to have no known side.",
+                (
+                    "Signed mean cosine of the directions of travel of band 1's waves against "
+                    "the wind (+1 downwind, -1 upwind), from the co-spectrum of the IMU "
+                    "series' vertical velocity and the along-wind tilt (Longuet-Higgins et "
+                    "al., 1963); absent without a vertical velocity: then wind sea is taken "
+                    "to run downwind and swell to have no known side."
+                    if b == 1
+                    else f"As tilt_band1_cos_psi, for band {b}."
+                ),
             ),
             Column(
                 f"tilt_band{b}_sin_psi",
@@ -459,12 +467,17 @@ RECORD_COLUMNS: tuple[Column, ...] = (
                 -1.0,
                 1.0,
                 True,
-                f"Signed mean sine of the directions of travel of band {b}'s waves against "
-                "the wind (+1 to the left of the wind's direction of travel, seen from above; "
-                "-1 to the right), from the co-spectrum of the IMU series' vertical velocity "
-                "and the across-wind tilt (Longuet-Higgins et al., 1963); absent without a "
-                "vertical velocity: then either side is taken alike (0). A DBS lidar's "
-                "beams tell the sides apart; a conical scan does not use it.",
+                (
+                    "Signed mean sine of the directions of travel of band 1's waves against "
+                    "the wind (+1 to the left of the wind's direction of travel, seen from "
+                    "above; -1 to the right), from the co-spectrum of the IMU series' "
+                    "vertical velocity and the across-wind tilt (Longuet-Higgins et al., "
+                    "1963); absent without a vertical velocity: then either side is taken "
+                    "alike (0). A DBS lidar's beams tell the sides apart; a conical scan does "
+                    "not use it."
+                    if b == 1
+                    else f"As tilt_band1_sin_psi, for band {b}."
+                ),
             ),
             Column(
                 f"tilt_band{b}_sincos_psi",
@@ -474,14 +487,18 @@ RECORD_COLUMNS: tuple[Column, ...] = (
                 -0.5,
                 0.5,
                 True,
-                f"Mean of sin(psi) cos(psi) over the directions of travel of band {b}'s waves "
-                f"against the wind (psi as in tilt_band{b}_sin_psi), from the co-spectrum of "
-                "the along- and across-wind tilt (Longuet-Higgins et al., 1963; the tilt "
-                "alone gives it, whichever way the waves run): with the along-wind share it "
-                "sets the band's mean axis, on which a wind sea is taken to run downwind "
-                "where the side is not measured; with the measured side a DBS lidar's "
-                "beams see a band oblique to the wind through it. Absent: 0 (a spread "
-                "symmetric about the wind's axes).",
+                (
+                    "Mean of sin(psi) cos(psi) over the directions of travel of band 1's "
+                    "waves against the wind (psi as in tilt_band1_sin_psi), from the "
+                    "co-spectrum of the along- and across-wind tilt (Longuet-Higgins et al., "
+                    "1963; the tilt alone gives it, whichever way the waves run): with the "
+                    "along-wind share it sets the band's mean axis, on which a wind sea is "
+                    "taken to run downwind where the side is not measured; with the measured "
+                    "side a DBS lidar's beams see a band oblique to the wind through it. "
+                    "Absent: 0 (a spread symmetric about the wind's axes)."
+                    if b == 1
+                    else f"As tilt_band1_sincos_psi, for band {b}."
+                ),
             ),
         )
     ),
