@@ -1299,6 +1299,9 @@ def ti_group_statistics(
     kv = keys.reset_index(drop=True)
     valid = kv.notna().all(axis=1).to_numpy()
     stats = ("ti_mean", "ti_sd", "ti_rep", "ti_p90")
+    point_log_sd = (
+        per_record["point_log_sd"].to_numpy(dtype=float) if "point_log_sd" in per_record else None
+    )
     rows = []
     root = as_seedsequence(seed)
     groups = kv[valid].groupby(key_cols, sort=True).indices.items()
@@ -1313,7 +1316,9 @@ def ti_group_statistics(
         if enough:
             sub_seed = np.random.SeedSequence(root.entropy, spawn_key=(*root.spawn_key, g))
             rng = np.random.default_rng(sub_seed)
-            draws = population_statistic_draws(ti_draws, rng, k, shift=shift)
+            draws = population_statistic_draws(
+                ti_draws, rng, k, shift=shift, point_log_sd=point_log_sd
+            )
             mean, sd, rep, p90 = draws
             for name, x in zip(stats, (mean, sd, rep, p90), strict=True):
                 lo, med, hi = np.quantile(x, q)
