@@ -66,10 +66,10 @@ def test_import_contract_fails_on_a_wrong_way_import(tmp_path, module, wrong_imp
     [
         # io imports schema: schema importing io closes a cycle of two data modules
         ("data/schema.py", "from flidar_uq.data import io as _cycle  # noqa", "flidar_uq.data"),
-        # metrics imports binning; an import inside a function counts as well
+        # calibration imports metrics; an import inside a function counts as well
         (
-            "data/binning.py",
-            "def _cycle():\n    from flidar_uq.data import metrics  # noqa",
+            "data/metrics.py",
+            "def _cycle():\n    from flidar_uq.data import calibration  # noqa",
             "flidar_uq.data",
         ),
         # join imports common, both in the subpackage of the instrument readers

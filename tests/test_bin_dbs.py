@@ -9,6 +9,7 @@ import functools
 import numpy as np
 import pandas as pd
 import pytest
+from oracles import dbs_sigma_z_from_terms
 
 from flidar_uq.correction.propagation import PropagationSettings, draw_corrected_ti
 from flidar_uq.inference import (
@@ -24,7 +25,6 @@ from flidar_uq.inference import (
 )
 from flidar_uq.physics.dbs_sigma_z import (
     dbs_record_terms,
-    dbs_sigma_z_from_terms,
     dbs_tilt_lever_terms,
     wind_to_body_deg,
 )

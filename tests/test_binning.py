@@ -139,17 +139,13 @@ def test_speed_bin_ms_centred_on_multiples_upper_edge_goes_up():
 
 
 def test_one_speed_bin_rule_for_bins_speed_bins_and_plots():
-    """Bin table, speed-bin TI table and the per-record speed bins agree on an edge value."""
-    from flidar_uq.data import metrics
-
+    """Bin table and the per-record speed bins agree on an edge value."""
     hws = np.array([2.5, 2.5, 3.4, 4.5])
     records = pd.DataFrame(
         {"hws_mean_ms": hws, "amplitude_deg": 1.0, "period_s": 4.0, "hws_std_ms": 0.3}
     )
     _, table = bin_records(records, min_count=1)
     assert sorted(table["hws_ms"]) == sorted(set(speed_bin_ms(hws)))
-    ti = metrics.ti_by_speed_bin(hws, records["hws_std_ms"], hws_min_ms=0.0)
-    assert ti["hws_bin_ms"].tolist() == [3.0, 5.0]
 
 
 def test_add_harmonic_motion_is_mean_of_roll_and_pitch_gutierrez2018_sec24():

@@ -9,8 +9,6 @@ from hypothesis import strategies as st
 
 from flidar_uq.physics.variance_laws import (
     corrected_std,
-    corrected_std_c,
-    corrected_std_u,
     rho_bin_correlation,
     sigma_moving_c,
     sigma_moving_pc,
@@ -48,8 +46,8 @@ def test_outside_domain_returns_nan():
 
 def test_deployment_inverse_hand_values():
     # U: sqrt(0.5^2 - 0.3^2) = 0.4; C: 0.7 - 0.4 = 0.3
-    assert corrected_std_u(0.5, 0.3)[0] == pytest.approx(0.4, rel=1e-12)
-    assert corrected_std_c(0.7, 0.4)[0] == pytest.approx(0.3, rel=1e-12)
+    assert corrected_std(0.5, 0.3, 0.0)[0] == pytest.approx(0.4, rel=1e-12)
+    assert corrected_std(0.7, 0.4, 1.0)[0] == pytest.approx(0.3, rel=1e-12)
 
 
 @settings(max_examples=200, deadline=None)

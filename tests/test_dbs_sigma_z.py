@@ -6,6 +6,7 @@ from __future__ import annotations
 import io
 
 import numpy as np
+import oracles
 import pandas as pd
 import pytest
 
@@ -397,7 +398,7 @@ def test_heading_matters_and_the_average_reports_its_spread():
         np.array([3.0]), np.array([6.0]), np.array([45.0]), wind_body_deg=45.0, **kw
     )
     assert abs(float(along_beam) / float(diagonal) - 1.0) > 0.05
-    rms, spread = dbs.dbs_heading_average_sigma_z_ms(
+    rms, spread = oracles.dbs_heading_average_sigma_z_ms(
         np.array([3.0]), np.array([6.0]), np.array([0.0]), **kw
     )
     assert spread > 0.01 * rms
@@ -405,7 +406,7 @@ def test_heading_matters_and_the_average_reports_its_spread():
 
 
 def test_record_function_known_and_unknown_heading():
-    s_known, sp = dbs.dbs_record_sigma_z_ms(
+    s_known, sp = oracles.dbs_record_sigma_z_ms(
         np.array([8.0, 12.0]),
         np.array([2.0, 3.0]),
         np.array([2.5, 3.0]),
@@ -415,7 +416,7 @@ def test_record_function_known_and_unknown_heading():
         lever_arm_m=2.0,
     )
     assert np.all(sp == 0) and np.all(s_known > 0)
-    s_avg, spread = dbs.dbs_record_sigma_z_ms(
+    s_avg, spread = oracles.dbs_record_sigma_z_ms(
         np.array([8.0, 12.0]),
         np.array([2.0, 3.0]),
         np.array([2.5, 3.0]),
@@ -602,7 +603,7 @@ def test_record_terms_quadratic_form_equals_the_sum(known):
     gram = dbs.dbs_record_terms(hws, ra, pa, per, wind_body_deg=beta)
     for hull, h in (("rotation_only", 0.0), ("wave_follower", 1.0)):
         for lever in (0.0, 2.5):
-            q = dbs.dbs_sigma_z_from_terms(gram, lever_arm_m=lever, hull_response=h)
+            q = oracles.dbs_sigma_z_from_terms(gram, lever_arm_m=lever, hull_response=h)
             amp = np.stack([ra, pa], -1)
             pp = np.stack([per, per], -1)
             d = np.broadcast_to([90.0, 0.0], amp.shape)
@@ -624,7 +625,7 @@ def test_record_terms_quadratic_form_equals_the_sum(known):
                 )
             np.testing.assert_allclose(q, s, rtol=1e-9)
     # draws broadcast: (n_draws, 1) against (n,)
-    q = dbs.dbs_sigma_z_from_terms(
+    q = oracles.dbs_sigma_z_from_terms(
         gram, lever_arm_m=np.array([[0.0], [2.0]]), hull_response=np.array([[0.0], [1.0]])
     )
     assert q.shape == (2, 3)
@@ -646,7 +647,7 @@ def test_band_terms_quadratic_form_equals_the_moment_sum(known):
     gram = dbs.dbs_band_terms(hws, amp, per, mom, wind_body_deg=beta)
     for hull, h in (("rotation_only", 0.0), ("wave_follower", 1.0)):
         for lever in (0.0, 2.5):
-            q = dbs.dbs_sigma_z_from_terms(gram, lever_arm_m=lever, hull_response=h)
+            q = oracles.dbs_sigma_z_from_terms(gram, lever_arm_m=lever, hull_response=h)
             kw = dict(lever_arm_m=lever, hull=hull, dwell_average=True, cross_wind=False)
             if known:
                 s = dbs.dbs_harmonic_sigma_z_ms(
@@ -654,7 +655,7 @@ def test_band_terms_quadratic_form_equals_the_moment_sum(known):
                     direction_moments_=dbs.rotate_moments(mom, beta[:, None]), **kw,
                 )  # fmt: skip
             else:
-                s = dbs.dbs_heading_average_sigma_z_ms(
+                s = oracles.dbs_heading_average_sigma_z_ms(
                     amp, per, hws_ms=hws, moments_to_wind=mom, **kw
                 )[0]
             np.testing.assert_allclose(q, s, rtol=1e-9)
@@ -680,7 +681,7 @@ def test_band_of_a_wave_follower_knows_the_side_its_waves_run_on(beta):
         for c in (1.0, -1.0)
     )
     down, up = (
-        float(dbs.dbs_sigma_z_from_terms(g, lever_arm_m=lever, hull_response=1.0)[0])
+        float(oracles.dbs_sigma_z_from_terms(g, lever_arm_m=lever, hull_response=1.0)[0])
         for g in (g_down, g_up)
     )
     assert down == pytest.approx(rep, rel=0.05)
@@ -718,7 +719,7 @@ def test_band_of_a_wave_follower_knows_which_side_a_cross_swell_runs_on(beta, ev
             dwell_average=False,
             lidar=g,
         )
-        return float(dbs.dbs_sigma_z_from_terms(gram, lever_arm_m=lever, hull_response=1.0)[0])
+        return float(oracles.dbs_sigma_z_from_terms(gram, lever_arm_m=lever, hull_response=1.0)[0])
 
     assert band(1.0) == pytest.approx(rep, rel=0.05)
     if every_beam:
@@ -811,10 +812,10 @@ def test_band_terms_window_lines_sum_to_the_window_mean():
         ((0.05, 0.123), (0.3, 0.7)),
     ],
 )
-def test_output_correlation_sampling_var_is_bartletts_variance(lines, powers):
+def test_output_correlation_line_weights_give_bartletts_variance(lines, powers):
     """The 10-min correlation of a motion error made of lines with Kaimal turbulence (a long
-    series cut into 10-min records, each record's means removed) scatters as
-    output_correlation_sampling_var says: its variance over 4000 records within 15 % (the
+    series cut into 10-min records, each record's means removed) scatters as the lines'
+    weights averaged over their powers say: its variance over 4000 records within 15 % (the
     Monte Carlo's sd is 2 %; the formula's second-order ratio leaves about 5 %)."""
     from flidar_uq.physics.turbulence import kaimal_psd
 
@@ -836,37 +837,29 @@ def test_output_correlation_sampling_var_is_bartletts_variance(lines, powers):
         )
         u, z = u - u.mean(1, keepdims=True), z - z.mean(1, keepdims=True)
         r.append((u * z).sum(1) / np.sqrt((u**2).sum(1) * (z**2).sum(1)))
-    want = dbs.output_correlation_sampling_var(
-        np.array(lines)[None], np.array(powers)[None], 1e-4, hws_ms=hws, length_scale_m=length
+    weight = dbs.output_correlation_line_weights(
+        np.array(lines), 1e-4, hws_ms=hws, length_scale_m=length
     )
+    want = np.sum(np.array(powers) * weight) / np.sum(powers)
     assert np.var(np.concatenate(r)) == pytest.approx(float(want), rel=0.15)
 
 
-def test_output_correlation_sampling_var_near_the_turbulence():
+def test_output_correlation_line_weight_near_the_turbulence():
     """A line near 0 Hz (a wave period near the cycle's, aliased) meets the turbulence's
     energetic scales: its correlation scatters ~100 times more than at a 3-s wave's own
-    frequency; no power, 0; the same line twice is the line."""
-    kw = dict(hws_ms=np.array([8.0, 8.0]), length_scale_m=340.2)
-    v = dbs.output_correlation_sampling_var(
-        np.array([[[0.011], [0.33]]]), np.ones((1, 2, 1)), 0.01, **kw
+    frequency."""
+    v = dbs.output_correlation_line_weights(
+        np.array([0.011, 0.33]), 0.01, hws_ms=8.0, length_scale_m=340.2
     )
     assert v[0] > 100.0 * v[1] > 0.0
     assert 0.005 < v[0] < 0.05  # an sd of 0.07-0.2
-    none = dbs.output_correlation_sampling_var(
-        np.array([[[0.011]]]), np.zeros((1, 1, 1)), 0.01, hws_ms=8.0, length_scale_m=340.2
-    )
-    assert np.all(none == 0.0)
-    twice = dbs.output_correlation_sampling_var(
-        np.array([[[0.011, 0.011]]]), np.ones((1, 1, 2)), 0.01, hws_ms=8.0, length_scale_m=340.2
-    )
-    assert float(twice.squeeze()) == pytest.approx(float(v[0]), rel=1e-12)
 
 
 def test_rho_sampling_columns_of_the_dbs_record_model(monkeypatch, constant_fit):
     """A WindCube v2's record table gets the correlation-scatter Gram: its quadratic form
     over the along-wind one is larger for a sea near its 5-s cycle (the error at the
     output's lines near 0 Hz) than for a 3-s one, and at no lever arm it is the power-
-    weighted mean of the lines' weights (output_correlation_sampling_var); it moves with
+    weighted mean of the lines' weights; it moves with
     the lever arm, whose term puts the error at lines of its own; 0 without tilt bands,
     absent for a CW lidar. The record fit's likelihood adds it to the correlation's scatter
     (a wider tau) and the propagation to its draws of each record's correlation (a wider

@@ -301,7 +301,7 @@ def test_table_mixing_utc_offsets_names_the_row(tmp_path):
 
 # --------------------------------------------------------------------------- headings
 def test_compass_and_ccw_heading_series_give_the_same_along_wind_tilt(tmp_path):
-    from flidar_uq.data.imu import tilt_spectrum_statistics
+    from flidar_uq.data.imu import tilt_spectrum_statistics_by_height
 
     fs, n = 10.0, 12_000  # 20 min at 10 Hz
     t = np.arange(n) / fs
@@ -322,12 +322,12 @@ def test_compass_and_ccw_heading_series_give_the_same_along_wind_tilt(tmp_path):
     from_compass = read_imu_series(compass_path, heading_convention="compass")
     np.testing.assert_allclose(np.cos(np.radians(from_compass["yaw_deg"] - ccw["yaw_deg"])), 1.0)
     wd = pd.Series(315.0, index=pd.DatetimeIndex([utc("2021-03-01"), utc("2021-03-01T00:10")]))
-    a, _ = tilt_spectrum_statistics(ccw, wd)
-    b, _ = tilt_spectrum_statistics(from_compass, wd)
+    a, _ = tilt_spectrum_statistics_by_height(ccw, {0: wd})[0]
+    b, _ = tilt_spectrum_statistics_by_height(from_compass, {0: wd})[0]
     np.testing.assert_allclose(b["tilt_along_wind_std_deg"], a["tilt_along_wind_std_deg"])
     np.testing.assert_allclose(b["tilt_across_wind_std_deg"], a["tilt_across_wind_std_deg"])
     # read as if it were counter-clockwise, the compass series would tilt differently
-    c, _ = tilt_spectrum_statistics(read_imu_series(compass_path), wd)
+    c, _ = tilt_spectrum_statistics_by_height(read_imu_series(compass_path), {0: wd})[0]
     assert not np.allclose(c["tilt_along_wind_std_deg"], a["tilt_along_wind_std_deg"], rtol=0.05)
 
 

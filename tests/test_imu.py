@@ -39,7 +39,6 @@ def imu_frame(t_s, roll, pitch, t0=1.4274e9):
 def test_pure_sinusoid_amplitude_estimators(amplitude_deg, period_s, phase_rad):
     x = sine(amplitude_deg, period_s, phase_rad)
     assert imu.amplitude_std_deg(x) == pytest.approx(amplitude_deg, rel=5e-3)
-    assert imu.amplitude_spectral_deg(x, FS) == pytest.approx(amplitude_deg, rel=5e-3)
     # sampled crests fall up to half a sample from the true crest: cos(pi * dt / T) bound
     lower = amplitude_deg * np.cos(np.pi / (FS * period_s))
     assert lower - 1e-9 <= imu.amplitude_zero_crossing_deg(x) <= amplitude_deg + 1e-9
@@ -132,15 +131,6 @@ def test_spectral_period_robust_to_sensor_noise_zero_crossing_is_not(rng):
     x = sine(2.0, 5.0) + 0.6 * rng.standard_normal(T10.size)
     assert imu.period_spectral_s(x, FS) == pytest.approx(5.0, rel=0.01)
     assert imu.period_zero_crossing_s(x, FS) < 0.9 * 5.0
-
-
-def test_spectral_amplitude_ignores_out_of_band_noise(rng):
-    # white noise of variance 0.36 deg^2 spread over 0-2.5 Hz; band 1/30-1 Hz keeps ~39 % of it
-    x = sine(2.0, 5.0) + 0.6 * rng.standard_normal(T10.size)
-    in_band = 0.36 * (1.0 - 1 / 30) / 2.5
-    expected = np.sqrt(2 * (2.0**2 / 2 + in_band))
-    assert imu.amplitude_spectral_deg(x, FS) == pytest.approx(expected, rel=0.03)
-    assert imu.amplitude_std_deg(x) == pytest.approx(np.sqrt(2 * (2.0 + 0.36)), rel=0.03)
 
 
 # --------------------------------------------------------------------------- windows and gaps
@@ -360,10 +350,10 @@ def test_heading_mean_is_circular_and_skips_missing_samples():
     frame = imu_frame(t, 0 * t, sine(3.0, 4.0, t=t))
     frame["yaw_deg"] = 40.0 + 25.0 * np.sin(2 * np.pi * t / 60.0)
     wd = pd.Series([90.0], index=pd.to_datetime([1.4274e9], unit="s", utc=True))
-    table, _ = imu.tilt_spectrum_statistics(frame, wd)
+    table, _ = imu.tilt_spectrum_statistics_by_height(frame, {0: wd})[0]
     assert table.heading_mean_deg[0] == pytest.approx(40.0, abs=1e-6)
     # no yaw column: the heading is unknown (the tilt is still projected with heading 0)
-    table, _ = imu.tilt_spectrum_statistics(frame.drop(columns="yaw_deg"), wd)
+    table, _ = imu.tilt_spectrum_statistics_by_height(frame.drop(columns="yaw_deg"), {0: wd})[0]
     assert np.isnan(table.heading_mean_deg[0])
 
 
@@ -375,7 +365,7 @@ def test_tilt_spectrum_statistics_uses_yaw_column_and_record_wind_direction():
     wd = pd.Series(
         [90.0, 0.0], index=pd.to_datetime([1.4274e9, 1.4274e9 + 600], unit="s", utc=True)
     )
-    table, spec = imu.tilt_spectrum_statistics(frame, wd)
+    table, spec = imu.tilt_spectrum_statistics_by_height(frame, {0: wd})[0]
     assert list(table.columns) == ["timestamp", *imu.TILT_SPECTRUM_COLUMNS, "heading_mean_deg"]
     assert len(table) == 2 and spec.var_along_deg2.shape == (2, 8)
     np.testing.assert_allclose(table.heading_mean_deg, 0.0, atol=1e-12)
@@ -391,7 +381,7 @@ def test_tilt_spectrum_statistics_uses_yaw_column_and_record_wind_direction():
 def test_tilt_spectrum_statistics_missing_wind_direction_gives_nan_row():
     x = sine(3.0, 4.0)
     frame = imu_frame(T10, x, x)  # no yaw column: heading 0
-    table, spec = imu.tilt_spectrum_statistics(frame, pd.Series(dtype=float))
+    table, spec = imu.tilt_spectrum_statistics_by_height(frame, {0: pd.Series(dtype=float)})[0]
     assert len(table) == 1 and table[list(imu.TILT_SPECTRUM_COLUMNS)].isna().all(axis=None)
     assert np.isnan(spec.var_along_deg2).all()
 
@@ -414,7 +404,7 @@ def test_tilt_statistics_of_several_heights_at_once_equal_one_call_each_bit_for_
     many = imu.tilt_spectrum_statistics_by_height(frame, sources)
     assert list(many) == list(sources)
     for h, src in sources.items():
-        table, spec = imu.tilt_spectrum_statistics(frame, src)
+        table, spec = imu.tilt_spectrum_statistics_by_height(frame, {h: src})[h]
         pd.testing.assert_frame_equal(many[h][0], table, check_exact=True)
         for name in ("var_along_deg2", "var_across_deg2", "period_s", "m0_deg2", "tp_s"):
             assert getattr(many[h][1], name).tobytes() == getattr(spec, name).tobytes(), name

@@ -14,16 +14,18 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from oracles import (
+    height_correct_profile,
+    rotate_to_earth,
+    rotation_from_swd_frame,
+    velocity_from_swd_frame,
+)
 
 from flidar_uq.correction.los import (
     correct_dbs_motion,
     correct_least_squares,
     earth_beam_vectors,
-    height_correct_profile,
     imu_rotation_velocity,
-    rotate_to_earth,
-    rotation_from_swd_frame,
-    velocity_from_swd_frame,
 )
 from flidar_uq.physics import lidar as L
 from flidar_uq.physics import motion as M

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from oracles import tilted_scan_heights, total_tilt_deg
 
 from flidar_uq.physics.motion import (
     Harmonic,
@@ -16,8 +17,6 @@ from flidar_uq.physics.motion import (
     harmonic_motion,
     rotation_matrix,
     rotation_matrix_derivatives,
-    tilted_scan_heights,
-    total_tilt_deg,
 )
 
 angles = st.floats(-1.5, 1.5)

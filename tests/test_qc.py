@@ -16,8 +16,6 @@ from flidar_uq.data.qc import (
     MAD_SCALE,
     RECORD_REASONS,
     QCConfig,
-    apply_filters,
-    los_availability_pct,
     rolling_mad_outliers,
     run_los_qc,
     run_qc,
@@ -192,9 +190,6 @@ def test_cnr_malekmohammadi2024_minus23db_on_los():
     r = run_los_qc(los)
     assert failed(r, "cnr_low") == [3, 4, 5]
     assert tuple(r.counts.index) == LOS_REASONS  # the documented vocabulary
-    avail = los_availability_pct(los, r.flags["kept"].to_numpy())
-    # 10-min periods: rows 1-6 at 0,100,..,500 s -> one period, 3 of 6 valid
-    assert avail["availability_pct"].tolist() == [50.0]
     assert run_los_qc(los, QCConfig(cnr=False)).n_kept == 6
 
 
@@ -309,11 +304,11 @@ def test_missing_column_raises():
         run_qc(records().drop(columns="availability_pct"))
 
 
-def test_apply_filters_and_summarise_conserve_counts():
+def test_qc_flags_and_summarise_conserve_counts():
     rec = read_records(DATA / "hand_written_campaign.csv")
-    flags = apply_filters(rec, hws_max_ms=20.0, sv_max=0.06)
+    flags = run_qc(rec, QCConfig(hws_max_ms=20.0, sv_max=0.06)).flags
     assert len(flags) == len(rec)
-    assert (flags["flags"] == "").sum() == 19
+    assert (flags["reasons"] == "").sum() == 19
     s = summarise(flags).set_index("reason")["n_failed"]
     assert s["all"] + s["kept"] == len(rec)
     assert s["sv_high"] == 4

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from oracles import dbs_sigma_z_from_terms, six_dof_terms
 
 from flidar_uq.inference.record_fit import _record_loglik_pointwise, _record_observations
 from flidar_uq.inference.record_motion import (
@@ -17,11 +18,9 @@ from flidar_uq.inference.record_motion import (
     gram_sigma_z_ms,
     motion_gram,
     per_record_motion,
-    six_dof_terms,
 )
 from flidar_uq.physics.dbs_sigma_z import (
     dbs_record_terms,
-    dbs_sigma_z_from_terms,
     hws_error_moments,
     wind_to_body_deg,
 )

@@ -240,7 +240,9 @@ def test_dbs_record_model_takes_each_timestamps_shear():
 
 
 def test_describe_motion_agrees_with_the_terms_the_model_uses():
-    from flidar_uq.inference.record_motion import FOLLOWER_COLUMNS, describe_motion, six_dof_terms
+    from oracles import six_dof_terms
+
+    from flidar_uq.inference.record_motion import FOLLOWER_COLUMNS, describe_motion
 
     rec = pd.DataFrame(
         {

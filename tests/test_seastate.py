@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from flidar_uq.physics.seastate import WaveSystem, dominant_period_s, jonswap_spectrum, tilt_series
+from flidar_uq.physics.seastate import WaveSystem, jonswap_spectrum, tilt_series
 
 DT_S = 0.1
 N = 6000  # 600 s
@@ -108,12 +108,6 @@ def test_tilt_series_deterministic_for_a_seed():
     b = tilt_series(N, DT_S, [WaveSystem(2.0, 4.0)], np.random.default_rng(5))
     np.testing.assert_array_equal(a[0], b[0])
     np.testing.assert_array_equal(a[1], b[1])
-
-
-def test_dominant_period_of_pure_sinusoid():
-    t = np.arange(6000) * 0.1
-    x = 3.0 * np.sin(2 * np.pi * t / 3.7 + 0.4)
-    assert dominant_period_s(x, 0.1) == pytest.approx(3.7, rel=5e-3)
 
 
 def test_tilt_series_misuse_raises():

@@ -1,10 +1,10 @@
 """LOS-level motion correction of floating-lidar wind retrievals (Malekmohammadi et al., 2024; Yamaguchi and Ishihara, 2016; Nassif et al., 2020).
 
-Size: the three papers' LOS-level corrections share the frame conversions and beam geometry helpers; one module keeps the three methods comparable (~730 lines, half of it docstrings).
+Size: the LOS-level corrections share the beam geometry helpers; one module keeps the methods comparable (~600 lines, half of it docstrings).
 
 When the line-of-sight (LOS) speeds and the IMU series are available, the motion can be
-removed scan by scan instead of statistically (``correction.py``). Three published
-methods are implemented, all in the project's ENU frame (``docs/conventions.md``):
+removed scan by scan instead of statistically (``correction.py``). Two published
+methods are implemented, both in the project's ENU frame (``docs/conventions.md``):
 
 * Malekmohammadi et al. (2024) (Grimstad hexapod), Eq. (7): least-squares wind vector from the LOS speeds
   with every beam rotated by the platform attitude at its own LOS time and the head
@@ -15,12 +15,9 @@ methods are implemented, all in the project's ENU frame (``docs/conventions.md``
   planes; the *conventional* algorithm freezes attitude and velocity at the reference
   LOS of the DBS cycle, the *new* one uses them at each LOS time.
   :func:`correct_dbs_motion`.
-* Nassif et al. (2020): the frame rotation ``V = Y P R V'`` (Eqs. 1-4),
-  :func:`rotate_to_earth`, and the height correction of tilted scans
-  (Eq. 5, ``z' = z cos(delta)``), :func:`height_correct_profile`.
 
-Frame conversions at the edge: Malekmohammadi et al. (2024) uses x south, y west, z down
-(:func:`rotation_from_swd_frame`, :func:`velocity_from_swd_frame`); Yamaguchi and Ishihara's (2016)
+Frames: Malekmohammadi et al. (2024) uses x south, y west, z down (its attitude and
+velocity are converted to ENU before they enter here); Yamaguchi and Ishihara's (2016)
 Eq. (3) read with its Table 1 beam order gives ``u`` from ``V_W - V_E`` but ``v`` from
 ``V_N - V_S`` (inconsistent signs as printed; here both from speeds positive away); Nassif
 et al. (2020) use ENU with our rotation order (its Eq. 4 has a typo, ``R[0, 1] = 1``, read as 0).
@@ -43,7 +40,7 @@ from flidar_uq.physics.lidar import (
     scan_times_azimuths,
     wind_direction_deg,
 )
-from flidar_uq.physics.motion import rotation_matrix, tilted_scan_heights
+from flidar_uq.physics.motion import rotation_matrix
 
 __all__ = [
     "WindEstimate",
@@ -51,14 +48,7 @@ __all__ = [
     "earth_beam_vectors",
     "correct_least_squares",
     "correct_dbs_motion",
-    "rotation_from_swd_frame",
-    "velocity_from_swd_frame",
-    "rotate_to_earth",
-    "height_correct_profile",
 ]
-
-# Malekmohammadi et al. (2024) frame (x south, y west, z down) -> ENU: columns are the paper's axes in ENU.
-_C_SWD_TO_ENU = np.array([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 
 
 @dataclass(frozen=True)
@@ -381,7 +371,8 @@ def correct_least_squares(
         LOS between successive windows; default ``los_per_window`` (non-overlapping).
     rotation, head_velocity_ms : array_like, optional
         Explicit per-LOS rotation matrices ``(n, 3, 3)`` and head velocities ``(n, 3)``
-        (e.g. from :func:`rotation_from_swd_frame`), used instead of ``motion``.
+        (ENU body-to-earth, e.g. converted from another frame's attitude), used instead of
+        ``motion``.
     ncandidates, niter : int
         CW sign resolution: number of candidate sign patterns and refinement iterations.
     reference_wd_deg : float, optional
@@ -606,134 +597,3 @@ def correct_dbs_motion(
     v = (e1[:, 0, None] * c2 - e2[:, 0, None] * c1) / det[:, None]
     nan = np.full_like(u, np.nan)
     return _wind_estimate(t[ref], u, v, nan, nan)
-
-
-def rotation_from_swd_frame(roll_rad, pitch_rad, yaw_rad) -> np.ndarray:
-    """ENU body-to-earth rotation from IMU angles given in Malekmohammadi et al.'s (2024) frame.
-
-    Malekmohammadi et al. (2024) (Sec. 3, Eq. 6) uses x south, y west, z down, and the passive matrices
-    ``Rx(beta)``, ``Ry(phi)``, ``Rz(psi)`` of its Eq. (6) (earth -> body, composed
-    ``Rx Ry Rz``: yaw first). The active body->earth rotation in that frame is the
-    transpose; it is carried to ENU by ``C R C^T`` with ``C`` the axis map
-    (south -> -y, west -> -x, down -> -z). A pure Malekmohammadi et al. (2024) roll ``beta`` (about south)
-    is therefore an ENU pitch of ``-beta``.
-
-    Parameters
-    ----------
-    roll_rad, pitch_rad, yaw_rad : array_like
-        Malekmohammadi et al. (2024) roll beta (about south), pitch phi (about west), yaw psi (about down),
-        rad, broadcastable to shape ``(...)``.
-
-    Returns
-    -------
-    numpy.ndarray
-        ENU rotation matrices, shape ``(..., 3, 3)``.
-    """
-    b, p, y = np.broadcast_arrays(
-        *(np.asarray(x, dtype=float) for x in (roll_rad, pitch_rad, yaw_rad))
-    )
-    zero = np.zeros_like(b)
-    # Eq. (6) of Malekmohammadi et al. (2024) (passive) equals the active rotation by the opposite angle.
-    rx = rotation_matrix(-b, zero, zero)
-    ry = rotation_matrix(zero, -p, zero)
-    rz = rotation_matrix(zero, zero, -y)
-    r_earth_to_body = rx @ ry @ rz
-    r_body_to_earth = np.swapaxes(r_earth_to_body, -1, -2)
-    return _C_SWD_TO_ENU @ r_body_to_earth @ _C_SWD_TO_ENU.T
-
-
-def velocity_from_swd_frame(velocity_ms) -> np.ndarray:
-    """Translational velocity from Malekmohammadi et al.'s (2024) frame (x south, y west, z down) to ENU.
-
-    Parameters
-    ----------
-    velocity_ms : array_like
-        Velocity (m/s), shape ``(..., 3)`` in Malekmohammadi et al. (2024) axes.
-
-    Returns
-    -------
-    numpy.ndarray
-        ENU velocity (m/s), shape ``(..., 3)``.
-    """
-    v = np.asarray(velocity_ms, dtype=float)
-    if v.shape[-1:] != (3,):
-        raise ValueError(f"velocity_from_swd_frame: last axis must be 3, got shape {v.shape}")
-    return np.einsum("ij,...j->...i", _C_SWD_TO_ENU, v)
-
-
-def rotate_to_earth(wind_body_ms, roll_deg, pitch_deg, yaw_deg=0.0) -> np.ndarray:
-    """Instrument-frame wind to the earth frame, ``V = Y P R V'`` (Eqs. 1-4 of Nassif et al. (2020)).
-
-    Nassif et al.'s (2020) yaw (Eq. 2), pitch (Eq. 3) and roll (Eq. 4, read with ``R[0, 1] = 0``;
-    the printed 1 is a typo) matrices, applied yaw-pitch-roll, are the project's
-    ``rotation_matrix`` (``docs/conventions.md``); Nassif et al. (2020) sets yaw to 0 for its
-    north-moored buoy.
-
-    Parameters
-    ----------
-    wind_body_ms : array_like
-        Wind in the instrument frame (m/s), shape ``(..., 3)``.
-    roll_deg, pitch_deg, yaw_deg : array_like
-        Attitude (deg), broadcastable to ``(...)``.
-
-    Returns
-    -------
-    numpy.ndarray
-        Earth-frame (ENU) wind (m/s), shape ``(..., 3)``.
-    """
-    v = np.asarray(wind_body_ms, dtype=float)
-    if v.shape[-1:] != (3,):
-        raise ValueError(f"rotate_to_earth: wind_body_ms last axis must be 3, got {v.shape}")
-    rot = rotation_matrix(np.radians(roll_deg), np.radians(pitch_deg), np.radians(yaw_deg))
-    return np.einsum("...ij,...j->...i", rot, v)  # Eq. (1) of Nassif et al. (2020): V = Y P R V'
-
-
-def height_correct_profile(hws_ms, height_m, tilt_deg) -> np.ndarray:
-    """Height correction of a tilted VAD profile (Eq. 5 of Nassif et al. (2020)).
-
-    A cone tilted by ``delta`` samples, around the target height ``z``, the centre
-    height ``z' = z cos(delta)`` (Eq. 5 of Nassif et al. (2020)). The retrieved speeds are
-    re-assigned to ``z'`` and the profile is brought back to the target heights by
-    interpolation linear in ``ln(z)`` (exact for a logarithmic profile; the end segments
-    are extrapolated, which the top level always needs).
-
-    Parameters
-    ----------
-    hws_ms : array_like
-        Retrieved HWS at the target heights (m/s), shape ``(..., nheight)``.
-    height_m : array_like
-        Target heights (m), shape ``(nheight,)``, increasing, > 0, ``nheight >= 2``.
-    tilt_deg : array_like
-        Total tilt ``delta`` of each profile (deg, Nassif et al. (2020), Eq. 8,
-        ``motion.total_tilt_deg``), shape ``(...)``; NaN where ``motion.tilted_scan_heights``
-        says the tilted cone is not valid (negative tilt, tilt + half cone >= 90 deg).
-
-    Returns
-    -------
-    numpy.ndarray
-        Height-corrected HWS at ``height_m`` (m/s), shape ``(..., nheight)``.
-    """
-    z = np.asarray(height_m, dtype=float)
-    hws = np.asarray(hws_ms, dtype=float)
-    if z.ndim != 1 or z.size < 2 or np.any(z <= 0) or np.any(np.diff(z) <= 0):
-        raise ValueError(
-            f"height_correct_profile: height_m must be >= 2 increasing positive "
-            f"heights, got {z.tolist()}"
-        )
-    if hws.shape[-1:] != z.shape:
-        raise ValueError(
-            f"height_correct_profile: hws_ms last axis {hws.shape[-1:]} must match "
-            f"height_m ({z.size},)"
-        )
-    z_prime = tilted_scan_heights(z, np.asarray(tilt_deg, dtype=float)[..., None])[0]
-    log_z_true = np.log(z_prime)  # Eq. (5) of Nassif et al. (2020): z' = z cos(delta)
-    log_z = np.broadcast_to(np.log(z), np.broadcast_shapes(log_z_true.shape, hws.shape))
-    log_z_true = np.broadcast_to(log_z_true, log_z.shape)
-    hws = np.broadcast_to(hws, log_z.shape)
-    # z' = z cos(delta) keeps the order of z, so segment k of the target grid is found
-    # by searchsorted on each profile's re-assigned heights.
-    k = np.clip(np.sum(log_z_true[..., None, :] <= log_z[..., :, None], axis=-1) - 1, 0, z.size - 2)
-    x0 = np.take_along_axis(log_z_true, k, -1)
-    x1 = np.take_along_axis(log_z_true, k + 1, -1)
-    y0, y1 = np.take_along_axis(hws, k, -1), np.take_along_axis(hws, k + 1, -1)
-    return y0 + (log_z - x0) * (y1 - y0) / (x1 - x0)

@@ -74,7 +74,6 @@ __all__ = [
     "grid_rate_hz",
     "PERIOD_METHODS",
     "amplitude_std_deg",
-    "amplitude_spectral_deg",
     "amplitude_zero_crossing_deg",
     "period_spectral_s",
     "period_zero_crossing_s",
@@ -91,7 +90,6 @@ __all__ = [
     "follower_translation_columns",
     "tilt_bands_from_records",
     "tilt_spectrum_columns",
-    "tilt_spectrum_statistics",
     "tilt_spectrum_statistics_by_height",
 ]
 
@@ -514,24 +512,6 @@ def _peak_period_s(f: np.ndarray, p: np.ndarray, band: np.ndarray) -> np.ndarray
 def _band_amplitude_deg(f: np.ndarray, p: np.ndarray, band: np.ndarray) -> np.ndarray:
     """``sqrt(2 m0)`` with ``m0`` the in-band variance of each row of ``p``."""
     return np.sqrt(2.0 * (p * band).sum(axis=-1) * (f[1] - f[0]))
-
-
-def amplitude_spectral_deg(
-    angle_deg,
-    fs_hz: float,
-    *,
-    segment_s: float = 200.0,
-    period_min_s: float = 1.0,
-    period_max_s: float = 30.0,
-) -> np.ndarray:
-    """Amplitude as ``sqrt(2 m0)`` with ``m0`` the Welch variance inside the motion band.
-
-    Parameters and returns as :func:`period_spectral_s` (amplitude in deg).
-    """
-    x, squeeze = _as_2d(angle_deg)
-    f, p = motion_spectrum(x, fs_hz, segment_s=segment_s)
-    a = _band_amplitude_deg(f, p, _band(f, period_min_s, period_max_s))
-    return a[0] if squeeze else a
 
 
 def _upcrossings(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -996,8 +976,8 @@ def tilt_band_statistics(
 
     Each sample's (roll, pitch) is turned into the earth-frame tilt vector with the
     sample's yaw and projected on the record's wind axis
-    (:func:`flidar_uq.physics.motion_spectrum.wind_frame_tilt_deg`, in its two halves
-    ``tilt_vector_en`` and ``project_tilt_on_wind_deg``); the Welch PSDs of the
+    (:func:`flidar_uq.physics.motion_spectrum.tilt_vector_en` and
+    :func:`~flidar_uq.physics.motion_spectrum.project_tilt_on_wind_deg`); the Welch PSDs of the
     two components (:func:`motion_spectrum`, gaps linearly filled) are reduced to
     ``n_bands`` log-spaced bands (:func:`flidar_uq.physics.motion_spectrum.tilt_band_spectrum`).
 
@@ -1308,54 +1288,6 @@ def follower_translation_columns(spec: TiltBandSpectrum) -> dict[str, np.ndarray
     }
 
 
-def tilt_spectrum_statistics(
-    imu: pd.DataFrame,
-    wd_deg,
-    *,
-    window_s: float = 600.0,
-    segment_s: float = 200.0,
-    n_bands: int = 8,
-    min_coverage_pct: float = 80.0,
-    fs_hz: float | None = None,
-) -> tuple[pd.DataFrame, TiltBandSpectrum]:
-    """Wind-frame tilt statistics of a raw IMU series, per 10-min window.
-
-    Parameters
-    ----------
-    imu : pandas.DataFrame
-        Validated IMU series: ``timestamp``, ``roll_deg``, ``pitch_deg`` and optionally
-        ``yaw_deg`` (without it the heading is taken as 0, i.e. body y = north).
-    wd_deg : pandas.Series or callable
-        Mean wind direction per window, deg: a Series indexed by the window start
-        (UTC timestamps, e.g. ``records.groupby("timestamp")["wd_mean_deg"].mean()``)
-        or a function of the window-start timestamps returning an array.
-    window_s, segment_s, n_bands, min_coverage_pct
-        Window length (s), Welch segment (s), number of bands, coverage threshold (%).
-    fs_hz : float, optional
-        Nominal sampling rate, Hz (default: from the median interval, as in
-        :func:`motion_statistics`).
-
-    Returns
-    -------
-    table : pandas.DataFrame
-        One row per window with a sample: ``timestamp`` (window start), the columns of
-        :data:`TILT_SPECTRUM_COLUMNS` (NaN for windows below the coverage threshold or
-        without a wind direction) and ``heading_mean_deg`` (:func:`heading_mean_deg`; NaN
-        without a yaw column or below the coverage threshold).
-    spectrum : TiltBandSpectrum
-        The band description of the same rows (NaN rows for the NaN windows).
-    """
-    return _tilt_spectrum_windows(
-        imu,
-        [wd_deg],
-        window_s=window_s,
-        segment_s=segment_s,
-        n_bands=n_bands,
-        min_coverage_pct=min_coverage_pct,
-        fs_hz=fs_hz,
-    )[0]
-
-
 def tilt_spectrum_statistics_by_height(
     imu: pd.DataFrame,
     wd_by_height: Mapping,
@@ -1366,7 +1298,7 @@ def tilt_spectrum_statistics_by_height(
     min_coverage_pct: float = 80.0,
     fs_hz: float | None = None,
 ) -> dict:
-    """:func:`tilt_spectrum_statistics` for several measurement heights at once.
+    """Wind-frame tilt statistics of a raw IMU series, per 10-min window, for each height.
 
     The attitude is gridded, turned into the tilt vector (its trigonometry) and averaged
     into the heading once (not once per height), then projected on each height's wind
@@ -1376,19 +1308,28 @@ def tilt_spectrum_statistics_by_height(
     Parameters
     ----------
     imu : pandas.DataFrame
-        As in :func:`tilt_spectrum_statistics`.
+        Validated IMU series: ``timestamp``, ``roll_deg``, ``pitch_deg`` and optionally
+        ``yaw_deg`` (without it the heading is taken as 0, i.e. body y = north).
     wd_by_height : mapping
-        Height (m) -> mean wind direction per window (deg; a Series indexed by the window
-        start or a function of the window starts, as ``wd_deg`` of
-        :func:`tilt_spectrum_statistics`).
-    window_s, segment_s, n_bands, min_coverage_pct, fs_hz
-        As in :func:`tilt_spectrum_statistics` (s, s, count, %, Hz).
+        Height (m) -> mean wind direction per window, deg: a Series indexed by the window
+        start (UTC timestamps, e.g. ``records.groupby("timestamp")["wd_mean_deg"].mean()``
+        of the height's records) or a function of the window-start timestamps returning an
+        array.
+    window_s, segment_s, n_bands, min_coverage_pct
+        Window length (s), Welch segment (s), number of bands, coverage threshold (%).
+    fs_hz : float, optional
+        Nominal sampling rate, Hz (default: from the median interval, as in
+        :func:`motion_statistics`).
 
     Returns
     -------
     dict
-        Height -> ``(table, spectrum)`` of :func:`tilt_spectrum_statistics`, in the
-        mapping's order.
+        Height -> ``(table, spectrum)``, in the mapping's order. ``table``: one row per
+        window with a sample: ``timestamp`` (window start), the columns of
+        :data:`TILT_SPECTRUM_COLUMNS` (NaN for windows below the coverage threshold or
+        without a wind direction) and ``heading_mean_deg`` (:func:`heading_mean_deg`; NaN
+        without a yaw column or below the coverage threshold). ``spectrum``: the
+        :class:`TiltBandSpectrum` of the same rows (NaN rows for the NaN windows).
     """
     heights = list(wd_by_height)
     if not heights:
@@ -1409,7 +1350,7 @@ def _tilt_spectrum_windows(
     imu, wd_sources, *, window_s, segment_s, n_bands, min_coverage_pct, fs_hz
 ) -> list[tuple[pd.DataFrame, TiltBandSpectrum]]:
     """The windows' grid, coverage, tilt vector and heading once; one ``(table, spectrum)``
-    of :func:`tilt_spectrum_statistics` per source of wind directions."""
+    of :func:`tilt_spectrum_statistics_by_height` per source of wind directions."""
     import pandas as pd
 
     t_ns = pd.DatetimeIndex(imu["timestamp"]).as_unit("ns").asi8

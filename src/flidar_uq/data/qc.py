@@ -51,8 +51,6 @@ __all__ = [
     "rolling_mad_outliers",
     "std_pattern_outliers",
     "STD_PATTERN_MIN_RECORDS",
-    "los_availability_pct",
-    "apply_filters",
     "summarise",
     "speed_bin_summary",
 ]
@@ -567,69 +565,8 @@ def run_los_qc(los: pd.DataFrame, config: QCConfig | None = None) -> QCResult:
     return _assemble(los, {"cnr_low": (config.cnr, True, fail)}, config)
 
 
-def los_availability_pct(
-    los: pd.DataFrame, kept: np.ndarray, period: str = "10min"
-) -> pd.DataFrame:
-    """Share of LOS measurements that passed QC per record period and height.
-
-    Parameters
-    ----------
-    los : pandas.DataFrame
-        LOS table with ``timestamp`` and ``height_m``.
-    kept : numpy.ndarray of bool, shape (n,)
-        Passed-QC mask, e.g. ``run_los_qc(los).flags["kept"].to_numpy()``.
-    period : str
-        Record length as a pandas frequency (``"10min"``).
-
-    Returns
-    -------
-    pandas.DataFrame
-        ``timestamp`` (period start, UTC), ``height_m``, ``n_los``, ``n_valid``,
-        ``availability_pct`` (%).
-    """
-    kept = np.asarray(kept, dtype=bool)
-    if kept.shape != (len(los),):
-        raise ValueError(f"los_availability_pct: kept has shape {kept.shape}, need ({len(los)},)")
-    df = pd.DataFrame(
-        {
-            "timestamp": los["timestamp"].dt.floor(period),
-            "height_m": los["height_m"].to_numpy(),
-            "valid": kept,
-        }
-    )
-    g = df.groupby(["timestamp", "height_m"], sort=True)["valid"]
-    out = pd.DataFrame({"n_los": g.size(), "n_valid": g.sum()}).reset_index()
-    out["availability_pct"] = 100.0 * out["n_valid"] / out["n_los"]
-    return out
-
-
-def apply_filters(records: pd.DataFrame, **params) -> pd.DataFrame:
-    """Records with their QC verdicts in one table (convenience for the workflow).
-
-    Parameters
-    ----------
-    records : pandas.DataFrame
-        Validated record table.
-    **params
-        :class:`QCConfig` fields (e.g. the config's ``qc`` section).
-
-    Returns
-    -------
-    pandas.DataFrame
-        A copy of ``records`` with the ``fail_<reason>`` columns, ``flags``
-        (semicolon-separated reasons, "" if kept) and ``kept``.
-    """
-    result = run_qc(records, QCConfig(**params))
-    out = records.copy()
-    fail = [c for c in result.flags.columns if c.startswith("fail_")]
-    out[fail] = result.flags[fail]
-    out["flags"] = result.flags["reasons"].astype(str)
-    out["kept"] = result.flags["kept"]
-    return out
-
-
 def summarise(flags: pd.DataFrame) -> pd.DataFrame:
-    """Per-reason counts of a flags table (from :func:`apply_filters` or ``QCResult.flags``).
+    """Per-reason counts of a flags table (``QCResult.flags``).
 
     Returns
     -------

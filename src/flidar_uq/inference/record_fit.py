@@ -26,7 +26,7 @@ phasors). The model (docs/inference.md):
   ``dmu/drho = r_i sZ_i / mu_i`` (a DBS lidar's record adds the known part of that scatter
   from where its output puts the motion error against the turbulence's spectrum to
   ``(s_rho (1 - rho^2))^2``,
-  :func:`~flidar_uq.physics.dbs_sigma_z.output_correlation_sampling_var`); ``p_i`` the known relative scatter of a reference lidar's std
+  :func:`~flidar_uq.physics.dbs_sigma_z.output_correlation_line_weights`); ``p_i`` the known relative scatter of a reference lidar's std
   against the floating lidar's motionless std (``pair_log_sd``; for a cup or sonic the
   floating lidar's own sampling scatter against the point wind):
   it is a scatter of the turbulent part ``r_i`` only, so it enters through
@@ -744,7 +744,7 @@ def fit_record_model_selecting_hull(
     Two nested descriptions of the buoy (docs/inference.md, "The hull"):
 
     * ``"rotation_only"``: the buoy rotates about a fixed centre (the hull-translation
-      terms of :func:`~flidar_uq.inference.record_motion.six_dof_terms` are 0, so the
+      terms of :func:`~flidar_uq.inference.record_motion._translation_terms` are 0, so the
       hull response ``h`` keeps its prior and has no effect);
     * ``"translating"``: surge, sway and heave from the record's tilt spectrum through the
       fitted hull response ``h`` (0 rotation only, 1 the reference hull) times a reference

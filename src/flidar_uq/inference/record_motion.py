@@ -59,7 +59,6 @@ __all__ = [
     "motion_gram",
     "per_record_motion",
     "reference_translation_ratio",
-    "six_dof_terms",
 ]
 
 #: Record-table columns of the along-wind description (tilt std along the wind, deg; its
@@ -291,8 +290,8 @@ def per_record_motion(
 
 def _motion_and_bands(records: pd.DataFrame, surrogate, scan_period_s: float, nodes=None):
     """:func:`per_record_motion` and the wave follower's band terms it used
-    (:func:`_band_terms`, ``nodes`` per band), for :func:`six_dof_terms` not to compute
-    them again."""
+    (:func:`_band_terms`, ``nodes`` per band), for :func:`_translation_terms` not to
+    compute them again."""
     amp, per, along, rp = _tilt_description(records)
     hws = _col(records, "hws_mean_ms")
     ok = np.isfinite(amp) & np.isfinite(per) & np.isfinite(hws)
@@ -473,14 +472,7 @@ def reference_translation_ratio(
     return q_z, q_x
 
 
-def six_dof_terms(
-    records: pd.DataFrame,
-    motion: pd.DataFrame,
-    *,
-    surrogate=None,
-    scan_period_s: float = 1.0,
-    hull="wave_follower",
-) -> pd.DataFrame:
+def _translation_terms(records, motion, surrogate, scan_period_s, hull, band_terms, nodes=None):
     """Per-record terms of the hull's translation in sigma_Z.
 
     Where the record's tilt bands are given (``tilt_band{b}_*``), the terms of the
@@ -509,13 +501,18 @@ def six_dof_terms(
         Records with the along-wind and :data:`FOLLOWER_COLUMNS` columns.
     motion : pandas.DataFrame
         :func:`per_record_motion` of the same records.
-    surrogate, scan_period_s
+    surrogate
+        The sigma_Z surrogate (:func:`default_surrogate`).
+    scan_period_s
         As :func:`per_record_motion`.
     hull : str or HullResponse
         The reference hull whose translation the hull response ``h`` scales
-        (:data:`flidar_uq.physics.hull.HULLS`; default the wave follower). With tilt bands
-        each band takes the hull's response at its period, with moments the response at
+        (:data:`flidar_uq.physics.hull.HULLS`). With tilt bands each band takes the hull's response at its period, with moments the response at
         the heave's mean period; a measured translation sets its size.
+    band_terms
+        :func:`_band_terms` of the same records.
+    nodes : int, optional
+        Harmonics per tilt band (as :func:`_band_terms`).
 
     Returns
     -------
@@ -524,14 +521,6 @@ def six_dof_terms(
         m of lever arm), ``orbital_sq`` ((m/s)^2); 0 where the follower columns are absent
         (the rotation-only model); ``translation_measured`` (1 or 0, -).
     """
-    surrogate = default_surrogate(surrogate)
-    band_terms = _band_terms(records, surrogate, scan_period_s)
-    return _translation_terms(records, motion, surrogate, scan_period_s, hull, band_terms)
-
-
-def _translation_terms(records, motion, surrogate, scan_period_s, hull, band_terms, nodes=None):
-    """:func:`six_dof_terms` with the wave follower's band terms given
-    (:func:`_band_terms` of the same records, ``nodes`` per band)."""
     sig_h, per_h, sig_u, rho_h = (_col(records, c) for c in FOLLOWER_COLUMNS)
     follower = _follower_complete(records)
     std_a = _col(records, ALONG_WIND_COLUMNS[0])
@@ -727,10 +716,10 @@ def gram_from_cw_terms(
     """The Gram entries (:data:`GRAM_COLUMNS`, shape (10, n)) of a CW VAD lidar's terms.
 
     ``sZ^2 = k^2 sZ_rot^2 - 2 k^2 h X + k^2 h^2 H + L^2 u^2 - 2 L h Y + h^2 O``
-    (:func:`six_dof_terms`) is ``v^T G v`` with ``G_kk = sZ_rot^2`` (m/s)^2,
+    (:func:`_translation_terms`) is ``v^T G v`` with ``G_kk = sZ_rot^2`` (m/s)^2,
     ``G_k,kh = -X``, ``G_kh,kh = H``, ``G_ll = u^2`` ((m/s)^2 per m^2), ``G_l,h = -Y``
     ((m/s)^2 per m), ``G_hh = O`` ((m/s)^2), the others 0. Arguments as
-    :func:`per_record_motion` and :func:`six_dof_terms` return them (scalars broadcast).
+    :func:`per_record_motion` and :func:`_translation_terms` return them (scalars broadcast).
     """
     sz = np.asarray(sigma_z_rot_ms, float)
     u2, x, h_, y, o = np.broadcast_arrays(
@@ -933,7 +922,7 @@ def motion_gram(
     about a fixed centre, 1 follows the waves) and a lever arm ``L`` (m)
     (:func:`gram_sigma_z_ms`).
 
-    * A CW VAD lidar (the ZephIR 300): :func:`per_record_motion` and :func:`six_dof_terms`
+    * A CW VAD lidar (the ZephIR 300): :func:`per_record_motion` and :func:`_translation_terms`
       (Gutiérrez-Antuñano et al. 2018 and the six-degree-of-freedom terms) through
       :func:`gram_from_cw_terms`: the same sigma_Z as those terms. A conical scan is
       azimuth symmetric: the heading does not enter.
@@ -973,7 +962,7 @@ def motion_gram(
     translation : bool
         False: the hull's translation left out (the ``"rotation_only"`` hull model).
     hull : str or HullResponse
-        A CW lidar's reference hull, whose translation ``h`` scales (:func:`six_dof_terms`);
+        A CW lidar's reference hull, whose translation ``h`` scales (:func:`_translation_terms`);
         a DBS lidar's is the wave follower.
     band_nodes : int
         Harmonics each tilt band is evaluated as, spread over the band

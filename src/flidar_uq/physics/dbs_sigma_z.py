@@ -77,20 +77,16 @@ __all__ = [
     "direction_moments",
     "rotate_moments",
     "dbs_harmonic_sigma_z_ms",
-    "dbs_heading_average_sigma_z_ms",
-    "dbs_record_sigma_z_ms",
     "dbs_record_terms",
     "dbs_tilt_lever_terms",
     "band_moments_to_wind",
     "dbs_band_terms",
-    "dbs_sigma_z_from_terms",
     "TERM_BASIS",
     "GRAM_PARTS",
     "hws_error_moments",
     "dbs_replay_sigma_z_ms",
     "cycle_sampling_rel_var",
     "output_correlation_line_weights",
-    "output_correlation_sampling_var",
     "window_line_frequencies_hz",
     "wind_to_body_deg",
 ]
@@ -396,124 +392,6 @@ def rotate_moments(mom, deg):
     return np.stack([nc_, ns_, ncc, nsc, nss], -1)
 
 
-def dbs_heading_average_sigma_z_ms(
-    amplitude_deg,
-    period_s,
-    direction_to_wind_deg=None,
-    *,
-    hws_ms,
-    moments_to_wind=None,
-    n_headings: int = 24,
-    **kwargs,
-):
-    """sigma_Z of a DBS lidar whose heading (the wind direction relative to the beams) is unknown.
-
-    The sea is given relative to the wind: each component's direction of travel minus the
-    wind's (``direction_to_wind_deg``, deg) or each band's direction moments in that frame
-    (``moments_to_wind``, :func:`direction_moments`). The wind's direction in the body frame
-    is taken uniform over ``n_headings`` values (the sea turning with it). Other keywords:
-    :func:`dbs_harmonic_sigma_z_ms`.
-
-    Returns
-    -------
-    rms, spread : ndarray, shape (...)
-        The root-mean-square sigma_Z over the headings and the std of sigma_Z over them
-        (the uncertainty an unknown heading leaves), m/s.
-    """
-    beta = _heading_grid(n_headings)
-    hws = np.asarray(hws_ms, float)
-    if moments_to_wind is None:
-        mom = direction_moments(np.asarray(direction_to_wind_deg, float))
-    else:
-        mom = np.asarray(moments_to_wind, float)
-    s = np.stack(
-        [
-            dbs_harmonic_sigma_z_ms(
-                amplitude_deg,
-                period_s,
-                hws_ms=hws,
-                wind_body_deg=b,
-                direction_moments_=rotate_moments(mom, b),
-                **kwargs,
-            )
-            for b in beta
-        ],
-        axis=-1,
-    )
-    return np.sqrt(np.mean(s**2, axis=-1)), np.std(s, axis=-1)
-
-
-def dbs_record_sigma_z_ms(
-    hws_ms,
-    roll_amplitude_deg,
-    pitch_amplitude_deg,
-    period_s,
-    *,
-    heading_deg=None,
-    wd_deg=None,
-    lever_arm_m: float = 0.0,
-    hull="wave_follower",
-    lidar: str | LidarGeometry | Mapping = "windcube_v2",
-    roll_period_s=None,
-    n_headings: int = 24,
-    dwell_average: bool = True,
-):
-    """sigma_Z (m/s) of a DBS lidar per record from the record table's motion columns.
-
-    Each record's motion is taken as a roll harmonic (about the body x axis: the hull
-    leans along the body y axis) and a pitch harmonic (leans along the body x axis),
-    independent, with their amplitudes (``sqrt(2)`` x std, deg) and periods; the hull's
-    translation follows from the tilt through its response (:mod:`flidar_uq.physics.hull`).
-    With the heading (``heading_deg``, yaw: body x axis, deg counter-clockwise from east,
-    docs/conventions.md) and the wind direction ``wd_deg`` the wind's direction relative to
-    the beams is known; without either it is averaged over ``n_headings``
-    (:func:`dbs_heading_average_sigma_z_ms`), and ``spread`` says how much it can differ.
-
-    Parameters
-    ----------
-    hws_ms, roll_amplitude_deg, pitch_amplitude_deg, period_s : array_like, shape (n,)
-        HWS (m/s), amplitudes (deg) and the pitch period (s; also the roll's unless
-        ``roll_period_s`` is given).
-    heading_deg, wd_deg : array_like, shape (n,), optional
-    lever_arm_m, hull, lidar, dwell_average
-        As :func:`dbs_harmonic_sigma_z_ms` (here the dwell average is on by default: a
-        pulsed lidar accumulates over the beam, as the virtual campaign does).
-
-    Returns
-    -------
-    sigma_z, spread : ndarray, shape (n,)
-        sigma_Z (m/s; rms over headings when unknown) and its std over headings (0 when the
-        heading is known).
-    """
-    hws = np.asarray(hws_ms, float)
-    p_pitch = np.asarray(period_s, float)
-    p_roll = p_pitch if roll_period_s is None else np.asarray(roll_period_s, float)
-    amp = np.stack(np.broadcast_arrays(roll_amplitude_deg, pitch_amplitude_deg), -1)
-    per = np.stack(np.broadcast_arrays(p_roll, p_pitch), -1)
-    kw = dict(lever_arm_m=lever_arm_m, hull=hull, lidar=lidar, dwell_average=dwell_average)
-    # roll leans the hull along +y, pitch along +x: the side the waves run on is not in a
-    # record's amplitudes (for a hull that heaves it sets the heave-tilt cross term's sign)
-    body_dir = np.array([90.0, 0.0])
-    amp, per = np.broadcast_arrays(amp, per)
-    if heading_deg is not None and wd_deg is not None:
-        beta = wind_to_body_deg(wd_deg, heading_deg)
-        s = dbs_harmonic_sigma_z_ms(
-            amp, per, np.broadcast_to(body_dir, amp.shape), hws_ms=hws, wind_body_deg=beta, **kw
-        )
-        return s, np.zeros_like(s)
-    beta = _heading_grid(n_headings)
-    s = np.stack(
-        [
-            dbs_harmonic_sigma_z_ms(
-                amp, per, np.broadcast_to(body_dir, amp.shape), hws_ms=hws, wind_body_deg=b, **kw
-            )
-            for b in beta
-        ],
-        axis=-1,
-    )
-    return np.sqrt(np.mean(s**2, axis=-1)), np.std(s, axis=-1)
-
-
 def dbs_replay_sigma_z_ms(
     time_s,
     roll_deg,
@@ -772,7 +650,7 @@ def window_line_frequencies_hz(frequency_hz, lidar: str | LidarGeometry | Mappin
 
 
 #: Sub-points of a line's width over which the turbulence's spectrum is averaged
-#: (:func:`output_correlation_sampling_var`).
+#: (:func:`output_correlation_line_weights`).
 _LINE_SUBPOINTS = 16
 
 
@@ -800,60 +678,6 @@ def _kaimal_record_moments(record_over_tau):
     return np.interp(x, log_x, var), np.interp(x, log_x, sq) / np.exp(x)
 
 
-def output_correlation_sampling_var(
-    line_hz, power, width_hz, *, hws_ms, length_scale_m, record_s=RECORD_S
-):
-    """Variance (-) of a record's realised correlation of the motion error with the
-    turbulence about its expectation, from where the lidar's output puts the error's power.
-
-    The sample correlation over ``T`` of two processes with correlation functions
-    ``rho_Z`` and ``rho_u`` and no correlation between them scatters with
-    ``Var r = (1 / T) int rho_Z(tau) rho_u(tau) dtau`` (Bartlett 1946; Box & Jenkins 1976,
-    Eq. 11.1.7), that is ``(1 / (2 T)) int S_Z(f) S_u(f) df`` with the one-sided spectra
-    normalised to the variance within a record (the record's mean removed: a factor
-    ``1 - sinc^2(f T)`` on each; 0.90 of the Kaimal variance at 10 m/s and 100 m reaches a
-    10-min std), times ``1 + CV^2``: the sample correlation divides by the record's own
-    variance, which scatters with a relative variance ``CV^2 = (1 / T) int S_u^2 df`` for a
-    Gaussian process (``E[1 / s^2] ~ (1 + CV^2) / E[s^2]``; 0.05 at 10 m/s). A motion error
-    at the wave's frequency meets little turbulence (``Var r`` 1.1e-4 for a line at 3 s and
-    10 m/s), but a DBS lidar's output moves it to the lines of
-    :func:`window_line_frequencies_hz`, down to the turbulence's energetic scales where a
-    wave period is near a multiple of the output interval (0.02, an sd of 0.14, for a line
-    at 0.011 Hz). ``S_u`` is the Kaimal spectrum of the along-wind component (IEC 61400-1
-    Ed. 3, Eq. B.1, :func:`flidar_uq.physics.turbulence.kaimal_psd`), averaged over each
-    line's width. Against Monte Carlo it gives 0.94-0.97 of the realised variance
-    (``tests/test_dbs_sigma_z.py``). It is the power-weighted mean of
-    :func:`output_correlation_line_weights`.
-
-    Parameters
-    ----------
-    line_hz : array_like, shape (S, ..., nc)
-        Each component's lines (Hz, :func:`window_line_frequencies_hz`).
-    power : array_like, shape (S, ..., nc)
-        Each line's share of ``Var Z`` (any unit, >= 0; NaN counts as 0).
-    width_hz : array_like, shape (nc,) or broadcastable
-        Each component's frequency width (Hz, > 0), each line's too.
-    hws_ms, length_scale_m : array_like, shape (...)
-        Mean wind speed (m/s) and the Kaimal length scale of ``u`` (m).
-    record_s : float
-        Record length, s.
-
-    Returns
-    -------
-    numpy.ndarray, shape (...)
-        ``Var r`` (-), 0 where the powers add up to 0.
-    """
-    pw = np.asarray(power, float)
-    pw = np.where(np.isfinite(pw) & np.isfinite(line_hz), np.maximum(pw, 0.0), 0.0)
-    weight = output_correlation_line_weights(
-        line_hz, width_hz, hws_ms=hws_ms, length_scale_m=length_scale_m, record_s=record_s
-    )
-    total = np.sum(pw, axis=(0, -1))
-    num = np.sum(pw * np.where(pw > 0, weight, 0.0), axis=(0, -1))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(total > 0, num / total, 0.0)
-
-
 def output_correlation_line_weights(
     line_hz, width_hz, *, hws_ms, length_scale_m, record_s=RECORD_S
 ):
@@ -861,9 +685,14 @@ def output_correlation_line_weights(
 
     The variance one line alone gives a record's realised correlation of the motion error
     with the turbulence: ``S_u(f) (1 + CV^2) / (2 T sigma_u^2)``, the Kaimal
-    spectrum within the record averaged over the line's width, normalised as in
-    :func:`output_correlation_sampling_var` (these weights' mean over the lines' powers).
-    Each line's share of ``Var Z`` weighted by it gives a quadratic form in the motion's
+    spectrum within the record averaged over the line's width. The sample correlation over
+    ``T`` of two uncorrelated processes scatters with ``Var r = (1 / (2 T)) int S_Z(f) S_u(f)
+    df`` (Bartlett 1946; Box & Jenkins 1976, Eq. 11.1.7), the one-sided spectra normalised to
+    the variance within a record (the record's mean removed: a factor ``1 - sinc^2(f T)``
+    on each), times ``1 + CV^2`` with ``CV^2 = (1 / T) int S_u^2 df`` the relative variance
+    of the record's own variance for a Gaussian process; these weights' mean over the
+    lines' powers is that ``Var r`` (against Monte Carlo 0.94-0.97 of the realised variance,
+    ``tests/test_dbs_sigma_z.py``). Each line's share of ``Var Z`` weighted by it gives a quadratic form in the motion's
     parameters whose ratio to ``Var Z`` is the correlation's variance.
 
     Parameters
@@ -920,9 +749,11 @@ def dbs_record_terms(
     shear_exponent=None,
 ) -> np.ndarray:
     """Per-record Gram matrix of a DBS lidar's error phasors: sigma_Z for any lever arm,
-    hull response and motion scale by a 4 x 4 quadratic form (:func:`dbs_sigma_z_from_terms`).
+    hull response and motion scale by a 4 x 4 quadratic form.
 
-    Each record's motion is the roll and pitch harmonics of :func:`dbs_record_sigma_z_ms`.
+    Each record's motion is a roll harmonic (about the body x axis: the hull leans along the
+    body y axis) and a pitch harmonic (leans along the body x axis), independent, with their
+    amplitudes (``sqrt(2)`` x std, deg) and periods.
     The phasor of the along-wind error is linear in ``(k, k h, L, h)`` (:data:`TERM_BASIS`),
     so ``sigma_Z^2 = v^T G v`` with ``G_ij = sum_components Re(a_i conj(a_j)) / 2`` (averaged
     over ``n_headings`` headings when ``wind_body_deg`` is None). The cross-wind
@@ -938,8 +769,10 @@ def dbs_record_terms(
     wind_body_deg : array_like, shape (n,), optional
         The wind's direction relative to the body (:func:`wind_to_body_deg` of the record's
         wind direction and heading); None: unknown, averaged.
-    roll_period_s, lidar, dwell_average
-        As :func:`dbs_record_sigma_z_ms`.
+    roll_period_s : array_like, shape (n,), optional
+        The roll's period, s (default: ``period_s``, the pitch's).
+    lidar, dwell_average
+        As :func:`dbs_harmonic_sigma_z_ms`.
     cross_wind : bool
         Also the cross-wind error's Gram matrix and the covariance's (:data:`GRAM_PARTS`).
     shear_exponent : array_like, shape (n,), optional
@@ -1203,16 +1036,3 @@ def dbs_band_terms(
         for b in betas
     )
     return gram / len(betas)
-
-
-def dbs_sigma_z_from_terms(gram, *, lever_arm_m, hull_response, motion_scale=1.0):
-    """sigma_Z (m/s) from :func:`dbs_record_terms` for a lever arm ``L`` (m), a hull response
-    ``h`` (-) and a motion scale ``k`` (-), broadcasting over draws given as arrays of shape
-    (n_draws, 1): ``sqrt(v^T G v)``, ``v = (k, k h, L, h)``."""
-    g = np.asarray(gram, float)
-    k = np.asarray(motion_scale, float)
-    h = np.asarray(hull_response, float)
-    lev = np.asarray(lever_arm_m, float)
-    v = np.broadcast_arrays(k, k * h, lev, h)
-    var = sum(v[i] * v[j] * g[..., i, j] for i in range(4) for j in range(4))
-    return np.sqrt(np.maximum(var, 0.0))

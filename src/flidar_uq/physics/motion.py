@@ -21,8 +21,6 @@ __all__ = [
     "PlatformMotion",
     "SampledMotion",
     "harmonic_motion",
-    "total_tilt_deg",
-    "tilted_scan_heights",
 ]
 
 
@@ -438,53 +436,3 @@ class SampledMotion(_MotionMethods):
     def _translation(self, t_s):
         t = np.asarray(t_s, float)
         return np.stack([self._interp(t, n) for n in ("surge_m", "sway_m", "heave_m")], -1)
-
-
-def total_tilt_deg(roll_deg, pitch_deg) -> np.ndarray:
-    """Total tilt of the body z axis, ``delta = acos(cos(pitch) cos(roll))`` (Nassif et al., 2020, Eq. 8).
-
-    Exact for ``R = Rz Ry Rx``: the earth z component of the body z axis is
-    ``cos(pitch) cos(roll)``.
-
-    Parameters
-    ----------
-    roll_deg, pitch_deg : array_like
-        Angles, deg.
-
-    Returns
-    -------
-    ndarray
-        Tilt, deg in [0, 180].
-    """
-    c = np.cos(np.deg2rad(pitch_deg)) * np.cos(np.deg2rad(roll_deg))
-    return np.rad2deg(np.arccos(np.clip(c, -1.0, 1.0)))  # Eq. (8) of Nassif et al. (2020)
-
-
-def tilted_scan_heights(height_m, tilt_deg, half_cone_angle_deg: float = 30.0):
-    """Heights of a tilted VAD cone (Nassif et al., 2020, Eqs. 5-7, Table 3).
-
-    Parameters
-    ----------
-    height_m : array_like
-        Target height ``z`` (cone centre height when level), m.
-    tilt_deg : array_like
-        Total tilt ``delta``, deg.
-    half_cone_angle_deg : float
-        Half-cone angle, deg (30 in Nassif et al. (2020)).
-
-    Returns
-    -------
-    z_prime_m, z_min_m, z_max_m, dz_m : ndarray
-        Height of the cone centre, lowest and highest scanned heights and their
-        difference, m. NaN where the lowest beam is not above the lidar
-        (``tilt + half cone >= 90 deg``) or the tilt is negative.
-    """
-    z = np.asarray(height_m, float)
-    d = np.deg2rad(np.asarray(tilt_deg, float))
-    th = np.deg2rad(half_cone_angle_deg)
-    valid = (d >= 0) & (d + th < np.pi / 2)
-    z_prime = z * np.cos(d)  # Eq. (5) of Nassif et al. (2020)
-    z_max = z * np.cos(th - d) / np.cos(th)  # Eq. (6) of Nassif et al. (2020)
-    z_min = z * np.cos(th + d) / np.cos(th)  # Eq. (7) of Nassif et al. (2020)
-    out = [np.where(valid, a, np.nan) for a in (z_prime, z_min, z_max, z_max - z_min)]
-    return tuple(out)

@@ -1,12 +1,12 @@
 """Per-record sigma_Z from the buoy's tilt spectrum (broadband, directional seas).
 
-Size: the band reduction, the band/moments sigma_Z, two-period detection and attitude replay are one method (docs/motion_spectrum.md) and test against each other (~650 lines, half of it docstrings).
+Size: the band reduction, the band/moments sigma_Z and attitude replay are one method (docs/motion_spectrum.md) and test against each other (~650 lines, half of it docstrings).
 
 Gutiérrez-Antuñano et al.'s (2018) sigma_Z assumes harmonic roll and pitch of one amplitude and period. A real
 record is broadband and directional; this module computes its sigma_Z from the tilt
 spectrum resolved along and across the wind (docs/motion_spectrum.md):
 
-1. **Wind-frame tilt** (:func:`wind_frame_tilt_deg`). The body z axis in the earth frame
+1. **Wind-frame tilt** (:func:`tilt_vector_en`, :func:`project_tilt_on_wind_deg`). The body z axis in the earth frame
    is ``R @ (0, 0, 1)`` with ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (docs/conventions.md); its
    horizontal part is the *tilt vector* (east, north), small-angle ``Rz(yaw) (pitch, -roll)``:
    pitch tilts the head towards the body x axis, roll towards -y. "Along the wind" is the
@@ -33,10 +33,8 @@ spectrum resolved along and across the wind (docs/motion_spectrum.md):
    The quadrature sum itself is exact to first order in the tilt (0.08 % at
    2 deg, 1.8 % at 10 deg against the direct multi-phase integral).
 4. **Moments-only fallback** (:func:`moments_sigma_z_ms`): one harmonic of amplitude
-   ``sqrt(2) * std_along`` at the zero-crossing period ``Tz = sqrt(m0/m2)``;
-   :func:`record_sigma_z_ms` picks, per record, bands > moments > seed harmonic.
-5. **Two periods** (:func:`two_period_from_bands`): two separated band groups.
-6. **Attitude replay** (:func:`replay_sigma_z`): the measured attitude series replayed
+   ``sqrt(2) * std_along`` at the zero-crossing period ``Tz = sqrt(m0/m2)``.
+5. **Attitude replay** (:func:`replay_sigma_z`): the measured attitude series replayed
    through the scan simulator with a constant wind (the realised sigma_Z of a record).
 
 Method notes and measured numbers: ``docs/motion_spectrum.md``. Imports only NumPy and
@@ -63,7 +61,6 @@ from flidar_uq.physics.simulator import simulate_scans
 __all__ = [
     "TiltBandSpectrum",
     "ReplayResult",
-    "wind_frame_tilt_deg",
     "tilt_vector_en",
     "project_tilt_on_wind_deg",
     "band_edges_s",
@@ -73,9 +70,6 @@ __all__ = [
     "spectral_sigma_z_ms",
     "moments_sigma_z_ms",
     "harmonic_sigma_z_ms",
-    "record_sigma_z_ms",
-    "RECORD_METHODS",
-    "two_period_from_bands",
     "replay_sigma_z",
 ]
 
@@ -83,47 +77,20 @@ __all__ = [
 PERIOD_RANGE_S = (1.0, 20.0)
 
 
-def wind_frame_tilt_deg(roll_deg, pitch_deg, yaw_deg=0.0, wd_deg=0.0):
-    """Tilt components along and across the wind, per sample.
-
-    The tilt vector is the horizontal part of the body z axis in the earth frame,
-    ``R @ (0, 0, 1)`` with ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (docs/conventions.md):
-    ``(cy sp cr + sy sr, sy sp cr - cy sr)`` (east, north), small-angle
-    ``Rz(yaw) (pitch, -roll)``. It is projected on the wind axis
-    ``e_w = (sin wd, cos wd)`` (along) and on ``(cos wd, -sin wd)`` (across).
-
-    Parameters
-    ----------
-    roll_deg, pitch_deg : array_like
-        Roll about body x and pitch about body y, deg.
-    yaw_deg : array_like
-        Yaw about body z, deg, counter-clockwise from above (body y = north at 0).
-        For a compass heading ``hdg`` (clockwise from north) pass ``-hdg``.
-    wd_deg : array_like
-        Meteorological wind direction (from, clockwise from north), deg; broadcast
-        with the angles (e.g. shape ``(nrec, 1)`` against series ``(nrec, n)``).
-
-    Returns
-    -------
-    along_deg, across_deg : ndarray
-        Broadcast shape; ``arcsin`` of the components, deg. A pure pitch tilt with
-        yaw 0 is along the wind for ``wd = 90`` or ``270`` deg (wind along east-west).
-    """
-    return project_tilt_on_wind_deg(*tilt_vector_en(roll_deg, pitch_deg, yaw_deg), wd_deg)
-
-
 def tilt_vector_en(roll_deg, pitch_deg, yaw_deg=0.0):
     """Horizontal part (east, north) of the body z axis in the earth frame, per sample.
 
     ``R @ (0, 0, 1)`` with ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (docs/conventions.md):
     ``(cy sp cr + sy sr, sy sp cr - cy sr)``, dimensionless (sines of the tilt). The first
-    half of :func:`wind_frame_tilt_deg`, apart so that one attitude series can be projected
+    half of the wind-frame tilt (:func:`project_tilt_on_wind_deg` the second), apart so that one attitude series can be projected
     on several wind directions (one per height) with its trigonometry done once.
 
     Parameters
     ----------
     roll_deg, pitch_deg, yaw_deg : array_like
-        Attitude, deg (conventions of :func:`wind_frame_tilt_deg`); broadcast.
+        Roll about body x, pitch about body y, yaw about body z counter-clockwise from
+        above (body y = north at 0; for a compass heading ``hdg`` pass ``-hdg``), deg;
+        broadcast.
 
     Returns
     -------
@@ -140,8 +107,8 @@ def project_tilt_on_wind_deg(east, north, wd_deg):
     """Tilt along and across the wind from the tilt vector of :func:`tilt_vector_en`.
 
     ``along = arcsin(east sin wd + north cos wd)``,
-    ``across = arcsin(east cos wd - north sin wd)`` (deg; wind axis of
-    :func:`wind_frame_tilt_deg`); ``wd_deg`` (meteorological, deg) broadcast with the
+    ``across = arcsin(east cos wd - north sin wd)`` (deg; the wind axis
+    ``e_w = (sin wd, cos wd)``); ``wd_deg`` (meteorological, deg) broadcast with the
     tilt vector.
     """
     wd = np.deg2rad(np.asarray(wd_deg, float))
@@ -649,168 +616,6 @@ def moments_sigma_z_ms(
         lidar=lidar,
         surrogate=surrogate,
     )
-
-
-#: Methods of :func:`record_sigma_z_ms`, best first.
-RECORD_METHODS = ("bands", "moments", "harmonic", "none")
-
-
-def record_sigma_z_ms(
-    hws_ms,
-    *,
-    spectrum: TiltBandSpectrum | None = None,
-    tilt_along_wind_std_deg=None,
-    tilt_period_zero_crossing_s=None,
-    amplitude_deg=None,
-    period_s=None,
-    lever_arm_m=0.0,
-    lidar: str | LidarGeometry = "zephir300",
-    surrogate=None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """sigma_Z per record with the best motion description each record has.
-
-    Per record, in this order: the band sum (:func:`spectral_sigma_z_ms`) where ``spectrum``
-    has finite bands; else the moments-only value (:func:`moments_sigma_z_ms`) where the
-    optional record columns ``tilt_along_wind_std_deg`` and ``tilt_period_zero_crossing_s``
-    are finite; else the Gutiérrez-Antuñano et al. (2018) harmonic (:func:`harmonic_sigma_z_ms`) at the record's
-    ``amplitude_deg`` / ``period_s`` (e.g. ``flidar_uq.data.binning.add_harmonic_motion``), which
-    ignores the wind direction (0.43-1.88 of the realised value in
-    ``benchmarks/spectral_sigma_z.py``: give it wider intervals); else NaN.
-
-    Parameters
-    ----------
-    hws_ms : array_like, shape (nrec,)
-        m/s.
-    spectrum : TiltBandSpectrum, optional
-        Bands of the same ``nrec`` records (NaN rows where no raw IMU series).
-    tilt_along_wind_std_deg, tilt_period_zero_crossing_s : array_like, shape (nrec,), optional
-        Record columns, deg and s.
-    amplitude_deg, period_s : array_like, shape (nrec,), optional
-        Gutiérrez-Antuñano et al. (2018) single harmonic (roll and pitch amplitude, deg; period, s).
-    lever_arm_m, lidar, surrogate
-        As in :func:`spectral_sigma_z_ms`.
-
-    Returns
-    -------
-    sigma_z_ms : ndarray, shape (nrec,)
-        m/s.
-    method : ndarray of str, shape (nrec,)
-        One of :data:`RECORD_METHODS` per record.
-    """
-    hws = np.atleast_1d(np.asarray(hws_ms, float))
-    n = hws.size
-    sur = _surrogate(surrogate, lidar)
-    arm = np.broadcast_to(np.asarray(lever_arm_m, float), (n,))
-    out = np.full(n, np.nan)
-    method = np.full(n, "none", dtype=object)
-
-    def _fill(values, ok, label):
-        use = ok & (method == "none") & np.isfinite(values)
-        out[use] = values[use]
-        method[use] = label
-
-    if spectrum is not None:
-        ok = np.isfinite(spectrum.var_along_deg2).all(axis=-1) & np.isfinite(spectrum.period_s).all(
-            axis=-1
-        )
-        if ok.shape != (n,):
-            raise ValueError(f"record_sigma_z_ms: spectrum has {ok.size} records, hws_ms has {n}")
-        var = np.where(ok[:, None], spectrum.var_along_deg2, 0.0)
-        per = np.where(ok[:, None], spectrum.period_s, 4.0)
-        _fill(spectral_sigma_z_ms(hws, var, per, lever_arm_m=arm, surrogate=sur), ok, "bands")
-    if tilt_along_wind_std_deg is not None and tilt_period_zero_crossing_s is not None:
-        sd = np.broadcast_to(np.asarray(tilt_along_wind_std_deg, float), (n,))
-        tz = np.broadcast_to(np.asarray(tilt_period_zero_crossing_s, float), (n,))
-        ok = np.isfinite(sd) & np.isfinite(tz)
-        _fill(moments_sigma_z_ms(hws, sd, tz, lever_arm_m=arm, surrogate=sur), ok, "moments")
-    if amplitude_deg is not None and period_s is not None:
-        a = np.broadcast_to(np.asarray(amplitude_deg, float), (n,))
-        t = np.broadcast_to(np.asarray(period_s, float), (n,))
-        ok = np.isfinite(a) & np.isfinite(t)
-        _fill(harmonic_sigma_z_ms(hws, a, t, lever_arm_m=arm, surrogate=sur), ok, "harmonic")
-    return out, method.astype(str)
-
-
-def two_period_from_bands(
-    band_var_deg2,
-    band_period_s,
-    *,
-    min_share: float = 0.2,
-    min_period_ratio: float = 1.5,
-    max_valley_ratio: float = 0.5,
-):
-    """Two separated peaks in a record's band spectrum: periods and variance share.
-
-    The bands (log-spaced, so band variance is a density per log-period) are split at
-    one band boundary into a short- and a long-period group. A split is accepted if each
-    group holds at least ``min_share`` of the variance, their centroid periods differ by
-    at least ``min_period_ratio``, each group has its own local maximum, and the lowest
-    band between the two maxima is at most ``max_valley_ratio`` of the smaller maximum
-    (a real valley, so one broad peak is never split). Among accepted splits the one at
-    the valley is used. "Two-period" thus means: a share of the record's tilt variance.
-
-    Parameters
-    ----------
-    band_var_deg2 : array_like, shape (nrec, nb) or (nb,)
-        Variance per band (e.g. along + across, or along only), deg^2.
-    band_period_s : array_like, same shape
-        Band periods, s, increasing along the last axis.
-    min_share, min_period_ratio, max_valley_ratio : float
-        Criteria, dimensionless.
-
-    Returns
-    -------
-    period1_s, period2_s : ndarray, shape (nrec,) or ()
-        Centroid periods (``1 / mean frequency``) of the short and the long group, s;
-        NaN if unimodal.
-    weight1 : ndarray, shape (nrec,) or ()
-        Share of the band variance in the short-period group; NaN if unimodal.
-    """
-    v = np.atleast_2d(np.asarray(band_var_deg2, float))
-    t = np.broadcast_to(np.atleast_2d(np.asarray(band_period_s, float)), v.shape)
-    n, nb = v.shape
-    p1, p2, w1 = (np.full(n, np.nan) for _ in range(3))
-    for i in range(n):  # one iteration per record; nb is small
-        vi, ti = v[i], t[i]
-        tot = vi.sum()
-        if not np.isfinite(tot) or tot <= 0 or nb < 3:
-            continue
-        pad = np.concatenate(([-np.inf], vi, [-np.inf]))
-        peaks = np.flatnonzero((pad[1:-1] > pad[:-2]) & (pad[1:-1] >= pad[2:]))
-        if peaks.size < 2:
-            continue
-        best = None
-        for a_i in range(peaks.size - 1):
-            a, b = peaks[a_i], peaks[a_i + 1]
-            valley = a + int(np.argmin(vi[a : b + 1]))
-            if valley in (a, b):
-                continue
-            low = min(vi[a], vi[b])
-            if vi[valley] > max_valley_ratio * low:
-                continue
-            # the valley band is split half-half between the groups
-            g1 = vi[:valley].sum() + 0.5 * vi[valley]
-            g2 = tot - g1
-            share = g1 / tot
-            if share < min_share or share > 1 - min_share:
-                continue
-            f = 1.0 / ti
-            wv = np.concatenate((vi[:valley], [0.5 * vi[valley]]))
-            fv = np.concatenate((f[:valley], [f[valley]]))
-            fc1 = (wv * fv).sum() / g1
-            wv2 = np.concatenate(([0.5 * vi[valley]], vi[valley + 1 :]))
-            fv2 = np.concatenate(([f[valley]], f[valley + 1 :]))
-            fc2 = (wv2 * fv2).sum() / g2
-            if fc1 / fc2 < min_period_ratio:
-                continue
-            score = min(share, 1 - share)
-            if best is None or score > best[0]:
-                best = (score, 1.0 / fc1, 1.0 / fc2, share)
-        if best is not None:
-            _, p1[i], p2[i], w1[i] = best
-    if np.ndim(band_var_deg2) == 1:
-        return p1[0], p2[0], w1[0]
-    return p1, p2, w1
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,6 @@ __all__ = [
     "jonswap_spectrum",
     "tilt_series",
     "hull_motion_series",
-    "dominant_period_s",
 ]
 
 
@@ -301,35 +300,3 @@ def hull_motion_series(
             direction_deg=np.rad2deg(comp.theta),
         )
     return out
-
-
-def dominant_period_s(series, dt_s, *, min_period_s=1.0, max_period_s=30.0):
-    """Period of the highest peak of the periodogram of a (detrended) series.
-
-    Parameters
-    ----------
-    series : array_like
-        Samples, shape ``(..., n)``; NaN not allowed.
-    dt_s : float
-        Sampling interval (s).
-    min_period_s, max_period_s : float
-        Search window (s).
-
-    Returns
-    -------
-    numpy.ndarray
-        Period (s) of the spectral peak, shape ``(...)``, refined by a parabola
-        through the log-power of the peak bin and its neighbours.
-    """
-    x = np.asarray(series, float)
-    x = x - x.mean(axis=-1, keepdims=True)
-    n = x.shape[-1]
-    f = np.fft.rfftfreq(n, dt_s)
-    p = np.abs(np.fft.rfft(x, axis=-1)) ** 2
-    band = (f >= 1.0 / max_period_s) & (f <= 1.0 / min_period_s)
-    p_band = np.where(band, p, 0.0)
-    k = np.clip(np.argmax(p_band, axis=-1), 1, f.size - 2)
-    lp = np.log(np.maximum(np.take_along_axis(p, np.stack([k - 1, k, k + 1], -1), -1), 1e-300))
-    den = lp[..., 0] - 2 * lp[..., 1] + lp[..., 2]
-    delta = np.where(den < 0, 0.5 * (lp[..., 0] - lp[..., 2]) / np.where(den < 0, den, 1.0), 0.0)
-    return 1.0 / ((k + np.clip(delta, -0.5, 0.5)) * f[1])

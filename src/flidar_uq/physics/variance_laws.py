@@ -27,8 +27,6 @@ __all__ = [
     "sigma_moving_u",
     "sigma_moving_c",
     "corrected_std",
-    "corrected_std_u",
-    "corrected_std_c",
     "rho_bin_correlation",
 ]
 
@@ -106,16 +104,6 @@ def corrected_std(sigma_moving_ms, sigma_z_ms, rho):
     negative = valid & ((disc < 0) | (root < 0))
     corrected = np.where(valid, np.where(negative, 0.0, np.maximum(root, 0.0)), np.nan)
     return corrected, negative
-
-
-def corrected_std_u(sigma_moving_ms, sigma_z_ms):
-    """Corrected std from the U law (Eq. 16 of Gutiérrez-Antuñano et al. (2018) inverted), m/s; flag as corrected_std."""
-    return corrected_std(sigma_moving_ms, sigma_z_ms, 0.0)
-
-
-def corrected_std_c(sigma_moving_ms, sigma_z_ms):
-    """Corrected std from the C law (Eq. 17 of Gutiérrez-Antuñano et al. (2018) inverted: s - sZ), m/s; flag as corrected_std."""
-    return corrected_std(sigma_moving_ms, sigma_z_ms, 1.0)
 
 
 def rho_bin_correlation(bin_ref_hws_ms, bin_mean_z_ms):
