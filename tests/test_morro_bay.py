@@ -22,7 +22,7 @@ import yaml
 
 from flidar_uq.cli import main
 from flidar_uq.data.formats import read_instrument
-from flidar_uq.data.formats.join import join_records, read_campaign
+from flidar_uq.data.formats.join import join_records, read_campaign, read_part
 from flidar_uq.data.io import DataValidationError
 
 REPO = Path(__file__).resolve().parents[1]
@@ -117,6 +117,19 @@ def test_a_missing_burst_leaves_its_records_empty_not_an_older_burst():
     out, rows = join_records(lidar, {"motion": ten})
     np.testing.assert_array_equal(out["wave_hs_m"], [1, 2, np.nan, 4, *[np.nan] * 4])
     assert rows[1]["interval_min"] == 10.0 and rows[1]["matched"] == 3
+
+
+def test_bursts_stamped_at_their_end_start_one_cadence_earlier(tmp_path):
+    waves = pd.read_csv(WAVES)
+    end = pd.to_datetime(waves["DataTimeStamp"]) + pd.Timedelta(minutes=20)
+    waves.assign(DataTimeStamp=end.dt.strftime("%Y-%m-%d %H:%M:%S")).to_csv(
+        tmp_path / "end.csv", index=False
+    )
+    start = read_part({"path": str(WAVES), "columns": WAVE_COLUMNS})
+    ended = read_part({"path": str(tmp_path / "end.csv"), "columns": WAVE_COLUMNS,
+                       "timestamp_at": "end"})  # fmt: skip
+    np.testing.assert_array_equal(ended["timestamp"], start["timestamp"])
+    assert ended["timestamp"].iloc[0] == pd.Timestamp("2020-12-01T00:00:00Z")
 
 
 def _convert_args(out: Path) -> list[str]:

@@ -43,7 +43,8 @@ def read_part(part: dict, *, extra_columns: str = "keep") -> pd.DataFrame:
     part : dict
         :data:`PART_KEYS`: ``path``; ``columns`` (column map to record columns, ``{height}``
         names for per-height columns); ``utc_offset_h`` (h, stamps without a zone);
-        ``timestamp_at`` (``start``/``end``); ``heading_convention`` (``ccw``/``compass``).
+        ``timestamp_at`` (``start``/``end`` of the interval: 10 min, or of a coarser
+        file's bursts, :func:`interval_min`); ``heading_convention`` (``ccw``/``compass``).
     extra_columns : {"keep", "ignore", "error"}
         Columns that are not record columns.
 
@@ -89,8 +90,8 @@ def read_part(part: dict, *, extra_columns: str = "keep") -> pd.DataFrame:
         out.append(values)
     data = pd.concat(out, ignore_index=True)
     shift = pd.Timedelta(hours=float(part.get("utc_offset_h") or 0.0))
-    if part.get("timestamp_at") == "end":
-        shift += pd.Timedelta(minutes=INTERVAL_MIN)
+    if part.get("timestamp_at") == "end":  # a coarser file's stamps end its bursts
+        shift += pd.Timedelta(minutes=interval_min(data["timestamp"]))
     data["timestamp"] = data["timestamp"] - shift
     check_alignment(data["timestamp"], source=source, column="timestamp", first_line=None)
     keys = ["timestamp"] + (["height_m"] if "height_m" in data.columns else [])
