@@ -366,6 +366,24 @@ def _records_lines(report: dict) -> list[str]:
     return out
 
 
+def _join_lines(join: list[dict]) -> list[str]:
+    """One line per joined file: its matched intervals, or for a file coarser than the
+    10-min records its cadence and the records that took one of its bursts."""
+    from flidar_uq.data.formats.common import INTERVAL_MIN
+
+    out = []
+    for j in join:
+        head = f"join {j['role']} {j['path']}: "
+        if j["interval_min"] > INTERVAL_MIN:
+            out.append(
+                head + f"every {j['interval_min']:g} min; {j['matched']} intervals took one of "
+                f"its {j['intervals']} bursts, {j['unmatched_lidar']} none"
+            )
+        else:
+            out.append(head + f"{j['matched']} of {j['intervals']} intervals matched")
+    return out
+
+
 def _validate_summary(out: dict) -> list[str]:
     """``flidar-uq validate``'s summary for people."""
     lines = [
@@ -373,10 +391,7 @@ def _validate_summary(out: dict) -> list[str]:
         "format: " + _format_words(out["format"], out["header_facts"]),
     ]
     lines += _records_lines(out)
-    for j in out["join"]:
-        lines.append(
-            f"join {j['role']} {j['path']}: {j['matched']} of {j['intervals']} intervals matched"
-        )
+    lines += _join_lines(out["join"])
     if "imu_series" in out:
         lines.append(f"IMU series: {out['imu_series']['n_samples']} samples")
     if "los_series" in out:
@@ -431,11 +446,34 @@ def _add_convert(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--extra-columns", choices=["keep", "ignore", "error"], default="keep", help="other columns"
     )
+    p.add_argument(
+        "--motion-file",
+        default=None,
+        help="the buoy's logger or wave file (CSV or Parquet, UTC stamps at the start of its "
+        "intervals) joined onto the records; a coarser cadence is joined burst by burst",
+    )
+    p.add_argument(
+        "--motion-column",
+        action="append",
+        default=[],
+        type=_column_pair,
+        metavar="NAME=COLUMN",
+        help="column map of --motion-file, one per column: HM0=wave_hs_m (repeat)",
+    )
     _add_json(p, _convert_summary)
+
+
+def _column_pair(text: str) -> tuple[str, str]:
+    """``NAME=COLUMN`` of a column map given on the command line."""
+    name, sep, column = text.partition("=")
+    if not sep or not name.strip() or not column.strip():
+        raise argparse.ArgumentTypeError(f"expected NAME=COLUMN, got {text!r}")
+    return name.strip(), column.strip()
 
 
 def _run_convert(args: argparse.Namespace) -> dict:
     from flidar_uq.data.formats import complete_motion, read_any
+    from flidar_uq.data.formats.join import join_records, join_report, read_part
     from flidar_uq.data.io import write_records
     from flidar_uq.workflow.inputs import inspect_records
 
@@ -446,7 +484,14 @@ def _run_convert(args: argparse.Namespace) -> dict:
         "heading_convention": args.heading_convention,
     }
     got = read_any(args.path, conv, extra_columns=args.extra_columns)
-    records, notes = complete_motion(got.records)
+    records, join = got.records, []
+    if args.motion_file:
+        part = {"path": args.motion_file, "columns": dict(args.motion_column)}
+        motion = read_part(part, extra_columns=args.extra_columns)
+        records, rows = join_records(records, {"motion": motion})
+        paths = {"lidar": str(args.path), "motion": str(args.motion_file)}
+        join = join_report(rows, paths).to_dict("records")
+    records, notes = complete_motion(records)
     path = write_records(records, args.output, require_motion=False)
     report = inspect_records(records, source=str(path))
     return {
@@ -457,6 +502,7 @@ def _run_convert(args: argparse.Namespace) -> dict:
         "header_facts": got.facts,
         "mapping": got.mapping,
         "notes": got.notes + notes,
+        "join": join,
         **{k: report[k] for k in ("heights_m", "time_span", "qc_preview", "blocking", "warnings")},
     }
 
@@ -469,6 +515,7 @@ def _convert_summary(out: dict) -> list[str]:
         f"{len(out['mapping'])} columns mapped; --json lists them",
     ]
     lines += _records_lines(out)
+    lines += _join_lines(out["join"])
     return lines + [f"note: {n}" for n in out["notes"]]
 
 

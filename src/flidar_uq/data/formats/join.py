@@ -6,8 +6,10 @@ wave sensor: one row per interval) and the reference's file (a mast logger: one 
 interval, per height through ``{height}`` column-map names). Each file has its own
 format, column map and time conventions (:data:`PART_KEYS`); all are turned into UTC at
 the interval start, then the logger's and the reference's columns are joined onto the
-lidar's records by interval (and height, where the file has heights). The join is
-reported per file: intervals in it, matched with the lidar's, unmatched on each side.
+lidar's records by interval (and height, where the file has heights). A logger with a
+coarser cadence (a wave sensor's 20- or 30-min bursts) is joined burst by burst
+(:func:`join_records`). The join is reported per file: its cadence, intervals in it,
+matched with the lidar's, unmatched on each side.
 """
 
 from __future__ import annotations
@@ -21,12 +23,16 @@ from flidar_uq.data import io
 from flidar_uq.data.formats.common import INTERVAL_MIN, check_alignment
 from flidar_uq.data.schema import TRUTH_PREFIX, record_columns_by_name
 
-__all__ = ["PART_KEYS", "JOIN_COLUMNS", "read_part", "join_records", "join_report"]
+__all__ = [
+    "PART_KEYS", "JOIN_COLUMNS", "read_part", "interval_min", "join_records", "join_report"
+]  # fmt: skip
 
 #: Keys of a file section (config ``campaign.motion_file``, ``campaign.reference_file``).
 PART_KEYS = ("path", "columns", "utc_offset_h", "timestamp_at", "heading_convention")
 #: Columns of the join report (results/campaign/join.csv).
-JOIN_COLUMNS = ["role", "path", "intervals", "matched", "unmatched_lidar", "unmatched_file"]
+JOIN_COLUMNS = [
+    "role", "path", "interval_min", "intervals", "matched", "unmatched_lidar", "unmatched_file"
+]  # fmt: skip
 
 
 def read_part(part: dict, *, extra_columns: str = "keep") -> pd.DataFrame:
@@ -37,7 +43,8 @@ def read_part(part: dict, *, extra_columns: str = "keep") -> pd.DataFrame:
     part : dict
         :data:`PART_KEYS`: ``path``; ``columns`` (column map to record columns, ``{height}``
         names for per-height columns); ``utc_offset_h`` (h, stamps without a zone);
-        ``timestamp_at`` (``start``/``end``); ``heading_convention`` (``ccw``/``compass``).
+        ``timestamp_at`` (``start``/``end`` of the interval: 10 min, or of a coarser
+        file's bursts, :func:`interval_min`); ``heading_convention`` (``ccw``/``compass``).
     extra_columns : {"keep", "ignore", "error"}
         Columns that are not record columns.
 
@@ -83,8 +90,8 @@ def read_part(part: dict, *, extra_columns: str = "keep") -> pd.DataFrame:
         out.append(values)
     data = pd.concat(out, ignore_index=True)
     shift = pd.Timedelta(hours=float(part.get("utc_offset_h") or 0.0))
-    if part.get("timestamp_at") == "end":
-        shift += pd.Timedelta(minutes=INTERVAL_MIN)
+    if part.get("timestamp_at") == "end":  # a coarser file's stamps end its bursts
+        shift += pd.Timedelta(minutes=interval_min(data["timestamp"]))
     data["timestamp"] = data["timestamp"] - shift
     check_alignment(data["timestamp"], source=source, column="timestamp", first_line=None)
     keys = ["timestamp"] + (["height_m"] if "height_m" in data.columns else [])
@@ -98,10 +105,42 @@ def read_part(part: dict, *, extra_columns: str = "keep") -> pd.DataFrame:
     return data
 
 
+def interval_min(timestamps) -> float:
+    """The cadence of a file's stamps, min: the shortest step between them.
+
+    The shortest, so that gaps do not lengthen it; never less than the record interval
+    (:data:`INTERVAL_MIN`, also the cadence of a single stamp).
+    """
+    t = pd.DatetimeIndex(timestamps).unique().sort_values()
+    if len(t) < 2:
+        return float(INTERVAL_MIN)
+    step = pd.Series(t).diff().min() / pd.Timedelta(minutes=1)
+    return max(float(step), float(INTERVAL_MIN))
+
+
+def _burst_of(lidar_t: pd.DatetimeIndex, part_t: pd.DatetimeIndex, cadence_min: float):
+    """For each lidar interval start, the stamp of the burst covering it: the latest stamp
+    at or before it and less than ``cadence_min`` (min) before it; NaT where none."""
+    got = pd.merge_asof(
+        pd.DataFrame({"timestamp": lidar_t.sort_values()}),
+        pd.DataFrame({"timestamp": part_t.sort_values(), "burst": part_t.sort_values()}),
+        on="timestamp",
+        direction="backward",
+        tolerance=pd.Timedelta(minutes=cadence_min) - pd.Timedelta(microseconds=1),
+    )
+    return pd.Series(got["burst"].array, index=pd.DatetimeIndex(got["timestamp"]))
+
+
 def join_records(
     lidar: pd.DataFrame, parts: dict[str, pd.DataFrame]
 ) -> tuple[pd.DataFrame, list[dict]]:
     """Join each part's columns onto the lidar's records by interval (and height).
+
+    A part without heights whose cadence (:func:`interval_min`) is coarser than the
+    10-min records, e.g. a wave sensor's 20-min bursts stamped at their start, is joined
+    burst by burst: each record takes the burst that covers its start, the latest stamp at
+    or before it and less than one cadence before it (a record whose burst is missing gets
+    NaN, not an older burst). At the 10-min cadence this is the match by interval.
 
     Parameters
     ----------
@@ -119,26 +158,42 @@ def join_records(
     """
     lid_t = pd.DatetimeIndex(lidar["timestamp"]).unique()
     rows = [
-        dict(role="lidar", intervals=len(lid_t), matched=len(lid_t), unmatched_lidar=0,
-             unmatched_file=0)
+        dict(role="lidar", interval_min=float(INTERVAL_MIN), intervals=len(lid_t),
+             matched=len(lid_t), unmatched_lidar=0, unmatched_file=0)
     ]  # fmt: skip
     out = lidar.reset_index(drop=True)
     for role, part in parts.items():
         keys = ["timestamp"] + (["height_m"] if "height_m" in part.columns else [])
         new = [c for c in part.columns if c not in keys]
-        merged = out.drop(columns=[c for c in new if c in out.columns]).merge(
-            part, on=keys, how="left", sort=False, validate="many_to_one"
-        )
-        out = merged
         part_t = pd.DatetimeIndex(part["timestamp"]).unique()
-        both = lid_t.intersection(part_t)
+        cadence = interval_min(part_t) if len(keys) == 1 else float(INTERVAL_MIN)
+        left = out.drop(columns=[c for c in new if c in out.columns])
+        if cadence > INTERVAL_MIN:
+            # one time unit on both sides: the files' stamps may be parsed at different ones
+            burst = _burst_of(lid_t.as_unit("ns"), part_t.as_unit("ns"), cadence)
+            start = pd.DatetimeIndex(left["timestamp"]).as_unit("ns")
+            stamps = pd.DatetimeIndex(part["timestamp"]).as_unit("ns")
+            merged = (
+                left.assign(_burst=burst.reindex(start).array)
+                .merge(part.assign(timestamp=stamps).rename(columns={"timestamp": "_burst"}),
+                       on="_burst", how="left", sort=False, validate="many_to_one")
+                .drop(columns="_burst")
+            )  # fmt: skip
+            used = pd.DatetimeIndex(burst.dropna().unique())
+            matched = int(burst.notna().sum())
+        else:
+            merged = left.merge(part, on=keys, how="left", sort=False, validate="many_to_one")
+            used = lid_t.intersection(part_t)
+            matched = len(used)
+        out = merged
         rows.append(
             dict(
                 role=role,
+                interval_min=cadence,
                 intervals=len(part_t),
-                matched=len(both),
-                unmatched_lidar=len(lid_t) - len(both),
-                unmatched_file=len(part_t) - len(both),
+                matched=matched,
+                unmatched_lidar=len(lid_t) - matched,
+                unmatched_file=len(part_t) - len(part_t.intersection(used)),
             )
         )
     return out, rows
