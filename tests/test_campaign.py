@@ -30,6 +30,7 @@ NEW_SCENARIOS = (
     "fixed_heading",
     "narrow_sea",
     "short_reference",
+    "spatial_wind",
     "sparse_30day",
 )
 SHIPPED = ("default", "tiny", "ijmuiden_60day", "hexapod_catalogue", "reservoir", *NEW_SCENARIOS)

@@ -16,7 +16,9 @@ Per 10-min record (``record_length_s``) and for every measurement height:
    every ``wind.wind_dt_s`` (0.1 s) and held in between, independent between heights.
    The 1-D model is enough for the motion-induced excess variance of the VAD; the
    absolute VAD-seen variance of an IEC-coherent 3-D field is lower
-   (``tests/test_turbulence.py::test_vad_circle_1d_vs_3d_regime``).
+   (``tests/test_turbulence.py::test_vad_circle_1d_vs_3d_regime``). With
+   ``wind.spatial_field.enabled`` the turbulence is instead a frozen field at the lines of
+   sight's focus points and the centre (:func:`_spatial_turbulence`, docs/simulator.md).
 2. Buoy motion: narrow-band random roll/pitch from a JONSWAP sea state (wind sea plus
    an optional swell; :func:`flidar_uq.physics.seastate.tilt_series`), or harmonic motion
    (6 DOF: roll, pitch, yaw, surge, sway, heave) for controlled cases (hexapod).

@@ -97,7 +97,7 @@ DEFAULT_SCENARIO: dict = {
             "coherence_decay_range": [8.0, 16.0],
             # field points on a VAD lidar's circle (each line of sight samples the nearest;
             # at most its n_los); a DBS lidar's beams are its points
-            "azimuth_points": 12,
+            "azimuth_points": 8,
         },
     },
     "motion": {
