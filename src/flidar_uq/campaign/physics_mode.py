@@ -420,17 +420,16 @@ def _focus_points(lay, yaw_deg, n_azimuths):
     off_f = tan_pts @ np.array([[cy, sy], [-sy, cy]])  # turned by the heading: east, north
     points = [np.zeros(2), *off_f]
     pt_f = np.where(inclined, pt_of_dir + 1, 0)
+    # the reference lidar's directions (heading 0: body = earth) against the floating points
+    ang_r = np.arctan2(tan_dirs[:, 1], tan_dirs[:, 0])
     ang_f = np.arctan2(off_f[:, 1], off_f[:, 0])
-    pt_r = np.zeros_like(pt_f)
-    for d in np.nonzero(inclined)[0]:  # a few directions (VAD: n_los)
-        ang_r = np.arctan2(tan_dirs[d, 1], tan_dirs[d, 0])  # heading 0: body = earth
-        diff = np.abs(np.deg2rad(_wrap180(np.rad2deg(ang_r - ang_f))))
-        near = int(np.argmin(diff))
-        if diff[near] <= tol:
-            pt_r[d] = near + 1
-        else:
-            points.append(tan_dirs[d])
-            pt_r[d] = len(points) - 1
+    diff = np.abs(np.deg2rad(_wrap180(np.rad2deg(ang_r[:, None] - ang_f[None, :]))))
+    near = np.argmin(diff, axis=1)
+    shared = diff[np.arange(near.size), near] <= tol
+    own = inclined & ~shared  # a reference beam off every floating point: its own point
+    pt_r = np.where(inclined & shared, near + 1, 0)
+    pt_r[own] = len(points) + np.arange(own.sum())
+    points += list(tan_dirs[own])
     return np.array(points), pt_f[dir_of_slot], pt_r[dir_of_slot]
 
 
@@ -608,7 +607,8 @@ def _imu_errors(imu, rng, t_len_s):
 
 def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence, lay) -> dict:
     """Random series of record ``i``, drawn from its own generator in a fixed order: wind,
-    sea, lidar schedule, IMU errors (``lay``: :func:`_scan_layout`)."""
+    sea, lidar schedule, IMU errors, then a spatial wind field (``wind.spatial_field``;
+    ``lay``: :func:`_scan_layout`)."""
     rng = np.random.default_rng(ss)
     t_len = float(settings["record_length_s"])
     dt = lay.los_duration_s
