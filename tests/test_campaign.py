@@ -30,6 +30,7 @@ NEW_SCENARIOS = (
     "fixed_heading",
     "narrow_sea",
     "short_reference",
+    "spatial_wind",
     "sparse_30day",
 )
 SHIPPED = ("default", "tiny", "ijmuiden_60day", "hexapod_catalogue", "reservoir", *NEW_SCENARIOS)
@@ -759,3 +760,141 @@ def test_vertical_acceleration_gives_the_directions_of_the_vertical_velocity():
         assert np.corrcoef(acc, dw)[0, 1] > 0.98
         # the 5-Hz central difference damps the shortest waves' share a little
         assert np.std(dw) <= np.std(acc) <= 1.15 * np.std(dw)
+
+
+# --------------------------------------------------------------------------- spatial wind
+
+#: sha256 of a small campaign's records (values to 9 significant digits), a CW VAD and a
+#: pulsed DBS lidar on a weathervaning buoy, generated before the spatial wind field existed.
+SPATIAL_OFF_SHA256 = {
+    "zephir300": "9cf0eddfa7e177c08237320bf74d25056931f50af79cd0c76d949c89783a6225",
+    "windcube_v2": "7b606b6a57bc7113e1ed2417419f1f819e1220e6f61591a17efe35cdd2fdc37b",
+}
+
+
+@pytest.mark.parametrize("lidar_name", sorted(SPATIAL_OFF_SHA256))
+def test_spatial_field_off_is_the_uniform_generator_unchanged(lidar_name):
+    import hashlib
+
+    sc = {
+        "name": "h",
+        "n_records": 3,
+        "heights_m": [40.0, 90.0],
+        "chunk_records": 2,
+        "lidar": {"name": lidar_name},
+        "motion": {"sea_state": {"heading_mode": "weathervane"}},
+    }
+    r = generate_campaign(sc, 5).records
+    txt = r.drop(columns="timestamp").to_csv(float_format="%.9g", index=False)
+    assert hashlib.sha256(txt.encode()).hexdigest() == SPATIAL_OFF_SHA256[lidar_name]
+
+
+def test_spatial_field_misuse_raises():
+    def cfg(**kw):
+        return CampaignConfig.from_dict({"wind": {"spatial_field": kw}})
+
+    with pytest.raises(ValueError, match="spatial_field.enabled must be true or false"):
+        cfg(enabled="yes")
+    with pytest.raises(ValueError, match="spatial_field.coherence_decay_range must be null or"):
+        cfg(coherence_decay_range=[16.0, 8.0])
+    with pytest.raises(ValueError, match="length_scale_factor_range must be \\[lo, hi\\]"):
+        cfg(length_scale_factor_range=None)
+    with pytest.raises(ValueError, match="azimuth_points must be an integer >= 3"):
+        cfg(azimuth_points=2)
+    with pytest.raises(ValueError, match="unknown key 'wind.spatial_field.radius_m'"):
+        cfg(radius_m=1.0)
+
+
+def test_focus_points_follow_the_heading_and_the_reference_lidar_keeps_its_own():
+    """The floating lidar's points are turned by its heading; the reference lidar (heading
+    0) shares the nearest VAD point, and a DBS beam that no floating beam matches gets its
+    own point; the centre is point 0 (a vertical beam's too)."""
+    vad = physics_mode._scan_layout(lidar.get_lidar("zephir300"))
+    pts, pt_f, pt_r = physics_mode._focus_points(vad, 100.0, 8)
+    assert pts.shape == (9, 2) and np.all(pts[0] == 0.0)
+    tan30 = np.tan(np.deg2rad(30.0))
+    np.testing.assert_allclose(np.hypot(*pts[1:].T), tan30)
+    # each line of sight's point is within half the points' spacing (22.5 deg) of its
+    # earth azimuth: floating at heading 100 deg, reference at 0 (ENU angle = 90 - az)
+    for pt, yaw in ((pt_f, 100.0), (pt_r, 0.0)):
+        los = np.deg2rad(90.0 + yaw) - vad.az_slots
+        ang = np.arctan2(pts[pt, 1], pts[pt, 0])
+        assert np.all(np.abs(np.angle(np.exp(1j * (ang - los)))) <= np.pi / 8 + 1e-9)
+    dbs = physics_mode._scan_layout(lidar.get_lidar("windcube_v1_5beam"))
+    for yaw, n_pts in ((0.0, 5), (45.0, 9)):
+        pts, pt_f, pt_r = physics_mode._focus_points(dbs, yaw, 8)
+        assert pts.shape == (n_pts, 2)
+        vertical = dbs.d_body[:, 2] == 1.0
+        assert np.all(pt_f[vertical] == 0) and np.all(pt_r[vertical] == 0)
+        assert np.all(pt_f[~vertical] > 0) and np.all(pt_r[~vertical] > 0)
+
+
+def _spatial_ratio(records):
+    """Mean and standard error of the motionless lidar's HWS std over the point HWS std."""
+    ok = records["true_still_hws_std_ms"].notna()
+    ratio = (records["true_still_hws_std_ms"] / records["true_hws_std_ms"])[ok]
+    return float(ratio.mean()), float(ratio.std() / np.sqrt(ok.sum()))
+
+
+def _spatial_campaign(height_m, seed, **spatial):
+    sc = {
+        "name": "spatial",
+        "n_records": 48,
+        "heights_m": [height_m],
+        "chunk_records": 8,
+        "wind": {"spatial_field": spatial},
+    }
+    return generate_campaign(sc, seed).records
+
+
+@pytest.mark.slow
+def test_spatial_field_disk_averaging_lowers_the_lidar_std_and_keeps_the_point_sigma():
+    """At 85 m the VAD circle (radius z tan 30 deg = 49 m) averages laterally
+    decorrelated turbulence: the motionless lidar's std over the point std is lower than
+    with the uniform wind; the centre (point) series keeps the requested sigma_u."""
+    g_off, se_off = _spatial_ratio(_spatial_campaign(85.0, 3, enabled=False))
+    on = _spatial_campaign(85.0, 3, enabled=True)
+    g_on, se_on = _spatial_ratio(on)
+    assert g_on < g_off - 4.0 * np.hypot(se_off, se_on)
+    c = on["true_hws_std_ms"] / on["true_sigma_u_ms"]
+    assert abs(c.mean() - 1.0) < 4.0 * c.std() / np.sqrt(c.size)
+
+
+@pytest.mark.slow
+def test_spatial_field_small_coherent_disk_is_the_temporal_response_model():
+    """A perfectly coherent field with the Kaimal length scales on a disk of 0.6 m (1 m
+    height): the motionless lidar's std over the point std is the temporal g of
+    flidar_uq.physics.lidar_response (the uniform wind's, by construction)."""
+    from flidar_uq.physics.lidar_response import lidar_std_ratio
+
+    r = _spatial_campaign(
+        1.0, 3, enabled=True, coherence_decay_range=[0.0, 0.0],
+        length_scale_factor_range=[1.0, 1.0],
+    )  # fmt: skip
+    g_sim, se = _spatial_ratio(r)
+    ok = r["true_still_hws_std_ms"].notna()
+    g_model = lidar_std_ratio(
+        r.loc[ok, "true_hws_mean_ms"].to_numpy(), 1.0, turbulence_max_frequency_hz=5.0
+    ).mean()  # the 0.1-s turbulence clock: no variance above 5 Hz
+    assert abs(g_sim - g_model) < 4.0 * se
+
+
+@pytest.mark.parametrize("lidar_name", ["zephir300", "windcube_v1_5beam"])
+def test_spatial_field_is_deterministic_and_independent_of_chunking(lidar_name):
+    """The field is drawn from each record's own generator: a rerun, another chunk size and
+    spawned workers give the same bits; the floating and the reference lidar (at another
+    heading on the weathervaning buoy) see the field, not one series."""
+    sc = {
+        "name": "s",
+        "n_records": 3,
+        "heights_m": [40.0, 90.0],
+        "lidar": {"name": lidar_name},
+        "motion": {"sea_state": {"heading_mode": "weathervane"}},
+        "wind": {"spatial_field": {"enabled": True}},
+    }
+    a = generate_campaign(sc, 11, chunk_records=3).records
+    pd.testing.assert_frame_equal(a, generate_campaign(sc, 11, chunk_records=3).records)
+    b = generate_campaign(sc, 11, chunk_records=1, n_workers=2).records
+    pd.testing.assert_frame_equal(a, b, check_exact=True)
+    off = generate_campaign(dict(sc, wind={}), 11).records
+    assert not np.allclose(a["true_hws_std_ms"], off["true_hws_std_ms"])

@@ -99,9 +99,12 @@ def _numpy_reference(a, n_sign_iter):
 
 def _kernel(a, n_sign_iter, *, with_truth=False):
     keys = ("roll", "pitch", "yaw", "trans", "starts", "k0", "phase_slots", "d_body", "pinv_t")
+    one_point = np.zeros(a["starts"].shape[:1] + a["d_body"].shape[:1], np.int64)
     out = simulate_chunk_scans(
         *(a[k] for k in keys),
-        a["fluct_uvw"],
+        a.get("fluct_points", a["fluct_uvw"][:, :, None]),  # (C,H,P,3,Nw)
+        a.get("point_float", one_point),
+        a.get("point_ref", one_point),
         a["hws_h"],
         a["e_wind"],
         a["alpha"],
@@ -294,3 +297,27 @@ def test_attitude_truth_is_the_numpy_definition(stride, constant_yaw):
     heading = np.degrees(np.arctan2(np.sin(r).mean(-1), np.cos(r).mean(-1)))
     np.testing.assert_allclose(got[4], heading, rtol=0, atol=1e-10)
     assert ((got[4] >= -180.0) & (got[4] < 180.0)).all()
+
+
+def test_each_lidar_samples_its_own_point_of_a_spatial_field():
+    """With the turbulence at several points (a spatial field), the floating and held-still
+    lidars read ``point_float``'s and the fixed reference lidar ``point_ref``'s: each is the
+    uniform-wind kernel run on that point's series."""
+    rng = np.random.default_rng(17)
+    a = _inputs(rng, lever=(0.3, -0.2, 2.5), translate=True)
+    other = rng.normal(0.0, 1.0, a["fluct_uvw"].shape)
+    n_c, n_los = a["starts"].shape[0], a["d_body"].shape[0]
+    spatial = dict(
+        a,
+        fluct_points=np.stack([a["fluct_uvw"], other], axis=2),  # (C,H,2,3,Nw)
+        point_float=np.zeros((n_c, n_los), np.int64),
+        point_ref=np.ones((n_c, n_los), np.int64),
+    )
+    got = _kernel(spatial, 1, with_truth=True)
+    floating = _kernel(a, 1, with_truth=True)
+    reference = _kernel(dict(a, fluct_uvw=other), 1, with_truth=True)
+    for i in (0, 1, 3, 6, 7):  # v_r, uvw, resid, uvw_still, v_r_still
+        np.testing.assert_array_equal(got[i], floating[i])
+    for i in (2, 5):  # uvw0, v_r0
+        np.testing.assert_array_equal(got[i], reference[i])
+        assert np.abs(got[i] - floating[i]).max() > 1e-3

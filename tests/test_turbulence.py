@@ -9,6 +9,7 @@ from flidar_uq.physics import lidar
 from flidar_uq.physics.turbulence import (
     IEC_SIGMA_RATIOS,
     draw_sigma_u_ms,
+    frozen_field_series,
     iec_ntm_sigma_ms,
     kaimal_length_scales_m,
     kaimal_psd,
@@ -259,3 +260,76 @@ def test_vad_circle_1d_vs_3d_regime():
     r30 = np.mean([r for h, r in var_ratio if h == 30.0])
     r100 = np.mean([r for h, r in var_ratio if h == 100.0])
     assert r100 < r30 < 0.8
+
+
+# ------------------------------------------------------------------ frozen field
+
+
+def _field(rng, along, lateral, *, n=2048, dt=0.1, hws=(9.0,), z=(60.0,), **kw):
+    return frozen_field_series(
+        n, dt, hws, 1.2, z, np.atleast_2d(along), np.atleast_2d(lateral), rng, **kw
+    )
+
+
+def test_frozen_field_point_variance_is_the_requested_sigma():
+    """Every point's series has the variance sigma_k^2 of its component (the spectrum is
+    scaled to it over the band; the realisations scatter about it)."""
+    rng = np.random.default_rng(5)
+    lateral = np.linspace(-40.0, 40.0, 9)
+    var = np.stack(
+        [_field(rng, np.zeros(9), lateral, length_scale_factor=1.3).var(axis=-1) for _ in range(30)]
+    )  # (reps, H, P, 3)
+    want = (1.2 * np.array(IEC_SIGMA_RATIOS)) ** 2
+    np.testing.assert_allclose(var.mean(axis=(0, 1, 2)), want, rtol=0.06)
+
+
+def test_frozen_field_perfect_coherence_is_one_series_delayed_downwind():
+    """Coherence decay 0: points side by side carry the same series, and a point x m
+    downwind the series delayed by x / U (Taylor)."""
+    rng = np.random.default_rng(6)
+    hws, dt = 9.0, 0.1
+    shift = 17  # samples
+    x = _field(
+        rng, [0.0, 0.0, hws * shift * dt], [0.0, 25.0, -10.0], hws=(hws,), dt=dt,
+        coherence_decay=0.0,
+    )[0]  # fmt: skip
+    np.testing.assert_allclose(x[1], x[0], atol=1e-9)
+    np.testing.assert_allclose(x[2], np.roll(x[0], shift, axis=-1), atol=1e-9)
+
+
+def test_frozen_field_coherence_is_the_exponential_model_also_beyond_neighbours():
+    """The recursion over the sorted points is the Cholesky factor of the exponential
+    coherence: the coherence of the first and the last of three points (not neighbours)
+    is exp(-a r sqrt((f/U)^2 + (0.12/L_c)^2)) of their separation."""
+    rng = np.random.default_rng(7)
+    hws, z, a = 9.0, 60.0, 10.0
+    lateral = np.array([30.0, -12.0, 5.0])  # unsorted on purpose
+    spec = np.stack(
+        [
+            np.fft.rfft(_field(rng, np.zeros(3), lateral, coherence_decay=a)[0, :, 0])
+            for _ in range(200)
+        ]
+    )  # (reps, P, nf) of u
+    f = np.fft.rfftfreq(2048, 0.1)
+    band = (f > 0.01) & (f < 0.03)
+    c = spec[..., band]
+    for i, j in ((0, 1), (1, 2), (0, 2)):
+        cross = np.mean(c[:, i] * np.conj(c[:, j]), axis=0)
+        coh = cross.real / np.sqrt(np.mean(abs(c[:, i]) ** 2, 0) * np.mean(abs(c[:, j]) ** 2, 0))
+        lc = kaimal_length_scales_m(z)[0]
+        want = np.exp(
+            -a * abs(lateral[i] - lateral[j]) * np.sqrt((f[band] / hws) ** 2 + (0.12 / lc) ** 2)
+        )
+        assert abs(coh.mean() - want.mean()) < 0.05, (i, j)
+
+
+def test_frozen_field_misuse():
+    rng = np.random.default_rng(0)
+    with pytest.raises(ValueError, match="must be \\(H, P\\)"):
+        frozen_field_series(
+            64, 0.1, [9.0, 8.0], 1.0, [60.0, 80.0], np.zeros((1, 3)), np.zeros((1, 3)), rng
+        )
+    with pytest.raises(ValueError, match="coherence_decay >= 0"):
+        _field(rng, [0.0], [0.0], n=64, coherence_decay=-1.0)
+    with pytest.raises(ValueError, match="hws_ms must be > 0"):
+        _field(rng, [0.0], [0.0], n=64, hws=(0.0,))

@@ -16,7 +16,9 @@ Per 10-min record (``record_length_s``) and for every measurement height:
    every ``wind.wind_dt_s`` (0.1 s) and held in between, independent between heights.
    The 1-D model is enough for the motion-induced excess variance of the VAD; the
    absolute VAD-seen variance of an IEC-coherent 3-D field is lower
-   (``tests/test_turbulence.py::test_vad_circle_1d_vs_3d_regime``).
+   (``tests/test_turbulence.py::test_vad_circle_1d_vs_3d_regime``). With
+   ``wind.spatial_field.enabled`` the turbulence is instead a frozen field at the lines of
+   sight's focus points and the centre (:func:`_spatial_turbulence`, docs/simulator.md).
 2. Buoy motion: narrow-band random roll/pitch from a JONSWAP sea state (wind sea plus
    an optional swell; :func:`flidar_uq.physics.seastate.tilt_series`), or harmonic motion
    (6 DOF: roll, pitch, yaw, surge, sway, heave) for controlled cases (hexapod).
@@ -91,7 +93,12 @@ from flidar_uq.campaign.scenarios import (
 from flidar_uq.data import imu as _imu
 from flidar_uq.physics import lidar as _lidar
 from flidar_uq.physics.seastate import hull_motion_series, tilt_series
-from flidar_uq.physics.turbulence import draw_sigma_u_ms, kaimal_series, wind_enu_ms
+from flidar_uq.physics.turbulence import (
+    draw_sigma_u_ms,
+    frozen_field_series,
+    kaimal_series,
+    wind_enu_ms,
+)
 from flidar_uq.progress import ProgressLog
 from flidar_uq.seeding import as_seedsequence
 from flidar_uq.threads import BLAS_THREADS, blas_threads
@@ -359,19 +366,110 @@ def _wind_turbulence(settings, par, i, rng, dt_s, n_slots):
     (m/s) constant with height, independent between heights, sampled every
     ``wind.wind_dt_s`` (a whole number of LOS slots of ``dt_s``, s) and held in between.
 
-    Returns ``hws_h`` (H,), m/s, and ``fluct_uvw`` (H, 3, Nw), m/s, over the record's
-    ``n_slots`` LOS slots.
+    Returns ``hws_h`` (H,), m/s, and ``fluct_uvw`` (H, 1, 3, Nw), m/s (one point a height),
+    over the record's ``n_slots`` LOS slots; with ``wind.spatial_field.enabled`` no
+    turbulence here (None): :func:`_spatial_turbulence` draws it after the record's other
+    series.
     """
     heights = np.asarray(settings["heights_m"], float)
     z_ref = float(settings["wind"]["reference_height_m"])
     alpha = par["shear_exponent"][i]
     hws_h = par["hws_ref_ms"][i] * (heights / z_ref) ** alpha  # power law (conventions.md)
+    if settings["wind"]["spatial_field"]["enabled"]:
+        return hws_h, None
     # 1-D Kaimal turbulence, sigma_u constant with height (IEC 61400-1)
     # turbulence on its own clock (wind_dt_s, a multiple of the LOS time), held between samples
     step = wind_step_slots(settings, dt_s)
     n_wind = -(-n_slots // step)
     fluct = kaimal_series(n_wind, dt_s * step, hws_h, par["sigma_u_ms"][i], heights, rng)
-    return hws_h, fluct  # (H,), (H,3,Nw)
+    return hws_h, fluct[:, None]  # (H,), (H,1,3,Nw)
+
+
+def _focus_points(lay, yaw_deg, n_azimuths):
+    """The points a record's lines of sight sample in a spatial wind field, per m of height.
+
+    Point 0 is the centre above the lidar (the point truth, the cup; a vertical beam's
+    focus); then the floating lidar's focus points at the heading ``yaw_deg`` (deg,
+    counter-clockwise from east: its record's mean heading, the tilt and heading changes
+    within the record not followed), each ``z tan(phi)`` from the centre along its
+    azimuth: a DBS lidar's inclined beams; a VAD lidar's circle at ``n_azimuths`` equally
+    spaced azimuths (``min(n_azimuths, n_los)``), each line of sight sampling the nearest
+    one. Then the fixed reference lidar's (heading 0) that no floating point serves: a VAD
+    reference line of sight takes the floating point nearest in azimuth (within half
+    their spacing), a DBS beam the floating beam at its azimuth (to 1e-6 rad), else its
+    own point.
+
+    Returns the points' east and north offsets per m of height (P, 2), and the point of
+    each azimuth slot's line of sight of the floating lidar and of the reference lidar
+    (L,) int.
+    """
+    # the lines of sight's directions: a VAD lidar's slots, a DBS lidar's beams
+    dirs, dir_of_slot = np.unique(lay.d_body, axis=0, return_inverse=True)
+    tan_dirs = dirs[:, :2] / dirs[:, 2:]  # horizontal offset per m of height, body frame
+    inclined = np.hypot(tan_dirs[:, 0], tan_dirs[:, 1]) > 0.0
+    if lay.dbs:  # the points: the beams (a vertical one the centre)
+        tan_pts, pt_of_dir, tol = tan_dirs[inclined], np.cumsum(inclined) - 1, 1e-6
+    else:  # the points: the circle at n_pt azimuths (clockwise from the body y axis)
+        n_pt = min(int(n_azimuths), lay.n_los)
+        az = 2.0 * np.pi * np.arange(n_pt) / n_pt
+        tan_pts = np.hypot(*tan_dirs[0]) * np.stack([np.sin(az), np.cos(az)], -1)
+        az_dirs = np.arctan2(tan_dirs[:, 0], tan_dirs[:, 1])
+        pt_of_dir = np.rint(az_dirs * n_pt / (2.0 * np.pi)).astype(np.int64) % n_pt
+        tol = np.pi / n_pt * (1.0 + 1e-9)
+    cy, sy = np.cos(np.deg2rad(yaw_deg)), np.sin(np.deg2rad(yaw_deg))
+    off_f = tan_pts @ np.array([[cy, sy], [-sy, cy]])  # turned by the heading: east, north
+    points = [np.zeros(2), *off_f]
+    pt_f = np.where(inclined, pt_of_dir + 1, 0)
+    # the reference lidar's directions (heading 0: body = earth) against the floating points
+    ang_r = np.arctan2(tan_dirs[:, 1], tan_dirs[:, 0])
+    ang_f = np.arctan2(off_f[:, 1], off_f[:, 0])
+    diff = np.abs(np.deg2rad(_wrap180(np.rad2deg(ang_r[:, None] - ang_f[None, :]))))
+    near = np.argmin(diff, axis=1)
+    shared = diff[np.arange(near.size), near] <= tol
+    own = inclined & ~shared  # a reference beam off every floating point: its own point
+    pt_r = np.where(inclined & shared, near + 1, 0)
+    pt_r[own] = len(points) + np.arange(own.sum())
+    points += list(tan_dirs[own])
+    return np.array(points), pt_f[dir_of_slot], pt_r[dir_of_slot]
+
+
+def _spatial_turbulence(settings, par, i, rng, lay, hws_h, yaw_deg, n_slots):
+    """Record ``i``'s turbulence as a frozen field at its focus points
+    (``wind.spatial_field.enabled``), drawn after the record's other series.
+
+    The record draws a factor on the Kaimal length scales and a lateral coherence decay,
+    uniform in ``wind.spatial_field.length_scale_factor_range`` and
+    ``coherence_decay_range`` (the generator's turbulence is not the response model's),
+    then :func:`flidar_uq.physics.turbulence.frozen_field_series` at the points of
+    :func:`_focus_points` (the heading: the circular mean of the record's yaw series
+    ``yaw_deg``, deg; ``wind.spatial_field.azimuth_points`` on a VAD circle), on the
+    wind clock of :func:`_wind_turbulence`. Returns ``fluct_uvw`` (H, P, 3, Nw), m/s, and
+    the point of each azimuth slot of the floating and of the reference lidar (L,) int.
+    """
+    sf = settings["wind"]["spatial_field"]
+    factor = rng.uniform(*sf["length_scale_factor_range"])
+    decay = rng.uniform(*sf["coherence_decay_range"])
+    heights = np.asarray(settings["heights_m"], float)
+    yaw_mean = _circ_mean_deg(yaw_deg, True, -1)
+    points, pt_f, pt_r = _focus_points(lay, yaw_mean, sf["azimuth_points"])
+    wd = np.deg2rad(par["wd_deg"][i])
+    e = np.array([-np.sin(wd), -np.cos(wd)])  # along the wind (east, north)
+    along = heights[:, None] * (points @ e)  # (H,P), m
+    lateral = heights[:, None] * (points @ np.array([-e[1], e[0]]))  # to its left, m
+    step = wind_step_slots(settings, lay.los_duration_s)
+    fluct = frozen_field_series(
+        -(-n_slots // step),
+        lay.los_duration_s * step,
+        hws_h,
+        par["sigma_u_ms"][i],
+        heights,
+        along,
+        lateral,
+        rng,
+        length_scale_factor=factor,
+        coherence_decay=decay,
+    )
+    return fluct, pt_f, pt_r
 
 
 def _sea_motion(settings, par, i, rng, dt_s, n_slots):
@@ -509,7 +607,8 @@ def _imu_errors(imu, rng, t_len_s):
 
 def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence, lay) -> dict:
     """Random series of record ``i``, drawn from its own generator in a fixed order: wind,
-    sea, lidar schedule, IMU errors (``lay``: :func:`_scan_layout`)."""
+    sea, lidar schedule, IMU errors, then a spatial wind field (``wind.spatial_field``;
+    ``lay``: :func:`_scan_layout`)."""
     rng = np.random.default_rng(ss)
     t_len = float(settings["record_length_s"])
     dt = lay.los_duration_s
@@ -534,9 +633,14 @@ def _record_series(settings: dict, par: dict, i: int, ss: np.random.SeedSequence
         a_noise = float(settings["imu"]["vertical_acceleration_noise_ms2"]) * rng.standard_normal(
             noise.shape[1]
         )
+    pt_f = pt_r = np.zeros(lay.n_los, np.int64)  # a uniform wind: one point a height
+    if fluct is None:  # the spatial field, drawn last: the rest as drawn without it
+        fluct, pt_f, pt_r = _spatial_turbulence(settings, par, i, rng, lay, hws_h, yaw, n_slots)
     return dict(
         hws_h=hws_h,
         fluct_uvw=fluct,
+        point_float=pt_f,
+        point_ref=pt_r,
         roll=roll,
         pitch=pitch,
         yaw=yaw,
@@ -706,7 +810,8 @@ def _simulate_chunk(settings, par, rec_idx, seeds, want_imu, want_los):
         att, ns = _imu_series(s, yaw_c, ts, clk)
         imu_att.append(att)
         imu_ns.append(ns)
-        fl_truth.append(s["fluct_uvw"][..., :: clk.k_truth].copy())  # the 1-Hz samples
+        # the centre point's 1-Hz samples
+        fl_truth.append(s["fluct_uvw"][:, 0, :, :: clk.k_truth].copy())
         trans_truth.append(_translation_truth(s["trans"], clk.dt_s, e_wind[c, :2], yaw_c[0]))
         for key in (
             "roll",
@@ -787,7 +892,9 @@ def _scan_record(s, yaw_c, settings, par, c, e_wind, geo, lay, clk):
         s["phase_slots"][None],
         lay.d_body,
         lay.pinv_t,
-        s["fluct_uvw"][None],  # (1,H,3,Nw), wind frame
+        s["fluct_uvw"][None],  # (1,H,P,3,Nw), wind frame
+        s["point_float"][None],
+        s["point_ref"][None],
         s["hws_h"][None],
         e_wind[c : c + 1],
         np.asarray(par["shear_exponent"], float)[c : c + 1],

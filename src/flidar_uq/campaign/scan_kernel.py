@@ -208,6 +208,8 @@ def simulate_chunk_scans(
     d_body,
     pinv_t,
     fluct_uvw,
+    point_float,
+    point_ref,
     hws_h,
     e_wind,
     alpha,
@@ -238,10 +240,14 @@ def simulate_chunk_scans(
     d_body, pinv_t : ndarray, shape (L, 3)
         Beam unit vectors (body frame) and the transposed VAD pseudo-inverse of the L
         azimuth slots (:func:`flidar_uq.physics.lidar.vad_pseudo_inverse`).
-    fluct_uvw : ndarray, shape (C, H, 3, Nw)
-        Turbulent wind along the mean wind, to its left and up, m/s, one sample per
-        ``wind_step`` slots; turned to east, north, up with ``e_wind`` as
-        :func:`flidar_uq.physics.turbulence.wind_enu_ms` does.
+    fluct_uvw : ndarray, shape (C, H, P, 3, Nw)
+        Turbulent wind along the mean wind, to its left and up, m/s, at P points of each
+        height, one sample per ``wind_step`` slots; turned to east, north, up with
+        ``e_wind`` as :func:`flidar_uq.physics.turbulence.wind_enu_ms` does.
+    point_float, point_ref : ndarray of int, shape (C, L)
+        The point of ``fluct_uvw`` each azimuth slot's line of sight samples: of the
+        floating lidar (moving and held still) and of the fixed reference lidar (all 0 for
+        a spatially uniform wind, P = 1).
     hws_h : ndarray, shape (C, H)
         Mean horizontal wind speed at each height, m/s; ``e_wind`` (C, 3): the unit vector
         it blows along; ``alpha`` (C,): the power-law shear exponent.
@@ -349,11 +355,12 @@ def simulate_chunk_scans(
                 a_row[k] = a
                 m0, m1, m2 = d_body[a, 0], d_body[a, 1], d_body[a, 2]
                 d0, d1, d2 = _rotate_at(trig, 0, slot, m0, m1, m2)
-                fu = fluct_uvw[c, h, 0, w_i]
-                fv = fluct_uvw[c, h, 1, w_i]
+                p_ = point_float[c, a]
+                fu = fluct_uvw[c, h, p_, 0, w_i]
+                fv = fluct_uvw[c, h, p_, 1, w_i]
                 f0 = fu * e0 + fv * -e1  # east: u e + v l, l = (-e_north, e_east) to the left
                 f1 = fu * e1 + fv * e0
-                f2 = fluct_uvw[c, h, 2, w_i]
+                f2 = fluct_uvw[c, h, p_, 2, w_i]
                 # (1 + x)^alpha to second order in the tilt-induced relative height change
                 x = d2 / cos_half_cone - 1.0
                 ms = mean_los * (1.0 + a_ * x * (1.0 + 0.5 * (a_ - 1.0) * x))
@@ -378,8 +385,16 @@ def simulate_chunk_scans(
                 p1 += sv * pinv_t[a, 1]
                 p2 += sv * pinv_t[a, 2]
                 # the fixed reference lidar: the same wind, no motion, the body geometry
-                vr0 = (mean_los * e0 + f0) * m0 + (mean_los * e1 + f1) * m1
-                vr0 += (mean_los * e2 + f2) * m2
+                r0, r1, r2 = f0, f1, f2
+                p_ = point_ref[c, a]
+                if p_ != point_float[c, a]:  # its own focus point in a spatial field
+                    fu = fluct_uvw[c, h, p_, 0, w_i]
+                    fv = fluct_uvw[c, h, p_, 1, w_i]
+                    r0 = fu * e0 + fv * -e1
+                    r1 = fu * e1 + fv * e0
+                    r2 = fluct_uvw[c, h, p_, 2, w_i]
+                vr0 = (mean_los * e0 + r0) * m0 + (mean_los * e1 + r1) * m1
+                vr0 += (mean_los * e2 + r2) * m2
                 v_r0[c, j, k] = vr0
                 q0 += vr0 * pinv_t[a, 0]
                 q1 += vr0 * pinv_t[a, 1]

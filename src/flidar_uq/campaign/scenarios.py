@@ -86,6 +86,19 @@ DEFAULT_SCENARIO: dict = {
         "shear_exponent_sd": 0.04,
         "ti_model": "offshore",  # offshore | iec_ntm | constant_ti
         "ti_params": {},
+        # the turbulence as a field frozen in the mean flow, sampled at each line of
+        # sight's focus point and the centre (the point truth); off: one point series a
+        # height that every line of sight samples (flidar_uq.physics.turbulence)
+        "spatial_field": {
+            "enabled": False,
+            # per record uniform draws: factor on the Kaimal length scales (-) and the
+            # lateral coherence decay (-; IEC 61400-1 fixes 12)
+            "length_scale_factor_range": [0.6, 1.6],
+            "coherence_decay_range": [8.0, 16.0],
+            # field points on a VAD lidar's circle (each line of sight samples the nearest;
+            # at most its n_los); a DBS lidar's beams are its points
+            "azimuth_points": 8,
+        },
     },
     "motion": {
         "model": "sea_state",  # sea_state | harmonic
@@ -256,6 +269,7 @@ class CampaignConfig:
         if not 0.0 <= lo <= hi:
             raise ValueError(f"scenario: lidar.refocus_delay_s must be 0 <= lo <= hi, got {lo, hi}")
         _check_sea_state(s)
+        _check_spatial_field(s["wind"]["spatial_field"])
         if s["reference_days"] is not None:
             _check_positive(s, "reference_days", s["reference_days"])
         if s["reference_instrument"] not in REFERENCE_INSTRUMENTS:
@@ -352,6 +366,25 @@ def _check_sea_state(s):
     for key in ("wind_sea_direction_sd_deg", "heading_sd_deg", "weathervane_min_hws_ms"):
         if not float(ss[key]) >= 0:
             raise ValueError(f"scenario: motion.sea_state.{key} must be >= 0, got {ss[key]!r}")
+
+
+def _check_spatial_field(sf):
+    if not isinstance(sf["enabled"], bool):
+        raise ValueError(
+            f"scenario: wind.spatial_field.enabled must be true or false, got {sf['enabled']!r}"
+        )
+    for key, lo, hi in (
+        ("length_scale_factor_range", 0.1, 10.0),
+        ("coherence_decay_range", 0.0, 100.0),
+    ):
+        if sf[key] is None:
+            raise ValueError(f"scenario: wind.spatial_field.{key} must be [lo, hi], got null")
+        _check_range(f"wind.spatial_field.{key}", sf[key], lo, hi)
+    n_az = sf["azimuth_points"]
+    if isinstance(n_az, bool) or not isinstance(n_az, int) or n_az < 3:
+        raise ValueError(
+            f"scenario: wind.spatial_field.azimuth_points must be an integer >= 3, got {n_az!r}"
+        )
 
 
 def _check_positive(s, key, val, integer=False):
