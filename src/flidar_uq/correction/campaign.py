@@ -564,8 +564,10 @@ FEW_RECORDS = 30
 
 def _with_dominant_source(speed_bins: pd.DataFrame, budget: pd.DataFrame) -> pd.DataFrame:
     """``speed_bins`` with ``interval_from``: in words, what the bin mean's interval comes
-    from (the largest of the budget's variance shares, :data:`DOMINANT_SOURCE_WORDS`), or
-    "too few records" below :data:`FEW_RECORDS`; "" where the budget has no row."""
+    from (the largest of the budget's variance shares, :data:`DOMINANT_SOURCE_WORDS`),
+    "fit not converged" where the bin's statistics come from records whose fit did not
+    converge, or "too few records" below :data:`FEW_RECORDS`; "" where the budget has no
+    row."""
     sb = budget[budget["grouping"] == "speed bin"]
     words = {}
     for _, row in sb.iterrows():
@@ -578,7 +580,9 @@ def _with_dominant_source(speed_bins: pd.DataFrame, budget: pd.DataFrame) -> pd.
     keys = zip(speed_bins["height_m"], speed_bins["hws_bin_ms"], strict=True)
     label = [words.get(k, "") for k in keys]
     few = speed_bins["n"].to_numpy() < FEW_RECORDS
-    return speed_bins.assign(interval_from=np.where(few, "too few records", label))
+    label = np.where(few, "too few records", label)
+    unconverged = ~speed_bins["converged"].to_numpy(dtype=bool)
+    return speed_bins.assign(interval_from=np.where(unconverged, "fit not converged", label))
 
 
 def _budget(correct, free, nb, per_record, speed_keys, settings: CorrectionSettings, shift):

@@ -1257,7 +1257,8 @@ def ti_group_statistics(
     credible_mass : float
         Equal-tailed credible mass in (0, 1).
     min_count : int
-        Fewest records with a corrected TI for the statistics of a group (>= 2); groups
+        Fewest records with a corrected TI for the statistics of a group (>= 2): converged
+        records first, else every record with finite draws (``converged`` False); groups
         below it keep their count and NaN statistics.
     seed : int or numpy.random.SeedSequence
         The population model's random numbers (group ``k`` of the sorted keys uses spawn
@@ -1275,8 +1276,10 @@ def ti_group_statistics(
         (posterior medians of the statistic) each followed by its ``_lo`` / ``_hi`` bounds,
         the same statistics of the uncorrected TI of the same records
         (``ti_mean_uncorrected``, ``ti_sd_uncorrected``, ``ti_rep_uncorrected``,
-        ``ti_p90_uncorrected``), ``n_not_converged`` (left out: their fit did not converge)
-        and Gutiérrez-Antuñano et al.'s (2018) representative TI ``ti_rep_u``, ``ti_rep_c``, ``ti_rep_pc`` where
+        ``ti_p90_uncorrected``), ``n_not_converged`` (records whose fit did not converge, left out unless
+        ``converged`` is False),
+        ``converged`` (False: the group has fewer than ``min_count`` converged records, and
+        its statistics are those of every record with finite draws, converged or not) and Gutiérrez-Antuñano et al.'s (2018) representative TI ``ti_rep_u``, ``ti_rep_c``, ``ti_rep_pc`` where
         ``per_record`` has them.
     """
     if not 0.0 < credible_mass < 1.0:
@@ -1306,9 +1309,14 @@ def ti_group_statistics(
         members = np.flatnonzero(valid)[idx]
         key = key if isinstance(key, tuple) else (key,)
         k = members[usable[members]]
+        # too few converged records: the statistics of every finite one, said not converged
+        from_converged = k.size >= min_count or members[finite[members]].size < min_count
+        if not from_converged:
+            k = members[finite[members]]
         row = dict(zip(key_cols, key, strict=True))
         row["n"] = int(k.size)
         row["n_not_converged"] = int((~conv[members]).sum())
+        row["converged"] = from_converged
         enough = k.size >= min_count
         if enough:
             sub_seed = np.random.SeedSequence(root.entropy, spawn_key=(*root.spawn_key, g))
@@ -1333,7 +1341,7 @@ def ti_group_statistics(
     cols += [
         f"{n}{s}" for n in ("ti_mean", "ti_rep", "ti_p90", "ti_sd") for s in ("", "_lo", "_hi")
     ]
-    cols += [f"{n}_uncorrected" for n in stats] + ["n_not_converged"]
+    cols += [f"{n}_uncorrected" for n in stats] + ["n_not_converged", "converged"]
     cols += [c for c in ("ti_rep_u", "ti_rep_c", "ti_rep_pc") if rows and c in rows[0]]
     return pd.DataFrame(rows, columns=cols)
 
