@@ -158,6 +158,33 @@ def test_unconverged_group_is_filled_and_said_not_converged():
     assert words == ["", "fit not converged", "too few records"]
 
 
+def test_bins_whose_motion_reaches_the_measured_std_stay_finite_and_say_so():
+    """Records whose sigma_Z reaches the measured std have every draw 0 (``c = 0``): a bin
+    of only such records gives statistics of 0 (finite) and ``interval_from`` "motion
+    reaches the measured std"; a bin where a third of the records are such keeps finite,
+    ordered intervals, below the bin without them, and counts them."""
+    from flidar_uq.correction.campaign import _with_dominant_source
+
+    rng = np.random.default_rng(22)
+    n = 30
+    draws = 0.1 * np.exp(0.2 * rng.standard_normal((400, 3 * n)))
+    draws[:, :n] = 0.0
+    draws[:, n : n + 10] = 0.0
+    per_record = pd.DataFrame({"converged": True, "ti_uncorrected": np.full(3 * n, 0.12)})
+    keys = pd.DataFrame({"height_m": 100.0, "hws_bin_ms": np.repeat([4.0, 5.0, 6.0], n)})
+    table = ti_group_statistics(draws, per_record, keys, seed=2)
+    assert table["n_zero_draws"].tolist() == [n, 10, 0]
+    stats = table[[f"ti_{s}{b}" for s in ("mean", "rep", "p90") for b in ("", "_lo", "_hi")]]
+    assert np.isfinite(stats.to_numpy(dtype=float)).all()
+    assert (stats.iloc[0] == 0.0).all()
+    part = table.iloc[1]
+    assert 0.0 < part["ti_mean_lo"] <= part["ti_mean"] <= part["ti_mean_hi"]
+    assert part["ti_mean"] < table["ti_mean"].iloc[2]
+    budget = pd.DataFrame(columns=["grouping", "height_m", "hws_bin_ms"])
+    words = _with_dominant_source(table, budget)["interval_from"].tolist()
+    assert words == ["motion reaches the measured std", "", ""]
+
+
 def test_noise_widens_interval(surrogate):
     rec = _records([0.8])
     narrow, _ = corrected_ti(

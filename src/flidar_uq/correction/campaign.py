@@ -566,8 +566,8 @@ def _with_dominant_source(speed_bins: pd.DataFrame, budget: pd.DataFrame) -> pd.
     """``speed_bins`` with ``interval_from``: in words, what the bin mean's interval comes
     from (the largest of the budget's variance shares, :data:`DOMINANT_SOURCE_WORDS`),
     "fit not converged" where the bin's statistics come from records whose fit did not
-    converge, or "too few records" below :data:`FEW_RECORDS`; "" where the budget has no
-    row."""
+    converge, "motion reaches the measured std" where every record's draws are 0, or "too
+    few records" below :data:`FEW_RECORDS`; "" where the budget has no row."""
     sb = budget[budget["grouping"] == "speed bin"]
     words = {}
     for _, row in sb.iterrows():
@@ -579,8 +579,10 @@ def _with_dominant_source(speed_bins: pd.DataFrame, budget: pd.DataFrame) -> pd.
             words[(row["height_m"], row["hws_bin_ms"])] = max(shares, key=shares.get)
     keys = zip(speed_bins["height_m"], speed_bins["hws_bin_ms"], strict=True)
     label = [words.get(k, "") for k in keys]
-    few = speed_bins["n"].to_numpy() < FEW_RECORDS
-    label = np.where(few, "too few records", label)
+    n = speed_bins["n"].to_numpy()
+    label = np.where(n < FEW_RECORDS, "too few records", label)
+    all_zero = (n > 0) & (speed_bins["n_zero_draws"].to_numpy() == n)
+    label = np.where(all_zero, "motion reaches the measured std", label)
     unconverged = ~speed_bins["converged"].to_numpy(dtype=bool)
     return speed_bins.assign(interval_from=np.where(unconverged, "fit not converged", label))
 
