@@ -17,8 +17,10 @@ import pandas as pd
 from flidar_uq.correction import propagation as prop
 from flidar_uq.correction.reference import Reference
 from flidar_uq.correction.regime_discrepancy import (
+    MIN_REGIMES,
     RegimeDiscrepancy,
     fit_regime_discrepancy,
+    prior_discrepancy,
     regime_keys,
 )
 from flidar_uq.data.binning import bin_centre, speed_bin_ms
@@ -494,7 +496,12 @@ def _point_target(sub, rec, reference: Reference, settings: CorrectionSettings):
 
 def _regime_discrepancy(sub, per_record, target, reference: Reference) -> RegimeDiscrepancy:
     """The regime discrepancy of the corrected records against the reference's point TI
-    (a fixed lidar's divided by the lidar's std ratio ``g``), by whole UTC days."""
+    (a fixed lidar's divided by the lidar's std ratio ``g``), by whole UTC days; without a
+    reference, or with too few regimes covered, the prior
+    (:func:`~flidar_uq.correction.regime_discrepancy.prior_discrepancy` at
+    ``reference.regime_discrepancy_prior_sd``)."""
+    if reference.kind == "none":
+        return prior_discrepancy(reference.regime_discrepancy_prior_sd, "no reference")
     ti_ref = np.full(len(sub), np.nan)
     if "ref_hws_std_ms" in sub and "ref_hws_mean_ms" in sub:
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -503,7 +510,10 @@ def _regime_discrepancy(sub, per_record, target, reference: Reference) -> Regime
                 ti_ref = ti_ref / np.asarray(target.lidar_std_ratio, dtype=float)
     day = pd.to_datetime(sub["timestamp"], utc=True).dt.floor("D").to_numpy()
     corrected = per_record["ti_corrected_median"].to_numpy(float)
-    return fit_regime_discrepancy(corrected, ti_ref, regime_keys(sub), day)
+    learnt = fit_regime_discrepancy(corrected, ti_ref, regime_keys(sub), day)
+    if len(learnt.regimes) < MIN_REGIMES:
+        return prior_discrepancy(reference.regime_discrepancy_prior_sd, learnt.reason)
+    return learnt
 
 
 def _group_tables(ti_draws, per_record, sub, settings: CorrectionSettings, shift=None):
