@@ -36,8 +36,8 @@ records). The per-record corrected TI is the record model's own.
 Without reference records (``reference.kind: none``, or a reference that covers fewer than
 :data:`MIN_REGIMES` regimes) nothing can be learnt, and the model's systematic error is carried as a prior
 (:func:`prior_discrepancy`): ``N(0, prior_sd^2)`` on log TI, one draw per posterior draw
-shared by every record, with ``prior_sd`` the spread of the regime terms learnt on the
-project's virtual scenarios (:data:`REGIME_DISCREPANCY_PRIOR_SD`).
+shared by every record, with ``prior_sd`` the sd of the model's regime error measured on
+the project's virtual scenarios (:data:`REGIME_DISCREPANCY_PRIOR_SD`).
 """
 
 from __future__ import annotations
@@ -69,10 +69,10 @@ CV_FOLDS = 5
 MIN_REGIME_RECORDS = 10
 #: Fewest regimes with :data:`MIN_REGIME_RECORDS` for the discrepancy to be learnt.
 MIN_REGIMES = 3
-#: Prior sd of the regime discrepancy without reference records (-, log TI): the rms of
-#: the regime terms learnt on the virtual scenarios (``benchmarks/bin_statistics.py``,
-#: ``bin_statistics_regimes.csv``; docs/inference.md, "Regime discrepancy").
-REGIME_DISCREPANCY_PRIOR_SD = 0.02
+#: Prior sd of the regime discrepancy without reference records (-, log TI): the largest
+#: sd of the model's regime error measured on the virtual scenarios, the wave followers'
+#: 0.007 (``benchmarks/bin_statistics.py``; docs/inference.md, "Regime discrepancy").
+REGIME_DISCREPANCY_PRIOR_SD = 0.007
 #: Weights of a regime and its two neighbours in speed (step 2).
 _SMOOTH = (0.25, 0.5, 0.25)
 
