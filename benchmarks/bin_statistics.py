@@ -15,9 +15,15 @@ with >= 30 records:
 against the truth over the bin's records: whether the 90 % interval holds the true mean TI
 and the true representative TI (mean + 1.28 sd), the relative error of the median and the
 interval's relative width. Writes benchmarks/results/bin_statistics.csv (one row per bin and
-method), bin_statistics_summary.csv and bin_statistics.png, and prints the summary.
+method), bin_statistics_summary.csv and bin_statistics.png, and prints the summary; and
+bin_statistics_regimes.csv: every campaign's regimes (smoothed residual, noise, ``delta``,
+kept or not) and, printed last, the sd of the model's regime error per campaign
+(:func:`regime_spread`), which sets the prior sd of the regime discrepancy without a
+reference (``reference.regime_discrepancy_prior_sd``). ``--tag``
+appends a suffix to every output's name (a development run beside the published one).
 
 Usage: python benchmarks/bin_statistics.py [--records N] [--campaigns K] [--seed ROOT]
+       [--tag NAME]
 """
 
 from __future__ import annotations
@@ -111,7 +117,16 @@ def one_campaign(scenario: str, kind: str, lidar: str | None, seed: int, n_recor
                     "population_s": t_pop, "campaign_s": t_campaign,
                 }
             )  # fmt: skip
-    return pd.DataFrame(rows)
+    regimes = disc.regimes.assign(scenario=scenario, reference=kind, seed=seed, kept=disc.kept)
+    return pd.DataFrame(rows), regimes
+
+
+def regime_spread(regimes: pd.DataFrame) -> float:
+    """The sd (log TI) of the model's regime error about 0 over the given regimes: the mean
+    square of their smoothed residuals less that of their noise (the method of moments;
+    the posterior means ``delta`` are shrunk towards 0 by the noise)."""
+    excess = np.mean(regimes["residual"] ** 2) - np.mean(regimes["noise_sd"] ** 2)
+    return float(np.sqrt(max(excess, 0.0)))
 
 
 def summarise(d: pd.DataFrame) -> pd.DataFrame:
@@ -160,20 +175,33 @@ def main() -> None:
     ap.add_argument("--records", type=int, default=2880, help="10-min records per campaign")
     ap.add_argument("--campaigns", type=int, default=1, help="campaigns per case")
     ap.add_argument("--seed", type=int, default=20261207, help="root of the campaign seeds")
+    ap.add_argument("--tag", default="", help="suffix of the outputs' names")
     args = ap.parse_args()
-    parts = []
+    parts, regimes = [], []
     for scenario, kind, lidar in CASES:
         for seed in campaign_seeds(args.seed, args.campaigns):
-            parts.append(one_campaign(scenario, kind, lidar, seed, args.records))
-            print(f"{scenario} / {kind} seed {seed}: {len(parts[-1]) // 3} bins", flush=True)
+            rows, reg = one_campaign(scenario, kind, lidar, seed, args.records)
+            parts.append(rows)
+            regimes.append(reg)
+            print(f"{scenario} / {kind} seed {seed}: {len(rows) // 3} bins", flush=True)
     d = pd.concat(parts, ignore_index=True)
+    out = f"{OUT}_{args.tag}" if args.tag else str(OUT)
     RESULTS.mkdir(exist_ok=True)
-    d.to_csv(f"{OUT}.csv", index=False)
+    d.to_csv(f"{out}.csv", index=False)
     s = summarise(d)
-    s.to_csv(f"{OUT}_summary.csv", index=False)
-    plot(s, Path(f"{OUT}.png"))
+    s.to_csv(f"{out}_summary.csv", index=False)
+    plot(s, Path(f"{out}.png"))
+    r = pd.concat(regimes, ignore_index=True)
+    r.to_csv(f"{out}_regimes.csv", index=False)
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(s.round(4).to_string(index=False))
+        low = d[(d["hws_bin_ms"] <= 4.0) & (d["method"] != "draws")]
+        print(low.groupby(["scenario", "method", "hws_bin_ms"])[
+            ["mean_error", "mean_width", "mean_covered", "rep_error", "rep_covered"]
+        ].mean().round(4).to_string())  # fmt: skip
+    for (scenario, kind), g in r.groupby(["scenario", "reference"]):
+        print(f"{scenario} / {kind}: {len(g)} regimes, regime error sd {regime_spread(g):.4f}")
+    print(f"all {len(r)} regimes: regime error sd {regime_spread(r):.4f} (log TI)")
 
 
 if __name__ == "__main__":

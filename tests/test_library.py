@@ -154,6 +154,33 @@ def test_correct_campaign_writes_the_workflow_steps_files(tmp_path, monkeypatch)
     assert result.metrics["reference_height_m"].iloc[0] == "70"
 
 
+@pytest.mark.slow  # ~1 min on a loaded machine: two corrections of 4 records with budgets
+def test_without_a_reference_the_regime_prior_widens_the_bins_and_the_budget_names_it(tmp_path):
+    """No reference (kind none): the regime discrepancy's prior
+    (``reference.regime_discrepancy_prior_sd``, one log-normal factor shared by the
+    records) is carried into every group statistic: the campaign mean's 90 % interval
+    widens, in quadrature, by about what a 2 % log-sd adds (``(2 x 1.645 x 0.02)^2``), and
+    the uncertainty budget names it with a share of its own; with a prior sd of 0 nothing
+    is added and the budget gives it no share."""
+    camp = _campaign_files(tmp_path)
+    settings = CorrectionSettings(ndraws=1000, budget_ndraws=1000, seed=5, min_count=2)
+    width, budgets = {}, {}
+    for prior_sd in (0.0, 0.02):
+        ref = Reference(kind="none", regime_discrepancy_prior_sd=prior_sd)
+        res = correct_campaign(
+            camp["records"], _global_fit(0.3, 0.02, 0.05), ref, settings,
+            flags=camp["flags"], bins=camp["bins"],
+        )  # fmt: skip
+        g = res.groups[res.groups["grouping"] == "campaign"]
+        width[prior_sd] = ((g["ti_mean_hi"] - g["ti_mean_lo"]) / g["ti_mean"]).to_numpy()
+        budgets[prior_sd] = res.budget
+    added = (width[0.02] ** 2 - width[0.0] ** 2) / (2 * 1.645 * 0.02) ** 2
+    assert np.all((added > 0.5) & (added < 1.5)), added
+    assert not np.any(budgets[0.0]["share_regime_discrepancy"] > 0.0)
+    share = budgets[0.02].loc[budgets[0.02]["grouping"] == "campaign", "share_regime_discrepancy"]
+    assert np.all(share > 0.03), share
+
+
 def test_correct_campaign_refuses_a_bin_model_without_its_bins():
     with pytest.raises(ValueError, match="bin motion model needs the bins"):
         correct_campaign(_records([0.6]), _global_fit(0.3), Reference(), CorrectionSettings())

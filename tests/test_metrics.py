@@ -16,6 +16,19 @@ def test_md_rmse_gutierrez2018_eqs18_19_hand_computed():
     assert metrics.rmse(moving, corr) == pytest.approx(np.sqrt(0.11 / 4))
 
 
+def test_removable_error_removed_hand_computed():
+    """(U - C) / (U - F): a wave follower's published RMSE (uncorrected 0.0081, corrected
+    0.0044, the still lidar over g 0.0037) removes 37 / 44 of its removable error, where the
+    share of the uncorrected RMSE is only 0.46; down to the floor is 1, nothing 0, worse than
+    uncorrected negative; no removable error is refused."""
+    assert metrics.removable_error_removed(0.0081, 0.0044, 0.0037) == pytest.approx(37 / 44)
+    assert metrics.removable_error_removed(0.02, 0.005, 0.005) == pytest.approx(1.0)
+    assert metrics.removable_error_removed(0.02, 0.02, 0.005) == 0.0
+    assert metrics.removable_error_removed(0.02, 0.026, 0.005) == pytest.approx(-0.4)
+    with pytest.raises(ValueError, match="rmse_uncorrected=0.004 must be above rmse_floor"):
+        metrics.removable_error_removed(0.004, 0.003, 0.004)
+
+
 def test_md_sign_is_moving_minus_reference():
     # Gutiérrez-Antuñano et al. (2018): a positive MD means the floating lidar sees the larger std
     assert metrics.mean_deviation([1.0], [0.8]) == pytest.approx(0.2)

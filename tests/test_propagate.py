@@ -15,6 +15,7 @@ from flidar_uq.correction.propagation import (
     draw_held_ti,
     record_summary,
     speed_bin_statistics,
+    ti_group_statistics,
     variance_law_baselines,
 )
 from flidar_uq.inference import BinFit, GlobalFit, fit_bin, fit_global
@@ -125,6 +126,63 @@ def test_unconverged_bin_marked_and_excluded_from_speed_bins(surrogate):
     assert pr.converged.tolist() == [True, True, False, False]
     assert "R-hat" in pr.failure_reasons.iloc[2]
     assert pb.n_not_converged.sum() == 2
+
+
+def test_unconverged_group_is_filled_and_said_not_converged():
+    """A group whose records' fits all failed (e.g. the global fit did not converge) still
+    gets its statistics, from every record with finite draws, with ``converged`` False and
+    ``interval_from`` "fit not converged"; a group with enough converged records uses only
+    those; a group with one finite record stays empty."""
+    from flidar_uq.correction.campaign import _with_dominant_source
+
+    rng = np.random.default_rng(21)
+    n = 40
+    draws = 0.1 * np.exp(0.2 * rng.standard_normal((400, 2 * n + 2)))
+    draws[:, -1] = np.nan
+    conv = np.r_[np.ones(n, bool), np.zeros(n, bool), False, False]
+    conv[0] = False  # one failed record among the converged group: left out
+    per_record = pd.DataFrame({"converged": conv, "ti_uncorrected": draws.mean(axis=0)})
+    keys = pd.DataFrame({"height_m": 100.0, "hws_bin_ms": np.r_[[8.0] * n, [9.0] * n, 10, 10]})
+    table = ti_group_statistics(draws, per_record, keys, seed=1)
+    assert table["converged"].tolist() == [True, False, True]
+    assert table["n"].tolist() == [n - 1, n, 0]
+    assert table["n_not_converged"].tolist() == [1, n, 2]
+    filled = table.iloc[1]
+    assert np.isfinite(
+        filled[["ti_mean", "ti_mean_lo", "ti_mean_hi", "ti_rep"]].astype(float)
+    ).all()
+    assert filled["ti_mean_lo"] < filled["ti_mean"] < filled["ti_mean_hi"]
+    assert np.isnan(table["ti_mean"].iloc[2])
+    empty_budget = pd.DataFrame(columns=["grouping", "height_m", "hws_bin_ms"])
+    words = _with_dominant_source(table, empty_budget)["interval_from"].tolist()
+    assert words == ["", "fit not converged", "too few records"]
+
+
+def test_bins_whose_motion_reaches_the_measured_std_stay_finite_and_say_so():
+    """Records whose sigma_Z reaches the measured std have every draw 0 (``c = 0``): a bin
+    of only such records gives statistics of 0 (finite) and ``interval_from`` "motion
+    reaches the measured std"; a bin where a third of the records are such keeps finite,
+    ordered intervals, below the bin without them, and counts them."""
+    from flidar_uq.correction.campaign import _with_dominant_source
+
+    rng = np.random.default_rng(22)
+    n = 30
+    draws = 0.1 * np.exp(0.2 * rng.standard_normal((400, 3 * n)))
+    draws[:, :n] = 0.0
+    draws[:, n : n + 10] = 0.0
+    per_record = pd.DataFrame({"converged": True, "ti_uncorrected": np.full(3 * n, 0.12)})
+    keys = pd.DataFrame({"height_m": 100.0, "hws_bin_ms": np.repeat([4.0, 5.0, 6.0], n)})
+    table = ti_group_statistics(draws, per_record, keys, seed=2)
+    assert table["n_zero_draws"].tolist() == [n, 10, 0]
+    stats = table[[f"ti_{s}{b}" for s in ("mean", "rep", "p90") for b in ("", "_lo", "_hi")]]
+    assert np.isfinite(stats.to_numpy(dtype=float)).all()
+    assert (stats.iloc[0] == 0.0).all()
+    part = table.iloc[1]
+    assert 0.0 < part["ti_mean_lo"] <= part["ti_mean"] <= part["ti_mean_hi"]
+    assert part["ti_mean"] < table["ti_mean"].iloc[2]
+    budget = pd.DataFrame(columns=["grouping", "height_m", "hws_bin_ms"])
+    words = _with_dominant_source(table, budget)["interval_from"].tolist()
+    assert words == ["motion reaches the measured std", "", ""]
 
 
 def test_noise_widens_interval(surrogate):

@@ -17,8 +17,10 @@ import pandas as pd
 from flidar_uq.correction import propagation as prop
 from flidar_uq.correction.reference import Reference
 from flidar_uq.correction.regime_discrepancy import (
+    MIN_REGIMES,
     RegimeDiscrepancy,
     fit_regime_discrepancy,
+    prior_discrepancy,
     regime_keys,
 )
 from flidar_uq.data.binning import bin_centre, speed_bin_ms
@@ -494,7 +496,12 @@ def _point_target(sub, rec, reference: Reference, settings: CorrectionSettings):
 
 def _regime_discrepancy(sub, per_record, target, reference: Reference) -> RegimeDiscrepancy:
     """The regime discrepancy of the corrected records against the reference's point TI
-    (a fixed lidar's divided by the lidar's std ratio ``g``), by whole UTC days."""
+    (a fixed lidar's divided by the lidar's std ratio ``g``), by whole UTC days; without a
+    reference, or with too few regimes covered, the prior
+    (:func:`~flidar_uq.correction.regime_discrepancy.prior_discrepancy` at
+    ``reference.regime_discrepancy_prior_sd``)."""
+    if reference.kind == "none":
+        return prior_discrepancy(reference.regime_discrepancy_prior_sd, "no reference")
     ti_ref = np.full(len(sub), np.nan)
     if "ref_hws_std_ms" in sub and "ref_hws_mean_ms" in sub:
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -503,7 +510,10 @@ def _regime_discrepancy(sub, per_record, target, reference: Reference) -> Regime
                 ti_ref = ti_ref / np.asarray(target.lidar_std_ratio, dtype=float)
     day = pd.to_datetime(sub["timestamp"], utc=True).dt.floor("D").to_numpy()
     corrected = per_record["ti_corrected_median"].to_numpy(float)
-    return fit_regime_discrepancy(corrected, ti_ref, regime_keys(sub), day)
+    learnt = fit_regime_discrepancy(corrected, ti_ref, regime_keys(sub), day)
+    if len(learnt.regimes) < MIN_REGIMES:
+        return prior_discrepancy(reference.regime_discrepancy_prior_sd, learnt.reason)
+    return learnt
 
 
 def _group_tables(ti_draws, per_record, sub, settings: CorrectionSettings, shift=None):
@@ -564,8 +574,10 @@ FEW_RECORDS = 30
 
 def _with_dominant_source(speed_bins: pd.DataFrame, budget: pd.DataFrame) -> pd.DataFrame:
     """``speed_bins`` with ``interval_from``: in words, what the bin mean's interval comes
-    from (the largest of the budget's variance shares, :data:`DOMINANT_SOURCE_WORDS`), or
-    "too few records" below :data:`FEW_RECORDS`; "" where the budget has no row."""
+    from (the largest of the budget's variance shares, :data:`DOMINANT_SOURCE_WORDS`),
+    "fit not converged" where the bin's statistics come from records whose fit did not
+    converge, "motion reaches the measured std" where every record's draws are 0, or "too
+    few records" below :data:`FEW_RECORDS`; "" where the budget has no row."""
     sb = budget[budget["grouping"] == "speed bin"]
     words = {}
     for _, row in sb.iterrows():
@@ -577,8 +589,12 @@ def _with_dominant_source(speed_bins: pd.DataFrame, budget: pd.DataFrame) -> pd.
             words[(row["height_m"], row["hws_bin_ms"])] = max(shares, key=shares.get)
     keys = zip(speed_bins["height_m"], speed_bins["hws_bin_ms"], strict=True)
     label = [words.get(k, "") for k in keys]
-    few = speed_bins["n"].to_numpy() < FEW_RECORDS
-    return speed_bins.assign(interval_from=np.where(few, "too few records", label))
+    n = speed_bins["n"].to_numpy()
+    label = np.where(n < FEW_RECORDS, "too few records", label)
+    all_zero = (n > 0) & (speed_bins["n_zero_draws"].to_numpy() == n)
+    label = np.where(all_zero, "motion reaches the measured std", label)
+    unconverged = ~speed_bins["converged"].to_numpy(dtype=bool)
+    return speed_bins.assign(interval_from=np.where(unconverged, "fit not converged", label))
 
 
 def _budget(correct, free, nb, per_record, speed_keys, settings: CorrectionSettings, shift):

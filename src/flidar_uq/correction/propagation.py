@@ -1257,7 +1257,8 @@ def ti_group_statistics(
     credible_mass : float
         Equal-tailed credible mass in (0, 1).
     min_count : int
-        Fewest records with a corrected TI for the statistics of a group (>= 2); groups
+        Fewest records with a corrected TI for the statistics of a group (>= 2): converged
+        records first, else every record with finite draws (``converged`` False); groups
         below it keep their count and NaN statistics.
     seed : int or numpy.random.SeedSequence
         The population model's random numbers (group ``k`` of the sorted keys uses spawn
@@ -1275,8 +1276,14 @@ def ti_group_statistics(
         (posterior medians of the statistic) each followed by its ``_lo`` / ``_hi`` bounds,
         the same statistics of the uncorrected TI of the same records
         (``ti_mean_uncorrected``, ``ti_sd_uncorrected``, ``ti_rep_uncorrected``,
-        ``ti_p90_uncorrected``), ``n_not_converged`` (left out: their fit did not converge)
-        and Gutiérrez-Antuñano et al.'s (2018) representative TI ``ti_rep_u``, ``ti_rep_c``, ``ti_rep_pc`` where
+        ``ti_p90_uncorrected``), ``n_not_converged`` (records whose fit did not converge, left out unless
+        ``converged`` is False),
+        ``converged`` (False: the group has fewer than ``min_count`` converged records, and
+        its statistics are those of every record with finite draws, converged or not),
+        ``n_zero_draws`` (records of the statistics whose every draw is 0: the motion's
+        variance reaches the measured one; the statistics stay finite, each such record
+        counting as a TI of :data:`~flidar_uq.correction.bin_population.LOG_FLOOR_TI` on the
+        log scale, and are 0 when every record is one) and Gutiérrez-Antuñano et al.'s (2018) representative TI ``ti_rep_u``, ``ti_rep_c``, ``ti_rep_pc`` where
         ``per_record`` has them.
     """
     if not 0.0 < credible_mass < 1.0:
@@ -1296,6 +1303,7 @@ def ti_group_statistics(
     conv = per_record["converged"].to_numpy(dtype=bool)
     finite = finite_records(ti_draws) if ti_draws.shape[0] else conv
     usable = conv & finite
+    zero = _all_draws(ti_draws, lambda b: b <= 0.0) & (ti_draws.shape[0] > 0)
     kv = keys.reset_index(drop=True)
     valid = kv.notna().all(axis=1).to_numpy()
     stats = ("ti_mean", "ti_sd", "ti_rep", "ti_p90")
@@ -1309,9 +1317,15 @@ def ti_group_statistics(
         members = np.flatnonzero(valid)[idx]
         key = key if isinstance(key, tuple) else (key,)
         k = members[usable[members]]
+        # too few converged records: the statistics of every finite one, said not converged
+        from_converged = k.size >= min_count or members[finite[members]].size < min_count
+        if not from_converged:
+            k = members[finite[members]]
         row = dict(zip(key_cols, key, strict=True))
         row["n"] = int(k.size)
         row["n_not_converged"] = int((~conv[members]).sum())
+        row["converged"] = from_converged
+        row["n_zero_draws"] = int(zero[k].sum())
         enough = k.size >= min_count
         if enough:
             sub_seed = np.random.SeedSequence(root.entropy, spawn_key=(*root.spawn_key, g))
@@ -1338,7 +1352,7 @@ def ti_group_statistics(
     cols += [
         f"{n}{s}" for n in ("ti_mean", "ti_rep", "ti_p90", "ti_sd") for s in ("", "_lo", "_hi")
     ]
-    cols += [f"{n}_uncorrected" for n in stats] + ["n_not_converged"]
+    cols += [f"{n}_uncorrected" for n in stats] + ["n_not_converged", "converged", "n_zero_draws"]
     cols += [c for c in ("ti_rep_u", "ti_rep_c", "ti_rep_pc") if rows and c in rows[0]]
     return pd.DataFrame(rows, columns=cols)
 
@@ -1351,11 +1365,17 @@ def finite_records(ti_draws) -> np.ndarray:
     """Records whose draws are all finite: ``np.all(np.isfinite(ti_draws), axis=0)`` for
     ``ti_draws`` of shape (ndraws, n_records), computed on blocks of records (no
     ndraws x n_records temporary); a bool array of shape (n_records,)."""
+    return _all_draws(ti_draws, np.isfinite)
+
+
+def _all_draws(ti_draws, test) -> np.ndarray:
+    """Records (columns of ``ti_draws``, (ndraws, n_records)) whose every draw passes
+    ``test`` (elementwise, to bool), computed on blocks of records."""
     ti_draws = np.asarray(ti_draws)
     out = np.empty(ti_draws.shape[1], dtype=bool)
     step = max(1, _BLOCK_VALUES // max(ti_draws.shape[0], 1))
     for j in range(0, ti_draws.shape[1], step):
-        out[j : j + step] = np.all(np.isfinite(ti_draws[:, j : j + step]), axis=0)
+        out[j : j + step] = np.all(test(ti_draws[:, j : j + step]), axis=0)
     return out
 
 

@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 
 from flidar_uq.correction import propagation as prop
+from flidar_uq.correction.regime_discrepancy import REGIME_DISCREPANCY_PRIOR_SD
 from flidar_uq.physics.dbs_sigma_z import wind_to_body_deg
 from flidar_uq.physics.lidar import get_lidar
 from flidar_uq.seeding import child_seed
@@ -54,6 +55,9 @@ class Reference:
         east, as the record column ``heading_mean_deg``; docs/conventions.md): a DBS
         lidar's response to turbulence depends on the wind's direction against its beams.
         None: unknown (averaged over directions).
+    regime_discrepancy_prior_sd : float
+        Prior sd of the regime discrepancy on log TI when no reference record can teach it
+        (-; :func:`flidar_uq.correction.regime_discrepancy.prior_discrepancy`).
     """
 
     kind: str = "fixed_lidar"
@@ -63,6 +67,7 @@ class Reference:
     height_m: float | tuple[float, ...] | None = None
     separation_m: float = 0.0
     heading_deg: float | None = None
+    regime_discrepancy_prior_sd: float = REGIME_DISCREPANCY_PRIOR_SD
 
     @classmethod
     def from_config(
@@ -81,7 +86,8 @@ class Reference:
         section : mapping or None
             ``config["reference"]``: ``kind`` (None when not set), ``lidar`` (None: the
             floating lidar's type), ``height_m`` (m), ``separation_m`` (m),
-            ``lidar_std_ratio_log_sd`` (-), ``sampling_correlation`` ("auto",
+            ``lidar_std_ratio_log_sd`` (-), ``regime_discrepancy_prior_sd`` (-),
+            ``sampling_correlation`` ("auto",
             "synchronized" or a number in [-1, 1], -), ``heading_deg`` (deg; None:
             unknown, or 0 for the virtual campaign's reference lidar, whose beams are those
             of a buoy heading of 0). None: an empty section.
@@ -166,6 +172,9 @@ class Reference:
             height_m=tuple(height) if isinstance(height, list | tuple) else height,
             separation_m=float(section.get("separation_m") or 0.0),
             heading_deg=None if heading is None else float(heading),
+            regime_discrepancy_prior_sd=float(
+                section.get("regime_discrepancy_prior_sd", REGIME_DISCREPANCY_PRIOR_SD)
+            ),
         )
 
     def to_config(self) -> dict:

@@ -32,6 +32,12 @@ statistic (docs/inference.md, "Regime discrepancy"):
 The bin statistics then divide each record's population draw by ``exp(delta)`` of its
 regime (one draw of every regime's discrepancy per posterior draw, shared by the regime's
 records). The per-record corrected TI is the record model's own.
+
+Without reference records (``reference.kind: none``, or a reference that covers fewer than
+:data:`MIN_REGIMES` regimes) nothing can be learnt, and the model's systematic error is carried as a prior
+(:func:`prior_discrepancy`): ``N(0, prior_sd^2)`` on log TI, one draw per posterior draw
+shared by every record, with ``prior_sd`` the sd of the model's regime error measured on
+the project's virtual scenarios (:data:`REGIME_DISCREPANCY_PRIOR_SD`).
 """
 
 from __future__ import annotations
@@ -46,9 +52,12 @@ from flidar_uq.data.binning import speed_bin_ms
 
 __all__ = [
     "CV_FOLDS",
+    "MIN_REGIMES",
     "PERIOD_EDGES_S",
     "RegimeDiscrepancy",
+    "REGIME_DISCREPANCY_PRIOR_SD",
     "fit_regime_discrepancy",
+    "prior_discrepancy",
     "regime_keys",
 ]
 
@@ -58,6 +67,12 @@ PERIOD_EDGES_S = (4.0, 7.0)
 CV_FOLDS = 5
 #: Fewest reference records of a regime for its mean to enter the fit.
 MIN_REGIME_RECORDS = 10
+#: Fewest regimes with :data:`MIN_REGIME_RECORDS` for the discrepancy to be learnt.
+MIN_REGIMES = 3
+#: Prior sd of the regime discrepancy without reference records (-, log TI): the largest
+#: sd of the model's regime error measured on the virtual scenarios, the wave followers'
+#: 0.007 (``benchmarks/bin_statistics.py``; docs/inference.md, "Regime discrepancy").
+REGIME_DISCREPANCY_PRIOR_SD = 0.007
 #: Weights of a regime and its two neighbours in speed (step 2).
 _SMOOTH = (0.25, 0.5, 0.25)
 
@@ -111,6 +126,37 @@ class RegimeDiscrepancy:
         sd = np.append(table["delta_sd"].to_numpy(dtype=float), tau)
         z = rng.standard_normal((ndraws, mean.size))
         return at, mean[None, :] + sd[None, :] * z
+
+
+def prior_discrepancy(prior_sd: float, why: str) -> RegimeDiscrepancy:
+    """The regime discrepancy without reference records: its prior.
+
+    ``N(0, prior_sd^2)`` on log TI, one draw shared by every regime (no regime is seen:
+    every record takes the column of unseen regimes), carried whenever ``prior_sd > 0``.
+
+    Parameters
+    ----------
+    prior_sd : float
+        Prior sd of the discrepancy (-, log TI; config ``reference.
+        regime_discrepancy_prior_sd``, default :data:`REGIME_DISCREPANCY_PRIOR_SD`).
+    why : str
+        Why no discrepancy is learnt (the start of ``reason``).
+
+    Returns
+    -------
+    RegimeDiscrepancy
+        No regime rows, ``mu = 0``, ``tau = prior_sd``.
+    """
+    if not (np.isfinite(prior_sd) and prior_sd >= 0.0):
+        raise ValueError(f"prior_discrepancy: prior_sd={prior_sd} must be finite and >= 0")
+    columns = ["hws_bin_ms", "period_class", "n_reference", "residual", "noise_sd", "delta"]
+    table = pd.DataFrame(columns=[*columns, "delta_sd"])
+    table.attrs["mu"] = 0.0
+    kept = prior_sd > 0.0
+    reason = f"{why}: the prior sd {prior_sd:g} of the regime discrepancy" + (
+        " is carried" if kept else ", 0: none carried"
+    )
+    return RegimeDiscrepancy(table, float(prior_sd), kept, 0.0, 0.0, reason)
 
 
 def regime_keys(records: pd.DataFrame) -> pd.DataFrame:
@@ -221,7 +267,7 @@ def fit_regime_discrepancy(
     )
     per = _regime_means(c, ref, keys, day) if c.size else empty
     fit = per[per["n_reference"] >= MIN_REGIME_RECORDS] if len(per) else per
-    if len(fit) < 3 or not np.all(fit["noise_var"] > 0):
+    if len(fit) < MIN_REGIMES or not np.all(fit["noise_var"] > 0):
         reason = f"{len(fit)} regimes with >= {MIN_REGIME_RECORDS} reference records: too few"
         table = fit.assign(delta=0.0, delta_sd=0.0, noise_sd=np.sqrt(fit.get("noise_var", 0.0)))
         table.attrs["mu"] = 0.0

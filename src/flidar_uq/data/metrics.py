@@ -18,6 +18,7 @@ __all__ = [
     "mean_deviation",
     "rmse",
     "md_rmse",
+    "removable_error_removed",
     "interval_coverage",
     "reference_values",
     "reference_label",
@@ -75,6 +76,41 @@ def rmse(moving, reference) -> float:
     return (
         float(np.sqrt(np.mean((m - r) ** 2))) if m.size else np.nan
     )  # Eq. (19) of Gutiérrez-Antuñano et al. (2018)
+
+
+def removable_error_removed(rmse_uncorrected, rmse_corrected, rmse_floor) -> float:
+    """Share of the removable per-record error that a correction removes (-):
+    ``(RMSE_uncorrected - RMSE_corrected) / (RMSE_uncorrected - RMSE_floor)``.
+
+    The floor is the RMSE of the same lidar held still with its std ratio ``g`` to the
+    point wind divided out (a virtual campaign's motionless lidar): its 10-min sampling
+    scatter, which no correction from 10-min statistics can take out of one record. 1 =
+    down to the floor, 0 = nothing removed, < 0 = worse than uncorrected, > 1 = below the
+    floor.
+
+    Parameters
+    ----------
+    rmse_uncorrected, rmse_corrected, rmse_floor : float
+        Per-record RMSE (:func:`rmse`) against the same truth of the uncorrected TI, the
+        corrected TI and the still lidar's TI over ``g`` (-).
+
+    Returns
+    -------
+    float
+        The share (-).
+
+    Raises
+    ------
+    ValueError
+        If ``rmse_uncorrected`` is not above ``rmse_floor``: there is nothing to remove.
+    """
+    u, c, f = float(rmse_uncorrected), float(rmse_corrected), float(rmse_floor)
+    if not u > f:
+        raise ValueError(
+            f"removable_error_removed: rmse_uncorrected={u} must be above rmse_floor={f} "
+            "(no removable error)"
+        )
+    return (u - c) / (u - f)
 
 
 def md_rmse(x, reference) -> tuple[float, float, int]:
