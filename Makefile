@@ -10,7 +10,8 @@ VENV  ?= .venv
 PY     = $(VENV)/bin/python
 CORES ?= all
 # test processes of `make test` (pytest-xdist; a test file stays in one process, so that
-# its module fixtures, e.g. the SLURM cluster, start once)
+# its module fixtures, e.g. the SLURM cluster, start once; the files with the most slow
+# tests are handed out first, tests/conftest.py)
 TEST_WORKERS ?= 2
 
 .PHONY: run test test-fast venv lint lock bench clean
@@ -35,7 +36,7 @@ test: venv
 	bash scripts/system-deps.sh
 	$(VENV)/bin/lint-imports --no-cache
 	$(VENV)/bin/python -m pytest -m "slow or not slow" -p no:cacheprovider \
-	  -n $(TEST_WORKERS) --dist loadfile --durations=25
+	  -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder --durations=25
 
 test-fast: venv
 	$(VENV)/bin/python -m pytest

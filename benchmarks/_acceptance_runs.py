@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-#: How the acceptance tests (tests/test_regimes.py) run each scenario: the options of
+#: How the acceptance tests (tests/test_regimes*.py) run each scenario: the options of
 #: ``validation.regimes.scenario_records`` (the lidar of the surrogate, the hull the
 #: analyst names).
 SCENARIO_OPTIONS: dict[str, dict] = {

@@ -5,7 +5,7 @@ sampling of the scan and of the probe volume in 10 minutes), and its std is a fe
 cent above the point wind's (its response to turbulence). No correction that works from
 the floating lidar's 10-min statistics can take that scatter out of one record. This
 script measures, on the virtual campaigns' acceptance seeds (the same runs as
-``tests/test_regimes.py``, through ``validation.regimes.scenario_records``), the
+``tests/test_regimes*.py``, through ``validation.regimes.scenario_records``), the
 per-record RMSE of the TI against the point truth (``ti_true``) of:
 
 * the uncorrected floating lidar (``ti_uncorrected``);
@@ -56,7 +56,7 @@ from flidar_uq.threads import single_threaded  # noqa: E402
 from flidar_uq.validation.regimes import scenario_records  # noqa: E402
 
 OUT = Path(__file__).parent / "results" / "record_error_floor"
-#: The acceptance runs of tests/test_regimes.py: scenario and seed.
+#: The acceptance runs of tests/test_regimes*.py: scenario and seed.
 RUNS = [
     *[
         (scenario, seed)

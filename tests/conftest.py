@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import shutil
+from collections import Counter
 
 import numpy as np
 import pytest
@@ -21,6 +22,15 @@ IN_CI = os.environ.get("CI", "").lower() in {"1", "true", "yes"}
 # and rerun, no example database): a failure is reproducible, never a new random draw.
 settings.register_profile("deterministic", derandomize=True, database=None)
 settings.load_profile("deterministic")
+
+
+def pytest_collection_modifyitems(config, items):
+    """Order the test files by their number of slow tests, most first (a stable sort: each
+    file's tests keep their order). ``make test`` hands whole files to its processes in
+    this order (``--dist loadfile --no-loadscope-reorder``): the long files start first
+    and the short ones fill the end, so that the processes finish together."""
+    slow = Counter(item.path for item in items if item.get_closest_marker("slow"))
+    items.sort(key=lambda item: -slow[item.path])
 
 
 def require_tool(name: str) -> str:
