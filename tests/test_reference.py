@@ -47,7 +47,7 @@ def test_schema_reference_section_is_closed_and_bounded():
         ("height_m", [None, 80.0, [27.0, 85.0]], [0.0, -5.0, []]),
         ("separation_m", [0.0, 250.0], [-1.0, "near"]),
         ("lidar", [None, "windcube_v2"], [3]),
-        ("lidar_std_ratio_log_sd", [0.0, 0.05], [-0.01, 1.0]),
+        ("lidar_std_ratio_log_sd", ["auto", 0.0, 0.05], ["automatic", -0.01, 1.0]),
         ("sampling_correlation", ["auto", "synchronized", 0.0, -0.2, 1], ["sync", 1.5, -2, None]),
     ):
         for value in good:
