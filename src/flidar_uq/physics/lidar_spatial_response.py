@@ -58,6 +58,7 @@ __all__ = [
     "lidar_spatial_std_ratio",
     "lidar_std_ratio_prior",
     "range_weight_nodes_m",
+    "simulate_spatial_std_ratio",
 ]
 
 #: Half-width at half maximum of a CW lidar's Lorentzian weighting focused at 100 m, m
@@ -319,3 +320,112 @@ def lidar_std_ratio_prior(hws_ms, height_m, lidar="zephir300", *, models=SPATIAL
         mean[np.flatnonzero(ok)[at]] = np.interp(lu[at], np.log(speeds), log_g.mean(0))
         sd[np.flatnonzero(ok)[at]] = np.interp(lu[at], np.log(speeds), log_g.std(0))
     return mean, sd
+
+
+def simulate_spatial_std_ratio(
+    hws_ms: float,
+    height_m: float,
+    lidar="zephir300",
+    *,
+    n_records: int = 3,
+    n_range: int = 3,
+    dt_s: float = 0.25,
+    seed: int = 0,
+):
+    """``g`` of a motionless lidar in a simulated 3-D field, to check :func:`lidar_spatial_std_ratio`.
+
+    Each 10-min record: a PyConTurb field (:func:`flidar_uq.physics.turbulence.pyconturb_field`:
+    IEC Kaimal spectra, the IEC exponential coherence of u' with ``L_c = 340.2 m``, v' and
+    w' incoherent) at the beams' range nodes (:func:`range_weight_nodes_m`) and at the scan
+    centre, frozen and advected along the mean wind (``u(x, t) = u(0, t - x / U)``), the
+    wind at a random direction against the lidar; scans with a random gap of up to half a
+    line of sight's duration between them, each scan's radial speeds weighted over the
+    range nodes, its least-squares wind and HWS; the point HWS at the scan centre every
+    ``dt_s``. Compare with ``lidar_spatial_std_ratio(..., model=SpatialTurbulence(
+    coherence_length_per_lambda1=(340.2 / Lambda_1, 0, 0)), n_range=n_range)``.
+
+    Parameters
+    ----------
+    hws_ms : float
+        Mean horizontal wind speed, m/s (> 0).
+    height_m : float
+        Measurement height, m (> 0).
+    lidar : str or LidarGeometry
+        Scan geometry.
+    n_records : int
+        Simulated 10-min records (>= 2).
+    n_range : int
+        Nodes of the range weighting.
+    dt_s : float
+        Time step of the field, s (> 0).
+    seed : int
+        Seed (numpy SeedSequence entropy): the result is deterministic.
+
+    Returns
+    -------
+    g : float
+        ``sqrt(sum of the lidar's record variances / sum of the point's)`` (-).
+    g_se : float
+        Its standard error from the records' log ratios (-).
+
+    Raises
+    ------
+    ValueError
+        If an input is out of range.
+    """
+    if not (hws_ms > 0 and height_m > 0 and dt_s > 0 and int(n_records) >= 2):
+        raise ValueError(
+            f"simulate_spatial_std_ratio: need hws_ms > 0 m/s, height_m > 0 m, dt_s > 0 s and "
+            f"n_records >= 2, got {hws_ms!r}, {height_m!r}, {dt_s!r}, {n_records!r}"
+        )
+    from flidar_uq.physics.turbulence import pyconturb_field
+
+    g = _lidar.get_lidar(lidar)
+    t_s, az = _lidar.scan_times_azimuths(g, 0.0)
+    d = _lidar.beam_unit_vectors_body(g, az)  # (K, 3)
+    p = _lidar.vad_pseudo_inverse(d)  # (3, K)
+    slant = height_m / d[:, 2]
+    nodes, weights = np.stack([range_weight_nodes_m(g, r, n_range) for r in slant], axis=1)
+    pos = (slant[:, None, None] + nodes[..., None]) * d[:, None, :]  # (K, M, 3), m
+    t_win = _lidar.window_beam_times_s(g) if g.kind == "dbs" else t_s[None, :]  # (S, K)
+    record_s = 600.0
+    margin_s = float(np.max(np.abs(pos[..., :2]))) / hws_ms + 2.0 * g.scan_period_s
+    rng = np.random.default_rng(np.random.SeedSequence(seed))
+    var_l, var_p = [], []
+    for _ in range(int(n_records)):
+        beta = rng.uniform(0.0, 2.0 * np.pi)
+        e_u = np.array([np.cos(beta), np.sin(beta), 0.0])
+        e_v = np.array([-np.sin(beta), np.cos(beta), 0.0])
+        along, across = pos @ e_u, pos @ e_v  # (K, M), m
+        field = pyconturb_field(
+            np.append(across.ravel(), 0.0),
+            np.append(pos[..., 2].ravel(), height_m),
+            hws_ms,
+            1.0,
+            duration_s=record_s + 2.0 * margin_s,
+            dt_s=dt_s,
+            seed=int(rng.integers(2**31)),
+        )  # (P + 1, 3, nt), wind-aligned
+        gaps = g.scan_period_s + rng.uniform(0.0, 0.5 * g.los_duration_s, size=int(record_s))
+        starts = margin_s + np.cumsum(gaps)
+        starts = starts[starts < margin_s + record_s - g.scan_period_s]
+        t = starts[:, None] + t_win[np.arange(starts.size) % t_win.shape[0]]  # (J, K), s
+        # each line of sight averages over its duration: n_sub instants in it
+        n_sub = int(np.ceil(2.0 * g.los_duration_s / dt_s))
+        t = t[..., None] + g.los_duration_s * (np.arange(n_sub) + 0.5) / n_sub  # (J, K, N)
+        lag = t[:, :, None, :] - along[None, :, :, None] / hws_ms  # (J, K, M, N), s
+        i = np.clip(lag / dt_s, 0, field.shape[-1] - 1.001)
+        i0, frac = i.astype(int), (i - i.astype(int))[..., None]
+        pt = np.broadcast_to(np.arange(along.size).reshape(along.shape)[None, ..., None], i0.shape)
+        uvw = field[pt, :, i0] * (1 - frac) + field[pt, :, i0 + 1] * frac  # (J, K, M, N, 3)
+        wind = hws_ms * e_u + uvw @ np.stack([e_u, e_v, [0.0, 0.0, 1.0]])  # body frame, m/s
+        v_r = np.einsum("jkmnc,kc,km->jk", wind, d, weights) / n_sub
+        ret = v_r @ p.T  # (J, 3)
+        var_l.append(np.var(np.hypot(ret[:, 0], ret[:, 1]), ddof=1))
+        n0 = int(margin_s / dt_s)
+        c = field[-1, :, n0 : n0 + int(record_s / dt_s)]
+        var_p.append(np.var(np.hypot(hws_ms + c[0], c[1]), ddof=1))
+    log_r = 0.5 * np.log(np.asarray(var_l) / np.asarray(var_p))
+    return float(np.sqrt(np.sum(var_l) / np.sum(var_p))), float(
+        np.std(log_r, ddof=1) / np.sqrt(len(log_r))
+    )
