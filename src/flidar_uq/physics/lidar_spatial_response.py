@@ -46,7 +46,7 @@ from scipy.special import erf
 
 from flidar_uq.physics import lidar as _lidar
 from flidar_uq.physics.lidar_response import _frequency_grid, _std_ratio_on_grid
-from flidar_uq.physics.turbulence import IEC_SIGMA_RATIOS, kaimal_lambda1_m
+from flidar_uq.physics.turbulence import IEC_SIGMA_RATIOS, kaimal_lambda1_m, pyconturb_field
 
 __all__ = [
     "CW_HALF_WIDTH_AT_100M_M",
@@ -378,8 +378,6 @@ def simulate_spatial_std_ratio(
             f"simulate_spatial_std_ratio: need hws_ms > 0 m/s, height_m > 0 m, dt_s > 0 s and "
             f"n_records >= 2, got {hws_ms!r}, {height_m!r}, {dt_s!r}, {n_records!r}"
         )
-    from flidar_uq.physics.turbulence import pyconturb_field
-
     g = _lidar.get_lidar(lidar)
     t_s, az = _lidar.scan_times_azimuths(g, 0.0)
     d = _lidar.beam_unit_vectors_body(g, az)  # (K, 3)
