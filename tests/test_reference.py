@@ -47,7 +47,7 @@ def test_schema_reference_section_is_closed_and_bounded():
         ("height_m", [None, 80.0, [27.0, 85.0]], [0.0, -5.0, []]),
         ("separation_m", [0.0, 250.0], [-1.0, "near"]),
         ("lidar", [None, "windcube_v2"], [3]),
-        ("lidar_std_ratio_log_sd", [0.0, 0.05], [-0.01, 1.0]),
+        ("lidar_std_ratio_log_sd", ["auto", 0.0, 0.05], ["automatic", -0.01, 1.0]),
         ("sampling_correlation", ["auto", "synchronized", 0.0, -0.2, 1], ["sync", 1.5, -2, None]),
     ):
         for value in good:
@@ -189,6 +189,23 @@ def test_ratio_prior_is_one_shared_factor_in_the_total_interval_and_the_draws_on
         corrected_ti(rec, bins, glob, target=PointTarget(lidar_std_ratio_log_sd=0.03), **kw)
     with pytest.raises(ValueError, match="must be >= 0"):
         corrected_ti(rec, bins, glob, target=PointTarget(g, None, -0.1), **kw)
+
+
+def test_ratio_prior_per_record_shares_one_normal_per_draw():
+    # the auto prior gives each record its own sd: one z per draw, exp(sd_i z) per record
+    rec = _records([0.6, 0.8, 1.0])
+    bins, glob = _fits()
+    g = np.array([1.02, 1.03, 1.05])
+    sur = get_surrogate("zephir300")
+    kw = dict(surrogate=sur, seed=4, settings=PropagationSettings(ndraws=2000))
+    exact = draw_corrected_ti(rec, bins, glob, target=PointTarget(g, None, 0.0), **kw)
+    per = draw_corrected_ti(rec, bins, glob, target=PointTarget(g, None, [0.0, 0.03, 0.06]), **kw)
+    log_factor = np.log(per.ti / exact.ti)
+    np.testing.assert_allclose(log_factor[:, 0], 0.0, atol=1e-6)
+    np.testing.assert_allclose(log_factor[:, 2], 2.0 * log_factor[:, 1], rtol=1e-4, atol=1e-6)
+    assert np.std(log_factor[:, 1]) == pytest.approx(0.03, rel=0.08)
+    with pytest.raises(ValueError, match="must be >= 0"):
+        draw_corrected_ti(rec, bins, glob, target=PointTarget(g, None, [0.0, 0.03]), **kw)
 
 
 # --------------------------------------------------------------------------- labels

@@ -480,11 +480,12 @@ def _point_target(sub, rec, reference: Reference, settings: CorrectionSettings):
     # a point reference calibrates g itself: an error of g is taken up by the record fit's
     # motion terms and divided out again, so it is no campaign-wide error of the point TI
     point_reference = reference.kind in ("cup", "sonic")
-    g_log_sd = 0.0 if point_reference else float(reference.lidar_std_ratio_log_sd)
+    g_log_sd = 0.0 if point_reference else reference.ratio_log_sd(sub, lidar=settings.lidar)
     log.info(
         "point target: lidar std ratio %.4f-%.4f, log-sd %.4f-%.4f (%d heights in turn)%s",
         np.nanmin(g_ratio), np.nanmax(g_ratio), np.nanmin(log_sd), np.nanmax(log_sd), heights,
-        f"; calibrated by the {reference.kind}" if point_reference else "",
+        f"; calibrated by the {reference.kind}" if point_reference
+        else f"; prior sd of log g {np.min(g_log_sd):.3f}-{np.max(g_log_sd):.3f}",
     )  # fmt: skip
     if pair_corr is not None:
         log.info(

@@ -107,9 +107,9 @@ UNCERTAINTY_SOURCES = ("motion", "rho", "noise_model", "reference_response", "sa
 #: reference (none: it is the motionless lidar of the floating lidar's type).
 REFERENCE_KINDS = ("cup", "sonic", "fixed_lidar", "none")
 
-#: Default prior sd of log g, the error of the motionless lidar's std ratio to the point
-#: wind beyond its temporal part (-): probe-volume and scan-disk averaging (-1 to -3 %
-#: at 1-4 m probe lengths and 30-90 m heights, Sathe et al. 2011) and stability
+#: Prior sd of log g of a reference built in code, the error of the motionless lidar's std
+#: ratio to the point wind beyond its temporal part (-); the config's default "auto" takes
+#: it per record from the spatial model of the scan disk and the probe volume
 #: (docs/lidar-response.md, "Uncertainty of g").
 LIDAR_STD_RATIO_LOG_SD = 0.02
 
@@ -620,10 +620,11 @@ class PointTarget:
         Std of ``log(motionless-lidar std / point std)`` per record (-), with
         ``lidar_std_ratio``: each draw is multiplied by ``exp(N(0, sd^2))`` so that the
         intervals are for the point std. None: no scatter.
-    lidar_std_ratio_log_sd : float
+    lidar_std_ratio_log_sd : float or array_like of shape (n_records,)
         Prior sd of ``log g`` (-), with ``lidar_std_ratio``: every posterior draw divides
-        by ``g exp(N(0, sd^2))``, one factor per draw shared by all records (the ratio's
-        error is systematic: probe-volume averaging, stability). It is in the draws, the
+        by ``g exp(sd z)``, ``z ~ N(0, 1)`` one number per draw shared by all records (the
+        ratio's error is systematic: probe-volume averaging, stability), ``sd`` one value
+        or one per record. It is in the draws, the
         group statistics and ``ti_corrected_lo_total`` / ``ti_corrected_hi_total``; the
         per-record interval ``ti_corrected_lo`` / ``ti_corrected_hi`` is given ``g``.
         0: g exact.
@@ -647,7 +648,7 @@ class PointTarget:
 
     lidar_std_ratio: object = None
     point_log_sd: object = None
-    lidar_std_ratio_log_sd: float = 0.0
+    lidar_std_ratio_log_sd: object = 0.0
     reference_sampling_correlation: object = None
     reference_pair_log_sd: object = None
 
@@ -669,9 +670,11 @@ class PointTarget:
                 raise ValueError(
                     f"PointTarget: point_log_sd must be {n} values >= 0, got shape {log_sd.shape}"
                 )
-        if not self.lidar_std_ratio_log_sd >= 0.0:
+        g_log_sd = np.asarray(self.lidar_std_ratio_log_sd, dtype=float)
+        if g_log_sd.shape not in ((), (n,)) or np.any(~(g_log_sd >= 0.0)):
             raise ValueError(
-                f"PointTarget: lidar_std_ratio_log_sd={self.lidar_std_ratio_log_sd} must be >= 0"
+                f"PointTarget: lidar_std_ratio_log_sd={self.lidar_std_ratio_log_sd} must be >= 0 "
+                f"(one value or {n} values)"
             )
         if self.reference_sampling_correlation is not None:
             c = np.asarray(self.reference_sampling_correlation, dtype=float)
@@ -685,7 +688,7 @@ class PointTarget:
                     f"PointTarget: reference_pair_log_sd must be {n} values >= 0, with "
                     "reference_sampling_correlation"
                 )
-        if self.lidar_std_ratio_log_sd > 0.0 and self.lidar_std_ratio is None:
+        if np.any(g_log_sd > 0.0) and self.lidar_std_ratio is None:
             raise ValueError("PointTarget: lidar_std_ratio_log_sd needs lidar_std_ratio")
         if self.lidar_std_ratio is not None:
             g_ratio = np.asarray(self.lidar_std_ratio, dtype=float)
@@ -785,9 +788,9 @@ class _Propagation:
         self.rho_med = float(np.median(global_fit.flat("rho")))
         # the ratio's systematic error: one factor per draw, shared by every record (drawn
         # whatever its sd, so that the other random numbers do not depend on it)
-        g_log_sd = target.lidar_std_ratio_log_sd
-        self.g_draw = np.exp(-g_log_sd * self.rng.standard_normal((ndraws, 1)))
-        self.systematic = g_log_sd > 0.0 and "reference_response" not in self.hold
+        g_log_sd = np.atleast_1d(np.asarray(target.lidar_std_ratio_log_sd, dtype=float))
+        self.g_draw = np.exp(-g_log_sd[None, :] * self.rng.standard_normal((ndraws, 1)))
+        self.systematic = bool(np.any(g_log_sd > 0.0)) and "reference_response" not in self.hold
         self.sq = np.full((self.q.size, n), np.nan)  # corrected std quantiles (m/s)
         self.tq = np.full((self.q.size, n), np.nan)  # and of the corrected TI (-), given g
         self.tq_total = self.tq.copy()  # and with g's systematic error
@@ -840,7 +843,7 @@ class _Propagation:
             sig = c * (np.exp(self.log_sd[cb] * ref) / self.g_ratio[cb])
             self.sq[:, cb], self.tq[:, cb] = _record_quantiles(sig, m[cb], self.q)
             if self.systematic:  # the campaign-wide error of g: in the draws and the total
-                sig = sig * self.g_draw
+                sig = sig * (self.g_draw[:, cb] if self.g_draw.shape[1] > 1 else self.g_draw)
                 self.tq_total[:, cb] = _record_quantiles(sig, m[cb], self.q)[1]
             else:
                 self.tq_total[:, cb] = self.tq[:, cb]

@@ -15,6 +15,8 @@ from flidar_uq.correction import propagation as prop
 from flidar_uq.correction.regime_discrepancy import REGIME_DISCREPANCY_PRIOR_SD
 from flidar_uq.physics.dbs_sigma_z import wind_to_body_deg
 from flidar_uq.physics.lidar import get_lidar
+from flidar_uq.physics.lidar_response import lidar_std_ratio
+from flidar_uq.physics.lidar_spatial_response import lidar_std_ratio_prior
 from flidar_uq.seeding import child_seed
 
 __all__ = ["REFERENCE_KINDS", "Reference", "ReferenceNoise"]
@@ -40,8 +42,9 @@ class Reference:
     lidar : str
         The fixed lidar's scan geometry (a lidar name of
         :func:`flidar_uq.physics.lidar.get_lidar`; the floating lidar's when not given).
-    lidar_std_ratio_log_sd : float
-        Prior sd of the log of the lidar-to-point std ratio g (-).
+    lidar_std_ratio_log_sd : float or str
+        Prior sd of the log of the lidar-to-point std ratio g (-), or "auto": per record
+        from the spatial model (:meth:`ratio_log_sd`).
     sampling_correlation : str or float
         Correlation of the reference lidar's and the floating lidar's sampling errors (-):
         "synchronized" (same scan schedule, ``c`` from the buoy heading) or a number in
@@ -62,7 +65,7 @@ class Reference:
 
     kind: str = "fixed_lidar"
     lidar: str = "zephir300"
-    lidar_std_ratio_log_sd: float = prop.LIDAR_STD_RATIO_LOG_SD
+    lidar_std_ratio_log_sd: float | str = prop.LIDAR_STD_RATIO_LOG_SD
     sampling_correlation: str | float = prop.REFERENCE_SAMPLING_CORRELATION
     height_m: float | tuple[float, ...] | None = None
     separation_m: float = 0.0
@@ -86,7 +89,7 @@ class Reference:
         section : mapping or None
             ``config["reference"]``: ``kind`` (None when not set), ``lidar`` (None: the
             floating lidar's type), ``height_m`` (m), ``separation_m`` (m),
-            ``lidar_std_ratio_log_sd`` (-), ``regime_discrepancy_prior_sd`` (-),
+            ``lidar_std_ratio_log_sd`` ("auto" or a number, -), ``regime_discrepancy_prior_sd`` (-),
             ``sampling_correlation`` ("auto",
             "synchronized" or a number in [-1, 1], -), ``heading_deg`` (deg; None:
             unknown, or 0 for the virtual campaign's reference lidar, whose beams are those
@@ -158,6 +161,11 @@ class Reference:
                 if virtual_kind is not None
                 else prop.REFERENCE_SAMPLING_CORRELATION
             )
+        # the prior sd of log g: auto is 0 for the virtual campaign, whose turbulence is
+        # uniform in space (the temporal g is exact), else the spatial model's per record
+        g_log_sd = section.get("lidar_std_ratio_log_sd", "auto")
+        if g_log_sd == "auto" and virtual_kind is not None:
+            g_log_sd = 0.0
         height = section.get("height_m")
         heading = section.get("heading_deg")
         if heading is None and virtual_kind is not None:
@@ -165,9 +173,7 @@ class Reference:
         return cls(
             kind=kind or "none",
             lidar=ref_lidar,
-            lidar_std_ratio_log_sd=float(
-                section.get("lidar_std_ratio_log_sd", prop.LIDAR_STD_RATIO_LOG_SD)
-            ),
+            lidar_std_ratio_log_sd=g_log_sd if g_log_sd == "auto" else float(g_log_sd),
             sampling_correlation=corr,
             height_m=tuple(height) if isinstance(height, list | tuple) else height,
             separation_m=float(section.get("separation_m") or 0.0),
@@ -280,6 +286,38 @@ class Reference:
         )
         pair = np.sqrt(np.maximum(sd_f**2 + sd_r**2 - 2.0 * corr * sd_f * sd_r, 0.0))
         return ReferenceNoise(g_f, sd_f, corr, pair, g_r / g_f)
+
+    def ratio_log_sd(self, records: pd.DataFrame, *, lidar: str | None = None):
+        """Prior sd of ``log g`` (-): :attr:`lidar_std_ratio_log_sd`, or for "auto" per record
+        the root-mean-square distance of the spatial model's ``log g`` over its turbulence
+        models from the temporal ``log g`` (:func:`flidar_uq.physics.lidar_spatial_response.
+        lidar_std_ratio_prior`, ``sqrt(sd^2 + (mean - log g_temporal)^2)``).
+
+        The lidar is the one whose ratio turns the calibrated std into the point std: the
+        fixed lidar for ``fixed_lidar`` (the fit maps the floating lidar onto it), the
+        floating lidar (``lidar``, default :attr:`lidar`) for ``none``.
+
+        Parameters
+        ----------
+        records : pandas.DataFrame
+            Records with ``hws_mean_ms`` (m/s) and ``height_m`` (m).
+        lidar : str, optional
+            The floating lidar's geometry name; default :attr:`lidar`.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            The number, or (n_records,) values >= 0 (0 where a record's speed or height is
+            not positive).
+        """
+        if self.lidar_std_ratio_log_sd != "auto":
+            return float(self.lidar_std_ratio_log_sd)
+        which = self.lidar if self.kind == "fixed_lidar" or lidar is None else lidar
+        hws = records["hws_mean_ms"].to_numpy(dtype=float)
+        height = records["height_m"].to_numpy(dtype=float)
+        mean, sd = lidar_std_ratio_prior(hws, height, which)
+        distance = np.hypot(sd, mean - np.log(lidar_std_ratio(hws, height, which)))
+        return np.where(np.isfinite(distance), distance, 0.0)
 
     def height_label(self) -> str:
         """The reference height(s) as results/ti/metrics.csv writes them: ``;``-joined
