@@ -22,7 +22,6 @@ import pandas as pd
 
 from flidar_uq.campaign.physics_mode import generate_campaign
 from flidar_uq.campaign.scenarios import load_scenario, reference_sampling
-from flidar_uq.correction.campaign import CorrectionSettings, correct_campaign
 from flidar_uq.correction.propagation import (
     LIDAR_STD_RATIO_LOG_SD,
     REFERENCE_SAMPLING_CORRELATION,
@@ -33,9 +32,8 @@ from flidar_uq.correction.propagation import (
     record_summary,
 )
 from flidar_uq.correction.reference import Reference
-from flidar_uq.data.binning import add_harmonic_motion, bins_for_fitting, speed_bin_ms
+from flidar_uq.data.binning import add_harmonic_motion, bins_for_fitting
 from flidar_uq.data.calibration import calibration_by_group, speed_group_label
-from flidar_uq.data.metrics import REPRESENTATIVE_TI_FACTOR
 from flidar_uq.data.qc import QCConfig, run_qc
 from flidar_uq.data.schema import CORRECTED_TI_COLUMNS
 from flidar_uq.inference import (
@@ -57,7 +55,6 @@ __all__ = [
     "regime_labels",
     "scenario_calibration",
     "scenario_records",
-    "scenario_speed_bins",
 ]
 
 #: Grouping columns of :func:`scenario_calibration`'s tables.
@@ -71,9 +68,6 @@ DEFAULT_BINNING = {
     "period_width_s": 1.0,
     "min_count": 30,
 }
-
-#: Fewest corrected records of a speed bin for :func:`scenario_speed_bins`' statistics.
-BIN_MIN_COUNT = 30
 
 #: Edges of the wave-period groups (s, the record's dominant sea period): a short wind
 #: sea below 4 s, whose orbital translation is smaller than the lever arm's; a long swell
@@ -332,97 +326,6 @@ def scenario_records(
     out["in_calibration"] = out["has_reference"] & kept.index.isin(calib.index)
     out = pd.concat([out, regime_labels(out)], axis=1)
     return (out, fit, draws.ti) if return_draws else (out, fit)
-
-
-@single_threaded
-def scenario_speed_bins(
-    scenario: str | Path | Mapping,
-    seed: int,
-    *,
-    fit=None,
-    settings: SamplerSettings = SamplerSettings(),
-    ndraws: int = 400,
-    n_records: int | None = None,
-    hull_reference: str = "wave_follower",
-):
-    """The pipeline's speed-bin table of a virtual scenario beside each bin's truth.
-
-    The scenario is generated and QC-filtered as :func:`scenario_records` does, calibrated
-    with the record model on its reference records (or corrected with ``fit``, a trial
-    campaign's posterior), and corrected by
-    :func:`flidar_uq.correction.campaign.correct_campaign`, which gives the table the report
-    prints: per height and 1-m/s bin, the population's mean, sd, representative TI and P90
-    with their intervals (the measurement-error model and the regime discrepancy).
-
-    Parameters
-    ----------
-    scenario : str, path or mapping
-        Scenario name, path or settings (:func:`scenario_records`).
-    seed : int
-        Root seed: campaign, fit, point target and propagation get its spawned children.
-    fit : GlobalFit, optional
-        A posterior to correct with (a trial campaign's, :func:`scenario_records`); None:
-        the record model fitted on this campaign's reference records.
-    settings, n_records, hull_reference
-        As :func:`scenario_records` (the translating hull model, one fit).
-    ndraws : int
-        Posterior draws propagated per record.
-
-    Returns
-    -------
-    records : pandas.DataFrame
-        ``correct_campaign``'s record table (``ti_true`` the point truth, -).
-    speed_bins : pandas.DataFrame
-        Its speed-bin table with ``ti_mean_true`` and ``ti_rep_true`` (mean + 1.28 sd, IEC
-        61400-1 ed. 3) of the point truth over each bin's corrected records (-).
-    fit : GlobalFit
-        The posterior used.
-    """
-    cfg = _scenario_config(scenario, n_records, None)
-    lidar = _scenario_lidar(cfg, None)
-    ss_camp, ss_fit, ss_point, ss_prop = as_seedsequence(seed).spawn(4)
-    camp = _scenario_campaign(cfg, ss_camp, ss_point, lidar, True)
-    if fit is None:
-        fit = fit_record_model_selecting_hull(
-            camp.noise.floating_reference(camp.kept),
-            hull_model="translating",
-            hull=hull_reference,
-            surrogate=get_surrogate(lidar),
-            lidar=lidar,
-            settings=settings,
-            seed=ss_fit,
-            pair_log_sd=camp.noise.pair_log_sd if camp.pair else None,
-        )
-    sampling = camp.sampling
-    correction = CorrectionSettings(
-        ndraws=ndraws,
-        budget_ndraws=min(ndraws, CorrectionSettings.budget_ndraws),
-        seed=int(ss_prop.generate_state(1)[0]),
-        lidar=lidar,
-        point_sample_interval_s=sampling["point_sample_interval_s"],
-        scan_heights_in_turn=sampling["heights_in_turn"],
-        scan_refocus_delay_s=tuple(sampling["refocus_delay_s"]),
-        turbulence_dt_s=sampling["turbulence_dt_s"],
-        min_count=BIN_MIN_COUNT,
-    )
-    result = correct_campaign(camp.kept.drop(columns="bin_id"), fit, camp.reference, correction)
-    rec = result.records
-    truth = pd.DataFrame(
-        {
-            "height_m": rec["height_m"].to_numpy(float),
-            "hws_bin_ms": speed_bin_ms(rec["hws_mean_ms"].to_numpy(float)),
-            "ti": rec["ti_true"].to_numpy(float),
-        }
-    )[rec["ti_corrected_median"].notna().to_numpy()]
-    stats = truth.groupby(["height_m", "hws_bin_ms"])["ti"].agg(["mean", "std"])
-    stats["rep"] = stats["mean"] + REPRESENTATIVE_TI_FACTOR * stats["std"]
-    bins = result.speed_bins.merge(
-        stats[["mean", "rep"]].rename(columns={"mean": "ti_mean_true", "rep": "ti_rep_true"}),
-        left_on=["height_m", "hws_bin_ms"],
-        right_index=True,
-        how="left",
-    )
-    return rec, bins, fit
 
 
 def bin_model_fit(
