@@ -352,7 +352,7 @@ def check_outputs(workdir: Path, *, truth: bool, bin_model: bool = False) -> pd.
     records = pd.read_csv(res / "ti" / "records.csv")
     assert list(records.columns[: len(RECORD_COLUMNS)]) == RECORD_COLUMNS
     assert ("ti_true" in records) == truth
-    n_in = len(pd.read_csv(res / "data" / "records.csv"))
+    n_in = len(pd.read_parquet(res / "data" / "records.parquet"))
     assert len(records) == n_in  # every input record appears, flagged or corrected
     corrected = records["ti_corrected_median"].notna()
     assert (records.loc[~corrected, "flags"].fillna("") != "").all()  # no value => a reason
@@ -610,8 +610,8 @@ def test_infer_batch_reports_a_raising_bin_and_fits_the_others(tmp_path, monkeyp
         return _fake_bin_fit(bin_id, np.random.default_rng(seed))
 
     monkeypatch.setattr(inference, "fit_bin", fake_fit_bin)
-    pd.DataFrame({"record_id": range(6), "bin_id": [1, 1, 1, 2, 2, 2], "hws_mean_ms": 8.0}).to_csv(
-        tmp_path / "assignments.csv", index=False
+    assigned = pd.DataFrame(
+        {"record_id": range(6), "bin_id": [1, 1, 1, 2, 2, 2], "hws_mean_ms": 8.0}
     )
     pd.DataFrame({"bin_id": [1, 2, 3], "fitted": [True, True, False], "batch": [0, 0, -1]}).to_csv(
         tmp_path / "table.csv", index=False
@@ -620,7 +620,7 @@ def test_infer_batch_reports_a_raising_bin_and_fits_the_others(tmp_path, monkeyp
     runs = []
     for name in ("a", "b"):
         summary = inference_steps.infer_batch(
-            tmp_path / "assignments.csv",
+            assigned,
             tmp_path / "table.csv",
             tmp_path / name,
             batch=0,
@@ -745,6 +745,10 @@ def test_default_campaign_meets_the_corrected_ti_acceptance(tmp_path):
     uncorrected error beside it (it must show the motion effect the correction removes)."""
     snakemake(tmp_path, CONFIG, "--cores", "2", timeout=2400)
     check_outputs(tmp_path, truth=True)
+    # the record table is written twice (Parquet: as given, validated); the later steps
+    # write their record ids and new columns only: results/ stays under 100 MB
+    files = [p for p in (tmp_path / "results").rglob("*") if p.is_file() and not p.is_symlink()]
+    assert sum(p.stat().st_size for p in files) <= 100e6
     m = pd.read_csv(tmp_path / "results" / "ti" / "metrics.csv")
     truth = m[m["reference"] == "truth"].set_index("method")
     assert truth.loc["Bayesian", "n"] > 20000
@@ -792,16 +796,16 @@ def _library_path_gives_the_pipelines_tables(run_dir: Path) -> None:
     import filecmp
 
     import flidar_uq as fu
-    from flidar_uq.data.io import read_csv
+    from flidar_uq.data.io import read_csv, read_table
     from flidar_uq.workflow.inputs import check_config, correction_inputs
 
     cfg = check_config(yaml.safe_load(CONFIG.read_text()))
     res = run_dir / "results"
     reference, settings = correction_inputs(cfg)
     flags = read_csv(res / "qc" / "flags.csv")
-    records = read_csv(res / "data" / "records.csv").iloc[flags["record_id"].to_numpy()]
+    records = read_table(res / "data" / "records.parquet").iloc[flags["record_id"].to_numpy()]
     bins = fu.BinTables(
-        assignments=read_csv(res / "bins" / "assignments.csv"),
+        assignments=read_table(res / "bins" / "assignments.parquet"),
         table=read_csv(res / "bins" / "table.csv"),
         sigma_z=read_csv(res / "bins" / "sigma_z.csv"),
     )
