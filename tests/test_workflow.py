@@ -815,3 +815,37 @@ def _library_path_gives_the_pipelines_tables(run_dir: Path) -> None:
     for name in ("records.csv", "speed_bins.csv", "groups.csv"):
         assert filecmp.cmp(run_dir / "library" / name, res / "ti" / name, shallow=False), name
     assert len(written) == 5
+
+
+def test_qc_motion_and_bins_write_their_record_ids_and_new_columns_only(tmp_path):
+    """After validation each stage writes the record ids it keeps and the columns it adds
+    (Parquet); kept_records joins them into the table the stages saw in memory, the same
+    values and dtypes, and refuses a record id the validated table lacks."""
+    from flidar_uq.data import binning, io
+    from flidar_uq.data import qc as qc_lib
+    from flidar_uq.workflow import data_steps as ds
+
+    data = tmp_path / "data.parquet"
+    records = ds.validate_records(REPO / "tests" / "data" / "hand_written_campaign.csv", data)
+    kept, motion, assign = (tmp_path / f"{n}.parquet" for n in ("kept", "motion", "assign"))
+    ds.run_qc(data, tmp_path / "flags.csv", kept, tmp_path / "summary.csv", {})
+    ds.motion_statistics(data, kept, motion, tmp_path / "roll_pitch.csv")
+    widths = dict(hws_width_ms=2.0, amplitude_width_deg=2.0, period_width_s=2.0)
+    ds.make_bins([data, motion], assign, tmp_path / "table.csv", min_count=2, nbatches=2, **widths)
+    assert io.read_table(kept).columns.tolist() == ["record_id"]
+    assert io.read_table(motion).columns.tolist() == ["record_id", "amplitude_deg", "period_s"]
+    new = io.read_table(assign).columns.tolist()
+    assert new[:2] == ["record_id", "hws_bin_ms"] and "bin_id" in new and "hws_mean_ms" not in new
+    # what the stages computed in memory, from the validated records
+    qc = qc_lib.run_qc(io.read_table(data), qc_lib.QCConfig())
+    full = qc.kept.copy()
+    full.insert(0, "record_id", full.index.to_numpy())
+    want, _ = binning.bins_for_fitting(
+        binning.add_harmonic_motion(full.reset_index(drop=True)), min_count=2, nbatches=2, **widths
+    )
+    got = ds.kept_records(data, motion, assign)
+    assert len(got) > 0 and len(got) < len(records)
+    pd.testing.assert_frame_equal(got, want, check_exact=True)
+    io.write_table(pd.DataFrame({"record_id": [len(records)]}), tmp_path / "bad.parquet")
+    with pytest.raises(ValueError, match=r"record_id \d+, which .*data\.parquet"):
+        ds.kept_records(data, tmp_path / "bad.parquet")
