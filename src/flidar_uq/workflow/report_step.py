@@ -147,7 +147,13 @@ def file_provenance(paths: dict[str, str | os.PathLike]) -> pd.DataFrame:
         if not p.is_file():
             continue
         data = p.read_bytes()
-        n_rows = data.count(b"\n") - 1 if p.suffix == ".csv" else None
+        n_rows = None
+        if p.suffix == ".csv":
+            n_rows = data.count(b"\n") - 1
+        elif p.suffix == ".parquet":  # the pipeline's record tables
+            import pyarrow.parquet as pq
+
+            n_rows = pq.ParquetFile(p).metadata.num_rows
         rows.append(
             {
                 "file": label,
