@@ -37,6 +37,7 @@ from flidar_uq.inference import (  # noqa: E402
     select_global_model,
 )
 from flidar_uq.physics.surrogate import get_surrogate  # noqa: E402
+from flidar_uq.workflow.data_steps import kept_records  # noqa: E402
 from flidar_uq.workflow.inference_steps import bin_seed  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results"
@@ -184,14 +185,18 @@ def _timing(n_bins_all, workers, sur) -> pd.DataFrame:
         lambda: fit_global(camp, fits, surrogate=sur, settings=default, seed=8),
     )
     rows.append({"what": "  global fit converged", "value": float(gf.converged)})
-    if (PIPELINE_BINS / "assignments.csv").exists():
+    if (PIPELINE_BINS / "assignments.parquet").exists():
         _timing_default_campaign(rows, default, workers)
     return pd.DataFrame(rows)
 
 
 def _timing_default_campaign(rows, default, workers) -> None:
     """All fitted bins of the pipeline's campaign (results/bins/) and the global fit."""
-    assigned = pd.read_csv(PIPELINE_BINS / "assignments.csv")
+    res = PIPELINE_BINS.parent
+    assigned = kept_records(
+        res / "data" / "records.parquet", res / "motion" / "records.parquet",
+        PIPELINE_BINS / "assignments.parquet",
+    )  # fmt: skip
     table = pd.read_csv(PIPELINE_BINS / "table.csv")
     bins = table.loc[table["fitted"].astype(bool), "bin_id"].astype(int)
     recs = assigned[assigned["bin_id"].isin(bins)].reset_index(drop=True)

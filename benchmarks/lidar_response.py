@@ -11,7 +11,7 @@ atmospheric spectrum; writes ``benchmarks/results/lidar_response.csv`` and ``.pn
 prints the ratios side by side.
 
 Usage: ``python benchmarks/lidar_response.py [records.csv]`` (default: the pipeline's
-``results/campaign/records.csv``; without it, a 1500-record default campaign is generated).
+``results/campaign/records.parquet``; without it, a 1500-record default campaign is generated).
 
 ``python benchmarks/lidar_response.py --study spatial``: the spatial model
 (``flidar_uq.physics.lidar_spatial_response``: scan disk and probe volume in coherent
@@ -49,10 +49,10 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def _records(argv) -> pd.DataFrame:
-    path = Path(argv[1]) if len(argv) > 1 else REPO / "results" / "campaign" / "records.csv"
+    path = Path(argv[1]) if len(argv) > 1 else REPO / "results" / "campaign" / "records.parquet"
     if path.is_file():
         print(f"records: {path}")
-        return pd.read_csv(path)
+        return pd.read_parquet(path) if path.suffix == ".parquet" else pd.read_csv(path)
     print("records: generating a 1500-record default campaign (seed 20181122)")
     scen = load_scenario("default") | {"n_records": 1500}
     return generate_campaign(scen, 20181122, n_workers=2).records

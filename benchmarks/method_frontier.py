@@ -25,7 +25,7 @@ intervals. Writes benchmarks/results/method_frontier.csv and method_frontier.png
 the table with the time and error ratios to the uncorrected row side by side.
 
 Usage: python benchmarks/method_frontier.py [records.csv | --plot-only]
-(records.csv: the default pipeline's ``results/campaign/records.csv``; without it the
+(records.csv: the default pipeline's ``results/campaign/records.parquet``; without it the
 default scenario is generated here, ~2 min on 2 cores.)
 """
 

@@ -16,7 +16,7 @@ own ``campaign`` rule (physics mode, the default scenario with ``n_records`` cha
 mode cost ~11-16 ms CPU per record row when the sizes were measured (the 1-week run here),
 ~20-30 CPU minutes for a year, so larger sizes (or every size with ``--virtual-max-days 0
 --base-records FILE``) cut or tile a generated campaign (timestamps shifted by whole copies,
-``true_record`` renumbered) into ``results/campaign/records.csv`` before the run
+``true_record`` renumbered) into ``results/campaign/records.parquet`` before the run
 (``--rerun-triggers mtime``: Snakemake keeps it); their ``campaign`` row is the linear
 extrapolation of the largest generated size, marked ``measured = False``. Every later step
 runs on the full-size table. Statistical mode (records drawn from the Bayesian model itself)
@@ -267,15 +267,16 @@ def refresh_from_workdirs(df: pd.DataFrame, workdirs: list[Path]) -> pd.DataFram
     return pd.concat(out, ignore_index=True)
 
 
-def tile_records(base_csv: Path, out_csv: Path, n_records: int) -> None:
-    """Write ``n_records`` 10-min records per height by repeating ``base_csv`` in time.
+def tile_records(base_path: Path, out_path: Path, n_records: int) -> None:
+    """Write ``n_records`` 10-min records per height by repeating ``base_path`` (the
+    record table, Parquet or CSV) in time, as Parquet to ``out_path``.
 
     Each copy is shifted by the base's whole span on the 10-min grid (first to last
     timestamp plus one slot, so timestamps stay unique and on the grid even when the base
     has gaps, e.g. a QC-filtered table) and ``true_record`` (one per 10-min slot) and
     ``record_id`` (one per row) are renumbered; the last copy is cut to length.
     """
-    base = pd.read_csv(base_csv)
+    base = pd.read_parquet(base_path) if base_path.suffix == ".parquet" else pd.read_csv(base_path)
     ts = pd.to_datetime(base["timestamp"], utc=True)
     slot = pd.Timedelta(minutes=10)
     span = ts.max() - ts.min() + slot
@@ -292,8 +293,8 @@ def tile_records(base_csv: Path, out_csv: Path, n_records: int) -> None:
     out = pd.concat(copies, ignore_index=True)
     t_out = pd.to_datetime(out["timestamp"], utc=True)
     out = out[t_out < ts.min() + slot * n_records]
-    out_csv.parent.mkdir(parents=True, exist_ok=True)
-    out.to_csv(out_csv, index=False)
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    out.to_parquet(out_path, index=False)
 
 
 def run_size(
@@ -317,7 +318,7 @@ def run_size(
     )
     measured_campaign = base_records is None
     if base_records is not None:
-        tile_records(base_records, wd / "results" / "campaign" / "records.csv", n_records)
+        tile_records(base_records, wd / "results" / "campaign" / "records.parquet", n_records)
     cmd = [
         str(Path(sys.executable).parent / "snakemake"),
         "--snakefile", str(REPO / "Snakefile"),
@@ -601,7 +602,7 @@ def main() -> None:
         all_timelines = pd.concat(timelines, ignore_index=True)
         all_timelines.to_csv(timeline_csv, index=False)
         if not tiled:
-            base = args.workdir / label / "results" / "campaign" / "records.csv"
+            base = args.workdir / label / "results" / "campaign" / "records.parquet"
         df = extrapolate_campaign(
             pd.concat([df[df["measured"]] if len(df) else df, steps], ignore_index=True)
         )

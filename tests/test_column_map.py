@@ -15,8 +15,8 @@ import pytest
 import yaml
 
 from flidar_uq.cli import main
-from flidar_uq.data.io import DataValidationError, read_records, validate_records
-from flidar_uq.workflow.data_steps import run_qc
+from flidar_uq.data.io import DataValidationError, read_records, validate_records, write_records
+from flidar_uq.workflow.data_steps import kept_records, run_qc
 from flidar_uq.workflow.inputs import check_config, load_config_file, read_campaign_records
 
 REPO = Path(__file__).resolve().parents[1]
@@ -78,12 +78,12 @@ def test_wide_table_optional_column_at_one_height_only():
 
 def test_selected_heights_flag_the_others_and_lose_nothing(tmp_path):
     records = read_records(DATA / "hand_written_campaign.csv")
-    path = tmp_path / "records.csv"
-    records.to_csv(path, index=False)
+    path = tmp_path / "records.parquet"
+    write_records(records, path)
     flags = run_qc(
         path,
         tmp_path / "flags.csv",
-        tmp_path / "kept.csv",
+        tmp_path / "kept.parquet",
         tmp_path / "summary.csv",
         {},
         heights_m=[85.0],
@@ -93,7 +93,7 @@ def test_selected_heights_flag_the_others_and_lose_nothing(tmp_path):
     assert flags.loc[at58, "fail_height_not_selected"].all()
     assert not flags.loc[~at58, "fail_height_not_selected"].any()
     assert flags.loc[at58, "reasons"].astype(str).str.contains("height_not_selected").all()
-    kept = pd.read_csv(tmp_path / "kept.csv")
+    kept = kept_records(path, tmp_path / "kept.parquet")
     assert set(kept["height_m"]) == {85.0}
 
 

@@ -216,7 +216,7 @@ def test_readme_example_builds_both_trees_and_the_fleet_summary(tmp_path):
     assert re.search(r"^fleet_summary\s+1$", plan, re.M), plan
     # the files of each tree (dry run: the jobs' outputs up to the checkpoint, and after)
     for name in example["campaigns"]:
-        for rel in ("campaign/records.csv", "ti/records.csv", "report/report.html"):
+        for rel in ("campaign/records.parquet", "ti/records.csv", "report/report.html"):
             assert f"results/{name}/{rel}" in plan, f"results/{name}/{rel}"
     assert "results/fleet/summary.csv" in plan and "results/fleet/summary.html" in plan
     assert "results/ti/records.csv" not in plan  # no single-campaign tree beside them

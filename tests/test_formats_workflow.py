@@ -201,7 +201,7 @@ def test_three_file_campaign_runs_through_the_pipeline(fmt, tmp_path):
     )
     assert pd.to_datetime(out["timestamp"], utc=True).tolist() == rec["timestamp"].tolist()
     assert (out["Battery_V"] == 12.4).all() and (out["wave_hs_m"] == 2.5).all()
-    data = read_records(res / "data" / "records.csv", extra_columns="keep")
+    data = read_records(res / "data" / "records.parquet", extra_columns="keep")
     np.testing.assert_allclose(data["roll_amplitude_deg"], rec["roll_amplitude_deg"], rtol=1e-12)
     assert data["ref_hws_mean_ms"].isna().sum() == 2  # the mast's missing interval, 2 heights
     assert out["ti_corrected_median"].notna().any()

@@ -477,3 +477,33 @@ def test_result_table_read_in_chunks_equals_one_pass(tmp_path):
     for rows in (1, 3, 5, 100):
         pd.testing.assert_frame_equal(fio.read_csv(path, chunk_rows=rows), one)
     pd.testing.assert_frame_equal(fio.read_csv(path, ["s", "f"], chunk_rows=4), one[["s", "f"]])
+
+
+def test_write_table_keeps_every_bit_and_dtype_and_rewrites_the_same_bytes(tmp_path):
+    """The pipeline's intermediate Parquet tables: float64 bit for bit (NaN, -0.0, a
+    subnormal, the last bit), UTC time stamps with their zone, ints, bools and text as
+    written; a second write of the same frame gives the same bytes; only .parquet."""
+    df = pd.DataFrame(
+        {
+            "timestamp": pd.date_range("2015-04-01", periods=5, freq="10min", tz="UTC"),
+            "x": [np.nan, -0.0, 5e-324, 0.1 + 0.2, np.nextafter(1.0, 2.0)],
+            "record_id": np.arange(5, dtype=np.int64),
+            "kept": [True, False, True, True, False],
+            "reasons": ["", "mad;availability_low", "", "", "x"],
+        }
+    )
+    a, b = tmp_path / "a.parquet", tmp_path / "b.parquet"
+    fio.write_table(df, a)
+    fio.write_table(df, b)
+    assert a.read_bytes() == b.read_bytes()
+    back = fio.read_table(a)
+    assert isinstance(back["timestamp"].dtype, pd.DatetimeTZDtype)
+    assert (back["timestamp"] == df["timestamp"]).all()
+    assert (
+        back["x"].to_numpy().view(np.int64).tolist() == df["x"].to_numpy().view(np.int64).tolist()
+    )
+    assert back["record_id"].dtype == np.int64 and back["kept"].dtype == bool
+    assert back["reasons"].tolist() == df["reasons"].tolist()
+    assert fio.read_table(a, ["x"]).columns.tolist() == ["x"]
+    with pytest.raises(ValueError, match=r"a\.csv is not a \.parquet file"):
+        fio.write_table(df, tmp_path / "a.csv")

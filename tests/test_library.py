@@ -23,6 +23,7 @@ from flidar_uq.correction.campaign import (
     correct_campaign,
 )
 from flidar_uq.correction.reference import REFERENCE_KINDS, Reference
+from flidar_uq.data.io import write_table
 from flidar_uq.workflow.files import write_csv
 from flidar_uq.workflow.propagation_step import propagate
 
@@ -112,10 +113,13 @@ def _campaign_files(tmp_path: Path) -> dict:
     sigma_z = pd.DataFrame({"bin_id": [1, 2], "sigma_z_ms": [0.2, 0.25]})
     status = pd.DataFrame({"bin_id": [1, 2], "status": ["ok", "ok"]})
     paths = {}
-    for name, df in (("records", rec), ("flags", flags), ("assignments", assignments),
-                     ("table", table), ("sigma_z", sigma_z), ("bin_fits", status)):  # fmt: skip
+    for name, df in (("flags", flags), ("table", table), ("sigma_z", sigma_z),
+                     ("bin_fits", status)):  # fmt: skip
         paths[name] = tmp_path / f"{name}.csv"
         write_csv(df, paths[name])
+    for name, df in (("records", rec), ("assignments", assignments)):  # the pipeline's Parquet
+        paths[name] = tmp_path / f"{name}.parquet"
+        write_table(df, paths[name])
     fits = {1: _bin_fit(1, 3.0, 4.0), 2: _bin_fit(2, 2.5, 5.0)}
     bins = BinTables(assignments, table, sigma_z, status=status, fits=fits)
     return {"paths": paths, "records": rec, "flags": flags, "bins": bins, "fits": fits}
@@ -289,7 +293,7 @@ def test_the_library_gives_the_pipelines_speed_bins(tmp_path):
     cfg = tiny_config(tmp_path)
     snakemake(tmp_path, cfg, "--cores", "2", "results/ti/speed_bins.csv")
     res = tmp_path / "results"
-    records = flidar_uq.read_records(res / "data" / "records.csv")
+    records = flidar_uq.read_records(res / "data" / "records.parquet")
     flags = read_csv(res / "qc" / "flags.csv")
     assert not flags["fail_std_pattern"].any()  # a virtual campaign's stds keep their pattern
     # the record motion model's fit, the propagate rule's input

@@ -66,7 +66,7 @@ def test_uncorrected_tables_keep_every_record_and_give_the_measured_bin_statisti
     cfg = check_config(_config(tmp_path))
     validated = tmp_path / "validated.csv"
     validate_records(tmp_path / "campaign.csv", validated, require_motion=False)
-    flags = run_qc(validated, tmp_path / "flags.csv", tmp_path / "kept.csv",
+    flags = run_qc(validated, tmp_path / "flags.csv", tmp_path / "kept.parquet",
                    tmp_path / "summary.csv", cfg["qc"], require_motion=False)  # fmt: skip
     out_records, out_bins = tmp_path / "ti_records.csv", tmp_path / "speed_bins.csv"
     uncorrected_ti(validated, tmp_path / "flags.csv", out_records, out_bins, min_count=2)

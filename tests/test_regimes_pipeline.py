@@ -44,7 +44,11 @@ def test_pipeline_is_calibrated_on_a_weathervaning_buoy_with_a_fixed_reference_l
     res = tmp_path / "results"
     assert "taken as known" in (res / "logs" / "fit_global_record.log").read_text()
     ti = pd.read_csv(res / "ti" / "records.csv")
-    raw = pd.read_csv(res / "data" / "records.csv").iloc[ti["record_id"]].reset_index(drop=True)
+    raw = (
+        pd.read_parquet(res / "data" / "records.parquet")
+        .iloc[ti["record_id"]]
+        .reset_index(drop=True)
+    )
     kept = pd.read_csv(res / "qc" / "flags.csv").set_index("record_id")["kept"]
     use = (
         kept.reindex(ti["record_id"]).to_numpy(dtype=bool)

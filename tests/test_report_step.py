@@ -53,6 +53,9 @@ def test_file_provenance_gives_sha256_and_rows(tmp_path):
     assert tab["file"].tolist() == ["input"]
     assert tab["sha256"].iloc[0] == hashlib.sha256(p.read_bytes()).hexdigest()
     assert tab["data rows"].iloc[0] == 2
+    q = tmp_path / "records.parquet"  # the pipeline's record tables: rows from the footer
+    pd.DataFrame({"x": [1.0, 2.0, 3.0]}).to_parquet(q)
+    assert file_provenance({"validated": q})["data rows"].iloc[0] == 3
 
 
 def test_loo_statement_says_per_bin_rho_in_words():

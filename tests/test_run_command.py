@@ -111,7 +111,7 @@ def test_console_follows_the_progress_lines_of_the_running_steps_logs(tmp_path):
     and a line still being written are not."""
     out = []
     console = RunConsole(out.append)
-    for line in ("rule campaign:", "    output: results/campaign/records.csv",
+    for line in ("rule campaign:", "    output: results/campaign/records.parquet",
                  "    log: results/logs/campaign.log", "    jobid: 1", ""):  # fmt: skip
         console.feed(line)
     log = tmp_path / "results" / "logs" / "campaign.log"

@@ -441,7 +441,7 @@ def test_readme_series_example_runs(tmp_path):
     records = check_outputs(tmp_path, truth=False)
     src = io.read_records(tmp_path / "example" / "records.csv", require_motion=False)
     assert len(records) == len(src)
-    data = pd.read_csv(tmp_path / "results" / "data" / "records.csv")
+    data = pd.read_parquet(tmp_path / "results" / "data" / "records.parquet")
     assert data["tilt_along_wind_std_deg"].notna().all()  # derived from the IMU series
     los = pd.read_csv(tmp_path / "results" / "los" / "agreement.csv").set_index("method")
     assert los.loc["least_squares", "n_records"] > 0.8 * len(records)

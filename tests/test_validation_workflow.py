@@ -17,6 +17,7 @@ from test_workflow import snakemake
 
 from flidar_uq import inference as inf
 from flidar_uq.validation.reference import holdout_mask
+from flidar_uq.workflow.data_steps import kept_records
 from flidar_uq.workflow.inference_steps import fit_global_model, fit_input
 from flidar_uq.workflow.inputs import check_config, load_config_file
 
@@ -53,7 +54,7 @@ def _posterior_draws(path) -> dict:
     return {k: np.asarray(v) for k, v in fit.draws.items()}
 
 
-def _refit(cfg_path: Path, assignments: Path, out: Path, holdout: dict) -> dict:
+def _refit(cfg_path: Path, assignments: pd.DataFrame, out: Path, holdout: dict) -> dict:
     """The run's record fit again (the run's config with its defaults, its reference and
     correction settings as the workflow resolves them), on ``assignments``."""
     from dataclasses import asdict
@@ -90,9 +91,12 @@ def test_holdout_run_validates_on_records_the_fit_never_saw(tmp_path):
     assert 0.2 < held.mean() < 0.4  # 3 of 10 days
     # the fit saw only the in-sample references: refit with one held-out reference changed
     # -> the same posterior bit for bit; one in-sample reference changed -> another one
-    assignments = pd.read_csv(res / "bins" / "assignments.csv")
-    hold = holdout["holdout"] | {"records": str(res / "data" / "records.csv")}
-    base = _refit(cfg_path, res / "bins" / "assignments.csv", tmp_path / "fit.nc", hold)
+    data = res / "data" / "records.parquet"
+    assignments = kept_records(
+        data, res / "motion" / "records.parquet", res / "bins" / "assignments.parquet"
+    )
+    hold = holdout["holdout"] | {"records": str(data)}
+    base = _refit(cfg_path, assignments, tmp_path / "fit.nc", hold)
     a_held = holdout_mask(
         assignments["timestamp"], mode="last_days", days=3, end=records["timestamp"].max()
     )
@@ -101,9 +105,7 @@ def test_holdout_run_validates_on_records_the_fit_never_saw(tmp_path):
         k = int(np.flatnonzero(ok & (a_held != in_sample))[0])
         pert = assignments.copy()
         pert.loc[k, "ref_hws_std_ms"] *= 1.5
-        path = tmp_path / f"assign_{in_sample}.csv"
-        pert.to_csv(path, index=False)
-        draws = _refit(cfg_path, path, tmp_path / f"fit_{in_sample}.nc", hold)
+        draws = _refit(cfg_path, pert, tmp_path / f"fit_{in_sample}.nc", hold)
         same = all(np.array_equal(draws[p], base[p]) for p in base)
         assert same == expect_same, (in_sample, k)
     # the report validates on the held-out records and says so; in-sample beside

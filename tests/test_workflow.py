@@ -352,7 +352,7 @@ def check_outputs(workdir: Path, *, truth: bool, bin_model: bool = False) -> pd.
     records = pd.read_csv(res / "ti" / "records.csv")
     assert list(records.columns[: len(RECORD_COLUMNS)]) == RECORD_COLUMNS
     assert ("ti_true" in records) == truth
-    n_in = len(pd.read_csv(res / "data" / "records.csv"))
+    n_in = len(pd.read_parquet(res / "data" / "records.parquet"))
     assert len(records) == n_in  # every input record appears, flagged or corrected
     corrected = records["ti_corrected_median"].notna()
     assert (records.loc[~corrected, "flags"].fillna("") != "").all()  # no value => a reason
@@ -610,8 +610,8 @@ def test_infer_batch_reports_a_raising_bin_and_fits_the_others(tmp_path, monkeyp
         return _fake_bin_fit(bin_id, np.random.default_rng(seed))
 
     monkeypatch.setattr(inference, "fit_bin", fake_fit_bin)
-    pd.DataFrame({"record_id": range(6), "bin_id": [1, 1, 1, 2, 2, 2], "hws_mean_ms": 8.0}).to_csv(
-        tmp_path / "assignments.csv", index=False
+    assigned = pd.DataFrame(
+        {"record_id": range(6), "bin_id": [1, 1, 1, 2, 2, 2], "hws_mean_ms": 8.0}
     )
     pd.DataFrame({"bin_id": [1, 2, 3], "fitted": [True, True, False], "batch": [0, 0, -1]}).to_csv(
         tmp_path / "table.csv", index=False
@@ -620,7 +620,7 @@ def test_infer_batch_reports_a_raising_bin_and_fits_the_others(tmp_path, monkeyp
     runs = []
     for name in ("a", "b"):
         summary = inference_steps.infer_batch(
-            tmp_path / "assignments.csv",
+            assigned,
             tmp_path / "table.csv",
             tmp_path / name,
             batch=0,
@@ -745,6 +745,10 @@ def test_default_campaign_meets_the_corrected_ti_acceptance(tmp_path):
     uncorrected error beside it (it must show the motion effect the correction removes)."""
     snakemake(tmp_path, CONFIG, "--cores", "2", timeout=2400)
     check_outputs(tmp_path, truth=True)
+    # the record table is written twice (Parquet: as given, validated); the later steps
+    # write their record ids and new columns only: results/ stays under 100 MB
+    files = [p for p in (tmp_path / "results").rglob("*") if p.is_file() and not p.is_symlink()]
+    assert sum(p.stat().st_size for p in files) <= 100e6
     m = pd.read_csv(tmp_path / "results" / "ti" / "metrics.csv")
     truth = m[m["reference"] == "truth"].set_index("method")
     assert truth.loc["Bayesian", "n"] > 20000
@@ -792,16 +796,16 @@ def _library_path_gives_the_pipelines_tables(run_dir: Path) -> None:
     import filecmp
 
     import flidar_uq as fu
-    from flidar_uq.data.io import read_csv
+    from flidar_uq.data.io import read_csv, read_table
     from flidar_uq.workflow.inputs import check_config, correction_inputs
 
     cfg = check_config(yaml.safe_load(CONFIG.read_text()))
     res = run_dir / "results"
     reference, settings = correction_inputs(cfg)
     flags = read_csv(res / "qc" / "flags.csv")
-    records = read_csv(res / "data" / "records.csv").iloc[flags["record_id"].to_numpy()]
+    records = read_table(res / "data" / "records.parquet").iloc[flags["record_id"].to_numpy()]
     bins = fu.BinTables(
-        assignments=read_csv(res / "bins" / "assignments.csv"),
+        assignments=read_table(res / "bins" / "assignments.parquet"),
         table=read_csv(res / "bins" / "table.csv"),
         sigma_z=read_csv(res / "bins" / "sigma_z.csv"),
     )
@@ -811,3 +815,37 @@ def _library_path_gives_the_pipelines_tables(run_dir: Path) -> None:
     for name in ("records.csv", "speed_bins.csv", "groups.csv"):
         assert filecmp.cmp(run_dir / "library" / name, res / "ti" / name, shallow=False), name
     assert len(written) == 5
+
+
+def test_qc_motion_and_bins_write_their_record_ids_and_new_columns_only(tmp_path):
+    """After validation each stage writes the record ids it keeps and the columns it adds
+    (Parquet); kept_records joins them into the table the stages saw in memory, the same
+    values and dtypes, and refuses a record id the validated table lacks."""
+    from flidar_uq.data import binning, io
+    from flidar_uq.data import qc as qc_lib
+    from flidar_uq.workflow import data_steps as ds
+
+    data = tmp_path / "data.parquet"
+    records = ds.validate_records(REPO / "tests" / "data" / "hand_written_campaign.csv", data)
+    kept, motion, assign = (tmp_path / f"{n}.parquet" for n in ("kept", "motion", "assign"))
+    ds.run_qc(data, tmp_path / "flags.csv", kept, tmp_path / "summary.csv", {})
+    ds.motion_statistics(data, kept, motion, tmp_path / "roll_pitch.csv")
+    widths = dict(hws_width_ms=2.0, amplitude_width_deg=2.0, period_width_s=2.0)
+    ds.make_bins([data, motion], assign, tmp_path / "table.csv", min_count=2, nbatches=2, **widths)
+    assert io.read_table(kept).columns.tolist() == ["record_id"]
+    assert io.read_table(motion).columns.tolist() == ["record_id", "amplitude_deg", "period_s"]
+    new = io.read_table(assign).columns.tolist()
+    assert new[:2] == ["record_id", "hws_bin_ms"] and "bin_id" in new and "hws_mean_ms" not in new
+    # what the stages computed in memory, from the validated records
+    qc = qc_lib.run_qc(io.read_table(data), qc_lib.QCConfig())
+    full = qc.kept.copy()
+    full.insert(0, "record_id", full.index.to_numpy())
+    want, _ = binning.bins_for_fitting(
+        binning.add_harmonic_motion(full.reset_index(drop=True)), min_count=2, nbatches=2, **widths
+    )
+    got = ds.kept_records(data, motion, assign)
+    assert len(got) > 0 and len(got) < len(records)
+    pd.testing.assert_frame_equal(got, want, check_exact=True)
+    io.write_table(pd.DataFrame({"record_id": [len(records)]}), tmp_path / "bad.parquet")
+    with pytest.raises(ValueError, match=r"record_id \d+, which .*data\.parquet"):
+        ds.kept_records(data, tmp_path / "bad.parquet")

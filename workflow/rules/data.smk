@@ -1,4 +1,7 @@
 # Campaign -> validate -> QC -> motion statistics -> bins -> sigma_Z per bin.
+# The record table is written twice (Parquet): as the campaign gives it and validated.
+# QC, the motion statistics and the bins write only the record ids they keep and the
+# columns they add (flidar_uq.workflow.data_steps.kept_records joins them back).
 
 
 rule campaign:
@@ -7,7 +10,7 @@ rule campaign:
         records=user_records,
         parts=user_part_files,
     output:
-        records="results/campaign/records.csv",
+        records="results/campaign/records.parquet",
         join="results/campaign/join.csv",
         source="results/campaign/source.json",
         **VIRTUAL_SERIES_OUTPUTS,
@@ -52,7 +55,7 @@ if IMU_SERIES:
 
     rule imu_statistics:
         input:
-            records="results/campaign/records.csv",
+            records="results/campaign/records.parquet",
             imu=IMU_SERIES,
         output:
             statistics="results/imu/statistics.csv",
@@ -78,11 +81,11 @@ if IMU_SERIES:
 rule validate:
     localrule: True
     input:
-        records="results/campaign/records.csv",
+        records="results/campaign/records.parquet",
         # the IMU series' statistics replace the table's motion columns (the series wins)
         **({"imu_statistics": "results/imu/statistics.csv"} if IMU_SERIES else {}),
     output:
-        records="results/data/records.csv",
+        records="results/data/records.parquet",
         report="results/data/validation.json",
     params:
         allow_small_angles=config["campaign"]["allow_small_angles"],
@@ -102,10 +105,10 @@ rule validate:
 rule qc:
     localrule: True
     input:
-        "results/data/records.csv",
+        "results/data/records.parquet",
     output:
         flags="results/qc/flags.csv",
-        kept="results/qc/kept.csv",
+        kept="results/qc/kept.parquet",
         summary="results/qc/summary.csv",
         speed_bins="results/qc/speed_bins.csv",
     params:
@@ -131,7 +134,7 @@ if MOTION_MISSING:
     rule uncorrected:
         localrule: True
         input:
-            records="results/data/records.csv",
+            records="results/data/records.parquet",
             flags="results/qc/flags.csv",
         output:
             records=report(
@@ -155,9 +158,10 @@ if MOTION_MISSING:
 rule motion_statistics:
     localrule: True
     input:
-        "results/qc/kept.csv",
+        records="results/data/records.parquet",
+        kept="results/qc/kept.parquet",
     output:
-        records="results/motion/records.csv",
+        records="results/motion/records.parquet",
         roll_pitch="results/motion/roll_pitch.csv",
     conda:
         "../envs/flidar_uq.yaml"
@@ -172,9 +176,10 @@ rule motion_statistics:
 checkpoint bins:
     localrule: True
     input:
-        "results/motion/records.csv",
+        records="results/data/records.parquet",
+        motion="results/motion/records.parquet",
     output:
-        assignments="results/bins/assignments.csv",
+        assignments="results/bins/assignments.parquet",
         table="results/bins/table.csv",
     params:
         binning=config["binning"],

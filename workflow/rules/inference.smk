@@ -7,7 +7,9 @@
 
 rule infer_batch:
     input:
-        assignments="results/bins/assignments.csv",
+        records="results/data/records.parquet",
+        motion="results/motion/records.parquet",
+        assignments="results/bins/assignments.parquet",
         table="results/bins/table.csv",
     output:
         directory("results/inference/batch_{batch}"),
@@ -53,8 +55,9 @@ rule posterior_bin:
 rule fit_global_model:
     input:
         batches=BIN_BATCHES,
-        assignments="results/bins/assignments.csv",
-        records="results/data/records.csv",
+        records="results/data/records.parquet",
+        motion="results/motion/records.parquet",
+        assignments="results/bins/assignments.parquet",
     output:
         "results/inference/global_{model}.nc",
     wildcard_constraints:
@@ -111,8 +114,8 @@ rule fit_global:
 
 rule propagate:
     input:
-        records="results/data/records.csv",
-        assignments="results/bins/assignments.csv",
+        records="results/data/records.parquet",
+        assignments="results/bins/assignments.parquet",
         table="results/bins/table.csv",
         sigma_z="results/bins/sigma_z.csv",
         flags="results/qc/flags.csv",

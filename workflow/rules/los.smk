@@ -12,7 +12,7 @@ if LOS_SERIES:
 
     rule los_correction:
         input:
-            records="results/data/records.csv",
+            records="results/data/records.parquet",
             los=LOS_SERIES,
             imu=IMU_SERIES,
         output:

@@ -26,8 +26,8 @@ rule report:
         records="results/ti/records.csv",
         speed_bins="results/ti/speed_bins.csv",
         qc_summary="results/qc/summary.csv",
-        campaign="results/campaign/records.csv",
-        validated="results/data/records.csv",
+        campaign="results/campaign/records.parquet",
+        validated="results/data/records.parquet",
         **CORRECTION_REPORT_INPUTS,
         # the per-bin fits' table and diagnostics (bin motion model)
         **BIN_MODEL_REPORT_INPUTS,

@@ -6,7 +6,7 @@ from flidar_uq.workflow.files import setup_logging
 snakemake = globals()["snakemake"]  # injected by the script directive
 setup_logging(snakemake.log[0])
 make_bins(
-    snakemake.input[0],
+    [snakemake.input.records, snakemake.input.motion],
     snakemake.output.assignments,
     snakemake.output.table,
     nbatches=snakemake.params.nbatches,

@@ -1,5 +1,6 @@
 """Rule fit_global_model: one global model on the gathered per-bin fits (inference_steps.fit_global_model)."""
 
+from flidar_uq.workflow.data_steps import kept_records
 from flidar_uq.workflow.files import setup_logging
 from flidar_uq.workflow.inference_steps import fit_global_model, fit_input
 
@@ -9,7 +10,7 @@ fit_global_model(
     list(snakemake.input.batches),
     # validation.holdout: the held-out records' reference removed from the fit input
     fit_input(
-        snakemake.input.assignments,
+        kept_records(snakemake.input.records, snakemake.input.motion, snakemake.input.assignments),
         dict(snakemake.params.holdout) | {"records": snakemake.input.records},
     ),
     snakemake.output[0],

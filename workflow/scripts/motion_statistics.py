@@ -5,4 +5,9 @@ from flidar_uq.workflow.files import setup_logging
 
 snakemake = globals()["snakemake"]  # injected by the script directive
 setup_logging(snakemake.log[0])
-motion_statistics(snakemake.input[0], snakemake.output.records, snakemake.output.roll_pitch)
+motion_statistics(
+    snakemake.input.records,
+    snakemake.input.kept,
+    snakemake.output.records,
+    snakemake.output.roll_pitch,
+)

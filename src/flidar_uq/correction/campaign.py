@@ -223,7 +223,7 @@ class BinTables:
     Attributes
     ----------
     assignments : pandas.DataFrame
-        ``record_id`` and ``bin_id`` of every binned record (results/bins/assignments.csv).
+        ``record_id`` and ``bin_id`` of every binned record (results/bins/assignments.parquet).
     table : pandas.DataFrame
         ``bin_id`` and ``fitted`` per bin (results/bins/table.csv).
     sigma_z : pandas.DataFrame

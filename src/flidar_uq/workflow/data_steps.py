@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from flidar_uq.data.io import read_table, write_table
 from flidar_uq.workflow.files import read_csv, write_csv
 
 log = logging.getLogger(__name__)
@@ -20,6 +21,7 @@ log = logging.getLogger(__name__)
 MAX_VIRTUAL_LOS_RECORDS = 2000
 
 __all__ = [
+    "kept_records",
     "make_bins",
     "make_campaign",
     "motion_statistics",
@@ -306,8 +308,8 @@ def run_qc(
         Validated record table.
     flags_path, kept_path, summary_path : path
         Outputs: the flags table (one row per input record: ``record_id``, ``reasons``,
-        ``kept``, one ``fail_<reason>`` column per filter), the kept records (with
-        ``record_id``), and the per-filter counts.
+        ``kept``, one ``fail_<reason>`` column per filter), the ``record_id`` of the kept
+        records (Parquet, :func:`kept_records`), and the per-filter counts.
     qc_params : dict
         The ``qc`` section of the config: :class:`flidar_uq.data.qc.QCConfig` fields.
     heights_m : sequence of float, optional
@@ -339,11 +341,10 @@ def run_qc(
     result = qc.run_qc(records, qc.QCConfig(**qc_params, heights_m=heights))
     flags = result.flags.copy()
     flags.insert(0, "record_id", np.arange(len(flags)))
-    kept = result.kept.copy()
-    kept.insert(0, "record_id", kept.index.to_numpy())
+    kept = pd.DataFrame({"record_id": result.kept.index.to_numpy()})
     counts = result.counts.reset_index().rename(columns={"index": "reason"})
     write_csv(flags, flags_path)
-    write_csv(kept, kept_path)
+    write_table(kept, kept_path)
     write_csv(counts, summary_path)
     if speed_bins_path is not None:
         write_csv(qc.speed_bin_summary(records, result.flags, hws_width_ms=hws_width_ms),
@@ -352,26 +353,85 @@ def run_qc(
     return flags
 
 
+def kept_records(records_path: str | os.PathLike, *stage_paths: str | os.PathLike) -> pd.DataFrame:
+    """The validated records a stage kept, with the columns the stages added.
+
+    Each stage after validation writes only its key and its new columns (Parquet):
+    results/qc/kept.parquet the ``record_id`` of the QC-kept records,
+    results/motion/records.parquet the motion amplitude and period,
+    results/bins/assignments.parquet the bins. This joins them back on ``record_id`` (the
+    row of the validated table).
+
+    Parameters
+    ----------
+    records_path : path
+        The validated record table (results/data/records.parquet).
+    *stage_paths : path
+        Stage tables with ``record_id``, each holding a subset of the previous one's
+        records; the last one gives the rows (in its order).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``record_id``, the validated columns, then each stage's columns; index reset.
+
+    Raises
+    ------
+    ValueError
+        When no stage table is given, or a stage names a record that an earlier one (or the
+        validated table) lacks.
+    """
+    if not stage_paths:
+        raise ValueError(f"kept_records: no stage table to join to {records_path}")
+    records = read_table(records_path)
+    stages = [read_table(p).set_index("record_id") for p in stage_paths]
+    ids = stages[-1].index.to_numpy()
+    outside = ids[(ids < 0) | (ids >= len(records))]
+    if outside.size:
+        raise ValueError(
+            f"kept_records: {stage_paths[-1]} has record_id {int(outside[0])}, which "
+            f"{records_path} ({len(records)} records) lacks"
+        )
+    for path, stage in zip(stage_paths, stages, strict=True):
+        missing = np.setdiff1d(ids, stage.index.to_numpy())
+        if missing.size:
+            raise ValueError(
+                f"kept_records: {stage_paths[-1]} has record_id {int(missing[0])}, which "
+                f"{path} lacks"
+            )
+    out = records.iloc[ids].reset_index(drop=True)
+    out.insert(0, "record_id", ids)
+    for stage in stages:
+        new = [c for c in stage.columns if c not in out.columns]
+        out[new] = stage.loc[ids, new].reset_index(drop=True)
+    return out
+
+
 def motion_statistics(
-    in_path: str | os.PathLike, out_path: str | os.PathLike, roll_pitch_path: str | os.PathLike
+    records_path: str | os.PathLike,
+    kept_path: str | os.PathLike,
+    out_path: str | os.PathLike,
+    roll_pitch_path: str | os.PathLike,
 ) -> pd.DataFrame:
     """Per-record motion amplitude and period, and the roll-pitch correlation (Gutiérrez-Antuñano et al., 2018, Sec. 2.4).
 
-    Adds ``amplitude_deg`` and ``period_s`` (the roll/pitch averages, Gutiérrez-Antuñano et al. (2018), Sec. 2.4) to
-    each kept record; writes the roll-pitch correlation of amplitude and period.
+    Computes ``amplitude_deg`` and ``period_s`` (the roll/pitch averages, Gutiérrez-Antuñano et al. (2018), Sec. 2.4) of
+    each kept record (``records_path``: the validated table, ``kept_path``: the QC-kept
+    ``record_id``, :func:`kept_records`) and writes them with ``record_id`` to ``out_path``
+    (Parquet), and the roll-pitch correlation of amplitude and period (CSV).
     """
     from flidar_uq.data import binning, imu
 
-    records = read_csv(in_path)
+    records = kept_records(records_path, kept_path)
     out = binning.add_harmonic_motion(records)
     corr = imu.roll_pitch_correlation(records)
-    write_csv(out, out_path)
+    write_table(out[["record_id"] + [c for c in out.columns if c not in records.columns]], out_path)
     write_csv(pd.DataFrame([corr]), roll_pitch_path)
     return out
 
 
 def make_bins(
-    in_path: str | os.PathLike,
+    in_paths: Sequence[str | os.PathLike],
     assignments_path: str | os.PathLike,
     table_path: str | os.PathLike,
     *,
@@ -385,11 +445,13 @@ def make_bins(
 
     The bin table (Gutiérrez-Antuñano et al., 2018, Table 1 style) is sorted by decreasing count; ``bin_id`` is the
     case number (1 = most frequent). Bins with at least ``min_count`` records are
-    ``fitted`` and assigned a batch.
+    ``fitted`` and assigned a batch. The records (``in_paths``: the validated table and
+    the motion statistics of the kept ones) are joined by :func:`kept_records`; the assignments (Parquet) hold the
+    ``record_id`` of every binned record with its bin columns only.
     """
     from flidar_uq.data import binning
 
-    records = read_csv(in_path)
+    records = kept_records(*in_paths)
     assigned, table = binning.bins_for_fitting(
         records,
         hws_width_ms=hws_width_ms,
@@ -398,7 +460,8 @@ def make_bins(
         min_count=min_count,
         nbatches=nbatches,
     )
-    write_csv(assigned, assignments_path)
+    added = [c for c in assigned.columns if c not in records.columns]
+    write_table(assigned[["record_id"] + added], assignments_path)
     write_csv(table, table_path)
     log.info(
         "bins: %d bins, %d fitted, %d records unbinned",

@@ -37,7 +37,7 @@ def imu_statistics(
     Parameters
     ----------
     records_path : path
-        The campaign's record table (results/campaign/records.csv).
+        The campaign's record table (results/campaign/records.parquet).
     imu_path : path
         The IMU series (CSV or Parquet, docs/data-format.md).
     statistics_out, gaps_out, summary_out : path

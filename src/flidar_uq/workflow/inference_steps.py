@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from flidar_uq.data.io import read_table
 from flidar_uq.seeding import child_seed
 from flidar_uq.workflow.files import bin_file, read_csv, write_csv
 
@@ -59,7 +60,7 @@ def _diagnostic_row(fit) -> dict:
 
 
 def infer_batch(
-    assignments_path: str | os.PathLike,
+    assigned: pd.DataFrame,
     table_path: str | os.PathLike,
     out_dir: str | os.PathLike,
     *,
@@ -71,8 +72,9 @@ def infer_batch(
 
     Parameters
     ----------
-    assignments_path : path
-        Kept records with their ``bin_id`` (checkpoint ``bins``).
+    assigned : pandas.DataFrame
+        The binned records with their ``bin_id`` (checkpoint ``bins``: the validated
+        records joined with the stages' columns, :func:`flidar_uq.workflow.data_steps.kept_records`).
     table_path : path
         Bin table with ``bin_id``, ``fitted`` and ``batch``.
     out_dir : path
@@ -95,7 +97,6 @@ def infer_batch(
     """
     from flidar_uq import inference as inf
 
-    assigned = read_csv(assignments_path)
     table = read_csv(table_path)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -183,7 +184,7 @@ def fit_global_model(
     Each model's draws depend only on the seed (``inference.fit_global`` seeds each model
     with its own child), so the result equals ``fit_global(..., lever_arm="auto")``.
 
-    ``assignments_path``: results/bins/assignments.csv, or the fit input as a table
+    ``assignments_path``: the binned records, a CSV table or the table itself
     (:func:`fit_input`: the binned records without the held-out records' reference, so
     that the fit never sees it).
     """
@@ -278,14 +279,15 @@ def _reference_noise(assigned, reference, correction):
     return noise
 
 
-def fit_input(assignments_path: str | os.PathLike, holdout: dict | None = None) -> pd.DataFrame:
+def fit_input(assigned: pd.DataFrame, holdout: dict | None = None) -> pd.DataFrame:
     """The records a global model is fitted on: the binned records, with the reference of
     the held-out ones removed (:func:`flidar_uq.validation.reference.withhold_reference`).
 
     Parameters
     ----------
-    assignments_path : path
-        results/bins/assignments.csv (``timestamp`` and the ``ref_*`` columns).
+    assigned : pandas.DataFrame
+        The binned records (``timestamp`` and the ``ref_*`` columns,
+        :func:`flidar_uq.workflow.data_steps.kept_records`).
     holdout : dict, optional
         ``mode`` and ``days`` (config ``validation.holdout``: day) and ``records``, the
         validated record table (its latest ``timestamp`` ends the campaign, for
@@ -297,12 +299,13 @@ def fit_input(assignments_path: str | os.PathLike, holdout: dict | None = None) 
     """
     from flidar_uq.validation.reference import holdout_mask, withhold_reference
 
-    assigned = read_csv(assignments_path)
     if not holdout or holdout.get("mode", "none") == "none":
         return assigned
     end = None
     if holdout.get("records"):
-        end = pd.to_datetime(read_csv(holdout["records"])["timestamp"], utc=True).max()
+        end = pd.to_datetime(
+            read_table(holdout["records"], ["timestamp"])["timestamp"], utc=True
+        ).max()
     held = holdout_mask(
         assigned["timestamp"], mode=holdout["mode"], days=float(holdout["days"]), end=end
     )

@@ -44,7 +44,7 @@ def los_correction(
     Parameters
     ----------
     records_path : path
-        The validated record table (results/data/records.csv): timestamps, heights,
+        The validated record table (results/data/records.parquet): timestamps, heights,
         ``wd_mean_deg``.
     los_path, imu_path : path
         LOS series and IMU series (CSV or Parquet, docs/data-format.md; the LOS series also

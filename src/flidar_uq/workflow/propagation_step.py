@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from flidar_uq.data.io import read_table
 from flidar_uq.workflow.files import read_csv, write_csv
 from flidar_uq.workflow.inference_steps import load_bin_fits
 
@@ -34,7 +35,9 @@ def propagate(
     and write its tables to ``out_dir`` (:meth:`~flidar_uq.correction.campaign.CorrectionResult.to_files`:
     records.csv, speed_bins.csv, metrics.csv, groups.csv, uncertainty_budget.csv).
 
-    ``global_path``: the global posterior (NetCDF). The record motion model's needs nothing
+    ``records_path`` (the validated records) and ``assignments_path`` (the bins' record
+    ids) are Parquet (:func:`flidar_uq.data.io.write_table`); ``global_path``: the global
+    posterior (NetCDF). The record motion model's needs nothing
     else: ``bin_fits_path`` (None) and ``batch_dirs`` (empty) are not read, so the
     propagation runs beside the per-bin fits (the bin posteriors, hundreds of files at a
     year, ~0.2 s each to open, are not read then). The bin motion model's needs the
@@ -60,13 +63,13 @@ def propagate(
         status = read_csv(bin_fits_path)
         fits = load_bin_fits(batch_dirs, status)
     bins = BinTables(
-        assignments=read_csv(assignments_path, ["record_id", "bin_id"]),
+        assignments=read_table(assignments_path, ["record_id", "bin_id"]),
         table=read_csv(table_path),
         sigma_z=read_csv(sigma_z_path),
         status=status,
         fits=fits,
     )
-    records = read_csv(records_path, chunk_rows=50_000).iloc[flags["record_id"].to_numpy()]
+    records = read_table(records_path).iloc[flags["record_id"].to_numpy()]
     result = correct_campaign(
         records,
         fit,

@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 from markupsafe import Markup, escape
 
+from flidar_uq.data.io import read_table
 from flidar_uq.threads import numeric_environment
 from flidar_uq.workflow import report as rep
 from flidar_uq.workflow.files import bin_file, read_csv
@@ -146,7 +147,13 @@ def file_provenance(paths: dict[str, str | os.PathLike]) -> pd.DataFrame:
         if not p.is_file():
             continue
         data = p.read_bytes()
-        n_rows = data.count(b"\n") - 1 if p.suffix == ".csv" else None
+        n_rows = None
+        if p.suffix == ".csv":
+            n_rows = data.count(b"\n") - 1
+        elif p.suffix == ".parquet":  # the pipeline's record tables
+            import pyarrow.parquet as pq
+
+            n_rows = pq.ParquetFile(p).metadata.num_rows
         rows.append(
             {
                 "file": label,
@@ -882,7 +889,7 @@ def _load(res: Path, batch_dirs, config: dict, motion_missing: Sequence[str] = (
     no_bins = pd.DataFrame({"status": pd.Series(dtype=str)})
     ctx = {
         "records": read_csv(res / "ti" / "records.csv"),
-        "data": read_csv(res / "data" / "records.csv"),
+        "data": read_table(res / "data" / "records.parquet"),
         "bins": read_csv(res / "ti" / "bins.csv") if motion_model == "bin" else no_bins,
         "speed_bins": read_csv(res / "ti" / "speed_bins.csv"),
         "groups": read_csv(res / "ti" / "groups.csv"),
