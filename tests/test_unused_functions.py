@@ -34,9 +34,6 @@ ENTRY_POINTS = {
     "correction/propagation.py:split_noise": (
         "the reference's noise split of docs/inference.md; the propagation inlines its pair form"
     ),
-    "physics/turbulence.py:pyconturb_field": (
-        "optional 3-D turbulence field of the `simulate` extra (PyConTurb), docs/los-correction.md"
-    ),
 }
 
 _IDENTIFIER = re.compile(r"[A-Za-z_][\w.]*")
