@@ -706,3 +706,18 @@ def test_reference_noise_turns_a_dbs_lidars_response_with_each_lidars_heading():
     np.testing.assert_allclose(noise.pair_log_sd, np.hypot(sd[:n], sd[n:]))  # c = 0
     r = noise.floating_reference(rec)["ref_hws_std_ms"].to_numpy()
     np.testing.assert_allclose(r, g_f / g_r)
+
+
+def test_auto_prior_of_g_is_kept_for_a_virtual_campaign_whose_wind_varies_in_space():
+    """A virtual campaign with uniform turbulence has the temporal g exact ("auto" -> 0); one
+    sampled from a spatial field (wind.spatial_field) does not, and keeps the spatial model's
+    prior as the user's files do."""
+    assert reference_sampling("spatial_wind")["spatial_field"] is True
+    assert reference_sampling("cup_reference")["spatial_field"] is False
+    section = {"lidar_std_ratio_log_sd": "auto"}
+    uniform = Reference.from_config(section, lidar="zephir300", virtual_kind="fixed_lidar")
+    spatial = Reference.from_config(
+        section, lidar="zephir300", virtual_kind="fixed_lidar", virtual_spatial=True
+    )
+    assert uniform.lidar_std_ratio_log_sd == 0.0
+    assert spatial.lidar_std_ratio_log_sd == "auto"

@@ -308,8 +308,10 @@ def reference_sampling(scenario: str | Path | Mapping) -> dict:
         line-of-sight time, and held in between: no variance above ``1 / (2 dt)``), and
         ``point_sample_interval_s`` (the truth columns are the std of the point HWS
         sampled every second), ``reference_kind`` (the scenario's
-        ``reference_instrument``: "fixed_lidar", "cup" or "sonic") and ``lidar`` (its
-        lidar's name).
+        ``reference_instrument``: "fixed_lidar", "cup" or "sonic"), ``lidar`` (its
+        lidar's name) and ``spatial_field`` (whether the turbulence varies across the scan
+        disk, ``wind.spatial_field.enabled``: the motionless lidar's std ratio to the point
+        wind is then not the temporal model's).
     """
     data = scenario if isinstance(scenario, Mapping) else load_scenario(scenario)
     settings = CampaignConfig.from_dict(data).settings
@@ -324,6 +326,7 @@ def reference_sampling(scenario: str | Path | Mapping) -> dict:
         "turbulence_dt_s": wind_step_slots(settings, dt) * dt,
         "point_sample_interval_s": TRUTH_SAMPLE_INTERVAL_S,
         "reference_kind": settings["reference_instrument"],
+        "spatial_field": bool(settings["wind"]["spatial_field"]["enabled"]),
         "lidar": geo.name
         if isinstance(settings["lidar"]["name"], Mapping)
         else settings["lidar"]["name"],

@@ -79,6 +79,7 @@ class Reference:
         *,
         lidar: str,
         virtual_kind: str | None = None,
+        virtual_spatial: bool = False,
         record_columns: Sequence[str] | None = None,
     ) -> Reference:
         """The config's ``reference`` section with its kind and lidar decided, or a one-line
@@ -98,6 +99,10 @@ class Reference:
             The floating lidar's geometry name (config ``campaign.lidar``).
         virtual_kind : str or None
             The virtual campaign's ``reference_instrument`` (source virtual), else None.
+        virtual_spatial : bool
+            The virtual campaign's turbulence varies across the scan disk
+            (``wind.spatial_field``): "auto" takes the spatial model's prior sd of ``log g``
+            as for the user's files, not 0.
         record_columns : sequence of str or None
             Columns of the user's record table (source files), else None.
 
@@ -161,10 +166,10 @@ class Reference:
                 if virtual_kind is not None
                 else prop.REFERENCE_SAMPLING_CORRELATION
             )
-        # the prior sd of log g: auto is 0 for the virtual campaign, whose turbulence is
+        # the prior sd of log g: auto is 0 for the virtual campaign whose turbulence is
         # uniform in space (the temporal g is exact), else the spatial model's per record
         g_log_sd = section.get("lidar_std_ratio_log_sd", "auto")
-        if g_log_sd == "auto" and virtual_kind is not None:
+        if g_log_sd == "auto" and virtual_kind is not None and not virtual_spatial:
             g_log_sd = 0.0
         height = section.get("height_m")
         heading = section.get("heading_deg")

@@ -734,6 +734,7 @@ def check_reference(config: dict, record_columns=None):
             config.get("reference"),
             lidar=camp["lidar"],
             virtual_kind=None if virtual is None else virtual["reference_kind"],
+            virtual_spatial=virtual is not None and virtual["spatial_field"],
             record_columns=record_columns,
         )
     except ValueError as err:
