@@ -136,7 +136,7 @@ def test_slurm_fleet_run_equals_local_fleet_run(slurm_partition, tmp_path):
     a, b = (spans[name] for name in TINY_FLEET)
     assert any(s1 < e2 and s2 < e1 for s1, e1 in a for s2, e2 in b), spans
     hashes = fleet_hashes(cluster)
-    assert sum(k.endswith(".csv") for k in hashes) >= 2 * 15 + 1
+    assert sum(k.endswith((".csv", ".parquet")) for k in hashes) >= 2 * 15 + 1
     assert hashes == fleet_hashes(local)
 
 
