@@ -8,9 +8,7 @@ campaign uncorrected, saying why.
 
 from __future__ import annotations
 
-import html as html_lib
 import json
-import re
 import subprocess
 import sys
 from pathlib import Path
@@ -19,6 +17,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
+from test_no_motion import _summary_text
 
 from flidar_uq.cli import main
 from flidar_uq.data.formats import read_instrument
@@ -170,12 +169,6 @@ def test_a_malformed_sta_is_refused_naming_its_line(tmp_path):
     bad.write_bytes("\n".join(lines).encode("latin-1"))
     with pytest.raises(DataValidationError, match=r"row 3 \(line 45\).*the file uses tabs"):
         read_instrument(bad)
-
-
-def _summary_text(html: str) -> str:
-    m = re.search(r'<section id="summary".*?</section>', html, re.S)
-    assert m, "no first screen"
-    return html_lib.unescape(re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", m.group(0))))
 
 
 @pytest.mark.slow
